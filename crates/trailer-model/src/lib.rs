@@ -1,1 +1,66 @@
-//! placeholder
+//! The single-track car–trailer model of "Controlling the nonlinear dynamics of trailer
+//! sway": vehicle parameters (Table I), static axle loads, slip angles (eq. 2), the
+//! Appellian equations of motion (eq. 5–7) with brush tires (eq. 14–15), a prescribed,
+//! time-varying speed V(t) and steering angle δ, and the linearisation about straight
+//! running (eq. 9–11).
+//!
+//! This crate knows nothing about files, plots or solvers: it evaluates right-hand sides
+//! and their exact derivatives. The right-hand sides are generic over the scalar type
+//! ([`num_dual::DualNum`]), so Jacobians are exact.
+//!
+//! ```
+//! use trailer_model::{Inputs, Model, State4, VehicleParams, CriticalSpeedOptions};
+//!
+//! let model = Model::new(VehicleParams::default()).unwrap(); // Table I
+//! // hitch angle θ = 0.1 rad at V = 33 m/s: the trailer is pushed back toward θ = 0
+//! let x = State4::new(0.0, 0.0, 0.0, 0.1);
+//! let dx = model.rhs4(&x, &Inputs::constant_speed(33.0));
+//! assert!(dx[2] < 0.0);
+//! // straight running loses stability near 34 m/s
+//! let vc = model.critical_speed(&CriticalSpeedOptions::default()).unwrap();
+//! assert!((vc.v_crit_mps - 34.0).abs() < 1.0);
+//! ```
+
+mod linear;
+mod model;
+mod params;
+
+pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};
+pub use model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4, State7, YAW_ANGLE};
+pub use params::{
+    AxleLoads, FrictionParams, PARAMETERS, TractorParams, TrailerParams, VehicleParams,
+};
+
+/// Errors of the model crate.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    /// A vehicle parameter violates a physical constraint.
+    #[error("invalid vehicle parameter `{key}` = {value}: expected {expected}")]
+    InvalidParameter {
+        /// key path of the parameter, e.g. `tractor.rear_axle`
+        key: &'static str,
+        /// the offending value
+        value: f64,
+        /// what was expected
+        expected: &'static str,
+    },
+    /// A tire could not be built (e.g. a non-positive static axle load).
+    #[error("{axle} tire: {source} (check the geometry: the static axle load follows from it)")]
+    Tire {
+        /// which axle
+        axle: &'static str,
+        /// the tire error
+        #[source]
+        source: tires::TireError,
+    },
+    /// No sign change of the open-loop spectral abscissa in the scanned speed range.
+    #[error("no critical speed in [{v_min}, {v_max}] m/s: {detail}; widen the speed range")]
+    NoCriticalSpeed {
+        /// lower end of the scan [m/s]
+        v_min: f64,
+        /// upper end of the scan [m/s]
+        v_max: f64,
+        /// what was seen
+        detail: &'static str,
+    },
+}

@@ -1,0 +1,317 @@
+//! The Appellian equations of motion, paper eq. (2)–(7).
+
+use nalgebra::{SVector, Vector4};
+use num_dual::DualNum;
+use tires::{BrushTire, TireModel};
+
+use crate::{AxleLoads, ModelError, VehicleParams};
+
+/// Reduced state [σ1, σ2, σ3, θ]: lateral hitch velocity σ1 [m/s], pseudovelocities
+/// σ2, σ3 [1/s] of eq. (4) and hitch angle θ [rad]. Stability, continuation and charts
+/// work on this 4-state system: its dynamics do not depend on ψ, x_H, y_H.
+pub type State4<D = f64> = SVector<D, 4>;
+
+/// Full state [σ1, σ2, σ3, θ, ψ, x_H, y_H] in the order of eq. (10): the reduced state,
+/// the tractor's yaw angle ψ [rad] and the hitch position x_H, y_H [m].
+pub type State7<D = f64> = SVector<D, 7>;
+
+/// Index of the hitch angle θ in [`State4`] and [`State7`].
+pub const HITCH_ANGLE: usize = 3;
+/// Index of the yaw angle ψ in [`State7`].
+pub const YAW_ANGLE: usize = 4;
+
+/// The model's inputs at one instant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inputs<D = f64> {
+    /// steering angle δ [rad]
+    pub steering_angle: D,
+    /// prescribed longitudinal speed V [m/s] of the tractor (constraint eq. 3)
+    pub speed: D,
+    /// its time derivative V̇ [m/s²] (enters eq. 6)
+    pub acceleration: D,
+}
+
+impl Inputs<f64> {
+    /// Straight running at constant speed V [m/s] without steering.
+    pub fn constant_speed(speed: f64) -> Self {
+        Self {
+            steering_angle: 0.0,
+            speed,
+            acceleration: 0.0,
+        }
+    }
+
+    /// The same inputs as (constant) dual numbers.
+    pub fn lift<D: DualNum<Primitive = f64> + Copy>(&self) -> Inputs<D> {
+        Inputs {
+            steering_angle: D::from(self.steering_angle),
+            speed: D::from(self.speed),
+            acceleration: D::from(self.acceleration),
+        }
+    }
+}
+
+/// Slip angles (α_F, α_R, α_T) [rad] of the front, rear and trailer axles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlipAngles<D = f64> {
+    /// front axle α_F [rad]
+    pub front: D,
+    /// rear axle α_R [rad]
+    pub rear: D,
+    /// trailer axle α_T [rad]
+    pub trailer: D,
+}
+
+/// The car–trailer single-track model with brush tires.
+///
+/// Built once from validated [`VehicleParams`]; holds the constants I1, I2, p1…p15 of
+/// eq. (7) and the three tires, so evaluating the right-hand side allocates nothing.
+#[derive(Debug, Clone)]
+pub struct Model {
+    params: VehicleParams,
+    loads: AxleLoads,
+    front_tire: BrushTire,
+    rear_tire: BrushTire,
+    trailer_tire: BrushTire,
+    // geometry and inertia
+    m1: f64,
+    m2: f64,
+    j1: f64,
+    j2: f64,
+    f: f64,
+    c: f64,
+    d: f64,
+    h: f64,
+    l: f64,
+    i1: f64,
+    i2: f64,
+    p: [f64; 16], // p[1..=15] of eq. (7); p[0] unused
+}
+
+impl Model {
+    /// Builds the model: validates the parameters, computes the static axle loads and
+    /// the brush tires (eq. 15) and the constants of eq. (7).
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidParameter`] for unphysical parameters, or a tire error if a
+    /// static axle load is not positive (trailer centre of gravity far behind its axle).
+    pub fn new(params: VehicleParams) -> Result<Self, ModelError> {
+        params.validate()?;
+        let loads = AxleLoads::from_params(&params);
+        let fr = &params.friction;
+        let tire = |axle: &'static str, c: f64, fz: f64| {
+            BrushTire::new(c, fz, fr.mu_static, fr.mu_dynamic)
+                .map_err(|source| ModelError::Tire { axle, source })
+        };
+        let t = &params.tractor;
+        let r = &params.trailer;
+        let front_tire = tire("front", t.front_cornering_stiffness, loads.front)?;
+        let rear_tire = tire("rear", t.rear_cornering_stiffness, loads.rear)?;
+        let trailer_tire = tire("trailer", r.cornering_stiffness, loads.trailer)?;
+        let (m1, m2, j1, j2) = (t.mass, r.mass, t.yaw_inertia, r.yaw_inertia);
+        let (f, c, d, h, l) = (t.front_axle, t.rear_axle, t.cog, r.cog, r.axle);
+        let i1 = j1 + m1 * d * d;
+        let i2 = j2 + m2 * h * h;
+        let mut p = [0.0; 16];
+        p[1] = m2 * m2 * i1 * i1 * i2 * i2 * h * h;
+        p[2] = m1 * m2 * m2 * i1 * i2 * i2 * d * h * h;
+        p[3] = m2.powi(3) * i1 * i1 * i2 * h.powi(3);
+        p[4] = m2 * i1 * i1 * i2.powi(3) * h;
+        p[5] = m1 * d;
+        p[6] = (m1 * j1 * i2 + m2 * i1 * j2) * i2 * i2;
+        p[7] = m2 * m2 * i1 * i2 * i2 * h * h;
+        p[8] = (j1 + m1 * d * (d - c)) * i1 * i2.powi(3);
+        p[9] = (j2 + m2 * h * (h - l)) * i1 * i1 * i2 * i2;
+        p[10] = (j1 + m1 * d * (d - f)) * i1 * i2.powi(3);
+        p[11] = m1 * i1 * d;
+        p[12] = m2 * m2 * i1 * i2 * h * h;
+        p[13] = m2 * i1 * i2 * i2 * h;
+        p[14] = m1 * m2 * i2 * i2 * h * d;
+        p[15] = i1 * i2 * i2 * l;
+        Ok(Self {
+            params,
+            loads,
+            front_tire,
+            rear_tire,
+            trailer_tire,
+            m1,
+            m2,
+            j1,
+            j2,
+            f,
+            c,
+            d,
+            h,
+            l,
+            i1,
+            i2,
+            p,
+        })
+    }
+
+    /// The parameters the model was built from.
+    pub fn params(&self) -> &VehicleParams {
+        &self.params
+    }
+
+    /// Static vertical axle loads.
+    pub fn axle_loads(&self) -> &AxleLoads {
+        &self.loads
+    }
+
+    /// The brush tires of the front, rear and trailer axles.
+    pub fn tires(&self) -> [&BrushTire; 3] {
+        [&self.front_tire, &self.rear_tire, &self.trailer_tire]
+    }
+
+    /// Critical slip angles α_cr (eq. 15) of the front, rear and trailer tires [rad].
+    pub fn critical_slip_angles(&self) -> SlipAngles<f64> {
+        let a = |t: &BrushTire| t.critical_slip_angle().unwrap_or(f64::INFINITY);
+        SlipAngles {
+            front: a(&self.front_tire),
+            rear: a(&self.rear_tire),
+            trailer: a(&self.trailer_tire),
+        }
+    }
+
+    /// I1 = J1 + m1 d² [kg m²] (tractor inertia about the hitch).
+    pub fn i1(&self) -> f64 {
+        self.i1
+    }
+
+    /// I2 = J2 + m2 h² [kg m²] (trailer inertia about the hitch).
+    pub fn i2(&self) -> f64 {
+        self.i2
+    }
+
+    /// Yaw rate of the tractor ψ̇ = σ2 − (m1 d / I1) σ1 [rad/s] (eq. 5); the measured
+    /// output y of eq. (10).
+    pub fn yaw_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> D {
+        x[1] - x[0] * (self.m1 * self.d / self.i1)
+    }
+
+    /// Hitch-angle rate θ̇ [rad/s] (eq. 5).
+    pub fn hitch_angle_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> D {
+        let (s1, s2, s3, th) = (x[0], x[1], x[2], x[3]);
+        s1 * (th.cos() * (self.m2 * self.h / self.i2) + self.m1 * self.d / self.i1) - s2 + s3
+    }
+
+    /// Longitudinal velocity [m/s] of the trailer wheel, V cos θ + σ1 sin θ: the
+    /// denominator of α_T. The model is meaningful only while it is positive.
+    pub fn trailer_wheel_speed<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        speed: D,
+    ) -> D {
+        let (s, c) = x[3].sin_cos();
+        speed * c + x[0] * s
+    }
+
+    /// Slip angles in the body-frame form (equivalent to eq. 2, valid for any heading ψ):
+    /// α_F = δ − atan((σ1 + f ψ̇)/V), α_R = −atan((σ1 + c ψ̇)/V),
+    /// α_T = −atan((−V sin θ + σ1 cos θ − l (ψ̇ + θ̇)) / (V cos θ + σ1 sin θ)).
+    pub fn slip_angles<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+    ) -> SlipAngles<D> {
+        let v = u.speed;
+        let psi_dot = self.yaw_rate(x);
+        let theta_dot = self.hitch_angle_rate(x);
+        let s1 = x[0];
+        let (sn, cs) = x[3].sin_cos();
+        SlipAngles {
+            front: u.steering_angle - ((s1 + psi_dot * self.f) / v).atan(),
+            rear: -((s1 + psi_dot * self.c) / v).atan(),
+            trailer: -((-v * sn + s1 * cs - (psi_dot + theta_dot) * self.l) / (v * cs + s1 * sn))
+                .atan(),
+        }
+    }
+
+    /// Lateral tire forces (F_F, F_R, F_T) [N] of eq. (14) at the current slip angles.
+    pub fn tire_forces<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+    ) -> SlipAngles<D> {
+        let a = self.slip_angles(x, u);
+        SlipAngles {
+            front: self.front_tire.lateral_force(a.front),
+            rear: self.rear_tire.lateral_force(a.rear),
+            trailer: self.trailer_tire.lateral_force(a.trailer),
+        }
+    }
+
+    /// Right-hand side of the reduced system: (σ̇1, σ̇2, σ̇3) of eq. (6) with the constants
+    /// of eq. (7) and θ̇ of eq. (5).
+    ///
+    /// The σ̇3 prefactor is 1/(I1·I2³): the printed 1/(I1·I2²) is dimensionally
+    /// inconsistent (see DESIGN.md and the tests `independent_formulation` and
+    /// `dimensional_consistency`).
+    pub fn rhs4<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+    ) -> State4<D> {
+        let p = &self.p;
+        let (s1, s2, s3, th) = (x[0], x[1], x[2], x[3]);
+        let (v, v_dot) = (u.speed, u.acceleration);
+        let (sn, cs) = th.sin_cos();
+        let forces = self.tire_forces(x, u);
+        let (f_f, f_r, f_t) = (forces.front, forces.rear, forces.trailer);
+        let cos_delta = u.steering_angle.cos();
+        let i1 = self.i1;
+        let i2 = self.i2;
+        let (m1, m2, j1, j2, d, h) = (self.m1, self.m2, self.j1, self.j2, self.d, self.h);
+
+        // D(θ) of eq. (7)
+        let sn2 = sn * sn;
+        let denom = (cs * cs * (m2 * m2 * j2 * i1 * i1 * h * h)
+            + (sn2 * (2.0 * m2 * j2 * h * h + m2 * m2 * h.powi(4)) + j2 * j2) * (m2 * i1 * i1)
+            + (m1 * j1 * j1 * i2 * i2 + m1 * m1 * j1 * i2 * i2 * d * d))
+            * i2;
+
+        let sc = sn * cs;
+        let sigma1_dot = ((s1 * s2 - s1 * s3 * 2.0 - v_dot) * sc * p[1]
+            - s1 * s1 * (cs * p[3] + p[2]) * sc
+            - s3 * s3 * sn * p[4]
+            + v * (s1 * p[5] - s2 * i1) * (sn2 * p[7] + p[6])
+            + f_r * p[8]
+            + f_t * cs * p[9]
+            + f_f * cos_delta * p[10])
+            / denom;
+        let sigma2_dot = (v * s1 * (p[5] * p[5]) - v * s2 * p[11]
+            + f_r * (i1 * self.c)
+            + f_f * cos_delta * (i1 * self.f))
+            / (i1 * i1);
+        let sigma3_dot = (s1 * s1 * sc * p[12]
+            + v * (s2 * p[13] - s1 * p[14]) * cs
+            + (s1 * s3 - v_dot) * sn * p[13]
+            - f_t * p[15])
+            / (i1 * i2.powi(3));
+        let theta_dot = self.hitch_angle_rate(x);
+        Vector4::new(sigma1_dot, sigma2_dot, sigma3_dot, theta_dot)
+    }
+
+    /// Right-hand side of the full 7-state system (eq. 5–6): the reduced dynamics plus
+    /// ψ̇, ẋ_H = V cos ψ − σ1 sin ψ and ẏ_H = V sin ψ + σ1 cos ψ.
+    pub fn rhs7<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State7<D>,
+        u: &Inputs<D>,
+    ) -> State7<D> {
+        let x4: State4<D> = x.fixed_rows::<4>(0).into_owned();
+        let r = self.rhs4(&x4, u);
+        let (sp, cp) = x[YAW_ANGLE].sin_cos();
+        let s1 = x[0];
+        State7::from_column_slice(&[
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            self.yaw_rate(&x4),
+            u.speed * cp - s1 * sp,
+            u.speed * sp + s1 * cp,
+        ])
+    }
+}

@@ -1,1 +1,163 @@
-fn main() {}
+//! `cargo xtask <task>`: the runner. It parses arguments, shows progress and prints the
+//! headline numbers; every pipeline lives in the `sway` library.
+//!
+//! ```text
+//! cargo xtask list                       # the tasks and groups
+//! cargo xtask linear [--vehicle FILE] [--config FILE]
+//! cargo xtask fig3 | fig4 | all          # groups of tasks
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use sway::progress::Progress;
+use sway::tasks::{self, Task, TaskContext};
+
+/// The repository root (this crate lives in `<root>/xtask`).
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Options every task takes.
+#[derive(Debug, Parser)]
+#[command(no_binary_name = true)]
+struct TaskArgs {
+    /// vehicle parameters (the form of configs/vehicle.toml)
+    #[arg(long)]
+    vehicle: Option<PathBuf>,
+    /// the task's config (default: configs/<task>.toml; single tasks only)
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// where results/<task>/ goes
+    #[arg(long)]
+    results: Option<PathBuf>,
+}
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+struct Bar(ProgressBar);
+
+impl Progress for Bar {
+    fn start(&self, stage: &str, total: u64) {
+        self.0.reset();
+        self.0.set_length(total);
+        self.0.set_position(0);
+        self.0.set_message(stage.to_string());
+    }
+    fn advance(&self, n: u64) {
+        self.0.inc(n);
+    }
+    fn finish(&self) {
+        self.0.set_position(self.0.length().unwrap_or(0));
+    }
+}
+
+fn usage() -> String {
+    let mut s = String::from(
+        "usage: cargo xtask <task|group> [--vehicle FILE] [--config FILE] [--results DIR]\n\ntasks:\n",
+    );
+    for t in tasks::registry() {
+        s.push_str(&format!("  {:<10} {}\n", t.name, t.about));
+    }
+    s.push_str("groups:\n");
+    for (g, members) in tasks::groups() {
+        if !members.is_empty() {
+            s.push_str(&format!("  {:<10} {}\n", g, members.join(", ")));
+        }
+    }
+    s
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(name) = args.first() else {
+        eprint!("{}", usage());
+        bail!("no task given");
+    };
+    if matches!(name.as_str(), "list" | "help" | "--help" | "-h") {
+        print!("{}", usage());
+        return Ok(());
+    }
+    let opts = TaskArgs::try_parse_from(&args[1..]).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let root = repo_root();
+    let task_list = tasks::resolve(name)?;
+    if opts.config.is_some() && task_list.len() > 1 {
+        bail!("--config applies to a single task, not to the group `{name}`");
+    }
+    let configs_dir = root.join("configs");
+    let vehicle = opts
+        .vehicle
+        .clone()
+        .unwrap_or_else(|| configs_dir.join("vehicle.toml"));
+    let results = opts.results.clone().unwrap_or_else(|| root.join("results"));
+
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:40} [{bar:30}] {pos}/{len} {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let progress = Bar(bar);
+    let ctx = TaskContext::new(&vehicle, &configs_dir, &results, &progress)?;
+
+    // Load and validate every config before any work: a bad config stops the run here.
+    let mut prepared = Vec::new();
+    for task in &task_list {
+        let config = match &opts.config {
+            Some(c) => c.clone(),
+            None => configs_dir.join(task.config),
+        };
+        prepared.push((task, (task.prepare)(&ctx, &config)?));
+    }
+    run_prepared(prepared, &ctx, &progress)
+}
+
+fn run_prepared(
+    prepared: Vec<(&Task, Box<dyn tasks::Prepared>)>,
+    ctx: &TaskContext<'_>,
+    progress: &Bar,
+) -> Result<()> {
+    let mut failed = Vec::new();
+    for (task, p) in prepared {
+        let t0 = Instant::now();
+        match p
+            .run(ctx)
+            .with_context(|| format!("task `{}` failed", task.name))
+        {
+            Ok(report) => {
+                progress.0.finish_and_clear();
+                println!(
+                    "[{}] done in {:.2} s → {}",
+                    report.task,
+                    t0.elapsed().as_secs_f64(),
+                    report.output_dir.display()
+                );
+                for line in &report.lines {
+                    println!("{line}");
+                }
+            }
+            Err(e) => {
+                progress.0.finish_and_clear();
+                eprintln!("error: {e:#}");
+                failed.push(task.name);
+            }
+        }
+    }
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        bail!("{} task(s) failed: {}", failed.len(), failed.join(", "))
+    }
+}

@@ -164,7 +164,7 @@ impl OutputDir {
         m.insert("task".into(), Value::from(self.name.clone()));
         m.insert(
             "config_file".into(),
-            Value::from(vehicle.config_file.display().to_string()),
+            Value::from(display_path(vehicle.config_file)),
         );
         m.insert(
             "config".into(),
@@ -172,7 +172,7 @@ impl OutputDir {
         );
         m.insert(
             "vehicle_file".into(),
-            Value::from(vehicle.vehicle_file.display().to_string()),
+            Value::from(display_path(vehicle.vehicle_file)),
         );
         m.insert(
             "vehicle".into(),
@@ -218,6 +218,15 @@ impl Drop for OutputDir {
             let _ = std::fs::remove_dir_all(&self.staging);
         }
     }
+}
+
+/// A path as recorded in summaries: relative to the working directory when inside it,
+/// so committed results do not carry one machine's absolute paths.
+pub fn display_path(path: &Path) -> String {
+    let rel = std::env::current_dir()
+        .ok()
+        .and_then(|cwd| path.strip_prefix(cwd).ok().map(Path::to_path_buf));
+    rel.unwrap_or_else(|| path.to_path_buf()).display().to_string()
 }
 
 /// What a summary records about the inputs of a run.

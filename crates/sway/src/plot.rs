@@ -547,18 +547,16 @@ fn draw_panel<DB: DrawingBackend>(
                         )),
                     }
                     .map_err(e)?;
-                    if k == 0 {
-                        if let Some(l) = label {
-                            any_label = true;
-                            let c = *color;
-                            let w = *width;
-                            anno.label(l).legend(move |(x, y)| {
-                                PathElement::new(
-                                    vec![(x, y), (x + 20, y)],
-                                    c.rgba(1.0).stroke_width(w),
-                                )
-                            });
-                        }
+                    if let (0, Some(l)) = (k, label) {
+                        any_label = true;
+                        let c = *color;
+                        let w = *width;
+                        anno.label(l).legend(move |(x, y)| {
+                            PathElement::new(
+                                vec![(x, y), (x + 20, y)],
+                                c.rgba(1.0).stroke_width(w),
+                            )
+                        });
                     }
                 }
             }

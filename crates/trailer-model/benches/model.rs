@@ -15,12 +15,18 @@ fn bench(c: &mut Criterion) {
         speed: 33.0,
         acceleration: -1.0,
     };
-    c.bench_function("rhs4", |b| b.iter(|| model.rhs4(black_box(&x), black_box(&u))));
-    c.bench_function("rhs7", |b| b.iter(|| model.rhs7(black_box(&x7), black_box(&u))));
+    c.bench_function("rhs4", |b| {
+        b.iter(|| model.rhs4(black_box(&x), black_box(&u)))
+    });
+    c.bench_function("rhs7", |b| {
+        b.iter(|| model.rhs7(black_box(&x7), black_box(&u)))
+    });
     c.bench_function("jacobian4 (4x4 + d/dδ, exact)", |b| {
         b.iter(|| model.jacobian4(black_box(&x), black_box(&u)))
     });
-    c.bench_function("linearize (7x7 A, B, C)", |b| b.iter(|| model.linearize(black_box(33.0))));
+    c.bench_function("linearize (7x7 A, B, C)", |b| {
+        b.iter(|| model.linearize(black_box(33.0)))
+    });
     c.bench_function("open-loop eigenvalues (4x4)", |b| {
         b.iter(|| model.open_loop_eigenvalues(black_box(33.0)))
     });

@@ -73,19 +73,46 @@ pub struct Model {
     front_tire: BrushTire,
     rear_tire: BrushTire,
     trailer_tire: BrushTire,
-    // geometry and inertia
-    m1: f64,
-    m2: f64,
-    j1: f64,
-    j2: f64,
+    // geometry used by the slip angles
     f: f64,
     c: f64,
-    d: f64,
-    h: f64,
     l: f64,
     i1: f64,
     i2: f64,
     p: [f64; 16], // p[1..=15] of eq. (7); p[0] unused
+    k: Derived,
+}
+
+/// Products of the constants of eq. (6)–(7) that do not depend on the state, computed
+/// once so that the right-hand side does no redundant arithmetic.
+#[derive(Debug, Clone, Copy)]
+struct Derived {
+    /// D(θ) = d0 + d_cos2·cos²θ + d_sin2·sin²θ (eq. 7)
+    d0: f64,
+    d_cos2: f64,
+    d_sin2: f64,
+    /// σ̇2 = s2_v1·V σ1 − s2_v2·V σ2 + s2_r·F_R + s2_f·F_F cos δ
+    s2_v1: f64,
+    s2_v2: f64,
+    s2_r: f64,
+    s2_f: f64,
+    /// p12, p13, p14, p15 divided by I1·I2³ (σ̇3 of eq. 6 with the corrected prefactor)
+    q12: f64,
+    q13: f64,
+    q14: f64,
+    q15: f64,
+    /// m1 d / I1 and m2 h / I2 (eq. 4–5)
+    m1d_i1: f64,
+    m2h_i2: f64,
+}
+
+/// State-dependent quantities shared by the slip angles and the right-hand side.
+#[derive(Debug, Clone, Copy)]
+struct Kinematics<D> {
+    sin_theta: D,
+    cos_theta: D,
+    yaw_rate: D,
+    hitch_angle_rate: D,
 }
 
 impl Model {
@@ -128,24 +155,38 @@ impl Model {
         p[13] = m2 * i1 * i2 * i2 * h;
         p[14] = m1 * m2 * i2 * i2 * h * d;
         p[15] = i1 * i2 * i2 * l;
+        let r3 = 1.0 / (i1 * i2.powi(3));
+        let k = Derived {
+            d0: i2
+                * (m2 * i1 * i1 * j2 * j2
+                    + m1 * j1 * j1 * i2 * i2
+                    + m1 * m1 * j1 * i2 * i2 * d * d),
+            d_cos2: i2 * m2 * m2 * j2 * i1 * i1 * h * h,
+            d_sin2: i2 * m2 * i1 * i1 * (2.0 * m2 * j2 * h * h + m2 * m2 * h.powi(4)),
+            s2_v1: p[5] * p[5] / (i1 * i1),
+            s2_v2: p[11] / (i1 * i1),
+            s2_r: c / i1,
+            s2_f: f / i1,
+            q12: p[12] * r3,
+            q13: p[13] * r3,
+            q14: p[14] * r3,
+            q15: p[15] * r3,
+            m1d_i1: m1 * d / i1,
+            m2h_i2: m2 * h / i2,
+        };
         Ok(Self {
             params,
             loads,
             front_tire,
             rear_tire,
             trailer_tire,
-            m1,
-            m2,
-            j1,
-            j2,
             f,
             c,
-            d,
-            h,
             l,
             i1,
             i2,
             p,
+            k,
         })
     }
 
@@ -187,13 +228,23 @@ impl Model {
     /// Yaw rate of the tractor ψ̇ = σ2 − (m1 d / I1) σ1 [rad/s] (eq. 5); the measured
     /// output y of eq. (10).
     pub fn yaw_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> D {
-        x[1] - x[0] * (self.m1 * self.d / self.i1)
+        x[1] - x[0] * self.k.m1d_i1
     }
 
     /// Hitch-angle rate θ̇ [rad/s] (eq. 5).
     pub fn hitch_angle_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> D {
-        let (s1, s2, s3, th) = (x[0], x[1], x[2], x[3]);
-        s1 * (th.cos() * (self.m2 * self.h / self.i2) + self.m1 * self.d / self.i1) - s2 + s3
+        self.kinematics(x).hitch_angle_rate
+    }
+
+    fn kinematics<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> Kinematics<D> {
+        let (s1, s2, s3) = (x[0], x[1], x[2]);
+        let (sin_theta, cos_theta) = x[3].sin_cos();
+        Kinematics {
+            sin_theta,
+            cos_theta,
+            yaw_rate: s2 - s1 * self.k.m1d_i1,
+            hitch_angle_rate: s1 * (cos_theta * self.k.m2h_i2 + self.k.m1d_i1) - s2 + s3,
+        }
     }
 
     /// Longitudinal velocity [m/s] of the trailer wheel, V cos θ + σ1 sin θ: the
@@ -215,15 +266,23 @@ impl Model {
         x: &State4<D>,
         u: &Inputs<D>,
     ) -> SlipAngles<D> {
+        self.slip_angles_with(x, u, &self.kinematics(x))
+    }
+
+    fn slip_angles_with<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+        k: &Kinematics<D>,
+    ) -> SlipAngles<D> {
         let v = u.speed;
-        let psi_dot = self.yaw_rate(x);
-        let theta_dot = self.hitch_angle_rate(x);
         let s1 = x[0];
-        let (sn, cs) = x[3].sin_cos();
+        let (sn, cs) = (k.sin_theta, k.cos_theta);
         SlipAngles {
-            front: u.steering_angle - ((s1 + psi_dot * self.f) / v).atan(),
-            rear: -((s1 + psi_dot * self.c) / v).atan(),
-            trailer: -((-v * sn + s1 * cs - (psi_dot + theta_dot) * self.l) / (v * cs + s1 * sn))
+            front: u.steering_angle - ((s1 + k.yaw_rate * self.f) / v).atan(),
+            rear: -((s1 + k.yaw_rate * self.c) / v).atan(),
+            trailer: -((-v * sn + s1 * cs - (k.yaw_rate + k.hitch_angle_rate) * self.l)
+                / (v * cs + s1 * sn))
                 .atan(),
         }
     }
@@ -234,7 +293,16 @@ impl Model {
         x: &State4<D>,
         u: &Inputs<D>,
     ) -> SlipAngles<D> {
-        let a = self.slip_angles(x, u);
+        self.tire_forces_with(x, u, &self.kinematics(x))
+    }
+
+    fn tire_forces_with<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+        k: &Kinematics<D>,
+    ) -> SlipAngles<D> {
+        let a = self.slip_angles_with(x, u, k);
         SlipAngles {
             front: self.front_tire.lateral_force(a.front),
             rear: self.rear_tire.lateral_force(a.rear),
@@ -254,42 +322,33 @@ impl Model {
         u: &Inputs<D>,
     ) -> State4<D> {
         let p = &self.p;
-        let (s1, s2, s3, th) = (x[0], x[1], x[2], x[3]);
+        let k = &self.k;
+        let (s1, s2, s3) = (x[0], x[1], x[2]);
         let (v, v_dot) = (u.speed, u.acceleration);
-        let (sn, cs) = th.sin_cos();
-        let forces = self.tire_forces(x, u);
+        let kin = self.kinematics(x);
+        let (sn, cs) = (kin.sin_theta, kin.cos_theta);
+        let forces = self.tire_forces_with(x, u, &kin);
         let (f_f, f_r, f_t) = (forces.front, forces.rear, forces.trailer);
-        let cos_delta = u.steering_angle.cos();
-        let i1 = self.i1;
-        let i2 = self.i2;
-        let (m1, m2, j1, j2, d, h) = (self.m1, self.m2, self.j1, self.j2, self.d, self.h);
+        let f_f_cos_delta = f_f * u.steering_angle.cos();
 
-        // D(θ) of eq. (7)
         let sn2 = sn * sn;
-        let denom = (cs * cs * (m2 * m2 * j2 * i1 * i1 * h * h)
-            + (sn2 * (2.0 * m2 * j2 * h * h + m2 * m2 * h.powi(4)) + j2 * j2) * (m2 * i1 * i1)
-            + (m1 * j1 * j1 * i2 * i2 + m1 * m1 * j1 * i2 * i2 * d * d))
-            * i2;
-
         let sc = sn * cs;
+        // D(θ) of eq. (7)
+        let denom = cs * cs * k.d_cos2 + sn2 * k.d_sin2 + k.d0;
         let sigma1_dot = ((s1 * s2 - s1 * s3 * 2.0 - v_dot) * sc * p[1]
             - s1 * s1 * (cs * p[3] + p[2]) * sc
             - s3 * s3 * sn * p[4]
-            + v * (s1 * p[5] - s2 * i1) * (sn2 * p[7] + p[6])
+            + v * (s1 * p[5] - s2 * self.i1) * (sn2 * p[7] + p[6])
             + f_r * p[8]
             + f_t * cs * p[9]
-            + f_f * cos_delta * p[10])
+            + f_f_cos_delta * p[10])
             / denom;
-        let sigma2_dot = (v * s1 * (p[5] * p[5]) - v * s2 * p[11]
-            + f_r * (i1 * self.c)
-            + f_f * cos_delta * (i1 * self.f))
-            / (i1 * i1);
-        let sigma3_dot = (s1 * s1 * sc * p[12]
-            + v * (s2 * p[13] - s1 * p[14]) * cs
-            + (s1 * s3 - v_dot) * sn * p[13]
-            - f_t * p[15])
-            / (i1 * i2.powi(3));
-        let theta_dot = self.hitch_angle_rate(x);
+        let sigma2_dot = v * (s1 * k.s2_v1 - s2 * k.s2_v2) + f_r * k.s2_r + f_f_cos_delta * k.s2_f;
+        let sigma3_dot = s1 * s1 * sc * k.q12
+            + v * (s2 * k.q13 - s1 * k.q14) * cs
+            + (s1 * s3 - v_dot) * sn * k.q13
+            - f_t * k.q15;
+        let theta_dot = kin.hitch_angle_rate;
         Vector4::new(sigma1_dot, sigma2_dot, sigma3_dot, theta_dot)
     }
 

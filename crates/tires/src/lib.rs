@@ -58,6 +58,13 @@ pub trait TireModel {
     /// Lateral force F^lat [N] at slip angle α [rad].
     fn lateral_force<D: DualNum<Primitive = f64> + Copy>(&self, alpha: D) -> D;
 
+    /// Lateral force [N] given tan α instead of α (|α| < π/2). Slip angles are atan of
+    /// velocity ratios, and the brush model is a polynomial in tan α, so this form skips
+    /// an atan/tan pair in the hot loop.
+    fn lateral_force_from_tan<D: DualNum<Primitive = f64> + Copy>(&self, tan_alpha: D) -> D {
+        self.lateral_force(tan_alpha.atan())
+    }
+
     /// Slip angle [rad] beyond which the contact patch slides completely, if the model
     /// has one (α_cr of eq. 15 for the brush tire).
     fn critical_slip_angle(&self) -> Option<f64>;
@@ -82,6 +89,7 @@ pub struct BrushTire {
     phi2: f64,
     phi3: f64,
     alpha_cr: f64,
+    tan_alpha_cr: f64,
 }
 
 impl BrushTire {
@@ -122,6 +130,7 @@ impl BrushTire {
             phi2: c * c / s * (mu / mu0 - 2.0),
             phi3: c * c * c / (s * s) * (1.0 - 2.0 * mu / (3.0 * mu0)),
             alpha_cr: (s / c).atan(),
+            tan_alpha_cr: s / c,
         })
     }
 
@@ -147,6 +156,16 @@ impl TireModel for BrushTire {
         let t = alpha.tan();
         // tan²α·sgn α = tan α·|tan α|: C¹ at 0 and exact for dual numbers
         let t_abs = if a < 0.0 { -t } else { t };
+        t * (D::from(self.phi1) + t_abs * self.phi2 + t * t * self.phi3)
+    }
+
+    /// Eq. (14) in terms of t = tan α: |t| > tan α_cr slides, else φ1 t + φ2 t|t| + φ3 t³.
+    fn lateral_force_from_tan<D: DualNum<Primitive = f64> + Copy>(&self, t: D) -> D {
+        let tr = t.re();
+        if tr.abs() > self.tan_alpha_cr {
+            return D::from(self.sliding_force() * tr.signum());
+        }
+        let t_abs = if tr < 0.0 { -t } else { t };
         t * (D::from(self.phi1) + t_abs * self.phi2 + t * t * self.phi3)
     }
 

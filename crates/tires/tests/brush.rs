@@ -99,6 +99,16 @@ proptest! {
     }
 
     #[test]
+    fn tan_form_equals_angle_form(a in -1.5f64..1.5, c in 1e4f64..5e5, fz in 1e3f64..3e4) {
+        // Reference: eq. (14) evaluated at α and at tan α describe the same function;
+        // identical up to the round-off of tan(atan(t)) (1e-15 relative).
+        let t = BrushTire::new(c, fz, 0.9, 0.6).expect("valid");
+        let f1 = t.lateral_force(a);
+        let f2 = t.lateral_force_from_tan(a.tan());
+        prop_assert!((f1 - f2).abs() <= 1e-12 * f1.abs().max(1.0), "{f1} {f2}");
+    }
+
+    #[test]
     fn force_bounded_by_peak(a in -1.5f64..1.5) {
         // The brush force never exceeds the static-friction peak F_z μ0 (physical bound).
         let t = front();

@@ -302,11 +302,19 @@ impl Model {
         u: &Inputs<D>,
         k: &Kinematics<D>,
     ) -> SlipAngles<D> {
-        let a = self.slip_angles_with(x, u, k);
+        // Same slip angles as `slip_angles_with`, but the rear and trailer forces take
+        // tan α = −(ratio) directly (the brush model is a polynomial in tan α).
+        let v = u.speed;
+        let s1 = x[0];
+        let (sn, cs) = (k.sin_theta, k.cos_theta);
+        let front = u.steering_angle - ((s1 + k.yaw_rate * self.f) / v).atan();
+        let tan_rear = -(s1 + k.yaw_rate * self.c) / v;
+        let tan_trailer =
+            -(-v * sn + s1 * cs - (k.yaw_rate + k.hitch_angle_rate) * self.l) / (v * cs + s1 * sn);
         SlipAngles {
-            front: self.front_tire.lateral_force(a.front),
-            rear: self.rear_tire.lateral_force(a.rear),
-            trailer: self.trailer_tire.lateral_force(a.trailer),
+            front: self.front_tire.lateral_force(front),
+            rear: self.rear_tire.lateral_force_from_tan(tan_rear),
+            trailer: self.trailer_tire.lateral_force_from_tan(tan_trailer),
         }
     }
 

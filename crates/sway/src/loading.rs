@@ -1,0 +1,70 @@
+//! Beyond the paper: how trailer loading moves the critical speed.
+//!
+//! The paper's V_crit is very sensitive to the trailer's centre of gravity relative to its
+//! axle (h − l). Practitioners talk about the same thing as *tongue load*: the static
+//! vertical force the trailer puts on the hitch, F_tongue = m2 g (1 − h/l) (statics of
+//! Fig. 2; Table I has h > l, a negative tongue load, which lifts the hitch). This module
+//! maps V_crit over a grid of trailer mass m2 and centre-of-gravity position h.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use trailer_model::{CriticalSpeedOptions, Model, VehicleParams};
+
+/// How the trailer's yaw inertia follows its mass on the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum InertiaScaling {
+    /// J2 ∝ m2 (same radius of gyration as the base vehicle): load spread like the base
+    #[default]
+    ScaleWithMass,
+    /// J2 fixed at the base vehicle's value
+    Fixed,
+}
+
+/// Tongue load as a fraction of the trailer weight, 1 − h/l [-].
+pub fn tongue_load_fraction(params: &VehicleParams) -> f64 {
+    1.0 - params.trailer.cog / params.trailer.axle
+}
+
+/// The base vehicle with trailer mass `m2` [kg] and centre of gravity `h` [m].
+pub fn loaded(base: &VehicleParams, m2: f64, h: f64, inertia: InertiaScaling) -> VehicleParams {
+    let mut p = *base;
+    if inertia == InertiaScaling::ScaleWithMass {
+        p.trailer.yaw_inertia = base.trailer.yaw_inertia * m2 / base.trailer.mass;
+    }
+    p.trailer.mass = m2;
+    p.trailer.cog = h;
+    p
+}
+
+/// V_crit [m/s] of one loading, NaN when straight running has no stability change in
+/// `opts`' range (stable throughout, or unstable from the lowest speed) or the vehicle is
+/// invalid.
+pub fn v_crit_of(params: &VehicleParams, opts: &CriticalSpeedOptions) -> f64 {
+    Model::new(*params)
+        .and_then(|m| m.critical_speed(opts))
+        .map_or(f64::NAN, |c| c.v_crit_mps)
+}
+
+/// V_crit on the grid `masses × cogs`, row j for `cogs[j]`, column i for `masses[i]`.
+/// Parallel over rows; each cell is independent, so the result does not depend on the
+/// number of threads.
+pub fn v_crit_map(
+    base: &VehicleParams,
+    masses: &[f64],
+    cogs: &[f64],
+    inertia: InertiaScaling,
+    opts: &CriticalSpeedOptions,
+    progress: &(dyn Fn() + Sync),
+) -> Vec<Vec<f64>> {
+    cogs.par_iter()
+        .map(|&h| {
+            let row = masses
+                .iter()
+                .map(|&m2| v_crit_of(&loaded(base, m2, h, inertia), opts))
+                .collect();
+            progress();
+            row
+        })
+        .collect()
+}

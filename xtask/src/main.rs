@@ -5,6 +5,7 @@
 //! cargo xtask list                       # the tasks and groups
 //! cargo xtask linear [--vehicle FILE] [--config FILE]
 //! cargo xtask fig3 | fig4 | all          # groups of tasks
+//! cargo xtask roots --v V --d D --tau TAU [--count N]   # rightmost characteristic roots
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -28,6 +29,8 @@ fn repo_root() -> PathBuf {
 #[derive(Debug, Parser)]
 #[command(no_binary_name = true)]
 struct TaskArgs {
+    /// the task's config as a positional argument (`cargo xtask simulate FILE.toml`)
+    file: Option<PathBuf>,
     /// vehicle parameters (the form of configs/vehicle.toml)
     #[arg(long)]
     vehicle: Option<PathBuf>,
@@ -90,7 +93,16 @@ fn run() -> Result<()> {
         print!("{}", usage());
         return Ok(());
     }
-    let opts = TaskArgs::try_parse_from(&args[1..]).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if name == "roots" {
+        return roots(&args[1..]);
+    }
+    let mut opts = TaskArgs::try_parse_from(&args[1..]).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if let Some(file) = opts.file.take() {
+        if opts.config.is_some() {
+            bail!("give the config either as FILE or with --config, not both");
+        }
+        opts.config = Some(file);
+    }
     let root = repo_root();
     let task_list = tasks::resolve(name)?;
     if opts.config.is_some() && task_list.len() > 1 {
@@ -122,6 +134,38 @@ fn run() -> Result<()> {
         prepared.push((task, (task.prepare)(&ctx, &config)?));
     }
     run_prepared(prepared, &ctx, &progress)
+}
+
+/// `cargo xtask roots`: the rightmost characteristic roots of the closed loop (eq. 13).
+#[derive(Debug, Parser)]
+#[command(no_binary_name = true)]
+struct RootsArgs {
+    /// speed V [m/s]
+    #[arg(long = "v")]
+    speed: f64,
+    /// feedback gain D [s]
+    #[arg(long = "d", allow_negative_numbers = true)]
+    gain: f64,
+    /// delay τ [s]
+    #[arg(long = "tau")]
+    delay: f64,
+    /// how many roots
+    #[arg(long, default_value_t = sway::tasks::roots::DEFAULT_COUNT)]
+    count: usize,
+    /// vehicle parameters (the form of configs/vehicle.toml)
+    #[arg(long)]
+    vehicle: Option<PathBuf>,
+}
+
+fn roots(args: &[String]) -> Result<()> {
+    let a = RootsArgs::try_parse_from(args).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let vehicle = a
+        .vehicle
+        .unwrap_or_else(|| repo_root().join("configs").join("vehicle.toml"));
+    let (_, model) = sway::config::load_vehicle(&vehicle)?;
+    let roots = sway::tasks::roots::roots(&model, a.speed, a.gain, a.delay, a.count)?;
+    print!("{}", sway::tasks::roots::format_roots(&roots));
+    Ok(())
 }
 
 fn run_prepared(

@@ -1,0 +1,401 @@
+//! Equilibria x* with f(x*, x*, …, x*; p) = 0: Newton correction along a branch, stability
+//! from eigenvalues (ODE) or the rightmost characteristic roots (DDE), Hopf points.
+
+use crate::engine::ContinuationSystem;
+use crate::error::{Error, Result};
+use crate::linalg::{Entry, eigenvalues};
+use crate::problem::Problem;
+use crate::stability::{SpecialKind, Stability};
+use faer::Mat;
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// Rightmost roots of the characteristic equation of the linear DDE
+/// y'(t) = A0 y(t) + Σ_j A_j y(t − τ_j), i.e. det(λI − A0 − Σ_j A_j e^{−λτ_j}) = 0.
+///
+/// Plug in any method (e.g. a semi-discretisation from another crate); [`ChebyshevRoots`]
+/// is the built-in one. For an ODE (`a.len() == 1`) it must return the eigenvalues of A0.
+pub trait CharacteristicRoots {
+    /// the rightmost roots (any order); `a[0]` = A0, `a[j]` the matrix of delay τ_j
+    fn rightmost_roots(&self, a: &[DMatrix<f64>], delays: &[f64]) -> Result<Vec<Complex64>>;
+}
+
+/// Newton refinement of approximate characteristic roots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Refinement {
+    /// Newton on det Δ(λ) (λ ← λ − 1/tr(Δ(λ)⁻¹Δ'(λ))) to machine precision
+    Newton,
+    /// keep the discretised values
+    None,
+}
+
+/// Characteristic roots by Chebyshev collocation of the infinitesimal generator
+/// (Breda, Maset & Vermiglio, SIAM J. Sci. Comput. 27, 2005) on N + 1 Chebyshev points of
+/// [−τ_max, 0], followed by Newton refinement on the characteristic matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ChebyshevRoots {
+    /// polynomial degree N of the collocation
+    pub degree: usize,
+    /// how many rightmost roots to return
+    pub count: usize,
+    /// refinement of the discretised roots
+    pub refinement: Refinement,
+}
+
+impl Default for ChebyshevRoots {
+    fn default() -> Self {
+        Self {
+            degree: 30,
+            count: 8,
+            refinement: Refinement::Newton,
+        }
+    }
+}
+
+/// characteristic matrix Δ(λ) = λI − A0 − Σ A_j e^{−λτ_j} and its derivative
+fn char_matrix(
+    a: &[DMatrix<f64>],
+    delays: &[f64],
+    lambda: Complex64,
+) -> (DMatrix<Complex64>, DMatrix<Complex64>) {
+    let n = a[0].nrows();
+    let mut d = DMatrix::<Complex64>::from_fn(n, n, |i, j| {
+        let id = if i == j {
+            lambda
+        } else {
+            Complex64::new(0.0, 0.0)
+        };
+        id - a[0][(i, j)]
+    });
+    let mut dd = DMatrix::<Complex64>::identity(n, n);
+    for (aj, &tau) in a[1..].iter().zip(delays) {
+        let e = (-lambda * tau).exp();
+        for i in 0..n {
+            for j in 0..n {
+                d[(i, j)] -= e * aj[(i, j)];
+                dd[(i, j)] += e * tau * aj[(i, j)];
+            }
+        }
+    }
+    (d, dd)
+}
+
+/// Newton on det Δ(λ): λ ← λ − 1/tr(Δ⁻¹Δ'). Returns None if it does not converge.
+pub fn refine_root(a: &[DMatrix<f64>], delays: &[f64], mut lambda: Complex64) -> Option<Complex64> {
+    for _ in 0..50 {
+        let (d, dd) = char_matrix(a, delays, lambda);
+        let lu = d.lu();
+        let x = lu.solve(&dd)?;
+        let tr = x.trace();
+        if tr.norm() == 0.0 || !tr.is_finite() {
+            return None;
+        }
+        let step = 1.0 / tr;
+        lambda -= step;
+        if step.norm() <= 1e-14 * (1.0 + lambda.norm()) {
+            return Some(lambda);
+        }
+    }
+    None
+}
+
+impl CharacteristicRoots for ChebyshevRoots {
+    fn rightmost_roots(&self, a: &[DMatrix<f64>], delays: &[f64]) -> Result<Vec<Complex64>> {
+        let n = a[0].nrows();
+        let tau_max = delays.iter().cloned().fold(0.0f64, f64::max);
+        if a.len() == 1 || tau_max == 0.0 {
+            let a0 = a.iter().fold(DMatrix::<f64>::zeros(n, n), |s, m| s + m);
+            let m = Mat::<f64>::from_fn(n, n, |i, j| a0[(i, j)]);
+            return eigenvalues(&m);
+        }
+        let nn = self.degree.max(2);
+        let x: Vec<f64> = (0..=nn)
+            .map(|i| (std::f64::consts::PI * i as f64 / nn as f64).cos())
+            .collect();
+        let c: Vec<f64> = (0..=nn)
+            .map(
+                |i| if i == 0 || i == nn { 2.0 } else { 1.0 } * if i % 2 == 0 { 1.0 } else { -1.0 },
+            )
+            .collect();
+        let dim = n * (nn + 1);
+        let mut m = Mat::<f64>::zeros(dim, dim);
+        // rows 1..N: derivative of the interpolant, θ = τ_max/2 (x − 1) ⇒ d/dθ = 2/τ_max d/dx
+        for i in 1..=nn {
+            let mut diag = 0.0;
+            for j in 0..=nn {
+                if i != j {
+                    let dij = c[i] / c[j] / (x[i] - x[j]) * 2.0 / tau_max;
+                    diag -= dij;
+                    for k in 0..n {
+                        m[(i * n + k, j * n + k)] = dij;
+                    }
+                }
+            }
+            for k in 0..n {
+                m[(i * n + k, i * n + k)] = diag;
+            }
+        }
+        // row 0: y'(0) = A0 y(0) + Σ A_j p(−τ_j)
+        for r in 0..n {
+            for k in 0..n {
+                m[(r, k)] += a[0][(r, k)];
+            }
+        }
+        let bw: Vec<f64> = (0..=nn)
+            .map(
+                |i| if i == 0 || i == nn { 0.5 } else { 1.0 } * if i % 2 == 0 { 1.0 } else { -1.0 },
+            )
+            .collect();
+        for (aj, &tau) in a[1..].iter().zip(delays) {
+            let xs = 1.0 - 2.0 * tau / tau_max;
+            let mut l = vec![0.0; nn + 1];
+            if let Some(hit) = x.iter().position(|&xi| (xi - xs).abs() < 1e-14) {
+                l[hit] = 1.0;
+            } else {
+                let terms: Vec<f64> = (0..=nn).map(|i| bw[i] / (xs - x[i])).collect();
+                let s: f64 = terms.iter().sum();
+                for i in 0..=nn {
+                    l[i] = terms[i] / s;
+                }
+            }
+            for (q, lq) in l.iter().enumerate() {
+                for r in 0..n {
+                    for k in 0..n {
+                        m[(r, q * n + k)] += lq * aj[(r, k)];
+                    }
+                }
+            }
+        }
+        let mut ev = eigenvalues(&m)?;
+        ev.sort_by(|p, q| q.re.total_cmp(&p.re));
+        let mut out: Vec<Complex64> = Vec::new();
+        for z in ev.into_iter().take(2 * self.count) {
+            let r = match self.refinement {
+                Refinement::Newton => refine_root(a, delays, z)
+                    .filter(|r| (r - z).norm() < 0.1 * (1.0 + z.norm()))
+                    .unwrap_or(z),
+                Refinement::None => z,
+            };
+            if !out.iter().any(|o| (o - r).norm() < 1e-8 * (1.0 + r.norm())) {
+                out.push(r);
+            }
+        }
+        out.sort_by(|p, q| q.re.total_cmp(&p.re));
+        out.truncate(self.count);
+        Ok(out)
+    }
+}
+
+/// A Hopf point of an equilibrium branch, ready for branch switching.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HopfPoint {
+    /// value of the free parameter
+    pub parameter: f64,
+    /// the equilibrium x*
+    pub state: Vec<f64>,
+    /// angular frequency ω of the critical pair ±iω [rad / time unit]
+    pub omega: f64,
+    /// critical eigenvector v (Δ(iω) v = 0, ‖v‖ = 1, largest component real)
+    pub eigenvector: Vec<Complex64>,
+    /// d Re λ / dp at the crossing (sign says on which side the equilibrium is stable)
+    pub transversality: f64,
+}
+
+/// The equilibrium problem f(x, x, …, x; p) = 0 as a continuation system.
+/// Unknowns u = [x (n), p_free].
+#[derive(Debug)]
+pub struct EquilibriumSystem<'a, P: Problem, R: CharacteristicRoots> {
+    problem: &'a P,
+    params: Vec<f64>,
+    ip: usize,
+    roots: R,
+    args: Vec<f64>,
+    jac: Vec<f64>,
+    fbuf: Vec<f64>,
+}
+
+impl<'a, P: Problem, R: CharacteristicRoots> EquilibriumSystem<'a, P, R> {
+    /// `params`: all parameters (the free one, index `ip`, is overwritten by u's last entry);
+    /// `roots`: how to compute the spectrum.
+    pub fn new(problem: &'a P, params: Vec<f64>, ip: usize, roots: R) -> Result<Self> {
+        if ip >= params.len() {
+            return Err(Error::InvalidInput(format!(
+                "free parameter index {ip} out of range ({} parameters)",
+                params.len()
+            )));
+        }
+        let n = problem.dim();
+        let k = problem.n_delays();
+        Ok(Self {
+            problem,
+            params,
+            ip,
+            roots,
+            args: vec![0.0; n * (k + 1)],
+            jac: vec![0.0; n * n * (k + 1)],
+            fbuf: vec![0.0; n],
+        })
+    }
+
+    /// initial unknowns from a state and a parameter value
+    pub fn unknowns(&self, x: &[f64], parameter: f64) -> Vec<f64> {
+        let mut u = x.to_vec();
+        u.push(parameter);
+        u
+    }
+
+    /// unit vector of the free parameter (start direction)
+    pub fn parameter_direction(&self) -> Vec<f64> {
+        let mut d = vec![0.0; self.problem.dim() + 1];
+        d[self.problem.dim()] = 1.0;
+        d
+    }
+
+    fn set(&mut self, u: &[f64]) {
+        let n = self.problem.dim();
+        self.params[self.ip] = u[n];
+        for c in self.args.chunks_mut(n) {
+            c.copy_from_slice(&u[..n]);
+        }
+    }
+
+    /// the matrices A0, A1, …, Ak of the linearisation at u
+    pub fn linearisation(&mut self, u: &[f64]) -> Vec<DMatrix<f64>> {
+        let n = self.problem.dim();
+        let k = self.problem.n_delays();
+        self.set(u);
+        self.problem
+            .jacobian(&self.args, &self.params, &mut self.jac);
+        let nc = n * (k + 1);
+        (0..=k)
+            .map(|d| DMatrix::from_fn(n, n, |i, j| self.jac[i * nc + d * n + j]))
+            .collect()
+    }
+
+    /// delays at the parameters of u
+    pub fn delays(&mut self, u: &[f64]) -> Vec<f64> {
+        self.set(u);
+        (0..self.problem.n_delays())
+            .map(|j| self.problem.delay(j, &self.params))
+            .collect()
+    }
+
+    /// the rightmost eigenvalues / characteristic roots at u
+    pub fn spectrum(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
+        let a = self.linearisation(u);
+        let delays = self.delays(u);
+        self.roots.rightmost_roots(&a, &delays)
+    }
+
+    /// Hopf point data at a located Hopf point `u` (critical pair from the spectrum,
+    /// eigenvector as the null vector of Δ(iω))
+    pub fn hopf_point(&mut self, u: &[f64], transversality: f64) -> Result<HopfPoint> {
+        let n = self.problem.dim();
+        let spec = self.spectrum(u)?;
+        let crit = spec
+            .iter()
+            .filter(|z| z.im > 1e-8)
+            .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))
+            .copied()
+            .ok_or(Error::InvalidInput(
+                "no complex pair at the Hopf point".into(),
+            ))?;
+        let omega = crit.im;
+        let a = self.linearisation(u);
+        let delays = self.delays(u);
+        let (d, _) = char_matrix(&a, &delays, Complex64::new(0.0, omega));
+        let svd = d.svd(false, true);
+        let vt = svd.v_t.ok_or(Error::Eigen {
+            size: n,
+            message: "SVD of the characteristic matrix".into(),
+        })?;
+        let kmin = (0..n)
+            .min_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]))
+            .unwrap_or(0);
+        let mut v: Vec<Complex64> = (0..n).map(|j| vt[(kmin, j)].conj()).collect();
+        let big = (0..n)
+            .max_by(|&i, &j| v[i].norm().total_cmp(&v[j].norm()))
+            .unwrap_or(0);
+        let phase = v[big] / v[big].norm();
+        let norm = v.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
+        v.iter_mut().for_each(|z| *z /= phase * norm);
+        Ok(HopfPoint {
+            parameter: u[n],
+            state: u[..n].to_vec(),
+            omega,
+            eigenvector: v,
+            transversality,
+        })
+    }
+}
+
+fn complex_unstable(s: &Stability) -> usize {
+    s.values
+        .iter()
+        .filter(|z| z.re > 0.0 && z.im.abs() > 1e-8)
+        .count()
+}
+
+impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for EquilibriumSystem<'_, P, R> {
+    fn n_unknowns(&self) -> usize {
+        self.problem.dim() + 1
+    }
+    fn parameter_index(&self) -> usize {
+        self.problem.dim()
+    }
+    fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
+        self.set(u);
+        self.problem.rhs(&self.args, &self.params, r);
+        Ok(())
+    }
+    fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
+        let n = self.problem.dim();
+        let k = self.problem.n_delays();
+        self.set(u);
+        self.problem
+            .jacobian(&self.args, &self.params, &mut self.jac);
+        let nc = n * (k + 1);
+        for i in 0..n {
+            for j in 0..n {
+                let v: f64 = (0..=k).map(|d| self.jac[i * nc + d * n + j]).sum();
+                entries.push(Entry::new(i, j, v));
+            }
+        }
+        self.problem
+            .dfdp(&self.args, &self.params, self.ip, &mut self.fbuf);
+        for i in 0..n {
+            entries.push(Entry::new(i, n, self.fbuf[i]));
+        }
+        Ok(())
+    }
+    fn weights(&self) -> Vec<f64> {
+        vec![1.0; self.problem.dim() + 1]
+    }
+    fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
+        Ok(Some(Stability::from_eigenvalues(self.spectrum(u)?)))
+    }
+    fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
+        if a.unstable == b.unstable {
+            None
+        } else if complex_unstable(a) != complex_unstable(b) {
+            Some(SpecialKind::Hopf)
+        } else {
+            Some(SpecialKind::RealCrossing)
+        }
+    }
+    fn test_function(&mut self, kind: SpecialKind, u: &[f64]) -> Result<Option<f64>> {
+        let spec = self.spectrum(u)?;
+        let pick = |complex: bool| {
+            spec.iter()
+                .filter(|z| (z.im > 1e-8) == complex && z.im > -1e-8)
+                .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))
+                .map(|z| z.re)
+        };
+        Ok(match kind {
+            SpecialKind::Hopf => pick(true),
+            SpecialKind::RealCrossing => pick(false),
+            _ => None,
+        })
+    }
+}

@@ -1,0 +1,811 @@
+//! Periodic orbits of ODEs and constant-delay DDEs by orthogonal collocation, their Floquet
+//! multipliers, and branch switching from a Hopf point.
+//!
+//! Time is scaled by the period: s = t/T ∈ [0, 1), x'(s) = T f(x(s), x(s − τ1/T), …; p),
+//! with delayed values read off the periodic profile (s − τ/T taken modulo 1, so any ratio
+//! τ/T works). The profile is continuous and piecewise polynomial of degree m on L mesh
+//! intervals, represented by its values at m + 1 equispaced nodes per interval (shared
+//! end nodes, node L·m ≡ node 0). Collocation at the m Gauss–Legendre points of each
+//! interval plus the integral phase condition ∫₀¹ ⟨x(s) − x_ref(s), x_ref'(s)⟩ ds = 0 give
+//! n·L·m + 1 equations for the n·L·m + 2 unknowns u = [profile, T, p].
+
+use crate::collocation::{Basis, MAX_DEGREE, lagrange};
+use crate::engine::ContinuationSystem;
+use crate::equilibrium::HopfPoint;
+use crate::error::{Error, Result};
+use crate::linalg::{Entry, SparseLu, eigenvalues};
+use crate::problem::Problem;
+use crate::stability::{SpecialKind, Stability};
+use faer::Mat;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// Discretisation of periodic orbits.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CollocationOptions {
+    /// number of mesh intervals L
+    pub intervals: usize,
+    /// polynomial degree m (1..=8); m Gauss–Legendre points per interval
+    pub degree: usize,
+    /// weights of the arclength metric
+    pub weights: ArclengthWeights,
+    /// how many Floquet multipliers (largest modulus) to keep per point
+    pub multipliers_kept: usize,
+}
+
+impl Default for CollocationOptions {
+    fn default() -> Self {
+        Self {
+            intervals: 40,
+            degree: 4,
+            weights: ArclengthWeights::default(),
+            multipliers_kept: 12,
+        }
+    }
+}
+
+/// Weights of the pseudo-arclength metric for periodic orbits: the profile counts as its
+/// mean square over the period (each node value weighted by `profile / (L·m)`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ArclengthWeights {
+    /// weight of the profile (mean square)
+    pub profile: f64,
+    /// weight of the period
+    pub period: f64,
+    /// weight of the free parameter
+    pub parameter: f64,
+}
+
+impl Default for ArclengthWeights {
+    fn default() -> Self {
+        Self {
+            profile: 1.0,
+            period: 1.0,
+            parameter: 1.0,
+        }
+    }
+}
+
+/// Periodic-orbit boundary value problem as a continuation system.
+#[derive(Debug)]
+pub struct PeriodicOrbitSystem<'a, P: Problem> {
+    problem: &'a P,
+    params: Vec<f64>,
+    ip: usize,
+    mesh: Vec<f64>,
+    basis: Basis,
+    options: CollocationOptions,
+    /// phase condition: coefficients for the profile and constant
+    phase_row: Vec<f64>,
+    phase_const: f64,
+    // scratch
+    args: Vec<f64>,
+    jac: Vec<f64>,
+    fbuf: Vec<f64>,
+    fp: Vec<f64>,
+    dx: Vec<f64>,
+}
+
+/// location of a point of the (extended) mesh
+#[derive(Debug, Clone, Copy)]
+struct Loc {
+    /// interval index (in the extended mesh may be negative or ≥ L)
+    q: i64,
+    /// base interval q mod L
+    base: usize,
+    /// local coordinate
+    xi: f64,
+}
+
+impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
+    /// New system on a uniform mesh. `params`: all parameters (entry `ip` is the free one).
+    pub fn new(
+        problem: &'a P,
+        params: Vec<f64>,
+        ip: usize,
+        options: CollocationOptions,
+    ) -> Result<Self> {
+        let l = options.intervals;
+        let mesh = (0..=l).map(|i| i as f64 / l as f64).collect();
+        Self::with_mesh(problem, params, ip, mesh, options)
+    }
+
+    /// New system on a given mesh 0 = s_0 < s_1 < … < s_L = 1 (`options.intervals` ignored).
+    pub fn with_mesh(
+        problem: &'a P,
+        params: Vec<f64>,
+        ip: usize,
+        mesh: Vec<f64>,
+        mut options: CollocationOptions,
+    ) -> Result<Self> {
+        if ip >= params.len() {
+            return Err(Error::InvalidInput(format!(
+                "free parameter index {ip} out of range ({} parameters)",
+                params.len()
+            )));
+        }
+        if options.degree == 0 || options.degree > MAX_DEGREE {
+            return Err(Error::InvalidInput(format!(
+                "collocation degree {} not in 1..={MAX_DEGREE}",
+                options.degree
+            )));
+        }
+        let ok = mesh.len() >= 2
+            && mesh[0] == 0.0
+            && (mesh[mesh.len() - 1] - 1.0).abs() < 1e-15
+            && mesh.windows(2).all(|w| w[1] > w[0]);
+        if !ok {
+            return Err(Error::InvalidInput(
+                "mesh must increase strictly from 0 to 1 with at least one interval".into(),
+            ));
+        }
+        options.intervals = mesh.len() - 1;
+        let n = problem.dim();
+        let k = problem.n_delays();
+        let nprof = n * options.intervals * options.degree;
+        Ok(Self {
+            problem,
+            params,
+            ip,
+            mesh,
+            basis: Basis::new(options.degree),
+            options,
+            phase_row: vec![0.0; nprof],
+            phase_const: 0.0,
+            args: vec![0.0; n * (k + 1)],
+            jac: vec![0.0; n * n * (k + 1)],
+            fbuf: vec![0.0; n],
+            fp: vec![0.0; n],
+            dx: vec![0.0; n * k.max(1)],
+        })
+    }
+
+    /// state dimension n
+    pub fn dim(&self) -> usize {
+        self.problem.dim()
+    }
+    /// number of mesh intervals L
+    pub fn intervals(&self) -> usize {
+        self.options.intervals
+    }
+    /// polynomial degree m
+    pub fn degree(&self) -> usize {
+        self.options.degree
+    }
+    /// the mesh s_0 … s_L
+    pub fn mesh(&self) -> &[f64] {
+        &self.mesh
+    }
+    /// number of profile nodes L·m
+    pub fn n_nodes(&self) -> usize {
+        self.options.intervals * self.options.degree
+    }
+    /// index of the period in u
+    pub fn period_index(&self) -> usize {
+        self.dim() * self.n_nodes()
+    }
+    /// the period T of u [time units]
+    pub fn period(&self, u: &[f64]) -> f64 {
+        u[self.period_index()]
+    }
+    /// node positions s of the profile (length L·m)
+    pub fn node_times(&self) -> Vec<f64> {
+        let m = self.degree();
+        (0..self.n_nodes())
+            .map(|g| {
+                let i = g / m;
+                let j = g % m;
+                self.mesh[i] + (self.mesh[i + 1] - self.mesh[i]) * j as f64 / m as f64
+            })
+            .collect()
+    }
+
+    /// unknowns u = [profile, T, p] from a function s ↦ x(s) sampled at the nodes
+    pub fn unknowns_from(
+        &self,
+        profile: impl Fn(f64) -> Vec<f64>,
+        period: f64,
+        parameter: f64,
+    ) -> Vec<f64> {
+        let mut u: Vec<f64> = self.node_times().into_iter().flat_map(profile).collect();
+        u.push(period);
+        u.push(parameter);
+        u
+    }
+
+    fn locate_periodic(&self, s: f64) -> Loc {
+        let s = s.rem_euclid(1.0);
+        let l = self.options.intervals;
+        let i = match self.mesh.binary_search_by(|v| v.total_cmp(&s)) {
+            Ok(i) => i.min(l - 1),
+            Err(i) => (i - 1).min(l - 1),
+        };
+        let xi = (s - self.mesh[i]) / (self.mesh[i + 1] - self.mesh[i]);
+        Loc {
+            q: i as i64,
+            base: i,
+            xi,
+        }
+    }
+
+    fn node(&self, base: usize, j: usize) -> usize {
+        (base * self.degree() + j) % self.n_nodes()
+    }
+
+    /// profile x(s) (s taken modulo 1) of the unknowns u, written to `x`; derivative dx/ds to `dx`
+    pub fn eval(&self, u: &[f64], s: f64, x: &mut [f64], dx: &mut [f64]) {
+        let n = self.dim();
+        let m = self.degree();
+        let loc = self.locate_periodic(s);
+        let h = self.mesh[loc.base + 1] - self.mesh[loc.base];
+        let mut l = [0.0; MAX_DEGREE + 1];
+        let mut dl = [0.0; MAX_DEGREE + 1];
+        lagrange(m, loc.xi, &mut l, &mut dl);
+        x[..n].iter_mut().for_each(|v| *v = 0.0);
+        dx[..n].iter_mut().for_each(|v| *v = 0.0);
+        for j in 0..=m {
+            let g = self.node(loc.base, j);
+            for k in 0..n {
+                x[k] += l[j] * u[g * n + k];
+                dx[k] += dl[j] * u[g * n + k] / h;
+            }
+        }
+    }
+
+    /// maximum over one period of |x_component(s)| (dense sampling plus golden-section refinement)
+    pub fn max_abs(&self, u: &[f64], component: usize) -> f64 {
+        let n = self.dim();
+        let mut x = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        let mut f = |s: f64| {
+            self.eval(u, s, &mut x, &mut dx);
+            x[component].abs()
+        };
+        let samples = 4 * self.n_nodes();
+        let (mut best_s, mut best) = (0.0, f(0.0));
+        for i in 1..samples {
+            let s = i as f64 / samples as f64;
+            let v = f(s);
+            if v > best {
+                best = v;
+                best_s = s;
+            }
+        }
+        let ds = 1.0 / samples as f64;
+        let (mut a, mut b) = (best_s - ds, best_s + ds);
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        for _ in 0..60 {
+            let c = b - g * (b - a);
+            let d = a + g * (b - a);
+            if f(c) > f(d) {
+                b = d;
+            } else {
+                a = c;
+            }
+        }
+        best.max(f(0.5 * (a + b)))
+    }
+
+    /// Set the phase-condition reference to the profile of `u`.
+    pub fn set_reference(&mut self, u: &[f64]) {
+        let n = self.dim();
+        let m = self.degree();
+        let mut x = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        self.phase_row.iter_mut().for_each(|v| *v = 0.0);
+        self.phase_const = 0.0;
+        for i in 0..self.intervals() {
+            let h = self.mesh[i + 1] - self.mesh[i];
+            for c in 0..m {
+                let s = self.mesh[i] + h * self.basis.xi[c];
+                self.eval(u, s, &mut x, &mut dx);
+                let wc = self.basis.w[c] * h;
+                for j in 0..=m {
+                    let g = self.node(i, j);
+                    let lj = self.basis.val[c * (m + 1) + j];
+                    for k in 0..n {
+                        self.phase_row[g * n + k] += wc * lj * dx[k];
+                    }
+                }
+                self.phase_const -= wc * (0..n).map(|k| x[k] * dx[k]).sum::<f64>();
+            }
+        }
+    }
+
+    fn set_params(&mut self, u: &[f64]) {
+        self.params[self.ip] = u[u.len() - 1];
+    }
+
+    fn delays(&self) -> Vec<f64> {
+        (0..self.problem.n_delays())
+            .map(|j| self.problem.delay(j, &self.params))
+            .collect()
+    }
+
+    /// Fill `args` with x(s_c) and the delayed values for collocation point c of interval i;
+    /// returns the locations of the delayed values (periodic wrapping).
+    fn fill_args(
+        &mut self,
+        u: &[f64],
+        i: usize,
+        c: usize,
+        period: f64,
+        delays: &[f64],
+        locs: &mut [Loc],
+    ) {
+        let n = self.dim();
+        let m = self.degree();
+        let h = self.mesh[i + 1] - self.mesh[i];
+        let s = self.mesh[i] + h * self.basis.xi[c];
+        for k in 0..n {
+            self.args[k] = (0..=m)
+                .map(|j| self.basis.val[c * (m + 1) + j] * u[self.node(i, j) * n + k])
+                .sum();
+        }
+        let mut l = [0.0; MAX_DEGREE + 1];
+        let mut dl = [0.0; MAX_DEGREE + 1];
+        for (d, &tau) in delays.iter().enumerate() {
+            let loc = self.locate_periodic(s - tau / period);
+            let hd = self.mesh[loc.base + 1] - self.mesh[loc.base];
+            lagrange(m, loc.xi, &mut l, &mut dl);
+            for k in 0..n {
+                let mut v = 0.0;
+                let mut dv = 0.0;
+                for j in 0..=m {
+                    let x = u[self.node(loc.base, j) * n + k];
+                    v += l[j] * x;
+                    dv += dl[j] * x / hd;
+                }
+                self.args[(d + 1) * n + k] = v;
+                self.dx[d * n + k] = dv;
+            }
+            locs[d] = loc;
+        }
+    }
+
+    /// Times s ∈ [0, 1) where a switching function of the problem changes sign along the
+    /// profile of u (the kinks of a piecewise-smooth right-hand side), located by sampling
+    /// and bisection to 1e-13.
+    pub fn switching_times(&mut self, u: &[f64]) -> Vec<f64> {
+        let ns = self.problem.n_switching();
+        if ns == 0 {
+            return Vec::new();
+        }
+        let n = self.dim();
+        let k = self.problem.n_delays();
+        self.set_params(u);
+        let period = self.period(u);
+        let delays = self.delays();
+        let mut args = vec![0.0; n * (k + 1)];
+        let mut x = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        let mut g = vec![0.0; ns];
+        let mut eval_g = |s: f64, g: &mut [f64]| {
+            self.eval(u, s, &mut x, &mut dx);
+            args[..n].copy_from_slice(&x);
+            for (d, &tau) in delays.iter().enumerate() {
+                self.eval(u, s - tau / period, &mut x, &mut dx);
+                args[(d + 1) * n..(d + 2) * n].copy_from_slice(&x);
+            }
+            self.problem.switching(&args, &self.params, g);
+        };
+        let samples = 2 * self.n_nodes();
+        let mut prev = vec![0.0; ns];
+        eval_g(0.0, &mut prev);
+        let mut out = Vec::new();
+        for i in 1..=samples {
+            let s1 = i as f64 / samples as f64;
+            eval_g(s1, &mut g);
+            for j in 0..ns {
+                if prev[j] * g[j] < 0.0 || (g[j] == 0.0 && prev[j] != 0.0) {
+                    // bisection on [s0, s1] for function j
+                    let (mut a, mut b) = (s1 - 1.0 / samples as f64, s1);
+                    let ga = prev[j];
+                    let mut tmp = vec![0.0; ns];
+                    for _ in 0..60 {
+                        let mid = 0.5 * (a + b);
+                        eval_g(mid, &mut tmp);
+                        if tmp[j] * ga > 0.0 {
+                            a = mid;
+                        } else {
+                            b = mid;
+                        }
+                        if b - a < 1e-13 {
+                            break;
+                        }
+                    }
+                    out.push((0.5 * (a + b)).rem_euclid(1.0));
+                }
+            }
+            prev.copy_from_slice(&g);
+        }
+        out.sort_by(f64::total_cmp);
+        out
+    }
+
+    /// Floquet multipliers of the periodic orbit u (eigenvalues of the discretised
+    /// monodromy operator, sorted by decreasing modulus, at most `multipliers_kept`).
+    ///
+    /// The linearised equation y'(s) = T·(A0(s) y(s) + Σ_j A_j(s) y(s − τ_j/T)) is
+    /// collocated on the orbit's mesh, refined so that mesh points sit at the switching
+    /// times of the problem (where the Jacobian has kinks: without this the multipliers of a
+    /// piecewise-smooth problem converge only like h²). It is solved for the node values on
+    /// [0, 1] given those on the history interval [−τ_max/T, 0] (ODE: the single node at
+    /// s = 0); the map from history to the shifted history [1 − τ_max/T, 1] is the discretised
+    /// monodromy operator (ODE: the monodromy matrix).
+    pub fn floquet_multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
+        let n = self.dim();
+        let m = self.degree();
+        let k = self.problem.n_delays();
+        // the Floquet mesh: orbit mesh plus switching times
+        let mut fmesh = self.mesh.clone();
+        let hmin = self
+            .mesh
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min);
+        for s in self.switching_times(u) {
+            if fmesh.iter().all(|q| (q - s).abs() > 1e-6 * hmin) && s > 0.0 && s < 1.0 {
+                fmesh.push(s);
+            }
+        }
+        fmesh.sort_by(f64::total_cmp);
+        let l = fmesh.len() - 1;
+        self.set_params(u);
+        let period = self.period(u);
+        let delays = self.delays();
+        let tau_max = delays.iter().fold(0.0f64, |a, &b| a.max(b / period));
+        let locate = |s: f64| -> Loc {
+            let kk = s.floor();
+            let r = s - kk;
+            let (kk, r) = if r >= 1.0 { (kk + 1.0, 0.0) } else { (kk, r) };
+            let i = match fmesh.binary_search_by(|v| v.total_cmp(&r)) {
+                Ok(i) => i.min(l - 1),
+                Err(i) => (i - 1).min(l - 1),
+            };
+            Loc {
+                q: i as i64 + kk as i64 * l as i64,
+                base: i,
+                xi: (r - fmesh[i]) / (fmesh[i + 1] - fmesh[i]),
+            }
+        };
+        // number of history intervals Q: start(−Q) ≤ −τ_max/T
+        let start = |q: i64| -> f64 {
+            q.div_euclid(l as i64) as f64 + fmesh[q.rem_euclid(l as i64) as usize]
+        };
+        let mut qh: i64 = 0;
+        while start(-qh) > -tau_max + 1e-13 {
+            qh += 1;
+        }
+        let nh = qh as usize * m + 1; // history nodes (extended indices 0..nh)
+        let np = l * m; // nodes solved for
+        let ext = |q: i64, j: usize| -> usize { ((q + qh) as usize) * m + j };
+        let mut ap: Vec<Entry> = Vec::new();
+        let mut ah = Mat::<f64>::zeros(n * np, n * nh);
+        let nc = n * (k + 1);
+        let mut l_d = [0.0; MAX_DEGREE + 1];
+        let mut dl_d = [0.0; MAX_DEGREE + 1];
+        let mut x = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        let push =
+            |row: usize, e: usize, kk: usize, v: f64, ap: &mut Vec<Entry>, ah: &mut Mat<f64>| {
+                if e < nh {
+                    ah[(row, e * n + kk)] -= v; // moved to the right-hand side
+                } else {
+                    ap.push(Entry::new(row, (e - nh) * n + kk, v));
+                }
+            };
+        for i in 0..l {
+            let h = fmesh[i + 1] - fmesh[i];
+            for c in 0..m {
+                let s = fmesh[i] + h * self.basis.xi[c];
+                self.eval(u, s, &mut x, &mut dx);
+                self.args[..n].copy_from_slice(&x);
+                for (d, &tau) in delays.iter().enumerate() {
+                    self.eval(u, s - tau / period, &mut x, &mut dx);
+                    self.args[(d + 1) * n..(d + 2) * n].copy_from_slice(&x);
+                }
+                self.problem
+                    .jacobian(&self.args, &self.params, &mut self.jac);
+                let row0 = (i * m + c) * n;
+                for j in 0..=m {
+                    let e = ext(i as i64, j);
+                    let lv = self.basis.val[c * (m + 1) + j];
+                    let dv = self.basis.der[c * (m + 1) + j] / h;
+                    for r in 0..n {
+                        for kk in 0..n {
+                            let mut v = -period * self.jac[r * nc + kk] * lv;
+                            if r == kk {
+                                v += dv;
+                            }
+                            push(row0 + r, e, kk, v, &mut ap, &mut ah);
+                        }
+                    }
+                }
+                for (d, &tau) in delays.iter().enumerate() {
+                    let mut loc = locate(s - tau / period);
+                    if loc.q < -qh {
+                        // rounding at the left end of the history interval
+                        loc.q = -qh;
+                        loc.xi = 0.0;
+                    }
+                    lagrange(m, loc.xi, &mut l_d, &mut dl_d);
+                    for j in 0..=m {
+                        let e = ext(loc.q, j);
+                        for r in 0..n {
+                            for kk in 0..n {
+                                let v = -period * self.jac[r * nc + (d + 1) * n + kk] * l_d[j];
+                                push(row0 + r, e, kk, v, &mut ap, &mut ah);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if !ap.iter().all(|e| e.val.is_finite()) {
+            return Err(Error::NonFinite {
+                parameter: u[u.len() - 1],
+            });
+        }
+        let lu = SparseLu::new(n * np, &ap, "monodromy (collocation)")?;
+        lu.solve_mat(&mut ah, "monodromy (collocation)")?;
+        let dim = n * nh;
+        let mut mono = Mat::<f64>::zeros(dim, dim);
+        for e_new in 0..nh {
+            let e_old = e_new + np;
+            for r in 0..n {
+                if e_old < nh {
+                    mono[(e_new * n + r, e_old * n + r)] = 1.0;
+                } else {
+                    let row = (e_old - nh) * n + r;
+                    for col in 0..dim {
+                        mono[(e_new * n + r, col)] = ah[(row, col)];
+                    }
+                }
+            }
+        }
+        let mut mu = eigenvalues(&mono)?;
+        mu.sort_by(|a, b| b.norm().total_cmp(&a.norm()));
+        mu.truncate(self.options.multipliers_kept.max(n));
+        Ok(mu)
+    }
+
+    /// Interpolate the solution `u` of this system onto the mesh of `target`
+    /// (for mesh refinement); period and parameter are copied.
+    pub fn remesh(&self, u: &[f64], target: &PeriodicOrbitSystem<'_, P>) -> Vec<f64> {
+        let n = self.dim();
+        let mut x = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        let mut v: Vec<f64> = target
+            .node_times()
+            .into_iter()
+            .flat_map(|s| {
+                self.eval(u, s, &mut x, &mut dx);
+                x.clone()
+            })
+            .collect();
+        v.push(self.period(u));
+        v.push(u[u.len() - 1]);
+        v
+    }
+
+    /// Initial guess and start direction for branch switching at a Hopf point: the profile
+    /// x* + A·Re(v e^{2πis}) with the critical eigenvector v, period 2π/ω, parameter p*.
+    /// Pass both to [`crate::Continuation::start`]: the corrector keeps the amplitude along
+    /// v fixed and solves for the parameter and period (this also works for non-smooth Hopf
+    /// points where the amplitude grows linearly with |p − p*|). Sets the phase reference.
+    pub fn hopf_guess(&mut self, hopf: &HopfPoint, amplitude: f64) -> (Vec<f64>, Vec<f64>) {
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let v = hopf.eigenvector.clone();
+        let dir = |s: f64| -> Vec<f64> {
+            let e = Complex64::new(0.0, two_pi * s).exp();
+            v.iter().map(|z| (z * e).re).collect()
+        };
+        let guess = self.unknowns_from(
+            |s| {
+                dir(s)
+                    .iter()
+                    .zip(&hopf.state)
+                    .map(|(d, x)| x + amplitude * d)
+                    .collect()
+            },
+            two_pi / hopf.omega,
+            hopf.parameter,
+        );
+        let mut direction = self.unknowns_from(dir, 0.0, 0.0);
+        let nu = direction.len();
+        direction[nu - 2] = 0.0;
+        direction[nu - 1] = 0.0;
+        self.set_reference(&guess);
+        (guess, direction)
+    }
+}
+
+impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
+    fn n_unknowns(&self) -> usize {
+        self.dim() * self.n_nodes() + 2
+    }
+    fn parameter_index(&self) -> usize {
+        self.dim() * self.n_nodes() + 1
+    }
+
+    fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
+        let n = self.dim();
+        let m = self.degree();
+        self.set_params(u);
+        let period = self.period(u);
+        let delays = self.delays();
+        let mut locs = vec![
+            Loc {
+                q: 0,
+                base: 0,
+                xi: 0.0
+            };
+            delays.len()
+        ];
+        for i in 0..self.intervals() {
+            let h = self.mesh[i + 1] - self.mesh[i];
+            for c in 0..m {
+                self.fill_args(u, i, c, period, &delays, &mut locs);
+                self.problem.rhs(&self.args, &self.params, &mut self.fbuf);
+                let row0 = (i * m + c) * n;
+                for k in 0..n {
+                    let d: f64 = (0..=m)
+                        .map(|j| self.basis.der[c * (m + 1) + j] * u[self.node(i, j) * n + k])
+                        .sum();
+                    r[row0 + k] = d / h - period * self.fbuf[k];
+                }
+            }
+        }
+        let np = self.n_nodes() * n;
+        r[np] = self
+            .phase_row
+            .iter()
+            .zip(&u[..np])
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
+            + self.phase_const;
+        if r[..=np].iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(Error::NonFinite {
+                parameter: u[u.len() - 1],
+            })
+        }
+    }
+
+    fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
+        let n = self.dim();
+        let m = self.degree();
+        let k = self.problem.n_delays();
+        self.set_params(u);
+        let period = self.period(u);
+        let delays = self.delays();
+        let it = self.period_index();
+        let ipu = it + 1;
+        let nc = n * (k + 1);
+        let mut locs = vec![
+            Loc {
+                q: 0,
+                base: 0,
+                xi: 0.0
+            };
+            k
+        ];
+        let mut l_d = [0.0; MAX_DEGREE + 1];
+        let mut dl_d = [0.0; MAX_DEGREE + 1];
+        for i in 0..self.intervals() {
+            let h = self.mesh[i + 1] - self.mesh[i];
+            for c in 0..m {
+                self.fill_args(u, i, c, period, &delays, &mut locs);
+                self.problem.rhs(&self.args, &self.params, &mut self.fbuf);
+                self.problem
+                    .jacobian(&self.args, &self.params, &mut self.jac);
+                self.problem
+                    .dfdp(&self.args, &self.params, self.ip, &mut self.fp);
+                let row0 = (i * m + c) * n;
+                for j in 0..=m {
+                    let g = self.node(i, j);
+                    let lv = self.basis.val[c * (m + 1) + j];
+                    let dv = self.basis.der[c * (m + 1) + j] / h;
+                    for r in 0..n {
+                        for kk in 0..n {
+                            let mut v = -period * self.jac[r * nc + kk] * lv;
+                            if r == kk {
+                                v += dv;
+                            }
+                            entries.push(Entry::new(row0 + r, g * n + kk, v));
+                        }
+                    }
+                }
+                for d in 0..k {
+                    let loc = locs[d];
+                    lagrange(m, loc.xi, &mut l_d, &mut dl_d);
+                    for j in 0..=m {
+                        let g = self.node(loc.base, j);
+                        for r in 0..n {
+                            for kk in 0..n {
+                                let v = -period * self.jac[r * nc + (d + 1) * n + kk] * l_d[j];
+                                entries.push(Entry::new(row0 + r, g * n + kk, v));
+                            }
+                        }
+                    }
+                }
+                for r in 0..n {
+                    // ∂/∂T: −f − T Σ_d J_d x'(s_d) τ_d/T²
+                    let mut dt = -self.fbuf[r];
+                    for (d, &tau) in delays.iter().enumerate() {
+                        let jd: f64 = (0..n)
+                            .map(|kk| self.jac[r * nc + (d + 1) * n + kk] * self.dx[d * n + kk])
+                            .sum();
+                        dt -= jd * tau / period;
+                    }
+                    entries.push(Entry::new(row0 + r, it, dt));
+                    entries.push(Entry::new(row0 + r, ipu, -period * self.fp[r]));
+                }
+            }
+        }
+        let np = self.n_nodes() * n;
+        for (j, &v) in self.phase_row.iter().enumerate() {
+            if v != 0.0 {
+                entries.push(Entry::new(np, j, v));
+            }
+        }
+        if entries.iter().all(|e| e.val.is_finite()) {
+            Ok(())
+        } else {
+            Err(Error::NonFinite {
+                parameter: u[u.len() - 1],
+            })
+        }
+    }
+
+    fn weights(&self) -> Vec<f64> {
+        let w = self.options.weights;
+        let np = self.dim() * self.n_nodes();
+        let mut v = vec![w.profile / self.n_nodes() as f64; np + 2];
+        v[np] = w.period;
+        v[np + 1] = w.parameter;
+        v
+    }
+
+    fn accept(&mut self, u: &[f64]) {
+        self.set_reference(u);
+    }
+
+    fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
+        Ok(Some(Stability::from_multipliers(
+            self.floquet_multipliers(u)?,
+        )))
+    }
+
+    fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
+        if a.unstable == b.unstable {
+            return None;
+        }
+        // the multiplier that crossed: the smallest one outside the unit circle on the
+        // unstable side of the crossing
+        let outside = if b.unstable > a.unstable { b } else { a };
+        let z = outside
+            .nontrivial()
+            .filter(|z| z.norm() > 1.0)
+            .min_by(|x, y| x.norm().total_cmp(&y.norm()))?;
+        Some(if z.im.abs() > 1e-6 {
+            SpecialKind::Torus
+        } else if z.re < 0.0 {
+            SpecialKind::PeriodDoubling
+        } else {
+            SpecialKind::Fold
+        })
+    }
+
+    fn test_function(&mut self, kind: SpecialKind, u: &[f64]) -> Result<Option<f64>> {
+        let s = Stability::from_multipliers(self.floquet_multipliers(u)?);
+        Ok(match kind {
+            SpecialKind::PeriodDoubling | SpecialKind::Torus => {
+                s.critical(kind).map(|z| z.norm() - 1.0)
+            }
+            _ => None,
+        })
+    }
+}

@@ -1,0 +1,88 @@
+//! The dynamical system: x'(t) = f(x(t), x(t−τ1), …, x(t−τk); p).
+
+/// A system of ordinary (k = 0) or constant-delay (k ≥ 1) differential equations
+///
+/// x'(t) = f(x(t), x(t−τ1), …, x(t−τk); p)
+///
+/// with state dimension n = [`Problem::dim`] and parameter vector p.
+///
+/// Arguments are passed stacked: `args = [x(t), x(t−τ1), …, x(t−τk)]`, length n·(k+1).
+/// The Jacobian is the n × n·(k+1) matrix [∂f/∂x, ∂f/∂x_τ1, …, ∂f/∂x_τk] stored row-major.
+///
+/// Exact derivatives are expected (e.g. from automatic differentiation with `num-dual`).
+/// Finite differences are available as an explicit option: call [`fd_jacobian`] and
+/// [`fd_dfdp`] from your implementation.
+///
+/// Values outside the model's domain should be returned as NaN; the solvers then report
+/// [`crate::Error::NonFinite`].
+///
+/// The delays may depend on parameters, but not on the free (continuation) parameter.
+pub trait Problem {
+    /// state dimension n
+    fn dim(&self) -> usize;
+    /// number of delays k (0 for an ODE)
+    fn n_delays(&self) -> usize {
+        0
+    }
+    /// delay τ_j (> 0) for the parameters p [time units of the model]
+    fn delay(&self, _j: usize, _p: &[f64]) -> f64 {
+        0.0
+    }
+    /// right-hand side f(args; p) written to `f` (length n)
+    fn rhs(&self, args: &[f64], p: &[f64], f: &mut [f64]);
+    /// Jacobian n × n·(k+1), row-major: `jac[i * n * (k+1) + j] = ∂f_i/∂args_j`
+    fn jacobian(&self, args: &[f64], p: &[f64], jac: &mut [f64]);
+    /// derivative ∂f/∂p_ip written to `out` (length n)
+    fn dfdp(&self, args: &[f64], p: &[f64], ip: usize, out: &mut [f64]);
+    /// number of switching functions (0 for a smooth f)
+    fn n_switching(&self) -> usize {
+        0
+    }
+    /// Switching functions g(args; p) (length [`Problem::n_switching`]) whose zeros mark where
+    /// f is less smooth (e.g. a C¹ kink of a tire curve at zero slip). The Floquet computation
+    /// puts mesh points there, which restores the collocation's order of convergence.
+    fn switching(&self, _args: &[f64], _p: &[f64], _g: &mut [f64]) {}
+}
+
+/// Central-difference Jacobian (an explicit fallback for problems without exact derivatives;
+/// error O(h²) for smooth f, but biased by O(h) where f is only C¹).
+pub fn fd_jacobian<P: Problem + ?Sized>(problem: &P, args: &[f64], p: &[f64], jac: &mut [f64]) {
+    let n = problem.dim();
+    let na = args.len();
+    let mut a = args.to_vec();
+    let mut fp = vec![0.0; n];
+    let mut fm = vec![0.0; n];
+    for j in 0..na {
+        let h = 1e-6 * (1.0 + args[j].abs());
+        a[j] = args[j] + h;
+        problem.rhs(&a, p, &mut fp);
+        a[j] = args[j] - h;
+        problem.rhs(&a, p, &mut fm);
+        a[j] = args[j];
+        for i in 0..n {
+            jac[i * na + j] = (fp[i] - fm[i]) / (2.0 * h);
+        }
+    }
+}
+
+/// Central-difference derivative with respect to parameter `ip` (explicit fallback).
+pub fn fd_dfdp<P: Problem + ?Sized>(
+    problem: &P,
+    args: &[f64],
+    p: &[f64],
+    ip: usize,
+    out: &mut [f64],
+) {
+    let n = problem.dim();
+    let mut q = p.to_vec();
+    let mut fp = vec![0.0; n];
+    let mut fm = vec![0.0; n];
+    let h = 1e-6 * (1.0 + p[ip].abs());
+    q[ip] = p[ip] + h;
+    problem.rhs(args, &q, &mut fp);
+    q[ip] = p[ip] - h;
+    problem.rhs(args, &q, &mut fm);
+    for i in 0..n {
+        out[i] = (fp[i] - fm[i]) / (2.0 * h);
+    }
+}

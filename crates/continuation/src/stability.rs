@@ -1,0 +1,173 @@
+//! Stability information and special points recorded on branches.
+
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// What the spectrum of a branch point means.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SpectrumKind {
+    /// eigenvalues / characteristic roots λ of an equilibrium: stable iff all Re λ < 0
+    Eigenvalues,
+    /// Floquet multipliers μ of a periodic orbit: stable iff all nontrivial |μ| < 1
+    FloquetMultipliers,
+}
+
+/// Stability of one branch point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stability {
+    /// eigenvalues or multipliers
+    pub kind: SpectrumKind,
+    /// eigenvalues sorted by decreasing real part, or multipliers by decreasing modulus
+    /// (for delay equations only the leading part of the infinite spectrum)
+    pub values: Vec<Complex64>,
+    /// index in `values` of the trivial Floquet multiplier (the one closest to 1)
+    pub trivial: Option<usize>,
+    /// number of nontrivial values in the unstable region
+    pub unstable: usize,
+}
+
+impl Stability {
+    /// Build from eigenvalues (sorts them by decreasing real part).
+    pub fn from_eigenvalues(mut values: Vec<Complex64>) -> Self {
+        values.sort_by(|a, b| b.re.total_cmp(&a.re).then(b.im.total_cmp(&a.im)));
+        let unstable = values.iter().filter(|z| z.re > 0.0).count();
+        Self {
+            kind: SpectrumKind::Eigenvalues,
+            values,
+            trivial: None,
+            unstable,
+        }
+    }
+
+    /// Build from Floquet multipliers; the one closest to 1 is taken as the trivial one.
+    pub fn from_multipliers(mut values: Vec<Complex64>) -> Self {
+        values.sort_by(|a, b| b.norm().total_cmp(&a.norm()).then(b.im.total_cmp(&a.im)));
+        let trivial = values
+            .iter()
+            .enumerate()
+            .min_by(|a, b| (a.1 - 1.0).norm().total_cmp(&(b.1 - 1.0).norm()))
+            .map(|(i, _)| i);
+        let unstable = values
+            .iter()
+            .enumerate()
+            .filter(|(i, z)| Some(*i) != trivial && z.norm() > 1.0)
+            .count();
+        Self {
+            kind: SpectrumKind::FloquetMultipliers,
+            values,
+            trivial,
+            unstable,
+        }
+    }
+
+    /// linearly stable (no nontrivial value in the unstable region)
+    pub fn is_stable(&self) -> bool {
+        self.unstable == 0
+    }
+
+    /// the trivial Floquet multiplier, if any
+    pub fn trivial_multiplier(&self) -> Option<Complex64> {
+        self.trivial.map(|i| self.values[i])
+    }
+
+    /// nontrivial values (all values but the trivial multiplier)
+    pub fn nontrivial(&self) -> impl Iterator<Item = Complex64> + '_ {
+        self.values
+            .iter()
+            .enumerate()
+            .filter(move |(i, _)| Some(*i) != self.trivial)
+            .map(|(_, z)| *z)
+    }
+
+    /// the value most likely responsible for a special point of this kind
+    pub fn critical(&self, kind: SpecialKind) -> Option<Complex64> {
+        let pick = |f: &dyn Fn(&Complex64) -> f64, keep: &dyn Fn(&Complex64) -> bool| {
+            self.nontrivial()
+                .filter(|z| keep(z))
+                .min_by(|a, b| f(a).total_cmp(&f(b)))
+        };
+        match (self.kind, kind) {
+            (SpectrumKind::Eigenvalues, SpecialKind::Hopf) => {
+                pick(&|z| z.re.abs(), &|z| z.im > 1e-9)
+            }
+            (SpectrumKind::Eigenvalues, _) => pick(&|z| z.norm(), &|z| z.im.abs() <= 1e-9),
+            (SpectrumKind::FloquetMultipliers, SpecialKind::PeriodDoubling) => {
+                pick(&|z| (z + 1.0).norm(), &|_| true)
+            }
+            (SpectrumKind::FloquetMultipliers, SpecialKind::Torus) => {
+                pick(&|z| (z.norm() - 1.0).abs(), &|z| z.im > 1e-9)
+            }
+            (SpectrumKind::FloquetMultipliers, _) => pick(&|z| (z - 1.0).norm(), &|_| true),
+        }
+    }
+}
+
+/// Kinds of special points on a branch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SpecialKind {
+    /// Hopf bifurcation of an equilibrium (complex pair crosses the imaginary axis)
+    Hopf,
+    /// turning point in the parameter (fold / saddle-node; for cycles: multiplier through +1)
+    Fold,
+    /// real eigenvalue through 0 without a parameter turning point (branch point)
+    RealCrossing,
+    /// Floquet multiplier through −1
+    PeriodDoubling,
+    /// complex pair of Floquet multipliers through the unit circle (Neimark–Sacker)
+    Torus,
+}
+
+impl std::fmt::Display for SpecialKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = match self {
+            SpecialKind::Hopf => "Hopf point",
+            SpecialKind::Fold => "fold",
+            SpecialKind::RealCrossing => "real eigenvalue crossing",
+            SpecialKind::PeriodDoubling => "period-doubling point",
+            SpecialKind::Torus => "torus (Neimark-Sacker) point",
+        };
+        f.write_str(s)
+    }
+}
+
+/// Whether a special point was located (solved for) or only detected between two points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Location {
+    /// the point sits on the special point to the location tolerance
+    Located,
+    /// the special point lies between this point and the previous one
+    Detected,
+}
+
+/// A special point recorded on a branch point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpecialPoint {
+    /// what it is
+    pub kind: SpecialKind,
+    /// located or only detected
+    pub location: Location,
+    /// parameter value
+    pub parameter: f64,
+    /// the critical eigenvalue / multiplier (for a Hopf point ≈ iω)
+    pub critical: Option<Complex64>,
+    /// d(test function)/d(parameter) across the point (for a Hopf point: d Re λ / dp)
+    pub transversality: Option<f64>,
+}
+
+/// Criticality of a Hopf bifurcation, decided from the computed cycle branch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Criticality {
+    /// cycles born on the side where the equilibrium is stable (they are unstable)
+    Subcritical,
+    /// cycles born on the side where the equilibrium is unstable
+    Supercritical,
+}
+
+impl std::fmt::Display for Criticality {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Criticality::Subcritical => "subcritical",
+            Criticality::Supercritical => "supercritical",
+        })
+    }
+}

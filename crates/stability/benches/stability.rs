@@ -1,0 +1,113 @@
+//! Benchmarks: rightmost roots at a point, chart cost versus grid size, semi-discretisation and
+//! collocation cost versus resolution. The test loop is a synthetic 4-state single-input system
+//! (this crate knows nothing about trailers; the full Fig. 4(a) bench lives in the app crate).
+
+use std::hint::black_box;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use nalgebra::{Matrix4, RowVector4, Vector4};
+use stability::{
+    Axis, ChartOptions, ChebyshevCollocation, RankOneFeedback, RootOptions, SemiDiscretisation,
+    StabilityError, stability_charts,
+};
+
+fn test_loop(v: f64) -> Result<RankOneFeedback, StabilityError> {
+    let a = Matrix4::new(
+        0.0,
+        1.0,
+        0.0,
+        0.0, //
+        -4.0,
+        0.2 - 0.05 * v,
+        1.0,
+        0.0, //
+        0.0,
+        0.0,
+        0.0,
+        1.0, //
+        1.5,
+        0.0,
+        -9.0,
+        -0.6,
+    );
+    let b = Vector4::new(0.0, 1.0, 0.0, 0.5);
+    let c = RowVector4::new(0.3, 1.0, 0.0, -0.4);
+    RankOneFeedback::from_state_space(&a, &b, &c)
+}
+
+fn point(c: &mut Criterion) {
+    let sys = test_loop(5.0).unwrap();
+    let mut g = c.benchmark_group("rightmost_roots_point");
+    for tau in [0.0, 0.2, 0.4] {
+        g.bench_with_input(BenchmarkId::new("6_roots_tau", tau), &tau, |b, &tau| {
+            b.iter(|| {
+                sys.rightmost_roots(black_box(0.3), tau, 6, &RootOptions::default())
+                    .unwrap()
+            })
+        });
+    }
+    g.bench_function("unstable_count_tau_0.2", |b| {
+        b.iter(|| sys.unstable_root_count(black_box(0.3), 0.2).unwrap())
+    });
+    g.finish();
+}
+
+fn resolution(c: &mut Criterion) {
+    let sys = test_loop(5.0).unwrap();
+    let dde = sys.closed_loop(0.3, 0.2).unwrap();
+    let mut g = c.benchmark_group("resolution");
+    for r in [10usize, 20, 40, 80] {
+        g.bench_with_input(BenchmarkId::new("semi_discretisation_r", r), &r, |b, &r| {
+            b.iter(|| {
+                SemiDiscretisation { steps_per_delay: r }
+                    .roots(black_box(&dde))
+                    .unwrap()
+            })
+        });
+    }
+    for n in [8usize, 16, 32, 64] {
+        g.bench_with_input(BenchmarkId::new("chebyshev_degree", n), &n, |b, &n| {
+            b.iter(|| {
+                ChebyshevCollocation { degree: n }
+                    .eigenvalues(black_box(&dde))
+                    .unwrap()
+            })
+        });
+    }
+    g.finish();
+}
+
+fn charts(c: &mut Criterion) {
+    let mut g = c.benchmark_group("chart_4_delays");
+    g.sample_size(10);
+    for (nv, nd) in [(75usize, 50usize), (150, 100), (300, 200)] {
+        g.bench_with_input(
+            BenchmarkId::new("grid", format!("{nv}x{nd}")),
+            &(nv, nd),
+            |b, &(nv, nd)| {
+                b.iter(|| {
+                    stability_charts(
+                        test_loop,
+                        &[0.0, 0.1, 0.2, 0.4],
+                        Axis {
+                            min: 0.0,
+                            max: 12.0,
+                            count: nv,
+                        },
+                        Axis {
+                            min: -3.0,
+                            max: 3.0,
+                            count: nd,
+                        },
+                        &ChartOptions::default(),
+                    )
+                    .unwrap()
+                })
+            },
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(benches, point, resolution, charts);
+criterion_main!(benches);

@@ -1,0 +1,115 @@
+//! The crate's error type.
+
+use num_complex::Complex64;
+use thiserror::Error;
+
+/// Everything that can go wrong in this crate. Variants carry the offending numbers and say
+/// what to try.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum StabilityError {
+    /// A matrix or vector has the wrong shape.
+    #[error("{what} is {rows}x{cols}, expected {expected_rows}x{expected_cols}")]
+    DimensionMismatch {
+        /// which argument
+        what: &'static str,
+        /// actual rows
+        rows: usize,
+        /// actual columns
+        cols: usize,
+        /// expected rows
+        expected_rows: usize,
+        /// expected columns
+        expected_cols: usize,
+    },
+    /// A delay is negative or not finite.
+    #[error("delay τ = {tau} s is negative or not finite; delays must be finite and ≥ 0")]
+    InvalidDelay {
+        /// the delay \[s\]
+        tau: f64,
+    },
+    /// A discretisation resolution is too coarse to represent the delays.
+    #[error("resolution {resolution} is too small ({reason}); use at least {min}")]
+    InvalidResolution {
+        /// the resolution asked for
+        resolution: usize,
+        /// the smallest admissible one
+        min: usize,
+        /// why
+        reason: &'static str,
+    },
+    /// A coefficient (matrix entry, gain, grid bound) is NaN or infinite.
+    #[error("non-finite value in {what}; check the system matrices / parameters")]
+    NonFinite {
+        /// where it was found
+        what: &'static str,
+    },
+    /// The dense eigensolver (faer) failed.
+    #[error("eigensolver failed on a {size}x{size} matrix: {message}; try another resolution")]
+    Eigensolver {
+        /// matrix size
+        size: usize,
+        /// faer's error, formatted with `{:?}` (its `EvdError` does not implement `Error`)
+        message: String,
+    },
+    /// Newton's method on the characteristic function did not converge.
+    #[error(
+        "Newton iteration on the characteristic function from λ0 = {start} did not converge in \
+         {iterations} iterations (last step {last_step:e}); try a better starting point or a finer \
+         discretisation for the seeds"
+    )]
+    NewtonDivergence {
+        /// starting point
+        start: Complex64,
+        /// iterations done
+        iterations: usize,
+        /// size of the last Newton step
+        last_step: f64,
+    },
+    /// The seeds from the discretisation could not be confirmed by Newton's method even at the
+    /// finest allowed resolution.
+    #[error(
+        "rightmost roots not confirmed: the spectral discretisation at degree {degree} still moved \
+         under Newton polishing by {mismatch:e}; raise `max_degree` in the options"
+    )]
+    Unconfirmed {
+        /// last collocation degree tried
+        degree: usize,
+        /// largest seed-to-root distance (relative)
+        mismatch: f64,
+    },
+    /// A chart grid is empty or has its bounds reversed.
+    #[error(
+        "invalid grid for {axis}: [{min}, {max}] with {count} points; need min < max and ≥ 2 points"
+    )]
+    InvalidGrid {
+        /// which axis
+        axis: &'static str,
+        /// lower bound
+        min: f64,
+        /// upper bound
+        max: f64,
+        /// number of points
+        count: usize,
+    },
+    /// The user's system closure failed at parameter `v`.
+    #[error("system at parameter V = {v}: {message}")]
+    System {
+        /// the parameter value
+        v: f64,
+        /// the error message of the closure
+        message: String,
+    },
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T> = std::result::Result<T, StabilityError>;
+
+pub(crate) fn eigenvalues(m: &faer::Mat<f64>) -> Result<Vec<Complex64>> {
+    if m.nrows() == 0 {
+        return Ok(Vec::new());
+    }
+    m.eigenvalues().map_err(|e| StabilityError::Eigensolver {
+        size: m.nrows(),
+        message: format!("{e:?}"),
+    })
+}

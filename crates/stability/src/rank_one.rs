@@ -1,0 +1,533 @@
+//! Rank-one delayed feedback and D-subdivision.
+//!
+//! For `x' = A·x + B·u`, `u(t) = −D·C·x(t − τ)` (single input, single output; A n×n, B n×1,
+//! C 1×n) the characteristic function factorises (matrix determinant lemma) into the
+//! quasi-polynomial
+//!
+//! `F(λ) = p(λ) + D·e^{−λτ}·q(λ)`,  `p(λ) = det(λI − A)` (monic, degree n),
+//! `q(λ) = C·adj(λI − A)·B` (degree ≤ n − 1),
+//!
+//! which is eq. (13) of the paper written out. Both polynomials come from one Faddeev–LeVerrier
+//! recursion. Because `deg q < deg p` the equation is retarded: roots can only enter the right
+//! half plane across the imaginary axis, which gives the D-subdivision:
+//!
+//! * static boundary (λ = 0): `D = −p(0)/q(0)`, independent of τ;
+//! * dynamic boundaries (λ = ±iω, ω > 0): `D(ω) = −p(iω)·e^{iωτ}/q(iω)` wherever this is real.
+//!
+//! Along a line of constant (A, B, C, τ) the number of unstable roots is the open-loop count
+//! (D = 0: roots of p) plus the signed crossings met between 0 and D; the sign of each crossing
+//! is `sign Re(dλ/dD)`, so which side is stable is decided by counting, not assumed.
+//!
+//! **Finding the dynamic crossings.** With the roots z_j of p and w_k of q,
+//! `arg(p(iω)e^{iωτ}/q(iω)) = Σ_j atan((ω−Im z_j)/(−Re z_j)) − Σ_k atan((ω−Im w_k)/(−Re w_k)) + ωτ
+//! (mod π)`; every term is continuous in ω, so this phase φ(ω) is evaluated without unwrapping,
+//! and the crossings are the solutions of φ(ω) = mπ. φ is sampled on a grid refined around
+//! every Im z_j, Im w_k (where the phase turns fast for lightly damped roots) and each level
+//! crossing is solved by safeguarded Newton with the analytic φ'. Only ω up to the bound beyond
+//! which `|p(iω)|/|q(iω)| > D_lim` is searched.
+
+use nalgebra::{DMatrix, Dim, Matrix, Storage, U1};
+use num_complex::Complex64;
+
+use crate::dde::{LinearDde, NewtonOptions, sort_rightmost, stagnated};
+use crate::error::{Result, StabilityError, eigenvalues};
+use crate::roots::{RootOptions, confirmed_rightmost};
+
+/// A point where a characteristic root crosses the imaginary axis as the gain D varies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Crossing {
+    /// gain D at the crossing
+    pub d: f64,
+    /// crossing frequency ω ≥ 0 \[rad/s\] (0: static boundary, a real root through 0)
+    pub omega: f64,
+    /// `Re(dλ/dD)` at the crossing: > 0 means increasing D moves the root(s) to the right
+    pub direction: f64,
+    /// number of roots crossing: 1 at ω = 0, 2 (a conjugate pair) at ω > 0
+    pub multiplicity: u32,
+}
+
+impl Crossing {
+    /// Signed change of the unstable-root count when D increases through this crossing.
+    pub fn signed_change(&self) -> i64 {
+        if self.direction > 0.0 {
+            self.multiplicity as i64
+        } else if self.direction < 0.0 {
+            -(self.multiplicity as i64)
+        } else {
+            0
+        }
+    }
+}
+
+/// Evaluates a real polynomial (ascending coefficients) and its derivative at a complex point.
+#[inline]
+fn horner2(c: &[f64], z: Complex64) -> (Complex64, Complex64) {
+    let mut v = Complex64::ZERO;
+    let mut dv = Complex64::ZERO;
+    for &a in c.iter().rev() {
+        dv = dv * z + v;
+        v = v * z + a;
+    }
+    (v, dv)
+}
+
+/// The closed loop `x' = A·x − B·D·C·x(t − τ)` in quasi-polynomial form `p(λ) + D·e^{−λτ}·q(λ)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RankOneFeedback {
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    c: DMatrix<f64>,
+    /// ascending coefficients of p (monic, degree n)
+    p: Vec<f64>,
+    /// ascending coefficients of q (trimmed: last one nonzero; empty if q ≡ 0)
+    q: Vec<f64>,
+    p_roots: Vec<Complex64>,
+    q_roots: Vec<Complex64>,
+}
+
+impl RankOneFeedback {
+    /// From state-space matrices A (n×n), B (n×1), C (1×n); works with fixed-size
+    /// (`SMatrix`) and dynamic nalgebra matrices.
+    pub fn from_state_space<N, SA, SB, SC>(
+        a: &Matrix<f64, N, N, SA>,
+        b: &Matrix<f64, N, U1, SB>,
+        c: &Matrix<f64, U1, N, SC>,
+    ) -> Result<Self>
+    where
+        N: Dim,
+        SA: Storage<f64, N, N>,
+        SB: Storage<f64, N, U1>,
+        SC: Storage<f64, U1, N>,
+    {
+        let n = a.nrows();
+        if a.ncols() != n {
+            return Err(StabilityError::DimensionMismatch {
+                what: "A",
+                rows: n,
+                cols: a.ncols(),
+                expected_rows: n,
+                expected_cols: n,
+            });
+        }
+        let a = DMatrix::from_fn(n, n, |i, j| a[(i, j)]);
+        let b = DMatrix::from_fn(n, 1, |i, _| b[i]);
+        let c = DMatrix::from_fn(1, n, |_, j| c[j]);
+        if !(a
+            .iter()
+            .chain(b.iter())
+            .chain(c.iter())
+            .all(|x| x.is_finite()))
+        {
+            return Err(StabilityError::NonFinite { what: "A, B or C" });
+        }
+        // Faddeev–LeVerrier: adj(λI − A) = Σ_{k=1}^{n} M_k λ^{n−k}, M_1 = I,
+        // M_k = A·M_{k−1} + c_{n−k+1}·I, c_{n−k} = −tr(A·M_k)/k.
+        let mut p = vec![0.0; n + 1];
+        let mut q = vec![0.0; n.max(1)];
+        p[n] = 1.0;
+        let mut m = DMatrix::<f64>::identity(n, n);
+        for k in 1..=n {
+            if k > 1 {
+                m = &a * &m;
+                for i in 0..n {
+                    m[(i, i)] += p[n - k + 1];
+                }
+            }
+            let am = &a * &m;
+            p[n - k] = -am.trace() / k as f64;
+            q[n - k] = (&c * &m * &b)[(0, 0)];
+        }
+        let p_roots = {
+            let fm = faer::Mat::from_fn(n, n, |i, j| a[(i, j)]);
+            eigenvalues(&fm)?
+        };
+        // trim q's leading coefficients that are negligible on the scale of A's spectrum
+        let rho = p_roots.iter().map(|z| z.norm()).fold(1.0, f64::max);
+        let scaled_max = q
+            .iter()
+            .enumerate()
+            .map(|(k, x)| x.abs() * rho.powi(k as i32))
+            .fold(0.0, f64::max);
+        while let Some(&last) = q.last() {
+            if last == 0.0 || last.abs() * rho.powi(q.len() as i32 - 1) <= 1e-13 * scaled_max {
+                q.pop();
+            } else {
+                break;
+            }
+        }
+        let q_roots = polynomial_roots(&q)?;
+        Ok(Self {
+            a,
+            b,
+            c,
+            p,
+            q,
+            p_roots,
+            q_roots,
+        })
+    }
+
+    /// Dynamic dimension n.
+    pub fn dim(&self) -> usize {
+        self.a.nrows()
+    }
+
+    /// Ascending coefficients of `p(λ) = det(λI − A)`.
+    pub fn p(&self) -> &[f64] {
+        &self.p
+    }
+
+    /// Ascending coefficients of `q(λ) = C·adj(λI − A)·B` (trimmed; empty if q ≡ 0).
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// Open-loop eigenvalues (roots of p).
+    pub fn open_loop_eigenvalues(&self) -> &[Complex64] {
+        &self.p_roots
+    }
+
+    /// Number of open-loop eigenvalues with Re > 0 (the unstable count at D = 0 for every τ).
+    pub fn open_loop_unstable_count(&self) -> usize {
+        self.p_roots.iter().filter(|z| z.re > 0.0).count()
+    }
+
+    /// The closed loop as a general [`LinearDde`]: `x' = A·x + (−D·B)·C·x(t − τ)`.
+    pub fn closed_loop(&self, d: f64, tau: f64) -> Result<LinearDde> {
+        if !d.is_finite() {
+            return Err(StabilityError::NonFinite { what: "gain D" });
+        }
+        LinearDde::new(self.a.clone())?.with_low_rank_delay(tau, &self.b * (-d), self.c.clone())
+    }
+
+    /// `F(λ) = p(λ) + D·e^{−λτ}·q(λ)` and `F'(λ)`.
+    #[inline]
+    pub fn characteristic(&self, lambda: Complex64, d: f64, tau: f64) -> (Complex64, Complex64) {
+        let (p, dp) = horner2(&self.p, lambda);
+        let (q, dq) = horner2(&self.q, lambda);
+        let e = (-lambda * tau).exp() * d;
+        (p + e * q, dp + e * (dq - q * tau))
+    }
+
+    /// Newton's method on the quasi-polynomial from `lambda0`.
+    pub fn polish_root(
+        &self,
+        lambda0: Complex64,
+        d: f64,
+        tau: f64,
+        options: &NewtonOptions,
+    ) -> Result<Complex64> {
+        let mut lambda = lambda0;
+        let mut last = f64::INFINITY;
+        for _ in 0..options.max_iterations {
+            let (f, df) = self.characteristic(lambda, d, tau);
+            if f == Complex64::ZERO {
+                return Ok(lambda);
+            }
+            let step = f / df;
+            let prev = last;
+            last = step.norm();
+            if !last.is_finite() {
+                break;
+            }
+            lambda -= step;
+            let scale = lambda.norm().max(1.0);
+            if last <= options.tolerance * scale || stagnated(last, prev, scale) {
+                return Ok(lambda);
+            }
+        }
+        Err(StabilityError::NewtonDivergence {
+            start: lambda0,
+            iterations: options.max_iterations,
+            last_step: last,
+        })
+    }
+
+    /// The `count` rightmost roots at gain `d` and delay `tau` (conjugates listed separately),
+    /// sorted by decreasing real part, polished to ~1e-14 relative on the quasi-polynomial.
+    /// Seeds: Chebyshev collocation of the reduced generator (size n + N), see
+    /// [`crate::rightmost_roots`]. For τ = 0 these are the eigenvalues of A − B·D·C.
+    pub fn rightmost_roots(
+        &self,
+        d: f64,
+        tau: f64,
+        count: usize,
+        options: &RootOptions,
+    ) -> Result<Vec<Complex64>> {
+        self.rightmost_roots_with_degree(d, tau, count, options)
+            .map(|(r, _)| r)
+    }
+
+    /// As [`RankOneFeedback::rightmost_roots`], also returning the Chebyshev degree used.
+    pub fn rightmost_roots_with_degree(
+        &self,
+        d: f64,
+        tau: f64,
+        count: usize,
+        options: &RootOptions,
+    ) -> Result<(Vec<Complex64>, usize)> {
+        let dde = self.closed_loop(d, tau)?;
+        let newton = options.newton;
+        confirmed_rightmost(&dde, count, options, |s| {
+            self.polish_root(s, d, tau, &newton)
+        })
+    }
+
+    /// Phase φ(ω) of `p(iω)e^{iωτ}/q(iω)` (mod π, continuous in ω) and φ'(ω).
+    fn phase(&self, omega: f64, tau: f64) -> (f64, f64) {
+        let mut phi = omega * tau;
+        let mut dphi = tau;
+        let mut term = |z: &Complex64, sign: f64| {
+            let a = -z.re;
+            let u = omega - z.im;
+            if a == 0.0 {
+                phi += sign
+                    * if u >= 0.0 {
+                        std::f64::consts::FRAC_PI_2
+                    } else {
+                        -std::f64::consts::FRAC_PI_2
+                    };
+            } else {
+                phi += sign * (u / a).atan();
+                dphi += sign * a / (a * a + u * u);
+            }
+        };
+        for z in &self.p_roots {
+            term(z, 1.0);
+        }
+        for w in &self.q_roots {
+            term(w, -1.0);
+        }
+        (phi, dphi)
+    }
+
+    /// `D(ω) = −Re(p(iω)e^{iωτ}/q(iω))` (the real part; exact on a boundary).
+    fn gain_at(&self, omega: f64, tau: f64) -> f64 {
+        let l = Complex64::new(0.0, omega);
+        let (p, _) = horner2(&self.p, l);
+        let (q, _) = horner2(&self.q, l);
+        -(p * Complex64::from_polar(1.0, omega * tau) / q).re
+    }
+
+    /// Static crossing (λ = 0): `D = −p(0)/q(0)`, the same for every τ (only its direction
+    /// depends on τ). `None` if q(0) = 0.
+    pub fn static_crossing(&self, tau: f64) -> Option<Crossing> {
+        let q0 = self.q.first().copied().unwrap_or(0.0);
+        if q0 == 0.0 {
+            return None;
+        }
+        let d = -self.p[0] / q0;
+        let (_, df) = self.characteristic(Complex64::ZERO, d, tau);
+        let dl = -q0 / df.re;
+        Some(Crossing {
+            d,
+            omega: 0.0,
+            direction: if dl.is_finite() { dl } else { 0.0 },
+            multiplicity: 1,
+        })
+    }
+
+    /// Upper bound of the frequencies at which a crossing with |D| ≤ `d_lim` can occur.
+    fn omega_bound(&self, d_lim: f64) -> f64 {
+        let rz = self.p_roots.iter().map(|z| z.norm()).fold(0.0, f64::max);
+        let rw = self.q_roots.iter().map(|z| z.norm()).fold(0.0, f64::max);
+        let lead = self.q.last().map_or(0.0, |x| x.abs());
+        let mut w = 2.0 * rz.max(rw).max(1.0);
+        for _ in 0..200 {
+            let lower_p: f64 = self.p_roots.iter().map(|z| w - z.norm()).product();
+            let upper_q: f64 = lead * self.q_roots.iter().map(|z| w + z.norm()).product::<f64>();
+            if lower_p > d_lim * upper_q {
+                return w;
+            }
+            w *= 2.0;
+        }
+        w
+    }
+
+    /// All crossings with |D| ≤ `d_lim` (static one included), sorted by D.
+    pub fn crossings(&self, tau: f64, d_lim: f64) -> Result<Vec<Crossing>> {
+        if !(tau.is_finite() && tau >= 0.0) {
+            return Err(StabilityError::InvalidDelay { tau });
+        }
+        if !(d_lim.is_finite() && d_lim > 0.0) {
+            return Err(StabilityError::NonFinite { what: "gain limit" });
+        }
+        let mut out = Vec::new();
+        if self.q.is_empty() {
+            return Ok(out);
+        }
+        if let Some(s) = self.static_crossing(tau).filter(|s| s.d.abs() <= d_lim) {
+            out.push(s);
+        }
+        let w_max = self.omega_bound(d_lim);
+        // sample grid: uniform plus refinement around every root's imaginary part
+        let base = if tau > 0.0 {
+            (std::f64::consts::PI / (4.0 * tau)).min(w_max / 256.0)
+        } else {
+            w_max / 256.0
+        };
+        let nb = (w_max / base).ceil() as usize;
+        let mut samples: Vec<f64> = (0..=nb).map(|i| (i as f64 * base).min(w_max)).collect();
+        const OFFS: [f64; 13] = [
+            -8.0, -4.0, -2.0, -1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0,
+        ];
+        for z in self.p_roots.iter().chain(&self.q_roots) {
+            let (b, a) = (z.im.abs(), z.re.abs());
+            for o in OFFS {
+                let w = b + o * a;
+                if w > 0.0 && w < w_max {
+                    samples.push(w);
+                }
+            }
+        }
+        samples.sort_by(f64::total_cmp);
+        samples.dedup();
+        let pi = std::f64::consts::PI;
+        let (phi0, _) = self.phase(0.0, tau);
+        let mut prev_w = 0.0;
+        // at ω = 0 the phase is a multiple of π (p(0)/q(0) real) unless p or q vanishes there;
+        // snap it so that the static crossing is not counted as a dynamic one
+        let snapped = (phi0 / pi).round() * pi;
+        let mut prev_phi = if (phi0 - snapped).abs() < 1e-9 {
+            snapped
+        } else {
+            phi0
+        };
+        for &w in samples.iter().skip(1) {
+            let (phi, _) = self.phase(w, tau);
+            let (lo_m, hi_m) = if phi > prev_phi {
+                (
+                    (prev_phi / pi).floor() as i64 + 1,
+                    (phi / pi).floor() as i64,
+                )
+            } else {
+                ((phi / pi).ceil() as i64, (prev_phi / pi).ceil() as i64 - 1)
+            };
+            for m in lo_m..=hi_m {
+                let omega = self.solve_level(prev_w, w, m as f64 * pi, tau);
+                let d = self.gain_at(omega, tau);
+                if d.is_finite() && d.abs() <= d_lim {
+                    let l = Complex64::new(0.0, omega);
+                    let q = horner2(&self.q, l).0;
+                    let (_, df) = self.characteristic(l, d, tau);
+                    let dl = -(-l * tau).exp() * q / df;
+                    out.push(Crossing {
+                        d,
+                        omega,
+                        direction: if dl.re.is_finite() { dl.re } else { 0.0 },
+                        multiplicity: 2,
+                    });
+                }
+            }
+            prev_w = w;
+            prev_phi = phi;
+        }
+        out.sort_by(|a, b| a.d.total_cmp(&b.d).then(a.omega.total_cmp(&b.omega)));
+        Ok(out)
+    }
+
+    /// Solves φ(ω) = level on [lo, hi] (φ − level changes sign there) by safeguarded Newton.
+    fn solve_level(&self, lo: f64, hi: f64, level: f64, tau: f64) -> f64 {
+        let f_lo = self.phase(lo, tau).0 - level;
+        let (mut a, mut b) = (lo, hi);
+        let increasing = f_lo < 0.0;
+        let mut x = 0.5 * (a + b);
+        for _ in 0..200 {
+            let (phi, dphi) = self.phase(x, tau);
+            let f = phi - level;
+            if f == 0.0 {
+                return x;
+            }
+            if (f < 0.0) == increasing {
+                a = x;
+            } else {
+                b = x;
+            }
+            let newton = x - f / dphi;
+            let next = if newton > a && newton < b && dphi.is_finite() {
+                newton
+            } else {
+                0.5 * (a + b)
+            };
+            if (next - x).abs() <= 1e-15 * x.abs().max(1e-300)
+                || b - a <= 4.0 * f64::EPSILON * b.abs()
+            {
+                return next;
+            }
+            x = next;
+        }
+        x
+    }
+
+    /// Number of characteristic roots with Re λ > 0 at gain `d`, from the open-loop count and the
+    /// signed `crossings` between 0 and `d` (which must cover |D| ≤ |d|, e.g. from
+    /// [`RankOneFeedback::crossings`]). Exact except exactly on a boundary.
+    pub fn unstable_count_from(&self, d: f64, crossings: &[Crossing]) -> usize {
+        let mut n = self.open_loop_unstable_count() as i64;
+        for c in crossings {
+            if d > 0.0 && c.d > 0.0 && c.d < d {
+                n += c.signed_change();
+            } else if d < 0.0 && c.d < 0.0 && c.d > d {
+                n -= c.signed_change();
+            }
+        }
+        n.max(0) as usize
+    }
+
+    /// Number of characteristic roots with Re λ > 0 at (d, τ) by crossing counting.
+    pub fn unstable_root_count(&self, d: f64, tau: f64) -> Result<usize> {
+        let c = self.crossings(tau, d.abs().max(f64::MIN_POSITIVE))?;
+        Ok(self.unstable_count_from(d, &c))
+    }
+
+    /// The intervals of D in [d_min, d_max] where the closed loop is asymptotically stable,
+    /// with end points at the exact crossings (or the interval ends).
+    pub fn stable_gain_intervals(
+        &self,
+        tau: f64,
+        d_min: f64,
+        d_max: f64,
+    ) -> Result<Vec<(f64, f64)>> {
+        let lim = d_min.abs().max(d_max.abs());
+        let cr = self.crossings(tau, lim)?;
+        let mut cuts: Vec<f64> = vec![d_min];
+        cuts.extend(cr.iter().map(|c| c.d).filter(|&d| d > d_min && d < d_max));
+        cuts.push(d_max);
+        let mut out: Vec<(f64, f64)> = Vec::new();
+        for w in cuts.windows(2) {
+            if w[1] <= w[0] {
+                continue;
+            }
+            let mid = 0.5 * (w[0] + w[1]);
+            if self.unstable_count_from(mid, &cr) == 0 {
+                match out.last_mut() {
+                    Some(last) if last.1 == w[0] => last.1 = w[1],
+                    _ => out.push((w[0], w[1])),
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Roots of a real polynomial (ascending coefficients, last one nonzero) via the eigenvalues of
+/// its companion matrix.
+pub fn polynomial_roots(c: &[f64]) -> Result<Vec<Complex64>> {
+    if c.len() <= 1 {
+        return Ok(Vec::new());
+    }
+    let n = c.len() - 1;
+    let lead = c[n];
+    let m = faer::Mat::from_fn(n, n, |i, j| {
+        if i == 0 {
+            -c[n - 1 - j] / lead
+        } else if i == j + 1 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    let mut r = eigenvalues(&m)?;
+    sort_rightmost(&mut r);
+    Ok(r)
+}

@@ -1,0 +1,95 @@
+//! Issue 3 performance targets (release, medians):
+//! - S1: open loop, V = 33 m/s, θ(0) = 0.1 rad, 60 s, rtol 1e-8 / atol 1e-10 (target ≤ 2 ms);
+//! - S3: closed loop, V = 35 m/s, D = 0.1 s, τ = 0.2 s, 40 s, same tolerances (≤ 5 ms);
+//! - the threshold sweep of `configs/sweep_threshold.toml` (64 × 16 points, 60 s each) on
+//!   1 and 2 threads (≤ 3 s on 2 cores, ≥ 1.8× faster on 2 threads).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+use sway::progress::NoProgress;
+use sway::sim::sweep::{SweepConfig, run_sweep};
+use sway::sim::{
+    Controller, MetricSettings, Recording, SimSpec, SolverSettings, SpeedProfile, ValidityGuard,
+    simulate,
+};
+use trailer_model::{Model, State7, VehicleParams};
+
+fn spec(profile: SpeedProfile, controller: Controller, horizon_s: f64) -> SimSpec {
+    SimSpec {
+        profile,
+        controller,
+        horizon_s,
+        action_s: 0.0,
+        guard: ValidityGuard::Stop,
+        solver: SolverSettings {
+            rtol: 1e-8,
+            atol: 1e-10,
+            ..SolverSettings::default()
+        },
+        metrics: MetricSettings::default(),
+    }
+}
+
+fn single_runs(c: &mut Criterion) {
+    let model = Model::new(VehicleParams::default()).unwrap();
+    let x0 = State7::from_column_slice(&[0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0]);
+    let s1 = spec(
+        SpeedProfile::Constant { speed_mps: 33.0 },
+        Controller::None,
+        60.0,
+    );
+    let s3 = spec(
+        SpeedProfile::Constant { speed_mps: 35.0 },
+        Controller::YawRateFeedback {
+            gain_s: 0.1,
+            delay_s: 0.2,
+            on_s: 0.0,
+            off_s: None,
+        },
+        40.0,
+    );
+    for (name, s) in [("S1", &s1), ("S3", &s3)] {
+        let r = simulate::<7>(&model, s, x0, Recording::None).unwrap();
+        eprintln!("{name}: {:?}, {:?}", r.stats, r.metrics);
+    }
+    c.bench_function("S1_open_loop_V33_60s", |b| {
+        b.iter(|| {
+            simulate::<7>(&model, black_box(&s1), x0, Recording::None)
+                .unwrap()
+                .metrics
+        })
+    });
+    c.bench_function("S3_closed_loop_V35_D0.1_tau0.2_40s", |b| {
+        b.iter(|| {
+            simulate::<7>(&model, black_box(&s3), x0, Recording::None)
+                .unwrap()
+                .metrics
+        })
+    });
+}
+
+fn sweep(c: &mut Criterion) {
+    let model = Model::new(VehicleParams::default()).unwrap();
+    let file =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/sweep_threshold.toml");
+    let cfg: SweepConfig = sway::config::load_toml(&file).unwrap();
+    cfg.validate(&file).unwrap();
+    let mut g = c.benchmark_group("sweep_threshold_64x16");
+    g.sample_size(10);
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        g.bench_function(format!("{threads}_threads"), |b| {
+            b.iter(|| {
+                pool.install(|| run_sweep(&model, black_box(&cfg), &NoProgress))
+                    .len()
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, single_runs, sweep);
+criterion_main!(benches);

@@ -1,0 +1,477 @@
+//! Bifurcation analysis of straight running and trailer sway (paper §IV, Fig. 3a and 4b):
+//! the vehicle model wired into the general-purpose [`continuation`] crate.
+//!
+//! The closed loop of eq. (8), x'(t) = f(x(t), δ(t) = −D·ψ̇(t−τ); V), on the reduced state
+//! x = [σ1, σ2, σ3, θ] is a [`continuation::Problem`] with parameters p = [V, D, τ]; the
+//! open loop is D = 0 (an ODE). Straight running x = 0 is continued in V, its Hopf point
+//! located, the cycle branch started from it with a finite amplitude (the Hopf point is
+//! non-smooth: the brush tire is only C¹ at α = 0) and continued through the fold.
+//!
+//! ```no_run
+//! use sway::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
+//! use trailer_model::{Model, VehicleParams};
+//! let model = Model::new(VehicleParams::default()).unwrap();
+//! let d = bifurcation_diagram(&model, Feedback::OPEN_LOOP, &DiagramOptions::default()).unwrap();
+//! println!("Hopf at {} m/s, fold at {:?} m/s", d.hopf.parameter, d.fold.map(|f| f.speed_mps));
+//! ```
+
+use continuation::{
+    ArclengthWeights, Branch, ChebyshevRoots, CollocationOptions, Continuation,
+    ContinuationOptions, Criticality, EquilibriumSystem, HopfPoint, PeriodicOrbitSystem, Problem,
+    Refinement, SpecialKind, criticality, points_at_parameter,
+};
+use nalgebra::SVector;
+use num_dual::{Dual64, DualSVec64, jacobian};
+use serde::{Deserialize, Serialize};
+use trailer_model::{HITCH_ANGLE, Inputs, Model, State4};
+
+use crate::SwayError;
+
+/// index of the speed V [m/s] in the parameter vector
+pub const SPEED: usize = 0;
+/// index of the feedback gain D [s] in the parameter vector
+pub const GAIN: usize = 1;
+/// index of the feedback delay τ [s] in the parameter vector
+pub const DELAY: usize = 2;
+
+/// The steering feedback δ(t) = −D·ψ̇(t − τ) of eq. (8).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Feedback {
+    /// gain D [s]
+    pub gain_d_s: f64,
+    /// delay τ [s]
+    pub delay_s: f64,
+}
+
+impl Feedback {
+    /// no steering control (δ ≡ 0)
+    pub const OPEN_LOOP: Feedback = Feedback {
+        gain_d_s: 0.0,
+        delay_s: 0.0,
+    };
+
+    /// the problem is a delay equation (D ≠ 0 and τ > 0)
+    pub fn is_delayed(&self) -> bool {
+        self.gain_d_s != 0.0 && self.delay_s > 0.0
+    }
+}
+
+/// The closed loop as a continuation problem, parameters p = [V, D, τ] (V may be free;
+/// D and τ are fixed by the [`Feedback`] it was built with).
+#[derive(Debug, Clone, Copy)]
+pub struct ClosedLoop<'a> {
+    model: &'a Model,
+    feedback: Feedback,
+    /// gradient of the yaw rate ψ̇ = c·x (linear in x, eq. 5)
+    yaw_gradient: [f64; 4],
+}
+
+impl<'a> ClosedLoop<'a> {
+    /// The closed loop of `model` with `feedback`.
+    pub fn new(model: &'a Model, feedback: Feedback) -> Self {
+        let e = |i: usize| State4::from_fn(|k, _| if k == i { 1.0 } else { 0.0 });
+        let yaw_gradient = [0, 1, 2, 3].map(|i| model.yaw_rate(&e(i)));
+        Self {
+            model,
+            feedback,
+            yaw_gradient,
+        }
+    }
+
+    /// parameter vector [V, D, τ]
+    pub fn parameters(&self, speed: f64) -> Vec<f64> {
+        vec![speed, self.feedback.gain_d_s, self.feedback.delay_s]
+    }
+
+    fn state(x: &[f64]) -> State4 {
+        State4::new(x[0], x[1], x[2], x[3])
+    }
+
+    /// steering angle δ [rad] from the (delayed) state
+    fn steering(&self, x_fb: &[f64]) -> f64 {
+        -self.feedback.gain_d_s * (0..4).map(|k| self.yaw_gradient[k] * x_fb[k]).sum::<f64>()
+    }
+
+    /// the state the feedback reads: x(t − τ) for a delay equation, x(t) otherwise
+    fn feedback_state<'b>(&self, args: &'b [f64]) -> &'b [f64] {
+        if self.feedback.is_delayed() {
+            &args[4..8]
+        } else {
+            &args[..4]
+        }
+    }
+}
+
+impl Problem for ClosedLoop<'_> {
+    fn dim(&self) -> usize {
+        4
+    }
+    fn n_delays(&self) -> usize {
+        usize::from(self.feedback.is_delayed())
+    }
+    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+        p[DELAY]
+    }
+    fn rhs(&self, args: &[f64], p: &[f64], f: &mut [f64]) {
+        let x = Self::state(args);
+        let u = Inputs {
+            steering_angle: self.steering(self.feedback_state(args)),
+            speed: p[SPEED],
+            acceleration: 0.0,
+        };
+        let r = self.model.rhs4(&x, &u);
+        f[..4].copy_from_slice(r.as_slice());
+    }
+    fn jacobian(&self, args: &[f64], p: &[f64], jac: &mut [f64]) {
+        let delta = self.steering(self.feedback_state(args));
+        let z = SVector::<f64, 5>::new(args[0], args[1], args[2], args[3], delta);
+        let speed = p[SPEED];
+        let (_, j) = jacobian(
+            |z: SVector<DualSVec64<5>, 5>| {
+                let x = State4::new(z[0], z[1], z[2], z[3]);
+                let u = Inputs {
+                    steering_angle: z[4],
+                    speed: DualSVec64::<5>::from(speed),
+                    acceleration: DualSVec64::<5>::from(0.0),
+                };
+                self.model.rhs4(&x, &u)
+            },
+            &z,
+        );
+        let nc = if self.feedback.is_delayed() { 8 } else { 4 };
+        let off = if self.feedback.is_delayed() { 4 } else { 0 };
+        jac.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..4 {
+            for k in 0..4 {
+                jac[i * nc + k] = j[(i, k)];
+            }
+            // chain rule through δ = −D c·x_fb
+            for k in 0..4 {
+                jac[i * nc + off + k] +=
+                    j[(i, 4)] * (-self.feedback.gain_d_s * self.yaw_gradient[k]);
+            }
+        }
+    }
+    fn n_switching(&self) -> usize {
+        6
+    }
+    /// slip angles α_F, α_R, α_T (the brush tire is only C¹ at α = 0) and |α| − α_cr
+    /// (sliding starts, the force curve's second derivative jumps)
+    fn switching(&self, args: &[f64], p: &[f64], g: &mut [f64]) {
+        let x = Self::state(args);
+        let u = Inputs {
+            steering_angle: self.steering(self.feedback_state(args)),
+            speed: p[SPEED],
+            acceleration: 0.0,
+        };
+        let a = self.model.slip_angles(&x, &u);
+        let cr = self.model.critical_slip_angles();
+        g[0] = a.front;
+        g[1] = a.rear;
+        g[2] = a.trailer;
+        g[3] = a.front.abs() - cr.front;
+        g[4] = a.rear.abs() - cr.rear;
+        g[5] = a.trailer.abs() - cr.trailer;
+    }
+    fn dfdp(&self, args: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
+        let delta = self.steering(self.feedback_state(args));
+        let x = Self::state(args).map(Dual64::from);
+        let yaw: f64 = (0..4)
+            .map(|k| self.yaw_gradient[k] * self.feedback_state(args)[k])
+            .sum();
+        let u = match ip {
+            SPEED => Inputs {
+                steering_angle: Dual64::from(delta),
+                speed: Dual64::new(p[SPEED], 1.0),
+                acceleration: Dual64::from(0.0),
+            },
+            GAIN => Inputs {
+                steering_angle: Dual64::new(delta, -yaw),
+                speed: Dual64::from(p[SPEED]),
+                acceleration: Dual64::from(0.0),
+            },
+            _ => {
+                // the delay is not a continuation parameter here
+                out[..4].iter_mut().for_each(|v| *v = f64::NAN);
+                return;
+            }
+        };
+        let r = self.model.rhs4(&x, &u);
+        for i in 0..4 {
+            out[i] = r[i].eps;
+        }
+    }
+}
+
+/// Options of the bifurcation diagram of one feedback setting.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DiagramOptions {
+    /// lowest speed of the diagram [m/s] (start of the straight-running branch)
+    pub v_min_mps: f64,
+    /// highest speed of the diagram [m/s]
+    pub v_max_mps: f64,
+    /// mesh intervals L of the periodic orbits
+    pub intervals: usize,
+    /// collocation degree m
+    pub degree: usize,
+    /// amplitude of the first cycle along the critical eigenvector (unit norm in
+    /// [σ1 m/s, σ2 1/s, σ3 1/s, θ rad])
+    pub hopf_amplitude: f64,
+    /// first continuation step (weighted arclength)
+    pub initial_step: f64,
+    /// largest continuation step
+    pub max_step: f64,
+    /// at most this many cycle points
+    pub max_cycle_points: usize,
+    /// degree of the Chebyshev collocation for characteristic roots (delayed case)
+    pub root_degree: usize,
+}
+
+impl Default for DiagramOptions {
+    fn default() -> Self {
+        Self {
+            v_min_mps: 25.0,
+            v_max_mps: 45.0,
+            intervals: 60,
+            degree: 4,
+            hopf_amplitude: 1e-3,
+            initial_step: 0.02,
+            max_step: 0.25,
+            max_cycle_points: 600,
+            root_degree: 24,
+        }
+    }
+}
+
+/// The fold of the cycle branch.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FoldPoint {
+    /// speed at the fold [m/s]
+    pub speed_mps: f64,
+    /// max |θ| on the cycle at the fold [deg]
+    pub amplitude_deg: f64,
+    /// period at the fold [s]
+    pub period_s: f64,
+}
+
+/// One point of the cycle branch, in the paper's quantities.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CycleSummary {
+    /// speed V [m/s]
+    pub speed_mps: f64,
+    /// max |θ| over the cycle [deg]
+    pub amplitude_deg: f64,
+    /// period [s]
+    pub period_s: f64,
+    /// linearly stable (all nontrivial Floquet multipliers inside the unit circle)
+    pub stable: bool,
+    /// largest modulus of the nontrivial Floquet multipliers
+    pub max_multiplier: f64,
+}
+
+/// A computed bifurcation diagram of one feedback setting.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Diagram {
+    /// the feedback
+    pub feedback: Feedback,
+    /// the options used
+    pub options: DiagramOptions,
+    /// straight running (x = 0) versus V, with stability and the Hopf point
+    pub equilibria: Branch,
+    /// the Hopf point
+    pub hopf: HopfPoint,
+    /// the cycles born at the Hopf point (unknowns of the collocation system)
+    pub cycles: Branch,
+    /// the cycle branch in the paper's quantities, in continuation order
+    pub cycle_summary: Vec<CycleSummary>,
+    /// criticality of the Hopf bifurcation (from the computed branch)
+    pub criticality: Criticality,
+    /// the (first) fold of the cycle branch
+    pub fold: Option<FoldPoint>,
+}
+
+fn num(context: String) -> impl FnOnce(continuation::Error) -> SwayError {
+    move |e| SwayError::numerical(context, e)
+}
+
+fn collocation(o: &DiagramOptions) -> CollocationOptions {
+    CollocationOptions {
+        intervals: o.intervals,
+        degree: o.degree,
+        weights: ArclengthWeights::default(),
+        multipliers_kept: 12,
+    }
+}
+
+fn roots(o: &DiagramOptions) -> ChebyshevRoots {
+    ChebyshevRoots {
+        degree: o.root_degree,
+        count: 8,
+        refinement: Refinement::Newton,
+    }
+}
+
+impl Diagram {
+    /// The collocation system the cycle branch was computed with (to evaluate its points).
+    pub fn cycle_system<'a>(
+        &self,
+        problem: &'a ClosedLoop<'a>,
+    ) -> Result<PeriodicOrbitSystem<'a, ClosedLoop<'a>>, SwayError> {
+        PeriodicOrbitSystem::new(
+            problem,
+            problem.parameters(self.hopf.parameter),
+            SPEED,
+            collocation(&self.options),
+        )
+        .map_err(num("cycle system".into()))
+    }
+
+    /// The cycles at speed V [m/s] (all crossings of the branch), corrected at fixed V.
+    pub fn cycles_at(&self, model: &Model, speed: f64) -> Result<Vec<CycleSummary>, SwayError> {
+        let problem = ClosedLoop::new(model, self.feedback);
+        let mut sys = self.cycle_system(&problem)?;
+        let cont = Continuation::default();
+        let pts = points_at_parameter(&cont, &mut sys, &self.cycles, speed)
+            .map_err(num(format!("cycles at V = {speed} m/s")))?;
+        Ok(pts
+            .iter()
+            .map(|p| summarise(&sys, &p.u, p.stability.as_ref()))
+            .collect())
+    }
+
+    /// The speed ranges: (stable below, bistable, unstable above) as
+    /// (fold V, Hopf V) for a subcritical Hopf with a fold; None otherwise.
+    pub fn bistable_range(&self) -> Option<(f64, f64)> {
+        match (self.criticality, self.fold) {
+            (Criticality::Subcritical, Some(f)) => Some((f.speed_mps, self.hopf.parameter)),
+            _ => None,
+        }
+    }
+}
+
+fn summarise(
+    sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_>>,
+    u: &[f64],
+    st: Option<&continuation::Stability>,
+) -> CycleSummary {
+    let max_multiplier = st.map_or(f64::NAN, |s| {
+        s.nontrivial().map(|z| z.norm()).fold(0.0, f64::max)
+    });
+    CycleSummary {
+        speed_mps: u[u.len() - 1],
+        amplitude_deg: sys.max_abs(u, HITCH_ANGLE).to_degrees(),
+        period_s: sys.period(u),
+        stable: st.is_some_and(|s| s.is_stable()),
+        max_multiplier,
+    }
+}
+
+/// Computes the bifurcation diagram of straight running and sway for one feedback setting:
+/// the straight-running branch on [v_min, v_max] with its Hopf point, then the cycle branch
+/// from the Hopf point until it leaves [v_min, v_max] (through the fold, if any).
+///
+/// # Errors
+/// [`SwayError::Numerical`] saying which stage failed (no Hopf point in the range, Newton
+/// divergence, ...).
+pub fn bifurcation_diagram(
+    model: &Model,
+    feedback: Feedback,
+    options: &DiagramOptions,
+) -> Result<Diagram, SwayError> {
+    let o = options;
+    let problem = ClosedLoop::new(model, feedback);
+    let ctx = format!(
+        "bifurcation diagram (D = {} s, τ = {} s)",
+        feedback.gain_d_s, feedback.delay_s
+    );
+
+    // 1. straight running x = 0 versus V
+    let cont_eq = Continuation::new(ContinuationOptions {
+        initial_step: 0.5,
+        max_step: 0.5,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        ..Default::default()
+    });
+    let mut eq = EquilibriumSystem::new(&problem, problem.parameters(o.v_min_mps), SPEED, roots(o))
+        .map_err(num(ctx.clone()))?;
+    let dir = eq.parameter_direction();
+    let mut equilibria = cont_eq
+        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, o.v_min_mps], &dir)
+        .map_err(num(format!(
+            "{ctx}: straight running at V = {} m/s",
+            o.v_min_mps
+        )))?;
+    let n_eq = ((o.v_max_mps - o.v_min_mps) / 0.5).ceil() as usize + 8;
+    cont_eq
+        .extend(&mut eq, &mut equilibria, n_eq)
+        .map_err(num(format!("{ctx}: straight running")))?;
+    let (ih, sp) = equilibria.first(SpecialKind::Hopf).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(format!(
+                "no Hopf point of straight running in [{}, {}] m/s; widen the speed range",
+                o.v_min_mps, o.v_max_mps
+            )),
+        )
+    })?;
+    let hopf = eq
+        .hopf_point(&equilibria.points[ih].u, sp.transversality.unwrap_or(1.0))
+        .map_err(num(format!("{ctx}: Hopf point")))?;
+
+    // 2. cycles from the Hopf point
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        ..Default::default()
+    });
+    let mut po = PeriodicOrbitSystem::new(
+        &problem,
+        problem.parameters(hopf.parameter),
+        SPEED,
+        collocation(o),
+    )
+    .map_err(num(ctx.clone()))?;
+    let (guess, dir) = po.hopf_guess(&hopf, o.hopf_amplitude);
+    let mut cycles = cont.start(&mut po, &guess, &dir).map_err(num(format!(
+        "{ctx}: first cycle at the Hopf point V = {} m/s",
+        hopf.parameter
+    )))?;
+    cont.extend(&mut po, &mut cycles, o.max_cycle_points)
+        .map_err(num(format!("{ctx}: cycle branch")))?;
+    let crit = criticality(&hopf, &cycles).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(
+                "the cycle branch does not leave the Hopf point".into(),
+            ),
+        )
+    })?;
+    let cycle_summary: Vec<CycleSummary> = cycles
+        .points
+        .iter()
+        .map(|p| summarise(&po, &p.u, p.stability.as_ref()))
+        .collect();
+    let fold = cycles.first(SpecialKind::Fold).map(|(i, _)| {
+        let c = cycle_summary[i];
+        FoldPoint {
+            speed_mps: c.speed_mps,
+            amplitude_deg: c.amplitude_deg,
+            period_s: c.period_s,
+        }
+    });
+    Ok(Diagram {
+        feedback,
+        options: o.clone(),
+        equilibria,
+        hopf,
+        cycles,
+        cycle_summary,
+        criticality: crit,
+        fold,
+    })
+}
+
+#[cfg(test)]
+mod tests;

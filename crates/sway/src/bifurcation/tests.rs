@@ -1,0 +1,389 @@
+//! Tests of the bifurcation analysis on the vehicle model, each against an independent
+//! reference: the linear analysis of the model crate, the stability crate's chart boundary,
+//! long simulations with the `dde` crate's Dormand–Prince solver, finite-difference
+//! monodromy matrices from simulations, and mesh refinement.
+
+use super::*;
+use approx::assert_relative_eq;
+use dde::{DdeProblem, OdeProblem, Options, solve_dde, solve_ode};
+use nalgebra::{DMatrix, SVector};
+use stability::{RankOneFeedback, first_unstable_parameter};
+use std::sync::OnceLock;
+use trailer_model::{CriticalSpeedOptions, VehicleParams};
+
+fn model() -> &'static Model {
+    static M: OnceLock<Model> = OnceLock::new();
+    M.get_or_init(|| Model::new(VehicleParams::default()).expect("Table I model"))
+}
+
+/// the open-loop diagram with the default options (computed once for all tests)
+fn open_loop() -> &'static Diagram {
+    static D: OnceLock<Diagram> = OnceLock::new();
+    D.get_or_init(|| {
+        bifurcation_diagram(model(), Feedback::OPEN_LOOP, &DiagramOptions::default())
+            .expect("diagram")
+    })
+}
+
+/// the closed loop as a DDE for the `dde` crate, history from a function
+struct Sim<'a, H: Fn(f64) -> State4> {
+    problem: ClosedLoop<'a>,
+    speed: f64,
+    delays: [f64; 1],
+    history: H,
+}
+
+impl<H: Fn(f64) -> State4> DdeProblem<4> for Sim<'_, H> {
+    fn delays(&self) -> &[f64] {
+        &self.delays
+    }
+    fn history(&self, t: f64) -> SVector<f64, 4> {
+        (self.history)(t)
+    }
+    fn rhs(&self, _t: f64, x: &SVector<f64, 4>, xd: &[SVector<f64, 4>], dx: &mut SVector<f64, 4>) {
+        let mut args = [0.0; 8];
+        args[..4].copy_from_slice(x.as_slice());
+        args[4..].copy_from_slice(xd[0].as_slice());
+        let p = self.problem.parameters(self.speed);
+        let mut f = [0.0; 4];
+        self.problem.rhs(&args, &p, &mut f);
+        dx.copy_from_slice(&f);
+    }
+}
+
+impl<H: Fn(f64) -> State4> OdeProblem<4> for Sim<'_, H> {
+    fn rhs(&self, _t: f64, x: &SVector<f64, 4>, dx: &mut SVector<f64, 4>) {
+        let p = self.problem.parameters(self.speed);
+        let mut f = [0.0; 4];
+        self.problem.rhs(x.as_slice(), &p, &mut f);
+        dx.copy_from_slice(&f);
+    }
+}
+
+/// max |θ| [deg] and period [s] (from upward zero crossings of θ) over [t0, t1] of a solution
+fn amplitude_and_period(eval: impl Fn(f64) -> State4, t0: f64, t1: f64) -> (f64, f64) {
+    let dt = 5e-4;
+    let n = ((t1 - t0) / dt) as usize;
+    let mut amp: f64 = 0.0;
+    let mut crossings = Vec::new();
+    let mut prev = eval(t0)[HITCH_ANGLE];
+    for i in 1..=n {
+        let t = t0 + i as f64 * dt;
+        let th = eval(t)[HITCH_ANGLE];
+        amp = amp.max(th.abs());
+        if prev < 0.0 && th >= 0.0 {
+            crossings.push(t - dt + dt * (-prev) / (th - prev));
+        }
+        prev = th;
+    }
+    let k = crossings.len();
+    let period = if k >= 2 {
+        (crossings[k - 1] - crossings[0]) / (k - 1) as f64
+    } else {
+        f64::NAN
+    };
+    (amp.to_degrees(), period)
+}
+
+/// profile of a cycle at speed V as a function of time (periodic), from the diagram
+fn cycle_profile(d: &Diagram, speed: f64, stable: bool) -> (Vec<f64>, f64) {
+    let problem = ClosedLoop::new(model(), d.feedback);
+    let mut sys = d.cycle_system(&problem).unwrap();
+    let pts = points_at_parameter(&Continuation::default(), &mut sys, &d.cycles, speed).unwrap();
+    let p = pts
+        .into_iter()
+        .find(|p| p.is_stable() == Some(stable))
+        .expect("a cycle of the requested stability");
+    let t = sys.period(&p.u);
+    (p.u, t)
+}
+
+fn eval_profile(d: &Diagram, u: &[f64], t: f64, period: f64) -> State4 {
+    let problem = ClosedLoop::new(model(), d.feedback);
+    let sys = d.cycle_system(&problem).unwrap();
+    let mut x = [0.0; 4];
+    let mut dx = [0.0; 4];
+    sys.eval(u, t / period, &mut x, &mut dx);
+    State4::from_column_slice(&x)
+}
+
+#[test]
+fn hopf_point_equals_linear_critical_speed() {
+    // reference: V_crit of the model crate's linear analysis (bisection on the spectral
+    // abscissa of Ã to 1e-11 m/s); the continuation locates the Hopf point to 1e-10
+    let d = open_loop();
+    let vc = model()
+        .critical_speed(&CriticalSpeedOptions::default())
+        .unwrap();
+    assert!(
+        (d.hopf.parameter - vc.v_crit_mps).abs() < 1e-8,
+        "{} vs {}",
+        d.hopf.parameter,
+        vc.v_crit_mps
+    );
+    assert_relative_eq!(d.hopf.omega, vc.hopf_omega_rad_s, max_relative = 1e-8);
+    assert_eq!(d.criticality, Criticality::Subcritical);
+    // straight running: stable below, unstable above
+    for p in &d.equilibria.points {
+        if (p.parameter - d.hopf.parameter).abs() > 1e-6 {
+            assert_eq!(p.is_stable(), Some(p.parameter < d.hopf.parameter));
+        }
+    }
+    // the fold lies below the Hopf point and the branch is unstable before it, stable after
+    let fold = d.fold.expect("fold");
+    assert!(fold.speed_mps < d.hopf.parameter);
+    let (i, _) = d.cycles.first(SpecialKind::Fold).unwrap();
+    assert_eq!(d.cycles.points[i - 1].is_stable(), Some(false));
+    assert_eq!(d.cycles.points[i + 1].is_stable(), Some(true));
+}
+
+#[test]
+fn mesh_doubling_changes_fold_and_amplitudes_by_less_than_1e_4() {
+    // reference: the same diagram on a mesh of 2L intervals (convergence check)
+    let coarse = open_loop();
+    let fine_opts = DiagramOptions {
+        intervals: 2 * coarse.options.intervals,
+        ..coarse.options.clone()
+    };
+    let fine = bifurcation_diagram(model(), Feedback::OPEN_LOOP, &fine_opts).unwrap();
+    let (fc, ff) = (coarse.fold.unwrap(), fine.fold.unwrap());
+    assert_relative_eq!(fc.speed_mps, ff.speed_mps, max_relative = 1e-4);
+    assert_relative_eq!(fc.amplitude_deg, ff.amplitude_deg, max_relative = 1e-4);
+    for v in [33.0, 35.0, 36.0, 38.0] {
+        let a = coarse.cycles_at(model(), v).unwrap();
+        let b = fine.cycles_at(model(), v).unwrap();
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            assert_relative_eq!(x.amplitude_deg, y.amplitude_deg, max_relative = 1e-4);
+            assert_relative_eq!(x.period_s, y.period_s, max_relative = 1e-4);
+        }
+    }
+}
+
+#[test]
+fn stable_cycles_agree_with_long_simulations() {
+    // reference: dde crate (Dormand–Prince 5(4), rtol 1e-10) started on the cycle and run for
+    // 20 periods; amplitude to 0.01° (required), period to 1e-4 s
+    let d = open_loop();
+    for v in [35.0, 36.0, 38.0] {
+        let c = d.cycles_at(model(), v).unwrap();
+        let stable = c.iter().find(|c| c.stable).expect("a stable cycle");
+        let (u, period) = cycle_profile(d, v, true);
+        let x0 = eval_profile(d, &u, 0.0, period);
+        let sim = Sim {
+            problem: ClosedLoop::new(model(), d.feedback),
+            speed: v,
+            delays: [0.0],
+            history: |_t| x0,
+        };
+        let t_end = 20.0 * period;
+        let sol = solve_ode(&sim, 0.0, x0, t_end, Options::with_tolerances(1e-10, 1e-12)).unwrap();
+        let (amp, per) =
+            amplitude_and_period(|t| sol.eval(t).unwrap(), t_end - 3.0 * period, t_end);
+        assert!(
+            (amp - stable.amplitude_deg).abs() < 0.01,
+            "V = {v}: {amp} vs {}",
+            stable.amplitude_deg
+        );
+        assert!(
+            (per - stable.period_s).abs() < 1e-4,
+            "V = {v}: {per} vs {}",
+            stable.period_s
+        );
+    }
+}
+
+#[test]
+fn unstable_cycle_at_33_separates_decay_from_sway() {
+    // reference: simulations (dde crate) from the state of the unstable cycle at max θ, scaled
+    // by 0.97 and 1.03: below the threshold the motion decays to straight running, above it
+    // grows to the stable sway cycle
+    let d = open_loop();
+    let (u, period) = cycle_profile(d, 33.0, false);
+    // state at the maximum of θ
+    let ts: Vec<f64> = (0..2000).map(|i| i as f64 * period / 2000.0).collect();
+    let t_max = ts
+        .iter()
+        .copied()
+        .max_by(|a, b| {
+            eval_profile(d, &u, *a, period)[3].total_cmp(&eval_profile(d, &u, *b, period)[3])
+        })
+        .unwrap();
+    let x_star = eval_profile(d, &u, t_max, period);
+    let stable_amp = d
+        .cycles_at(model(), 33.0)
+        .unwrap()
+        .iter()
+        .find(|c| c.stable)
+        .unwrap()
+        .amplitude_deg;
+    for (scale, grows) in [(0.97, false), (1.03, true)] {
+        let x0 = x_star * scale;
+        let sim = Sim {
+            problem: ClosedLoop::new(model(), d.feedback),
+            speed: 33.0,
+            delays: [0.0],
+            history: |_t| x0,
+        };
+        let t_end = 150.0;
+        let sol = solve_ode(&sim, 0.0, x0, t_end, Options::with_tolerances(1e-9, 1e-12)).unwrap();
+        let (amp, _) = amplitude_and_period(|t| sol.eval(t).unwrap(), t_end - 5.0, t_end);
+        if grows {
+            assert!(
+                (amp - stable_amp).abs() < 0.05,
+                "scale {scale}: {amp}° vs sway {stable_amp}°"
+            );
+        } else {
+            assert!(amp < 0.5, "scale {scale}: still {amp}°");
+        }
+    }
+}
+
+#[test]
+fn floquet_multipliers_agree_with_simulated_monodromy_matrix() {
+    // reference: monodromy matrix by central finite differences (ε = 1e-5) of flows over one
+    // period computed with the dde crate (rtol 1e-12); its eigenvalues vs the collocation
+    // multipliers to 1e-4 (the finite differences alone scatter by ~4e-5 between ε = 1e-4 and
+    // 1e-6: the flow is only C¹ where a slip angle crosses 0)
+    let d = open_loop();
+    let v = 36.0;
+    let (u, _) = cycle_profile(d, v, true);
+    // the orbit for the simulation: the same cycle corrected on a 160-interval mesh, so that
+    // the start point and period of the reference do not carry the coarse mesh's error
+    let problem = ClosedLoop::new(model(), d.feedback);
+    let coarse = d.cycle_system(&problem).unwrap();
+    let mut fine = PeriodicOrbitSystem::new(
+        &problem,
+        problem.parameters(v),
+        SPEED,
+        CollocationOptions {
+            intervals: 160,
+            ..collocation(&d.options)
+        },
+    )
+    .unwrap();
+    let guess = coarse.remesh(&u, &fine);
+    fine.set_reference(&guess);
+    let mut e = vec![0.0; guess.len()];
+    e[guess.len() - 1] = 1.0;
+    let uf = Continuation::default()
+        .start(&mut fine, &guess, &e)
+        .unwrap()
+        .points
+        .remove(0)
+        .u;
+    let period = fine.period(&uf);
+    let (mut x, mut dx) = ([0.0; 4], [0.0; 4]);
+    fine.eval(&uf, 0.1, &mut x, &mut dx);
+    let x0 = State4::from_column_slice(&x);
+    let flow = |x: State4| -> State4 {
+        let sim = Sim {
+            problem: ClosedLoop::new(model(), d.feedback),
+            speed: v,
+            delays: [0.0],
+            history: |_t| x,
+        };
+        let sol = solve_ode(&sim, 0.0, x, period, Options::with_tolerances(1e-12, 1e-14)).unwrap();
+        sol.eval(period).unwrap()
+    };
+    let eps = 1e-5;
+    let m = DMatrix::from_fn(4, 4, |_, _| 0.0);
+    let mut m = m;
+    for k in 0..4 {
+        let mut e = State4::zeros();
+        e[k] = eps;
+        let col = (flow(x0 + e) - flow(x0 - e)) / (2.0 * eps);
+        for i in 0..4 {
+            m[(i, k)] = col[i];
+        }
+    }
+    let sim_mu = m.complex_eigenvalues();
+    let mut sys = d.cycle_system(&problem).unwrap();
+    let coll = sys.floquet_multipliers(&u).unwrap();
+    for z in sim_mu.iter() {
+        let err = coll
+            .iter()
+            .map(|c| (c - z).norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            err < 1e-4,
+            "simulated multiplier {z} not matched (error {err:e}); collocation: {coll:?}"
+        );
+    }
+    assert!(
+        sim_mu.iter().any(|z| (z - 1.0).norm() < 1e-4),
+        "trivial multiplier"
+    );
+}
+
+/// the (Ã, B̃, C̃) of the linearisation at V, for the stability crate
+fn rank_one(v: f64) -> Result<RankOneFeedback, stability::StabilityError> {
+    let lin = model().linearize(v);
+    RankOneFeedback::from_state_space(&lin.a4, &lin.b4, &lin.c4)
+}
+
+#[test]
+fn closed_loop_hopf_points_equal_the_stability_chart_boundary() {
+    // reference: the stability crate (exact crossing counts of the quasi-polynomial of eq. 13,
+    // bisection to 1e-9 m/s) on the model crate's linearisation; agreement to 1e-6 m/s
+    for (tau, dgain) in [(0.1, 0.1), (0.2, 0.1), (0.2, 0.2)] {
+        let fb = Feedback {
+            gain_d_s: dgain,
+            delay_s: tau,
+        };
+        let opts = DiagramOptions {
+            intervals: 20,
+            max_cycle_points: 3,
+            v_min_mps: 20.0,
+            v_max_mps: 60.0,
+            ..DiagramOptions::default()
+        };
+        let dia = bifurcation_diagram(model(), fb, &opts).unwrap();
+        let boundary = first_unstable_parameter(rank_one, tau, dgain, 20.0, 60.0, 81, 1e-9)
+            .unwrap()
+            .expect("an unstable speed");
+        assert!(
+            (dia.hopf.parameter - boundary).abs() < 1e-6,
+            "τ = {tau}, D = {dgain}: {} vs {boundary}",
+            dia.hopf.parameter
+        );
+    }
+}
+
+#[test]
+fn delayed_cycle_agrees_with_simulation() {
+    // reference: dde crate (DDE solver, rtol 1e-10) with the periodic profile as history,
+    // run for 15 periods: amplitude to 0.01°, period to 1e-4 s
+    let fb = Feedback {
+        gain_d_s: 0.1,
+        delay_s: 0.2,
+    };
+    let opts = DiagramOptions {
+        intervals: 40,
+        ..DiagramOptions::default()
+    };
+    let d = bifurcation_diagram(model(), fb, &opts).unwrap();
+    let v = d.hopf.parameter + 1.0;
+    let c = d.cycles_at(model(), v).unwrap();
+    let stable = c.iter().find(|c| c.stable).expect("stable sway");
+    let (u, period) = cycle_profile(&d, v, true);
+    let sim = Sim {
+        problem: ClosedLoop::new(model(), fb),
+        speed: v,
+        delays: [fb.delay_s],
+        history: |t| eval_profile(&d, &u, t, period),
+    };
+    let t_end = 15.0 * period;
+    let sol = solve_dde(&sim, 0.0, t_end, Options::with_tolerances(1e-10, 1e-12)).unwrap();
+    let (amp, per) = amplitude_and_period(|t| sol.eval(t).unwrap(), t_end - 3.0 * period, t_end);
+    assert!(
+        (amp - stable.amplitude_deg).abs() < 0.01,
+        "{amp} vs {}",
+        stable.amplitude_deg
+    );
+    assert!(
+        (per - stable.period_s).abs() < 1e-4,
+        "{per} vs {}",
+        stable.period_s
+    );
+}

@@ -1,0 +1,145 @@
+//! The car–trailer model with a speed profile and a steering controller, as an ODE/DDE
+//! problem for the [`dde`] solver: 4 states [σ1, σ2, σ3, θ] or all 7 [σ1, σ2, σ3, θ, ψ, x_H, y_H].
+
+use dde::{DdeProblem, OdeProblem};
+use nalgebra::SVector;
+use trailer_model::{Inputs, Model, SlipAngles, State4};
+
+use super::{Controller, SpeedProfile};
+
+/// The closed (or open) loop: paper eq. (5)–(7) with V(t), V̇(t) from a [`SpeedProfile`] and
+/// δ(t) from a [`Controller`] (eq. 8). Implements [`OdeProblem`] (δ ≡ 0) and
+/// [`DdeProblem`] (δ = −D·ψ̇(t − τ)) for `N = 4` and `N = 7`.
+#[derive(Debug, Clone)]
+pub struct Plant<'a, const N: usize> {
+    model: &'a Model,
+    profile: &'a SpeedProfile,
+    controller: Controller,
+    delays: Vec<f64>,
+    breakpoints: Vec<f64>,
+    /// the constant initial function x(t) = x0 for t ≤ 0
+    history: SVector<f64, N>,
+}
+
+/// The reduced state [σ1, σ2, σ3, θ] of a 4- or 7-state vector.
+#[inline]
+pub fn reduced<const N: usize>(x: &SVector<f64, N>) -> State4 {
+    State4::new(x[0], x[1], x[2], x[3])
+}
+
+impl<'a, const N: usize> Plant<'a, N> {
+    /// A plant starting from `x0` (also the history for t ≤ 0).
+    pub fn new(
+        model: &'a Model,
+        profile: &'a SpeedProfile,
+        controller: Controller,
+        x0: SVector<f64, N>,
+    ) -> Self {
+        let mut breakpoints = profile.breakpoints();
+        breakpoints.extend(controller.breakpoints());
+        breakpoints.retain(|&b| b > 0.0);
+        breakpoints.sort_by(f64::total_cmp);
+        breakpoints.dedup();
+        Self {
+            model,
+            profile,
+            controller,
+            delays: controller.delay().into_iter().collect(),
+            breakpoints,
+            history: x0,
+        }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        self.model
+    }
+
+    /// The controller.
+    pub fn controller(&self) -> &Controller {
+        &self.controller
+    }
+
+    /// The speed profile.
+    pub fn profile(&self) -> &SpeedProfile {
+        self.profile
+    }
+
+    /// Inputs at time t given the delayed states (`x_delayed[0] = x(t − τ)`, empty in open loop).
+    #[inline]
+    pub fn inputs(&self, t: f64, x_delayed: &[SVector<f64, N>]) -> Inputs {
+        let steering_angle = match x_delayed.first() {
+            Some(xd) => self
+                .controller
+                .steering_angle(t, self.model.yaw_rate(&reduced(xd))),
+            None => 0.0,
+        };
+        Inputs {
+            steering_angle,
+            speed: self.profile.speed(t),
+            acceleration: self.profile.acceleration(t),
+        }
+    }
+
+    /// Slip angles at (t, x) with the delayed states for δ.
+    pub fn slip_angles(
+        &self,
+        t: f64,
+        x: &SVector<f64, N>,
+        x_delayed: &[SVector<f64, N>],
+    ) -> SlipAngles {
+        self.model
+            .slip_angles(&reduced(x), &self.inputs(t, x_delayed))
+    }
+
+    #[inline]
+    fn eval(&self, u: &Inputs, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
+        let x4 = reduced(x);
+        let r = self.model.rhs4(&x4, u);
+        dx[0] = r[0];
+        dx[1] = r[1];
+        dx[2] = r[2];
+        dx[3] = r[3];
+        if N == 7 {
+            // ψ̇, ẋ_H = V cos ψ − σ1 sin ψ, ẏ_H = V sin ψ + σ1 cos ψ (eq. 5)
+            let (sp, cp) = x[4].sin_cos();
+            dx[4] = self.model.yaw_rate(&x4);
+            dx[5] = u.speed * cp - x[0] * sp;
+            dx[6] = u.speed * sp + x[0] * cp;
+        }
+    }
+}
+
+impl<const N: usize> OdeProblem<N> for Plant<'_, N> {
+    #[inline]
+    fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
+        let u = self.inputs(t, &[]);
+        self.eval(&u, x, dx);
+    }
+    fn breakpoints(&self) -> &[f64] {
+        &self.breakpoints
+    }
+}
+
+impl<const N: usize> DdeProblem<N> for Plant<'_, N> {
+    fn delays(&self) -> &[f64] {
+        &self.delays
+    }
+    fn history(&self, _t: f64) -> SVector<f64, N> {
+        self.history
+    }
+    #[inline]
+    fn rhs(
+        &self,
+        t: f64,
+        x: &SVector<f64, N>,
+        x_delayed: &[SVector<f64, N>],
+        dx: &mut SVector<f64, N>,
+    ) {
+        let u = self.inputs(t, x_delayed);
+        self.eval(&u, x, dx);
+    }
+    fn breakpoints(&self) -> &[f64] {
+        &self.breakpoints
+    }
+}

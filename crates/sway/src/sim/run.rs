@@ -1,0 +1,513 @@
+//! Running one scenario: events (hitch-angle extrema, the 1° settle threshold, the
+//! validity guard), metrics computed on the fly, an optional sampled trajectory.
+
+use dde::{
+    DdeSolver, Direction, Event, EventAction, EventHit, Flow, NoObserver, Observer, OdeSolver,
+    Options, Stats, Status, StepView,
+};
+use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
+use trailer_model::{HITCH_ANGLE, Model, State4};
+
+use super::plant::{Plant, reduced};
+use super::{Controller, SpeedProfile};
+use crate::SwayError;
+
+/// Error control of the simulations.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSettings {
+    /// relative tolerance
+    pub rtol: f64,
+    /// absolute tolerance
+    pub atol: f64,
+    /// step budget per run
+    pub max_steps: usize,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            rtol: 1e-8,
+            atol: 1e-10,
+            max_steps: 2_000_000,
+        }
+    }
+}
+
+impl SolverSettings {
+    /// The [`dde::Options`] for these settings.
+    pub fn options(&self) -> Options {
+        Options {
+            max_steps: self.max_steps,
+            ..Options::with_tolerances(self.rtol, self.atol)
+        }
+    }
+
+    /// Checks the tolerances (names the key on failure).
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        self.options().validate().map_err(|e| match e {
+            dde::Error::InvalidOptions { field: "atol", .. } => ("atol", e.to_string()),
+            dde::Error::InvalidOptions {
+                field: "max_steps", ..
+            } => ("max_steps", e.to_string()),
+            _ => ("rtol", e.to_string()),
+        })
+    }
+}
+
+/// The validity guard: the model stops being physical when a tractor axle slides fully
+/// (|α| > α_cr of eq. 15) or a wheel's longitudinal velocity reaches 0 (jackknifing
+/// trailer, stopped vehicle). With `Stop` the run ends there with
+/// `outcome = "loss_of_control"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ValidityGuard {
+    /// stop at the first violation (default)
+    #[default]
+    Stop,
+    /// integrate on regardless (the results past a violation are not physical)
+    Off,
+}
+
+/// Which validity condition tripped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LossOfControl {
+    /// |α_F| > α_cr,F: the front axle slides fully
+    FrontAxleSliding,
+    /// |α_R| > α_cr,R: the rear axle slides fully
+    RearAxleSliding,
+    /// the front wheel's longitudinal velocity reached 0
+    FrontWheelStopped,
+    /// the rear wheel's longitudinal velocity (= V) reached 0
+    RearWheelStopped,
+    /// the trailer wheel's longitudinal velocity V cos θ + σ1 sin θ reached 0 (jackknife)
+    TrailerWheelStopped,
+}
+
+impl LossOfControl {
+    /// The snake_case name used in CSV and JSON.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            LossOfControl::FrontAxleSliding => "front_axle_sliding",
+            LossOfControl::RearAxleSliding => "rear_axle_sliding",
+            LossOfControl::FrontWheelStopped => "front_wheel_stopped",
+            LossOfControl::RearWheelStopped => "rear_wheel_stopped",
+            LossOfControl::TrailerWheelStopped => "trailer_wheel_stopped",
+        }
+    }
+
+    const ALL: [LossOfControl; 5] = [
+        LossOfControl::FrontAxleSliding,
+        LossOfControl::RearAxleSliding,
+        LossOfControl::FrontWheelStopped,
+        LossOfControl::RearWheelStopped,
+        LossOfControl::TrailerWheelStopped,
+    ];
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    /// the horizon was reached with the model valid throughout
+    Ok,
+    /// the validity guard stopped the run
+    LossOfControl,
+}
+
+impl Outcome {
+    /// "ok" or "loss_of_control".
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Outcome::Ok => "ok",
+            Outcome::LossOfControl => "loss_of_control",
+        }
+    }
+}
+
+/// Settings of the metrics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MetricSettings {
+    /// |θ| below this counts as settled [deg]
+    pub settle_threshold_deg: f64,
+    /// `final_amplitude_deg` is max |θ| over the last this many seconds [s]
+    pub final_window_s: f64,
+}
+
+impl Default for MetricSettings {
+    fn default() -> Self {
+        Self {
+            settle_threshold_deg: 1.0,
+            final_window_s: 5.0,
+        }
+    }
+}
+
+/// The headline numbers of one run (field names as in the summaries and sweep CSVs).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    /// max |θ| [deg] for t ≥ the action time (null if the run ended before it)
+    pub peak_theta_deg_after_action: Option<f64>,
+    /// max |θ| [deg] over the final window (null when control was lost)
+    pub final_amplitude_deg: Option<f64>,
+    /// time [s] from the action until |θ| stays below the threshold to the end of the
+    /// horizon (null if it never does, or when control was lost)
+    pub settle_time_s: Option<f64>,
+    /// "ok" or "loss_of_control"
+    pub outcome: Outcome,
+    /// when the guard tripped [s] (null when ok)
+    pub loss_of_control_time_s: Option<f64>,
+    /// which condition tripped (null when ok)
+    pub loss_of_control_condition: Option<LossOfControl>,
+}
+
+/// What to record of the trajectory.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Recording {
+    /// nothing (metrics only)
+    None,
+    /// the state, V and δ every `step_s` seconds (from the continuous extension)
+    Every {
+        /// sampling interval [s]
+        step_s: f64,
+    },
+}
+
+/// One sample of a recorded trajectory.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample<const N: usize> {
+    /// time [s]
+    pub t: f64,
+    /// state (4 or 7 components)
+    pub x: SVector<f64, N>,
+    /// speed V [m/s]
+    pub speed: f64,
+    /// steering angle δ [rad]
+    pub steering_angle: f64,
+}
+
+/// Everything that defines a run apart from the vehicle and the initial state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimSpec {
+    /// V(t)
+    pub profile: SpeedProfile,
+    /// δ(t)
+    pub controller: Controller,
+    /// end time [s] (runs start at t = 0)
+    pub horizon_s: f64,
+    /// the action (braking / steering) starts here [s]; metrics "after action" count from it
+    pub action_s: f64,
+    /// validity guard
+    pub guard: ValidityGuard,
+    /// tolerances
+    pub solver: SolverSettings,
+    /// metric settings
+    pub metrics: MetricSettings,
+}
+
+/// The result of one run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimResult<const N: usize> {
+    /// headline numbers
+    pub metrics: Metrics,
+    /// sampled trajectory (empty with [`Recording::None`])
+    pub trajectory: Vec<Sample<N>>,
+    /// where the run ended [s]
+    pub t_end: f64,
+    /// the state there
+    pub x_end: SVector<f64, N>,
+    /// solver work
+    pub stats: Stats,
+}
+
+struct MetricObserver<'p, 'm, const N: usize> {
+    plant: &'p Plant<'m, N>,
+    action_s: f64,
+    final_from: f64,
+    peak: Option<f64>,
+    final_amp: f64,
+    last_fall: Option<f64>,
+    rec_step: Option<f64>,
+    next_k: usize,
+    trajectory: Vec<Sample<N>>,
+    /// x(t_end − τ) of the last step (closed loop), for the guard diagnosis
+    delayed_at_end: Option<SVector<f64, N>>,
+}
+
+impl<const N: usize> MetricObserver<'_, '_, N> {
+    #[inline]
+    fn update(&mut self, t: f64, abs_theta: f64) {
+        if t >= self.action_s {
+            self.peak = Some(self.peak.map_or(abs_theta, |p| p.max(abs_theta)));
+        }
+        if t >= self.final_from {
+            self.final_amp = self.final_amp.max(abs_theta);
+        }
+    }
+
+    fn sample(&self, t: f64, x: SVector<f64, N>, delayed: Option<SVector<f64, N>>) -> Sample<N> {
+        let xd: &[SVector<f64, N>] = match &delayed {
+            Some(v) => std::slice::from_ref(v),
+            None => &[],
+        };
+        let u = self.plant.inputs(t, xd);
+        Sample {
+            t,
+            x,
+            speed: u.speed,
+            steering_angle: u.steering_angle,
+        }
+    }
+}
+
+impl<const N: usize> Observer<N> for MetricObserver<'_, '_, N> {
+    fn on_step(&mut self, step: &StepView<'_, N>) -> Flow {
+        let (t0, t1) = (step.t_start(), step.t_end());
+        self.update(t1, step.x()[HITCH_ANGLE].abs());
+        if let Some(tau) = self.plant.controller().delay() {
+            self.delayed_at_end = step.eval_past(t1 - tau);
+        }
+        for tm in [self.action_s, self.final_from] {
+            if tm > t0 && tm < t1 {
+                let th = step.eval(tm)[HITCH_ANGLE].abs();
+                self.update(tm, th);
+            }
+        }
+        if let Some(dt) = self.rec_step {
+            loop {
+                let t = self.next_k as f64 * dt;
+                if t > t1 * (1.0 + 1e-14) {
+                    break;
+                }
+                let t = t.min(t1);
+                let x = step.eval(t);
+                let delayed = self
+                    .plant
+                    .controller()
+                    .delay()
+                    .map(|tau| step.eval_past(t - tau).unwrap_or(x));
+                let s = self.sample(t, x, delayed);
+                self.trajectory.push(s);
+                self.next_k += 1;
+            }
+        }
+        Flow::Continue
+    }
+
+    fn on_event(&mut self, hit: &EventHit<N>) {
+        match hit.index {
+            0 => self.update(hit.t, hit.x[HITCH_ANGLE].abs()),
+            1 if hit.direction == Direction::Falling && hit.t >= self.action_s => {
+                self.last_fall = Some(hit.t);
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Runs one scenario from the state `x0` at t = 0 (4 states, or 7 to get the path).
+/// Open loop uses the ODE solver; with a controller the DDE solver (history: x ≡ x0 for t ≤ 0).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the solver fails (step-size underflow, non-finite state,
+/// step budget), with the scenario's time in the message.
+pub fn simulate<const N: usize>(
+    model: &Model,
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    recording: Recording,
+) -> Result<SimResult<N>, SwayError> {
+    let plant = Plant::<N>::new(model, &spec.profile, spec.controller, x0);
+    let acr = model.critical_slip_angles();
+    let th_s = spec.metrics.settle_threshold_deg.to_radians();
+    let f = model.params().tractor.front_axle;
+    let pl = &plant;
+    let mut events: Vec<Event<'_, N>> = vec![
+        // 0: extrema of θ (θ̇ = 0, eq. 5)
+        Event::new(
+            move |_t, x| model.hitch_angle_rate(&reduced(x)),
+            Direction::Either,
+            EventAction::Continue,
+        ),
+        // 1: |θ| crossing the settle threshold
+        Event::new(
+            move |_t, x| x[HITCH_ANGLE] * x[HITCH_ANGLE] - th_s * th_s,
+            Direction::Either,
+            EventAction::Continue,
+        ),
+    ];
+    // the five validity conditions, each "tripped when > 0"; one event on their maximum
+    // (continuous, and zero exactly when the first of them reaches zero) costs one slip-angle
+    // evaluation per call instead of five events
+    let guard_values = move |t: f64, x: &SVector<f64, N>, xd: &[SVector<f64, N>]| -> [f64; 5] {
+        let u = pl.inputs(t, xd);
+        let x4 = reduced(x);
+        let a = model.slip_angles(&x4, &u);
+        let lateral_front = x4[0] + model.yaw_rate(&x4) * f;
+        [
+            a.front.abs() - acr.front,
+            a.rear.abs() - acr.rear,
+            // longitudinal speed of the front wheel: V cos δ + (σ1 + f ψ̇) sin δ
+            -(u.speed * u.steering_angle.cos() + lateral_front * u.steering_angle.sin()),
+            -u.speed,
+            -model.trailer_wheel_speed(&x4, u.speed),
+        ]
+    };
+    let which = |v: [f64; 5]| {
+        let k = (0..5).fold(0, |b, k| if v[k] > v[b] { k } else { b });
+        LossOfControl::ALL[k]
+    };
+    let x0_delayed: Vec<SVector<f64, N>> =
+        spec.controller.delay().map(|_| x0).into_iter().collect();
+    if spec.guard == ValidityGuard::Stop {
+        let v0 = guard_values(0.0, &x0, &x0_delayed);
+        if v0.iter().any(|&g| g >= 0.0) {
+            return Ok(lost_at_start(spec, x0, which(v0)));
+        }
+        events.push(Event::with_delays(
+            move |t, x, xd| {
+                guard_values(t, x, xd)
+                    .into_iter()
+                    .fold(f64::NEG_INFINITY, f64::max)
+            },
+            Direction::Rising,
+            EventAction::Stop,
+        ));
+    }
+
+    let final_from = (spec.horizon_s - spec.metrics.final_window_s).max(0.0);
+    let mut obs = MetricObserver {
+        plant: &plant,
+        action_s: spec.action_s,
+        final_from,
+        peak: None,
+        final_amp: 0.0,
+        last_fall: None,
+        rec_step: match recording {
+            Recording::None => None,
+            Recording::Every { step_s } => Some(step_s),
+        },
+        next_k: 1,
+        trajectory: Vec::new(),
+        delayed_at_end: None,
+    };
+    obs.update(0.0, x0[HITCH_ANGLE].abs());
+    if obs.rec_step.is_some() {
+        let s = obs.sample(0.0, x0, x0_delayed.first().copied());
+        obs.trajectory.push(s);
+    }
+    let opts = spec.solver.options();
+    let context = || {
+        format!(
+            "simulation (profile {:?}, controller {:?}, horizon {} s)",
+            spec.profile, spec.controller, spec.horizon_s
+        )
+    };
+    let (status, t_end, x_end, stats) = if spec.controller.delay().is_none() {
+        let mut s = OdeSolver::new(&plant, 0.0, x0, opts)
+            .map_err(|e| SwayError::numerical(context(), e))?;
+        let st = s
+            .integrate(&plant, spec.horizon_s, &events, &mut obs)
+            .map_err(|e| SwayError::numerical(context(), e))?;
+        (st, s.t(), *s.state(), s.stats())
+    } else {
+        let mut s =
+            DdeSolver::new(&plant, 0.0, opts).map_err(|e| SwayError::numerical(context(), e))?;
+        let st = s
+            .integrate(&plant, spec.horizon_s, &events, &mut obs)
+            .map_err(|e| SwayError::numerical(context(), e))?;
+        (st, s.t(), *s.state(), s.stats())
+    };
+    let delayed_at_end = obs.delayed_at_end;
+    let lost = match status {
+        Status::Event(hit) if hit.index == 2 => {
+            // which condition: the largest guard value at the event (the others are < 0)
+            let xd: Vec<SVector<f64, N>> = match spec.controller.delay() {
+                Some(_) => vec![delayed_at_end.unwrap_or(hit.x)],
+                None => Vec::new(),
+            };
+            Some((hit.t, which(guard_values(hit.t, &hit.x, &xd))))
+        }
+        _ => None,
+    };
+    let metrics = match lost {
+        Some((t, cond)) => Metrics {
+            peak_theta_deg_after_action: obs.peak.map(f64::to_degrees),
+            final_amplitude_deg: None,
+            settle_time_s: None,
+            outcome: Outcome::LossOfControl,
+            loss_of_control_time_s: Some(t),
+            loss_of_control_condition: Some(cond),
+        },
+        None => {
+            let settled = x_end[HITCH_ANGLE].abs() < th_s;
+            Metrics {
+                peak_theta_deg_after_action: obs.peak.map(f64::to_degrees),
+                final_amplitude_deg: Some(obs.final_amp.to_degrees()),
+                settle_time_s: settled.then(|| {
+                    obs.last_fall
+                        .map_or(0.0, |tf| (tf - spec.action_s).max(0.0))
+                }),
+                outcome: Outcome::Ok,
+                loss_of_control_time_s: None,
+                loss_of_control_condition: None,
+            }
+        }
+    };
+    Ok(SimResult {
+        metrics,
+        trajectory: obs.trajectory,
+        t_end,
+        x_end,
+        stats,
+    })
+}
+
+fn lost_at_start<const N: usize>(
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    cond: LossOfControl,
+) -> SimResult<N> {
+    SimResult {
+        metrics: Metrics {
+            peak_theta_deg_after_action: (spec.action_s <= 0.0)
+                .then(|| x0[HITCH_ANGLE].abs().to_degrees()),
+            final_amplitude_deg: None,
+            settle_time_s: None,
+            outcome: Outcome::LossOfControl,
+            loss_of_control_time_s: Some(0.0),
+            loss_of_control_condition: Some(cond),
+        },
+        trajectory: Vec::new(),
+        t_end: 0.0,
+        x_end: x0,
+        stats: Stats::default(),
+    }
+}
+
+/// The state "on the sway cycle": integrate the open loop at constant speed `speed_mps`
+/// from θ(0) = `theta0_rad` (other states 0) for `settle_s` seconds and return where it
+/// ends. At a speed above V_crit this is on the stable limit cycle (trailer sway).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the solver fails.
+pub fn settle(
+    model: &Model,
+    speed_mps: f64,
+    theta0_rad: f64,
+    settle_s: f64,
+    solver: &SolverSettings,
+) -> Result<State4, SwayError> {
+    let profile = SpeedProfile::Constant { speed_mps };
+    let x0 = State4::new(0.0, 0.0, 0.0, theta0_rad);
+    let plant = Plant::<4>::new(model, &profile, Controller::None, x0);
+    let context = || format!("settling on the sway cycle at V = {speed_mps} m/s for {settle_s} s");
+    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options())
+        .map_err(|e| SwayError::numerical(context(), e))?;
+    s.integrate(&plant, settle_s, &[], &mut NoObserver)
+        .map_err(|e| SwayError::numerical(context(), e))?;
+    Ok(*s.state())
+}

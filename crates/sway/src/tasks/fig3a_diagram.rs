@@ -1,0 +1,444 @@
+//! `cargo xtask fig3a`, bifurcation diagram (paper Fig. 3a, top): open loop (δ ≡ 0), V as
+//! parameter; straight running with its stable and unstable parts, the Hopf point, the cycle
+//! branch (max |θ| vs V) with its stable and unstable parts and the fold, and the stable /
+//! bistable / unstable speed ranges.
+//!
+//! [`run_diagram`] computes and writes the diagram into a given output directory and returns
+//! the summary fields, the figure panel and printed lines; the `fig3a` task
+//! ([`super::fig3a_panels`]) runs it together with the time panels of the same figure, from
+//! the `[diagram]` section of `configs/fig3a.toml`.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value, json};
+
+use super::TaskContext;
+use crate::SwayError;
+use crate::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
+use crate::config::ensure;
+use crate::io::OutputDir;
+use crate::plot::{Layer, Legend, Panel, Rgb, Shape, Stroke};
+
+fn default_stable() -> Vec<f64> {
+    vec![35.0, 36.0, 38.0]
+}
+fn default_unstable() -> Vec<f64> {
+    vec![33.0]
+}
+
+/// The `[diagram]` section of `configs/fig3a.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiagramConfig {
+    /// continuation and discretisation settings (`[diagram.continuation]`)
+    #[serde(default, rename = "continuation")]
+    pub options: DiagramOptions,
+    /// speeds [m/s] at which the stable cycle's amplitude is reported (`stable_amplitude_deg`)
+    #[serde(default = "default_stable")]
+    pub stable_speeds_mps: Vec<f64>,
+    /// speeds [m/s] at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
+    #[serde(default = "default_unstable")]
+    pub unstable_speeds_mps: Vec<f64>,
+}
+
+impl Default for DiagramConfig {
+    fn default() -> Self {
+        Self {
+            options: DiagramOptions::default(),
+            stable_speeds_mps: default_stable(),
+            unstable_speeds_mps: default_unstable(),
+        }
+    }
+}
+
+/// Checks continuation settings shared by fig3a and fig4b (`prefix` is the key path).
+///
+/// # Errors
+/// [`SwayError::Config`] naming the file and key.
+pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result<(), SwayError> {
+    let key = |k: &str| {
+        if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
+        }
+    };
+    ensure(
+        o.v_min_mps.is_finite()
+            && o.v_min_mps > 0.0
+            && o.v_max_mps.is_finite()
+            && o.v_max_mps > o.v_min_mps,
+        file,
+        &key("v_min_mps"),
+        || {
+            format!(
+                "expected 0 < v_min_mps < v_max_mps, got {} and {}",
+                o.v_min_mps, o.v_max_mps
+            )
+        },
+    )?;
+    ensure(
+        (4..=2000).contains(&o.intervals),
+        file,
+        &key("intervals"),
+        || format!("expected 4 ≤ intervals ≤ 2000, got {}", o.intervals),
+    )?;
+    ensure(
+        (1..=continuation::MAX_DEGREE).contains(&o.degree),
+        file,
+        &key("degree"),
+        || {
+            format!(
+                "expected 1 ≤ degree ≤ {}, got {}",
+                continuation::MAX_DEGREE,
+                o.degree
+            )
+        },
+    )?;
+    ensure(
+        o.hopf_amplitude > 0.0 && o.hopf_amplitude < 0.1,
+        file,
+        &key("hopf_amplitude"),
+        || {
+            format!(
+                "expected 0 < hopf_amplitude < 0.1, got {}",
+                o.hopf_amplitude
+            )
+        },
+    )?;
+    ensure(
+        o.initial_step > 0.0 && o.max_step >= o.initial_step,
+        file,
+        &key("initial_step"),
+        || {
+            format!(
+                "expected 0 < initial_step ≤ max_step, got {} and {}",
+                o.initial_step, o.max_step
+            )
+        },
+    )?;
+    ensure(
+        o.max_cycle_points >= 2,
+        file,
+        &key("max_cycle_points"),
+        || format!("expected at least 2, got {}", o.max_cycle_points),
+    )?;
+    ensure(
+        (4..=200).contains(&o.root_degree),
+        file,
+        &key("root_degree"),
+        || format!("expected 4 ≤ root_degree ≤ 200, got {}", o.root_degree),
+    )
+}
+
+impl DiagramConfig {
+    /// Reads the section from the `[diagram]` table of `configs/fig3a.toml` (defaults if absent).
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the file and key.
+    pub fn from_table(table: Option<&toml::Table>, file: &Path) -> Result<Self, SwayError> {
+        let cfg: Self = match table {
+            None => Self::default(),
+            Some(t) => crate::config::parse_toml(&toml::to_string(t).unwrap_or_default(), file)
+                .map_err(|e| match e {
+                    SwayError::Config { file, key, problem } => SwayError::Config {
+                        file,
+                        key: format!("diagram.{key}"),
+                        problem,
+                    },
+                    other => other,
+                })?,
+        };
+        cfg.validate(file, "diagram")?;
+        Ok(cfg)
+    }
+
+    /// Checks the keys (`prefix` is the section's key path).
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
+        validate_options(&self.options, file, &format!("{prefix}.continuation"))?;
+        let o = &self.options;
+        for (k, list) in [
+            ("stable_speeds_mps", &self.stable_speeds_mps),
+            ("unstable_speeds_mps", &self.unstable_speeds_mps),
+        ] {
+            ensure(
+                list.iter().all(|v| *v > o.v_min_mps && *v < o.v_max_mps),
+                file,
+                &format!("{prefix}.{k}"),
+                || {
+                    format!(
+                        "expected speeds inside ({}, {}) m/s, got {list:?}",
+                        o.v_min_mps, o.v_max_mps
+                    )
+                },
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Vertices of a plotted curve (V [m/s], max |θ| [deg]); NaN pairs break it.
+pub type Polyline = Vec<(f64, f64)>;
+
+/// What [`run_diagram`] returns: summary fields, the figure panel, printed lines.
+pub type DiagramParts = (Map<String, Value>, Panel, Vec<String>);
+
+/// Summary key of a speed: `35` for 35.0, `35.5` for 35.5.
+pub fn speed_key(v: f64) -> String {
+    format!("{v}")
+}
+
+/// Lines of a cycle branch split into stable and unstable parts (NaN breaks), in the
+/// coordinates (V, max |θ| [deg]).
+pub fn split_by_stability(d: &Diagram) -> (Polyline, Polyline) {
+    let mut stable = Vec::new();
+    let mut unstable = Vec::new();
+    let gap = (f64::NAN, f64::NAN);
+    let pts = &d.cycle_summary;
+    for (i, c) in pts.iter().enumerate() {
+        let p = (c.speed_mps, c.amplitude_deg);
+        let (this, other) = if c.stable {
+            (&mut stable, &mut unstable)
+        } else {
+            (&mut unstable, &mut stable)
+        };
+        // join the parts at the point where stability changes
+        if i > 0 && pts[i - 1].stable != c.stable {
+            this.push(gap);
+            this.push((pts[i - 1].speed_mps, pts[i - 1].amplitude_deg));
+            other.push(p);
+            other.push(gap);
+        }
+        this.push(p);
+    }
+    (stable, unstable)
+}
+
+/// Straight running at 0 split into stable (V < V_Hopf) and unstable parts.
+fn straight_running(d: &Diagram) -> (Polyline, Polyline) {
+    let o = &d.options;
+    let vh = d.hopf.parameter;
+    (
+        vec![(o.v_min_mps, 0.0), (vh, 0.0)],
+        vec![(vh, 0.0), (o.v_max_mps, 0.0)],
+    )
+}
+
+/// Computes the open-loop diagram, writes `equilibria.csv` and `cycles.csv`, and returns the
+/// summary fields (`hopf_v_mps`, `fold_v_mps`, `fold_amplitude_deg`, `stable_amplitude_deg`,
+/// `unstable_amplitude_deg`, `criticality`, …), the figure panel and printed lines.
+///
+/// # Errors
+/// Numerical failures with context, or write errors.
+pub fn run_diagram(
+    ctx: &TaskContext<'_>,
+    cfg: &DiagramConfig,
+    out: &OutputDir,
+) -> Result<DiagramParts, SwayError> {
+    let d = bifurcation_diagram(&ctx.model, Feedback::OPEN_LOOP, &cfg.options)?;
+    let eq_rows: Vec<[f64; 3]> = d
+        .equilibria
+        .points
+        .iter()
+        .map(|p| {
+            let st = p.stability.as_ref();
+            [
+                p.parameter,
+                f64::from(u8::from(p.is_stable() == Some(true))),
+                st.and_then(|s| s.values.first()).map_or(f64::NAN, |z| z.re),
+            ]
+        })
+        .collect();
+    out.write_csv(
+        "equilibria.csv",
+        &["v_mps", "stable", "max_re_lambda_per_s"],
+        &eq_rows,
+    )?;
+    let cyc_rows: Vec<[f64; 5]> = d
+        .cycle_summary
+        .iter()
+        .map(|c| {
+            [
+                c.speed_mps,
+                c.amplitude_deg,
+                c.period_s,
+                f64::from(u8::from(c.stable)),
+                c.max_multiplier,
+            ]
+        })
+        .collect();
+    out.write_csv(
+        "cycles.csv",
+        &[
+            "v_mps",
+            "max_abs_theta_deg",
+            "period_s",
+            "stable",
+            "max_nontrivial_multiplier",
+        ],
+        &cyc_rows,
+    )?;
+
+    let mut stable_amp = Map::new();
+    let mut stable_period = Map::new();
+    for &v in &cfg.stable_speeds_mps {
+        let c = d.cycles_at(&ctx.model, v)?;
+        let s = c
+            .iter()
+            .filter(|c| c.stable)
+            .max_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
+        stable_amp.insert(
+            speed_key(v),
+            s.map_or(Value::Null, |c| json!(c.amplitude_deg)),
+        );
+        stable_period.insert(speed_key(v), s.map_or(Value::Null, |c| json!(c.period_s)));
+    }
+    let mut unstable_amp = Map::new();
+    for &v in &cfg.unstable_speeds_mps {
+        let c = d.cycles_at(&ctx.model, v)?;
+        let s = c
+            .iter()
+            .filter(|c| !c.stable)
+            .min_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
+        unstable_amp.insert(
+            speed_key(v),
+            s.map_or(Value::Null, |c| json!(c.amplitude_deg)),
+        );
+    }
+    let fold = d.fold;
+    let mut summary = Map::new();
+    summary.insert("hopf_v_mps".into(), json!(d.hopf.parameter));
+    summary.insert(
+        "fold_v_mps".into(),
+        fold.map_or(Value::Null, |f| json!(f.speed_mps)),
+    );
+    summary.insert(
+        "fold_amplitude_deg".into(),
+        fold.map_or(Value::Null, |f| json!(f.amplitude_deg)),
+    );
+    summary.insert("stable_amplitude_deg".into(), Value::Object(stable_amp));
+    summary.insert("unstable_amplitude_deg".into(), Value::Object(unstable_amp));
+    summary.insert("criticality".into(), json!(d.criticality.to_string()));
+    summary.insert("hopf_omega_rad_s".into(), json!(d.hopf.omega));
+    summary.insert(
+        "hopf_period_s".into(),
+        json!(2.0 * std::f64::consts::PI / d.hopf.omega),
+    );
+    summary.insert(
+        "fold_period_s".into(),
+        fold.map_or(Value::Null, |f| json!(f.period_s)),
+    );
+    summary.insert("stable_period_s".into(), Value::Object(stable_period));
+    summary.insert(
+        "bistable_range_mps".into(),
+        d.bistable_range()
+            .map_or(Value::Null, |(a, b)| json!([a, b])),
+    );
+    summary.insert("cycle_points".into(), json!(d.cycle_summary.len()));
+    summary.insert(
+        "mesh".into(),
+        json!({"intervals": d.options.intervals, "degree": d.options.degree}),
+    );
+
+    let panel = diagram_panel(&d);
+    let mut lines = vec![format!(
+        "fig3a diagram: Hopf (V_crit) at {:.6} m/s ({}), ω = {:.4} rad/s",
+        d.hopf.parameter, d.criticality, d.hopf.omega
+    )];
+    if let Some(f) = fold {
+        lines.push(format!(
+            "fig3a diagram: fold of cycles at {:.6} m/s, max |θ| = {:.4}°; bistable {:.3}–{:.3} m/s",
+            f.speed_mps, f.amplitude_deg, f.speed_mps, d.hopf.parameter
+        ));
+    }
+    Ok((summary, panel, lines))
+}
+
+/// The diagram as a figure panel (paper Fig. 3a, top).
+pub fn diagram_panel(d: &Diagram) -> Panel {
+    let o = &d.options;
+    let vh = d.hopf.parameter;
+    let y_max = d
+        .cycle_summary
+        .iter()
+        .map(|c| c.amplitude_deg)
+        .fold(0.0, f64::max)
+        * 1.08;
+    let mut p = Panel::new(
+        "Open loop: straight running and sway cycles (max |θ|) vs speed",
+        "V [m/s]",
+        "max |θ| [deg]",
+    )
+    .x_range(o.v_min_mps, o.v_max_mps)
+    .y_range(-0.03 * y_max, y_max)
+    .legend(Legend::UpperLeft);
+    match d.bistable_range() {
+        Some((vf, _)) => {
+            p.layers.push(Layer::band(
+                o.v_min_mps,
+                vf,
+                Rgb::GREEN,
+                Some("stable range"),
+            ));
+            p.layers
+                .push(Layer::band(vf, vh, Rgb::ORANGE, Some("bistable range")));
+        }
+        None => p.layers.push(Layer::band(
+            o.v_min_mps,
+            vh,
+            Rgb::GREEN,
+            Some("stable range"),
+        )),
+    }
+    p.layers.push(Layer::band(
+        vh,
+        o.v_max_mps,
+        Rgb::RED,
+        Some("unstable range"),
+    ));
+    let (eq_s, eq_u) = straight_running(d);
+    p.layers.push(Layer::line(
+        eq_s,
+        Rgb::GREEN,
+        Stroke::Solid,
+        Some("straight running, stable"),
+    ));
+    p.layers.push(Layer::line(
+        eq_u,
+        Rgb::RED,
+        Stroke::Solid,
+        Some("straight running, unstable"),
+    ));
+    let (cs, cu) = split_by_stability(d);
+    p.layers.push(Layer::line(
+        cu,
+        Rgb::RED,
+        Stroke::Dashed,
+        Some("unstable cycle (threshold)"),
+    ));
+    p.layers.push(Layer::line(
+        cs,
+        Rgb::GREEN,
+        Stroke::Dashed,
+        Some("stable cycle (sway)"),
+    ));
+    p.layers.push(Layer::markers(
+        vec![(vh, 0.0)],
+        Rgb::BLACK,
+        Some(&format!("Hopf, V = {vh:.2} m/s")),
+    ));
+    if let Some(f) = d.fold {
+        p.layers.push(Layer::Markers {
+            points: vec![(f.speed_mps, f.amplitude_deg)],
+            color: Rgb::BLACK,
+            shape: Shape::Triangle,
+            size: 6,
+            label: Some(format!("fold, V = {:.2} m/s", f.speed_mps)),
+        });
+    }
+    p
+}

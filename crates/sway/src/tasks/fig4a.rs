@@ -1,0 +1,452 @@
+//! `cargo xtask fig4a`: stability charts of the delayed yaw-rate feedback in the (V, D) plane
+//! for several delays (paper Fig. 4(a)).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value, json};
+use stability::{Axis, ChartOptions, StabilityChart};
+use trailer_model::CriticalSpeedOptions;
+
+use super::{Prepared, Report, Task, TaskContext};
+use crate::SwayError;
+use crate::charts::{chart_panel, critical_speed_at_gain, fig4a_charts, stable_gain_intervals};
+use crate::config::{ensure, load_toml};
+use crate::io::OutputDir;
+use crate::plot::Figure;
+
+/// The task.
+pub const TASK: Task = Task {
+    name: "fig4a",
+    about: "stability charts in the (V, D) plane for several delays τ (Fig. 4a)",
+    config: "fig4a.toml",
+    prepare,
+};
+
+/// Speed axis \[m/s\].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpeedAxis {
+    /// lower edge \[m/s\]
+    pub min_mps: f64,
+    /// upper edge \[m/s\]
+    pub max_mps: f64,
+    /// number of cells
+    pub cells: usize,
+}
+
+/// Gain axis \[s\].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GainAxis {
+    /// lower edge \[s\]
+    pub min_s: f64,
+    /// upper edge \[s\]
+    pub max_s: f64,
+    /// number of cells
+    pub cells: usize,
+}
+
+/// Where the headline numbers are taken.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SummaryConfig {
+    /// gain of `v_crit_at_d_0.1_mps` \[s\]
+    pub gain_for_critical_speed_s: f64,
+    /// speed of `stable_d_interval_at_v_35` \[m/s\]
+    pub speed_for_gain_interval_mps: f64,
+    /// bisection tolerance of the critical speed \[m/s\]
+    pub speed_tolerance_mps: f64,
+}
+
+impl Default for SummaryConfig {
+    fn default() -> Self {
+        Self {
+            gain_for_critical_speed_s: 0.1,
+            speed_for_gain_interval_mps: 35.0,
+            speed_tolerance_mps: 1e-9,
+        }
+    }
+}
+
+/// Numerical settings of the charts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NumericsConfig {
+    /// fresh spectral seed every this many cells along D
+    pub reseed_interval: usize,
+    /// rightmost roots followed from cell to cell
+    pub tracked_roots: usize,
+}
+
+impl Default for NumericsConfig {
+    fn default() -> Self {
+        let o = ChartOptions::default();
+        Self {
+            reseed_interval: o.reseed_interval,
+            tracked_roots: o.tracked_roots,
+        }
+    }
+}
+
+/// `configs/fig4a.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fig4aConfig {
+    /// speed axis
+    pub speed: SpeedAxis,
+    /// gain axis
+    pub gain: GainAxis,
+    /// delays τ \[s\], one panel each
+    pub delays_s: Vec<f64>,
+    /// headline numbers
+    #[serde(default)]
+    pub summary: SummaryConfig,
+    /// numerics
+    #[serde(default)]
+    pub numerics: NumericsConfig,
+}
+
+impl Fig4aConfig {
+    /// The speed axis.
+    pub fn speed_axis(&self) -> Axis {
+        Axis {
+            min: self.speed.min_mps,
+            max: self.speed.max_mps,
+            count: self.speed.cells,
+        }
+    }
+    /// The gain axis.
+    pub fn gain_axis(&self) -> Axis {
+        Axis {
+            min: self.gain.min_s,
+            max: self.gain.max_s,
+            count: self.gain.cells,
+        }
+    }
+    /// Chart options.
+    pub fn chart_options(&self) -> ChartOptions {
+        ChartOptions {
+            reseed_interval: self.numerics.reseed_interval,
+            tracked_roots: self.numerics.tracked_roots,
+            ..ChartOptions::default()
+        }
+    }
+
+    /// Checks the config; errors name the key.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`].
+    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+        let s = &self.speed;
+        ensure(
+            s.min_mps >= 0.0 && s.max_mps > s.min_mps && s.max_mps.is_finite(),
+            file,
+            "speed",
+            || {
+                format!(
+                    "expected 0 ≤ min_mps < max_mps, got {} and {}",
+                    s.min_mps, s.max_mps
+                )
+            },
+        )?;
+        ensure(s.cells >= 2, file, "speed.cells", || {
+            format!("expected ≥ 2, got {}", s.cells)
+        })?;
+        let g = &self.gain;
+        ensure(
+            g.min_s.is_finite() && g.max_s.is_finite() && g.min_s < g.max_s,
+            file,
+            "gain",
+            || {
+                format!(
+                    "expected finite min_s < max_s, got {} and {}",
+                    g.min_s, g.max_s
+                )
+            },
+        )?;
+        ensure(g.cells >= 2, file, "gain.cells", || {
+            format!("expected ≥ 2, got {}", g.cells)
+        })?;
+        ensure(!self.delays_s.is_empty(), file, "delays_s", || {
+            "expected at least one delay".into()
+        })?;
+        for (i, t) in self.delays_s.iter().enumerate() {
+            ensure(
+                t.is_finite() && *t >= 0.0,
+                file,
+                &format!("delays_s[{i}]"),
+                || format!("delays must be finite and ≥ 0 s, got {t}"),
+            )?;
+        }
+        let m = &self.summary;
+        ensure(
+            m.speed_for_gain_interval_mps > 0.0 && m.speed_for_gain_interval_mps.is_finite(),
+            file,
+            "summary.speed_for_gain_interval_mps",
+            || {
+                format!(
+                    "expected a positive speed, got {}",
+                    m.speed_for_gain_interval_mps
+                )
+            },
+        )?;
+        ensure(
+            m.gain_for_critical_speed_s.is_finite(),
+            file,
+            "summary.gain_for_critical_speed_s",
+            || "expected a finite gain".into(),
+        )?;
+        ensure(
+            m.speed_tolerance_mps > 0.0 && m.speed_tolerance_mps < 1e-2,
+            file,
+            "summary.speed_tolerance_mps",
+            || {
+                format!(
+                    "expected 0 < tolerance < 0.01 m/s, got {}",
+                    m.speed_tolerance_mps
+                )
+            },
+        )?;
+        ensure(
+            self.numerics.reseed_interval >= 1,
+            file,
+            "numerics.reseed_interval",
+            || "expected ≥ 1".into(),
+        )?;
+        ensure(
+            self.numerics.tracked_roots >= 1,
+            file,
+            "numerics.tracked_roots",
+            || "expected ≥ 1".into(),
+        )
+    }
+}
+
+struct Fig4aTask {
+    file: PathBuf,
+    config: Fig4aConfig,
+}
+
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+    let config: Fig4aConfig = load_toml(file)?;
+    config.validate(file)?;
+    Ok(Box::new(Fig4aTask {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+/// Headline numbers of one chart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChartSummary {
+    /// delay \[s\]
+    pub delay_s: f64,
+    /// lowest speed at which the summary gain is unstable \[m/s\]
+    pub v_crit_at_gain_mps: Option<f64>,
+    /// stable gain intervals at the summary speed \[s\]
+    pub stable_gain_intervals: Vec<(f64, f64)>,
+}
+
+/// Computes the charts and the headline numbers (no I/O): the whole Fig. 4(a) computation,
+/// also used by the benchmark.
+///
+/// # Errors
+/// [`SwayError::Numerical`].
+pub fn compute(
+    model: &trailer_model::Model,
+    cfg: &Fig4aConfig,
+) -> Result<(Vec<StabilityChart>, Vec<ChartSummary>), SwayError> {
+    let charts = fig4a_charts(
+        model,
+        &cfg.delays_s,
+        cfg.speed_axis(),
+        cfg.gain_axis(),
+        &cfg.chart_options(),
+    )?;
+    let s = &cfg.summary;
+    let v_lo = cfg.speed_axis().values()[0];
+    let mut summaries = Vec::new();
+    for &tau in &cfg.delays_s {
+        let v_crit = critical_speed_at_gain(
+            model,
+            tau,
+            s.gain_for_critical_speed_s,
+            v_lo,
+            cfg.speed.max_mps,
+            cfg.speed.cells,
+            s.speed_tolerance_mps,
+        )?;
+        let intervals = stable_gain_intervals(
+            model,
+            tau,
+            s.speed_for_gain_interval_mps,
+            cfg.gain.min_s,
+            cfg.gain.max_s,
+        )?;
+        summaries.push(ChartSummary {
+            delay_s: tau,
+            v_crit_at_gain_mps: v_crit,
+            stable_gain_intervals: intervals,
+        });
+    }
+    Ok((charts, summaries))
+}
+
+fn intervals_json(iv: &[(f64, f64)]) -> Value {
+    match iv {
+        [] => json!([]),
+        [one] => json!([one.0, one.1]),
+        many => Value::Array(many.iter().map(|x| json!([x.0, x.1])).collect()),
+    }
+}
+
+impl Prepared for Fig4aTask {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+        let cfg = &self.config;
+        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
+        ctx.progress.start("fig4a: charts", 3);
+        let (charts, summaries) = compute(&ctx.model, cfg)?;
+        ctx.progress.advance(1);
+
+        // data
+        for ch in &charts {
+            let rows: Vec<[f64; 4]> =
+                ch.v.iter()
+                    .enumerate()
+                    .flat_map(|(iv, &v)| {
+                        ch.d.iter().enumerate().map(move |(id, &d)| {
+                            let c = ch.cell(iv, id);
+                            [v, d, c.spectral_abscissa, c.unstable_roots as f64]
+                        })
+                    })
+                    .collect();
+            out.write_csv(
+                &format!("grid_tau_{}.csv", ch.tau),
+                &["v_mps", "d_s", "spectral_abscissa_per_s", "unstable_roots"],
+                &rows,
+            )?;
+            let boundary_rows = |lines: &[stability::Polyline]| -> Vec<[f64; 4]> {
+                lines
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(k, l)| l.points.iter().map(move |p| [k as f64, p.v, p.d, p.omega]))
+                    .collect()
+            };
+            out.write_csv(
+                &format!("dynamic_boundary_tau_{}.csv", ch.tau),
+                &["branch", "v_mps", "d_s", "omega_rad_s"],
+                boundary_rows(&ch.dynamic_boundaries),
+            )?;
+            out.write_csv(
+                &format!("static_boundary_tau_{}.csv", ch.tau),
+                &["branch", "v_mps", "d_s", "omega_rad_s"],
+                boundary_rows(&ch.static_boundary),
+            )?;
+        }
+        ctx.progress.advance(1);
+
+        // figure: one panel per τ, τ = 0 dynamic boundary dotted on the others
+        let reference = charts.iter().find(|c| c.tau == 0.0);
+        let (sa, ga) = (cfg.speed_axis(), cfg.gain_axis());
+        let panels: Vec<_> = charts
+            .iter()
+            .map(|c| chart_panel(c, reference, &sa, &ga))
+            .collect();
+        let n = panels.len();
+        let cols = if n <= 1 { 1 } else { 2 };
+        let rows = n.div_ceil(cols);
+        Figure::grid(panels, rows, cols, (1200, 450 * rows as u32))
+            .titled("Stability of straight running under δ(t) = −D·ψ̇(t − τ)")
+            .render(&out.path("fig4a"))?;
+        ctx.progress.advance(1);
+
+        // summary
+        let vc = ctx.model.critical_speed(&CriticalSpeedOptions::default())?;
+        let gain_key = format!("v_crit_at_d_{}_mps", cfg.summary.gain_for_critical_speed_s);
+        let v_key = format!(
+            "stable_d_interval_at_v_{}",
+            cfg.summary.speed_for_gain_interval_mps
+        );
+        let mut per_tau = Vec::new();
+        let mut lines = vec![format!("open-loop V_crit = {:.4} m/s", vc.v_crit_mps)];
+        for (s, ch) in summaries.iter().zip(&charts) {
+            let mut m = Map::new();
+            m.insert("tau_s".into(), json!(s.delay_s));
+            m.insert(gain_key.clone(), json!(s.v_crit_at_gain_mps));
+            m.insert(v_key.clone(), intervals_json(&s.stable_gain_intervals));
+            let stable = ch.cells.iter().filter(|c| c.is_stable()).count();
+            m.insert(
+                "stable_cell_fraction".into(),
+                json!(stable as f64 / ch.cells.len() as f64),
+            );
+            m.insert("reseeded_cells".into(), json!(ch.reseeds));
+            m.insert("failed_cells".into(), json!(ch.failures.len()));
+            per_tau.push(Value::Object(m));
+            lines.push(format!(
+                "τ = {} s: {gain_key} = {}, {v_key} = {}{}",
+                s.delay_s,
+                s.v_crit_at_gain_mps
+                    .map_or("stable on the range".to_string(), |v| format!("{v:.4}")),
+                intervals_json(&s.stable_gain_intervals),
+                if ch.failures.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({} cells failed)", ch.failures.len())
+                }
+            ));
+        }
+        let mut summary = Map::new();
+        summary.insert("open_loop_v_crit_mps".into(), json!(vc.v_crit_mps));
+        summary.insert("per_tau".into(), Value::Array(per_tau));
+        summary.insert(
+            "grid_cells_per_tau".into(),
+            json!(cfg.speed.cells * cfg.gain.cells),
+        );
+        out.write_summary(summary, cfg, &ctx.run_info(&self.file))?;
+        ctx.progress.finish();
+        let dir = out.commit()?;
+        Ok(Report {
+            task: TASK.name.into(),
+            output_dir: dir,
+            lines,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::parse_toml;
+
+    fn shipped() -> (PathBuf, String) {
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/fig4a.toml");
+        let text = std::fs::read_to_string(&file).unwrap();
+        (file, text)
+    }
+
+    #[test]
+    fn shipped_config_is_valid_and_as_the_issue_asks() {
+        let (file, text) = shipped();
+        let cfg: Fig4aConfig = parse_toml(&text, &file).unwrap();
+        cfg.validate(&file).unwrap();
+        assert!(cfg.speed.cells >= 300 && cfg.gain.cells >= 200);
+        assert_eq!(cfg.delays_s, vec![0.0, 0.1, 0.2, 0.4]);
+        assert_eq!((cfg.speed.min_mps, cfg.speed.max_mps), (0.0, 60.0));
+        assert_eq!((cfg.gain.min_s, cfg.gain.max_s), (-0.5, 0.5));
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        let (file, text) = shipped();
+        let bad = text.replace("delays_s = [0.0, 0.1, 0.2, 0.4]", "delays_s = [0.0, -0.1]");
+        let cfg: Fig4aConfig = parse_toml(&bad, &file).unwrap();
+        let e = cfg.validate(&file).unwrap_err().to_string();
+        assert!(e.contains("delays_s[1]"), "{e}");
+        let unknown = text.replace("[numerics]", "[numerics]\nfoo = 1");
+        let e = parse_toml::<Fig4aConfig>(&unknown, &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("foo"), "{e}");
+    }
+}

@@ -1,0 +1,283 @@
+//! `cargo xtask fig4b` (paper Fig. 4b): bifurcation diagrams of the closed loop with the
+//! delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8) for the (τ, D) pairs of
+//! `configs/fig4b.toml`, overlaid in one figure. The delayed cases are delay differential
+//! equations: their periodic orbits are computed by collocation with the delayed values read
+//! off the periodic profile, their stability from the DDE Floquet multipliers.
+//!
+//! `summary.json`: `"pairs"`, an array with, per pair, `"tau_s"`, `"d_s"`, `"hopf_v_mps"`,
+//! `"fold_v_mps"`, `"criticality"` (plus the fold amplitude and the bistable range).
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value, json};
+
+use super::fig3a_diagram::{split_by_stability, validate_options};
+use super::{Prepared, Report, Task, TaskContext};
+use crate::SwayError;
+use crate::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
+use crate::config::{ensure, load_toml};
+use crate::io::OutputDir;
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Shape, Stroke};
+
+/// The task.
+pub const TASK: Task = Task {
+    name: "fig4b",
+    about: "paper Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback for several (τ, D)",
+    config: "fig4b.toml",
+    prepare,
+};
+
+/// One feedback setting.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pair {
+    /// delay τ [s] (0 with D = 0: open loop)
+    pub tau_s: f64,
+    /// gain D [s]
+    pub d_s: f64,
+}
+
+fn default_pairs() -> Vec<Pair> {
+    vec![
+        Pair {
+            tau_s: 0.0,
+            d_s: 0.0,
+        },
+        Pair {
+            tau_s: 0.1,
+            d_s: 0.1,
+        },
+        Pair {
+            tau_s: 0.2,
+            d_s: 0.1,
+        },
+        Pair {
+            tau_s: 0.2,
+            d_s: 0.2,
+        },
+    ]
+}
+
+fn default_options() -> DiagramOptions {
+    DiagramOptions {
+        v_min_mps: 25.0,
+        v_max_mps: 60.0,
+        intervals: 40,
+        max_step: 0.5,
+        ..DiagramOptions::default()
+    }
+}
+
+/// `configs/fig4b.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fig4bConfig {
+    /// the (τ, D) pairs
+    #[serde(default = "default_pairs")]
+    pub pairs: Vec<Pair>,
+    /// continuation and discretisation settings, shared by all pairs
+    #[serde(default = "default_options")]
+    pub continuation: DiagramOptions,
+}
+
+impl Fig4bConfig {
+    /// Checks the keys.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+        ensure(!self.pairs.is_empty(), file, "pairs", || {
+            "expected at least one (tau_s, d_s) pair".into()
+        })?;
+        for (i, p) in self.pairs.iter().enumerate() {
+            ensure(
+                p.tau_s.is_finite() && p.tau_s >= 0.0,
+                file,
+                &format!("pairs[{i}].tau_s"),
+                || format!("expected a delay τ ≥ 0 s, got {}", p.tau_s),
+            )?;
+            ensure(
+                p.d_s.is_finite() && p.d_s.abs() <= 5.0,
+                file,
+                &format!("pairs[{i}].d_s"),
+                || format!("expected a finite gain |D| ≤ 5 s, got {}", p.d_s),
+            )?;
+        }
+        validate_options(&self.continuation, file, "continuation")
+    }
+}
+
+fn label(p: &Pair) -> String {
+    if p.d_s == 0.0 {
+        "open loop".into()
+    } else {
+        format!("τ = {} s, D = {} s", p.tau_s, p.d_s)
+    }
+}
+
+fn file_stem(p: &Pair) -> String {
+    format!("cycles_tau{}_d{}", p.tau_s, p.d_s)
+}
+
+struct Fig4bTask {
+    file: PathBuf,
+    config: Fig4bConfig,
+}
+
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+    let config: Fig4bConfig = load_toml(file)?;
+    config.validate(file)?;
+    Ok(Box::new(Fig4bTask {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+/// All diagrams of the config, in its order (parallel over pairs; each diagram is
+/// deterministic, so the result does not depend on the thread count).
+///
+/// # Errors
+/// The first failing pair's error (in config order).
+pub fn diagrams(
+    model: &trailer_model::Model,
+    cfg: &Fig4bConfig,
+    progress: &dyn crate::progress::Progress,
+) -> Result<Vec<Diagram>, SwayError> {
+    let results: Vec<Result<Diagram, SwayError>> = cfg
+        .pairs
+        .par_iter()
+        .map(|p| {
+            let fb = Feedback {
+                gain_d_s: p.d_s,
+                delay_s: p.tau_s,
+            };
+            let r = bifurcation_diagram(model, fb, &cfg.continuation);
+            progress.advance(1);
+            r
+        })
+        .collect();
+    results.into_iter().collect()
+}
+
+impl Prepared for Fig4bTask {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+        let cfg = &self.config;
+        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
+        ctx.progress
+            .start("fig4b: bifurcation diagrams", cfg.pairs.len() as u64);
+        let ds = diagrams(&ctx.model, cfg, ctx.progress)?;
+        let o = &cfg.continuation;
+        let mut entries = Vec::new();
+        let mut lines = Vec::new();
+        let y_max = ds
+            .iter()
+            .flat_map(|d| d.cycle_summary.iter().map(|c| c.amplitude_deg))
+            .fold(0.0, f64::max)
+            * 1.08;
+        let mut panel = Panel::new(
+            "Closed loop δ = −D ψ̇(t − τ): cycles (max |θ|) vs speed; solid stable (sway), dashed unstable",
+            "V [m/s]",
+            "max |θ| [deg]",
+        )
+        .x_range(o.v_min_mps, o.v_max_mps)
+        .y_range(-0.03 * y_max, 1.25 * y_max)
+        .legend(Legend::UpperLeft);
+        for (i, (p, d)) in cfg.pairs.iter().zip(&ds).enumerate() {
+            let rows: Vec<[f64; 5]> = d
+                .cycle_summary
+                .iter()
+                .map(|c| {
+                    [
+                        c.speed_mps,
+                        c.amplitude_deg,
+                        c.period_s,
+                        f64::from(u8::from(c.stable)),
+                        c.max_multiplier,
+                    ]
+                })
+                .collect();
+            out.write_csv(
+                &format!("{}.csv", file_stem(p)),
+                &[
+                    "v_mps",
+                    "max_abs_theta_deg",
+                    "period_s",
+                    "stable",
+                    "max_nontrivial_multiplier",
+                ],
+                &rows,
+            )?;
+            let fold = d.fold;
+            entries.push(json!({
+                "tau_s": p.tau_s,
+                "d_s": p.d_s,
+                "hopf_v_mps": d.hopf.parameter,
+                "fold_v_mps": fold.map(|f| f.speed_mps),
+                "criticality": d.criticality.to_string(),
+                "fold_amplitude_deg": fold.map(|f| f.amplitude_deg),
+                "hopf_omega_rad_s": d.hopf.omega,
+                "bistable_range_mps": d.bistable_range().map(|(a, b)| vec![a, b]),
+                "cycle_points": d.cycle_summary.len(),
+            }));
+            lines.push(format!(
+                "fig4b {}: Hopf at {:.4} m/s ({}), fold at {}",
+                label(p),
+                d.hopf.parameter,
+                d.criticality,
+                fold.map_or("none".into(), |f| format!(
+                    "{:.4} m/s, {:.2}°",
+                    f.speed_mps, f.amplitude_deg
+                ))
+            ));
+            let color = Rgb::palette(i);
+            let (stable, unstable) = split_by_stability(d);
+            panel
+                .layers
+                .push(Layer::line(stable, color, Stroke::Solid, Some(&label(p))));
+            panel
+                .layers
+                .push(Layer::line(unstable, color, Stroke::Dashed, None));
+            panel
+                .layers
+                .push(Layer::markers(vec![(d.hopf.parameter, 0.0)], color, None));
+            if let Some(f) = fold {
+                panel.layers.push(Layer::Markers {
+                    points: vec![(f.speed_mps, f.amplitude_deg)],
+                    color,
+                    shape: Shape::Triangle,
+                    size: 6,
+                    label: None,
+                });
+            }
+        }
+        panel.layers.push(Layer::Markers {
+            points: vec![(f64::NAN, f64::NAN)],
+            color: Rgb::BLACK,
+            shape: Shape::Circle,
+            size: 4,
+            label: Some("Hopf points (straight running loses stability)".into()),
+        });
+        panel.layers.push(Layer::Markers {
+            points: vec![(f64::NAN, f64::NAN)],
+            color: Rgb::BLACK,
+            shape: Shape::Triangle,
+            size: 6,
+            label: Some("folds of cycles".into()),
+        });
+        Figure::single(panel)
+            .titled("Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback")
+            .render(&out.path("diagrams"))?;
+        let mut summary = Map::new();
+        summary.insert("pairs".into(), Value::Array(entries));
+        out.write_summary(summary, cfg, &ctx.run_info(&self.file))?;
+        ctx.progress.finish();
+        let dir = out.commit()?;
+        Ok(Report {
+            task: TASK.name.into(),
+            output_dir: dir,
+            lines,
+        })
+    }
+}

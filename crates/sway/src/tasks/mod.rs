@@ -1,0 +1,167 @@
+//! The task registry: every figure of the paper (and more) as a named task.
+//!
+//! A task runs in two steps so that a bad config stops the run before any work and
+//! before anything is written: [`Task::prepare`] loads and validates the task's config
+//! (and may precompute nothing expensive), then [`Prepared::run`] computes and writes
+//! `results/<task>/` through a staged [`OutputDir`](crate::io::OutputDir).
+
+use std::path::{Path, PathBuf};
+
+use trailer_model::{Model, VehicleParams};
+
+use crate::progress::Progress;
+use crate::{SwayError, config};
+
+pub mod fig4a;
+pub mod fig4b;
+pub mod fig3a_diagram;
+pub mod fig3a_panels;
+pub mod fig3b;
+pub mod fig4c;
+pub mod linear;
+pub mod loading;
+pub mod simulate;
+pub mod sweep;
+pub mod roots;
+
+/// What every task gets: the vehicle, where configs and results live, and a progress
+/// observer.
+pub struct TaskContext<'a> {
+    /// the vehicle file the model was loaded from
+    pub vehicle_file: PathBuf,
+    /// its parameters
+    pub vehicle: VehicleParams,
+    /// the model built from them
+    pub model: Model,
+    /// directory of the default task configs (`configs/`)
+    pub configs_dir: PathBuf,
+    /// root of the results (`results/`)
+    pub results_dir: PathBuf,
+    /// progress observer
+    pub progress: &'a dyn Progress,
+}
+
+impl std::fmt::Debug for TaskContext<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TaskContext")
+            .field("vehicle_file", &self.vehicle_file)
+            .field("configs_dir", &self.configs_dir)
+            .field("results_dir", &self.results_dir)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> TaskContext<'a> {
+    /// Loads and validates the vehicle file.
+    ///
+    /// # Errors
+    /// [`SwayError::Read`] / [`SwayError::Config`] naming the file and key.
+    pub fn new(
+        vehicle_file: &Path,
+        configs_dir: &Path,
+        results_dir: &Path,
+        progress: &'a dyn Progress,
+    ) -> Result<Self, SwayError> {
+        let (vehicle, model) = config::load_vehicle(vehicle_file)?;
+        Ok(Self {
+            vehicle_file: vehicle_file.to_path_buf(),
+            vehicle,
+            model,
+            configs_dir: configs_dir.to_path_buf(),
+            results_dir: results_dir.to_path_buf(),
+            progress,
+        })
+    }
+
+    /// The record of inputs that every summary.json carries.
+    pub fn run_info<'b>(&'b self, config_file: &'b Path) -> crate::io::RunInfo<'b> {
+        crate::io::RunInfo {
+            config_file,
+            vehicle_file: &self.vehicle_file,
+            vehicle: &self.vehicle,
+        }
+    }
+}
+
+/// What a finished task reports.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    /// task name
+    pub task: String,
+    /// where the results are
+    pub output_dir: PathBuf,
+    /// headline lines to print, e.g. `V_crit = 34.05 m/s`
+    pub lines: Vec<String>,
+}
+
+/// A task whose config has been loaded and validated.
+pub trait Prepared: Send {
+    /// Computes and writes the results.
+    ///
+    /// # Errors
+    /// Numerical failures with context, or write errors.
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError>;
+}
+
+/// Loads and validates a task's config.
+pub type PrepareFn = fn(&TaskContext<'_>, &Path) -> Result<Box<dyn Prepared>, SwayError>;
+
+/// A named task.
+#[derive(Debug, Clone, Copy)]
+pub struct Task {
+    /// the name used on the command line (`cargo xtask <name>`)
+    pub name: &'static str,
+    /// one line saying what it reproduces
+    pub about: &'static str,
+    /// its config file, relative to the configs directory
+    pub config: &'static str,
+    /// config loading and validation
+    pub prepare: PrepareFn,
+}
+
+/// Every task, in the order `all` runs them.
+pub fn registry() -> Vec<Task> {
+    vec![
+        linear::TASK,
+        loading::TASK,
+        fig3a_panels::TASK,
+        fig3b::TASK,
+        fig4a::TASK,
+        fig4b::TASK,
+        fig4c::TASK,
+        simulate::TASK,
+        sweep::TASK,
+    ]
+}
+
+/// Named groups of tasks: `fig3`, `fig4` (the panels of one figure) and `all`.
+pub fn groups() -> Vec<(&'static str, Vec<&'static str>)> {
+    let all: Vec<&'static str> = registry().iter().map(|t| t.name).collect();
+    let with_prefix = |p: &str| -> Vec<&'static str> {
+        all.iter().copied().filter(|n| n.starts_with(p)).collect()
+    };
+    vec![("fig3", with_prefix("fig3")), ("fig4", with_prefix("fig4")), ("all", all.clone())]
+}
+
+/// Resolves a task or group name to tasks.
+///
+/// # Errors
+/// [`SwayError::UnknownTask`] listing the known names.
+pub fn resolve(name: &str) -> Result<Vec<Task>, SwayError> {
+    let reg = registry();
+    if let Some(t) = reg.iter().find(|t| t.name == name) {
+        return Ok(vec![*t]);
+    }
+    if let Some((_, members)) = groups().into_iter().find(|(g, m)| *g == name && !m.is_empty()) {
+        return Ok(members
+            .iter()
+            .filter_map(|m| reg.iter().find(|t| t.name == *m).copied())
+            .collect());
+    }
+    let mut known: Vec<&str> = reg.iter().map(|t| t.name).collect();
+    known.extend(groups().iter().filter(|(_, m)| !m.is_empty()).map(|(g, _)| *g));
+    Err(SwayError::UnknownTask {
+        name: name.to_string(),
+        known: known.join(", "),
+    })
+}

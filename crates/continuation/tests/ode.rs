@@ -214,3 +214,50 @@ fn branch_saved_and_continued_later_gives_the_same_points() {
     assert_eq!(restored, br);
     assert!(br.first(SpecialKind::Hopf).is_some());
 }
+
+/// x' = p − x²: saddle-node of equilibria at p = 0, x = 0
+#[derive(Debug)]
+struct SaddleNode;
+
+impl Problem for SaddleNode {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        f[0] = p[0] - x[0] * x[0];
+    }
+    fn jacobian(&self, x: &[f64], _p: &[f64], j: &mut [f64]) {
+        j[0] = -2.0 * x[0];
+    }
+    fn dfdp(&self, _x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
+        out[0] = 1.0;
+    }
+}
+
+#[test]
+fn saddle_node_of_equilibria_is_located() {
+    // reference: x' = p − x² has equilibria x = ±√p, stable for x > 0, meeting in a fold at
+    // p = 0; the fold is located on the parameter's turning point to 1e-8 (tolerance 1e-10)
+    let c = cont(0.1, 0.2);
+    let mut eq =
+        EquilibriumSystem::new(&SaddleNode, vec![1.0], 0, ChebyshevRoots::default()).unwrap();
+    // start at x = 1, p = 1 going down in p
+    let mut dir = eq.parameter_direction();
+    dir[1] = -1.0;
+    let mut br = c.start(&mut eq, &[1.0, 1.0], &dir).unwrap();
+    c.extend(&mut eq, &mut br, 30).unwrap();
+    let (i, fold) = br.first(SpecialKind::Fold).expect("fold");
+    assert_eq!(fold.location, Location::Located);
+    assert!(fold.parameter.abs() < 1e-8, "fold at {}", fold.parameter);
+    assert!(
+        br.points[i].u[0].abs() < 1e-4,
+        "x at the fold {}",
+        br.points[i].u[0]
+    );
+    assert_eq!(br.points[i - 1].is_stable(), Some(true));
+    assert_eq!(br.points[i + 1].is_stable(), Some(false));
+    // every point lies on p = x²
+    for p in &br.points {
+        assert_relative_eq!(p.parameter, p.u[0] * p.u[0], epsilon = 1e-12);
+    }
+}

@@ -226,7 +226,9 @@ pub fn display_path(path: &Path) -> String {
     let rel = std::env::current_dir()
         .ok()
         .and_then(|cwd| path.strip_prefix(cwd).ok().map(Path::to_path_buf));
-    rel.unwrap_or_else(|| path.to_path_buf()).display().to_string()
+    rel.unwrap_or_else(|| path.to_path_buf())
+        .display()
+        .to_string()
 }
 
 /// What a summary records about the inputs of a run.

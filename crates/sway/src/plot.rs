@@ -552,10 +552,7 @@ fn draw_panel<DB: DrawingBackend>(
                         let c = *color;
                         let w = *width;
                         anno.label(l).legend(move |(x, y)| {
-                            PathElement::new(
-                                vec![(x, y), (x + 20, y)],
-                                c.rgba(1.0).stroke_width(w),
-                            )
+                            PathElement::new(vec![(x, y), (x + 20, y)], c.rgba(1.0).stroke_width(w))
                         });
                     }
                 }

@@ -12,17 +12,17 @@ use trailer_model::{Model, VehicleParams};
 use crate::progress::Progress;
 use crate::{SwayError, config};
 
-pub mod fig4a;
-pub mod fig4b;
 pub mod fig3a_diagram;
 pub mod fig3a_panels;
 pub mod fig3b;
+pub mod fig4a;
+pub mod fig4b;
 pub mod fig4c;
 pub mod linear;
 pub mod loading;
+pub mod roots;
 pub mod simulate;
 pub mod sweep;
-pub mod roots;
 
 /// What every task gets: the vehicle, where configs and results live, and a progress
 /// observer.
@@ -140,7 +140,11 @@ pub fn groups() -> Vec<(&'static str, Vec<&'static str>)> {
     let with_prefix = |p: &str| -> Vec<&'static str> {
         all.iter().copied().filter(|n| n.starts_with(p)).collect()
     };
-    vec![("fig3", with_prefix("fig3")), ("fig4", with_prefix("fig4")), ("all", all.clone())]
+    vec![
+        ("fig3", with_prefix("fig3")),
+        ("fig4", with_prefix("fig4")),
+        ("all", all.clone()),
+    ]
 }
 
 /// Resolves a task or group name to tasks.
@@ -152,14 +156,22 @@ pub fn resolve(name: &str) -> Result<Vec<Task>, SwayError> {
     if let Some(t) = reg.iter().find(|t| t.name == name) {
         return Ok(vec![*t]);
     }
-    if let Some((_, members)) = groups().into_iter().find(|(g, m)| *g == name && !m.is_empty()) {
+    if let Some((_, members)) = groups()
+        .into_iter()
+        .find(|(g, m)| *g == name && !m.is_empty())
+    {
         return Ok(members
             .iter()
             .filter_map(|m| reg.iter().find(|t| t.name == *m).copied())
             .collect());
     }
     let mut known: Vec<&str> = reg.iter().map(|t| t.name).collect();
-    known.extend(groups().iter().filter(|(_, m)| !m.is_empty()).map(|(g, _)| *g));
+    known.extend(
+        groups()
+            .iter()
+            .filter(|(_, m)| !m.is_empty())
+            .map(|(g, _)| *g),
+    );
     Err(SwayError::UnknownTask {
         name: name.to_string(),
         known: known.join(", "),

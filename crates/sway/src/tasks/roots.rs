@@ -1,6 +1,7 @@
 //! `cargo xtask roots --v V --d D --tau τ [--count N]`: the N rightmost characteristic roots of
 //! the closed loop (eq. 13) at one point, one `<re> <im>` line each, sorted by decreasing real
-//! part, conjugates both listed. Roots are Newton-polished on the exact quasi-polynomial
+//! part, conjugates both listed (a pair is never split: if the N-th root is complex, its
+//! conjugate is printed as well). Roots are Newton-polished on the exact quasi-polynomial
 //! (relative accuracy ~1e-14, well inside the promised 1e-9).
 
 use stability::Complex64;
@@ -42,7 +43,15 @@ pub fn roots(
     if count == 0 {
         return Err(arg("--count", "expected at least 1".into()));
     }
-    crate::charts::rightmost_roots(model, speed, gain, delay, count)
+    // one more root than asked, so that a conjugate pair is never split: if the N-th
+    // root is complex, its conjugate is listed too (N + 1 lines)
+    let mut r = crate::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
+    if r.len() > count {
+        let (last, next) = (r[count - 1], r[count]);
+        let pair = last.im != 0.0 && (next - last.conj()).norm() <= 1e-9 * last.norm().max(1.0);
+        r.truncate(if pair { count + 1 } else { count });
+    }
+    Ok(r)
 }
 
 /// Formats roots as `<re> <im>` lines (shortest round-trip representation of each number).
@@ -65,16 +74,20 @@ mod tests {
         // with complex 4×4 determinants; tolerance relative to the size of its terms
         let m = Model::new(VehicleParams::default()).unwrap();
         let (v, d, tau) = (35.0, 0.1, 0.2);
+        // the 6th root is complex here, so its conjugate is listed as a 7th
         let r = roots(&m, v, d, tau, 6).unwrap();
-        assert_eq!(r.len(), 6);
+        assert_eq!(r.len(), 7);
         for w in r.windows(2) {
             assert!(w[0].re >= w[1].re);
         }
-        for pair in r.chunks(2) {
-            if pair[0].im != 0.0 {
-                assert_eq!(pair[0], pair[1].conj());
-            }
+        for l in &r {
+            assert!(r.iter().any(|k| *k == l.conj()), "conjugate of {l} missing");
         }
+        assert_eq!(
+            roots(&m, v, d, tau, 5).unwrap().len(),
+            5,
+            "5th root is real"
+        );
         let lin = m.linearize(v);
         for l in &r {
             let e = (-l * tau).exp() * d;
@@ -91,7 +104,7 @@ mod tests {
             );
         }
         let text = format_roots(&r);
-        assert_eq!(text.lines().count(), 6);
+        assert_eq!(text.lines().count(), 7);
         let back: f64 = text
             .lines()
             .next()

@@ -551,8 +551,18 @@ fn draw_panel<DB: DrawingBackend>(
                         any_label = true;
                         let c = *color;
                         let w = *width;
+                        // the legend swatch shows the stroke: four segments in a 20 px line
+                        let segments: [(i32, i32); 4] = match stroke {
+                            Stroke::Solid => [(0, 20); 4],
+                            Stroke::Dashed => [(0, 8), (0, 8), (12, 20), (12, 20)],
+                            Stroke::Dotted => [(0, 2), (6, 8), (12, 14), (18, 20)],
+                        };
                         anno.label(l).legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 20, y)], c.rgba(1.0).stroke_width(w))
+                            let seg = |k: usize| {
+                                let (a, b) = segments[k];
+                                PathElement::new(vec![(a, 0), (b, 0)], c.rgba(1.0).stroke_width(w))
+                            };
+                            EmptyElement::at((x, y)) + seg(0) + seg(1) + seg(2) + seg(3)
                         });
                     }
                 }

@@ -357,7 +357,7 @@ impl Prepared for Fig4aTask {
         let cols = if n <= 1 { 1 } else { 2 };
         let rows = n.div_ceil(cols);
         Figure::grid(panels, rows, cols, (1200, 450 * rows as u32))
-            .titled("Stability of straight running under δ(t) = −D·ψ̇(t − τ)")
+            .titled("Stability of straight running under yaw-rate feedback δ(t) = −D·dψ/dt(t − τ)")
             .render(&out.path("fig4a"))?;
         ctx.progress.advance(1);
 

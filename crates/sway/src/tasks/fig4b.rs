@@ -177,7 +177,7 @@ impl Prepared for Fig4bTask {
             .fold(0.0, f64::max)
             * 1.08;
         let mut panel = Panel::new(
-            "Closed loop δ = −D ψ̇(t − τ): cycles (max |θ|) vs speed; solid stable (sway), dashed unstable",
+            "Closed loop δ(t) = −D·dψ/dt(t − τ): cycles (max |θ|) vs speed; solid stable (sway), dashed unstable",
             "V [m/s]",
             "max |θ| [deg]",
         )

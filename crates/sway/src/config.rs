@@ -83,6 +83,41 @@ pub fn ensure(
     }
 }
 
+/// `value` must be finite and > 0 (`what` names the unit or meaning, e.g. "a horizon > 0 s").
+///
+/// # Errors
+/// [`SwayError::Config`] naming `key`.
+pub fn ensure_positive(value: f64, file: &Path, key: &str, what: &str) -> Result<(), SwayError> {
+    ensure(value.is_finite() && value > 0.0, file, key, || {
+        format!("expected {what}, got {value}")
+    })
+}
+
+/// A simulated time span: `horizon` > 0 s and an output step in (0, horizon]; keys are
+/// `<prefix>horizon_s` and `<prefix>output_step_s`.
+///
+/// # Errors
+/// [`SwayError::Config`] naming the key.
+pub fn ensure_time_span(
+    horizon: f64,
+    output_step: f64,
+    file: &Path,
+    prefix: &str,
+) -> Result<(), SwayError> {
+    ensure_positive(
+        horizon,
+        file,
+        &format!("{prefix}horizon_s"),
+        "a horizon > 0 s",
+    )?;
+    ensure(
+        output_step > 0.0 && output_step <= horizon,
+        file,
+        &format!("{prefix}output_step_s"),
+        || format!("expected 0 < output_step_s <= horizon_s, got {output_step}"),
+    )
+}
+
 /// A uniform grid `[min, max]` with `points` points, as written in task configs.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]

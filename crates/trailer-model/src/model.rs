@@ -275,15 +275,30 @@ impl Model {
         u: &Inputs<D>,
         k: &Kinematics<D>,
     ) -> SlipAngles<D> {
+        let t = self.slip_tangents(x, u, k);
+        SlipAngles {
+            front: t.front,
+            rear: t.rear.atan(),
+            trailer: t.trailer.atan(),
+        }
+    }
+
+    /// α_F itself, and tan α_R, tan α_T: the ratios of eq. (2) in body-frame form.
+    /// The brush model is a polynomial in tan α, so the forces need no atan/tan pair.
+    fn slip_tangents<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+        k: &Kinematics<D>,
+    ) -> SlipAngles<D> {
         let v = u.speed;
         let s1 = x[0];
         let (sn, cs) = (k.sin_theta, k.cos_theta);
         SlipAngles {
             front: u.steering_angle - ((s1 + k.yaw_rate * self.f) / v).atan(),
-            rear: -((s1 + k.yaw_rate * self.c) / v).atan(),
-            trailer: -((-v * sn + s1 * cs - (k.yaw_rate + k.hitch_angle_rate) * self.l)
-                / (v * cs + s1 * sn))
-                .atan(),
+            rear: -(s1 + k.yaw_rate * self.c) / v,
+            trailer: -(-v * sn + s1 * cs - (k.yaw_rate + k.hitch_angle_rate) * self.l)
+                / (v * cs + s1 * sn),
         }
     }
 
@@ -302,19 +317,11 @@ impl Model {
         u: &Inputs<D>,
         k: &Kinematics<D>,
     ) -> SlipAngles<D> {
-        // Same slip angles as `slip_angles_with`, but the rear and trailer forces take
-        // tan α = −(ratio) directly (the brush model is a polynomial in tan α).
-        let v = u.speed;
-        let s1 = x[0];
-        let (sn, cs) = (k.sin_theta, k.cos_theta);
-        let front = u.steering_angle - ((s1 + k.yaw_rate * self.f) / v).atan();
-        let tan_rear = -(s1 + k.yaw_rate * self.c) / v;
-        let tan_trailer =
-            -(-v * sn + s1 * cs - (k.yaw_rate + k.hitch_angle_rate) * self.l) / (v * cs + s1 * sn);
+        let t = self.slip_tangents(x, u, k);
         SlipAngles {
-            front: self.front_tire.lateral_force(front),
-            rear: self.rear_tire.lateral_force_from_tan(tan_rear),
-            trailer: self.trailer_tire.lateral_force_from_tan(tan_trailer),
+            front: self.front_tire.lateral_force(t.front),
+            rear: self.rear_tire.lateral_force_from_tan(t.rear),
+            trailer: self.trailer_tire.lateral_force_from_tan(t.trailer),
         }
     }
 

@@ -16,7 +16,7 @@ use serde_json::{Map, Value, json};
 use super::fig3a_diagram::{DiagramConfig, run_diagram};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::SwayError;
-use crate::config::{ensure, load_toml};
+use crate::config::{ensure, ensure_positive, ensure_time_span, load_toml};
 use crate::io::OutputDir;
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::sim::report::{
@@ -81,11 +81,11 @@ impl PanelsConfig {
     /// # Errors
     /// [`SwayError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
-        ensure(
-            self.speed_mps.is_finite() && self.speed_mps > 0.0,
+        ensure_positive(
+            self.speed_mps,
             file,
             &format!("{prefix}.speed_mps"),
-            || format!("expected a speed > 0 m/s, got {}", self.speed_mps),
+            "a speed > 0 m/s",
         )?;
         ensure(
             !self.theta0_deg.is_empty()
@@ -102,22 +102,11 @@ impl PanelsConfig {
                 )
             },
         )?;
-        ensure(
-            self.horizon_s.is_finite() && self.horizon_s > 0.0,
+        ensure_time_span(
+            self.horizon_s,
+            self.output_step_s,
             file,
-            &format!("{prefix}.horizon_s"),
-            || format!("expected a horizon > 0 s, got {}", self.horizon_s),
-        )?;
-        ensure(
-            self.output_step_s > 0.0 && self.output_step_s <= self.horizon_s,
-            file,
-            &format!("{prefix}.output_step_s"),
-            || {
-                format!(
-                    "expected 0 < output_step_s <= horizon_s, got {}",
-                    self.output_step_s
-                )
-            },
+            &format!("{prefix}."),
         )?;
         self.solver
             .validate()

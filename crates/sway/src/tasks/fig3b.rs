@@ -9,7 +9,7 @@ use serde_json::{Map, Value, json};
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::SwayError;
-use crate::config::{ensure, load_toml};
+use crate::config::{ensure, ensure_positive, ensure_time_span, load_toml};
 use crate::io::OutputDir;
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::sim::report::{
@@ -55,11 +55,11 @@ impl SwayStart {
     /// # Errors
     /// [`SwayError::Config`].
     pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
-        ensure(
-            self.speed_mps.is_finite() && self.speed_mps > 0.0,
+        ensure_positive(
+            self.speed_mps,
             file,
             &format!("{prefix}.speed_mps"),
-            || format!("expected a speed > 0 m/s, got {}", self.speed_mps),
+            "a speed > 0 m/s",
         )?;
         ensure(
             self.settle_s.is_finite() && self.settle_s >= 0.0,
@@ -116,12 +116,7 @@ struct Fig3bTask {
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
     let c: Fig3bConfig = load_toml(file)?;
     c.start.validate(file, "start")?;
-    ensure(
-        c.horizon_s.is_finite() && c.horizon_s > 0.0,
-        file,
-        "horizon_s",
-        || format!("expected a horizon > 0 s, got {}", c.horizon_s),
-    )?;
+    ensure_time_span(c.horizon_s, c.output_step_s, file, "")?;
     ensure(
         c.brake_start_s.is_finite() && (0.0..c.horizon_s).contains(&c.brake_start_s),
         file,
@@ -155,17 +150,6 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
             format!(
                 "expected a list of durations > 0 s, got {:?}",
                 c.brake_durations_s
-            )
-        },
-    )?;
-    ensure(
-        c.output_step_s > 0.0 && c.output_step_s <= c.horizon_s,
-        file,
-        "output_step_s",
-        || {
-            format!(
-                "expected 0 < output_step_s <= horizon_s, got {}",
-                c.output_step_s
             )
         },
     )?;

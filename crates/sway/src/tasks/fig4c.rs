@@ -11,7 +11,7 @@ use serde_json::{Map, Value, json};
 use super::fig3b::SwayStart;
 use super::{Prepared, Report, Task, TaskContext};
 use crate::SwayError;
-use crate::config::{ensure, load_toml};
+use crate::config::{ensure, ensure_time_span, load_toml};
 use crate::io::OutputDir;
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::sim::report::{
@@ -130,28 +130,12 @@ struct Fig4cTask {
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
     let c: Fig4cConfig = load_toml(file)?;
     c.start.validate(file, "start")?;
-    ensure(
-        c.horizon_s.is_finite() && c.horizon_s > 0.0,
-        file,
-        "horizon_s",
-        || format!("expected a horizon > 0 s, got {}", c.horizon_s),
-    )?;
+    ensure_time_span(c.horizon_s, c.output_step_s, file, "")?;
     ensure(
         c.action_s.is_finite() && (0.0..c.horizon_s).contains(&c.action_s),
         file,
         "action_s",
         || format!("expected 0 <= action_s < horizon_s, got {}", c.action_s),
-    )?;
-    ensure(
-        c.output_step_s > 0.0 && c.output_step_s <= c.horizon_s,
-        file,
-        "output_step_s",
-        || {
-            format!(
-                "expected 0 < output_step_s <= horizon_s, got {}",
-                c.output_step_s
-            )
-        },
     )?;
     {
         // the combined strategy has both the braking and the steering of the others

@@ -133,27 +133,6 @@ pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result
 }
 
 impl DiagramConfig {
-    /// Reads the section from the `[diagram]` table of `configs/fig3a.toml` (defaults if absent).
-    ///
-    /// # Errors
-    /// [`SwayError::Config`] naming the file and key.
-    pub fn from_table(table: Option<&toml::Table>, file: &Path) -> Result<Self, SwayError> {
-        let cfg: Self = match table {
-            None => Self::default(),
-            Some(t) => crate::config::parse_toml(&toml::to_string(t).unwrap_or_default(), file)
-                .map_err(|e| match e {
-                    SwayError::Config { file, key, problem } => SwayError::Config {
-                        file,
-                        key: format!("diagram.{key}"),
-                        problem,
-                    },
-                    other => other,
-                })?,
-        };
-        cfg.validate(file, "diagram")?;
-        Ok(cfg)
-    }
-
     /// Checks the keys (`prefix` is the section's key path).
     ///
     /// # Errors

@@ -114,16 +114,16 @@ impl PanelsConfig {
     }
 }
 
-/// `configs/fig3a.toml`: the `[panels]` section is this task's; `[diagram]` belongs to the
-/// bifurcation diagram and is passed through untouched.
+/// `configs/fig3a.toml`: `[panels]` for the time panels, `[diagram]` for the bifurcation
+/// diagram (defaults when absent).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Fig3aConfig {
     /// time panels
     pub panels: PanelsConfig,
-    /// the bifurcation diagram's settings (not read here)
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub diagram: Option<toml::Table>,
+    /// the bifurcation diagram
+    #[serde(default)]
+    pub diagram: DiagramConfig,
 }
 
 /// The key of a panel in `"time_panels"`: `theta0_2deg`, `theta0_8deg`, `theta0_2.5deg`.
@@ -235,17 +235,15 @@ pub fn run_panels(
 struct Fig3aTask {
     file: PathBuf,
     config: Fig3aConfig,
-    diagram: DiagramConfig,
 }
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
     let config: Fig3aConfig = load_toml(file)?;
     config.panels.validate(file, "panels")?;
-    let diagram = DiagramConfig::from_table(config.diagram.as_ref(), file)?;
+    config.diagram.validate(file, "diagram")?;
     Ok(Box::new(Fig3aTask {
         file: file.to_path_buf(),
         config,
-        diagram,
     }))
 }
 
@@ -254,7 +252,7 @@ impl Prepared for Fig3aTask {
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress
             .start("fig3a: bifurcation diagram and time panels", 2);
-        let (mut summary, diagram_panel, mut lines) = run_diagram(ctx, &self.diagram, &out)?;
+        let (mut summary, diagram_panel, mut lines) = run_diagram(ctx, &self.config.diagram, &out)?;
         ctx.progress.advance(1);
         let (entry, panels, panel_lines) = run_panels(ctx, &self.config.panels, &out)?;
         ctx.progress.advance(1);

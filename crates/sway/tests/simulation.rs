@@ -439,3 +439,39 @@ fn shipped_configs_load_and_validate() {
     c.validate(&f).unwrap();
     assert!(c.len() >= 64 * 16);
 }
+
+#[test]
+fn brake_timing_sweep_reproduces_fig3b_and_fig4c_points() {
+    // Reference: the committed fig3b / fig4c results (7-state simulations through
+    // `simulate`, summary.json): braking 10 m/s over T = 5 s from the sway cycle at 35 m/s
+    // is ok when it starts at t_b = 2 s (peak 70.831°) and ends in loss of control when it
+    // starts at t_b = 10 s (at 14.695 s). The sweep runs the 4-state model: agreement to
+    // tolerance level (1e-3° in angle, 1e-3 s in time).
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
+    let f = root.join("sweep_brake_timing.toml");
+    let mut cfg: SweepConfig = sway::config::load_toml(&f).unwrap();
+    cfg.validate(&f).unwrap();
+    cfg.axes[0].min = 2.0;
+    cfg.axes[0].max = 10.0;
+    cfg.axes[0].points = 2;
+    cfg.axes[1].min = 5.0;
+    cfg.axes[1].max = 6.0;
+    cfg.axes[1].points = 2;
+    let m = model();
+    let at = |tb: f64, t: f64| {
+        let k = (0..cfg.len())
+            .find(|&k| cfg.point(k) == vec![tb, t])
+            .expect("grid point");
+        run_point(&m, &cfg, k).metrics.expect("runs")
+    };
+    let early = at(2.0, 5.0);
+    assert_eq!(early.outcome, Outcome::Ok);
+    assert_abs_diff_eq!(
+        early.peak_theta_deg_after_action.unwrap(),
+        70.831,
+        epsilon = 1e-3
+    );
+    let late = at(10.0, 5.0);
+    assert_eq!(late.outcome, Outcome::LossOfControl);
+    assert_abs_diff_eq!(late.loss_of_control_time_s.unwrap(), 14.695, epsilon = 1e-3);
+}

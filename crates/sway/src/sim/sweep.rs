@@ -34,6 +34,9 @@ pub enum SweepParameter {
     DelayS,
     /// T [s]: duration of the braking ramp
     RampDurationS,
+    /// t_b [s]: when the braking ramp starts (with a sway-cycle start: the sway phase at
+    /// which braking begins)
+    BrakeStartS,
 }
 
 impl SweepParameter {
@@ -45,6 +48,7 @@ impl SweepParameter {
             SweepParameter::GainS => "gain_s",
             SweepParameter::DelayS => "delay_s",
             SweepParameter::RampDurationS => "ramp_duration_s",
+            SweepParameter::BrakeStartS => "brake_start_s",
         }
     }
 
@@ -56,6 +60,7 @@ impl SweepParameter {
             SweepParameter::GainS => "D [s]",
             SweepParameter::DelayS => "τ [s]",
             SweepParameter::RampDurationS => "braking time T [s]",
+            SweepParameter::BrakeStartS => "braking start t_b [s]",
         }
     }
 }
@@ -296,6 +301,10 @@ fn apply(base: &BaseScenario, p: SweepParameter, v: f64) -> Result<BaseScenario,
         SweepParameter::RampDurationS => match &mut s.speed {
             SpeedProfile::Ramp { duration_s, .. } => *duration_s = v,
             _ => return Err("ramp_duration_s needs a ramp speed profile in [base.speed]".into()),
+        },
+        SweepParameter::BrakeStartS => match &mut s.speed {
+            SpeedProfile::Ramp { start_s, .. } => *start_s = v,
+            _ => return Err("brake_start_s needs a ramp speed profile in [base.speed]".into()),
         },
     }
     Ok(s)

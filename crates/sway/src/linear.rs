@@ -4,7 +4,7 @@
 
 use nalgebra::Complex;
 use serde::{Deserialize, Serialize};
-use trailer_model::{CriticalSpeed, CriticalSpeedOptions, Model, PARAMETERS, VehicleParams};
+use trailer_model::{CriticalSpeedOptions, Model, PARAMETERS, VehicleParams};
 
 use crate::SwayError;
 
@@ -176,15 +176,4 @@ pub fn v_crit_curve(
 /// Index of a parameter of [`PARAMETERS`] by its paper symbol.
 pub fn parameter_index(symbol: &str) -> Option<usize> {
     PARAMETERS.iter().position(|&(_, s, _)| s == symbol)
-}
-
-/// The open-loop critical speed with the default search options.
-///
-/// # Errors
-/// [`SwayError::Model`] if there is no sign change in the searched range.
-pub fn critical_speed(
-    model: &Model,
-    opts: &CriticalSpeedOptions,
-) -> Result<CriticalSpeed, SwayError> {
-    Ok(model.critical_speed(opts)?)
 }

@@ -34,8 +34,6 @@ impl Rgb {
     pub const BLACK: Rgb = Rgb(0, 0, 0);
     /// reference lines
     pub const GREY: Rgb = Rgb(127, 127, 127);
-    /// a fifth series colour
-    pub const PURPLE: Rgb = Rgb(148, 103, 189);
 
     /// The i-th colour of a qualitative palette.
     pub fn palette(i: usize) -> Rgb {

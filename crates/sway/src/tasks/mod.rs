@@ -131,6 +131,7 @@ pub fn registry() -> Vec<Task> {
         fig4c::TASK,
         simulate::TASK,
         sweep::TASK,
+        sweep::BRAKE_TIMING,
     ]
 }
 

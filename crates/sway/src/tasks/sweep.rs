@@ -22,6 +22,15 @@ pub const TASK: Task = Task {
     prepare,
 };
 
+/// The same sweep runner on `configs/sweep_brake_timing.toml`: when braking from sway
+/// loses control (beyond the paper), so that `cargo xtask all` regenerates it too.
+pub const BRAKE_TIMING: Task = Task {
+    name: "brake_timing",
+    about: "sweep of braking start t_b × duration T from sway: where braking loses control (beyond the paper)",
+    config: "sweep_brake_timing.toml",
+    prepare,
+};
+
 struct SweepTask {
     file: PathBuf,
     config: SweepConfig,

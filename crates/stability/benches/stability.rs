@@ -5,35 +5,13 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use nalgebra::{Matrix4, RowVector4, Vector4};
 use stability::{
-    Axis, ChartOptions, ChebyshevCollocation, RankOneFeedback, RootOptions, SemiDiscretisation,
-    StabilityError, stability_charts,
+    Axis, ChartOptions, ChebyshevCollocation, RootOptions, SemiDiscretisation, stability_charts,
 };
 
-fn test_loop(v: f64) -> Result<RankOneFeedback, StabilityError> {
-    let a = Matrix4::new(
-        0.0,
-        1.0,
-        0.0,
-        0.0, //
-        -4.0,
-        0.2 - 0.05 * v,
-        1.0,
-        0.0, //
-        0.0,
-        0.0,
-        0.0,
-        1.0, //
-        1.5,
-        0.0,
-        -9.0,
-        -0.6,
-    );
-    let b = Vector4::new(0.0, 1.0, 0.0, 0.5);
-    let c = RowVector4::new(0.3, 1.0, 0.0, -0.4);
-    RankOneFeedback::from_state_space(&a, &b, &c)
-}
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::test_loop;
 
 fn point(c: &mut Criterion) {
     let sys = test_loop(5.0).unwrap();

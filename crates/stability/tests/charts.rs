@@ -1,33 +1,9 @@
 //! Stability charts against point-wise confirmed roots, and determinism.
 
-use nalgebra::{Matrix4, RowVector4, Vector4};
-use stability::{
-    Axis, ChartOptions, RankOneFeedback, RootOptions, StabilityError, stability_charts,
-};
+use stability::{Axis, ChartOptions, RootOptions, StabilityError, stability_charts};
 
-fn test_loop(v: f64) -> Result<RankOneFeedback, StabilityError> {
-    let a = Matrix4::new(
-        0.0,
-        1.0,
-        0.0,
-        0.0, //
-        -4.0,
-        0.2 - 0.05 * v,
-        1.0,
-        0.0, //
-        0.0,
-        0.0,
-        0.0,
-        1.0, //
-        1.5,
-        0.0,
-        -9.0,
-        -0.6,
-    );
-    let b = Vector4::new(0.0, 1.0, 0.0, 0.5);
-    let c = RowVector4::new(0.3, 1.0, 0.0, -0.4);
-    RankOneFeedback::from_state_space(&a, &b, &c)
-}
+mod common;
+use common::test_loop;
 
 fn axes() -> (Axis, Axis) {
     (

@@ -1,37 +1,14 @@
 //! Cross-checks of the root finders against analytic results and against each other.
 
 use approx::assert_relative_eq;
-use nalgebra::{DMatrix, Matrix1, Matrix4, Vector4};
+use nalgebra::{DMatrix, Matrix1};
 use stability::{
     ChebyshevCollocation, Complex64, LinearDde, NewtonOptions, RankOneFeedback, RootOptions,
     SemiDiscretisation, rightmost_roots, sort_rightmost,
 };
 
-/// A 4-state test loop: two coupled oscillators, the first with parameter-dependent damping
-/// (unstable for v > 4), single input into the first, output a mix of velocities.
-pub fn test_loop(v: f64) -> (Matrix4<f64>, Vector4<f64>, nalgebra::RowVector4<f64>) {
-    let a = Matrix4::new(
-        0.0,
-        1.0,
-        0.0,
-        0.0, //
-        -4.0,
-        0.2 - 0.05 * v,
-        1.0,
-        0.0, //
-        0.0,
-        0.0,
-        0.0,
-        1.0, //
-        1.5,
-        0.0,
-        -9.0,
-        -0.6,
-    );
-    let b = Vector4::new(0.0, 1.0, 0.0, 0.5);
-    let c = nalgebra::RowVector4::new(0.3, 1.0, 0.0, -0.4);
-    (a, b, c)
-}
+mod common;
+use common::test_system as test_loop;
 
 fn eig(m: &DMatrix<f64>) -> Vec<Complex64> {
     let f = faer::Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)]);

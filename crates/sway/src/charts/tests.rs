@@ -147,75 +147,46 @@ fn semi_discretisation_of_the_model_converges_to_polished_roots() {
     assert!(e80 < 1e-3 * exact.norm());
 }
 
-#[test]
-fn model_chart_cells_match_pointwise_roots() {
-    // reference: at every cell of a coarse Fig. 4(a) chart, the confirmed rightmost roots of the
-    // spectral method polished by Newton (independent of the cell-to-cell tracking and of the
-    // crossing count). Spectral abscissa to 1e-9 relative, unstable count exactly.
-    let m = model();
-    let speed = Axis {
-        min: 0.0,
-        max: 60.0,
-        count: 24,
-    };
-    let gain = Axis {
-        min: -0.5,
-        max: 0.5,
-        count: 20,
-    };
-    let charts = fig4a_charts(
-        &m,
-        &[0.0, 0.1, 0.2, 0.4],
-        speed,
-        gain,
-        &ChartOptions::default(),
-    )
-    .unwrap();
-    for ch in &charts {
-        assert!(ch.failures.is_empty(), "{:?}", ch.failures);
-        for (iv, &v) in ch.v.iter().enumerate() {
-            let sys = closed_loop(&m, v).unwrap();
-            for (id, &d) in ch.d.iter().enumerate() {
-                let cell = ch.cell(iv, id);
-                let n = cell.unstable_roots as usize;
-                let r = sys
-                    .rightmost_roots(d, ch.tau, n + 2, &RootOptions::default())
-                    .unwrap();
+/// Cells of column `iv` whose spectral abscissa (to 1e-9 relative) or unstable count
+/// (exactly) differ from the confirmed rightmost roots at that point: the spectral method
+/// polished by Newton, independent of the chart's cell-to-cell tracking and crossing count.
+fn column_mismatches(m: &Model, ch: &StabilityChart, iv: usize) -> Vec<String> {
+    let v = ch.v[iv];
+    let sys = closed_loop(m, v).unwrap();
+    let mut out = Vec::new();
+    for (id, &d) in ch.d.iter().enumerate() {
+        let cell = ch.cell(iv, id);
+        let n = cell.unstable_roots as usize;
+        match sys.rightmost_roots(d, ch.tau, n + 2, &RootOptions::default()) {
+            Ok(r) => {
                 let diff = (cell.spectral_abscissa - r[0].re).abs();
-                assert!(
-                    diff < 1e-9 * r[0].norm().max(1.0),
-                    "τ={} V={v} D={d}: {} vs {}",
-                    ch.tau,
-                    cell.spectral_abscissa,
-                    r[0]
-                );
-                assert_eq!(
-                    n,
-                    r.iter().filter(|z| z.re > 0.0).count(),
-                    "τ={} V={v} D={d}",
-                    ch.tau
-                );
+                let m2 = r.iter().filter(|z| z.re > 0.0).count();
+                if diff > 1e-9 * r[0].norm().max(1.0) || m2 != n {
+                    out.push(format!(
+                        "V={v} D={d}: sa {} vs {} ; n {n} vs {m2}",
+                        cell.spectral_abscissa, r[0]
+                    ));
+                }
             }
+            Err(e) => out.push(format!("V={v} D={d}: {e}")),
         }
     }
+    out
 }
 
-/// The whole default Fig. 4(a) grid (4 × 300 × 200 cells) against point-wise confirmed roots.
-/// Heavy (≈ 1 min in release on 2 cores): `cargo test --release -p sway -- --ignored full_default`.
-#[test]
-#[ignore = "heavy: run in release with --ignored"]
-fn full_default_chart_matches_pointwise_roots() {
+/// Checks every cell of Fig. 4(a) charts on a `count_v × count_d` grid.
+fn assert_charts_match_pointwise_roots(count_v: usize, count_d: usize) {
     use rayon::prelude::*;
     let m = model();
     let speed = Axis {
         min: 0.0,
         max: 60.0,
-        count: 300,
+        count: count_v,
     };
     let gain = Axis {
         min: -0.5,
         max: 0.5,
-        count: 200,
+        count: count_d,
     };
     let charts = fig4a_charts(
         &m,
@@ -228,29 +199,7 @@ fn full_default_chart_matches_pointwise_roots() {
     for ch in &charts {
         let bad: Vec<String> = (0..ch.v.len())
             .into_par_iter()
-            .flat_map(|iv| {
-                let v = ch.v[iv];
-                let sys = closed_loop(&m, v).unwrap();
-                let mut out = Vec::new();
-                for (id, &d) in ch.d.iter().enumerate() {
-                    let cell = ch.cell(iv, id);
-                    let n = cell.unstable_roots as usize;
-                    match sys.rightmost_roots(d, ch.tau, n + 2, &RootOptions::default()) {
-                        Ok(r) => {
-                            let diff = (cell.spectral_abscissa - r[0].re).abs();
-                            let m2 = r.iter().filter(|z| z.re > 0.0).count();
-                            if diff > 1e-9 * r[0].norm().max(1.0) || m2 != n {
-                                out.push(format!(
-                                    "V={v} D={d}: sa {} vs {} ; n {n} vs {m2}",
-                                    cell.spectral_abscissa, r[0]
-                                ));
-                            }
-                        }
-                        Err(e) => out.push(format!("V={v} D={d}: {e}")),
-                    }
-                }
-                out
-            })
+            .flat_map(|iv| column_mismatches(&m, ch, iv))
             .collect();
         assert!(ch.failures.is_empty(), "τ={}: {:?}", ch.tau, ch.failures);
         assert!(
@@ -261,4 +210,19 @@ fn full_default_chart_matches_pointwise_roots() {
             &bad[..bad.len().min(5)]
         );
     }
+}
+
+#[test]
+fn model_chart_cells_match_pointwise_roots() {
+    // reference: at every cell of a coarse Fig. 4(a) chart (4 delays, 24 × 20 cells), the
+    // confirmed rightmost roots; spectral abscissa to 1e-9 relative, unstable count exactly.
+    assert_charts_match_pointwise_roots(24, 20);
+}
+
+/// The whole default Fig. 4(a) grid (4 × 300 × 200 cells) against point-wise confirmed roots.
+/// Heavy (≈ 1 min in release on 2 cores): `cargo test --release -p sway -- --ignored full_default`.
+#[test]
+#[ignore = "heavy: run in release with --ignored"]
+fn full_default_chart_matches_pointwise_roots() {
+    assert_charts_match_pointwise_roots(300, 200);
 }

@@ -16,7 +16,9 @@
 /// Values outside the model's domain should be returned as NaN; the solvers then report
 /// [`crate::Error::NonFinite`].
 ///
-/// The delays may depend on parameters, but not on the free (continuation) parameter.
+/// The delays may depend on parameters. A delay that depends on a free (continuation)
+/// parameter must report that dependence through [`Problem::delay_dp`], so that the
+/// defining systems can differentiate x(t − τ(p)) exactly.
 pub trait Problem {
     /// state dimension n
     fn dim(&self) -> usize;
@@ -26,6 +28,11 @@ pub trait Problem {
     }
     /// delay τ_j (> 0) for the parameters p [time units of the model]
     fn delay(&self, _j: usize, _p: &[f64]) -> f64 {
+        0.0
+    }
+    /// derivative ∂τ_j/∂p_ip of delay j with respect to parameter `ip` (0 when the delay
+    /// does not depend on it, the default) [time units per parameter unit]
+    fn delay_dp(&self, _j: usize, _p: &[f64], _ip: usize) -> f64 {
         0.0
     }
     /// right-hand side f(args; p) written to `f` (length n)

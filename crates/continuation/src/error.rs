@@ -64,6 +64,16 @@ pub enum Error {
     /// Wrong sizes or options.
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// The problem does not provide a derivative a defining system needs.
+    #[error(
+        "the problem does not provide `{what}`, which this defining system needs; implement it \
+         exactly (e.g. with nested dual numbers) or opt in to finite differences with the \
+         crate's `fd_*` helpers"
+    )]
+    MissingDerivative {
+        /// the missing `Problem` method
+        what: &'static str,
+    },
     /// A branch has no points to continue from.
     #[error("the branch is empty: start it with `Continuation::start` before extending it")]
     EmptyBranch,

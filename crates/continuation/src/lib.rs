@@ -87,7 +87,7 @@ pub use equilibrium::{
 pub use error::{Error, Result};
 pub use linalg::Entry;
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
-pub use problem::{Problem, fd_dfdp, fd_jacobian};
+pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
 pub use stability::{Criticality, Location, SpecialKind, SpecialPoint, SpectrumKind, Stability};
 
 /// Criticality of a Hopf bifurcation from the computed cycle branch: subcritical if the

@@ -41,6 +41,41 @@ pub trait Problem {
     fn jacobian(&self, args: &[f64], p: &[f64], jac: &mut [f64]);
     /// derivative ∂f/∂p_ip written to `out` (length n)
     fn dfdp(&self, args: &[f64], p: &[f64], ip: usize, out: &mut [f64]);
+    /// Second derivative of f along two directions of the stacked arguments:
+    /// `out = Σ_jk ∂²f/∂args_j∂args_k · a_j · b_k` (length n; `a`, `b` of length n·(k+1)).
+    ///
+    /// Needed by the codimension-one defining systems (Hopf and fold curves, folds of
+    /// cycles), whose Jacobians contain derivatives of ∂f/∂x. Exact values are expected
+    /// (e.g. nested dual numbers); [`fd_second_derivative`] is the explicit finite-difference
+    /// fallback. The default reports [`crate::Error::MissingDerivative`].
+    fn second_derivative(
+        &self,
+        _args: &[f64],
+        _p: &[f64],
+        _a: &[f64],
+        _b: &[f64],
+        _out: &mut [f64],
+    ) -> crate::Result<()> {
+        Err(crate::Error::MissingDerivative {
+            what: "second_derivative",
+        })
+    }
+    /// Mixed derivative of f: `out = Σ_j ∂²f/∂args_j∂p_ip · a_j` (length n), i.e. the
+    /// derivative of the Jacobian with respect to parameter `ip` applied to `a`.
+    /// [`fd_jacobian_dp`] is the explicit finite-difference fallback. The default reports
+    /// [`crate::Error::MissingDerivative`].
+    fn jacobian_dp(
+        &self,
+        _args: &[f64],
+        _p: &[f64],
+        _ip: usize,
+        _a: &[f64],
+        _out: &mut [f64],
+    ) -> crate::Result<()> {
+        Err(crate::Error::MissingDerivative {
+            what: "jacobian_dp",
+        })
+    }
     /// number of switching functions (0 for a smooth f)
     fn n_switching(&self) -> usize {
         0
@@ -92,4 +127,69 @@ pub fn fd_dfdp<P: Problem + ?Sized>(
     for i in 0..n {
         out[i] = (fp[i] - fm[i]) / (2.0 * h);
     }
+}
+
+/// Central-difference second derivative along `a` and `b` from the exact Jacobian
+/// (explicit fallback for [`Problem::second_derivative`]): the derivative of J(args)·b
+/// in direction `a`; error O(h²) for smooth f.
+pub fn fd_second_derivative<P: Problem + ?Sized>(
+    problem: &P,
+    args: &[f64],
+    p: &[f64],
+    a: &[f64],
+    b: &[f64],
+    out: &mut [f64],
+) -> crate::Result<()> {
+    let n = problem.dim();
+    let na = args.len();
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if scale == 0.0 {
+        out[..n].iter_mut().for_each(|o| *o = 0.0);
+        return Ok(());
+    }
+    let args_norm = args.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let h = 1e-5 * (1.0 + args_norm) / scale;
+    let mut jac = vec![0.0; n * na];
+    let mut shifted = args.to_vec();
+    let mut jb = |sign: f64, acc: &mut [f64]| {
+        for (s, (x, d)) in shifted.iter_mut().zip(args.iter().zip(a)) {
+            *s = x + sign * h * d;
+        }
+        problem.jacobian(&shifted, p, &mut jac);
+        for i in 0..n {
+            let row: f64 = (0..na).map(|j| jac[i * na + j] * b[j]).sum();
+            acc[i] += sign * row / (2.0 * h);
+        }
+    };
+    out[..n].iter_mut().for_each(|o| *o = 0.0);
+    jb(1.0, out);
+    jb(-1.0, out);
+    Ok(())
+}
+
+/// Central-difference mixed derivative (∂J/∂p_ip)·a from the exact Jacobian (explicit
+/// fallback for [`Problem::jacobian_dp`]); error O(h²) for smooth f.
+pub fn fd_jacobian_dp<P: Problem + ?Sized>(
+    problem: &P,
+    args: &[f64],
+    p: &[f64],
+    ip: usize,
+    a: &[f64],
+    out: &mut [f64],
+) -> crate::Result<()> {
+    let n = problem.dim();
+    let na = args.len();
+    let h = 1e-6 * (1.0 + p[ip].abs());
+    let mut q = p.to_vec();
+    let mut jac = vec![0.0; n * na];
+    out[..n].iter_mut().for_each(|o| *o = 0.0);
+    for sign in [1.0, -1.0] {
+        q[ip] = p[ip] + sign * h;
+        problem.jacobian(args, &q, &mut jac);
+        for i in 0..n {
+            let row: f64 = (0..na).map(|j| jac[i * na + j] * a[j]).sum();
+            out[i] += sign * row / (2.0 * h);
+        }
+    }
+    Ok(())
 }

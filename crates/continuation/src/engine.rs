@@ -16,6 +16,11 @@ pub trait ContinuationSystem {
     fn n_unknowns(&self) -> usize;
     /// index of the free parameter in `u`
     fn parameter_index(&self) -> usize;
+    /// index in `u` of a second free parameter, for two-parameter curves of codimension-one
+    /// points (Hopf, fold, fold of cycles); None for one-parameter branches
+    fn secondary_parameter_index(&self) -> Option<usize> {
+        None
+    }
     /// residual G(u) (length N)
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()>;
     /// Jacobian ∂G/∂u (N × (N+1)) appended to `entries` as triplets (duplicates are summed)
@@ -119,6 +124,9 @@ pub struct BranchPoint {
     pub u: Vec<f64>,
     /// value of the free parameter
     pub parameter: f64,
+    /// value of the second free parameter on a two-parameter curve (None on a branch)
+    #[serde(default)]
+    pub secondary_parameter: Option<f64>,
     /// unit tangent (weighted metric), oriented in the direction of continuation
     pub tangent: Vec<f64>,
     /// stability (eigenvalues or Floquet multipliers)
@@ -269,8 +277,10 @@ impl Continuation {
     fn make_point<S: ContinuationSystem>(&self, sys: &mut S, c: Corrected) -> Result<BranchPoint> {
         let stability = sys.stability(&c.u)?;
         let ip = sys.parameter_index();
+        let secondary_parameter = sys.secondary_parameter_index().map(|i| c.u[i]);
         Ok(BranchPoint {
             parameter: c.u[ip],
+            secondary_parameter,
             u: c.u,
             tangent: c.tangent,
             stability,

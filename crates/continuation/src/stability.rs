@@ -115,6 +115,22 @@ pub enum SpecialKind {
     PeriodDoubling,
     /// complex pair of Floquet multipliers through the unit circle (Neimark–Sacker)
     Torus,
+    /// branch point of an equilibrium branch (pitchfork / transcritical: the bordered
+    /// Jacobian of the branch is singular; another branch crosses here)
+    BranchPoint,
+    /// codimension two, on a Hopf curve: a second complex pair on the imaginary axis
+    DoubleHopf,
+    /// codimension two, on a Hopf or fold curve: a real eigenvalue 0 and a pair ±iω
+    ZeroHopf,
+    /// codimension two, on a Hopf or fold curve: a double zero eigenvalue (ω → 0)
+    BogdanovTakens,
+    /// codimension two, on a fold curve of equilibria: the fold curve has a cusp
+    Cusp,
+    /// codimension two, on a Hopf curve: the Hopf point changes criticality (generalised
+    /// Hopf / Bautin point; a fold-of-cycles curve ends here)
+    CriticalityChange,
+    /// codimension two, on a fold-of-cycles curve: two folds of cycles meet (cusp of cycles)
+    CuspOfCycles,
 }
 
 impl std::fmt::Display for SpecialKind {
@@ -125,6 +141,13 @@ impl std::fmt::Display for SpecialKind {
             SpecialKind::RealCrossing => "real eigenvalue crossing",
             SpecialKind::PeriodDoubling => "period-doubling point",
             SpecialKind::Torus => "torus (Neimark-Sacker) point",
+            SpecialKind::BranchPoint => "branch point",
+            SpecialKind::DoubleHopf => "double-Hopf point",
+            SpecialKind::ZeroHopf => "zero-Hopf point",
+            SpecialKind::BogdanovTakens => "Bogdanov-Takens point",
+            SpecialKind::Cusp => "cusp point",
+            SpecialKind::CriticalityChange => "criticality change (generalised Hopf point)",
+            SpecialKind::CuspOfCycles => "cusp of cycles",
         };
         f.write_str(s)
     }

@@ -62,8 +62,7 @@
 //! ```
 
 use crate::codim2::{
-    Codim2Point, Linearisation, TestPair, check_free, nearest_axis, remove_nearest,
-    unstable_counts,
+    Codim2Point, Linearisation, TestPair, check_free, nearest_axis, remove_nearest, unstable_counts,
 };
 use crate::engine::{Branch, ContinuationSystem};
 use crate::equilibrium::CharacteristicRoots;
@@ -283,8 +282,13 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
             None => null_vectors(&j)?.0,
         };
         let lin = &self.lin;
-        self.problem
-            .second_derivative(&lin.args, &self.params, &self.vs, &self.vs, &mut self.buf)?;
+        self.problem.second_derivative(
+            &lin.args,
+            &self.params,
+            &self.vs,
+            &self.vs,
+            &mut self.buf,
+        )?;
         let cusp = w.iter().zip(&self.buf).map(|(a, b)| a * b).sum();
         // Δ'(0) v = v + Σ τ_d A_d v
         lin.apply(&lin.tau, &self.vs, &mut self.buf);
@@ -308,7 +312,9 @@ fn null_vectors(j: &DMatrix<f64>) -> Result<(Vec<f64>, Vec<f64>)> {
         .min_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]))
         .unwrap_or(0);
     let orient = |mut x: Vec<f64>| {
-        let big = x.iter().fold(0.0f64, |m, &v| if v.abs() > m.abs() { v } else { m });
+        let big = x
+            .iter()
+            .fold(0.0f64, |m, &v| if v.abs() > m.abs() { v } else { m });
         if big < 0.0 {
             x.iter_mut().for_each(|v| *v = -*v);
         }
@@ -355,7 +361,13 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for FoldCurveSystem<
         self.problem.rhs(&self.lin.args, &self.params, &mut r[..n]);
         let lin = &self.lin;
         lin.apply(&lin.ones, &self.vs, &mut r[n..2 * n]);
-        r[2 * n] = self.c.iter().zip(&u[n..2 * n]).map(|(c, v)| c * v).sum::<f64>() - 1.0;
+        r[2 * n] = self
+            .c
+            .iter()
+            .zip(&u[n..2 * n])
+            .map(|(c, v)| c * v)
+            .sum::<f64>()
+            - 1.0;
         Ok(())
     }
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
@@ -369,8 +381,13 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for FoldCurveSystem<
             }
             self.lin.set_unit_direction(m);
             let lin = &self.lin;
-            self.problem
-                .second_derivative(&lin.args, &self.params, &lin.dir, &self.vs, &mut self.buf)?;
+            self.problem.second_derivative(
+                &lin.args,
+                &self.params,
+                &lin.dir,
+                &self.vs,
+                &mut self.buf,
+            )?;
             for i in 0..n {
                 entries.push(Entry::new(n + i, m, self.buf[i]));
             }

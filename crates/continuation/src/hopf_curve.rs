@@ -78,8 +78,7 @@
 //! ```
 
 use crate::codim2::{
-    Codim2Point, Linearisation, TestPair, check_free, nearest_axis, remove_nearest,
-    unstable_counts,
+    Codim2Point, Linearisation, TestPair, check_free, nearest_axis, remove_nearest, unstable_counts,
 };
 use crate::engine::{Branch, ContinuationSystem};
 use crate::equilibrium::{CharacteristicRoots, HopfPoint};
@@ -170,7 +169,11 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
         let mut u = hopf.state.clone();
         u.extend(hopf.eigenvector.iter().map(|z| z.re));
         u.extend(hopf.eigenvector.iter().map(|z| z.im));
-        u.extend([hopf.omega, self.params[self.free[0]], self.params[self.free[1]]]);
+        u.extend([
+            hopf.omega,
+            self.params[self.free[0]],
+            self.params[self.free[1]],
+        ]);
         self.set_reference(&u);
         let mut dir = vec![0.0; u.len()];
         let other = if hopf_parameter == self.free[0] { 2 } else { 1 };
@@ -350,10 +353,20 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
             }
             self.lin.set_unit_direction(m);
             let lin = &self.lin;
-            self.problem
-                .second_derivative(&lin.args, &self.params, &lin.dir, &self.wr, &mut self.buf)?;
-            self.problem
-                .second_derivative(&lin.args, &self.params, &lin.dir, &self.wi, &mut self.buf2)?;
+            self.problem.second_derivative(
+                &lin.args,
+                &self.params,
+                &lin.dir,
+                &self.wr,
+                &mut self.buf,
+            )?;
+            self.problem.second_derivative(
+                &lin.args,
+                &self.params,
+                &lin.dir,
+                &self.wi,
+                &mut self.buf2,
+            )?;
             for i in 0..n {
                 entries.push(Entry::new(n + i, m, -self.buf[i]));
                 entries.push(Entry::new(2 * n + i, m, -self.buf2[i]));

@@ -56,6 +56,11 @@ pub struct HopfPoint {
 
 /// The equilibrium problem f(x, x, …, x; p) = 0 as a continuation system.
 /// Unknowns u = [x (n), p_free].
+///
+/// The free parameter may be a delay (or enter the delays): the delays are re-evaluated
+/// from u at every point, for the spectrum, the Hopf test function and [`Self::hopf_point`].
+/// At an equilibrium f does not see the delays, so [`Problem::dfdp`] only needs the
+/// explicit dependence of f on the parameter.
 #[derive(Debug)]
 pub struct EquilibriumSystem<'a, P: Problem, R: CharacteristicRoots> {
     problem: &'a P,
@@ -123,6 +128,15 @@ impl<'a, P: Problem, R: CharacteristicRoots> EquilibriumSystem<'a, P, R> {
         (0..=k)
             .map(|d| DMatrix::from_fn(n, n, |i, j| self.jac[i * nc + d * n + j]))
             .collect()
+    }
+
+    /// all parameters at u (the free one taken from u), e.g. to start a two-parameter
+    /// curve ([`crate::HopfCurveSystem`], [`crate::FoldCurveSystem`]) from a point of this
+    /// branch
+    pub fn parameters_at(&self, u: &[f64]) -> Vec<f64> {
+        let mut p = self.params.clone();
+        p[self.ip] = u[self.problem.dim()];
+        p
     }
 
     /// delays at the parameters of u

@@ -17,7 +17,13 @@
 //!   period as unknown, integral phase condition; delayed values read off the periodic
 //!   profile), sparse LU (faer) so a Newton step costs O(L); Floquet multipliers from the
 //!   discretised monodromy operator, folds located, period-doubling and torus points
-//!   detected; branch switching from Hopf points with a finite amplitude.
+//!   detected; branch switching from Hopf points with a finite amplitude;
+//! - [`HopfCurveSystem`], [`FoldCurveSystem`]: curves of Hopf points and of folds of
+//!   equilibria in two free parameters (either may be a delay), with exact Jacobians from
+//!   [`Problem::second_derivative`], [`Problem::jacobian_dp`] and [`Problem::delay_dp`];
+//!   stability along the curve from the remaining spectrum; codimension-two points
+//!   (double Hopf, zero-Hopf, Bogdanov–Takens, cusp) located as special points and
+//!   collected as [`Codim2Point`]s.
 //!
 //! The crate knows nothing about any application.
 //!
@@ -69,16 +75,20 @@
 //! # }
 //! ```
 
+mod codim2;
 mod collocation;
 mod engine;
 mod equilibrium;
 mod error;
+mod fold_curve;
+mod hopf_curve;
 mod linalg;
 mod periodic;
 mod problem;
 mod roots;
 mod stability;
 
+pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
@@ -86,6 +96,8 @@ pub use engine::{
 };
 pub use equilibrium::{EquilibriumSystem, HopfPoint};
 pub use error::{Error, Result};
+pub use fold_curve::FoldCurveSystem;
+pub use hopf_curve::HopfCurveSystem;
 pub use linalg::Entry;
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
 pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};

@@ -123,6 +123,8 @@ impl Problem for CoupledDelayedBautin {
 }
 
 const MU2: f64 = 1.0;
+/// mesh of the whole-curve benchmark (the rotating waves are resolved to ~1e-7 on it)
+const CURVE_INTERVALS: usize = 20;
 const TAU: f64 = 0.5;
 
 /// the fold of the in-phase cycles at (μ2, τ) = (1, 0.5) on L intervals, as the start of
@@ -184,15 +186,15 @@ fn fold_start(
 fn bench(c: &mut Criterion) {
     let problem = CoupledDelayedBautin { eps: 0.1 };
     let mut group = c.benchmark_group("fold_cycles_4d_dde");
+    group.sample_size(10);
     for &l in &[20usize, 40, 80, 160] {
         let (mut sys, u, t) = fold_start(&problem, l, false);
         group.bench_with_input(BenchmarkId::new("newton_step", l), &l, |b, _| {
             b.iter(|| newton_step(&mut sys, black_box(&u), &t).expect("step"))
         });
     }
-    group.sample_size(10);
     for multipliers in [false, true] {
-        let (mut sys, u, t) = fold_start(&problem, 40, multipliers);
+        let (mut sys, u, t) = fold_start(&problem, CURVE_INTERVALS, multipliers);
         let cont = Continuation::new(ContinuationOptions {
             initial_step: 0.05,
             max_step: 0.1,
@@ -203,7 +205,7 @@ fn bench(c: &mut Criterion) {
         } else {
             "curve_80_points"
         };
-        group.bench_function(BenchmarkId::new(name, 40), |b| {
+        group.bench_function(BenchmarkId::new(name, CURVE_INTERVALS), |b| {
             b.iter(|| {
                 let mut curve = cont.start(&mut sys, &u, &t).expect("start");
                 let stop = sys.extend_curve(&cont, &mut curve, 80).expect("curve");

@@ -2,111 +2,7 @@
 //! for ODEs and constant-delay DDEs, on the collocation discretisation of
 //! [`PeriodicOrbitSystem`].
 //!
-//! # Defining system (the doubled / extended system)
-//!
-//! With the collocation residual R(x, T; p) (n·L·m equations, x the profile, T the period)
-//! and the phase condition φ·x + φ0 = 0, a cycle is a fold (limit point) in p1 when the
-//! Jacobian A = ∂(R, phase)/∂(x, T) is singular. The unknowns are
-//!
-//! u = [x, T, p1, p2, v, v_T]   (2·n·L·m + 4 unknowns)
-//!
-//! and the equations (2·n·L·m + 3)
-//!
-//! - R(x, T; p1, p2) = 0, φ·x + φ0 = 0 (the cycle),
-//! - ∂R/∂(x, T) · (v, v_T) = 0, φ·v = 0 (the null vector of A: the direction in which the
-//!   cycle family folds back),
-//! - ⟨v_ref, (v, v_T)⟩ = 1 (normalisation against the null vector of the last accepted
-//!   point; ⟨a, b⟩ = Σ a_i b_i /(L·m) + a_T b_T).
-//!
-//! The Jacobian is exact: it contains the second derivatives of R along (v, v_T), built from
-//! [`Problem::second_derivative`], [`Problem::jacobian_dp`] and, for delays, the first and
-//! second s-derivatives of the profile at the delayed points (x(s − τ(p)/T) moves with T and
-//! with a delay that depends on p1 or p2, see [`Problem::delay_dp`]). It is assembled sparse
-//! (faer sparse LU in the engine), so a Newton step costs O(L) like for a single cycle.
-//!
-//! # Special points
-//!
-//! - [`SpecialKind::CuspOfCycles`]: two folds of cycles meet; the curve has a cusp in the
-//!   (p1, p2) plane, i.e. *both* dp1/ds and dp2/ds change sign. The engine locates turning
-//!   points in p1 (labelled [`SpecialKind::Fold`]); [`FoldOfCyclesSystem::extend_curve`]
-//!   relabels one as a cusp of cycles when p2 turns in the same step. A turning point in p1
-//!   alone keeps the label `Fold` (the curve is only vertical in the (p1, p2) plane there).
-//! - [`SpecialKind::CriticalityChange`]: the fold-of-cycles curve ends on a Hopf curve at a
-//!   generalised Hopf (Bautin) point where the cycle shrinks to the equilibrium (amplitude
-//!   → 0, period → 2π/ω). [`FoldOfCyclesSystem::extend_curve`] stops when the amplitude falls
-//!   below [`FoldCyclesOptions::min_amplitude`], marks the last point with a *detected*
-//!   `CriticalityChange` and returns [`FoldCyclesStop::HopfEnd`], whose [`HopfEnd`] holds
-//!   the end point extrapolated to zero amplitude (linearly in amplitude², exact for the
-//!   normal form's leading order): p1, p2, the period 2π/ω and ω.
-//!
-//! At every point the cycle, its period and its Floquet multipliers are available:
-//! [`FoldOfCyclesSystem::orbit`], [`FoldOfCyclesSystem::period`],
-//! [`FoldOfCyclesSystem::periodic_system`] (a [`PeriodicOrbitSystem`] at the point's
-//! parameters) and, with [`FoldCyclesOptions::multipliers`], the multipliers stored as the
-//! point's `stability` (one of them is the trivial multiplier 1, another the fold's
-//! multiplier, also ≈ 1).
-//!
-//! # Example: folds of cycles of the Bautin normal form
-//!
-//! z' = (μ1 + i) z + μ2 |z|² z − |z|⁴ z has cycles of radius r with μ1 + μ2 r² − r⁴ = 0;
-//! their folds lie on μ1 = −μ2²/4 and end at the Bautin point (0, 0).
-//!
-//! ```
-//! use continuation::*;
-//!
-//! struct Bautin;
-//! impl Problem for Bautin {
-//!     fn dim(&self) -> usize { 2 }
-//!     fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-//!         let r2 = x[0] * x[0] + x[1] * x[1];
-//!         let g = p[0] + p[1] * r2 - r2 * r2;
-//!         f[0] = g * x[0] - x[1];
-//!         f[1] = x[0] + g * x[1];
-//!     }
-//!     fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) { fd_jacobian(self, x, p, j) }
-//!     fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-//!         let r2 = x[0] * x[0] + x[1] * x[1];
-//!         let s = if ip == 0 { 1.0 } else { r2 };
-//!         out[0] = s * x[0];
-//!         out[1] = s * x[1];
-//!     }
-//!     fn second_derivative(&self, x: &[f64], p: &[f64], a: &[f64], b: &[f64], out: &mut [f64]) -> Result<()> {
-//!         fd_second_derivative(self, x, p, a, b, out) // finite differences, chosen explicitly
-//!     }
-//!     fn jacobian_dp(&self, x: &[f64], p: &[f64], ip: usize, a: &[f64], out: &mut [f64]) -> Result<()> {
-//!         fd_jacobian_dp(self, x, p, ip, a, out)
-//!     }
-//! }
-//!
-//! # fn main() -> Result<()> {
-//! let tp = 2.0 * std::f64::consts::PI;
-//! let colloc = CollocationOptions { intervals: 10, ..Default::default() };
-//! // the cycle r = 1 at μ1 = 0, μ2 = 1, continued down in μ1 to its fold at μ1 = −1/4
-//! let mut po = PeriodicOrbitSystem::new(&Bautin, vec![0.0, 1.0], 0, colloc)?;
-//! let u0 = po.unknowns_from(|s| vec![(tp * s).cos(), (tp * s).sin()], tp, 0.0);
-//! po.set_reference(&u0);
-//! let mut down = vec![0.0; u0.len()];
-//! down[po.parameter_index()] = -1.0;
-//! let cont = Continuation::new(ContinuationOptions { initial_step: 0.05, max_step: 0.1, ..Default::default() });
-//! let mut cycles = cont.start(&mut po, &u0, &down)?;
-//! cont.extend(&mut po, &mut cycles, 20)?;
-//! let (i, _) = cycles.first(SpecialKind::Fold).expect("fold of cycles");
-//!
-//! // the fold continued in (μ1, μ2) towards small μ2: it ends at the Bautin point
-//! let (mut fold, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &cycles.points[i], 1, FoldCyclesOptions::default())?;
-//! let back: Vec<f64> = dir.iter().map(|d| -d).collect();
-//! let mut curve = cont.start(&mut fold, &guess, &back)?;
-//! let stop = fold.extend_curve(&cont, &mut curve, 200)?;
-//! for pt in &curve.points {
-//!     let (mu1, mu2) = (pt.parameter, pt.secondary_parameter.unwrap());
-//!     assert!((mu1 + mu2 * mu2 / 4.0).abs() < 1e-6);
-//! }
-//! let FoldCyclesStop::HopfEnd(end) = stop else { panic!("{stop:?}") };
-//! assert!(end.parameters[0].abs() < 1e-4 && end.parameters[1].abs() < 1e-3);
-//! assert!((end.omega - 1.0).abs() < 1e-3);
-//! # Ok(())
-//! # }
-//! ```
+//! The equations, special points and an example are documented on [`FoldOfCyclesSystem`].
 
 use crate::collocation::{MAX_DEGREE, lagrange_d2};
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
@@ -195,7 +91,113 @@ enum Out<'b> {
 }
 
 /// Fold-of-cycles (limit point of cycles) defining system in two free parameters, as a
-/// [`ContinuationSystem`]; see the [module documentation](self) for the equations.
+/// [`ContinuationSystem`].
+///
+/// # Defining system (the doubled / extended system)
+///
+/// With the collocation residual R(x, T; p) (n·L·m equations, x the profile, T the period)
+/// and the phase condition φ·x + φ0 = 0, a cycle is a fold (limit point) in p1 when the
+/// Jacobian A = ∂(R, phase)/∂(x, T) is singular. The unknowns are
+///
+/// u = [x, T, p1, p2, v, v_T]   (2·n·L·m + 4 unknowns)
+///
+/// and the equations (2·n·L·m + 3)
+///
+/// - R(x, T; p1, p2) = 0, φ·x + φ0 = 0 (the cycle),
+/// - ∂R/∂(x, T) · (v, v_T) = 0, φ·v = 0 (the null vector of A: the direction in which the
+///   cycle family folds back),
+/// - ⟨v_ref, (v, v_T)⟩ = 1 (normalisation against the null vector of the last accepted
+///   point; ⟨a, b⟩ = Σ a_i b_i /(L·m) + a_T b_T).
+///
+/// The Jacobian is exact: it contains the second derivatives of R along (v, v_T), built from
+/// [`Problem::second_derivative`], [`Problem::jacobian_dp`] and, for delays, the first and
+/// second s-derivatives of the profile at the delayed points (x(s − τ(p)/T) moves with T and
+/// with a delay that depends on p1 or p2, see [`Problem::delay_dp`]). It is assembled sparse
+/// (faer sparse LU in the engine), so a Newton step costs O(L) like for a single cycle.
+///
+/// # Special points
+///
+/// - [`SpecialKind::CuspOfCycles`]: two folds of cycles meet; the curve has a cusp in the
+///   (p1, p2) plane, i.e. *both* dp1/ds and dp2/ds change sign. The engine locates turning
+///   points in p1 (labelled [`SpecialKind::Fold`]); [`FoldOfCyclesSystem::extend_curve`]
+///   relabels one as a cusp of cycles when p2 turns in the same step. A turning point in p1
+///   alone keeps the label `Fold` (the curve is only vertical in the (p1, p2) plane there).
+/// - [`SpecialKind::CriticalityChange`]: the fold-of-cycles curve ends on a Hopf curve at a
+///   generalised Hopf (Bautin) point where the cycle shrinks to the equilibrium (amplitude
+///   → 0, period → 2π/ω). [`FoldOfCyclesSystem::extend_curve`] stops when the amplitude falls
+///   below [`FoldCyclesOptions::min_amplitude`], marks the last point with a *detected*
+///   `CriticalityChange` and returns [`FoldCyclesStop::HopfEnd`], whose [`HopfEnd`] holds
+///   the end point extrapolated to zero amplitude (linearly in amplitude², exact for the
+///   normal form's leading order): p1, p2, the period 2π/ω and ω.
+///
+/// At every point the cycle, its period and its Floquet multipliers are available:
+/// [`FoldOfCyclesSystem::orbit`], [`FoldOfCyclesSystem::period`],
+/// [`FoldOfCyclesSystem::periodic_system`] (a [`PeriodicOrbitSystem`] at the point's
+/// parameters) and, with [`FoldCyclesOptions::multipliers`], the multipliers stored as the
+/// point's `stability` (one of them is the trivial multiplier 1, another the fold's
+/// multiplier, also ≈ 1).
+///
+/// # Example: folds of cycles of the Bautin normal form
+///
+/// z' = (μ1 + i) z + μ2 |z|² z − |z|⁴ z has cycles of radius r with μ1 + μ2 r² − r⁴ = 0;
+/// their folds lie on μ1 = −μ2²/4 and end at the Bautin point (0, 0).
+///
+/// ```
+/// use continuation::*;
+///
+/// struct Bautin;
+/// impl Problem for Bautin {
+///     fn dim(&self) -> usize { 2 }
+///     fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+///         let r2 = x[0] * x[0] + x[1] * x[1];
+///         let g = p[0] + p[1] * r2 - r2 * r2;
+///         f[0] = g * x[0] - x[1];
+///         f[1] = x[0] + g * x[1];
+///     }
+///     fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) { fd_jacobian(self, x, p, j) }
+///     fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+///         let r2 = x[0] * x[0] + x[1] * x[1];
+///         let s = if ip == 0 { 1.0 } else { r2 };
+///         out[0] = s * x[0];
+///         out[1] = s * x[1];
+///     }
+///     fn second_derivative(&self, x: &[f64], p: &[f64], a: &[f64], b: &[f64], out: &mut [f64]) -> Result<()> {
+///         fd_second_derivative(self, x, p, a, b, out) // finite differences, chosen explicitly
+///     }
+///     fn jacobian_dp(&self, x: &[f64], p: &[f64], ip: usize, a: &[f64], out: &mut [f64]) -> Result<()> {
+///         fd_jacobian_dp(self, x, p, ip, a, out)
+///     }
+/// }
+///
+/// # fn main() -> Result<()> {
+/// let tp = 2.0 * std::f64::consts::PI;
+/// let colloc = CollocationOptions { intervals: 10, ..Default::default() };
+/// // the cycle r = 1 at μ1 = 0, μ2 = 1, continued down in μ1 to its fold at μ1 = −1/4
+/// let mut po = PeriodicOrbitSystem::new(&Bautin, vec![0.0, 1.0], 0, colloc)?;
+/// let u0 = po.unknowns_from(|s| vec![(tp * s).cos(), (tp * s).sin()], tp, 0.0);
+/// po.set_reference(&u0);
+/// let mut down = vec![0.0; u0.len()];
+/// down[po.parameter_index()] = -1.0;
+/// let cont = Continuation::new(ContinuationOptions { initial_step: 0.05, max_step: 0.1, ..Default::default() });
+/// let mut cycles = cont.start(&mut po, &u0, &down)?;
+/// cont.extend(&mut po, &mut cycles, 20)?;
+/// let (i, _) = cycles.first(SpecialKind::Fold).expect("fold of cycles");
+///
+/// // the fold continued in (μ1, μ2) towards small μ2: it ends at the Bautin point
+/// let (mut fold, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &cycles.points[i], 1, FoldCyclesOptions::default())?;
+/// let back: Vec<f64> = dir.iter().map(|d| -d).collect();
+/// let mut curve = cont.start(&mut fold, &guess, &back)?;
+/// let stop = fold.extend_curve(&cont, &mut curve, 200)?;
+/// for pt in &curve.points {
+///     let (mu1, mu2) = (pt.parameter, pt.secondary_parameter.unwrap());
+///     assert!((mu1 + mu2 * mu2 / 4.0).abs() < 1e-6);
+/// }
+/// let FoldCyclesStop::HopfEnd(end) = stop else { panic!("{stop:?}") };
+/// assert!(end.parameters[0].abs() < 1e-4 && end.parameters[1].abs() < 1e-3);
+/// assert!((end.omega - 1.0).abs() < 1e-3);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug)]
 pub struct FoldOfCyclesSystem<'a, P: Problem> {
     po: PeriodicOrbitSystem<'a, P>,
@@ -414,8 +416,8 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
 
     /// Continue the fold-of-cycles curve by up to `max_points` points (like
     /// [`Continuation::extend`]), relabelling turning points in p1 where p2 turns too as
-    /// [`SpecialKind::CuspOfCycles`] and stopping at a generalised Hopf point (see the
-    /// [module documentation](self)).
+    /// [`SpecialKind::CuspOfCycles`] and stopping at a generalised Hopf point (see the type's
+    /// documentation).
     pub fn extend_curve(
         &mut self,
         cont: &Continuation,

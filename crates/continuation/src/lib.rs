@@ -17,13 +17,17 @@
 //!   period as unknown, integral phase condition; delayed values read off the periodic
 //!   profile), sparse LU (faer) so a Newton step costs O(L); Floquet multipliers from the
 //!   discretised monodromy operator, folds located, period-doubling and torus points
-//!   detected; branch switching from Hopf points with a finite amplitude;
+//!   detected; branch switching from Hopf points with a finite amplitude; the free
+//!   parameter may be a delay ([`Problem::delay_dp`]);
 //! - [`HopfCurveSystem`], [`FoldCurveSystem`]: curves of Hopf points and of folds of
 //!   equilibria in two free parameters (either may be a delay), with exact Jacobians from
 //!   [`Problem::second_derivative`], [`Problem::jacobian_dp`] and [`Problem::delay_dp`];
 //!   stability along the curve from the remaining spectrum; codimension-two points
 //!   (double Hopf, zero-Hopf, Bogdanov–Takens, cusp) located as special points and
 //!   collected as [`Codim2Point`]s.
+//! - [`FoldOfCyclesSystem`]: folds of periodic orbits continued in two parameters (extended
+//!   system with the null vector, exact second derivatives, sparse), with cusps of cycles and
+//!   the end at a generalised Hopf point.
 //!
 //! The crate knows nothing about any application.
 //!
@@ -81,6 +85,7 @@ mod engine;
 mod equilibrium;
 mod error;
 mod fold_curve;
+mod fold_cycles;
 mod hopf_curve;
 mod linalg;
 mod periodic;
@@ -89,7 +94,7 @@ mod roots;
 mod stability;
 
 pub use codim2::Codim2Point;
-pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange};
+pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
     Decision, NoObserver, Observer, SpecialPoints, Stop, newton_step, points_at_parameter,
@@ -97,6 +102,7 @@ pub use engine::{
 pub use equilibrium::{EquilibriumSystem, HopfPoint};
 pub use error::{Error, Result};
 pub use fold_curve::FoldCurveSystem;
+pub use fold_cycles::{FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfEnd};
 pub use hopf_curve::HopfCurveSystem;
 pub use linalg::Entry;
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};

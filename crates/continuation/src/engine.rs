@@ -89,6 +89,14 @@ pub struct ContinuationOptions {
     pub location_tolerance: f64,
     /// maximum iterations of a location
     pub max_location_iterations: usize,
+    /// watch the sign of the bordered determinant for branch points (pitchfork,
+    /// transcritical); off: such points are stepped over unnoticed, as before this test existed
+    #[serde(default = "branch_points_default")]
+    pub branch_points: bool,
+}
+
+fn branch_points_default() -> bool {
+    true
 }
 
 impl Default for ContinuationOptions {
@@ -107,6 +115,7 @@ impl Default for ContinuationOptions {
             special_points: SpecialPoints::Locate,
             location_tolerance: 1e-10,
             max_location_iterations: 60,
+            branch_points: true,
         }
     }
 }
@@ -690,7 +699,8 @@ impl Continuation {
         if a.tangent[ip] * b.tangent[ip] < 0.0 {
             return Ok(Some(TestFunction::Fold));
         }
-        if sign_a * det_b.sign < 0.0
+        if self.options.branch_points
+            && sign_a * det_b.sign < 0.0
             && let Ok(det_a) = Self::bordered_determinant(sys, &a.u, &a.tangent, w)
             && det_a.sign * det_b.sign < 0.0
         {

@@ -2,7 +2,12 @@
 //!
 //! The engine never owns the system: [`Continuation::start`] and [`Continuation::extend`]
 //! borrow it, and a [`Branch`] (points + [`ContinuationState`]) is plain serialisable data,
-//! so a branch can be saved, loaded and extended later.
+//! so a branch can be saved, loaded and extended later. An [`Observer`] passed to
+//! [`Continuation::extend_observed`] sees every accepted point and may stop the run.
+//!
+//! Every Newton step (the corrector's and [`newton_step`]) is one bordered solve: assembly
+//! of [G_u; (w∘t)ᵀ], sparse LU, solve. The same LU gives the tangent and the sign of the
+//! bordered determinant, whose change with a non-turning tangent marks a branch point.
 
 use crate::error::{Error, Result};
 use crate::linalg::{Determinant, Entry, SparseLu};
@@ -84,6 +89,14 @@ pub struct ContinuationOptions {
     pub location_tolerance: f64,
     /// maximum iterations of a location
     pub max_location_iterations: usize,
+    /// watch the sign of the bordered determinant for branch points (pitchfork,
+    /// transcritical); off: such points are stepped over unnoticed, as before this test existed
+    #[serde(default = "branch_points_default")]
+    pub branch_points: bool,
+}
+
+fn branch_points_default() -> bool {
+    true
 }
 
 impl Default for ContinuationOptions {
@@ -102,6 +115,7 @@ impl Default for ContinuationOptions {
             special_points: SpecialPoints::Locate,
             location_tolerance: 1e-10,
             max_location_iterations: 60,
+            branch_points: true,
         }
     }
 }
@@ -268,13 +282,7 @@ fn bordered_step<S: ContinuationSystem>(
             parameter: u[sys.parameter_index()],
         });
     }
-    entries.clear();
-    sys.jacobian(u, entries)?;
-    for (i, &b) in border.iter().enumerate() {
-        if b != 0.0 {
-            entries.push(Entry::new(nu - 1, i, b));
-        }
-    }
+    bordered_jacobian(sys, u, border, entries)?;
     let lu = SparseLu::new(nu, entries, what)?;
     let mut update: Vec<f64> = r.iter().map(|v| -v).collect();
     lu.solve(&mut update, what)?;
@@ -283,6 +291,24 @@ fn bordered_step<S: ContinuationSystem>(
         update,
         residual_norm,
     })
+}
+
+/// triplets of the bordered Jacobian [G_u(u); bᵀ] into `entries` (cleared first)
+fn bordered_jacobian<S: ContinuationSystem>(
+    sys: &mut S,
+    u: &[f64],
+    border: &[f64],
+    entries: &mut Vec<Entry>,
+) -> Result<()> {
+    entries.clear();
+    sys.jacobian(u, entries)?;
+    let last_row = sys.n_unknowns() - 1;
+    for (i, &b) in border.iter().enumerate() {
+        if b != 0.0 {
+            entries.push(Entry::new(last_row, i, b));
+        }
+    }
+    Ok(())
 }
 
 fn weighted_dot(w: &[f64], a: &[f64], b: &[f64]) -> f64 {
@@ -418,14 +444,8 @@ impl Continuation {
         w: &[f64],
     ) -> Result<Determinant> {
         let mut entries = Vec::new();
-        sys.jacobian(u, &mut entries)?;
-        let nu = u.len();
-        for (i, &b) in border(w, t).iter().enumerate() {
-            if b != 0.0 {
-                entries.push(Entry::new(nu - 1, i, b));
-            }
-        }
-        Ok(SparseLu::new(nu, &entries, "branch-point test")?.determinant())
+        bordered_jacobian(sys, u, &border(w, t), &mut entries)?;
+        Ok(SparseLu::new(u.len(), &entries, "branch-point test")?.determinant())
     }
 
     fn make_point<S: ContinuationSystem>(&self, sys: &mut S, c: Corrected) -> Result<BranchPoint> {
@@ -679,7 +699,8 @@ impl Continuation {
         if a.tangent[ip] * b.tangent[ip] < 0.0 {
             return Ok(Some(TestFunction::Fold));
         }
-        if sign_a * det_b.sign < 0.0
+        if self.options.branch_points
+            && sign_a * det_b.sign < 0.0
             && let Ok(det_a) = Self::bordered_determinant(sys, &a.u, &a.tangent, w)
             && det_a.sign * det_b.sign < 0.0
         {

@@ -254,3 +254,21 @@ fn newton_step_is_the_bordered_newton_update() {
         "{du:?}"
     );
 }
+
+#[test]
+fn options_saved_before_branch_points_existed_still_load() {
+    // reference: serde default — a serialised ContinuationOptions without the
+    // `branch_points` field loads with the test switched on (the default)
+    // (a finite range: JSON has no infinities)
+    let options = ContinuationOptions {
+        parameter_range: (-1.0, 1.0),
+        ..Default::default()
+    };
+    let mut json: serde_json::Value = serde_json::to_value(&options).expect("serialise");
+    json.as_object_mut()
+        .expect("object")
+        .remove("branch_points");
+    let o: ContinuationOptions = serde_json::from_value(json).expect("deserialise");
+    assert!(o.branch_points);
+    assert_eq!(o, options);
+}

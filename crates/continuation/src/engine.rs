@@ -26,6 +26,14 @@ pub trait ContinuationSystem {
     fn secondary_parameter_index(&self) -> Option<usize> {
         None
     }
+    /// whether the engine watches the bordered determinant for branch points of this system
+    /// (when [`ContinuationOptions::branch_points`] is on). Default: on one-parameter branches
+    /// only; on a two-parameter curve a singular bordered Jacobian marks a codimension-two
+    /// point of the curve (e.g. a zero-Hopf point of an equilibrium that exists for every
+    /// parameter, where ∂f/∂p = 0), which the system classifies itself.
+    fn detects_branch_points(&self) -> bool {
+        self.secondary_parameter_index().is_none()
+    }
     /// residual G(u) (length N)
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()>;
     /// Jacobian ∂G/∂u (N × (N+1)) appended to `entries` as triplets (duplicates are summed)
@@ -700,6 +708,7 @@ impl Continuation {
             return Ok(Some(TestFunction::Fold));
         }
         if self.options.branch_points
+            && sys.detects_branch_points()
             && sign_a * det_b.sign < 0.0
             && let Ok(det_a) = Self::bordered_determinant(sys, &a.u, &a.tangent, w)
             && det_a.sign * det_b.sign < 0.0

@@ -70,7 +70,7 @@ fn best_match(prev: &[Complex<f64>; 4], ev: &[Complex<f64>; 4]) -> [Complex<f64>
 }
 
 /// dV_crit/dp of one parameter.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
 pub struct Sensitivity {
     /// key path in the vehicle file, e.g. `trailer.cog`
     pub key: &'static str,

@@ -4,14 +4,14 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use serde_json::{Map, json};
+use sway::SwayError;
+use sway::config::{Grid, ensure};
+use sway::loading::{InertiaScaling, loaded, tongue_load_fraction, v_crit_map, v_crit_of};
 use trailer_model::CriticalSpeedOptions;
 
 use super::{Prepared, Report, Task, TaskContext};
-use crate::SwayError;
-use crate::config::{Grid, ensure, load_toml};
+use crate::config_file::load_toml;
 use crate::io::OutputDir;
-use crate::loading::{InertiaScaling, loaded, tongue_load_fraction, v_crit_map, v_crit_of};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 
 /// The task.
@@ -48,6 +48,27 @@ fn default_v_range() -> [f64; 2] {
     [1.0, 120.0]
 }
 
+/// `summary.json` of `loading` (before the common fields of [`crate::io::Summary`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoadingSummary {
+    /// tongue load of Table I (1 − h/l) \[% of the trailer weight\]
+    pub tongue_load_pct_table_i: f64,
+    /// V_crit of Table I \[m/s\]
+    pub v_crit_table_i_mps: f64,
+    /// V_crit at Table I's trailer mass with 0 % tongue load \[m/s\]
+    pub v_crit_at_tongue_load_0pct_mps: f64,
+    /// … with 5 % tongue load \[m/s\]
+    pub v_crit_at_tongue_load_5pct_mps: f64,
+    /// … with 10 % tongue load \[m/s\]
+    pub v_crit_at_tongue_load_10pct_mps: f64,
+    /// the smallest V_crit of the map \[m/s\]
+    pub v_crit_map_min_mps: f64,
+    /// the largest V_crit of the map \[m/s\]
+    pub v_crit_map_max_mps: f64,
+    /// map cells without a critical speed in the search range
+    pub cells_without_critical_speed: usize,
+}
+
 struct LoadingTask {
     file: PathBuf,
     config: LoadingConfig,
@@ -55,8 +76,6 @@ struct LoadingTask {
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
     let config: LoadingConfig = load_toml(file)?;
-    config.trailer_mass_kg.validate(file, "trailer_mass_kg")?;
-    config.trailer_cog_m.validate(file, "trailer_cog_m")?;
     ensure(
         config.trailer_mass_kg.min > 0.0,
         file,
@@ -211,32 +230,20 @@ impl Prepared for LoadingTask {
             let p = loaded(base, base.trailer.mass, l * (1.0 - q / 100.0), cfg.inertia);
             v_crit_of(&p, &opts)
         };
-        let mut summary = Map::new();
-        summary.insert(
-            "tongue_load_pct_table_i".into(),
-            json!(100.0 * tongue_load_fraction(base)),
-        );
-        summary.insert("v_crit_table_i_mps".into(), json!(v_crit_of(base, &opts)));
-        summary.insert("v_crit_at_tongue_load_0pct_mps".into(), json!(at(0.0)));
-        summary.insert("v_crit_at_tongue_load_5pct_mps".into(), json!(at(5.0)));
-        summary.insert("v_crit_at_tongue_load_10pct_mps".into(), json!(at(10.0)));
-        summary.insert("v_crit_map_min_mps".into(), json!(lo));
-        summary.insert("v_crit_map_max_mps".into(), json!(hi));
-        summary.insert(
-            "cells_without_critical_speed".into(),
-            json!(map.iter().flatten().filter(|v| !v.is_finite()).count()),
-        );
-        out.write_summary(summary, cfg, &ctx.run_info(&self.file))?;
-        let dir = out.commit()?;
-        Ok(Report {
-            task: TASK.name.into(),
-            output_dir: dir,
-            lines: vec![format!(
-                "V_crit at Table I (tongue load {:.1}%) = {:.3} m/s; at 10% tongue load = {:.3} m/s",
-                100.0 * tongue_load_fraction(base),
-                v_crit_of(base, &opts),
-                at(10.0)
-            )],
-        })
+        let summary = LoadingSummary {
+            tongue_load_pct_table_i: 100.0 * tongue_load_fraction(base),
+            v_crit_table_i_mps: v_crit_of(base, &opts),
+            v_crit_at_tongue_load_0pct_mps: at(0.0),
+            v_crit_at_tongue_load_5pct_mps: at(5.0),
+            v_crit_at_tongue_load_10pct_mps: at(10.0),
+            v_crit_map_min_mps: lo,
+            v_crit_map_max_mps: hi,
+            cells_without_critical_speed: map.iter().flatten().filter(|v| !v.is_finite()).count(),
+        };
+        let lines = vec![format!(
+            "V_crit at Table I (tongue load {:.1}%) = {:.3} m/s; at 10% tongue load = {:.3} m/s",
+            summary.tongue_load_pct_table_i, summary.v_crit_table_i_mps, summary.v_crit_at_tongue_load_10pct_mps
+        )];
+        ctx.conclude(out, summary, cfg, &self.file, lines)
     }
 }

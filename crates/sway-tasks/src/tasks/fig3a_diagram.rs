@@ -34,10 +34,10 @@ pub struct DiagramConfig {
     /// continuation and discretisation settings (`[diagram.continuation]`)
     #[serde(default, rename = "continuation")]
     pub options: DiagramOptions,
-    /// speeds [m/s] at which the stable cycle's amplitude is reported (`stable_amplitude_deg`)
+    /// speeds \[m/s\] at which the stable cycle's amplitude is reported (`stable_amplitude_deg`)
     #[serde(default = "default_stable")]
     pub stable_speeds_mps: Vec<f64>,
-    /// speeds [m/s] at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
+    /// speeds \[m/s\] at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
     #[serde(default = "default_unstable")]
     pub unstable_speeds_mps: Vec<f64>,
 }
@@ -160,7 +160,7 @@ impl DiagramConfig {
     }
 }
 
-/// Vertices of a plotted curve (V [m/s], max |θ| [deg]); NaN pairs break it.
+/// Vertices of a plotted curve (V \[m/s\], max |θ| \[deg\]); NaN pairs break it.
 pub type Polyline = Vec<(f64, f64)>;
 
 /// The collocation mesh of the cycles.
@@ -213,7 +213,7 @@ pub fn speed_key(v: f64) -> String {
 }
 
 /// Lines of a cycle branch split into stable and unstable parts (NaN breaks), in the
-/// coordinates (V, max |θ| [deg]).
+/// coordinates (V, max |θ| \[deg\]).
 pub fn split_by_stability(d: &Diagram) -> (Polyline, Polyline) {
     let mut stable = Vec::new();
     let mut unstable = Vec::new();

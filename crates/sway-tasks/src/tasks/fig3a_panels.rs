@@ -51,7 +51,7 @@ pub struct PanelsConfig {
     /// constant speed V \[m/s\]
     #[serde(default = "default_speed")]
     pub speed_mps: Positive,
-    /// initial hitch angles θ(0) [deg], one panel each (other states 0)
+    /// initial hitch angles θ(0) \[deg\], one panel each (other states 0)
     #[serde(default = "default_thetas")]
     pub theta0_deg: Vec<f64>,
     /// horizon \[s\]

@@ -162,6 +162,48 @@ pub struct PairEntry {
     pub cycle_points: usize,
 }
 
+impl PairEntry {
+    /// The entry of pair `p` with diagram `d`.
+    fn new(p: &Pair, d: &Diagram) -> Self {
+        let fold = d.fold;
+        Self {
+            tau_s: p.delay_s,
+            d_s: p.gain_s,
+            hopf_v_mps: d.hopf.parameter,
+            fold_v_mps: fold.map(|f| f.speed_mps),
+            criticality: d.criticality.to_string(),
+            fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
+            hopf_omega_rad_s: d.hopf.omega,
+            bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
+            cycle_points: d.cycle_summary.len(),
+        }
+    }
+}
+
+/// One pair's layers: stable cycles solid (labelled), unstable dashed, the Hopf point and
+/// the fold.
+fn add_pair(panel: &mut Panel, d: &Diagram, color: Rgb, label: &str) {
+    let (stable, unstable) = split_by_stability(d);
+    panel
+        .layers
+        .push(Layer::line(stable, color, Stroke::Solid, Some(label)));
+    panel
+        .layers
+        .push(Layer::line(unstable, color, Stroke::Dashed, None));
+    panel
+        .layers
+        .push(Layer::markers(vec![(d.hopf.parameter, 0.0)], color, None));
+    if let Some(f) = d.fold {
+        panel.layers.push(Layer::Markers {
+            points: vec![(f.speed_mps, f.amplitude_deg)],
+            color,
+            shape: Shape::Triangle,
+            size: 6,
+            label: None,
+        });
+    }
+}
+
 /// `summary.json` of fig4b (before the common fields of [`crate::io::Summary`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Fig4bSummary {
@@ -224,17 +266,7 @@ impl Prepared for Fig4bTask {
                 d.cycle_summary.iter().map(CycleRow::from),
             )?;
             let fold = d.fold;
-            entries.push(PairEntry {
-                tau_s: p.delay_s,
-                d_s: p.gain_s,
-                hopf_v_mps: d.hopf.parameter,
-                fold_v_mps: fold.map(|f| f.speed_mps),
-                criticality: d.criticality.to_string(),
-                fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
-                hopf_omega_rad_s: d.hopf.omega,
-                bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
-                cycle_points: d.cycle_summary.len(),
-            });
+            entries.push(PairEntry::new(p, d));
             lines.push(format!(
                 "fig4b {}: Hopf at {:.4} m/s ({}), fold at {}",
                 label(p),
@@ -245,26 +277,7 @@ impl Prepared for Fig4bTask {
                     f.speed_mps, f.amplitude_deg
                 ))
             ));
-            let color = Rgb::palette(i);
-            let (stable, unstable) = split_by_stability(d);
-            panel
-                .layers
-                .push(Layer::line(stable, color, Stroke::Solid, Some(&label(p))));
-            panel
-                .layers
-                .push(Layer::line(unstable, color, Stroke::Dashed, None));
-            panel
-                .layers
-                .push(Layer::markers(vec![(d.hopf.parameter, 0.0)], color, None));
-            if let Some(f) = fold {
-                panel.layers.push(Layer::Markers {
-                    points: vec![(f.speed_mps, f.amplitude_deg)],
-                    color,
-                    shape: Shape::Triangle,
-                    size: 6,
-                    label: None,
-                });
-            }
+            add_pair(&mut panel, d, Rgb::palette(i), &label(p));
         }
         panel.layers.push(Layer::Markers {
             points: vec![(f64::NAN, f64::NAN)],

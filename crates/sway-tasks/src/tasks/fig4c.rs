@@ -30,11 +30,11 @@ pub const TASK: Task = Task {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SteeringConfig {
-    /// D [s]
+    /// D \[s\]
     pub gain_s: f64,
-    /// τ [s]
+    /// τ \[s\]
     pub delay_s: f64,
-    /// switched off at this time [s] (never when absent)
+    /// switched off at this time \[s\] (never when absent)
     #[serde(default)]
     pub off_s: Option<f64>,
 }
@@ -43,9 +43,9 @@ pub struct SteeringConfig {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BrakingConfig {
-    /// ΔV [m/s] (negative)
+    /// ΔV \[m/s\] (negative)
     pub speed_change_mps: f64,
-    /// T [s]
+    /// T \[s\]
     pub duration_s: f64,
 }
 
@@ -55,7 +55,7 @@ pub struct BrakingConfig {
 pub struct Fig4cConfig {
     /// the sway-cycle start
     pub start: SwayStart,
-    /// every action starts here [s]
+    /// every action starts here \[s\]
     pub action_s: f64,
     /// horizon \[s\]
     pub horizon_s: Positive,

@@ -28,7 +28,7 @@ pub const TASK: Task = Task {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LinearConfig {
-    /// speed grid of the eigenvalue table [m/s]
+    /// speed grid of the eigenvalue table \[m/s\]
     pub speed_grid: Grid,
     /// V_crit search
     #[serde(default)]
@@ -36,10 +36,10 @@ pub struct LinearConfig {
     /// sensitivity differences
     #[serde(default)]
     pub sensitivity: SensitivityOptions,
-    /// the paper's value, for comparison [m/s]
+    /// the paper's value, for comparison \[m/s\]
     #[serde(default = "paper_v_crit")]
     pub paper_v_crit_mps: f64,
-    /// half a unit of the last printed digit of Table I's lengths h and l [m]
+    /// half a unit of the last printed digit of Table I's lengths h and l \[m\]
     #[serde(default = "rounding")]
     pub length_rounding_m: f64,
 }
@@ -55,13 +55,13 @@ fn rounding() -> f64 {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SearchConfig {
-    /// lowest speed scanned [m/s]
+    /// lowest speed scanned \[m/s\]
     pub v_min_mps: f64,
-    /// highest speed scanned [m/s]
+    /// highest speed scanned \[m/s\]
     pub v_max_mps: f64,
-    /// scan step [m/s]
+    /// scan step \[m/s\]
     pub scan_step_mps: f64,
-    /// bisection stops at this bracket width [m/s]
+    /// bisection stops at this bracket width \[m/s\]
     pub tolerance_mps: f64,
 }
 

@@ -174,6 +174,96 @@ fn edges(values: &[f64]) -> Vec<f64> {
     e
 }
 
+/// With two or more axes: `heatmap.svg/.png`, the final sway amplitude over the first two
+/// axes (every further axis at its first value) with the threshold line, its summary part
+/// and a printed line.
+fn heatmap(
+    out: &OutputDir,
+    cfg: &SweepConfig,
+    results: &[PointResult],
+    thr: f64,
+) -> Result<Option<(HeatmapSummary, Option<String>)>, SwayError> {
+    if cfg.axes.len() < 2 {
+        return Ok(None);
+    }
+    let (ax, ay) = (cfg.axes[0], cfg.axes[1]);
+    let (xs, ys) = (ax.values(), ay.values());
+    let (nx, ny) = (xs.len(), ys.len());
+    let value = |r: &PointResult| match &r.metrics {
+        Ok(m) => m.final_amplitude_deg.unwrap_or(f64::NAN),
+        Err(_) => f64::NAN,
+    };
+    // the slice with every further axis at its first value
+    let grid: Vec<Vec<f64>> = (0..ny)
+        .map(|j| (0..nx).map(|i| value(&results[i + nx * j])).collect())
+        .collect();
+    let vmax = grid
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(1.0, f64::max);
+    // smallest swept value of axis 2 that ends in sway, per value of axis 1
+    let threshold: Vec<(f64, Option<f64>)> = (0..nx)
+        .map(|i| (xs[i], (0..ny).find(|&j| grid[j][i] >= thr).map(|j| ys[j])))
+        .collect();
+    let mut p = Panel::new(
+        &format!(
+            "{}: final sway amplitude (max |θ| over the last {} s)",
+            cfg.name,
+            cfg.base.settings.metrics.final_window_s.get()
+        ),
+        ax.parameter.label(),
+        ay.parameter.label(),
+    )
+    .with(Layer::Heatmap {
+        x_edges: edges(&xs),
+        y_edges: edges(&ys),
+        values: grid,
+        range: (0.0, vmax),
+        label: "final amplitude [deg] (grey: loss of control / failed)".into(),
+    })
+    .legend(Legend::UpperRight);
+    let line: Vec<(f64, f64)> = threshold
+        .iter()
+        .filter_map(|&(x, y)| y.map(|y| (x, y)))
+        .collect();
+    if !line.is_empty() {
+        p.layers.push(Layer::line(
+            line,
+            Rgb::RED,
+            Stroke::Solid,
+            Some(&format!(
+                "smallest {} ending in sway (≥ {thr}°)",
+                ay.parameter.as_str()
+            )),
+        ));
+    }
+    Figure::single(p).render(&out.path("heatmap"))?;
+    let y_key = format!("min_{}_for_sway", ay.parameter.as_str());
+    let summary = HeatmapSummary {
+        heatmap_axes: [ax.parameter.as_str(), ay.parameter.as_str()],
+        threshold: threshold
+            .iter()
+            .map(|&(x, y)| ThresholdPoint {
+                x: (ax.parameter.as_str(), x),
+                y: (y_key.clone(), y),
+            })
+            .collect(),
+    };
+    let line = threshold
+        .iter()
+        .find_map(|&(x, y)| y.map(|y| (x, y)))
+        .map(|(x, y)| {
+            format!(
+                "lowest {} with sway: {x:.3}, from {} = {y:.3}",
+                ax.parameter.as_str(),
+                ay.parameter.as_str()
+            )
+        });
+    Ok(Some((summary, line)))
+}
+
 impl Prepared for SweepTask {
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let cfg = &self.config;
@@ -219,80 +309,9 @@ impl Prepared for SweepTask {
             results.len()
         )];
 
-        // heat map over the first two axes (first axis fastest in the grid order)
-        if cfg.axes.len() >= 2 {
-            let (ax, ay) = (cfg.axes[0], cfg.axes[1]);
-            let (xs, ys) = (ax.values(), ay.values());
-            let (nx, ny) = (xs.len(), ys.len());
-            let value = |r: &PointResult| match &r.metrics {
-                Ok(m) => m.final_amplitude_deg.unwrap_or(f64::NAN),
-                Err(_) => f64::NAN,
-            };
-            // the slice with every further axis at its first value
-            let grid: Vec<Vec<f64>> = (0..ny)
-                .map(|j| (0..nx).map(|i| value(&results[i + nx * j])).collect())
-                .collect();
-            let vmax = grid
-                .iter()
-                .flatten()
-                .copied()
-                .filter(|v| v.is_finite())
-                .fold(1.0, f64::max);
-            // smallest swept value of axis 2 that ends in sway, per value of axis 1
-            let threshold: Vec<(f64, Option<f64>)> = (0..nx)
-                .map(|i| (xs[i], (0..ny).find(|&j| grid[j][i] >= thr).map(|j| ys[j])))
-                .collect();
-            let mut p = Panel::new(
-                &format!(
-                    "{}: final sway amplitude (max |θ| over the last {} s)",
-                    cfg.name,
-                    cfg.base.settings.metrics.final_window_s.get()
-                ),
-                ax.parameter.label(),
-                ay.parameter.label(),
-            )
-            .with(Layer::Heatmap {
-                x_edges: edges(&xs),
-                y_edges: edges(&ys),
-                values: grid,
-                range: (0.0, vmax),
-                label: "final amplitude [deg] (grey: loss of control / failed)".into(),
-            })
-            .legend(Legend::UpperRight);
-            let line: Vec<(f64, f64)> = threshold
-                .iter()
-                .filter_map(|&(x, y)| y.map(|y| (x, y)))
-                .collect();
-            if !line.is_empty() {
-                p.layers.push(Layer::line(
-                    line,
-                    Rgb::RED,
-                    Stroke::Solid,
-                    Some(&format!(
-                        "smallest {} ending in sway (≥ {thr}°)",
-                        ay.parameter.as_str()
-                    )),
-                ));
-            }
-            Figure::single(p).render(&out.path("heatmap"))?;
-            let y_key = format!("min_{}_for_sway", ay.parameter.as_str());
-            summary.heatmap = Some(HeatmapSummary {
-                heatmap_axes: [ax.parameter.as_str(), ay.parameter.as_str()],
-                threshold: threshold
-                    .iter()
-                    .map(|&(x, y)| ThresholdPoint {
-                        x: (ax.parameter.as_str(), x),
-                        y: (y_key.clone(), y),
-                    })
-                    .collect(),
-            });
-            if let Some((x, Some(y))) = threshold.iter().find(|(_, y)| y.is_some()) {
-                lines.push(format!(
-                    "lowest {} with sway: {x:.3}, from {} = {y:.3}",
-                    ax.parameter.as_str(),
-                    ay.parameter.as_str()
-                ));
-            }
+        if let Some((heatmap, line)) = heatmap(&out, cfg, &results, thr)? {
+            summary.heatmap = Some(heatmap);
+            lines.extend(line);
         }
         ctx.conclude(out, summary, cfg, &self.file, lines)
     }

@@ -76,7 +76,7 @@ pub fn fig4a_charts(
         .map_err(numerical("stability charts of Fig. 4(a)".into()))
 }
 
-/// The lowest speed in [v_min, v_max] at which gain D leaves straight running unstable
+/// The lowest speed in \[v_min, v_max\] at which gain D leaves straight running unstable
 /// (`None` if stable on the whole range): scan of the exact unstable-root count at `samples`
 /// speeds, then bisection to `tolerance` \[m/s\] — the crossing of the boundary curves.
 ///
@@ -105,7 +105,7 @@ pub fn critical_speed_at_gain(
     )))
 }
 
-/// Intervals [D_min, D_max] of stabilising gains at speed V within [d_min, d_max]; the end
+/// Intervals \[D_min, D_max\] of stabilising gains at speed V within \[d_min, d_max\]; the end
 /// points are exact boundary crossings (or the range ends).
 ///
 /// # Errors

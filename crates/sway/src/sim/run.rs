@@ -159,16 +159,16 @@ impl Default for MetricSettings {
 /// The headline numbers of one run (field names as in the summaries and sweep CSVs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
-    /// max |θ| [deg] for t ≥ the action time (null if the run ended before it)
+    /// max |θ| \[deg\] for t ≥ the action time (null if the run ended before it)
     pub peak_theta_deg_after_action: Option<f64>,
-    /// max |θ| [deg] over the final window (null when control was lost)
+    /// max |θ| \[deg\] over the final window (null when control was lost)
     pub final_amplitude_deg: Option<f64>,
-    /// time [s] from the action until |θ| stays below the threshold to the end of the
+    /// time \[s\] from the action until |θ| stays below the threshold to the end of the
     /// horizon (null if it never does, or when control was lost)
     pub settle_time_s: Option<f64>,
     /// "ok" or "loss_of_control"
     pub outcome: Outcome,
-    /// when the guard tripped [s] (null when ok)
+    /// when the guard tripped \[s\] (null when ok)
     pub loss_of_control_time_s: Option<f64>,
     /// which condition tripped (null when ok)
     pub loss_of_control_condition: Option<LossOfControl>,
@@ -195,7 +195,7 @@ pub enum Recording {
     None,
     /// the state, V and δ every `step_s` seconds (from the continuous extension)
     Every {
-        /// sampling interval [s]
+        /// sampling interval \[s\]
         step_s: f64,
     },
 }
@@ -203,13 +203,13 @@ pub enum Recording {
 /// One sample of a recorded trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample<const N: usize> {
-    /// time [s]
+    /// time \[s\]
     pub t: f64,
     /// state (4 or 7 components)
     pub x: SVector<f64, N>,
-    /// speed V [m/s]
+    /// speed V \[m/s\]
     pub speed: f64,
-    /// steering angle δ [rad]
+    /// steering angle δ \[rad\]
     pub steering_angle: f64,
 }
 
@@ -220,9 +220,9 @@ pub struct SimSpec {
     pub profile: SpeedProfile,
     /// δ(t)
     pub controller: Controller,
-    /// end time [s] (runs start at t = 0)
+    /// end time \[s\] (runs start at t = 0)
     pub horizon_s: f64,
-    /// the action (braking / steering) starts here [s]; metrics "after action" count from it
+    /// the action (braking / steering) starts here \[s\]; metrics "after action" count from it
     pub action_s: f64,
     /// guard, tolerances and metric settings
     pub settings: RunSettings,
@@ -235,7 +235,7 @@ pub struct SimResult<const N: usize> {
     pub metrics: Metrics,
     /// sampled trajectory (empty with [`Recording::None`])
     pub trajectory: Vec<Sample<N>>,
-    /// where the run ended [s]
+    /// where the run ended \[s\]
     pub t_end: f64,
     /// the state there
     pub x_end: SVector<f64, N>,

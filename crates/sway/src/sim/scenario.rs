@@ -17,36 +17,36 @@ use crate::config::{Positive, ensure};
 pub enum InitialCondition {
     /// A given state; unspecified components are 0.
     State {
-        /// σ1 [m/s]
+        /// σ1 \[m/s\]
         #[serde(default)]
         sigma1_mps: f64,
-        /// σ2 [1/s]
+        /// σ2 \[1/s\]
         #[serde(default)]
         sigma2_per_s: f64,
-        /// σ3 [1/s]
+        /// σ3 \[1/s\]
         #[serde(default)]
         sigma3_per_s: f64,
-        /// hitch angle θ(0) [deg]
+        /// hitch angle θ(0) \[deg\]
         #[serde(default)]
         theta0_deg: f64,
-        /// yaw angle ψ(0) [deg]
+        /// yaw angle ψ(0) \[deg\]
         #[serde(default)]
         psi0_deg: f64,
     },
     /// "On the sway cycle": the state reached after `settle_s` seconds at constant
     /// `speed_mps` from θ(0) = `theta0_rad` (other states 0), open loop.
     SwayCycle {
-        /// V0 [m/s] while settling
+        /// V0 \[m/s\] while settling
         speed_mps: f64,
-        /// settling time [s]
+        /// settling time \[s\]
         settle_s: f64,
-        /// the small initial perturbation θ(0) [rad]
+        /// the small initial perturbation θ(0) \[rad\]
         theta0_rad: f64,
     },
 }
 
 impl InitialCondition {
-    /// The reduced state [σ1, σ2, σ3, θ] and ψ(0) [rad].
+    /// The reduced state \[σ1, σ2, σ3, θ\] and ψ(0) \[rad\].
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if settling fails.
@@ -163,7 +163,7 @@ pub struct ScenarioConfig {
     /// trajectory sampling interval \[s\]
     #[serde(default = "default_output_step")]
     pub output_step_s: Positive,
-    /// when the action starts [s]; default: the earliest of braking start and controller
+    /// when the action starts \[s\]; default: the earliest of braking start and controller
     /// switch-on, else 0
     #[serde(default)]
     pub action_s: Option<f64>,

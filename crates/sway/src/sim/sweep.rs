@@ -20,19 +20,19 @@ use crate::progress::Progress;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SweepParameter {
-    /// V [m/s]: the constant speed, the ramp's initial speed, and the settling speed of a
+    /// V \[m/s\]: the constant speed, the ramp's initial speed, and the settling speed of a
     /// sway-cycle start
     SpeedMps,
-    /// θ(0) [deg]: the initial hitch angle (a state start) or the perturbation that
+    /// θ(0) \[deg\]: the initial hitch angle (a state start) or the perturbation that
     /// starts the settling (sway-cycle start)
     Theta0Deg,
-    /// D [s]: gain of the yaw-rate feedback
+    /// D \[s\]: gain of the yaw-rate feedback
     GainS,
-    /// τ [s]: delay of the yaw-rate feedback
+    /// τ \[s\]: delay of the yaw-rate feedback
     DelayS,
-    /// T [s]: duration of the braking ramp
+    /// T \[s\]: duration of the braking ramp
     RampDurationS,
-    /// t_b [s]: when the braking ramp starts (with a sway-cycle start: the sway phase at
+    /// t_b \[s\]: when the braking ramp starts (with a sway-cycle start: the sway phase at
     /// which braking begins)
     BrakeStartS,
 }
@@ -106,7 +106,7 @@ pub struct BaseScenario {
     /// end time \[s\]
     #[serde(default = "default_horizon")]
     pub horizon_s: Positive,
-    /// action time [s] (default: braking start / controller switch-on / 0)
+    /// action time \[s\] (default: braking start / controller switch-on / 0)
     #[serde(default)]
     pub action_s: Option<f64>,
     /// V(t)

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use serde::de::DeserializeOwned;
 use sway::SwayError;
+use sway::sim::RunSettings;
 use trailer_model::{Model, ModelError, VehicleParams};
 
 /// Reads and deserialises a TOML file into `T`.
@@ -37,6 +38,11 @@ pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, Swa
     serde_path_to_error::deserialize(de).map_err(|e| {
         let key = e.path().to_string();
         let inner = e.into_inner();
+        if let Some((inside, problem)) = run_settings_error(text)
+            && (key == "." || inside.starts_with(&format!("{key}.")))
+        {
+            return SwayError::config(file, inside, problem);
+        }
         let key = if key == "." {
             "<root>".to_string()
         } else {
@@ -44,6 +50,36 @@ pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, Swa
         };
         SwayError::config(file, key, located(inner.message(), inner.span()))
     })
+}
+
+/// The key path and problem of a bad value inside the run settings (`guard`, `[solver]`,
+/// `[metrics]`) of any table of the document. Configs flatten [`RunSettings`] into their
+/// tables, and serde reads flattened fields from a buffer that has lost the key path; this
+/// reads each table that has such keys as `RunSettings` alone to find it again.
+fn run_settings_error(text: &str) -> Option<(String, String)> {
+    fn walk(table: &toml::Table, prefix: &str) -> Option<(String, String)> {
+        if ["guard", "solver", "metrics"]
+            .iter()
+            .any(|k| table.contains_key(*k))
+        {
+            let value = toml::Value::Table(table.clone());
+            if let Err(e) = serde_path_to_error::deserialize::<_, RunSettings>(value) {
+                let inner_key = e.path().to_string();
+                let key = if prefix.is_empty() {
+                    inner_key
+                } else {
+                    format!("{prefix}.{inner_key}")
+                };
+                return Some((key, e.into_inner().message().trim().to_string()));
+            }
+        }
+        table.iter().find_map(|(k, v)| match v {
+            toml::Value::Table(sub) if prefix.is_empty() => walk(sub, k),
+            toml::Value::Table(sub) => walk(sub, &format!("{prefix}.{k}")),
+            _ => None,
+        })
+    }
+    walk(&toml::from_str(text).ok()?, "")
 }
 
 /// Loads a vehicle file (the form of `configs/vehicle.toml`, Table I) and builds the model.

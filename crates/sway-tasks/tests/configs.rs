@@ -44,3 +44,34 @@ fn shipped_configs_load_and_validate() {
     c.validate(&f).unwrap();
     assert!(c.len() >= 64 * 16);
 }
+
+#[test]
+fn errors_inside_the_flattened_run_settings_name_their_key() {
+    // `guard`, `[solver]` and `[metrics]` are one flattened struct (RunSettings); a bad
+    // value in them is still reported at its key path, at the root and in a section
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
+    let file = std::path::Path::new("scenario.toml");
+    let good = std::fs::read_to_string(root.join("scenario_example.toml")).expect("read");
+    for (bad, key) in [
+        (
+            good.replace("final_window_s = 5.0", "final_window_s = -5.0"),
+            "metrics.final_window_s",
+        ),
+        (good.replace("rtol = 1e-8", "rtol = \"x\""), "solver.rtol"),
+        (
+            good.replace("guard = \"stop\"", "guard = \"maybe\""),
+            "guard",
+        ),
+    ] {
+        let e = sway_tasks::config_file::parse_toml::<ScenarioConfig>(&bad, file)
+            .expect_err(key)
+            .to_string();
+        assert!(e.contains(&format!("`{key}`")), "{key}: {e}");
+    }
+    let sweep = std::fs::read_to_string(root.join("sweep_threshold.toml")).expect("read");
+    let bad = sweep.replace("settle_threshold_deg = 1.0", "settle_threshold_deg = 0.0");
+    let e = sway_tasks::config_file::parse_toml::<SweepConfig>(&bad, file)
+        .expect_err("zero threshold")
+        .to_string();
+    assert!(e.contains("`base.metrics.settle_threshold_deg`"), "{e}");
+}

@@ -35,10 +35,10 @@ struct TaskArgs {
     /// vehicle parameters (the form of configs/vehicle.toml)
     #[arg(long)]
     vehicle: Option<PathBuf>,
-    /// the task's config (default: configs/<task>.toml; single tasks only)
+    /// the task's config (default: configs/TASK.toml; single tasks only)
     #[arg(long)]
     config: Option<PathBuf>,
-    /// where results/<task>/ goes
+    /// where results/TASK/ goes
     #[arg(long)]
     results: Option<PathBuf>,
 }

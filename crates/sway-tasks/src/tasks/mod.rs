@@ -3,7 +3,7 @@
 //! A task runs in two steps so that a bad config stops the run before any work and
 //! before anything is written: [`Task::prepare`] loads and validates the task's config
 //! (and may precompute nothing expensive), then [`Prepared::run`] computes and writes
-//! `results/<task>/` through a staged [`OutputDir`](crate::io::OutputDir).
+//! `results/<task>/` through a staged [`OutputDir`].
 
 use std::path::{Path, PathBuf};
 

@@ -5,7 +5,7 @@
 //! cargo xtask list                       # the tasks and groups
 //! cargo xtask linear [--vehicle FILE] [--config FILE]
 //! cargo xtask fig3 | fig4 | all          # groups of tasks
-//! cargo xtask roots --v V --d D --tau TAU [--count N]   # rightmost characteristic roots
+//! cargo xtask roots --speed V --gain D --delay TAU [--count N]   # rightmost characteristic roots
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -15,7 +15,8 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use sway::progress::Progress;
-use sway::tasks::{self, Task, TaskContext};
+use sway_tasks::config_file;
+use sway_tasks::tasks::{self, Task, TaskContext};
 
 /// The repository root (this crate lives in `<root>/xtask`).
 fn repo_root() -> PathBuf {
@@ -34,10 +35,10 @@ struct TaskArgs {
     /// vehicle parameters (the form of configs/vehicle.toml)
     #[arg(long)]
     vehicle: Option<PathBuf>,
-    /// the task's config (default: configs/<task>.toml; single tasks only)
+    /// the task's config (default: configs/TASK.toml; single tasks only)
     #[arg(long)]
     config: Option<PathBuf>,
-    /// where results/<task>/ goes
+    /// where results/TASK/ goes
     #[arg(long)]
     results: Option<PathBuf>,
 }
@@ -67,6 +68,10 @@ fn usage() -> String {
     for t in tasks::registry() {
         s.push_str(&format!("  {:<10} {}\n", t.name, t.about));
     }
+    s.push_str(&format!(
+        "  {:<10} {}\n",
+        "roots", "rightmost characteristic roots of eq. (13) at one point: --speed V --gain D --delay TAU [--count N]"
+    ));
     s.push_str("groups:\n");
     for (g, members) in tasks::groups() {
         if !members.is_empty() {
@@ -140,17 +145,17 @@ fn run() -> Result<()> {
 #[derive(Debug, Parser)]
 #[command(no_binary_name = true)]
 struct RootsArgs {
-    /// speed V [m/s]
-    #[arg(long = "v")]
+    /// speed V (m/s)
+    #[arg(long)]
     speed: f64,
-    /// feedback gain D [s]
-    #[arg(long = "d", allow_negative_numbers = true)]
+    /// feedback gain D (s)
+    #[arg(long, allow_negative_numbers = true)]
     gain: f64,
-    /// delay τ [s]
-    #[arg(long = "tau")]
+    /// delay τ (s)
+    #[arg(long)]
     delay: f64,
     /// how many roots
-    #[arg(long, default_value_t = sway::tasks::roots::DEFAULT_COUNT)]
+    #[arg(long, default_value_t = sway_tasks::tasks::roots::DEFAULT_COUNT)]
     count: usize,
     /// vehicle parameters (the form of configs/vehicle.toml)
     #[arg(long)]
@@ -162,9 +167,9 @@ fn roots(args: &[String]) -> Result<()> {
     let vehicle = a
         .vehicle
         .unwrap_or_else(|| repo_root().join("configs").join("vehicle.toml"));
-    let (_, model) = sway::config::load_vehicle(&vehicle)?;
-    let roots = sway::tasks::roots::roots(&model, a.speed, a.gain, a.delay, a.count)?;
-    print!("{}", sway::tasks::roots::format_roots(&roots));
+    let (_, model) = config_file::load_vehicle(&vehicle)?;
+    let roots = sway_tasks::tasks::roots::roots(&model, a.speed, a.gain, a.delay, a.count)?;
+    print!("{}", sway_tasks::tasks::roots::format_roots(&roots));
     Ok(())
 }
 

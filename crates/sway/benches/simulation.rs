@@ -9,8 +9,8 @@ use std::hint::black_box;
 use sway::progress::NoProgress;
 use sway::sim::sweep::{SweepConfig, run_sweep};
 use sway::sim::{
-    Controller, MetricSettings, Recording, SimSpec, SolverSettings, SpeedProfile, ValidityGuard,
-    simulate,
+    Controller, MetricSettings, Recording, RunSettings, SimSpec, SolverSettings, SpeedProfile,
+    ValidityGuard, simulate,
 };
 use trailer_model::{Model, State7, VehicleParams};
 
@@ -20,13 +20,15 @@ fn spec(profile: SpeedProfile, controller: Controller, horizon_s: f64) -> SimSpe
         controller,
         horizon_s,
         action_s: 0.0,
-        guard: ValidityGuard::Stop,
-        solver: SolverSettings {
-            rtol: 1e-8,
-            atol: 1e-10,
-            ..SolverSettings::default()
+        settings: RunSettings {
+            guard: ValidityGuard::Stop,
+            solver: SolverSettings {
+                rtol: 1e-8,
+                atol: 1e-10,
+                ..SolverSettings::default()
+            },
+            metrics: MetricSettings::default(),
         },
-        metrics: MetricSettings::default(),
     }
 }
 
@@ -72,7 +74,7 @@ fn sweep(c: &mut Criterion) {
     let model = Model::new(VehicleParams::default()).unwrap();
     let file =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/sweep_threshold.toml");
-    let cfg: SweepConfig = sway::config::load_toml(&file).unwrap();
+    let cfg: SweepConfig = toml::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
     cfg.validate(&file).unwrap();
     let mut g = c.benchmark_group("sweep_threshold_64x16");
     g.sample_size(10);

@@ -1,73 +1,14 @@
-//! Loading TOML configs: typed, with `deny_unknown_fields`, and errors that name the
-//! file, the key path and the problem. Nothing is computed before a config has loaded.
+//! Typed configs as plain data: validation helpers whose errors name the file, the key
+//! path and the problem, the validated
+//! value types [`Positive`], [`NonNegative`] and [`Grid`] (they check themselves when
+//! deserialised, so the reader reports the key path). Reading files is the task layer's job
+//! (`sway-tasks`); here configs are values.
 
 use std::path::Path;
 
-use serde::de::DeserializeOwned;
-use trailer_model::{Model, ModelError, VehicleParams};
+use serde::{Deserialize, Serialize};
 
 use crate::SwayError;
-
-/// Reads and deserialises a TOML file into `T`.
-///
-/// # Errors
-/// [`SwayError::Read`] if the file cannot be read; [`SwayError::Config`] with the key path
-/// (e.g. `tractor.mass`) and line for syntax errors, unknown keys and wrong types.
-pub fn load_toml<T: DeserializeOwned>(file: &Path) -> Result<T, SwayError> {
-    let text = std::fs::read_to_string(file).map_err(|source| SwayError::Read {
-        file: file.to_path_buf(),
-        source,
-    })?;
-    parse_toml(&text, file)
-}
-
-/// Deserialises TOML text; `file` is only used in error messages.
-///
-/// # Errors
-/// [`SwayError::Config`] naming the key path, the line and the problem.
-pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, SwayError> {
-    let located = |message: &str, span: Option<std::ops::Range<usize>>| match span {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("{} (line {line})", message.trim())
-        }
-        None => message.trim().to_string(),
-    };
-    let de = toml::de::Deserializer::parse(text)
-        .map_err(|e| SwayError::config(file, "<syntax>", located(e.message(), e.span())))?;
-    serde_path_to_error::deserialize(de).map_err(|e| {
-        let key = e.path().to_string();
-        let inner = e.into_inner();
-        let key = if key == "." {
-            "<root>".to_string()
-        } else {
-            key
-        };
-        SwayError::config(file, key, located(inner.message(), inner.span()))
-    })
-}
-
-/// Loads a vehicle file (the form of `configs/vehicle.toml`, Table I) and builds the model.
-///
-/// # Errors
-/// As [`load_toml`], plus [`SwayError::Config`] naming the parameter when a physical
-/// check fails (positive masses, 0 < c < f, 0 < d < f, 0 < μ ≤ μ0, …).
-pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), SwayError> {
-    let params: VehicleParams = load_toml(file)?;
-    let model = Model::new(params).map_err(|e| match e {
-        ModelError::InvalidParameter {
-            key,
-            value,
-            expected,
-        } => SwayError::config(
-            file,
-            key,
-            format!("{value} is invalid: expected {expected}"),
-        ),
-        other => SwayError::config(file, "<root>", other.to_string()),
-    })?;
-    Ok((params, model))
-}
 
 /// Returns a [`SwayError::Config`] for `key` unless `ok` holds.
 pub fn ensure(
@@ -118,9 +59,98 @@ pub fn ensure_time_span(
     )
 }
 
-/// A uniform grid `[min, max]` with `points` points, as written in task configs.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+/// A finite number > 0. It validates itself when deserialised, so a bad value in a config
+/// file is reported at its key path (`metrics.final_window_s`) with no validation code in
+/// the config that holds it.
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[serde(try_from = "f64", into = "f64")]
+pub struct Positive(f64);
+
+impl Positive {
+    /// `x` if it is finite and > 0.
+    ///
+    /// # Errors
+    /// What was expected and the value given.
+    pub fn new(x: f64) -> Result<Self, String> {
+        if x.is_finite() && x > 0.0 {
+            Ok(Self(x))
+        } else {
+            Err(format!("expected a finite number > 0, got {x}"))
+        }
+    }
+
+    /// A positive literal, for defaults in code (`Positive::literal(5.0)`); a literal that
+    /// is not finite and > 0 is a programming error and panics (at compile time in a
+    /// `const`).
+    pub const fn literal(x: f64) -> Self {
+        assert!(
+            x.is_finite() && x > 0.0,
+            "Positive::literal needs a finite x > 0"
+        );
+        Self(x)
+    }
+
+    /// The value.
+    pub fn get(self) -> f64 {
+        self.0
+    }
+}
+
+impl TryFrom<f64> for Positive {
+    type Error = String;
+    fn try_from(x: f64) -> Result<Self, String> {
+        Self::new(x)
+    }
+}
+
+impl From<Positive> for f64 {
+    fn from(p: Positive) -> f64 {
+        p.0
+    }
+}
+
+/// A finite number ≥ 0, validated when deserialised (see [`Positive`]).
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[serde(try_from = "f64", into = "f64")]
+pub struct NonNegative(f64);
+
+impl NonNegative {
+    /// `x` if it is finite and ≥ 0.
+    ///
+    /// # Errors
+    /// What was expected and the value given.
+    pub fn new(x: f64) -> Result<Self, String> {
+        if x.is_finite() && x >= 0.0 {
+            Ok(Self(x))
+        } else {
+            Err(format!("expected a finite number >= 0, got {x}"))
+        }
+    }
+
+    /// The value.
+    pub fn get(self) -> f64 {
+        self.0
+    }
+}
+
+impl TryFrom<f64> for NonNegative {
+    type Error = String;
+    fn try_from(x: f64) -> Result<Self, String> {
+        Self::new(x)
+    }
+}
+
+impl From<NonNegative> for f64 {
+    fn from(p: NonNegative) -> f64 {
+        p.0
+    }
+}
+
+/// A uniform grid `[min, max]` with `points` points, as written in task configs; validated
+/// when deserialised (finite min < max, at least 2 points), so the error names the grid's
+/// key path.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "GridKeys")]
 pub struct Grid {
     /// first value
     pub min: f64,
@@ -130,28 +160,36 @@ pub struct Grid {
     pub points: usize,
 }
 
-impl Grid {
-    /// Checks min < max (finite) and points ≥ 2; `key` names the grid in the error.
-    ///
-    /// # Errors
-    /// [`SwayError::Config`] naming `key`.
-    pub fn validate(&self, file: &Path, key: &str) -> Result<(), SwayError> {
-        ensure(
-            self.min.is_finite() && self.max.is_finite() && self.min < self.max,
-            file,
-            key,
-            || {
-                format!(
-                    "expected finite min < max, got min = {}, max = {}",
-                    self.min, self.max
-                )
-            },
-        )?;
-        ensure(self.points >= 2, file, &format!("{key}.points"), || {
-            format!("expected at least 2 points, got {}", self.points)
+/// The keys of a [`Grid`] before validation.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GridKeys {
+    min: f64,
+    max: f64,
+    points: usize,
+}
+
+impl TryFrom<GridKeys> for Grid {
+    type Error = String;
+    fn try_from(g: GridKeys) -> Result<Self, String> {
+        if !(g.min.is_finite() && g.max.is_finite() && g.min < g.max) {
+            return Err(format!(
+                "expected finite min < max, got min = {}, max = {}",
+                g.min, g.max
+            ));
+        }
+        if g.points < 2 {
+            return Err(format!("expected at least 2 points, got {}", g.points));
+        }
+        Ok(Self {
+            min: g.min,
+            max: g.max,
+            points: g.points,
         })
     }
+}
 
+impl Grid {
     /// The grid values (the last one is exactly `max`).
     pub fn values(&self) -> Vec<f64> {
         let n = self.points.max(2);
@@ -164,5 +202,45 @@ impl Grid {
                 }
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, Deserialize)]
+    struct Holder {
+        #[allow(dead_code)]
+        x: Positive,
+        #[allow(dead_code)]
+        g: Grid,
+    }
+
+    #[test]
+    fn validated_types_reject_bad_values_on_deserialisation() {
+        let ok: Holder =
+            toml::from_str("x = 2.5\ng = { min = 0.0, max = 1.0, points = 3 }").expect("valid");
+        assert_eq!(ok.x.get(), 2.5);
+        assert_eq!(ok.g.values(), vec![0.0, 0.5, 1.0]);
+        for (text, problem) in [
+            ("x = -1.0\ng = { min = 0.0, max = 1.0, points = 3 }", "> 0"),
+            (
+                "x = 1.0\ng = { min = 1.0, max = 0.0, points = 3 }",
+                "min < max",
+            ),
+            (
+                "x = 1.0\ng = { min = 0.0, max = 1.0, points = 1 }",
+                "2 points",
+            ),
+            (
+                "x = 1.0\ng = { min = 0.0, max = 1.0, points = 3, step = 1 }",
+                "step",
+            ),
+        ] {
+            let e = toml::from_str::<Holder>(text).expect_err(text).to_string();
+            assert!(e.contains(problem), "{text}: {e}");
+        }
+        assert!(NonNegative::new(0.0).is_ok() && NonNegative::new(-1e-300).is_err());
     }
 }

@@ -1,10 +1,12 @@
-//! Trailer-sway scenarios and figure pipelines: the application layer that wires the
-//! vehicle model ([`trailer_model`]) into the numerical crates ([`dde`], [`stability`],
-//! [`continuation`]), reads TOML configs, and writes CSV, JSON and figures.
+//! Trailer-sway scenarios: the library that wires the vehicle model ([`trailer_model`])
+//! into the numerical crates ([`dde`], [`stability`], [`continuation`]) — simulation
+//! ([`sim`]), bifurcation diagrams ([`bifurcation`]), stability charts ([`charts`]),
+//! linear analysis ([`linear`]) and trailer loading ([`loading`]) — with typed configs as
+//! plain serde data and their validation ([`config`]).
 //!
-//! Every task of `cargo xtask` is a library function here ([`tasks`]), so tests reach
-//! every pipeline. Configs are typed and validated before any work
-//! ([`config`]); results are written atomically ([`io`]).
+//! It computes and returns values: it reads no files, writes no files and does not
+//! depend on the plotting stack. The task layer above it (`sway-tasks`, used by
+//! `cargo xtask`) reads config files, writes `results/<task>/` and draws the figures.
 //!
 //! ```
 //! use sway::linear::eigen_table;
@@ -21,12 +23,9 @@ pub mod bifurcation;
 pub mod charts;
 pub mod config;
 mod error;
-pub mod io;
 pub mod linear;
 pub mod loading;
-pub mod plot;
 pub mod progress;
 pub mod sim;
-pub mod tasks;
 
 pub use error::SwayError;

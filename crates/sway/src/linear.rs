@@ -12,9 +12,9 @@ use crate::SwayError;
 /// continuously (matched to the previous speed by nearest distance).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EigenTable {
-    /// speeds V [m/s]
+    /// speeds V \[m/s\]
     pub speeds: Vec<f64>,
-    /// eigenvalues λ [1/s] per speed, continuous branches in fixed columns
+    /// eigenvalues λ \[1/s\] per speed, continuous branches in fixed columns
     pub eigenvalues: Vec<[Complex<f64>; 4]>,
 }
 
@@ -70,7 +70,7 @@ fn best_match(prev: &[Complex<f64>; 4], ev: &[Complex<f64>; 4]) -> [Complex<f64>
 }
 
 /// dV_crit/dp of one parameter.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
 pub struct Sensitivity {
     /// key path in the vehicle file, e.g. `trailer.cog`
     pub key: &'static str,
@@ -80,9 +80,9 @@ pub struct Sensitivity {
     pub unit: &'static str,
     /// parameter value
     pub value: f64,
-    /// dV_crit/dp [m/s per unit of p] (central difference)
+    /// dV_crit/dp \[m/s per unit of p\] (central difference)
     pub dv_crit_dp: f64,
-    /// elasticity (p / V_crit) dV_crit/dp [-]: % change of V_crit per % change of p
+    /// elasticity (p / V_crit) dV_crit/dp \[-\]: % change of V_crit per % change of p
     pub elasticity: f64,
 }
 
@@ -90,7 +90,7 @@ pub struct Sensitivity {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensitivityOptions {
-    /// relative step of the central differences [-]
+    /// relative step of the central differences \[-\]
     pub relative_step: f64,
 }
 
@@ -102,7 +102,7 @@ impl Default for SensitivityOptions {
     }
 }
 
-/// V_crit of `params`, searched in `around ± window` [m/s].
+/// V_crit of `params`, searched in `around ± window` \[m/s\].
 fn v_crit_near(
     params: &VehicleParams,
     around: f64,

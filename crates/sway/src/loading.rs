@@ -21,12 +21,12 @@ pub enum InertiaScaling {
     Fixed,
 }
 
-/// Tongue load as a fraction of the trailer weight, 1 − h/l [-].
+/// Tongue load as a fraction of the trailer weight, 1 − h/l \[-\].
 pub fn tongue_load_fraction(params: &VehicleParams) -> f64 {
     1.0 - params.trailer.cog / params.trailer.axle
 }
 
-/// The base vehicle with trailer mass `m2` [kg] and centre of gravity `h` [m].
+/// The base vehicle with trailer mass `m2` \[kg\] and centre of gravity `h` \[m\].
 pub fn loaded(base: &VehicleParams, m2: f64, h: f64, inertia: InertiaScaling) -> VehicleParams {
     let mut p = *base;
     if inertia == InertiaScaling::ScaleWithMass {
@@ -37,7 +37,7 @@ pub fn loaded(base: &VehicleParams, m2: f64, h: f64, inertia: InertiaScaling) ->
     p
 }
 
-/// V_crit [m/s] of one loading, NaN when straight running has no stability change in
+/// V_crit \[m/s\] of one loading, NaN when straight running has no stability change in
 /// `opts`' range (stable throughout, or unstable from the lowest speed) or the vehicle is
 /// invalid.
 pub fn v_crit_of(params: &VehicleParams, opts: &CriticalSpeedOptions) -> f64 {

@@ -7,13 +7,12 @@
 //! p = det(λI − Ã), q = C̃ adj(λI − Ã) B̃ ([`stability::RankOneFeedback`]).
 
 use stability::{
-    Axis, ChartOptions, Complex64, Polyline, RankOneFeedback, RootOptions, StabilityChart,
-    StabilityError, first_unstable_parameter, stability_charts,
+    Axis, ChartOptions, Complex64, RankOneFeedback, RootOptions, StabilityChart, StabilityError,
+    first_unstable_parameter, stability_charts,
 };
 use trailer_model::Model;
 
 use crate::SwayError;
-use crate::plot::{Layer, Legend, Panel, Rgb, Stroke};
 
 /// The closed loop at speed V \[m/s\] in quasi-polynomial form (Ã, B̃, C̃ of eq. 11).
 ///
@@ -77,7 +76,7 @@ pub fn fig4a_charts(
         .map_err(numerical("stability charts of Fig. 4(a)".into()))
 }
 
-/// The lowest speed in [v_min, v_max] at which gain D leaves straight running unstable
+/// The lowest speed in \[v_min, v_max\] at which gain D leaves straight running unstable
 /// (`None` if stable on the whole range): scan of the exact unstable-root count at `samples`
 /// speeds, then bisection to `tolerance` \[m/s\] — the crossing of the boundary curves.
 ///
@@ -106,7 +105,7 @@ pub fn critical_speed_at_gain(
     )))
 }
 
-/// Intervals [D_min, D_max] of stabilising gains at speed V within [d_min, d_max]; the end
+/// Intervals \[D_min, D_max\] of stabilising gains at speed V within \[d_min, d_max\]; the end
 /// points are exact boundary crossings (or the range ends).
 ///
 /// # Errors
@@ -122,131 +121,6 @@ pub fn stable_gain_intervals(
     let sys = closed_loop(model, speed).map_err(numerical(ctx.clone()))?;
     sys.stable_gain_intervals(delay, d_min, d_max)
         .map_err(numerical(ctx))
-}
-
-/// Polylines as one line layer (NaN separators), clipped to `lo ≤ D ≤ hi` (pieces outside the
-/// frame end at the frame edge instead of being drawn along it).
-fn polylines_layer(
-    lines: &[Polyline],
-    (lo, hi): (f64, f64),
-    color: Rgb,
-    stroke: Stroke,
-    label: Option<&str>,
-) -> Layer {
-    let mut pts: Vec<(f64, f64)> = Vec::new();
-    let inside = |d: f64| d >= lo && d <= hi;
-    let edge = |a: (f64, f64), b: (f64, f64)| {
-        // point where segment a→b crosses the frame edge nearest to b's side
-        let y = if a.1 > hi || b.1 > hi { hi } else { lo };
-        let t = (y - a.1) / (b.1 - a.1);
-        (a.0 + t * (b.0 - a.0), y)
-    };
-    for l in lines {
-        let mut prev: Option<(f64, f64)> = None;
-        pts.push((f64::NAN, f64::NAN));
-        for p in &l.points {
-            let cur = (p.v, p.d);
-            match prev {
-                None => {
-                    if inside(cur.1) {
-                        pts.push(cur);
-                    }
-                }
-                Some(a) => match (inside(a.1), inside(cur.1)) {
-                    (true, true) => pts.push(cur),
-                    (true, false) => {
-                        pts.push(edge(a, cur));
-                        pts.push((f64::NAN, f64::NAN));
-                    }
-                    (false, true) => {
-                        pts.push(edge(cur, a));
-                        pts.push(cur);
-                    }
-                    (false, false) => {}
-                },
-            }
-            prev = Some(cur);
-        }
-    }
-    Layer::line(pts, color, stroke, label)
-}
-
-/// Stable/unstable shading as runs of equal state along each V column (few rectangles).
-fn shading(chart: &StabilityChart, speed: &Axis, gain: &Axis) -> (Vec<[f64; 4]>, Vec<[f64; 4]>) {
-    let (dv, dd) = (speed.step(), gain.step());
-    let mut stable = Vec::new();
-    let mut unstable = Vec::new();
-    for (iv, &v) in chart.v.iter().enumerate() {
-        let mut start = 0;
-        for id in 1..=chart.d.len() {
-            let s0 = chart.cell(iv, start).is_stable();
-            if id == chart.d.len() || chart.cell(iv, id).is_stable() != s0 {
-                let r = [
-                    v - 0.5 * dv,
-                    v + 0.5 * dv,
-                    chart.d[start] - 0.5 * dd,
-                    chart.d[id - 1] + 0.5 * dd,
-                ];
-                if s0 {
-                    stable.push(r)
-                } else {
-                    unstable.push(r)
-                }
-                start = id;
-            }
-        }
-    }
-    (stable, unstable)
-}
-
-/// One panel of Fig. 4(a): green stable / red unstable shading, static boundary blue, dynamic
-/// boundaries black, and (for τ > 0) the τ = 0 dynamic boundary dotted.
-pub fn chart_panel(
-    chart: &StabilityChart,
-    reference: Option<&StabilityChart>,
-    speed: &Axis,
-    gain: &Axis,
-) -> Panel {
-    let (stable, unstable) = shading(chart, speed, gain);
-    let mut p = Panel::new(&format!("τ = {} s", chart.tau), "V [m/s]", "D [s]")
-        .x_range(speed.min, speed.max)
-        .y_range(gain.min, gain.max)
-        .legend(Legend::LowerLeft)
-        .with(Layer::Rects {
-            rects: stable,
-            color: Rgb::GREEN,
-            opacity: 0.35,
-            label: Some("stable".into()),
-        })
-        .with(Layer::Rects {
-            rects: unstable,
-            color: Rgb::RED,
-            opacity: 0.35,
-            label: Some("unstable".into()),
-        });
-    if let Some(r) = reference.filter(|r| r.tau != chart.tau) {
-        p = p.with(polylines_layer(
-            &r.dynamic_boundaries,
-            (gain.min, gain.max),
-            Rgb::BLACK,
-            Stroke::Dotted,
-            Some("dynamic, τ = 0"),
-        ));
-    }
-    p.with(polylines_layer(
-        &chart.static_boundary,
-        (gain.min, gain.max),
-        Rgb::BLUE,
-        Stroke::Solid,
-        Some("static boundary"),
-    ))
-    .with(polylines_layer(
-        &chart.dynamic_boundaries,
-        (gain.min, gain.max),
-        Rgb::BLACK,
-        Stroke::Solid,
-        Some("dynamic boundary"),
-    ))
 }
 
 #[cfg(test)]

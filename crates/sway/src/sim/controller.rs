@@ -12,21 +12,21 @@ pub enum Controller {
     None,
     /// δ(t) = −D·ψ̇(t − τ) for t_on ≤ t < t_off, 0 otherwise (paper eq. 8).
     YawRateFeedback {
-        /// control gain D [s]
+        /// control gain D \[s\]
         gain_s: f64,
-        /// feedback delay τ [s] (sensing, computation, actuation; 0.2–0.4 s in production cars)
+        /// feedback delay τ \[s\] (sensing, computation, actuation; 0.2–0.4 s in production cars)
         delay_s: f64,
-        /// t_on [s]: switched on
+        /// t_on \[s\]: switched on
         #[serde(default)]
         on_s: f64,
-        /// t_off [s]: switched off (never when absent)
+        /// t_off \[s\]: switched off (never when absent)
         #[serde(default, skip_serializing_if = "Option::is_none")]
         off_s: Option<f64>,
     },
 }
 
 impl Controller {
-    /// The delay τ [s] of the loop, if there is a loop.
+    /// The delay τ \[s\] of the loop, if there is a loop.
     pub fn delay(&self) -> Option<f64> {
         match self {
             Controller::None => None,
@@ -34,7 +34,7 @@ impl Controller {
         }
     }
 
-    /// Steering angle δ(t) [rad] given the delayed yaw rate ψ̇(t − τ) [rad/s].
+    /// Steering angle δ(t) \[rad\] given the delayed yaw rate ψ̇(t − τ) \[rad/s\].
     #[inline]
     pub fn steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
         match self {
@@ -54,7 +54,7 @@ impl Controller {
         }
     }
 
-    /// Times [s] where δ may jump (switching on and off).
+    /// Times \[s\] where δ may jump (switching on and off).
     pub fn breakpoints(&self) -> Vec<f64> {
         match self {
             Controller::None => Vec::new(),

@@ -15,9 +15,7 @@
 //!     controller: Controller::None,
 //!     horizon_s: 30.0,
 //!     action_s: 0.0,
-//!     guard: Default::default(),
-//!     solver: Default::default(),
-//!     metrics: Default::default(),
+//!     settings: Default::default(),
 //! };
 //! let x0 = State4::new(0.0, 0.0, 0.0, 2f64.to_radians());
 //! let r = simulate(&model, &spec, x0, Recording::None).unwrap();
@@ -28,7 +26,6 @@
 mod controller;
 mod plant;
 mod profile;
-pub mod report;
 mod run;
 mod scenario;
 pub mod sweep;
@@ -37,7 +34,7 @@ pub use controller::Controller;
 pub use plant::{Plant, reduced};
 pub use profile::SpeedProfile;
 pub use run::{
-    LossOfControl, MetricSettings, Metrics, Outcome, Recording, Sample, SimResult, SimSpec,
-    SolverSettings, ValidityGuard, settle, simulate,
+    LossOfControl, MetricSettings, Metrics, Outcome, Recording, RunSettings, Sample, SimResult,
+    SimSpec, SolverSettings, ValidityGuard, settle, simulate,
 };
 pub use scenario::{InitialCondition, ScenarioConfig, default_action_time, validate_parts};

@@ -1,5 +1,5 @@
 //! The car–trailer model with a speed profile and a steering controller, as an ODE/DDE
-//! problem for the [`dde`] solver: 4 states [σ1, σ2, σ3, θ] or all 7 [σ1, σ2, σ3, θ, ψ, x_H, y_H].
+//! problem for the [`dde`] solver: 4 states \[σ1, σ2, σ3, θ\] or all 7 \[σ1, σ2, σ3, θ, ψ, x_H, y_H\].
 
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::SVector;
@@ -21,7 +21,7 @@ pub struct Plant<'a, const N: usize> {
     history: SVector<f64, N>,
 }
 
-/// The reduced state [σ1, σ2, σ3, θ] of a 4- or 7-state vector.
+/// The reduced state \[σ1, σ2, σ3, θ\] of a 4- or 7-state vector.
 #[inline]
 pub fn reduced<const N: usize>(x: &SVector<f64, N>) -> State4 {
     State4::new(x[0], x[1], x[2], x[3])

@@ -3,38 +3,38 @@
 
 use serde::{Deserialize, Serialize};
 
-/// A prescribed speed V(t) [m/s]. V̇ is right-continuous: at a corner it takes the value
+/// A prescribed speed V(t) \[m/s\]. V̇ is right-continuous: at a corner it takes the value
 /// that holds after it (the solver lands a step on every corner, see [`SpeedProfile::breakpoints`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum SpeedProfile {
     /// V(t) = V0.
     Constant {
-        /// V0 [m/s]
+        /// V0 \[m/s\]
         speed_mps: f64,
     },
     /// Linear ramp: V0 until t_b, then a change of ΔV spread linearly over T, then
     /// V0 + ΔV (paper Fig. 3b: ΔV = −10 m/s over T ∈ {2, 3, 5, 10} s).
     Ramp {
-        /// V0 [m/s]
+        /// V0 \[m/s\]
         initial_mps: f64,
-        /// ΔV [m/s] (negative when braking)
+        /// ΔV \[m/s\] (negative when braking)
         change_mps: f64,
-        /// t_b [s], start of the ramp
+        /// t_b \[s\], start of the ramp
         start_s: f64,
-        /// T [s], duration of the ramp
+        /// T \[s\], duration of the ramp
         duration_s: f64,
     },
-    /// Piecewise-linear through (t [s], V [m/s]) points with increasing t; constant before
+    /// Piecewise-linear through (t \[s\], V \[m/s\]) points with increasing t; constant before
     /// the first and after the last point.
     Table {
-        /// [[t, V], …]
+        /// [\[t, V\], …]
         points: Vec<[f64; 2]>,
     },
 }
 
 impl SpeedProfile {
-    /// V(t) [m/s].
+    /// V(t) \[m/s\].
     pub fn speed(&self, t: f64) -> f64 {
         match self {
             SpeedProfile::Constant { speed_mps } => *speed_mps,
@@ -65,7 +65,7 @@ impl SpeedProfile {
         }
     }
 
-    /// V̇(t) [m/s²], right-continuous at the corners.
+    /// V̇(t) \[m/s²\], right-continuous at the corners.
     pub fn acceleration(&self, t: f64) -> f64 {
         match self {
             SpeedProfile::Constant { .. } => 0.0,
@@ -93,7 +93,7 @@ impl SpeedProfile {
         }
     }
 
-    /// Times [s] where V̇ jumps.
+    /// Times \[s\] where V̇ jumps.
     pub fn breakpoints(&self) -> Vec<f64> {
         match self {
             SpeedProfile::Constant { .. } => Vec::new(),
@@ -106,12 +106,12 @@ impl SpeedProfile {
         }
     }
 
-    /// The speed at t = 0 [m/s].
+    /// The speed at t = 0 \[m/s\].
     pub fn initial_speed(&self) -> f64 {
         self.speed(0.0)
     }
 
-    /// The lowest speed over [0, horizon] [m/s] (at a corner or an end).
+    /// The lowest speed over \[0, horizon\] \[m/s\] (at a corner or an end).
     pub fn min_speed(&self, horizon: f64) -> f64 {
         let mut ts = self.breakpoints();
         ts.extend([0.0, horizon]);

@@ -12,6 +12,7 @@ use trailer_model::{HITCH_ANGLE, Model, State4};
 use super::plant::{Plant, reduced};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
+use crate::config::Positive;
 
 /// Error control of the simulations.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -42,6 +43,15 @@ impl SolverSettings {
             max_steps: self.max_steps,
             ..Options::with_tolerances(self.rtol, self.atol)
         }
+    }
+
+    /// Checks the tolerances; the error names `<prefix>.<key>` in `file`.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`].
+    pub fn validate_at(&self, file: &std::path::Path, prefix: &str) -> Result<(), SwayError> {
+        self.validate()
+            .map_err(|(k, p)| SwayError::config(file, format!("{prefix}.{k}"), p))
     }
 
     /// Checks the tolerances (names the key on failure).
@@ -131,17 +141,17 @@ impl Outcome {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MetricSettings {
-    /// |θ| below this counts as settled [deg]
-    pub settle_threshold_deg: f64,
-    /// `final_amplitude_deg` is max |θ| over the last this many seconds [s]
-    pub final_window_s: f64,
+    /// |θ| below this counts as settled \[deg\]
+    pub settle_threshold_deg: Positive,
+    /// `final_amplitude_deg` is max |θ| over the last this many seconds \[s\]
+    pub final_window_s: Positive,
 }
 
 impl Default for MetricSettings {
     fn default() -> Self {
         Self {
-            settle_threshold_deg: 1.0,
-            final_window_s: 5.0,
+            settle_threshold_deg: Positive::literal(1.0),
+            final_window_s: Positive::literal(5.0),
         }
     }
 }
@@ -149,19 +159,33 @@ impl Default for MetricSettings {
 /// The headline numbers of one run (field names as in the summaries and sweep CSVs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
-    /// max |θ| [deg] for t ≥ the action time (null if the run ended before it)
+    /// max |θ| \[deg\] for t ≥ the action time (null if the run ended before it)
     pub peak_theta_deg_after_action: Option<f64>,
-    /// max |θ| [deg] over the final window (null when control was lost)
+    /// max |θ| \[deg\] over the final window (null when control was lost)
     pub final_amplitude_deg: Option<f64>,
-    /// time [s] from the action until |θ| stays below the threshold to the end of the
+    /// time \[s\] from the action until |θ| stays below the threshold to the end of the
     /// horizon (null if it never does, or when control was lost)
     pub settle_time_s: Option<f64>,
     /// "ok" or "loss_of_control"
     pub outcome: Outcome,
-    /// when the guard tripped [s] (null when ok)
+    /// when the guard tripped \[s\] (null when ok)
     pub loss_of_control_time_s: Option<f64>,
     /// which condition tripped (null when ok)
     pub loss_of_control_condition: Option<LossOfControl>,
+}
+
+/// The settings every simulation shares: the validity guard, the solver's error control
+/// and the metric settings. Task configs flatten it, so its keys sit beside theirs
+/// (`guard = "stop"`, `[solver]`, `[metrics]`); each key has a default.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct RunSettings {
+    /// validity guard: "stop" (default) or "off"
+    pub guard: ValidityGuard,
+    /// tolerances
+    pub solver: SolverSettings,
+    /// metric settings
+    pub metrics: MetricSettings,
 }
 
 /// What to record of the trajectory.
@@ -171,7 +195,7 @@ pub enum Recording {
     None,
     /// the state, V and δ every `step_s` seconds (from the continuous extension)
     Every {
-        /// sampling interval [s]
+        /// sampling interval \[s\]
         step_s: f64,
     },
 }
@@ -179,13 +203,13 @@ pub enum Recording {
 /// One sample of a recorded trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample<const N: usize> {
-    /// time [s]
+    /// time \[s\]
     pub t: f64,
     /// state (4 or 7 components)
     pub x: SVector<f64, N>,
-    /// speed V [m/s]
+    /// speed V \[m/s\]
     pub speed: f64,
-    /// steering angle δ [rad]
+    /// steering angle δ \[rad\]
     pub steering_angle: f64,
 }
 
@@ -196,16 +220,12 @@ pub struct SimSpec {
     pub profile: SpeedProfile,
     /// δ(t)
     pub controller: Controller,
-    /// end time [s] (runs start at t = 0)
+    /// end time \[s\] (runs start at t = 0)
     pub horizon_s: f64,
-    /// the action (braking / steering) starts here [s]; metrics "after action" count from it
+    /// the action (braking / steering) starts here \[s\]; metrics "after action" count from it
     pub action_s: f64,
-    /// validity guard
-    pub guard: ValidityGuard,
-    /// tolerances
-    pub solver: SolverSettings,
-    /// metric settings
-    pub metrics: MetricSettings,
+    /// guard, tolerances and metric settings
+    pub settings: RunSettings,
 }
 
 /// The result of one run.
@@ -215,7 +235,7 @@ pub struct SimResult<const N: usize> {
     pub metrics: Metrics,
     /// sampled trajectory (empty with [`Recording::None`])
     pub trajectory: Vec<Sample<N>>,
-    /// where the run ended [s]
+    /// where the run ended \[s\]
     pub t_end: f64,
     /// the state there
     pub x_end: SVector<f64, N>,
@@ -322,7 +342,12 @@ pub fn simulate<const N: usize>(
 ) -> Result<SimResult<N>, SwayError> {
     let plant = Plant::<N>::new(model, &spec.profile, spec.controller, x0);
     let acr = model.critical_slip_angles();
-    let th_s = spec.metrics.settle_threshold_deg.to_radians();
+    let th_s = spec
+        .settings
+        .metrics
+        .settle_threshold_deg
+        .get()
+        .to_radians();
     let f = model.params().tractor.front_axle;
     let pl = &plant;
     let mut events: Vec<Event<'_, N>> = vec![
@@ -362,7 +387,7 @@ pub fn simulate<const N: usize>(
     };
     let x0_delayed: Vec<SVector<f64, N>> =
         spec.controller.delay().map(|_| x0).into_iter().collect();
-    if spec.guard == ValidityGuard::Stop {
+    if spec.settings.guard == ValidityGuard::Stop {
         let v0 = guard_values(0.0, &x0, &x0_delayed);
         if v0.iter().any(|&g| g >= 0.0) {
             return Ok(lost_at_start(spec, x0, which(v0)));
@@ -378,7 +403,7 @@ pub fn simulate<const N: usize>(
         ));
     }
 
-    let final_from = (spec.horizon_s - spec.metrics.final_window_s).max(0.0);
+    let final_from = (spec.horizon_s - spec.settings.metrics.final_window_s.get()).max(0.0);
     let mut obs = MetricObserver {
         plant: &plant,
         action_s: spec.action_s,
@@ -399,7 +424,7 @@ pub fn simulate<const N: usize>(
         let s = obs.sample(0.0, x0, x0_delayed.first().copied());
         obs.trajectory.push(s);
     }
-    let opts = spec.solver.options();
+    let opts = spec.settings.solver.options();
     let context = || {
         format!(
             "simulation (profile {:?}, controller {:?}, horizon {} s)",

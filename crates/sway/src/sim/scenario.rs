@@ -6,10 +6,10 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use trailer_model::{Model, State4, State7};
 
-use super::run::{MetricSettings, SimSpec, SolverSettings, ValidityGuard, settle};
+use super::run::{RunSettings, SimSpec, SolverSettings, settle};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
-use crate::config::ensure;
+use crate::config::{Positive, ensure};
 
 /// The initial state at t = 0.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -17,36 +17,36 @@ use crate::config::ensure;
 pub enum InitialCondition {
     /// A given state; unspecified components are 0.
     State {
-        /// σ1 [m/s]
+        /// σ1 \[m/s\]
         #[serde(default)]
         sigma1_mps: f64,
-        /// σ2 [1/s]
+        /// σ2 \[1/s\]
         #[serde(default)]
         sigma2_per_s: f64,
-        /// σ3 [1/s]
+        /// σ3 \[1/s\]
         #[serde(default)]
         sigma3_per_s: f64,
-        /// hitch angle θ(0) [deg]
+        /// hitch angle θ(0) \[deg\]
         #[serde(default)]
         theta0_deg: f64,
-        /// yaw angle ψ(0) [deg]
+        /// yaw angle ψ(0) \[deg\]
         #[serde(default)]
         psi0_deg: f64,
     },
     /// "On the sway cycle": the state reached after `settle_s` seconds at constant
     /// `speed_mps` from θ(0) = `theta0_rad` (other states 0), open loop.
     SwayCycle {
-        /// V0 [m/s] while settling
+        /// V0 \[m/s\] while settling
         speed_mps: f64,
-        /// settling time [s]
+        /// settling time \[s\]
         settle_s: f64,
-        /// the small initial perturbation θ(0) [rad]
+        /// the small initial perturbation θ(0) \[rad\]
         theta0_rad: f64,
     },
 }
 
 impl InitialCondition {
-    /// The reduced state [σ1, σ2, σ3, θ] and ψ(0) [rad].
+    /// The reduced state \[σ1, σ2, σ3, θ\] and ψ(0) \[rad\].
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if settling fails.
@@ -144,11 +144,11 @@ impl InitialCondition {
     }
 }
 
-fn default_horizon() -> f64 {
-    40.0
+fn default_horizon() -> Positive {
+    Positive::literal(40.0)
 }
-fn default_output_step() -> f64 {
-    0.01
+fn default_output_step() -> Positive {
+    Positive::literal(0.01)
 }
 
 /// A scenario file (see `configs/scenario_example.toml`).
@@ -157,13 +157,13 @@ fn default_output_step() -> f64 {
 pub struct ScenarioConfig {
     /// results go to `results/<name>/`
     pub name: String,
-    /// end time [s]
+    /// end time \[s\]
     #[serde(default = "default_horizon")]
-    pub horizon_s: f64,
-    /// trajectory sampling interval [s]
+    pub horizon_s: Positive,
+    /// trajectory sampling interval \[s\]
     #[serde(default = "default_output_step")]
-    pub output_step_s: f64,
-    /// when the action starts [s]; default: the earliest of braking start and controller
+    pub output_step_s: Positive,
+    /// when the action starts \[s\]; default: the earliest of braking start and controller
     /// switch-on, else 0
     #[serde(default)]
     pub action_s: Option<f64>,
@@ -174,32 +174,23 @@ pub struct ScenarioConfig {
     pub controller: Controller,
     /// x(0)
     pub initial: InitialCondition,
-    /// validity guard: "stop" (default) or "off"
-    #[serde(default)]
-    pub guard: ValidityGuard,
-    /// tolerances
-    #[serde(default)]
-    pub solver: SolverSettings,
-    /// metric settings
-    #[serde(default)]
-    pub metrics: MetricSettings,
+    /// validity guard (`guard = "stop"` or `"off"`), `[solver]`, `[metrics]`
+    #[serde(flatten)]
+    pub settings: RunSettings,
 }
 
-/// Validates the parts shared by scenario and sweep files; `prefix` is the key path of the
-/// scenario table ("" at the root).
+/// Validates the parts shared by scenario and sweep files that do not validate themselves
+/// on deserialisation; `prefix` is the key path of the scenario table ("" at the root).
 ///
 /// # Errors
 /// [`SwayError::Config`] naming the file and key.
-#[allow(clippy::too_many_arguments)]
 pub fn validate_parts(
     file: &Path,
     prefix: &str,
-    horizon_s: f64,
     speed: &SpeedProfile,
     controller: &Controller,
     initial: &InitialCondition,
-    solver: &SolverSettings,
-    metrics: &MetricSettings,
+    settings: &RunSettings,
 ) -> Result<(), SwayError> {
     let key = |k: &str| {
         if prefix.is_empty() {
@@ -208,12 +199,6 @@ pub fn validate_parts(
             format!("{prefix}.{k}")
         }
     };
-    ensure(
-        horizon_s.is_finite() && horizon_s > 0.0,
-        file,
-        &key("horizon_s"),
-        || format!("expected a horizon > 0 s, got {horizon_s}"),
-    )?;
     speed
         .validate()
         .map_err(|(k, p)| SwayError::config(file, key(&format!("speed.{k}")), p))?;
@@ -221,26 +206,7 @@ pub fn validate_parts(
         .validate()
         .map_err(|(k, p)| SwayError::config(file, key(&format!("controller.{k}")), p))?;
     initial.validate(file, &key("initial"))?;
-    solver
-        .validate()
-        .map_err(|(k, p)| SwayError::config(file, key(&format!("solver.{k}")), p))?;
-    ensure(
-        metrics.settle_threshold_deg.is_finite() && metrics.settle_threshold_deg > 0.0,
-        file,
-        &key("metrics.settle_threshold_deg"),
-        || {
-            format!(
-                "expected a threshold > 0 deg, got {}",
-                metrics.settle_threshold_deg
-            )
-        },
-    )?;
-    ensure(
-        metrics.final_window_s.is_finite() && metrics.final_window_s > 0.0,
-        file,
-        &key("metrics.final_window_s"),
-        || format!("expected a window > 0 s, got {}", metrics.final_window_s),
-    )
+    settings.solver.validate_at(file, &key("solver"))
 }
 
 /// The default action time: the earliest of braking start and controller switch-on, else 0.
@@ -276,37 +242,29 @@ impl ScenarioConfig {
         validate_parts(
             file,
             "",
-            self.horizon_s,
             &self.speed,
             &self.controller,
             &self.initial,
-            &self.solver,
-            &self.metrics,
+            &self.settings,
         )?;
+        let horizon = self.horizon_s.get();
         ensure(
-            self.output_step_s.is_finite()
-                && self.output_step_s > 0.0
-                && self.output_step_s <= self.horizon_s,
+            self.output_step_s.get() <= horizon,
             file,
             "output_step_s",
             || {
                 format!(
                     "expected 0 < output_step_s <= horizon_s, got {}",
-                    self.output_step_s
+                    self.output_step_s.get()
                 )
             },
         )?;
         if let Some(a) = self.action_s {
             ensure(
-                a.is_finite() && a >= 0.0 && a <= self.horizon_s,
+                a.is_finite() && a >= 0.0 && a <= horizon,
                 file,
                 "action_s",
-                || {
-                    format!(
-                        "expected 0 <= action_s <= horizon_s = {}, got {a}",
-                        self.horizon_s
-                    )
-                },
+                || format!("expected 0 <= action_s <= horizon_s = {}, got {a}", horizon),
             )?;
         }
         Ok(())
@@ -317,13 +275,11 @@ impl ScenarioConfig {
         SimSpec {
             profile: self.speed.clone(),
             controller: self.controller,
-            horizon_s: self.horizon_s,
+            horizon_s: self.horizon_s.get(),
             action_s: self
                 .action_s
                 .unwrap_or_else(|| default_action_time(&self.speed, &self.controller)),
-            guard: self.guard,
-            solver: self.solver,
-            metrics: self.metrics,
+            settings: self.settings,
         }
     }
 }

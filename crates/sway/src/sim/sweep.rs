@@ -9,32 +9,30 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use trailer_model::{Model, State4};
 
-use super::run::{
-    MetricSettings, Metrics, Recording, SimSpec, SolverSettings, ValidityGuard, simulate,
-};
+use super::run::{Metrics, Recording, RunSettings, SimSpec, simulate};
 use super::scenario::{InitialCondition, default_action_time, validate_parts};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
-use crate::config::ensure;
+use crate::config::{Positive, ensure};
 use crate::progress::Progress;
 
 /// A swept quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SweepParameter {
-    /// V [m/s]: the constant speed, the ramp's initial speed, and the settling speed of a
+    /// V \[m/s\]: the constant speed, the ramp's initial speed, and the settling speed of a
     /// sway-cycle start
     SpeedMps,
-    /// θ(0) [deg]: the initial hitch angle (a state start) or the perturbation that
+    /// θ(0) \[deg\]: the initial hitch angle (a state start) or the perturbation that
     /// starts the settling (sway-cycle start)
     Theta0Deg,
-    /// D [s]: gain of the yaw-rate feedback
+    /// D \[s\]: gain of the yaw-rate feedback
     GainS,
-    /// τ [s]: delay of the yaw-rate feedback
+    /// τ \[s\]: delay of the yaw-rate feedback
     DelayS,
-    /// T [s]: duration of the braking ramp
+    /// T \[s\]: duration of the braking ramp
     RampDurationS,
-    /// t_b [s]: when the braking ramp starts (with a sway-cycle start: the sway phase at
+    /// t_b \[s\]: when the braking ramp starts (with a sway-cycle start: the sway phase at
     /// which braking begins)
     BrakeStartS,
 }
@@ -97,18 +95,18 @@ impl Axis {
     }
 }
 
-fn default_horizon() -> f64 {
-    60.0
+fn default_horizon() -> Positive {
+    Positive::literal(60.0)
 }
 
 /// The scenario every grid point starts from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BaseScenario {
-    /// end time [s]
+    /// end time \[s\]
     #[serde(default = "default_horizon")]
-    pub horizon_s: f64,
-    /// action time [s] (default: braking start / controller switch-on / 0)
+    pub horizon_s: Positive,
+    /// action time \[s\] (default: braking start / controller switch-on / 0)
     #[serde(default)]
     pub action_s: Option<f64>,
     /// V(t)
@@ -118,15 +116,9 @@ pub struct BaseScenario {
     pub controller: Controller,
     /// x(0)
     pub initial: InitialCondition,
-    /// validity guard
-    #[serde(default)]
-    pub guard: ValidityGuard,
-    /// tolerances
-    #[serde(default)]
-    pub solver: SolverSettings,
-    /// metric settings
-    #[serde(default)]
-    pub metrics: MetricSettings,
+    /// validity guard (`guard = "stop"` or `"off"`), `[solver]`, `[metrics]`
+    #[serde(flatten)]
+    pub settings: RunSettings,
 }
 
 /// A sweep file (see `configs/sweep_threshold.toml`).
@@ -180,12 +172,10 @@ impl SweepConfig {
         validate_parts(
             file,
             "base",
-            b.horizon_s,
             &b.speed,
             &b.controller,
             &b.initial,
-            &b.solver,
-            &b.metrics,
+            &b.settings,
         )?;
         for (i, a) in self.axes.iter().enumerate() {
             let key = format!("axes[{i}]");
@@ -212,21 +202,12 @@ impl SweepConfig {
             for v in [a.min, a.max] {
                 let p = apply(b, a.parameter, v)
                     .map_err(|m| SwayError::config(file, format!("{key}.parameter"), m))?;
-                validate_parts(
-                    file,
-                    &key,
-                    p.horizon_s,
-                    &p.speed,
-                    &p.controller,
-                    &p.initial,
-                    &p.solver,
-                    &p.metrics,
-                )?;
+                validate_parts(file, &key, &p.speed, &p.controller, &p.initial, &p.settings)?;
             }
         }
         if let Some(a) = b.action_s {
             ensure(
-                a.is_finite() && a >= 0.0 && a <= b.horizon_s,
+                a.is_finite() && a >= 0.0 && a <= b.horizon_s.get(),
                 file,
                 "base.action_s",
                 || format!("expected 0 <= action_s <= horizon_s, got {a}"),
@@ -320,7 +301,7 @@ pub fn run_point(model: &Model, cfg: &SweepConfig, k: usize) -> PointResult {
         }
         let (x0, _psi0) = s
             .initial
-            .resolve(model, &s.solver)
+            .resolve(model, &s.settings.solver)
             .map_err(|e| e.to_string())?;
         let spec = SimSpec {
             action_s: s
@@ -328,10 +309,8 @@ pub fn run_point(model: &Model, cfg: &SweepConfig, k: usize) -> PointResult {
                 .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
             profile: s.speed,
             controller: s.controller,
-            horizon_s: s.horizon_s,
-            guard: s.guard,
-            solver: s.solver,
-            metrics: s.metrics,
+            horizon_s: s.horizon_s.get(),
+            settings: s.settings,
         };
         let r = simulate::<4>(model, &spec, State4::from(x0), Recording::None)
             .map_err(|e| e.to_string())?;

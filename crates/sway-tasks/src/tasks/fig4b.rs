@@ -11,15 +11,16 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use serde_json::{Map, Value, json};
+use sway::SwayError;
+use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
+use sway::config::ensure;
 
 use super::fig3a_diagram::{split_by_stability, validate_options};
 use super::{Prepared, Report, Task, TaskContext};
-use crate::SwayError;
-use crate::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
-use crate::config::{ensure, load_toml};
+use crate::config_file::load_toml;
 use crate::io::OutputDir;
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Shape, Stroke};
+use crate::report::CycleRow;
 
 /// The task.
 pub const TASK: Task = Task {
@@ -29,33 +30,36 @@ pub const TASK: Task = Task {
     prepare,
 };
 
-/// One feedback setting.
+/// One feedback setting: `{ delay_s = τ, gain_s = D }` in the config. The config echo in
+/// `summary.json` keeps the historical names `tau_s` and `d_s` (other tools read them).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pair {
-    /// delay τ [s] (0 with D = 0: open loop)
-    pub tau_s: f64,
-    /// gain D [s]
-    pub d_s: f64,
+    /// delay τ \[s\] (0 with D = 0: open loop)
+    #[serde(rename(serialize = "tau_s", deserialize = "delay_s"))]
+    pub delay_s: f64,
+    /// gain D \[s\]
+    #[serde(rename(serialize = "d_s", deserialize = "gain_s"))]
+    pub gain_s: f64,
 }
 
 fn default_pairs() -> Vec<Pair> {
     vec![
         Pair {
-            tau_s: 0.0,
-            d_s: 0.0,
+            delay_s: 0.0,
+            gain_s: 0.0,
         },
         Pair {
-            tau_s: 0.1,
-            d_s: 0.1,
+            delay_s: 0.1,
+            gain_s: 0.1,
         },
         Pair {
-            tau_s: 0.2,
-            d_s: 0.1,
+            delay_s: 0.2,
+            gain_s: 0.1,
         },
         Pair {
-            tau_s: 0.2,
-            d_s: 0.2,
+            delay_s: 0.2,
+            gain_s: 0.2,
         },
     ]
 }
@@ -89,20 +93,20 @@ impl Fig4bConfig {
     /// [`SwayError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
         ensure(!self.pairs.is_empty(), file, "pairs", || {
-            "expected at least one (tau_s, d_s) pair".into()
+            "expected at least one (delay_s, gain_s) pair".into()
         })?;
         for (i, p) in self.pairs.iter().enumerate() {
             ensure(
-                p.tau_s.is_finite() && p.tau_s >= 0.0,
+                p.delay_s.is_finite() && p.delay_s >= 0.0,
                 file,
-                &format!("pairs[{i}].tau_s"),
-                || format!("expected a delay τ ≥ 0 s, got {}", p.tau_s),
+                &format!("pairs[{i}].delay_s"),
+                || format!("expected a delay τ ≥ 0 s, got {}", p.delay_s),
             )?;
             ensure(
-                p.d_s.is_finite() && p.d_s.abs() <= 5.0,
+                p.gain_s.is_finite() && p.gain_s.abs() <= 5.0,
                 file,
-                &format!("pairs[{i}].d_s"),
-                || format!("expected a finite gain |D| ≤ 5 s, got {}", p.d_s),
+                &format!("pairs[{i}].gain_s"),
+                || format!("expected a finite gain |D| ≤ 5 s, got {}", p.gain_s),
             )?;
         }
         validate_options(&self.continuation, file, "continuation")
@@ -110,15 +114,15 @@ impl Fig4bConfig {
 }
 
 fn label(p: &Pair) -> String {
-    if p.d_s == 0.0 {
+    if p.gain_s == 0.0 {
         "open loop".into()
     } else {
-        format!("τ = {} s, D = {} s", p.tau_s, p.d_s)
+        format!("τ = {} s, D = {} s", p.delay_s, p.gain_s)
     }
 }
 
 fn file_stem(p: &Pair) -> String {
-    format!("cycles_tau{}_d{}", p.tau_s, p.d_s)
+    format!("cycles_tau{}_d{}", p.delay_s, p.gain_s)
 }
 
 struct Fig4bTask {
@@ -135,6 +139,78 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
     }))
 }
 
+/// One (τ, D) pair's entry of `"pairs"` in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PairEntry {
+    /// the delay τ \[s\]
+    pub tau_s: f64,
+    /// the gain D \[s\]
+    pub d_s: f64,
+    /// V at the Hopf point \[m/s\]
+    pub hopf_v_mps: f64,
+    /// V at the fold of cycles \[m/s\] (null: no fold)
+    pub fold_v_mps: Option<f64>,
+    /// "subcritical" or "supercritical"
+    pub criticality: String,
+    /// max |θ| at the fold \[deg\]
+    pub fold_amplitude_deg: Option<f64>,
+    /// ω at the Hopf point \[rad/s\]
+    pub hopf_omega_rad_s: f64,
+    /// from the fold to the Hopf point \[m/s\]
+    pub bistable_range_mps: Option<[f64; 2]>,
+    /// points on the cycle branch
+    pub cycle_points: usize,
+}
+
+impl PairEntry {
+    /// The entry of pair `p` with diagram `d`.
+    fn new(p: &Pair, d: &Diagram) -> Self {
+        let fold = d.fold;
+        Self {
+            tau_s: p.delay_s,
+            d_s: p.gain_s,
+            hopf_v_mps: d.hopf.parameter,
+            fold_v_mps: fold.map(|f| f.speed_mps),
+            criticality: d.criticality.to_string(),
+            fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
+            hopf_omega_rad_s: d.hopf.omega,
+            bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
+            cycle_points: d.cycle_summary.len(),
+        }
+    }
+}
+
+/// One pair's layers: stable cycles solid (labelled), unstable dashed, the Hopf point and
+/// the fold.
+fn add_pair(panel: &mut Panel, d: &Diagram, color: Rgb, label: &str) {
+    let (stable, unstable) = split_by_stability(d);
+    panel
+        .layers
+        .push(Layer::line(stable, color, Stroke::Solid, Some(label)));
+    panel
+        .layers
+        .push(Layer::line(unstable, color, Stroke::Dashed, None));
+    panel
+        .layers
+        .push(Layer::markers(vec![(d.hopf.parameter, 0.0)], color, None));
+    if let Some(f) = d.fold {
+        panel.layers.push(Layer::Markers {
+            points: vec![(f.speed_mps, f.amplitude_deg)],
+            color,
+            shape: Shape::Triangle,
+            size: 6,
+            label: None,
+        });
+    }
+}
+
+/// `summary.json` of fig4b (before the common fields of [`crate::io::Summary`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Fig4bSummary {
+    /// one entry per pair, in the config's order
+    pub pairs: Vec<PairEntry>,
+}
+
 /// All diagrams of the config, in its order (parallel over pairs; each diagram is
 /// deterministic, so the result does not depend on the thread count).
 ///
@@ -143,15 +219,15 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
 pub fn diagrams(
     model: &trailer_model::Model,
     cfg: &Fig4bConfig,
-    progress: &dyn crate::progress::Progress,
+    progress: &dyn sway::progress::Progress,
 ) -> Result<Vec<Diagram>, SwayError> {
     let results: Vec<Result<Diagram, SwayError>> = cfg
         .pairs
         .par_iter()
         .map(|p| {
             let fb = Feedback {
-                gain_d_s: p.d_s,
-                delay_s: p.tau_s,
+                gain_d_s: p.gain_s,
+                delay_s: p.delay_s,
             };
             let r = bifurcation_diagram(model, fb, &cfg.continuation);
             progress.advance(1);
@@ -185,42 +261,12 @@ impl Prepared for Fig4bTask {
         .y_range(-0.03 * y_max, 1.25 * y_max)
         .legend(Legend::UpperLeft);
         for (i, (p, d)) in cfg.pairs.iter().zip(&ds).enumerate() {
-            let rows: Vec<[f64; 5]> = d
-                .cycle_summary
-                .iter()
-                .map(|c| {
-                    [
-                        c.speed_mps,
-                        c.amplitude_deg,
-                        c.period_s,
-                        f64::from(u8::from(c.stable)),
-                        c.max_multiplier,
-                    ]
-                })
-                .collect();
-            out.write_csv(
+            out.write_table(
                 &format!("{}.csv", file_stem(p)),
-                &[
-                    "v_mps",
-                    "max_abs_theta_deg",
-                    "period_s",
-                    "stable",
-                    "max_nontrivial_multiplier",
-                ],
-                &rows,
+                d.cycle_summary.iter().map(CycleRow::from),
             )?;
             let fold = d.fold;
-            entries.push(json!({
-                "tau_s": p.tau_s,
-                "d_s": p.d_s,
-                "hopf_v_mps": d.hopf.parameter,
-                "fold_v_mps": fold.map(|f| f.speed_mps),
-                "criticality": d.criticality.to_string(),
-                "fold_amplitude_deg": fold.map(|f| f.amplitude_deg),
-                "hopf_omega_rad_s": d.hopf.omega,
-                "bistable_range_mps": d.bistable_range().map(|(a, b)| vec![a, b]),
-                "cycle_points": d.cycle_summary.len(),
-            }));
+            entries.push(PairEntry::new(p, d));
             lines.push(format!(
                 "fig4b {}: Hopf at {:.4} m/s ({}), fold at {}",
                 label(p),
@@ -231,26 +277,7 @@ impl Prepared for Fig4bTask {
                     f.speed_mps, f.amplitude_deg
                 ))
             ));
-            let color = Rgb::palette(i);
-            let (stable, unstable) = split_by_stability(d);
-            panel
-                .layers
-                .push(Layer::line(stable, color, Stroke::Solid, Some(&label(p))));
-            panel
-                .layers
-                .push(Layer::line(unstable, color, Stroke::Dashed, None));
-            panel
-                .layers
-                .push(Layer::markers(vec![(d.hopf.parameter, 0.0)], color, None));
-            if let Some(f) = fold {
-                panel.layers.push(Layer::Markers {
-                    points: vec![(f.speed_mps, f.amplitude_deg)],
-                    color,
-                    shape: Shape::Triangle,
-                    size: 6,
-                    label: None,
-                });
-            }
+            add_pair(&mut panel, d, Rgb::palette(i), &label(p));
         }
         panel.layers.push(Layer::Markers {
             points: vec![(f64::NAN, f64::NAN)],
@@ -269,15 +296,6 @@ impl Prepared for Fig4bTask {
         Figure::single(panel)
             .titled("Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback")
             .render(&out.path("diagrams"))?;
-        let mut summary = Map::new();
-        summary.insert("pairs".into(), Value::Array(entries));
-        out.write_summary(summary, cfg, &ctx.run_info(&self.file))?;
-        ctx.progress.finish();
-        let dir = out.commit()?;
-        Ok(Report {
-            task: TASK.name.into(),
-            output_dir: dir,
-            lines,
-        })
+        ctx.conclude(out, Fig4bSummary { pairs: entries }, cfg, &self.file, lines)
     }
 }

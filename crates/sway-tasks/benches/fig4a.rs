@@ -5,12 +5,12 @@ use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use sway::tasks::fig4a::{Fig4aConfig, compute};
+use sway_tasks::tasks::fig4a::{Fig4aConfig, compute};
 use trailer_model::{Model, VehicleParams};
 
 fn config() -> Fig4aConfig {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/fig4a.toml");
-    sway::config::load_toml(&file).expect("configs/fig4a.toml")
+    sway_tasks::config_file::load_toml(&file).expect("configs/fig4a.toml")
 }
 
 fn fig4a(c: &mut Criterion) {

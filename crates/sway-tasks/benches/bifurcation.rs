@@ -5,7 +5,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
 use sway::progress::NoProgress;
-use sway::tasks::fig4b::{Fig4bConfig, diagrams};
+use sway_tasks::tasks::fig4b::{Fig4bConfig, diagrams};
 use trailer_model::{Model, VehicleParams};
 
 fn bench(c: &mut Criterion) {

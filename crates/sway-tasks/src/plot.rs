@@ -3,7 +3,7 @@
 //! Rust, no system font libraries).
 //!
 //! ```no_run
-//! use sway::plot::{Figure, Layer, Panel, Rgb, Stroke};
+//! use sway_tasks::plot::{Figure, Layer, Panel, Rgb, Stroke};
 //! let panel = Panel::new("speed", "t [s]", "V [m/s]").with(Layer::line(
 //!     vec![(0.0, 35.0), (10.0, 25.0)], Rgb::BLUE, Stroke::Solid, Some("V(t)")));
 //! Figure::single(panel).render(std::path::Path::new("/tmp/speed")).unwrap();
@@ -15,7 +15,7 @@ use std::sync::Once;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::SwayError;
+use sway::SwayError;
 
 /// An RGB colour.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

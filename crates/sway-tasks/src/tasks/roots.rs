@@ -1,4 +1,4 @@
-//! `cargo xtask roots --v V --d D --tau τ [--count N]`: the N rightmost characteristic roots of
+//! `cargo xtask roots --speed V --gain D --delay τ [--count N]`: the N rightmost characteristic roots of
 //! the closed loop (eq. 13) at one point, one `<re> <im>` line each, sorted by decreasing real
 //! part, conjugates both listed (a pair is never split: if the N-th root is complex, its
 //! conjugate is printed as well). Roots are Newton-polished on the exact quasi-polynomial
@@ -7,7 +7,7 @@
 use stability::Complex64;
 use trailer_model::Model;
 
-use crate::SwayError;
+use sway::SwayError;
 
 /// Default number of roots printed.
 pub const DEFAULT_COUNT: usize = 6;
@@ -27,25 +27,28 @@ pub fn roots(
     let arg = |key: &str, problem: String| SwayError::config("command line", key, problem);
     if !(speed.is_finite() && speed > 0.0) {
         return Err(arg(
-            "--v",
+            "--speed",
             format!("expected a positive speed [m/s], got {speed}"),
         ));
     }
     if !gain.is_finite() {
         return Err(arg(
-            "--d",
+            "--gain",
             format!("expected a finite gain [s], got {gain}"),
         ));
     }
     if !(delay.is_finite() && delay >= 0.0) {
-        return Err(arg("--tau", format!("expected a delay ≥ 0 s, got {delay}")));
+        return Err(arg(
+            "--delay",
+            format!("expected a delay ≥ 0 s, got {delay}"),
+        ));
     }
     if count == 0 {
         return Err(arg("--count", "expected at least 1".into()));
     }
     // one more root than asked, so that a conjugate pair is never split: if the N-th
     // root is complex, its conjugate is listed too (N + 1 lines)
-    let mut r = crate::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
+    let mut r = sway::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
     if r.len() > count {
         let (last, next) = (r[count - 1], r[count]);
         let pair = last.im != 0.0 && (next - last.conj()).norm() <= 1e-9 * last.norm().max(1.0);
@@ -121,8 +124,8 @@ mod tests {
     fn bad_arguments_are_named() {
         let m = Model::new(VehicleParams::default()).unwrap();
         let e = roots(&m, 0.0, 0.1, 0.2, 6).unwrap_err().to_string();
-        assert!(e.contains("--v"), "{e}");
+        assert!(e.contains("--speed"), "{e}");
         let e = roots(&m, 30.0, 0.1, -0.2, 6).unwrap_err().to_string();
-        assert!(e.contains("--tau"), "{e}");
+        assert!(e.contains("--delay"), "{e}");
     }
 }

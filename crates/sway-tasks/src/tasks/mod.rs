@@ -3,26 +3,47 @@
 //! A task runs in two steps so that a bad config stops the run before any work and
 //! before anything is written: [`Task::prepare`] loads and validates the task's config
 //! (and may precompute nothing expensive), then [`Prepared::run`] computes and writes
-//! `results/<task>/` through a staged [`OutputDir`](crate::io::OutputDir).
+//! `results/<task>/` through a staged [`OutputDir`].
 
 use std::path::{Path, PathBuf};
 
+use serde::Serialize;
 use trailer_model::{Model, VehicleParams};
 
-use crate::progress::Progress;
-use crate::{SwayError, config};
+use crate::config_file;
+use crate::io::OutputDir;
+use sway::SwayError;
+use sway::progress::Progress;
+
+/// The registry in one place: each line declares a task module and the tasks it
+/// defines, in the order `cargo xtask all` runs them. Adding a task is one file (the
+/// module, with its `pub const TASK: Task`) plus one line here.
+macro_rules! registry {
+    ($($module:ident => [$($task:ident),+]),+ $(,)?) => {
+        $(pub mod $module;)+
+
+        /// Every task, in the order `all` runs them.
+        pub fn registry() -> Vec<Task> {
+            vec![$($($module::$task),+),+]
+        }
+    };
+}
+
+registry! {
+    linear => [TASK],
+    loading => [TASK],
+    fig3a_panels => [TASK],
+    fig3b => [TASK],
+    fig4a => [TASK],
+    fig4b => [TASK],
+    fig4c => [TASK],
+    simulate => [TASK],
+    sweep => [TASK, BRAKE_TIMING],
+}
 
 pub mod fig3a_diagram;
-pub mod fig3a_panels;
-pub mod fig3b;
-pub mod fig4a;
-pub mod fig4b;
-pub mod fig4c;
-pub mod linear;
-pub mod loading;
 pub mod roots;
-pub mod simulate;
-pub mod sweep;
+pub mod series;
 
 /// What every task gets: the vehicle, where configs and results live, and a progress
 /// observer.
@@ -62,7 +83,7 @@ impl<'a> TaskContext<'a> {
         results_dir: &Path,
         progress: &'a dyn Progress,
     ) -> Result<Self, SwayError> {
-        let (vehicle, model) = config::load_vehicle(vehicle_file)?;
+        let (vehicle, model) = config_file::load_vehicle(vehicle_file)?;
         Ok(Self {
             vehicle_file: vehicle_file.to_path_buf(),
             vehicle,
@@ -70,6 +91,31 @@ impl<'a> TaskContext<'a> {
             configs_dir: configs_dir.to_path_buf(),
             results_dir: results_dir.to_path_buf(),
             progress,
+        })
+    }
+
+    /// The last step of every task: writes `summary.json` (`headline`, then the inputs of
+    /// the run), closes the progress stage, replaces `results/<task>/` by the staged
+    /// directory and reports `lines`.
+    ///
+    /// # Errors
+    /// [`SwayError::Write`].
+    pub fn conclude<H: Serialize, C: Serialize>(
+        &self,
+        out: OutputDir,
+        headline: H,
+        config: &C,
+        config_file: &Path,
+        lines: Vec<String>,
+    ) -> Result<Report, SwayError> {
+        out.write_summary(headline, config, &self.run_info(config_file))?;
+        self.progress.finish();
+        let task = out.name().to_string();
+        let output_dir = out.commit()?;
+        Ok(Report {
+            task,
+            output_dir,
+            lines,
         })
     }
 
@@ -117,22 +163,6 @@ pub struct Task {
     pub config: &'static str,
     /// config loading and validation
     pub prepare: PrepareFn,
-}
-
-/// Every task, in the order `all` runs them.
-pub fn registry() -> Vec<Task> {
-    vec![
-        linear::TASK,
-        loading::TASK,
-        fig3a_panels::TASK,
-        fig3b::TASK,
-        fig4a::TASK,
-        fig4b::TASK,
-        fig4c::TASK,
-        simulate::TASK,
-        sweep::TASK,
-        sweep::BRAKE_TIMING,
-    ]
 }
 
 /// Named groups of tasks: `fig3`, `fig4` (the panels of one figure) and `all`.

@@ -6,21 +6,17 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use serde_json::{Map, Value, json};
+use sway::SwayError;
+use sway::config::{Positive, ensure};
+use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
 
 use super::fig3b::SwayStart;
+use super::series::{Overlay, RunEntry, line, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
-use crate::SwayError;
-use crate::config::{ensure, ensure_time_span, load_toml};
-use crate::io::OutputDir;
-use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
-use crate::sim::report::{
-    SERIES_HEADER, loss_marker, metrics_json, metrics_line, series_rows, speed, theta_deg,
-};
-use crate::sim::{
-    Controller, MetricSettings, Recording, SimSpec, SolverSettings, SpeedProfile, ValidityGuard,
-    simulate,
-};
+use crate::config_file::load_toml;
+use crate::io::{Keyed, OutputDir};
+use crate::plot::{Figure, Rgb, Stroke};
+use crate::report::SeriesRow;
 
 /// The task.
 pub const TASK: Task = Task {
@@ -34,11 +30,11 @@ pub const TASK: Task = Task {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SteeringConfig {
-    /// D [s]
+    /// D \[s\]
     pub gain_s: f64,
-    /// τ [s]
+    /// τ \[s\]
     pub delay_s: f64,
-    /// switched off at this time [s] (never when absent)
+    /// switched off at this time \[s\] (never when absent)
     #[serde(default)]
     pub off_s: Option<f64>,
 }
@@ -47,9 +43,9 @@ pub struct SteeringConfig {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BrakingConfig {
-    /// ΔV [m/s] (negative)
+    /// ΔV \[m/s\] (negative)
     pub speed_change_mps: f64,
-    /// T [s]
+    /// T \[s\]
     pub duration_s: f64,
 }
 
@@ -59,25 +55,19 @@ pub struct BrakingConfig {
 pub struct Fig4cConfig {
     /// the sway-cycle start
     pub start: SwayStart,
-    /// every action starts here [s]
+    /// every action starts here \[s\]
     pub action_s: f64,
-    /// horizon [s]
-    pub horizon_s: f64,
-    /// sampling of the plotted series [s]
-    pub output_step_s: f64,
+    /// horizon \[s\]
+    pub horizon_s: Positive,
+    /// sampling of the plotted series \[s\]
+    pub output_step_s: Positive,
     /// steering
     pub steering: SteeringConfig,
     /// braking
     pub braking: BrakingConfig,
-    /// validity guard
-    #[serde(default)]
-    pub guard: ValidityGuard,
-    /// tolerances
-    #[serde(default)]
-    pub solver: SolverSettings,
-    /// metric settings
-    #[serde(default)]
-    pub metrics: MetricSettings,
+    /// validity guard, tolerances, metric settings
+    #[serde(flatten)]
+    pub settings: RunSettings,
 }
 
 /// The four strategies in plotting order: (key, braking?, steering?, colour).
@@ -91,7 +81,7 @@ pub const STRATEGIES: [(&str, bool, bool, Rgb); 4] = [
 impl Fig4cConfig {
     /// The run of one strategy.
     pub fn spec(&self, braking: bool, steering: bool) -> SimSpec {
-        let v0 = self.start.speed_mps;
+        let v0 = self.start.speed_mps.get();
         SimSpec {
             profile: if braking {
                 SpeedProfile::Ramp {
@@ -113,14 +103,26 @@ impl Fig4cConfig {
             } else {
                 Controller::None
             },
-            horizon_s: self.horizon_s,
+            horizon_s: self.horizon_s.get(),
             action_s: self.action_s,
-            guard: self.guard,
-            solver: self.solver,
-            metrics: self.metrics,
+            settings: self.settings,
         }
     }
 }
+
+/// What distinguishes a strategy in `summary.json` (beside its metrics).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Strategy {
+    /// whether it brakes
+    pub braking: bool,
+    /// whether it steers
+    pub steering: bool,
+}
+
+/// `summary.json` of fig4c (before the common fields of [`crate::io::Summary`]): one entry
+/// per strategy, keyed `"none"`, `"steering"`, `"braking"`, `"combined"`: the run's metrics
+/// and `braking`, `steering`.
+pub type Fig4cSummary = Keyed<RunEntry<Strategy>>;
 
 struct Fig4cTask {
     file: PathBuf,
@@ -130,26 +132,25 @@ struct Fig4cTask {
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
     let c: Fig4cConfig = load_toml(file)?;
     c.start.validate(file, "start")?;
-    ensure_time_span(c.horizon_s, c.output_step_s, file, "")?;
+    let horizon = c.horizon_s.get();
+    ensure(c.output_step_s.get() <= horizon, file, "output_step_s", || {
+        format!("expected 0 < output_step_s <= horizon_s, got {}", c.output_step_s.get())
+    })?;
     ensure(
-        c.action_s.is_finite() && (0.0..c.horizon_s).contains(&c.action_s),
+        c.action_s.is_finite() && (0.0..horizon).contains(&c.action_s),
         file,
         "action_s",
         || format!("expected 0 <= action_s < horizon_s, got {}", c.action_s),
     )?;
-    {
-        // the combined strategy has both the braking and the steering of the others
-        let spec = c.spec(true, true);
-        spec.profile
-            .validate()
-            .map_err(|(k, p)| SwayError::config(file, format!("braking ({k})"), p))?;
-        spec.controller
-            .validate()
-            .map_err(|(k, p)| SwayError::config(file, format!("steering.{k}"), p))?;
-    }
-    c.solver
+    // the combined strategy has both the braking and the steering of the others
+    let spec = c.spec(true, true);
+    spec.profile
         .validate()
-        .map_err(|(k, p)| SwayError::config(file, format!("solver.{k}"), p))?;
+        .map_err(|(k, p)| SwayError::config(file, format!("braking ({k})"), p))?;
+    spec.controller
+        .validate()
+        .map_err(|(k, p)| SwayError::config(file, format!("steering.{k}"), p))?;
+    c.settings.solver.validate_at(file, "solver")?;
     Ok(Box::new(Fig4cTask {
         file: file.to_path_buf(),
         config: c,
@@ -162,79 +163,46 @@ impl Prepared for Fig4cTask {
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress
             .start("fig4c: strategies", STRATEGIES.len() as u64 + 1);
-        let x0 = c.start.initial().state7(&ctx.model, &c.solver)?;
+        let x0 = c.start.initial().state7(&ctx.model, &c.settings.solver)?;
         ctx.progress.advance(1);
-        let mut summary = Map::new();
+        let mut summary = Fig4cSummary::default();
         let mut lines = Vec::new();
-        let mut p_th = Panel::new(
+        let mut figure = Overlay::new(
             &format!(
                 "Fig. 4c: sway suppression from V0 = {} m/s, action at t = {} s",
-                c.start.speed_mps, c.action_s
+                c.start.speed_mps.get(),
+                c.action_s
             ),
-            "t [s]",
-            "θ [deg]",
-        )
-        .legend(Legend::UpperRight);
-        let mut p_v = Panel::new("speed", "t [s]", "V [m/s]").legend(Legend::UpperRight);
-        let mut amp: f64 = 1.0;
+            "speed",
+        );
         for (key, braking, steering, color) in STRATEGIES {
-            let spec = c.spec(braking, steering);
-            let r = simulate::<7>(
-                &ctx.model,
-                &spec,
+            let r = run_and_write::<SeriesRow>(
+                ctx,
+                &out,
+                &c.spec(braking, steering),
                 x0,
-                Recording::Every {
-                    step_s: c.output_step_s,
-                },
-            )?;
-            out.write_csv(
+                c.output_step_s.get(),
                 &format!("{key}.csv"),
-                &SERIES_HEADER,
-                series_rows(&r.trajectory),
             )?;
-            let mut e = metrics_json(&r.metrics);
-            if let Value::Object(m) = &mut e {
-                m.insert("braking".into(), json!(braking));
-                m.insert("steering".into(), json!(steering));
-            }
-            summary.insert(key.into(), e);
-            lines.push(metrics_line(&format!("fig4c {key}"), &r.metrics));
-            amp = r
-                .trajectory
-                .iter()
-                .map(|s| s.x[3].to_degrees().abs())
-                .fold(amp, f64::max);
-            p_th.layers.push(Layer::line(
-                theta_deg(&r.trajectory),
-                color,
-                Stroke::Solid,
-                Some(key),
-            ));
-            if let Some(m) = loss_marker(&r, color, Some(&format!("{key}: loss of control"))) {
-                p_th.layers.push(m);
-            }
+            lines.push(line(&format!("fig4c {key}"), &r));
             // the speed profiles coincide in pairs: steering-only runs dashed on top
             let stroke = if steering {
                 Stroke::Dashed
             } else {
                 Stroke::Solid
             };
-            p_v.layers
-                .push(Layer::line(speed(&r.trajectory), color, stroke, Some(key)));
+            figure.add(&r, color, key, stroke);
+            summary.0.push((
+                key.to_string(),
+                RunEntry {
+                    metrics: r.metrics,
+                    about: Strategy { braking, steering },
+                },
+            ));
             ctx.progress.advance(1);
         }
-        p_th = p_th
-            .x_range(0.0, c.horizon_s)
-            .y_range(-1.1 * amp, 1.1 * amp);
-        p_v = p_v.x_range(0.0, c.horizon_s);
+        let (p_th, p_v) = figure.panels(c.horizon_s.get());
         Figure::column(vec![p_th, p_v]).render(&out.path("fig4c"))?;
-        out.write_summary(summary, c, &ctx.run_info(&self.file))?;
-        ctx.progress.finish();
-        let dir = out.commit()?;
-        Ok(Report {
-            task: TASK.name.into(),
-            output_dir: dir,
-            lines,
-        })
+        ctx.conclude(out, summary, c, &self.file, lines)
     }
 }

@@ -4,15 +4,16 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use serde_json::{Map, Value, json};
 use stability::{Axis, ChartOptions, StabilityChart};
+use sway::SwayError;
+use sway::charts::{critical_speed_at_gain, fig4a_charts, stable_gain_intervals};
+use sway::config::ensure;
 use trailer_model::CriticalSpeedOptions;
 
 use super::{Prepared, Report, Task, TaskContext};
-use crate::SwayError;
-use crate::charts::{chart_panel, critical_speed_at_gain, fig4a_charts, stable_gain_intervals};
-use crate::config::{ensure, load_toml};
-use crate::io::OutputDir;
+use crate::config_file::load_toml;
+use crate::figures::chart_panel;
+use crate::io::{Keyed, OutputDir};
 use crate::plot::Figure;
 
 /// The task.
@@ -293,12 +294,147 @@ pub fn compute(
     Ok((charts, summaries))
 }
 
-fn intervals_json(iv: &[(f64, f64)]) -> Value {
-    match iv {
-        [] => json!([]),
-        [one] => json!([one.0, one.1]),
-        many => Value::Array(many.iter().map(|x| json!([x.0, x.1])).collect()),
+/// Stable gain intervals as `summary.json` writes them: one interval as `[lo, hi]`, several
+/// (or none) as a list of intervals.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum GainIntervals {
+    /// exactly one interval \[s\]
+    One([f64; 2]),
+    /// none, or several \[s\]
+    Many(Vec<[f64; 2]>),
+}
+
+impl From<&[(f64, f64)]> for GainIntervals {
+    fn from(iv: &[(f64, f64)]) -> Self {
+        match iv {
+            [one] => Self::One([one.0, one.1]),
+            many => Self::Many(many.iter().map(|x| [x.0, x.1]).collect()),
+        }
     }
+}
+
+/// One delay's entry of `"per_tau"` in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DelayEntry {
+    /// the delay τ \[s\]
+    pub tau_s: f64,
+    /// one key, `v_crit_at_d_<D>_mps` for the configured gain D: the lowest speed at which
+    /// D is unstable \[m/s\] (null: stable on the whole speed range)
+    #[serde(flatten)]
+    pub v_crit_at_gain: Keyed<Option<f64>>,
+    /// one key, `stable_d_interval_at_v_<V>` for the configured speed V: the stable gains
+    #[serde(flatten)]
+    pub stable_gains_at_speed: Keyed<GainIntervals>,
+    /// fraction of the chart's cells that are stable
+    pub stable_cell_fraction: f64,
+    /// cells whose roots were computed afresh instead of tracked
+    pub reseeded_cells: usize,
+    /// cells whose roots could not be confirmed
+    pub failed_cells: usize,
+}
+
+/// `summary.json` of fig4a (before the common fields of [`crate::io::Summary`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Fig4aSummary {
+    /// V_crit of the open loop \[m/s\]
+    pub open_loop_v_crit_mps: f64,
+    /// one entry per delay, in the config's order
+    pub per_tau: Vec<DelayEntry>,
+    /// cells of each chart
+    pub grid_cells_per_tau: usize,
+}
+
+/// The CSV tables of one chart: the grid, the dynamic and the static boundaries.
+fn write_chart(out: &OutputDir, ch: &StabilityChart) -> Result<(), SwayError> {
+    let rows: Vec<[f64; 4]> =
+        ch.v.iter()
+            .enumerate()
+            .flat_map(|(iv, &v)| {
+                ch.d.iter().enumerate().map(move |(id, &d)| {
+                    let c = ch.cell(iv, id);
+                    [v, d, c.spectral_abscissa, c.unstable_roots as f64]
+                })
+            })
+            .collect();
+    out.write_csv(
+        &format!("grid_tau_{}.csv", ch.tau),
+        &["v_mps", "d_s", "spectral_abscissa_per_s", "unstable_roots"],
+        &rows,
+    )?;
+    let boundary_rows = |lines: &[stability::Polyline]| -> Vec<[f64; 4]> {
+        lines
+            .iter()
+            .enumerate()
+            .flat_map(|(k, l)| l.points.iter().map(move |p| [k as f64, p.v, p.d, p.omega]))
+            .collect()
+    };
+    out.write_csv(
+        &format!("dynamic_boundary_tau_{}.csv", ch.tau),
+        &["branch", "v_mps", "d_s", "omega_rad_s"],
+        boundary_rows(&ch.dynamic_boundaries),
+    )?;
+    out.write_csv(
+        &format!("static_boundary_tau_{}.csv", ch.tau),
+        &["branch", "v_mps", "d_s", "omega_rad_s"],
+        boundary_rows(&ch.static_boundary),
+    )
+}
+
+/// The figure: one panel per τ, the τ = 0 dynamic boundary dotted on the others.
+fn draw(out: &OutputDir, cfg: &Fig4aConfig, charts: &[StabilityChart]) -> Result<(), SwayError> {
+    let reference = charts.iter().find(|c| c.tau == 0.0);
+    let (sa, ga) = (cfg.speed_axis(), cfg.gain_axis());
+    let panels: Vec<_> = charts
+        .iter()
+        .map(|c| chart_panel(c, reference, &sa, &ga))
+        .collect();
+    let n = panels.len();
+    let cols = if n <= 1 { 1 } else { 2 };
+    let rows = n.div_ceil(cols);
+    Figure::grid(panels, rows, cols, (1200, 450 * rows as u32))
+        .titled("Stability of straight running under yaw-rate feedback δ(t) = −D·dψ/dt(t − τ)")
+        .render(&out.path("fig4a"))
+}
+
+/// The `"per_tau"` entries and their printed lines.
+fn delay_entries(
+    cfg: &Fig4aConfig,
+    summaries: &[ChartSummary],
+    charts: &[StabilityChart],
+) -> (Vec<DelayEntry>, Vec<String>) {
+    let gain_key = format!("v_crit_at_d_{}_mps", cfg.summary.gain_for_critical_speed_s);
+    let v_key = format!(
+        "stable_d_interval_at_v_{}",
+        cfg.summary.speed_for_gain_interval_mps
+    );
+    let mut entries = Vec::new();
+    let mut lines = Vec::new();
+    for (s, ch) in summaries.iter().zip(charts) {
+        let stable = ch.cells.iter().filter(|c| c.is_stable()).count();
+        let intervals = GainIntervals::from(s.stable_gain_intervals.as_slice());
+        lines.push(format!(
+            "τ = {} s: {gain_key} = {}, {v_key} = {}{}",
+            s.delay_s,
+            s.v_crit_at_gain_mps
+                .map_or("stable on the range".to_string(), |v| format!("{v:.4}")),
+            serde_json::to_string(&intervals).unwrap_or_default(),
+            if ch.failures.is_empty() {
+                String::new()
+            } else {
+                format!(" ({} cells failed)", ch.failures.len())
+            }
+        ));
+        entries.push(DelayEntry {
+            tau_s: s.delay_s,
+            v_crit_at_gain: Keyed(vec![(gain_key.clone(), s.v_crit_at_gain_mps)]),
+            stable_gains_at_speed: Keyed(vec![(v_key.clone(), intervals)]),
+            stable_cell_fraction: stable as f64 / ch.cells.len() as f64,
+            reseeded_cells: ch.reseeds,
+            failed_cells: ch.failures.len(),
+        });
+    }
+    (entries, lines)
 }
 
 impl Prepared for Fig4aTask {
@@ -308,116 +444,29 @@ impl Prepared for Fig4aTask {
         ctx.progress.start("fig4a: charts", 3);
         let (charts, summaries) = compute(&ctx.model, cfg)?;
         ctx.progress.advance(1);
-
-        // data
         for ch in &charts {
-            let rows: Vec<[f64; 4]> =
-                ch.v.iter()
-                    .enumerate()
-                    .flat_map(|(iv, &v)| {
-                        ch.d.iter().enumerate().map(move |(id, &d)| {
-                            let c = ch.cell(iv, id);
-                            [v, d, c.spectral_abscissa, c.unstable_roots as f64]
-                        })
-                    })
-                    .collect();
-            out.write_csv(
-                &format!("grid_tau_{}.csv", ch.tau),
-                &["v_mps", "d_s", "spectral_abscissa_per_s", "unstable_roots"],
-                &rows,
-            )?;
-            let boundary_rows = |lines: &[stability::Polyline]| -> Vec<[f64; 4]> {
-                lines
-                    .iter()
-                    .enumerate()
-                    .flat_map(|(k, l)| l.points.iter().map(move |p| [k as f64, p.v, p.d, p.omega]))
-                    .collect()
-            };
-            out.write_csv(
-                &format!("dynamic_boundary_tau_{}.csv", ch.tau),
-                &["branch", "v_mps", "d_s", "omega_rad_s"],
-                boundary_rows(&ch.dynamic_boundaries),
-            )?;
-            out.write_csv(
-                &format!("static_boundary_tau_{}.csv", ch.tau),
-                &["branch", "v_mps", "d_s", "omega_rad_s"],
-                boundary_rows(&ch.static_boundary),
-            )?;
+            write_chart(&out, ch)?;
         }
         ctx.progress.advance(1);
-
-        // figure: one panel per τ, τ = 0 dynamic boundary dotted on the others
-        let reference = charts.iter().find(|c| c.tau == 0.0);
-        let (sa, ga) = (cfg.speed_axis(), cfg.gain_axis());
-        let panels: Vec<_> = charts
-            .iter()
-            .map(|c| chart_panel(c, reference, &sa, &ga))
-            .collect();
-        let n = panels.len();
-        let cols = if n <= 1 { 1 } else { 2 };
-        let rows = n.div_ceil(cols);
-        Figure::grid(panels, rows, cols, (1200, 450 * rows as u32))
-            .titled("Stability of straight running under yaw-rate feedback δ(t) = −D·dψ/dt(t − τ)")
-            .render(&out.path("fig4a"))?;
+        draw(&out, cfg, &charts)?;
         ctx.progress.advance(1);
-
-        // summary
         let vc = ctx.model.critical_speed(&CriticalSpeedOptions::default())?;
-        let gain_key = format!("v_crit_at_d_{}_mps", cfg.summary.gain_for_critical_speed_s);
-        let v_key = format!(
-            "stable_d_interval_at_v_{}",
-            cfg.summary.speed_for_gain_interval_mps
-        );
-        let mut per_tau = Vec::new();
+        let (per_tau, delay_lines) = delay_entries(cfg, &summaries, &charts);
         let mut lines = vec![format!("open-loop V_crit = {:.4} m/s", vc.v_crit_mps)];
-        for (s, ch) in summaries.iter().zip(&charts) {
-            let mut m = Map::new();
-            m.insert("tau_s".into(), json!(s.delay_s));
-            m.insert(gain_key.clone(), json!(s.v_crit_at_gain_mps));
-            m.insert(v_key.clone(), intervals_json(&s.stable_gain_intervals));
-            let stable = ch.cells.iter().filter(|c| c.is_stable()).count();
-            m.insert(
-                "stable_cell_fraction".into(),
-                json!(stable as f64 / ch.cells.len() as f64),
-            );
-            m.insert("reseeded_cells".into(), json!(ch.reseeds));
-            m.insert("failed_cells".into(), json!(ch.failures.len()));
-            per_tau.push(Value::Object(m));
-            lines.push(format!(
-                "τ = {} s: {gain_key} = {}, {v_key} = {}{}",
-                s.delay_s,
-                s.v_crit_at_gain_mps
-                    .map_or("stable on the range".to_string(), |v| format!("{v:.4}")),
-                intervals_json(&s.stable_gain_intervals),
-                if ch.failures.is_empty() {
-                    String::new()
-                } else {
-                    format!(" ({} cells failed)", ch.failures.len())
-                }
-            ));
-        }
-        let mut summary = Map::new();
-        summary.insert("open_loop_v_crit_mps".into(), json!(vc.v_crit_mps));
-        summary.insert("per_tau".into(), Value::Array(per_tau));
-        summary.insert(
-            "grid_cells_per_tau".into(),
-            json!(cfg.speed.cells * cfg.gain.cells),
-        );
-        out.write_summary(summary, cfg, &ctx.run_info(&self.file))?;
-        ctx.progress.finish();
-        let dir = out.commit()?;
-        Ok(Report {
-            task: TASK.name.into(),
-            output_dir: dir,
-            lines,
-        })
+        lines.extend(delay_lines);
+        let summary = Fig4aSummary {
+            open_loop_v_crit_mps: vc.v_crit_mps,
+            per_tau,
+            grid_cells_per_tau: cfg.speed.cells * cfg.gain.cells,
+        };
+        ctx.conclude(out, summary, cfg, &self.file, lines)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::parse_toml;
+    use crate::config_file::parse_toml;
 
     fn shipped() -> (PathBuf, String) {
         let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/fig4a.toml");

@@ -11,14 +11,14 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use serde_json::{Map, Value, json};
+use sway::SwayError;
+use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
+use sway::config::ensure;
 
 use super::TaskContext;
-use crate::SwayError;
-use crate::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
-use crate::config::ensure;
-use crate::io::OutputDir;
+use crate::io::{Keyed, OutputDir};
 use crate::plot::{Layer, Legend, Panel, Rgb, Shape, Stroke};
+use crate::report::CycleRow;
 
 fn default_stable() -> Vec<f64> {
     vec![35.0, 36.0, 38.0]
@@ -34,10 +34,10 @@ pub struct DiagramConfig {
     /// continuation and discretisation settings (`[diagram.continuation]`)
     #[serde(default, rename = "continuation")]
     pub options: DiagramOptions,
-    /// speeds [m/s] at which the stable cycle's amplitude is reported (`stable_amplitude_deg`)
+    /// speeds \[m/s\] at which the stable cycle's amplitude is reported (`stable_amplitude_deg`)
     #[serde(default = "default_stable")]
     pub stable_speeds_mps: Vec<f64>,
-    /// speeds [m/s] at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
+    /// speeds \[m/s\] at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
     #[serde(default = "default_unstable")]
     pub unstable_speeds_mps: Vec<f64>,
 }
@@ -160,11 +160,52 @@ impl DiagramConfig {
     }
 }
 
-/// Vertices of a plotted curve (V [m/s], max |θ| [deg]); NaN pairs break it.
+/// Vertices of a plotted curve (V \[m/s\], max |θ| \[deg\]); NaN pairs break it.
 pub type Polyline = Vec<(f64, f64)>;
 
+/// The collocation mesh of the cycles.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Mesh {
+    /// mesh intervals L
+    pub intervals: usize,
+    /// polynomial degree m
+    pub degree: usize,
+}
+
+/// The diagram's fields of fig3a's `summary.json` (speed keys as [`speed_key`] writes
+/// them; null where a quantity does not exist, e.g. no fold).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiagramSummary {
+    /// V at the Hopf point (V_crit) \[m/s\]
+    pub hopf_v_mps: f64,
+    /// V at the fold of cycles \[m/s\]
+    pub fold_v_mps: Option<f64>,
+    /// max |θ| at the fold \[deg\]
+    pub fold_amplitude_deg: Option<f64>,
+    /// max |θ| of the stable cycle at the configured speeds \[deg\]
+    pub stable_amplitude_deg: Keyed<Option<f64>>,
+    /// max |θ| of the unstable cycle at the configured speeds \[deg\]
+    pub unstable_amplitude_deg: Keyed<Option<f64>>,
+    /// "subcritical" or "supercritical"
+    pub criticality: String,
+    /// ω at the Hopf point \[rad/s\]
+    pub hopf_omega_rad_s: f64,
+    /// 2π/ω \[s\]
+    pub hopf_period_s: f64,
+    /// period of the cycle at the fold \[s\]
+    pub fold_period_s: Option<f64>,
+    /// period of the stable cycle at the configured speeds \[s\]
+    pub stable_period_s: Keyed<Option<f64>>,
+    /// from the fold to the Hopf point \[m/s\]
+    pub bistable_range_mps: Option<[f64; 2]>,
+    /// points on the cycle branch
+    pub cycle_points: usize,
+    /// the collocation mesh
+    pub mesh: Mesh,
+}
+
 /// What [`run_diagram`] returns: summary fields, the figure panel, printed lines.
-pub type DiagramParts = (Map<String, Value>, Panel, Vec<String>);
+pub type DiagramParts = (DiagramSummary, Panel, Vec<String>);
 
 /// Summary key of a speed: `35` for 35.0, `35.5` for 35.5.
 pub fn speed_key(v: f64) -> String {
@@ -172,7 +213,7 @@ pub fn speed_key(v: f64) -> String {
 }
 
 /// Lines of a cycle branch split into stable and unstable parts (NaN breaks), in the
-/// coordinates (V, max |θ| [deg]).
+/// coordinates (V, max |θ| \[deg\]).
 pub fn split_by_stability(d: &Diagram) -> (Polyline, Polyline) {
     let mut stable = Vec::new();
     let mut unstable = Vec::new();
@@ -237,91 +278,51 @@ pub fn run_diagram(
         &["v_mps", "stable", "max_re_lambda_per_s"],
         &eq_rows,
     )?;
-    let cyc_rows: Vec<[f64; 5]> = d
-        .cycle_summary
-        .iter()
-        .map(|c| {
-            [
-                c.speed_mps,
-                c.amplitude_deg,
-                c.period_s,
-                f64::from(u8::from(c.stable)),
-                c.max_multiplier,
-            ]
-        })
-        .collect();
-    out.write_csv(
-        "cycles.csv",
-        &[
-            "v_mps",
-            "max_abs_theta_deg",
-            "period_s",
-            "stable",
-            "max_nontrivial_multiplier",
-        ],
-        &cyc_rows,
-    )?;
+    out.write_table("cycles.csv", d.cycle_summary.iter().map(CycleRow::from))?;
 
-    let mut stable_amp = Map::new();
-    let mut stable_period = Map::new();
+    let mut stable_amp = Keyed::default();
+    let mut stable_period = Keyed::default();
     for &v in &cfg.stable_speeds_mps {
         let c = d.cycles_at(&ctx.model, v)?;
         let s = c
             .iter()
             .filter(|c| c.stable)
             .max_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
-        stable_amp.insert(
-            speed_key(v),
-            s.map_or(Value::Null, |c| json!(c.amplitude_deg)),
-        );
-        stable_period.insert(speed_key(v), s.map_or(Value::Null, |c| json!(c.period_s)));
+        stable_amp
+            .0
+            .push((speed_key(v), s.map(|c| c.amplitude_deg)));
+        stable_period.0.push((speed_key(v), s.map(|c| c.period_s)));
     }
-    let mut unstable_amp = Map::new();
+    let mut unstable_amp = Keyed::default();
     for &v in &cfg.unstable_speeds_mps {
         let c = d.cycles_at(&ctx.model, v)?;
         let s = c
             .iter()
             .filter(|c| !c.stable)
             .min_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
-        unstable_amp.insert(
-            speed_key(v),
-            s.map_or(Value::Null, |c| json!(c.amplitude_deg)),
-        );
+        unstable_amp
+            .0
+            .push((speed_key(v), s.map(|c| c.amplitude_deg)));
     }
     let fold = d.fold;
-    let mut summary = Map::new();
-    summary.insert("hopf_v_mps".into(), json!(d.hopf.parameter));
-    summary.insert(
-        "fold_v_mps".into(),
-        fold.map_or(Value::Null, |f| json!(f.speed_mps)),
-    );
-    summary.insert(
-        "fold_amplitude_deg".into(),
-        fold.map_or(Value::Null, |f| json!(f.amplitude_deg)),
-    );
-    summary.insert("stable_amplitude_deg".into(), Value::Object(stable_amp));
-    summary.insert("unstable_amplitude_deg".into(), Value::Object(unstable_amp));
-    summary.insert("criticality".into(), json!(d.criticality.to_string()));
-    summary.insert("hopf_omega_rad_s".into(), json!(d.hopf.omega));
-    summary.insert(
-        "hopf_period_s".into(),
-        json!(2.0 * std::f64::consts::PI / d.hopf.omega),
-    );
-    summary.insert(
-        "fold_period_s".into(),
-        fold.map_or(Value::Null, |f| json!(f.period_s)),
-    );
-    summary.insert("stable_period_s".into(), Value::Object(stable_period));
-    summary.insert(
-        "bistable_range_mps".into(),
-        d.bistable_range()
-            .map_or(Value::Null, |(a, b)| json!([a, b])),
-    );
-    summary.insert("cycle_points".into(), json!(d.cycle_summary.len()));
-    summary.insert(
-        "mesh".into(),
-        json!({"intervals": d.options.intervals, "degree": d.options.degree}),
-    );
+    let summary = DiagramSummary {
+        hopf_v_mps: d.hopf.parameter,
+        fold_v_mps: fold.map(|f| f.speed_mps),
+        fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
+        stable_amplitude_deg: stable_amp,
+        unstable_amplitude_deg: unstable_amp,
+        criticality: d.criticality.to_string(),
+        hopf_omega_rad_s: d.hopf.omega,
+        hopf_period_s: 2.0 * std::f64::consts::PI / d.hopf.omega,
+        fold_period_s: fold.map(|f| f.period_s),
+        stable_period_s: stable_period,
+        bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
+        cycle_points: d.cycle_summary.len(),
+        mesh: Mesh {
+            intervals: d.options.intervals,
+            degree: d.options.degree,
+        },
+    };
 
     let panel = diagram_panel(&d);
     let mut lines = vec![format!(

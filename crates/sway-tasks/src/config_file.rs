@@ -1,0 +1,105 @@
+//! Reading TOML config files: typed, with `deny_unknown_fields`, and errors that name the
+//! file, the key path and the problem. Nothing is computed before a config has loaded.
+
+use std::path::Path;
+
+use serde::de::DeserializeOwned;
+use sway::SwayError;
+use sway::sim::RunSettings;
+use trailer_model::{Model, ModelError, VehicleParams};
+
+/// Reads and deserialises a TOML file into `T`.
+///
+/// # Errors
+/// [`SwayError::Read`] if the file cannot be read; [`SwayError::Config`] with the key path
+/// (e.g. `tractor.mass`) and line for syntax errors, unknown keys and wrong types.
+pub fn load_toml<T: DeserializeOwned>(file: &Path) -> Result<T, SwayError> {
+    let text = std::fs::read_to_string(file).map_err(|source| SwayError::Read {
+        file: file.to_path_buf(),
+        source,
+    })?;
+    parse_toml(&text, file)
+}
+
+/// Deserialises TOML text; `file` is only used in error messages.
+///
+/// # Errors
+/// [`SwayError::Config`] naming the key path, the line and the problem.
+pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, SwayError> {
+    let located = |message: &str, span: Option<std::ops::Range<usize>>| match span {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            format!("{} (line {line})", message.trim())
+        }
+        None => message.trim().to_string(),
+    };
+    let de = toml::de::Deserializer::parse(text)
+        .map_err(|e| SwayError::config(file, "<syntax>", located(e.message(), e.span())))?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = e.path().to_string();
+        let inner = e.into_inner();
+        if let Some((inside, problem)) = run_settings_error(text)
+            && (key == "." || inside.starts_with(&format!("{key}.")))
+        {
+            return SwayError::config(file, inside, problem);
+        }
+        let key = if key == "." {
+            "<root>".to_string()
+        } else {
+            key
+        };
+        SwayError::config(file, key, located(inner.message(), inner.span()))
+    })
+}
+
+/// The key path and problem of a bad value inside the run settings (`guard`, `[solver]`,
+/// `[metrics]`) of any table of the document. Configs flatten [`RunSettings`] into their
+/// tables, and serde reads flattened fields from a buffer that has lost the key path; this
+/// reads each table that has such keys as `RunSettings` alone to find it again.
+fn run_settings_error(text: &str) -> Option<(String, String)> {
+    fn walk(table: &toml::Table, prefix: &str) -> Option<(String, String)> {
+        if ["guard", "solver", "metrics"]
+            .iter()
+            .any(|k| table.contains_key(*k))
+        {
+            let value = toml::Value::Table(table.clone());
+            if let Err(e) = serde_path_to_error::deserialize::<_, RunSettings>(value) {
+                let inner_key = e.path().to_string();
+                let key = if prefix.is_empty() {
+                    inner_key
+                } else {
+                    format!("{prefix}.{inner_key}")
+                };
+                return Some((key, e.into_inner().message().trim().to_string()));
+            }
+        }
+        table.iter().find_map(|(k, v)| match v {
+            toml::Value::Table(sub) if prefix.is_empty() => walk(sub, k),
+            toml::Value::Table(sub) => walk(sub, &format!("{prefix}.{k}")),
+            _ => None,
+        })
+    }
+    walk(&toml::from_str(text).ok()?, "")
+}
+
+/// Loads a vehicle file (the form of `configs/vehicle.toml`, Table I) and builds the model.
+///
+/// # Errors
+/// As [`load_toml`], plus [`SwayError::Config`] naming the parameter when a physical
+/// check fails (positive masses, 0 < c < f, 0 < d < f, 0 < μ ≤ μ0, …).
+pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), SwayError> {
+    let params: VehicleParams = load_toml(file)?;
+    let model = Model::new(params).map_err(|e| match e {
+        ModelError::InvalidParameter {
+            key,
+            value,
+            expected,
+        } => SwayError::config(
+            file,
+            key,
+            format!("{value} is invalid: expected {expected}"),
+        ),
+        other => SwayError::config(file, "<root>", other.to_string()),
+    })?;
+    Ok((params, model))
+}

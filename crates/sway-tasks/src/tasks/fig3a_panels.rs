@@ -1,0 +1,292 @@
+//! `cargo xtask fig3a`, time panels (paper Fig. 3a, bottom): at V = 33 m/s in the bistable
+//! range, θ(0) = 2° decays and θ(0) = 8° grows into sway. `summary.json` has
+//! `"time_panels": {"theta0_2deg": {"final_amplitude_deg": …}, "theta0_8deg": {…}}`
+//! (max |θ| over the last 5 s).
+//!
+//! The task also runs the bifurcation diagram of the same figure (top;
+//! [`super::fig3a_diagram::run_diagram`], `[diagram]` section of `configs/fig3a.toml`):
+//! one figure `fig3a.svg/.png` with the diagram above the time panels, one `summary.json`
+//! with the diagram's fields and `"time_panels"`.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sway::SwayError;
+use sway::config::{Positive, ensure};
+use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
+
+use super::fig3a_diagram::{DiagramConfig, DiagramSummary, run_diagram};
+use super::series::{RunEntry, line, run_and_write};
+use super::{Prepared, Report, Task, TaskContext};
+use crate::config_file::load_toml;
+use crate::io::{Keyed, OutputDir};
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
+use crate::report::{SeriesRow, loss_marker, theta_deg};
+
+/// The task: bifurcation diagram and time panels of paper Fig. 3a.
+pub const TASK: Task = Task {
+    name: "fig3a",
+    about: "paper Fig. 3a: bifurcation diagram and time panels (2° decays, 8° grows into sway at 33 m/s)",
+    config: "fig3a.toml",
+    prepare,
+};
+
+fn default_speed() -> Positive {
+    Positive::literal(33.0)
+}
+fn default_thetas() -> Vec<f64> {
+    vec![2.0, 8.0]
+}
+fn default_horizon() -> Positive {
+    Positive::literal(60.0)
+}
+fn default_output_step() -> Positive {
+    Positive::literal(0.02)
+}
+
+/// The `[panels]` section of `configs/fig3a.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PanelsConfig {
+    /// constant speed V \[m/s\]
+    #[serde(default = "default_speed")]
+    pub speed_mps: Positive,
+    /// initial hitch angles θ(0) \[deg\], one panel each (other states 0)
+    #[serde(default = "default_thetas")]
+    pub theta0_deg: Vec<f64>,
+    /// horizon \[s\]
+    #[serde(default = "default_horizon")]
+    pub horizon_s: Positive,
+    /// sampling of the plotted series \[s\]
+    #[serde(default = "default_output_step")]
+    pub output_step_s: Positive,
+    /// validity guard, tolerances, metric settings (final window 5 s)
+    #[serde(flatten)]
+    pub settings: RunSettings,
+}
+
+impl PanelsConfig {
+    /// Checks the keys that do not validate themselves (`prefix` is the section's key
+    /// path).
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
+        ensure(
+            !self.theta0_deg.is_empty()
+                && self
+                    .theta0_deg
+                    .iter()
+                    .all(|t| t.is_finite() && t.abs() < 90.0),
+            file,
+            &format!("{prefix}.theta0_deg"),
+            || {
+                format!(
+                    "expected a list of angles with |θ| < 90 deg, got {:?}",
+                    self.theta0_deg
+                )
+            },
+        )?;
+        ensure(
+            self.output_step_s <= self.horizon_s,
+            file,
+            &format!("{prefix}.output_step_s"),
+            || {
+                format!(
+                    "expected 0 < output_step_s <= horizon_s, got {}",
+                    self.output_step_s.get()
+                )
+            },
+        )?;
+        self.settings
+            .solver
+            .validate_at(file, &format!("{prefix}.solver"))
+    }
+
+    /// The run at constant speed (every panel; they differ in θ(0)).
+    pub fn spec(&self) -> SimSpec {
+        SimSpec {
+            profile: SpeedProfile::Constant {
+                speed_mps: self.speed_mps.get(),
+            },
+            controller: Controller::None,
+            horizon_s: self.horizon_s.get(),
+            action_s: 0.0,
+            settings: self.settings,
+        }
+    }
+}
+
+/// `configs/fig3a.toml`: `[panels]` for the time panels, `[diagram]` for the bifurcation
+/// diagram (defaults when absent).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fig3aConfig {
+    /// time panels
+    pub panels: PanelsConfig,
+    /// the bifurcation diagram
+    #[serde(default)]
+    pub diagram: DiagramConfig,
+}
+
+/// The key of a panel in `"time_panels"`: `theta0_2deg`, `theta0_8deg`, `theta0_2.5deg`.
+pub fn panel_key(theta0_deg: f64) -> String {
+    format!("theta0_{theta0_deg}deg")
+}
+
+/// What distinguishes a panel's run in `summary.json` (beside its metrics).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PanelRun {
+    /// θ(0) \[deg\]
+    pub theta0_deg: f64,
+    /// V \[m/s\]
+    pub speed_mps: f64,
+}
+
+/// The `"time_panels"` entry of `summary.json`: one entry per panel, keyed
+/// `"theta0_2deg"`, …: the run's metrics, `theta0_deg` and `speed_mps`.
+pub type TimePanels = Keyed<RunEntry<PanelRun>>;
+
+/// `summary.json` of fig3a (before the common fields of [`crate::io::Summary`]): the
+/// diagram's fields, then `"time_panels"`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Fig3aSummary {
+    /// the bifurcation diagram
+    #[serde(flatten)]
+    pub diagram: DiagramSummary,
+    /// the time panels
+    pub time_panels: TimePanels,
+}
+
+/// The panel of one run: θ(t) green when it settles, red when it sways, the final window
+/// shaded.
+fn time_panel(cfg: &PanelsConfig, theta0: f64, r: &sway::sim::SimResult<7>) -> Panel {
+    let threshold = cfg.settings.metrics.settle_threshold_deg.get();
+    let color = if r
+        .metrics
+        .final_amplitude_deg
+        .is_some_and(|a| a < threshold)
+    {
+        Rgb::GREEN
+    } else {
+        Rgb::RED
+    };
+    let fa = r
+        .metrics
+        .final_amplitude_deg
+        .map_or("n/a".into(), |a| format!("{a:.2}°"));
+    let (v, horizon) = (cfg.speed_mps.get(), cfg.horizon_s.get());
+    let mut p = Panel::new(
+        &format!("V = {v} m/s, θ(0) = {theta0}°: final amplitude {fa}"),
+        "t [s]",
+        "θ [deg]",
+    )
+    .with(Layer::line(
+        theta_deg(&r.trajectory),
+        color,
+        Stroke::Solid,
+        Some("θ(t)"),
+    ))
+    .x_range(0.0, horizon)
+    .legend(Legend::UpperRight);
+    let window = horizon - cfg.settings.metrics.final_window_s.get();
+    p.layers.insert(
+        0,
+        Layer::band(window, horizon, Rgb::GREY, Some("final window")),
+    );
+    if let Some(m) = loss_marker(r, Rgb::BLACK, Some("loss of control")) {
+        p.layers.push(m);
+    }
+    p
+}
+
+/// Simulates the panels, writes `theta0_<θ>deg.csv` per panel, and returns the
+/// `"time_panels"` summary entry, the figure panels and printed lines.
+///
+/// # Errors
+/// Numerical failures with context, or write errors.
+pub fn run_panels(
+    ctx: &TaskContext<'_>,
+    cfg: &PanelsConfig,
+    out: &OutputDir,
+) -> Result<(TimePanels, Vec<Panel>, Vec<String>), SwayError> {
+    let spec = cfg.spec();
+    let speed = cfg.speed_mps.get();
+    let mut entries = TimePanels::default();
+    let mut panels = Vec::new();
+    let mut lines = Vec::new();
+    for &th in &cfg.theta0_deg {
+        let x0 = trailer_model::State7::from_column_slice(&[
+            0.0,
+            0.0,
+            0.0,
+            th.to_radians(),
+            0.0,
+            0.0,
+            0.0,
+        ]);
+        let key = panel_key(th);
+        let r = run_and_write::<SeriesRow>(
+            ctx,
+            out,
+            &spec,
+            x0,
+            cfg.output_step_s.get(),
+            &format!("{key}.csv"),
+        )?;
+        lines.push(line(&format!("fig3a V = {speed} m/s, θ(0) = {th}°"), &r));
+        panels.push(time_panel(cfg, th, &r));
+        entries.0.push((
+            key,
+            RunEntry {
+                metrics: r.metrics,
+                about: PanelRun {
+                    theta0_deg: th,
+                    speed_mps: speed,
+                },
+            },
+        ));
+    }
+    Ok((entries, panels, lines))
+}
+
+struct Fig3aTask {
+    file: PathBuf,
+    config: Fig3aConfig,
+}
+
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+    let config: Fig3aConfig = load_toml(file)?;
+    config.panels.validate(file, "panels")?;
+    config.diagram.validate(file, "diagram")?;
+    Ok(Box::new(Fig3aTask {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+impl Prepared for Fig3aTask {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
+        ctx.progress
+            .start("fig3a: bifurcation diagram and time panels", 2);
+        let (diagram, diagram_panel, mut lines) = run_diagram(ctx, &self.config.diagram, &out)?;
+        ctx.progress.advance(1);
+        let (time_panels, panels, panel_lines) = run_panels(ctx, &self.config.panels, &out)?;
+        ctx.progress.advance(1);
+        lines.extend(panel_lines);
+        let mut all = vec![diagram_panel];
+        all.extend(panels);
+        let n = all.len() as u32;
+        Figure::grid(all, n as usize, 1, (900, 420 * n))
+            .titled(
+                "Fig. 3a: open loop — bifurcation diagram (top) and bistability in time (below)",
+            )
+            .render(&out.path("fig3a"))?;
+        let summary = Fig3aSummary {
+            diagram,
+            time_panels,
+        };
+        ctx.conclude(out, summary, &self.config, &self.file, lines)
+    }
+}

@@ -1,0 +1,462 @@
+//! `cargo xtask linear`: open-loop linear stability, V_crit, Hopf frequency, sensitivities.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sway::SwayError;
+use sway::config::{Grid, ensure};
+use sway::linear::{
+    EigenTable, Sensitivity, SensitivityOptions, eigen_table, parameter_index, sensitivities,
+    v_crit_curve,
+};
+use trailer_model::{CriticalSpeed, CriticalSpeedOptions, VehicleParams};
+
+use super::{Prepared, Report, Task, TaskContext};
+use crate::config_file::load_toml;
+use crate::io::{Keyed, OutputDir};
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
+
+/// The task.
+pub const TASK: Task = Task {
+    name: "linear",
+    about: "open-loop eigenvalues vs V, V_crit, Hopf frequency, dV_crit/dp",
+    config: "linear.toml",
+    prepare,
+};
+
+/// `configs/linear.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinearConfig {
+    /// speed grid of the eigenvalue table \[m/s\]
+    pub speed_grid: Grid,
+    /// V_crit search
+    #[serde(default)]
+    pub critical_speed: SearchConfig,
+    /// sensitivity differences
+    #[serde(default)]
+    pub sensitivity: SensitivityOptions,
+    /// the paper's value, for comparison \[m/s\]
+    #[serde(default = "paper_v_crit")]
+    pub paper_v_crit_mps: f64,
+    /// half a unit of the last printed digit of Table I's lengths h and l \[m\]
+    #[serde(default = "rounding")]
+    pub length_rounding_m: f64,
+}
+
+fn paper_v_crit() -> f64 {
+    34.1
+}
+fn rounding() -> f64 {
+    0.05
+}
+
+/// The V_crit search settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SearchConfig {
+    /// lowest speed scanned \[m/s\]
+    pub v_min_mps: f64,
+    /// highest speed scanned \[m/s\]
+    pub v_max_mps: f64,
+    /// scan step \[m/s\]
+    pub scan_step_mps: f64,
+    /// bisection stops at this bracket width \[m/s\]
+    pub tolerance_mps: f64,
+}
+
+impl Default for SearchConfig {
+    fn default() -> Self {
+        let d = CriticalSpeedOptions::default();
+        Self {
+            v_min_mps: d.v_min,
+            v_max_mps: d.v_max,
+            scan_step_mps: d.scan_step,
+            tolerance_mps: d.tolerance,
+        }
+    }
+}
+
+/// One parameter's entry in `summary.json`'s `"sensitivities"` (keyed by its symbol).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SensitivityEntry {
+    /// key path in the vehicle file
+    pub key: &'static str,
+    /// unit of the parameter
+    pub unit: &'static str,
+    /// parameter value
+    pub value: f64,
+    /// dV_crit/dp (m/s per unit of p)
+    pub dv_crit_dp: f64,
+    /// (p / V_crit) dV_crit/dp
+    pub elasticity: f64,
+}
+
+impl From<&Sensitivity> for SensitivityEntry {
+    fn from(x: &Sensitivity) -> Self {
+        Self {
+            key: x.key,
+            unit: x.unit,
+            value: x.value,
+            dv_crit_dp: x.dv_crit_dp,
+            elasticity: x.elasticity,
+        }
+    }
+}
+
+/// `summary.json` of `linear` (before the common fields of [`crate::io::Summary`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinearSummary {
+    /// V_crit \[m/s\]: the speed where straight running loses stability (Hopf)
+    pub v_crit_mps: f64,
+    /// the Hopf frequency \[Hz\]
+    pub hopf_frequency_hz: f64,
+    /// the Hopf angular frequency ω \[rad/s\]
+    pub hopf_omega_rad_s: f64,
+    /// d(max Re λ)/dV at V_crit \[1/m\] (the transversality of the crossing)
+    pub spectral_abscissa_slope_per_m: f64,
+    /// the paper's V_crit \[m/s\]
+    pub paper_v_crit_mps: f64,
+    /// ours minus the paper's \[m/s\]
+    pub v_crit_minus_paper_mps: f64,
+    /// dV_crit/dh (m/s per m)
+    pub dv_crit_dh_mps_per_m: f64,
+    /// dV_crit/dl (m/s per m)
+    pub dv_crit_dl_mps_per_m: f64,
+    /// V_crit ± the first-order effect of Table I's rounding of h and l \[m/s\]
+    pub v_crit_rounding_band_mps: [f64; 2],
+    /// dV_crit/dp of every parameter, keyed by its symbol
+    pub sensitivities: Keyed<SensitivityEntry>,
+}
+
+/// The rounding study: V_crit along h and l around Table I.
+struct RoundingStudy {
+    /// dV_crit/dh, dV_crit/dl
+    dh: f64,
+    dl: f64,
+    /// h and l of Table I \[m\]
+    h0: f64,
+    l0: f64,
+    /// (h, V_crit) and (l, V_crit)
+    by_h: Vec<(f64, f64)>,
+    by_l: Vec<(f64, f64)>,
+    /// first-order V_crit change of the rounding \[m/s\]
+    band: f64,
+}
+
+struct LinearTask {
+    file: PathBuf,
+    config: LinearConfig,
+}
+
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+    let config: LinearConfig = load_toml(file)?;
+    ensure(config.speed_grid.min > 0.0, file, "speed_grid.min", || {
+        format!(
+            "speeds must be positive (slip angles divide by V), got {}",
+            config.speed_grid.min
+        )
+    })?;
+    let s = &config.critical_speed;
+    ensure(
+        s.v_min_mps > 0.0 && s.v_max_mps > s.v_min_mps,
+        file,
+        "critical_speed",
+        || {
+            format!(
+                "expected 0 < v_min_mps < v_max_mps, got {} and {}",
+                s.v_min_mps, s.v_max_mps
+            )
+        },
+    )?;
+    ensure(
+        s.scan_step_mps > 0.0,
+        file,
+        "critical_speed.scan_step_mps",
+        || format!("must be positive, got {}", s.scan_step_mps),
+    )?;
+    ensure(
+        s.tolerance_mps > 0.0 && s.tolerance_mps < 1e-3,
+        file,
+        "critical_speed.tolerance_mps",
+        || format!("expected 0 < tolerance < 1e-3 m/s, got {}", s.tolerance_mps),
+    )?;
+    let r = config.sensitivity.relative_step;
+    ensure(
+        r > 1e-9 && r < 1e-2,
+        file,
+        "sensitivity.relative_step",
+        || format!("expected a value in (1e-9, 1e-2), got {r}"),
+    )?;
+    Ok(Box::new(LinearTask {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+impl SearchConfig {
+    /// As the model's search options.
+    fn options(&self) -> CriticalSpeedOptions {
+        CriticalSpeedOptions {
+            v_min: self.v_min_mps,
+            v_max: self.v_max_mps,
+            scan_step: self.scan_step_mps,
+            tolerance: self.tolerance_mps,
+        }
+    }
+}
+
+/// Step 1: the eigenvalues along the speed grid, `eigenvalues.csv`.
+fn write_eigenvalues(out: &OutputDir, table: &EigenTable) -> Result<(), SwayError> {
+    let rows: Vec<Vec<f64>> = table
+        .speeds
+        .iter()
+        .zip(&table.eigenvalues)
+        .map(|(&v, ev)| {
+            let mut r = vec![v];
+            for l in ev {
+                r.extend([l.re, l.im]);
+            }
+            r
+        })
+        .collect();
+    out.write_csv(
+        "eigenvalues.csv",
+        &[
+            "v_mps", "re1", "im1", "re2", "im2", "re3", "im3", "re4", "im4",
+        ],
+        &rows,
+    )
+}
+
+/// Step 3: V_crit along h and l (±0.1 m around Table I), `v_crit_vs_h_l.csv`.
+fn rounding_study(
+    vehicle: &VehicleParams,
+    sens: &[Sensitivity],
+    v_crit: f64,
+    rounding_m: f64,
+    out: &OutputDir,
+) -> Result<RoundingStudy, SwayError> {
+    let (ih, il) = (
+        parameter_index("h").unwrap_or(9),
+        parameter_index("l").unwrap_or(10),
+    );
+    let (dh, dl) = (sens[ih].dv_crit_dp, sens[il].dv_crit_dp);
+    let offsets: Vec<f64> = (0..=40).map(|k| -0.1 + 0.2 * k as f64 / 40.0).collect();
+    let (h0, l0) = (vehicle.get(ih), vehicle.get(il));
+    let along = |i: usize, p0: f64| {
+        let values: Vec<f64> = offsets.iter().map(|o| p0 + o).collect();
+        v_crit_curve(vehicle, i, &values, v_crit)
+    };
+    let (by_h, by_l) = (along(ih, h0)?, along(il, l0)?);
+    let rows: Vec<[f64; 3]> = offsets
+        .iter()
+        .zip(by_h.iter().zip(&by_l))
+        .map(|(&o, (a, b))| [o, a.1, b.1])
+        .collect();
+    out.write_csv(
+        "v_crit_vs_h_l.csv",
+        &["offset_m", "v_crit_varying_h_mps", "v_crit_varying_l_mps"],
+        &rows,
+    )?;
+    Ok(RoundingStudy {
+        dh,
+        dl,
+        h0,
+        l0,
+        by_h,
+        by_l,
+        band: (dh.abs() + dl.abs()) * rounding_m,
+    })
+}
+
+/// One line per eigenvalue, `part` of each (real part, or frequency), solid and dashed
+/// alternating.
+fn eigenvalue_layers(table: &EigenTable, part: impl Fn(num_complex::Complex64) -> f64) -> Vec<Layer> {
+    (0..4)
+        .map(|k| {
+            Layer::line(
+                table
+                    .speeds
+                    .iter()
+                    .zip(&table.eigenvalues)
+                    .map(|(&v, ev)| (v, part(ev[k])))
+                    .collect(),
+                Rgb::palette(k),
+                if k % 2 == 0 {
+                    Stroke::Solid
+                } else {
+                    Stroke::Dashed
+                },
+                Some(&format!("λ{}", k + 1)),
+            )
+        })
+        .collect()
+}
+
+/// Step 4a: `eigenvalues.svg/.png`, real parts and frequencies against V.
+fn draw_eigenvalues(
+    out: &OutputDir,
+    table: &EigenTable,
+    grid: &Grid,
+    vc: &CriticalSpeed,
+) -> Result<(), SwayError> {
+    let v_range = (grid.min, grid.max);
+    let clip = 8.0;
+    let mut p1 = Panel::new(
+        "Open loop: real parts of the eigenvalues of Ã(V)",
+        "V [m/s]",
+        "Re λ [1/s]",
+    )
+    .x_range(v_range.0, v_range.1)
+    .y_range(-clip, 2.0)
+    .legend(Legend::LowerLeft);
+    p1.layers.push(Layer::band(
+        vc.v_crit_mps,
+        v_range.1,
+        Rgb::RED,
+        Some("unstable straight running"),
+    ));
+    p1.layers.push(Layer::line(
+        vec![(v_range.0, 0.0), (v_range.1, 0.0)],
+        Rgb::GREY,
+        Stroke::Dotted,
+        None,
+    ));
+    p1.layers.extend(eigenvalue_layers(table, |l| l.re));
+    p1.layers.push(Layer::markers(
+        vec![(vc.v_crit_mps, 0.0)],
+        Rgb::BLACK,
+        Some(&format!("V_crit = {:.3} m/s", vc.v_crit_mps)),
+    ));
+    let mut p2 = Panel::new("Frequencies Im λ / 2π", "V [m/s]", "Im λ / 2π [Hz]")
+        .x_range(v_range.0, v_range.1)
+        .legend(Legend::UpperRight);
+    p2.layers.extend(eigenvalue_layers(table, |l| {
+        l.im / (2.0 * std::f64::consts::PI)
+    }));
+    p2.layers.push(Layer::markers(
+        vec![
+            (vc.v_crit_mps, vc.hopf_frequency_hz),
+            (vc.v_crit_mps, -vc.hopf_frequency_hz),
+        ],
+        Rgb::BLACK,
+        Some(&format!("Hopf: {:.3} Hz", vc.hopf_frequency_hz)),
+    ));
+    Figure::column(vec![p1, p2]).render(&out.path("eigenvalues"))
+}
+
+/// Step 4b: `sensitivity.svg/.png`, V_crit against the change of h and l.
+fn draw_rounding(
+    out: &OutputDir,
+    study: &RoundingStudy,
+    cfg: &LinearConfig,
+    v_crit: f64,
+) -> Result<(), SwayError> {
+    let r = cfg.length_rounding_m;
+    let paper = cfg.paper_v_crit_mps;
+    let p3 = Panel::new(
+        "V_crit vs trailer geometry (Table I prints h, l to 0.1 m)",
+        "change of the length from Table I [m]",
+        "V_crit [m/s]",
+    )
+    .with(Layer::band(
+        -r,
+        r,
+        Rgb::GREY,
+        Some("rounding of Table I (±0.05 m)"),
+    ))
+    .with(Layer::line(
+        study.by_h.iter().map(|&(p, v)| (p - study.h0, v)).collect(),
+        Rgb::BLUE,
+        Stroke::Solid,
+        Some("vary h (trailer CG)"),
+    ))
+    .with(Layer::line(
+        study.by_l.iter().map(|&(p, v)| (p - study.l0, v)).collect(),
+        Rgb::ORANGE,
+        Stroke::Solid,
+        Some("vary l (trailer axle)"),
+    ))
+    .with(Layer::line(
+        vec![(-0.1, paper), (0.1, paper)],
+        Rgb::RED,
+        Stroke::Dashed,
+        Some(&format!("paper: {paper} m/s")),
+    ))
+    .with(Layer::markers(
+        vec![(0.0, v_crit)],
+        Rgb::BLACK,
+        Some(&format!("Table I: {v_crit:.3} m/s")),
+    ))
+    .legend(Legend::UpperRight);
+    Figure::single(p3).render(&out.path("sensitivity"))
+}
+
+/// Step 5: the headline numbers.
+fn summary(
+    vc: &CriticalSpeed,
+    cfg: &LinearConfig,
+    study: &RoundingStudy,
+    sens: &[Sensitivity],
+) -> LinearSummary {
+    LinearSummary {
+        v_crit_mps: vc.v_crit_mps,
+        hopf_frequency_hz: vc.hopf_frequency_hz,
+        hopf_omega_rad_s: vc.hopf_omega_rad_s,
+        spectral_abscissa_slope_per_m: vc.crossing_speed,
+        paper_v_crit_mps: cfg.paper_v_crit_mps,
+        v_crit_minus_paper_mps: vc.v_crit_mps - cfg.paper_v_crit_mps,
+        dv_crit_dh_mps_per_m: study.dh,
+        dv_crit_dl_mps_per_m: study.dl,
+        v_crit_rounding_band_mps: [vc.v_crit_mps - study.band, vc.v_crit_mps + study.band],
+        sensitivities: sens
+            .iter()
+            .map(|x| (x.symbol.to_string(), SensitivityEntry::from(x)))
+            .collect(),
+    }
+}
+
+/// The printed headline lines.
+fn headline_lines(vc: &CriticalSpeed, cfg: &LinearConfig, study: &RoundingStudy) -> Vec<String> {
+    let (dh, dl, band, r) = (study.dh, study.dl, study.band, cfg.length_rounding_m);
+    vec![
+        format!("V_crit = {:.9} m/s", vc.v_crit_mps),
+        format!(
+            "Hopf frequency = {:.6} Hz (ω = {:.6} rad/s)",
+            vc.hopf_frequency_hz, vc.hopf_omega_rad_s
+        ),
+        format!(
+            "dV_crit/dh = {dh:.3} m/s per m, dV_crit/dl = {dl:.3} m/s per m; ±{r} m rounding of h and l moves V_crit by up to ±{band:.2} m/s (paper: {} m/s)",
+            cfg.paper_v_crit_mps
+        ),
+    ]
+}
+
+impl Prepared for LinearTask {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+        let cfg = &self.config;
+        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
+        ctx.progress.start("linear: eigenvalues", 3);
+        let table = eigen_table(&ctx.model, &cfg.speed_grid.values());
+        write_eigenvalues(&out, &table)?;
+        ctx.progress.advance(1);
+        let vc = ctx.model.critical_speed(&cfg.critical_speed.options())?;
+        ctx.progress.advance(1);
+        let tolerance = cfg.critical_speed.tolerance_mps;
+        let sens = sensitivities(&ctx.vehicle, vc.v_crit_mps, &cfg.sensitivity, tolerance)?;
+        out.write_table("sensitivity.csv", sens.iter().cloned())?;
+        let study = rounding_study(
+            &ctx.vehicle,
+            &sens,
+            vc.v_crit_mps,
+            cfg.length_rounding_m,
+            &out,
+        )?;
+        ctx.progress.advance(1);
+        draw_eigenvalues(&out, &table, &cfg.speed_grid, &vc)?;
+        draw_rounding(&out, &study, cfg, vc.v_crit_mps)?;
+        let lines = headline_lines(&vc, cfg, &study);
+        ctx.conclude(out, summary(&vc, cfg, &study, &sens), cfg, &self.file, lines)
+    }
+}

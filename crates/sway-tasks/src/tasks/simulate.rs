@@ -1,0 +1,137 @@
+//! `cargo xtask simulate FILE.toml`: one user scenario of the full 7-state model.
+//! Writes `results/<name>/trajectory.csv` (t, σ1, σ2, σ3, θ, ψ, x_H, y_H, V, δ),
+//! `summary.json` and `trajectory.svg/.png` (θ and V versus t, and the path).
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use sway::SwayError;
+use sway::sim::{ScenarioConfig, SimResult};
+
+use super::series::{RunEntry, line, run_and_write};
+use super::{Prepared, Report, Task, TaskContext};
+use crate::config_file::load_toml;
+use crate::io::OutputDir;
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
+use crate::report::{TrajectoryRow, loss_marker, max_abs_theta_deg};
+
+/// The task (its default config is an example scenario).
+pub const TASK: Task = Task {
+    name: "simulate",
+    about: "simulate a user scenario (TOML): trajectory, metrics, figure",
+    config: "scenario_example.toml",
+    prepare,
+};
+
+/// What a scenario's `summary.json` says about the run beside its metrics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ScenarioRun {
+    /// when the action started \[s\]
+    pub action_s: f64,
+    /// where the run ended \[s\] (the horizon, or the loss of control)
+    pub t_end_s: f64,
+    /// accepted solver steps
+    pub accepted_steps: usize,
+    /// rejected solver steps
+    pub rejected_steps: usize,
+}
+
+/// `summary.json` of a scenario (before the common fields of [`crate::io::Summary`]):
+/// `name`, the run's metrics, `action_s`, `t_end_s`, `accepted_steps`, `rejected_steps`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScenarioSummary {
+    /// the scenario's name (its results directory)
+    pub name: String,
+    /// metrics and run facts
+    #[serde(flatten)]
+    pub run: RunEntry<ScenarioRun>,
+}
+
+struct SimulateTask {
+    file: PathBuf,
+    config: ScenarioConfig,
+}
+
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+    let config: ScenarioConfig = load_toml(file)?;
+    config.validate(file)?;
+    Ok(Box::new(SimulateTask {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+/// θ(t) with the action time and the loss of control, V(t), and the hitch's path.
+fn figure(cfg: &ScenarioConfig, action_s: f64, r: &SimResult<7>) -> Figure {
+    let theta: Vec<(f64, f64)> = r
+        .trajectory
+        .iter()
+        .map(|s| (s.t, s.x[3].to_degrees()))
+        .collect();
+    let speed: Vec<(f64, f64)> = r.trajectory.iter().map(|s| (s.t, s.speed)).collect();
+    let path: Vec<(f64, f64)> = r.trajectory.iter().map(|s| (s.x[5], s.x[6])).collect();
+    let horizon = cfg.horizon_s.get();
+    let mut p1 = Panel::new(&format!("{}: hitch angle", cfg.name), "t [s]", "θ [deg]")
+        .with(Layer::line(theta, Rgb::BLUE, Stroke::Solid, Some("θ(t)")))
+        .legend(Legend::UpperRight)
+        .x_range(0.0, horizon);
+    p1.layers.push(Layer::vline(
+        action_s,
+        (-90.0, 90.0),
+        Rgb::GREY,
+        Stroke::Dotted,
+        Some(&format!("action at t = {action_s} s")),
+    ));
+    if let Some(m) = loss_marker(r, Rgb::RED, Some("loss of control (validity guard)")) {
+        p1.layers.push(m);
+    }
+    let amp = max_abs_theta_deg(&r.trajectory, 1.0);
+    p1 = p1.y_range(-1.1 * amp, 1.1 * amp);
+    let p2 = Panel::new("prescribed speed", "t [s]", "V [m/s]")
+        .with(Layer::line(speed, Rgb::ORANGE, Stroke::Solid, Some("V(t)")))
+        .x_range(0.0, horizon);
+    let p3 = Panel::new("path of the hitch point", "x_H [m]", "y_H [m]")
+        .with(Layer::line(
+            path,
+            Rgb::GREEN,
+            Stroke::Solid,
+            Some("(x_H, y_H)"),
+        ))
+        .legend(Legend::UpperLeft);
+    Figure::column(vec![p1, p2, p3])
+}
+
+impl Prepared for SimulateTask {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+        let cfg = &self.config;
+        let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;
+        ctx.progress.start(&format!("simulate {}", cfg.name), 2);
+        let x0 = cfg.initial.state7(&ctx.model, &cfg.settings.solver)?;
+        ctx.progress.advance(1);
+        let spec = cfg.spec();
+        let r = run_and_write::<TrajectoryRow>(
+            ctx,
+            &out,
+            &spec,
+            x0,
+            cfg.output_step_s.get(),
+            "trajectory.csv",
+        )?;
+        ctx.progress.advance(1);
+        figure(cfg, spec.action_s, &r).render(&out.path("trajectory"))?;
+        let summary = ScenarioSummary {
+            name: cfg.name.clone(),
+            run: RunEntry {
+                metrics: r.metrics,
+                about: ScenarioRun {
+                    action_s: spec.action_s,
+                    t_end_s: r.t_end,
+                    accepted_steps: r.stats.accepted,
+                    rejected_steps: r.stats.rejected,
+                },
+            },
+        };
+        let lines = vec![line(&cfg.name, &r)];
+        ctx.conclude(out, summary, cfg, &self.file, lines)
+    }
+}

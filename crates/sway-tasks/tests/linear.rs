@@ -1,0 +1,179 @@
+//! The linear task: its headline fields against independent evaluations, and the
+//! atomic-output contract.
+
+use std::path::Path;
+
+use sway::progress::NoProgress;
+use sway_tasks::tasks::{self, TaskContext};
+use trailer_model::{Model, VehicleParams};
+
+fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write temp file");
+    p
+}
+
+#[test]
+fn linear_task_writes_its_results_and_the_headline_fields() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let results = tmp.path().join("results");
+    let cfg = write(
+        tmp.path(),
+        "linear.toml",
+        "speed_grid = { min = 20.0, max = 50.0, points = 31 }\n",
+    );
+    let ctx = TaskContext::new(
+        &root().join("configs/vehicle.toml"),
+        &root().join("configs"),
+        &results,
+        &NoProgress,
+    )
+    .expect("vehicle loads");
+    let task = tasks::resolve("linear").expect("known")[0];
+    let report = (task.prepare)(&ctx, &cfg)
+        .expect("config valid")
+        .run(&ctx)
+        .expect("runs");
+    assert!(report.lines[0].starts_with("V_crit = "));
+    let dir = results.join("linear");
+    for f in [
+        "eigenvalues.csv",
+        "sensitivity.csv",
+        "summary.json",
+        "eigenvalues.svg",
+        "eigenvalues.png",
+        "sensitivity.png",
+    ] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("read"))
+            .expect("json");
+    // the summary's V_crit is a zero of the spectral abscissa (independent evaluation)
+    let vc = summary["v_crit_mps"].as_f64().expect("v_crit_mps");
+    let model = Model::new(VehicleParams::default()).expect("valid");
+    assert!(model.spectral_abscissa(vc - 1e-9) < 0.0 && model.spectral_abscissa(vc + 1e-9) > 0.0);
+    let f = summary["hopf_frequency_hz"]
+        .as_f64()
+        .expect("hopf_frequency_hz");
+    let ev = model.open_loop_eigenvalues(vc);
+    assert!((f - ev[0].im.abs() / (2.0 * std::f64::consts::PI)).abs() < 1e-9);
+    assert!(summary["wall_time_s"].as_f64().is_some());
+    assert_eq!(summary["config"]["speed_grid"]["points"], 31);
+    let csv = std::fs::read_to_string(dir.join("eigenvalues.csv")).expect("csv");
+    assert_eq!(csv.lines().count(), 32, "header + 31 rows");
+    // nothing staged is left behind
+    let leftovers: Vec<_> = std::fs::read_dir(&results)
+        .expect("dir")
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
+        .collect();
+    assert!(leftovers.is_empty());
+}
+
+/// Bad vehicle files: each error names the file and the key, and nothing is written.
+#[test]
+fn bad_vehicle_files_are_rejected_with_file_and_key() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let good = std::fs::read_to_string(root().join("configs/vehicle.toml")).expect("read");
+    let cases: Vec<(&str, String, &str)> = vec![
+        (
+            "negative mass",
+            good.replace("mass = 985.0", "mass = -985.0"),
+            "trailer.mass",
+        ),
+        (
+            "c >= f",
+            good.replace("rear_axle = 1.35", "rear_axle = 6.0"),
+            "tractor.rear_axle",
+        ),
+        (
+            "unknown key",
+            good.replace("cog = 2.9", "cog = 2.9\nwheelbase = 3.0"),
+            "trailer",
+        ),
+        (
+            "wrong type",
+            good.replace("mass = 2400.0", "mass = \"heavy\""),
+            "tractor.mass",
+        ),
+        (
+            "syntax",
+            good.replace("[friction]", "[friction"),
+            "<syntax>",
+        ),
+        ("missing key", good.replace("axle = 2.8", ""), "trailer"),
+        (
+            "mu > mu0",
+            good.replace("mu_dynamic = 0.6", "mu_dynamic = 1.2"),
+            "friction.mu_dynamic",
+        ),
+    ];
+    for (what, text, key) in cases {
+        let file = write(tmp.path(), "vehicle.toml", &text);
+        let results = tmp.path().join("results");
+        let err = TaskContext::new(&file, &root().join("configs"), &results, &NoProgress)
+            .expect_err(what)
+            .to_string();
+        assert!(err.contains("vehicle.toml"), "{what}: {err}");
+        assert!(err.contains(key), "{what}: {err}");
+        assert!(!results.exists(), "{what}: nothing may be written");
+    }
+    let missing = TaskContext::new(
+        &tmp.path().join("nope.toml"),
+        &root().join("configs"),
+        &tmp.path().join("results"),
+        &NoProgress,
+    )
+    .expect_err("missing file")
+    .to_string();
+    assert!(
+        missing.contains("nope.toml") && missing.contains("cannot read"),
+        "{missing}"
+    );
+}
+
+#[test]
+fn bad_task_configs_are_rejected_before_any_work() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let results = tmp.path().join("results");
+    let ctx = TaskContext::new(
+        &root().join("configs/vehicle.toml"),
+        &root().join("configs"),
+        &results,
+        &NoProgress,
+    )
+    .expect("vehicle loads");
+    let task = tasks::resolve("linear").expect("known")[0];
+    for (text, key) in [
+        (
+            "speed_grid = { min = 50.0, max = 20.0, points = 31 }\n",
+            "speed_grid",
+        ),
+        (
+            "speed_grid = { min = 0.0, max = 20.0, points = 31 }\n",
+            "speed_grid.min",
+        ),
+        (
+            "speed_grid = { min = 1.0, max = 20.0, points = 1 }\n",
+            "`speed_grid`: expected at least 2 points",
+        ),
+        (
+            "speed_grid = { min = 1.0, max = 20.0, points = 10 }\nspeed = 3\n",
+            "speed",
+        ),
+    ] {
+        let cfg = write(tmp.path(), "linear.toml", text);
+        let err = match (task.prepare)(&ctx, &cfg) {
+            Ok(_) => panic!("accepted: {text}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("linear.toml") && err.contains(key), "{err}");
+        assert!(!results.exists());
+    }
+    assert!(tasks::resolve("fig99").is_err());
+}

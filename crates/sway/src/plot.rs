@@ -1237,3 +1237,79 @@ fn polyline_enters(uv: &[(f64, f64)], inside: &impl Fn((f64, f64)) -> bool) -> b
         })
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn colour_bar_ticks_are_round_values_inside_the_range() {
+        let ticks = nice_ticks(22.7, 119.7, 6);
+        let values: Vec<f64> = ticks.iter().map(|t| t.0).collect();
+        assert_eq!(values, [40.0, 60.0, 80.0, 100.0]);
+        assert_eq!(ticks[0].1, "40");
+        let small = nice_ticks(0.0, 0.9, 6);
+        assert_eq!(small.first().map(|t| t.1.as_str()), Some("0.0"));
+        assert_eq!(small.last().map(|t| t.1.as_str()), Some("0.8"));
+    }
+
+    fn sine_panel(legend: Legend) -> Panel {
+        let pts = (0..200)
+            .map(|i| (i as f64 * 0.1, (i as f64 * 0.3).sin()))
+            .collect();
+        Panel::new("t", "x", "y")
+            .with(Layer::line(pts, Rgb::BLUE, Stroke::Solid, Some("sin")))
+            .legend(legend)
+    }
+
+    #[test]
+    fn legend_avoids_data_and_goes_beside_the_axes_when_no_corner_is_free() {
+        let size = (900, 600);
+        let ranges = ((0.0, 20.0), (-1.0, 1.0));
+        let legend = LegendBox {
+            entries: vec![(Swatch::Fill(Rgb::RED, 1.0), "x")],
+            size: (80, 30),
+        };
+        // a sine filling the axes (a period per corner box): no free corner
+        assert_eq!(
+            legend.placement(&sine_panel(Legend::UpperRight), ranges, size, 0),
+            Placement::Outside
+        );
+        // data only in the lower left: the preferred upper right is free
+        let low = Panel::new("t", "x", "y").with(Layer::markers(vec![(0.5, -0.9)], Rgb::RED, None));
+        assert_eq!(
+            legend.placement(&low, ranges, size, 0),
+            Placement::Corner(Legend::UpperRight)
+        );
+        // the preferred lower left holds data: the first free corner instead
+        let low = low.legend(Legend::LowerLeft);
+        assert_eq!(
+            legend.placement(&low, ranges, size, 0),
+            Placement::Corner(Legend::UpperRight)
+        );
+    }
+
+    #[test]
+    fn render_writes_an_svg_and_a_png_of_the_figure_size() {
+        let dir = tempfile::tempdir().unwrap();
+        let stem = dir.path().join("fig");
+        let heat = Panel::new("map", "x", "y").with(Layer::Heatmap {
+            x_edges: vec![0.0, 1.0, 2.0],
+            y_edges: vec![0.0, 1.0],
+            values: vec![vec![0.0, f64::NAN]],
+            range: (0.0, 1.0),
+            label: "value (unit)".into(),
+        });
+        Figure::grid(vec![sine_panel(Legend::UpperRight), heat], 1, 2, (640, 300))
+            .render(&stem)
+            .unwrap();
+        let svg = std::fs::read_to_string(stem.with_extension("svg")).unwrap();
+        assert!(svg.contains("value (unit)") && svg.contains("no value"));
+        let png = std::fs::read(stem.with_extension("png")).unwrap();
+        // PNG signature, then the IHDR chunk with width and height (big-endian)
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        let w = u32::from_be_bytes([png[16], png[17], png[18], png[19]]);
+        let h = u32::from_be_bytes([png[20], png[21], png[22], png[23]]);
+        assert_eq!((w, h), (640, 300));
+    }
+}

@@ -16,7 +16,7 @@ pub enum StepController {
     /// Fixed step size `h` (no error control). Steps are still shortened to land on
     /// breakpoints and on the end time. Meant for convergence studies.
     Fixed {
-        /// the step size [same unit as t]
+        /// the step size \[same unit as t\]
         h: f64,
     },
 }

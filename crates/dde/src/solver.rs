@@ -368,6 +368,8 @@ impl<const N: usize> Core<N> {
         (100.0 * h0).min(h1).min(h_cap)
     }
 
+    /// Integrates to `t_end`: attempt, judge, accept, record, detect events, advance and
+    /// report, one Dormand–Prince step after the other.
     fn run<R: Rhs<N>, O: Observer<N>>(
         &mut self,
         rhs: &mut R,
@@ -381,6 +383,47 @@ impl<const N: usize> Core<N> {
         if t_end == self.t {
             return Ok(Status::Reached);
         }
+        self.ensure_fsal(rhs)?;
+        let ctl = self.control(rhs, t_end);
+        let mut scratch = EventScratch::new(&*rhs, events, self.t, &self.x);
+        let mut attempts = 0usize;
+        loop {
+            self.pass_reached_breakpoints();
+            if self.t >= t_end {
+                return Ok(Status::Reached);
+            }
+            if attempts >= self.opts.max_steps {
+                return Err(Error::TooManySteps {
+                    t: self.t,
+                    max_steps: self.opts.max_steps,
+                });
+            }
+            attempts += 1;
+
+            let plan = self.plan_step(&ctl, t_end)?;
+            let stages = Stages::compute(rhs, &plan);
+            self.stats.rhs_evals += 6;
+            let Some(err) = self.judge(&ctl, &plan, &stages)? else {
+                continue;
+            };
+            let h_next = self.accept(&ctl, &plan, err);
+            let seg = self.record(rhs, &plan, &stages);
+            let stop_at = scratch.detect(&*rhs, events, &seg, &plan, &stages, self.opts.event_tol);
+            let seg_obs = match stop_at {
+                Some(k) => self.stop_at_event(rhs, &seg, scratch.hits[k], h_next),
+                None => {
+                    self.advance(rhs, &plan, &stages, h_next)?;
+                    seg
+                }
+            };
+            if let Some(status) = self.report(rhs, obs, &seg_obs, &scratch.hits, stop_at) {
+                return Ok(status);
+            }
+        }
+    }
+
+    /// Makes `k1 = f(t, x)` valid (after construction, a breakpoint or a terminal event).
+    fn ensure_fsal<R: Rhs<N>>(&mut self, rhs: &mut R) -> Result<(), Error> {
         if !self.k1_valid {
             let mut k1 = SV::<N>::zeros();
             rhs.eval(self.t, &self.x, &mut k1);
@@ -391,6 +434,11 @@ impl<const N: usize> Core<N> {
             self.k1 = k1;
             self.k1_valid = true;
         }
+        Ok(())
+    }
+
+    /// Reads the step-size settings of this call and picks the first step if none is set.
+    fn control<R: Rhs<N>>(&mut self, rhs: &mut R, t_end: f64) -> Control {
         let h_cap = self.opts.h_max.min(rhs.h_cap());
         let fixed = match self.opts.controller {
             StepController::Fixed { h } => Some(h),
@@ -406,249 +454,387 @@ impl<const N: usize> Core<N> {
                 (None, None) => self.initial_step(rhs, h_cap, t_end),
             };
         }
-        let expo1 = 0.2 - 0.75 * beta;
-        let (safety, fac_min, fac_max) = (self.opts.safety, self.opts.fac_min, self.opts.fac_max);
+        Control {
+            h_cap,
+            fixed,
+            beta,
+            expo1: 0.2 - 0.75 * beta,
+            safety: self.opts.safety,
+            fac_min: self.opts.fac_min,
+            fac_max: self.opts.fac_max,
+        }
+    }
 
-        // event bookkeeping (allocated per call, only when there are events)
+    /// Passes the breakpoints already reached (or too close to resolve).
+    fn pass_reached_breakpoints(&mut self) {
+        while self.bp_next < self.breakpoints.len()
+            && self.breakpoints[self.bp_next] - self.t <= 16.0 * f64::EPSILON * self.t.abs()
+        {
+            self.bp_next += 1;
+        }
+    }
+
+    /// The next step: the proposed size, shortened to land on the next breakpoint or on
+    /// `t_end` (and stretched by up to 1 % to land instead of leaving a sliver).
+    fn plan_step(&self, ctl: &Control, t_end: f64) -> Result<Plan<N>, Error> {
+        let t = self.t;
+        let (target, at_bp) = match self.breakpoints.get(self.bp_next) {
+            Some(&b) if b < t_end => (b, true),
+            _ => (t_end, false),
+        };
+        let h_prop = ctl.fixed.unwrap_or(self.h).min(ctl.h_cap);
+        let dist = target - t;
+        let (h, land) = if h_prop >= dist || (dist <= 1.01 * h_prop && dist <= ctl.h_cap) {
+            (dist, true)
+        } else {
+            (h_prop, false)
+        };
+        if h <= 16.0 * f64::EPSILON * t.abs() || h <= 0.0 {
+            return Err(Error::StepSizeUnderflow { t, h });
+        }
+        let t_new = if land { target } else { t + h };
+        let at_bp = land && at_bp;
+        // at a breakpoint the right-hand side is evaluated as its left limit
+        let t_last = if at_bp { target.next_down() } else { t_new };
+        Ok(Plan {
+            t,
+            x: self.x,
+            k1: self.k1,
+            h,
+            h_prop,
+            land,
+            at_bp,
+            t_new,
+            t_last,
+        })
+    }
+
+    /// The scaled error of the step (0 with fixed steps), or `None` after a rejection (the
+    /// step size is then reduced); an error once the step cannot shrink any further.
+    fn judge(&mut self, ctl: &Control, p: &Plan<N>, s: &Stages<N>) -> Result<Option<f64>, Error> {
+        let err = if ctl.fixed.is_some() {
+            if is_finite(&s.x_new) && is_finite(&s.k[6]) {
+                0.0
+            } else {
+                f64::NAN
+            }
+        } else {
+            self.err_norm(&p.x, &s.x_new, &s.error_estimate(p.h))
+        };
+        if !err.is_finite() || !is_finite(&s.x_new) || !is_finite(&s.k[6]) {
+            // try again with a much smaller step; give up once it cannot shrink further
+            self.stats.rejected += 1;
+            self.rejected_last = true;
+            if ctl.fixed.is_some()
+                || p.h * ctl.fac_min <= 16.0 * f64::EPSILON * p.t.abs().max(1e-300)
+            {
+                return Err(Error::NonFiniteState { t: p.t });
+            }
+            self.h = p.h * ctl.fac_min;
+            return Ok(None);
+        }
+        if err > 1.0 {
+            self.stats.rejected += 1;
+            let fac11 = err.powf(ctl.expo1);
+            self.h = p.h / (1.0 / ctl.fac_min).min(fac11 / ctl.safety);
+            self.rejected_last = true;
+            return Ok(None);
+        }
+        Ok(Some(err))
+    }
+
+    /// Counts the accepted step and returns the next step size (PI control).
+    fn accept(&mut self, ctl: &Control, p: &Plan<N>, err: f64) -> f64 {
+        self.stats.accepted += 1;
+        let h_next = if ctl.fixed.is_some() {
+            p.h_prop
+        } else {
+            let fac11 = err.powf(ctl.expo1);
+            let fac = (fac11 / self.err_old.powf(ctl.beta) / ctl.safety)
+                .clamp(1.0 / ctl.fac_max, 1.0 / ctl.fac_min);
+            let mut hn = p.h / fac;
+            if self.rejected_last {
+                hn = hn.min(p.h);
+            }
+            if p.land {
+                // a step cut short to land does not say the next one must be short
+                hn = hn.max(p.h_prop.min(hn * ctl.fac_max));
+            }
+            self.err_old = err.max(1e-4);
+            hn
+        };
+        self.rejected_last = false;
+        h_next
+    }
+
+    /// The continuous extension of the accepted step, stored in the past (DDE) and in the
+    /// kept dense output.
+    fn record<R: Rhs<N>>(&mut self, rhs: &mut R, p: &Plan<N>, s: &Stages<N>) -> Segment<N> {
+        let seg = s.segment(p);
+        rhs.push(&seg);
+        if let Some(sol) = self.solution.as_mut() {
+            sol.push(seg);
+        }
+        seg
+    }
+
+    /// Ends the step at a terminal event: the past, the dense output and the state are cut
+    /// at its time, and `k1` is invalid. Returns the step as the observer sees it.
+    fn stop_at_event<R: Rhs<N>>(
+        &mut self,
+        rhs: &mut R,
+        seg: &Segment<N>,
+        hit: EventHit<N>,
+        h_next: f64,
+    ) -> Segment<N> {
+        let mut seg_obs = *seg;
+        seg_obs.t_end = hit.t;
+        rhs.truncate(hit.t);
+        if let Some(sol) = self.solution.as_mut() {
+            sol.truncate_last(hit.t);
+        }
+        self.t = hit.t;
+        self.x = hit.x;
+        self.k1_valid = false;
+        self.h = h_next;
+        seg_obs
+    }
+
+    /// Moves to the end of the step; at a breakpoint `k1` becomes the right limit of `f`.
+    fn advance<R: Rhs<N>>(
+        &mut self,
+        rhs: &mut R,
+        p: &Plan<N>,
+        s: &Stages<N>,
+        h_next: f64,
+    ) -> Result<(), Error> {
+        self.t = p.t_new;
+        self.x = s.x_new;
+        self.h = h_next;
+        if p.at_bp {
+            self.bp_next += 1;
+            // right limit of f after the jump
+            let mut k = SV::<N>::zeros();
+            rhs.eval(p.t_new, &s.x_new, &mut k);
+            self.stats.rhs_evals += 1;
+            if !is_finite(&k) {
+                return Err(Error::NonFiniteState { t: p.t_new });
+            }
+            self.k1 = k;
+        } else {
+            self.k1 = s.k[6];
+        }
+        Ok(())
+    }
+
+    /// Shows the step and its events to the observer; the final status if the integration
+    /// ends here (a terminal event, or the observer's stop).
+    fn report<R: Rhs<N>, O: Observer<N>>(
+        &mut self,
+        rhs: &mut R,
+        obs: &mut O,
+        seg_obs: &Segment<N>,
+        hits: &[EventHit<N>],
+        stop_at: Option<usize>,
+    ) -> Option<Status<N>> {
+        let view = StepView {
+            segment: seg_obs,
+            x: &self.x,
+            past: &*rhs,
+        };
+        let flow = obs.on_step(&view);
+        for hit in hits {
+            obs.on_event(hit);
+        }
+        if let Some(k) = stop_at {
+            if !self.k1_valid {
+                let mut k1n = SV::<N>::zeros();
+                rhs.eval(self.t, &self.x, &mut k1n);
+                self.stats.rhs_evals += 1;
+                self.k1 = k1n;
+                self.k1_valid = is_finite(&k1n);
+            }
+            return Some(Status::Event(hits[k]));
+        }
+        (flow == Flow::Stop).then_some(Status::ObserverStopped)
+    }
+}
+
+/// Step-size settings of one `integrate` call, read once from the options.
+#[derive(Debug, Clone, Copy)]
+struct Control {
+    /// largest step (h_max, and the smallest delay for DDEs)
+    h_cap: f64,
+    /// the fixed step size, if the controller is fixed
+    fixed: Option<f64>,
+    /// PI weight of the previous error
+    beta: f64,
+    /// exponent of the current error, 1/5 − 0.75 β
+    expo1: f64,
+    safety: f64,
+    fac_min: f64,
+    fac_max: f64,
+}
+
+/// The step about to be attempted from `(t, x)` with `k1 = f(t, x)`.
+#[derive(Debug, Clone, Copy)]
+struct Plan<const N: usize> {
+    t: f64,
+    x: SV<N>,
+    k1: SV<N>,
+    /// the step size
+    h: f64,
+    /// the size the controller proposed (before landing)
+    h_prop: f64,
+    /// whether the step lands on a breakpoint or on `t_end`
+    land: bool,
+    /// whether it lands on a breakpoint
+    at_bp: bool,
+    /// end of the step
+    t_new: f64,
+    /// where the last stages are evaluated: the left limit at a breakpoint
+    t_last: f64,
+}
+
+/// The seven stages `k[0] = k1 … k[6] = k7` of one Dormand–Prince step and its result.
+#[derive(Debug, Clone, Copy)]
+struct Stages<const N: usize> {
+    k: [SV<N>; 7],
+    x_new: SV<N>,
+}
+
+impl<const N: usize> Stages<N> {
+    /// One Dormand–Prince 5(4) step (six new right-hand side evaluations, FSAL).
+    fn compute<R: Rhs<N>>(rhs: &mut R, p: &Plan<N>) -> Self {
+        let (t, x, k1, h) = (p.t, p.x, p.k1, p.h);
+        let mut k2 = SV::<N>::zeros();
+        let mut k3 = SV::<N>::zeros();
+        let mut k4 = SV::<N>::zeros();
+        let mut k5 = SV::<N>::zeros();
+        let mut k6 = SV::<N>::zeros();
+        let mut k7 = SV::<N>::zeros();
+        rhs.eval(t + C2 * h, &(x + k1 * (h * A21)), &mut k2);
+        rhs.eval(t + C3 * h, &(x + (k1 * A31 + k2 * A32) * h), &mut k3);
+        rhs.eval(
+            t + C4 * h,
+            &(x + (k1 * A41 + k2 * A42 + k3 * A43) * h),
+            &mut k4,
+        );
+        rhs.eval(
+            t + C5 * h,
+            &(x + (k1 * A51 + k2 * A52 + k3 * A53 + k4 * A54) * h),
+            &mut k5,
+        );
+        let t6 = if p.at_bp { p.t_last } else { t + h };
+        rhs.eval(
+            t6,
+            &(x + (k1 * A61 + k2 * A62 + k3 * A63 + k4 * A64 + k5 * A65) * h),
+            &mut k6,
+        );
+        let x_new = x + (k1 * A71 + k3 * A73 + k4 * A74 + k5 * A75 + k6 * A76) * h;
+        rhs.eval(p.t_last, &x_new, &mut k7);
+        Stages {
+            k: [k1, k2, k3, k4, k5, k6, k7],
+            x_new,
+        }
+    }
+
+    /// The embedded error estimate (5th minus 4th order solution).
+    fn error_estimate(&self, h: f64) -> SV<N> {
+        let [k1, _, k3, k4, k5, k6, k7] = self.k;
+        (k1 * E1 + k3 * E3 + k4 * E4 + k5 * E5 + k6 * E6 + k7 * E7) * h
+    }
+
+    /// The continuous extension of order 4 on `[t, t_new]` (Hairer's DOPRI5 coefficients).
+    fn segment(&self, p: &Plan<N>) -> Segment<N> {
+        let [k1, _, k3, k4, k5, k6, k7] = self.k;
+        let (x, h) = (p.x, p.h);
+        let ydiff = self.x_new - x;
+        let bspl = k1 * h - ydiff;
+        Segment {
+            t_start: p.t,
+            t_end: p.t_new,
+            h,
+            r: [
+                x,
+                ydiff,
+                bspl,
+                ydiff - k7 * h - bspl,
+                (k1 * D1 + k3 * D3 + k4 * D4 + k5 * D5 + k6 * D6 + k7 * D7) * h,
+            ],
+        }
+    }
+}
+
+/// Event bookkeeping of one `integrate` call (allocated per call, only when there are
+/// events): the delayed states for `g`, the last value of each `g`, the hits of a step.
+struct EventScratch<const N: usize> {
+    xd: Vec<SV<N>>,
+    g_prev: Vec<f64>,
+    hits: Vec<EventHit<N>>,
+}
+
+impl<const N: usize> EventScratch<N> {
+    fn new<R: Rhs<N>>(rhs: &R, events: &[Event<'_, N>], t: f64, x: &SV<N>) -> Self {
         let mut xd: Vec<SV<N>> = if events.is_empty() {
             Vec::new()
         } else {
             vec![SV::<N>::zeros(); rhs.n_delays()]
         };
-        rhs.delayed_states(self.t, &self.x, &mut xd);
-        let mut g_prev: Vec<f64> = events.iter().map(|e| e.g(self.t, &self.x, &xd)).collect();
-        let mut hits: Vec<EventHit<N>> = Vec::with_capacity(events.len());
-        let mut attempts = 0usize;
+        rhs.delayed_states(t, x, &mut xd);
+        let g_prev: Vec<f64> = events.iter().map(|e| e.g(t, x, &xd)).collect();
+        EventScratch {
+            xd,
+            g_prev,
+            hits: Vec::with_capacity(events.len()),
+        }
+    }
 
-        loop {
-            // breakpoints already reached (or too close to resolve) are passed
-            while self.bp_next < self.breakpoints.len()
-                && self.breakpoints[self.bp_next] - self.t <= 16.0 * f64::EPSILON * self.t.abs()
-            {
-                self.bp_next += 1;
-            }
-            if self.t >= t_end {
-                return Ok(Status::Reached);
-            }
-            if attempts >= self.opts.max_steps {
-                return Err(Error::TooManySteps {
-                    t: self.t,
-                    max_steps: self.opts.max_steps,
+    /// Finds the events of the accepted step `seg`, sorted in time; the index (into
+    /// `self.hits`) of the first terminal one, where the hits are cut off.
+    fn detect<R: Rhs<N>>(
+        &mut self,
+        rhs: &R,
+        events: &[Event<'_, N>],
+        seg: &Segment<N>,
+        p: &Plan<N>,
+        s: &Stages<N>,
+        event_tol: f64,
+    ) -> Option<usize> {
+        let (t, t_new, x_new) = (p.t, p.t_new, s.x_new);
+        self.hits.clear();
+        for (i, ev) in events.iter().enumerate() {
+            rhs.delayed_states(t_new, &x_new, &mut self.xd);
+            let g1 = ev.g(t_new, &x_new, &self.xd);
+            // (recomputed per event: the root search below overwrites the buffer)
+            if let Some(dir) = ev.triggers(self.g_prev[i], g1) {
+                let xd_buf = &mut self.xd;
+                let g = |s: f64| {
+                    let xs = seg.eval(s);
+                    rhs.delayed_states(s, &xs, xd_buf);
+                    ev.g(s, &xs, xd_buf)
+                };
+                let ts = locate_root(g, t, self.g_prev[i], t_new, g1, event_tol);
+                self.hits.push(EventHit {
+                    index: i,
+                    t: ts,
+                    x: seg.eval(ts),
+                    direction: dir,
                 });
             }
-            attempts += 1;
-
-            let t = self.t;
-            let x = self.x;
-            let k1 = self.k1;
-            let (target, at_bp) = match self.breakpoints.get(self.bp_next) {
-                Some(&b) if b < t_end => (b, true),
-                _ => (t_end, false),
-            };
-            let h_prop = fixed.unwrap_or(self.h).min(h_cap);
-            let dist = target - t;
-            let (h, land) = if h_prop >= dist || (dist <= 1.01 * h_prop && dist <= h_cap) {
-                (dist, true)
-            } else {
-                (h_prop, false)
-            };
-            if h <= 16.0 * f64::EPSILON * t.abs() || h <= 0.0 {
-                return Err(Error::StepSizeUnderflow { t, h });
-            }
-            let t_new = if land { target } else { t + h };
-            // at a breakpoint the right-hand side is evaluated as its left limit
-            let t_last = if land && at_bp {
-                target.next_down()
-            } else {
-                t_new
-            };
-
-            // --- one Dormand–Prince step ---
-            let mut k2 = SV::<N>::zeros();
-            let mut k3 = SV::<N>::zeros();
-            let mut k4 = SV::<N>::zeros();
-            let mut k5 = SV::<N>::zeros();
-            let mut k6 = SV::<N>::zeros();
-            let mut k7 = SV::<N>::zeros();
-            rhs.eval(t + C2 * h, &(x + k1 * (h * A21)), &mut k2);
-            rhs.eval(t + C3 * h, &(x + (k1 * A31 + k2 * A32) * h), &mut k3);
-            rhs.eval(
-                t + C4 * h,
-                &(x + (k1 * A41 + k2 * A42 + k3 * A43) * h),
-                &mut k4,
-            );
-            rhs.eval(
-                t + C5 * h,
-                &(x + (k1 * A51 + k2 * A52 + k3 * A53 + k4 * A54) * h),
-                &mut k5,
-            );
-            let t6 = if land && at_bp { t_last } else { t + h };
-            rhs.eval(
-                t6,
-                &(x + (k1 * A61 + k2 * A62 + k3 * A63 + k4 * A64 + k5 * A65) * h),
-                &mut k6,
-            );
-            let x_new = x + (k1 * A71 + k3 * A73 + k4 * A74 + k5 * A75 + k6 * A76) * h;
-            rhs.eval(t_last, &x_new, &mut k7);
-            self.stats.rhs_evals += 6;
-
-            let err = if fixed.is_some() {
-                if is_finite(&x_new) && is_finite(&k7) {
-                    0.0
-                } else {
-                    f64::NAN
-                }
-            } else {
-                let e = (k1 * E1 + k3 * E3 + k4 * E4 + k5 * E5 + k6 * E6 + k7 * E7) * h;
-                self.err_norm(&x, &x_new, &e)
-            };
-
-            if !err.is_finite() || !is_finite(&x_new) || !is_finite(&k7) {
-                // try again with a much smaller step; give up once it cannot shrink further
-                self.stats.rejected += 1;
-                self.rejected_last = true;
-                if fixed.is_some() || h * fac_min <= 16.0 * f64::EPSILON * t.abs().max(1e-300) {
-                    return Err(Error::NonFiniteState { t });
-                }
-                self.h = h * fac_min;
-                continue;
-            }
-
-            if err > 1.0 {
-                self.stats.rejected += 1;
-                let fac11 = err.powf(expo1);
-                self.h = h / (1.0 / fac_min).min(fac11 / safety);
-                self.rejected_last = true;
-                continue;
-            }
-
-            // --- accepted ---
-            self.stats.accepted += 1;
-            let h_next = if fixed.is_some() {
-                h_prop
-            } else {
-                let fac11 = err.powf(expo1);
-                let fac =
-                    (fac11 / self.err_old.powf(beta) / safety).clamp(1.0 / fac_max, 1.0 / fac_min);
-                let mut hn = h / fac;
-                if self.rejected_last {
-                    hn = hn.min(h);
-                }
-                if land {
-                    // a step cut short to land does not say the next one must be short
-                    hn = hn.max(h_prop.min(hn * fac_max));
-                }
-                self.err_old = err.max(1e-4);
-                hn
-            };
-            self.rejected_last = false;
-
-            let ydiff = x_new - x;
-            let bspl = k1 * h - ydiff;
-            let seg = Segment {
-                t_start: t,
-                t_end: t_new,
-                h,
-                r: [
-                    x,
-                    ydiff,
-                    bspl,
-                    ydiff - k7 * h - bspl,
-                    (k1 * D1 + k3 * D3 + k4 * D4 + k5 * D5 + k6 * D6 + k7 * D7) * h,
-                ],
-            };
-            rhs.push(&seg);
-            if let Some(sol) = self.solution.as_mut() {
-                sol.push(seg);
-            }
-
-            // --- events ---
-            hits.clear();
-            let mut stop_at: Option<usize> = None;
-            for (i, ev) in events.iter().enumerate() {
-                rhs.delayed_states(t_new, &x_new, &mut xd);
-                let g1 = ev.g(t_new, &x_new, &xd);
-                // (recomputed per event: the root search below overwrites the buffer)
-                if let Some(dir) = ev.triggers(g_prev[i], g1) {
-                    let rhs_ref = &*rhs;
-                    let xd_buf = &mut xd;
-                    let g = |s: f64| {
-                        let xs = seg.eval(s);
-                        rhs_ref.delayed_states(s, &xs, xd_buf);
-                        ev.g(s, &xs, xd_buf)
-                    };
-                    let ts = locate_root(g, t, g_prev[i], t_new, g1, self.opts.event_tol);
-                    hits.push(EventHit {
-                        index: i,
-                        t: ts,
-                        x: seg.eval(ts),
-                        direction: dir,
-                    });
-                }
-                g_prev[i] = g1;
-            }
-            if !hits.is_empty() {
-                hits.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.index.cmp(&b.index)));
-                stop_at = hits
-                    .iter()
-                    .position(|h| events[h.index].action == EventAction::Stop);
-            }
-
-            let mut seg_obs = seg;
-            if let Some(k) = stop_at {
-                let hit = hits[k];
-                hits.truncate(k + 1);
-                seg_obs.t_end = hit.t;
-                rhs.truncate(hit.t);
-                if let Some(sol) = self.solution.as_mut() {
-                    sol.truncate_last(hit.t);
-                }
-                self.t = hit.t;
-                self.x = hit.x;
-                self.k1_valid = false;
-                self.h = h_next;
-            } else {
-                self.t = t_new;
-                self.x = x_new;
-                self.h = h_next;
-                if land && at_bp {
-                    self.bp_next += 1;
-                    // right limit of f after the jump
-                    let mut k = SV::<N>::zeros();
-                    rhs.eval(t_new, &x_new, &mut k);
-                    self.stats.rhs_evals += 1;
-                    if !is_finite(&k) {
-                        return Err(Error::NonFiniteState { t: t_new });
-                    }
-                    self.k1 = k;
-                } else {
-                    self.k1 = k7;
-                }
-            }
-
-            let view = StepView {
-                segment: &seg_obs,
-                x: &self.x,
-                past: &*rhs,
-            };
-            let flow = obs.on_step(&view);
-            for hit in &hits {
-                obs.on_event(hit);
-            }
-            if let Some(k) = stop_at {
-                if !self.k1_valid {
-                    let mut k1n = SV::<N>::zeros();
-                    rhs.eval(self.t, &self.x, &mut k1n);
-                    self.stats.rhs_evals += 1;
-                    self.k1 = k1n;
-                    self.k1_valid = is_finite(&k1n);
-                }
-                return Ok(Status::Event(hits[k]));
-            }
-            if flow == Flow::Stop {
-                return Ok(Status::ObserverStopped);
-            }
+            self.g_prev[i] = g1;
         }
+        if self.hits.is_empty() {
+            return None;
+        }
+        self.hits
+            .sort_by(|a, b| a.t.total_cmp(&b.t).then(a.index.cmp(&b.index)));
+        let k = self
+            .hits
+            .iter()
+            .position(|h| events[h.index].action == EventAction::Stop)?;
+        self.hits.truncate(k + 1);
+        Some(k)
     }
 }
 

@@ -1,6 +1,8 @@
-//! Figures as data: a [`Figure`] of [`Panel`]s of [`Layer`]s, rendered to SVG and PNG
-//! with the same code. PNG text uses the DejaVu Sans font shipped in the binary (pure
-//! Rust, no system font libraries).
+//! Figures as data: a [`Figure`] of [`Panel`]s of [`Layer`]s, drawn once as SVG (plotters)
+//! and rasterised from that SVG to an antialiased PNG (resvg), so both show exactly the same.
+//! Text uses the DejaVu Sans font shipped in the binary (pure Rust, no system font
+//! libraries). A heat map gets a colour bar beside the axes; a legend goes into a corner
+//! that holds no data, or beside the axes when every corner does.
 //!
 //! ```no_run
 //! use sway_tasks::plot::{Figure, Layer, Panel, Rgb, Stroke};
@@ -10,10 +12,13 @@
 //! ```
 
 use std::path::{Path, PathBuf};
-use std::sync::Once;
+use std::sync::{Arc, Once, OnceLock};
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use resvg::usvg;
 
 use sway::SwayError;
 
@@ -50,7 +55,7 @@ impl Rgb {
         P[i % P.len()]
     }
 
-    /// Viridis colour map at t ∈ [0, 1] (clamped).
+    /// Viridis colour map at t ∈ \[0, 1\] (clamped).
     pub fn viridis(t: f64) -> Rgb {
         const STOPS: [(f64, f64, f64); 6] = [
             (68.0, 1.0, 84.0),
@@ -111,7 +116,7 @@ pub enum Layer {
         color: Rgb,
         /// stroke
         stroke: Stroke,
-        /// width [px]
+        /// width (px)
         width: u32,
         /// legend entry
         label: Option<String>,
@@ -124,7 +129,7 @@ pub enum Layer {
         color: Rgb,
         /// shape
         shape: Shape,
-        /// size [px]
+        /// size (px)
         size: u32,
         /// legend entry
         label: Option<String>,
@@ -137,24 +142,26 @@ pub enum Layer {
         x1: f64,
         /// colour
         color: Rgb,
-        /// opacity in [0, 1]
+        /// opacity in \[0, 1\]
         opacity: f64,
         /// legend entry
         label: Option<String>,
     },
-    /// Filled rectangles [x0, x1, y0, y1] of one colour (e.g. grid cells).
+    /// Filled rectangles `[x0, x1, y0, y1]` of one colour (e.g. grid cells). Like bands they
+    /// are shading: a legend may lie on them.
     Rects {
         /// the rectangles
         rects: Vec<[f64; 4]>,
         /// colour
         color: Rgb,
-        /// opacity in [0, 1]
+        /// opacity in \[0, 1\]
         opacity: f64,
         /// legend entry
         label: Option<String>,
     },
     /// A heat map on a rectilinear grid: `values[j][i]` fills
-    /// [x_edges[i], x_edges[i+1]] × [y_edges[j], y_edges[j+1]] with viridis over `range`.
+    /// `[x_edges[i], x_edges[i+1]] × [y_edges[j], y_edges[j+1]]` with viridis over `range`,
+    /// explained by a colour bar beside the axes.
     Heatmap {
         /// cell edges in x (n + 1)
         x_edges: Vec<f64>,
@@ -164,7 +171,8 @@ pub enum Layer {
         values: Vec<Vec<f64>>,
         /// colour range (min, max)
         range: (f64, f64),
-        /// legend title, e.g. "final amplitude [deg]"; swatches are added
+        /// the quantity's name and unit, e.g. "final amplitude \[deg\]", written along the
+        /// colour bar
         label: String,
     },
     /// Text at a data position.
@@ -256,7 +264,10 @@ impl Layer {
     }
 }
 
-/// Where the legend goes.
+/// Where the legend goes: the preferred corner inside the axes. If a line, a marker, a text
+/// or a heat map lies under the legend there, the first free corner (upper right, upper left,
+/// lower right, lower left) is taken instead, and if none is free the legend goes beside the
+/// axes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Legend {
     /// upper right corner
@@ -276,7 +287,7 @@ pub enum Legend {
 pub struct Panel {
     /// caption above the axes
     pub title: String,
-    /// x-axis label with unit, e.g. "V [m/s]"
+    /// x-axis label with unit, e.g. "V \[m/s\]"
     pub x_label: String,
     /// y-axis label with unit
     pub y_label: String,
@@ -409,43 +420,44 @@ impl Figure {
     }
 
     /// Writes `<stem>.svg` and `<stem>.png` (each through a temporary file and a rename).
+    /// The PNG is the SVG rasterised (antialiased, text in the shipped DejaVu Sans), so the
+    /// two show exactly the same.
     ///
     /// # Errors
-    /// [`SwayError::Plot`] naming the file.
+    /// [`SwayError::Plot`] naming the file; [`SwayError::Write`] if it cannot be written.
     pub fn render(&self, stem: &Path) -> Result<(), SwayError> {
-        register_fonts();
-        let svg = stem.with_extension("svg");
-        let png = stem.with_extension("png");
-        for (path, is_svg) in [(svg, true), (png, false)] {
-            let tmp = tmp_path(&path);
-            let result = if is_svg {
-                let root = SVGBackend::new(&tmp, self.size).into_drawing_area();
-                self.draw(&root)
-                    .and_then(|()| root.present().map_err(|e| e.to_string()))
-            } else {
-                let root = BitMapBackend::new(&tmp, self.size).into_drawing_area();
-                self.draw(&root)
-                    .and_then(|()| root.present().map_err(|e| e.to_string()))
-            };
-            result.map_err(|message| SwayError::Plot {
-                path: path.clone(),
-                message,
-            })?;
-            std::fs::rename(&tmp, &path).map_err(|source| SwayError::Write {
-                path: path.clone(),
-                source,
-            })?;
-        }
-        Ok(())
+        let svg_path = stem.with_extension("svg");
+        let png_path = stem.with_extension("png");
+        let svg = self.svg().map_err(|message| SwayError::Plot {
+            path: svg_path.clone(),
+            message,
+        })?;
+        let png = rasterise(&svg).map_err(|message| SwayError::Plot {
+            path: png_path.clone(),
+            message,
+        })?;
+        write_atomic(&svg_path, svg.as_bytes())?;
+        write_atomic(&png_path, &png)
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
-        let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-        root.fill(&WHITE).map_err(e)?;
+    /// The figure as an SVG document.
+    fn svg(&self) -> Result<String, String> {
+        register_fonts();
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, self.size).into_drawing_area();
+            self.draw(&root)?;
+            root.present().map_err(err)?;
+        }
+        Ok(svg)
+    }
+
+    fn draw(&self, root: &Area<'_>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
         let area = match &self.title {
             Some(t) => root
                 .titled(t, ("sans-serif", 24).into_font().color(&BLACK))
-                .map_err(e)?,
+                .map_err(err)?,
             None => root.clone(),
         };
         let cells = area.split_evenly(self.layout);
@@ -456,12 +468,32 @@ impl Figure {
     }
 }
 
+/// The drawing surface: figures are drawn once, as SVG, and the PNG is rasterised from it.
+type Area<'b> = DrawingArea<SVGBackend<'b>, Shift>;
+/// The axes of one panel.
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+/// Writes `bytes` to `path` through a temporary file and a rename.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SwayError> {
+    let tmp = tmp_path(path);
+    let write_error = |source| SwayError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    std::fs::write(&tmp, bytes).map_err(write_error)?;
+    std::fs::rename(&tmp, path).map_err(write_error)
+}
+
 fn tmp_path(path: &Path) -> PathBuf {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    // keep the real extension last: the bitmap backend picks the encoder from it
     path.with_extension(format!("tmp.{ext}"))
 }
 
+/// Fonts for plotters' text layout (label areas, legend sizes): the shipped DejaVu Sans.
 fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
@@ -474,6 +506,47 @@ fn register_fonts() {
         );
         let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
     });
+}
+
+/// Fonts for rasterising: the same DejaVu Sans, as the SVG's "sans-serif" (no system fonts).
+fn font_database() -> Arc<usvg::fontdb::Database> {
+    static DB: OnceLock<Arc<usvg::fontdb::Database>> = OnceLock::new();
+    DB.get_or_init(|| {
+        let mut db = usvg::fontdb::Database::new();
+        db.load_font_data(dejavu::sans::regular().to_vec());
+        db.load_font_data(dejavu::sans::bold().to_vec());
+        db.set_sans_serif_family(FONT_FAMILY);
+        Arc::new(db)
+    })
+    .clone()
+}
+
+const FONT_FAMILY: &str = "DejaVu Sans";
+
+/// The SVG rasterised to an antialiased PNG of the same size.
+fn rasterise(svg: &str) -> Result<Vec<u8>, String> {
+    let options = usvg::Options {
+        font_family: FONT_FAMILY.to_string(),
+        fontdb: font_database(),
+        ..usvg::Options::default()
+    };
+    let tree = usvg::Tree::from_str(svg, &options).map_err(err)?;
+    let size = tree.size().to_int_size();
+    let mut pixmap =
+        resvg::tiny_skia::Pixmap::new(size.width(), size.height()).ok_or_else(|| {
+            format!(
+                "cannot rasterise a {}×{} figure",
+                size.width(),
+                size.height()
+            )
+        })?;
+    pixmap.fill(resvg::tiny_skia::Color::WHITE);
+    resvg::render(
+        &tree,
+        resvg::tiny_skia::Transform::default(),
+        &mut pixmap.as_mut(),
+    );
+    pixmap.encode_png().map_err(err)
 }
 
 fn split_finite(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
@@ -491,19 +564,95 @@ fn split_finite(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
-fn draw_panel<DB: DrawingBackend>(
+// --- panel layout -------------------------------------------------------------------------
+
+/// Outer margin of a panel's axes (px).
+const MARGIN: u32 = 12;
+/// Height of the x tick labels and axis label (px).
+const X_LABEL_AREA: u32 = 42;
+/// Width of the y tick labels and axis label (px).
+const Y_LABEL_AREA: u32 = 62;
+/// Approximate height of a panel caption (px), for the layout estimate only.
+const CAPTION_HEIGHT: u32 = 30;
+/// Gap between the axes and what stands beside them (px).
+const SIDE_GAP: u32 = 14;
+
+/// A rectangle in pixels relative to the panel's area (y downwards).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct PixelRect {
+    left: i32,
+    top: i32,
+    right: i32,
+    bottom: i32,
+}
+
+impl PixelRect {
+    fn width(&self) -> f64 {
+        f64::from((self.right - self.left).max(1))
+    }
+    fn height(&self) -> f64 {
+        f64::from((self.bottom - self.top).max(1))
+    }
+}
+
+/// Where the legend of a panel ends up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Placement {
+    /// inside the axes, in this corner (one that holds no data)
+    Corner(Legend),
+    /// beside the axes, on the right
+    Outside,
+}
+
+/// Draws one panel: the layout (colour bar and legend placed where they cover no data), the
+/// axes, the layers, the colour bar and the legend.
+fn draw_panel(panel: &Panel, cell: &Area<'_>) -> Result<(), String> {
+    let ranges = panel.ranges();
+    let legend = LegendBox::new(panel, cell)?;
+    let bar = panel
+        .layers
+        .iter()
+        .find_map(|l| ColourBar::of(l, cell))
+        .transpose()?;
+    let bar_width = bar.as_ref().map_or(0, |b| b.width);
+    let placement = legend
+        .as_ref()
+        .map(|l| l.placement(panel, ranges, cell.dim_in_pixel(), bar_width));
+    let legend_width = match (&legend, placement) {
+        (Some(l), Some(Placement::Outside)) => l.size.0 + SIDE_GAP,
+        _ => 0,
+    };
+    let side_width = bar_width + legend_width;
+    let (cell_width, _) = cell.dim_in_pixel();
+    let (axes_cell, _) = cell.split_horizontally(cell_width.saturating_sub(side_width));
+    let mut chart = build_axes(panel, &axes_cell, ranges)?;
+    for layer in &panel.layers {
+        draw_layer(&mut chart, layer, ranges)?;
+    }
+    let plot = plot_rect(&chart, cell);
+    if let Some(bar) = bar {
+        bar.draw(cell, plot)?;
+    }
+    if let (Some(legend), Some(placement)) = (legend, placement) {
+        let origin = legend.origin(placement, plot, bar_width);
+        legend.draw(cell, origin)?;
+    }
+    Ok(())
+}
+
+/// The axes with caption, grid and axis labels.
+fn build_axes<'a, 'b>(
     panel: &Panel,
-    area: &DrawingArea<DB, Shift>,
-) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let ((x0, x1), (y0, y1)) = panel.ranges();
+    area: &'a Area<'b>,
+    ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
+) -> Result<Chart<'a, 'b>, String> {
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(42)
-        .y_label_area_size(62)
+        .margin(MARGIN)
+        .x_label_area_size(X_LABEL_AREA)
+        .y_label_area_size(Y_LABEL_AREA)
         .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(e)?;
+        .map_err(err)?;
     chart
         .configure_mesh()
         .x_desc(&panel.x_label)
@@ -513,212 +662,654 @@ fn draw_panel<DB: DrawingBackend>(
         .light_line_style(RGBAColor(0, 0, 0, 0.04))
         .bold_line_style(RGBAColor(0, 0, 0, 0.12))
         .draw()
-        .map_err(e)?;
-    let mut any_label = false;
-    for layer in &panel.layers {
-        match layer {
-            Layer::Line {
-                points,
-                color,
-                stroke,
-                width,
-                label,
-            } => {
-                let style = color.rgba(1.0).stroke_width(*width);
-                let pieces = split_finite(points);
-                for (k, piece) in pieces.iter().enumerate() {
-                    let anno = match stroke {
-                        Stroke::Solid => {
-                            chart.draw_series(LineSeries::new(piece.iter().copied(), style))
-                        }
-                        Stroke::Dashed => chart.draw_series(DashedLineSeries::new(
-                            piece.iter().copied(),
-                            9,
-                            6,
-                            style,
-                        )),
-                        Stroke::Dotted => chart.draw_series(DashedLineSeries::new(
-                            piece.iter().copied(),
-                            2,
-                            4,
-                            style,
-                        )),
-                    }
-                    .map_err(e)?;
-                    if let (0, Some(l)) = (k, label) {
-                        any_label = true;
-                        let c = *color;
-                        let w = *width;
-                        // the legend swatch shows the stroke: four segments in a 20 px line
-                        let segments: [(i32, i32); 4] = match stroke {
-                            Stroke::Solid => [(0, 20); 4],
-                            Stroke::Dashed => [(0, 8), (0, 8), (12, 20), (12, 20)],
-                            Stroke::Dotted => [(0, 2), (6, 8), (12, 14), (18, 20)],
-                        };
-                        anno.label(l).legend(move |(x, y)| {
-                            let seg = |k: usize| {
-                                let (a, b) = segments[k];
-                                PathElement::new(vec![(a, 0), (b, 0)], c.rgba(1.0).stroke_width(w))
-                            };
-                            EmptyElement::at((x, y)) + seg(0) + seg(1) + seg(2) + seg(3)
-                        });
-                    }
-                }
-            }
-            Layer::Markers {
-                points,
-                color,
-                shape,
-                size,
-                label,
-            } => {
-                let c = *color;
-                let s = *size as i32;
-                let pts = points
-                    .iter()
-                    .copied()
-                    .filter(|(x, y)| x.is_finite() && y.is_finite());
-                let anno = match shape {
-                    Shape::Circle => {
-                        chart.draw_series(pts.map(|p| Circle::new(p, s, c.rgba(1.0).filled())))
-                    }
-                    Shape::Cross => chart
-                        .draw_series(pts.map(|p| Cross::new(p, s, c.rgba(1.0).stroke_width(2)))),
-                    Shape::Triangle => chart
-                        .draw_series(pts.map(|p| TriangleMarker::new(p, s, c.rgba(1.0).filled()))),
-                }
-                .map_err(e)?;
-                if let Some(l) = label {
-                    any_label = true;
-                    let sh = *shape;
-                    anno.label(l)
-                        .legend(move |(x, y)| -> DynElement<'static, DB, (i32, i32)> {
-                            match sh {
-                                Shape::Circle => {
-                                    Circle::new((x + 10, y), s, c.rgba(1.0).filled()).into_dyn()
-                                }
-                                Shape::Cross => {
-                                    Cross::new((x + 10, y), s, c.rgba(1.0).stroke_width(2))
-                                        .into_dyn()
-                                }
-                                Shape::Triangle => {
-                                    TriangleMarker::new((x + 10, y), s, c.rgba(1.0).filled())
-                                        .into_dyn()
-                                }
-                            }
-                        });
-                }
-            }
-            Layer::Band {
-                x0: b0,
-                x1: b1,
-                color,
-                opacity,
-                label,
-            } => {
-                let style = color.rgba(*opacity).filled();
-                let anno = chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(*b0, y0), (*b1, y1)],
-                        style,
-                    )))
-                    .map_err(e)?;
-                if let Some(l) = label {
-                    any_label = true;
-                    anno.label(l)
-                        .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], style));
-                }
-            }
-            Layer::Rects {
-                rects,
-                color,
-                opacity,
-                label,
-            } => {
-                let style = color.rgba(*opacity).filled();
-                let anno = chart
-                    .draw_series(
-                        rects
-                            .iter()
-                            .map(|r| Rectangle::new([(r[0], r[2]), (r[1], r[3])], style)),
-                    )
-                    .map_err(e)?;
-                if let Some(l) = label {
-                    any_label = true;
-                    anno.label(l)
-                        .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], style));
-                }
-            }
-            Layer::Heatmap {
-                x_edges,
-                y_edges,
-                values,
-                range,
-                label,
-            } => {
-                let (lo, hi) = *range;
-                let span = if hi > lo { hi - lo } else { 1.0 };
-                let mut cells = Vec::new();
-                for (j, row) in values.iter().enumerate() {
-                    for (i, &v) in row.iter().enumerate() {
-                        if i + 1 < x_edges.len() && j + 1 < y_edges.len() {
-                            let color = if v.is_finite() {
-                                Rgb::viridis((v - lo) / span).rgba(1.0)
-                            } else {
-                                RGBAColor(190, 190, 190, 1.0)
-                            };
-                            cells.push(Rectangle::new(
-                                [(x_edges[i], y_edges[j]), (x_edges[i + 1], y_edges[j + 1])],
-                                color.filled(),
-                            ));
-                        }
-                    }
-                }
-                chart.draw_series(cells).map_err(e)?;
-                // legend: a title entry and five swatches
-                any_label = true;
-                chart
-                    .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-                    .map_err(e)?
-                    .label(label.as_str())
-                    .legend(|(x, y)| EmptyElement::at((x, y)));
-                for k in 0..5 {
-                    let t = k as f64 / 4.0;
-                    let c = Rgb::viridis(t).rgba(1.0).filled();
-                    chart
-                        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-                        .map_err(e)?
-                        .label(format!("{:.3}", lo + t * span))
-                        .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], c));
-                }
-            }
-            Layer::Text { x, y, text, color } => {
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        text.clone(),
-                        (*x, *y),
-                        ("sans-serif", 14).into_font().color(&color.rgba(1.0)),
-                    )))
-                    .map_err(e)?;
+        .map_err(err)?;
+    Ok(chart)
+}
+
+/// The plotting area of the axes, relative to the panel's area.
+fn plot_rect(chart: &Chart<'_, '_>, cell: &Area<'_>) -> PixelRect {
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let (bx, by) = cell.get_base_pixel();
+    PixelRect {
+        left: xs.start - bx,
+        top: ys.start - by,
+        right: xs.end - bx,
+        bottom: ys.end - by,
+    }
+}
+
+// --- layers -------------------------------------------------------------------------------
+
+fn draw_layer(
+    chart: &mut Chart<'_, '_>,
+    layer: &Layer,
+    (_, (y0, y1)): ((f64, f64), (f64, f64)),
+) -> Result<(), String> {
+    match layer {
+        Layer::Line {
+            points,
+            color,
+            stroke,
+            width,
+            ..
+        } => draw_line(chart, points, *color, *stroke, *width),
+        Layer::Markers {
+            points,
+            color,
+            shape,
+            size,
+            ..
+        } => draw_markers(chart, points, *color, *shape, *size),
+        Layer::Band {
+            x0,
+            x1,
+            color,
+            opacity,
+            ..
+        } => fill_rects(chart, &[[*x0, *x1, y0, y1]], *color, *opacity),
+        Layer::Rects {
+            rects,
+            color,
+            opacity,
+            ..
+        } => fill_rects(chart, rects, *color, *opacity),
+        Layer::Heatmap {
+            x_edges,
+            y_edges,
+            values,
+            range,
+            ..
+        } => draw_heatmap(chart, x_edges, y_edges, values, *range),
+        Layer::Text { x, y, text, color } => {
+            let font = ("sans-serif", 14).into_font().color(&color.rgba(1.0));
+            let text = Text::new(text.clone(), (*x, *y), font);
+            chart
+                .draw_series(std::iter::once(text))
+                .map(|_| ())
+                .map_err(err)
+        }
+    }
+}
+
+fn draw_line(
+    chart: &mut Chart<'_, '_>,
+    points: &[(f64, f64)],
+    color: Rgb,
+    stroke: Stroke,
+    width: u32,
+) -> Result<(), String> {
+    let style = color.rgba(1.0).stroke_width(width);
+    for piece in split_finite(points) {
+        let piece = piece.into_iter();
+        match stroke {
+            Stroke::Solid => chart.draw_series(LineSeries::new(piece, style)),
+            Stroke::Dashed => chart.draw_series(DashedLineSeries::new(piece, 9, 6, style)),
+            Stroke::Dotted => chart.draw_series(DashedLineSeries::new(piece, 2, 4, style)),
+        }
+        .map_err(err)?;
+    }
+    Ok(())
+}
+
+fn draw_markers(
+    chart: &mut Chart<'_, '_>,
+    points: &[(f64, f64)],
+    color: Rgb,
+    shape: Shape,
+    size: u32,
+) -> Result<(), String> {
+    let pts = points
+        .iter()
+        .copied()
+        .filter(|(x, y)| x.is_finite() && y.is_finite());
+    let (c, s) = (color.rgba(1.0), size as i32);
+    match shape {
+        Shape::Circle => chart.draw_series(pts.map(|p| Circle::new(p, s, c.filled()))),
+        Shape::Cross => chart.draw_series(pts.map(|p| Cross::new(p, s, c.stroke_width(2)))),
+        Shape::Triangle => chart.draw_series(pts.map(|p| TriangleMarker::new(p, s, c.filled()))),
+    }
+    .map(|_| ())
+    .map_err(err)
+}
+
+fn fill_rects(
+    chart: &mut Chart<'_, '_>,
+    rects: &[[f64; 4]],
+    color: Rgb,
+    opacity: f64,
+) -> Result<(), String> {
+    let style = color.rgba(opacity).filled();
+    chart
+        .draw_series(
+            rects
+                .iter()
+                .map(|r| Rectangle::new([(r[0], r[2]), (r[1], r[3])], style)),
+        )
+        .map(|_| ())
+        .map_err(err)
+}
+
+/// Grey for heat-map cells without a value.
+const MISSING: RGBAColor = RGBAColor(190, 190, 190, 1.0);
+
+fn draw_heatmap(
+    chart: &mut Chart<'_, '_>,
+    x_edges: &[f64],
+    y_edges: &[f64],
+    values: &[Vec<f64>],
+    (lo, hi): (f64, f64),
+) -> Result<(), String> {
+    let span = if hi > lo { hi - lo } else { 1.0 };
+    let mut cells = Vec::new();
+    for (j, row) in values.iter().enumerate() {
+        for (i, &v) in row.iter().enumerate() {
+            if i + 1 < x_edges.len() && j + 1 < y_edges.len() {
+                let color = if v.is_finite() {
+                    Rgb::viridis((v - lo) / span).rgba(1.0)
+                } else {
+                    MISSING
+                };
+                cells.push(Rectangle::new(
+                    [(x_edges[i], y_edges[j]), (x_edges[i + 1], y_edges[j + 1])],
+                    color.filled(),
+                ));
             }
         }
     }
-    let position = match panel.legend {
-        Legend::UpperRight => Some(SeriesLabelPosition::UpperRight),
-        Legend::UpperLeft => Some(SeriesLabelPosition::UpperLeft),
-        Legend::LowerRight => Some(SeriesLabelPosition::LowerRight),
-        Legend::LowerLeft => Some(SeriesLabelPosition::LowerLeft),
-        Legend::None => None,
-    };
-    if let (true, Some(pos)) = (any_label, position) {
-        chart
-            .configure_series_labels()
-            .position(pos)
-            .label_font(("sans-serif", 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.5))
-            .draw()
-            .map_err(e)?;
+    chart.draw_series(cells).map(|_| ()).map_err(err)
+}
+
+// --- colour bar ---------------------------------------------------------------------------
+
+/// Width of the colour gradient strip (px).
+const STRIP_WIDTH: i32 = 16;
+/// Length of a colour-bar tick (px).
+const TICK_LENGTH: i32 = 4;
+
+/// The colour bar of a heat map: a viridis strip beside the axes, ticks with values, the
+/// quantity's name and unit along it, and a grey swatch if some cells have no value.
+#[derive(Debug, Clone, PartialEq)]
+struct ColourBar {
+    /// the value range the colours span
+    range: (f64, f64),
+    /// tick values and labels
+    ticks: Vec<(f64, String)>,
+    /// name and unit of the quantity
+    label: String,
+    /// whether a "no value" swatch is needed
+    has_missing: bool,
+    /// widest tick label (px)
+    tick_label_width: u32,
+    /// total width beside the axes (px)
+    width: u32,
+}
+
+impl ColourBar {
+    /// The colour bar of a heat-map layer (`None` for other layers).
+    fn of(layer: &Layer, cell: &Area<'_>) -> Option<Result<Self, String>> {
+        let Layer::Heatmap {
+            values,
+            range: (lo, hi),
+            label,
+            ..
+        } = layer
+        else {
+            return None;
+        };
+        let range = (*lo, if hi > lo { *hi } else { lo + 1.0 });
+        let ticks = nice_ticks(range.0, range.1, 6);
+        let has_missing = values.iter().flatten().any(|v| !v.is_finite());
+        Some(Self::measure(cell, range, ticks, label, has_missing))
     }
-    Ok(())
+
+    fn measure(
+        cell: &Area<'_>,
+        range: (f64, f64),
+        ticks: Vec<(f64, String)>,
+        label: &str,
+        has_missing: bool,
+    ) -> Result<Self, String> {
+        let font = small_font();
+        let mut tick_label_width = 0;
+        for (_, text) in &ticks {
+            tick_label_width = tick_label_width.max(text_width(cell, text, &font)?);
+        }
+        if has_missing {
+            tick_label_width = tick_label_width.max(text_width(cell, MISSING_LABEL, &font)?);
+        }
+        let label_height = 18;
+        let width =
+            SIDE_GAP + (STRIP_WIDTH + TICK_LENGTH + 4) as u32 + tick_label_width + 8 + label_height;
+        Ok(Self {
+            range,
+            ticks,
+            label: label.to_string(),
+            has_missing,
+            tick_label_width,
+            width,
+        })
+    }
+
+    /// Draws the bar beside `plot`, as tall as the axes.
+    fn draw(&self, cell: &Area<'_>, plot: PixelRect) -> Result<(), String> {
+        let x0 = plot.right + SIDE_GAP as i32;
+        let x1 = x0 + STRIP_WIDTH;
+        // the "no value" swatch takes the bottom of the bar's height
+        let bottom = if self.has_missing {
+            plot.bottom - 30
+        } else {
+            plot.bottom
+        };
+        let top = plot.top;
+        let (lo, hi) = self.range;
+        for py in top..bottom {
+            let t = f64::from(bottom - 1 - py) / f64::from((bottom - 1 - top).max(1));
+            let c = Rgb::viridis(t).rgba(1.0).filled();
+            cell.draw(&Rectangle::new([(x0, py), (x1, py + 1)], c))
+                .map_err(err)?;
+        }
+        let frame = BLACK.mix(0.6).stroke_width(1);
+        cell.draw(&Rectangle::new([(x0, top), (x1, bottom)], frame))
+            .map_err(err)?;
+        let font = small_font().pos(Pos::new(HPos::Left, VPos::Center));
+        for (v, text) in &self.ticks {
+            let py = bottom - ((v - lo) / (hi - lo) * f64::from(bottom - top)).round() as i32;
+            cell.draw(&PathElement::new(
+                vec![(x1, py), (x1 + TICK_LENGTH, py)],
+                frame,
+            ))
+            .map_err(err)?;
+            cell.draw_text(text, &font, (x1 + TICK_LENGTH + 3, py))
+                .map_err(err)?;
+        }
+        if self.has_missing {
+            let (s0, s1) = (plot.bottom - 16, plot.bottom);
+            cell.draw(&Rectangle::new([(x0, s0), (x1, s1)], MISSING.filled()))
+                .map_err(err)?;
+            cell.draw(&Rectangle::new([(x0, s0), (x1, s1)], frame))
+                .map_err(err)?;
+            cell.draw_text(MISSING_LABEL, &font, (x1 + TICK_LENGTH + 3, (s0 + s1) / 2))
+                .map_err(err)?;
+        }
+        let label_x = x1 + TICK_LENGTH + 4 + self.tick_label_width as i32 + 8;
+        let label_font = ("sans-serif", 15)
+            .into_font()
+            .transform(FontTransform::Rotate270)
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Top));
+        cell.draw_text(&self.label, &label_font, (label_x, (top + bottom) / 2))
+            .map_err(err)
+    }
+}
+
+/// Label of the grey swatch of cells without a value.
+const MISSING_LABEL: &str = "no value";
+
+fn small_font() -> TextStyle<'static> {
+    ("sans-serif", 13).into_font().color(&BLACK)
+}
+
+fn text_width(cell: &Area<'_>, text: &str, font: &TextStyle<'_>) -> Result<u32, String> {
+    cell.estimate_text_size(text, font)
+        .map(|(w, _)| w)
+        .map_err(err)
+}
+
+/// About `target` round tick values (1, 2 or 5 × 10ᵏ apart) in `[lo, hi]`, with labels of
+/// as many decimals as the spacing needs.
+fn nice_ticks(lo: f64, hi: f64, target: usize) -> Vec<(f64, String)> {
+    let raw = (hi - lo) / target.max(1) as f64;
+    if !(raw.is_finite() && raw > 0.0) {
+        return Vec::new();
+    }
+    let magnitude = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * magnitude)
+        .find(|&s| s >= raw)
+        .unwrap_or(10.0 * magnitude);
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step + 1e-9).floor() as i64;
+    (first..=last)
+        .map(|k| {
+            let v = k as f64 * step;
+            // no "-0"
+            let v = if v.abs() < 1e-9 * step { 0.0 } else { v };
+            (v, format!("{v:.decimals$}"))
+        })
+        .collect()
+}
+
+// --- legend -------------------------------------------------------------------------------
+
+/// Padding inside the legend box (px).
+const LEGEND_PAD: u32 = 8;
+/// Height of one legend row (px).
+const LEGEND_ROW: u32 = 19;
+/// Width of a legend swatch (px).
+const SWATCH: i32 = 24;
+/// Distance of a corner legend from the axes' edges (px).
+const LEGEND_INSET: i32 = 8;
+
+/// How a legend entry shows its layer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Swatch {
+    /// a short piece of the line
+    Line(Rgb, Stroke, u32),
+    /// one marker
+    Marker(Rgb, Shape, u32),
+    /// a filled box
+    Fill(Rgb, f64),
+}
+
+/// The legend of a panel: its entries and its size.
+#[derive(Debug, Clone, PartialEq)]
+struct LegendBox<'p> {
+    entries: Vec<(Swatch, &'p str)>,
+    /// width and height (px)
+    size: (u32, u32),
+}
+
+impl<'p> LegendBox<'p> {
+    /// The legend of the labelled layers (a heat map has its colour bar instead); `None`
+    /// without labels or with [`Legend::None`].
+    fn new(panel: &'p Panel, cell: &Area<'_>) -> Result<Option<Self>, String> {
+        if panel.legend == Legend::None {
+            return Ok(None);
+        }
+        let entries: Vec<(Swatch, &str)> = panel.layers.iter().filter_map(legend_entry).collect();
+        if entries.is_empty() {
+            return Ok(None);
+        }
+        let font = small_font();
+        let mut text = 0;
+        for (_, label) in &entries {
+            text = text.max(text_width(cell, label, &font)?);
+        }
+        let width = 2 * LEGEND_PAD + SWATCH as u32 + 8 + text;
+        let height = 2 * LEGEND_PAD + LEGEND_ROW * entries.len() as u32 - 4;
+        Ok(Some(Self {
+            entries,
+            size: (width, height),
+        }))
+    }
+
+    /// The panel's preferred corner if it covers no data there, else the first empty corner,
+    /// else beside the axes. Decided on an estimate of the axes' size (the label areas are
+    /// fixed; the caption height is approximate).
+    fn placement(
+        &self,
+        panel: &Panel,
+        ranges: ((f64, f64), (f64, f64)),
+        (w, h): (u32, u32),
+        bar_width: u32,
+    ) -> Placement {
+        let plot = PixelRect {
+            left: (MARGIN + Y_LABEL_AREA) as i32,
+            top: (MARGIN + CAPTION_HEIGHT) as i32,
+            right: w.saturating_sub(MARGIN + bar_width) as i32,
+            bottom: h.saturating_sub(MARGIN + X_LABEL_AREA) as i32,
+        };
+        let order = [
+            panel.legend,
+            Legend::UpperRight,
+            Legend::UpperLeft,
+            Legend::LowerRight,
+            Legend::LowerLeft,
+        ];
+        order
+            .into_iter()
+            .find(|&corner| {
+                let (x, y) = self.corner_origin(corner, plot);
+                // a few px of clearance around the box
+                let b = PixelRect {
+                    left: x - 4,
+                    top: y - 4,
+                    right: x + self.size.0 as i32 + 4,
+                    bottom: y + self.size.1 as i32 + 4,
+                };
+                !covers_data(panel, ranges, plot, b)
+            })
+            .map_or(Placement::Outside, Placement::Corner)
+    }
+
+    fn corner_origin(&self, corner: Legend, plot: PixelRect) -> (i32, i32) {
+        let (w, h) = (self.size.0 as i32, self.size.1 as i32);
+        let left = plot.left + LEGEND_INSET;
+        let right = plot.right - LEGEND_INSET - w;
+        let top = plot.top + LEGEND_INSET;
+        let bottom = plot.bottom - LEGEND_INSET - h;
+        match corner {
+            Legend::UpperLeft => (left, top),
+            Legend::LowerRight => (right, bottom),
+            Legend::LowerLeft => (left, bottom),
+            Legend::UpperRight | Legend::None => (right, top),
+        }
+    }
+
+    /// Upper-left corner of the box (px, relative to the panel's area).
+    fn origin(&self, placement: Placement, plot: PixelRect, bar_width: u32) -> (i32, i32) {
+        match placement {
+            Placement::Corner(corner) => self.corner_origin(corner, plot),
+            Placement::Outside => (plot.right + (bar_width + SIDE_GAP) as i32, plot.top),
+        }
+    }
+
+    fn draw(&self, cell: &Area<'_>, (x, y): (i32, i32)) -> Result<(), String> {
+        let (w, h) = (self.size.0 as i32, self.size.1 as i32);
+        let frame = [(x, y), (x + w, y + h)];
+        cell.draw(&Rectangle::new(frame, WHITE.mix(0.9).filled()))
+            .map_err(err)?;
+        cell.draw(&Rectangle::new(frame, BLACK.mix(0.4).stroke_width(1)))
+            .map_err(err)?;
+        let font = small_font().pos(Pos::new(HPos::Left, VPos::Center));
+        for (k, (swatch, label)) in self.entries.iter().enumerate() {
+            let row_y = y + (LEGEND_PAD + LEGEND_ROW * k as u32) as i32 + 7;
+            let sx = x + LEGEND_PAD as i32;
+            draw_swatch(cell, *swatch, (sx, row_y))?;
+            cell.draw_text(label, &font, (sx + SWATCH + 8, row_y))
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+fn legend_entry(layer: &Layer) -> Option<(Swatch, &str)> {
+    match layer {
+        Layer::Line {
+            points,
+            color,
+            stroke,
+            width,
+            label,
+        } => {
+            // a line without a finite piece draws nothing and gets no entry
+            let drawn = points.iter().any(|(x, y)| x.is_finite() && y.is_finite());
+            let label = label.as_deref().filter(|_| drawn)?;
+            Some((Swatch::Line(*color, *stroke, *width), label))
+        }
+        Layer::Markers {
+            color,
+            shape,
+            size,
+            label,
+            ..
+        } => Some((Swatch::Marker(*color, *shape, *size), label.as_deref()?)),
+        Layer::Band {
+            color,
+            opacity,
+            label,
+            ..
+        }
+        | Layer::Rects {
+            color,
+            opacity,
+            label,
+            ..
+        } => Some((Swatch::Fill(*color, *opacity), label.as_deref()?)),
+        Layer::Heatmap { .. } | Layer::Text { .. } => None,
+    }
+}
+
+/// A swatch starting at `x`, centred on `y`.
+fn draw_swatch(cell: &Area<'_>, swatch: Swatch, (x, y): (i32, i32)) -> Result<(), String> {
+    match swatch {
+        Swatch::Line(color, stroke, width) => {
+            let dashes: &[(i32, i32)] = match stroke {
+                Stroke::Solid => &[(0, 24)],
+                Stroke::Dashed => &[(0, 9), (15, 24)],
+                Stroke::Dotted => &[(0, 2), (6, 8), (12, 14), (18, 20)],
+            };
+            let style = color.rgba(1.0).stroke_width(width);
+            for &(a, b) in dashes {
+                cell.draw(&PathElement::new(vec![(x + a, y), (x + b, y)], style))
+                    .map_err(err)?;
+            }
+            Ok(())
+        }
+        Swatch::Marker(color, shape, size) => {
+            let (c, s, p) = (color.rgba(1.0), size as i32, (x + SWATCH / 2, y));
+            match shape {
+                Shape::Circle => cell.draw(&Circle::new(p, s, c.filled())),
+                Shape::Cross => cell.draw(&Cross::new(p, s, c.stroke_width(2))),
+                Shape::Triangle => cell.draw(&TriangleMarker::new(p, s, c.filled())),
+            }
+            .map_err(err)
+        }
+        Swatch::Fill(color, opacity) => cell
+            .draw(&Rectangle::new(
+                [(x, y - 6), (x + SWATCH, y + 6)],
+                color.rgba(opacity).filled(),
+            ))
+            .map_err(err),
+    }
+}
+
+// --- what a legend must not cover ---------------------------------------------------------
+
+/// Whether the box `b` (px) over the axes `plot` would hide data: line pieces, markers, text or
+/// heat-map cells. Shading (bands and rectangles) lies underneath everything and does not count.
+fn covers_data(
+    panel: &Panel,
+    ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
+    plot: PixelRect,
+    b: PixelRect,
+) -> bool {
+    // the box in axes fractions (u to the right, v upwards)
+    let u = |px: i32| f64::from(px - plot.left) / plot.width();
+    let v = |py: i32| f64::from(plot.bottom - py) / plot.height();
+    let (u0, u1, v0, v1) = (u(b.left), u(b.right), v(b.bottom), v(b.top));
+    let to_uv = |(x, y): (f64, f64)| ((x - x0) / (x1 - x0), (y - y0) / (y1 - y0));
+    let inside = |(pu, pv): (f64, f64)| pu >= u0 && pu <= u1 && pv >= v0 && pv <= v1;
+    panel.layers.iter().any(|layer| match layer {
+        Layer::Line { points, .. } => split_finite(points).iter().any(|piece| {
+            let uv: Vec<(f64, f64)> = piece.iter().copied().map(to_uv).collect();
+            polyline_enters(&uv, &inside)
+        }),
+        Layer::Markers { points, .. } => points
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .any(|p| inside(to_uv(p))),
+        Layer::Text { x, y, .. } => inside(to_uv((*x, *y))),
+        Layer::Heatmap { .. } => layer.bounds().is_some_and(|(xa, xb, ya, yb)| {
+            let (a, b) = (to_uv((xa, ya)), to_uv((xb, yb)));
+            a.0.min(b.0) < u1 && a.0.max(b.0) > u0 && a.1.min(b.1) < v1 && a.1.max(b.1) > v0
+        }),
+        Layer::Band { .. } | Layer::Rects { .. } => false,
+    })
+}
+
+/// Whether a polyline (in axes fractions) passes through the region `inside`, sampled every
+/// 0.2 % of the axes along each segment.
+fn polyline_enters(uv: &[(f64, f64)], inside: &impl Fn((f64, f64)) -> bool) -> bool {
+    if uv.len() == 1 {
+        return inside(uv[0]);
+    }
+    uv.windows(2).any(|s| {
+        let (a, b) = (s[0], s[1]);
+        let len = (b.0 - a.0).abs().max((b.1 - a.1).abs());
+        let n = ((len / 0.002).ceil() as usize).clamp(1, 2000);
+        (0..=n).any(|k| {
+            let f = k as f64 / n as f64;
+            inside((a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1)))
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn colour_bar_ticks_are_round_values_inside_the_range() {
+        let ticks = nice_ticks(22.7, 119.7, 6);
+        let values: Vec<f64> = ticks.iter().map(|t| t.0).collect();
+        assert_eq!(values, [40.0, 60.0, 80.0, 100.0]);
+        assert_eq!(ticks[0].1, "40");
+        let small = nice_ticks(0.0, 0.9, 6);
+        assert_eq!(small.first().map(|t| t.1.as_str()), Some("0.0"));
+        assert_eq!(small.last().map(|t| t.1.as_str()), Some("0.8"));
+    }
+
+    fn sine_panel(legend: Legend) -> Panel {
+        let pts = (0..200)
+            .map(|i| (i as f64 * 0.1, (i as f64 * 0.3).sin()))
+            .collect();
+        Panel::new("t", "x", "y")
+            .with(Layer::line(pts, Rgb::BLUE, Stroke::Solid, Some("sin")))
+            .legend(legend)
+    }
+
+    #[test]
+    fn legend_avoids_data_and_goes_beside_the_axes_when_no_corner_is_free() {
+        let size = (900, 600);
+        let ranges = ((0.0, 20.0), (-1.0, 1.0));
+        let legend = LegendBox {
+            entries: vec![(Swatch::Fill(Rgb::RED, 1.0), "x")],
+            size: (80, 30),
+        };
+        // a sine filling the axes (a period per corner box): no free corner
+        assert_eq!(
+            legend.placement(&sine_panel(Legend::UpperRight), ranges, size, 0),
+            Placement::Outside
+        );
+        // data only in the lower left: the preferred upper right is free
+        let low = Panel::new("t", "x", "y").with(Layer::markers(vec![(0.5, -0.9)], Rgb::RED, None));
+        assert_eq!(
+            legend.placement(&low, ranges, size, 0),
+            Placement::Corner(Legend::UpperRight)
+        );
+        // the preferred lower left holds data: the first free corner instead
+        let low = low.legend(Legend::LowerLeft);
+        assert_eq!(
+            legend.placement(&low, ranges, size, 0),
+            Placement::Corner(Legend::UpperRight)
+        );
+    }
+
+    #[test]
+    fn render_writes_an_svg_and_a_png_of_the_figure_size() {
+        let dir = tempfile::tempdir().unwrap();
+        let stem = dir.path().join("fig");
+        let heat = Panel::new("map", "x", "y").with(Layer::Heatmap {
+            x_edges: vec![0.0, 1.0, 2.0],
+            y_edges: vec![0.0, 1.0],
+            values: vec![vec![0.0, f64::NAN]],
+            range: (0.0, 1.0),
+            label: "value (unit)".into(),
+        });
+        Figure::grid(vec![sine_panel(Legend::UpperRight), heat], 1, 2, (640, 300))
+            .render(&stem)
+            .unwrap();
+        let svg = std::fs::read_to_string(stem.with_extension("svg")).unwrap();
+        assert!(svg.contains("value (unit)") && svg.contains("no value"));
+        let png = std::fs::read(stem.with_extension("png")).unwrap();
+        // PNG signature, then the IHDR chunk with width and height (big-endian)
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        let w = u32::from_be_bytes([png[16], png[17], png[18], png[19]]);
+        let h = u32::from_be_bytes([png[20], png[21], png[22], png[23]]);
+        assert_eq!((w, h), (640, 300));
+    }
 }

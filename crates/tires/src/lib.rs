@@ -1,8 +1,8 @@
 //! Lateral tire force models for single-track vehicle models.
 //!
-//! A tire model maps the slip angle α [rad] (the angle between the wheel plane and the
+//! A tire model maps the slip angle α \[rad\] (the angle between the wheel plane and the
 //! velocity of the wheel centre, positive when the force it produces is positive) to a
-//! lateral force F^lat [N]. Two models are provided:
+//! lateral force F^lat \[N\]. Two models are provided:
 //!
 //! * [`BrushTire`]: the brush model of the paper's appendix, eq. (14)–(15): a cubic
 //!   polynomial in tan α up to the critical slip angle α_cr, full sliding (F_z·μ) beyond.
@@ -55,34 +55,34 @@ pub enum TireError {
 /// Implementations must be odd in α and generic over the scalar so that automatic
 /// differentiation passes through them.
 pub trait TireModel {
-    /// Lateral force F^lat [N] at slip angle α [rad].
+    /// Lateral force F^lat \[N\] at slip angle α \[rad\].
     fn lateral_force<D: DualNum<Primitive = f64> + Copy>(&self, alpha: D) -> D;
 
-    /// Lateral force [N] given tan α instead of α (|α| < π/2). Slip angles are atan of
+    /// Lateral force \[N\] given tan α instead of α (|α| < π/2). Slip angles are atan of
     /// velocity ratios, and the brush model is a polynomial in tan α, so this form skips
     /// an atan/tan pair in the hot loop.
     fn lateral_force_from_tan<D: DualNum<Primitive = f64> + Copy>(&self, tan_alpha: D) -> D {
         self.lateral_force(tan_alpha.atan())
     }
 
-    /// Slip angle [rad] beyond which the contact patch slides completely, if the model
+    /// Slip angle \[rad\] beyond which the contact patch slides completely, if the model
     /// has one (α_cr of eq. 15 for the brush tire).
     fn critical_slip_angle(&self) -> Option<f64>;
 
-    /// Cornering stiffness C = dF/dα at α = 0 [N/rad].
+    /// Cornering stiffness C = dF/dα at α = 0 \[N/rad\].
     fn cornering_stiffness(&self) -> f64;
 }
 
 /// Brush tire model, paper eq. (14)–(15).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BrushTire {
-    /// cornering stiffness C [N/rad]
+    /// cornering stiffness C \[N/rad\]
     pub cornering_stiffness: f64,
-    /// vertical load F_z [N]
+    /// vertical load F_z \[N\]
     pub vertical_load: f64,
-    /// static friction coefficient μ0 [-]
+    /// static friction coefficient μ0 \[-\]
     pub mu_static: f64,
-    /// dynamic (sliding) friction coefficient μ [-]
+    /// dynamic (sliding) friction coefficient μ \[-\]
     pub mu_dynamic: f64,
     // derived coefficients of eq. (15), cached
     phi1: f64,
@@ -93,7 +93,7 @@ pub struct BrushTire {
 }
 
 impl BrushTire {
-    /// Builds a brush tire from C [N/rad], F_z [N], μ0 and μ (eq. 15).
+    /// Builds a brush tire from C \[N/rad\], F_z \[N\], μ0 and μ (eq. 15).
     ///
     /// # Errors
     /// [`TireError`] if a parameter is not positive or μ > μ0.
@@ -139,7 +139,7 @@ impl BrushTire {
         (self.phi1, self.phi2, self.phi3)
     }
 
-    /// Sliding force F_z·μ [N] reached for |α| > α_cr.
+    /// Sliding force F_z·μ \[N\] reached for |α| > α_cr.
     pub fn sliding_force(&self) -> f64 {
         self.vertical_load * self.mu_dynamic
     }
@@ -181,7 +181,7 @@ impl TireModel for BrushTire {
 /// Linear tire F = C·α: the small-slip limit, useful as a reference.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LinearTire {
-    /// cornering stiffness C [N/rad]
+    /// cornering stiffness C \[N/rad\]
     pub cornering_stiffness: f64,
 }
 

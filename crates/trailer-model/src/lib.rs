@@ -56,9 +56,9 @@ pub enum ModelError {
     /// No sign change of the open-loop spectral abscissa in the scanned speed range.
     #[error("no critical speed in [{v_min}, {v_max}] m/s: {detail}; widen the speed range")]
     NoCriticalSpeed {
-        /// lower end of the scan [m/s]
+        /// lower end of the scan \[m/s\]
         v_min: f64,
-        /// upper end of the scan [m/s]
+        /// upper end of the scan \[m/s\]
         v_max: f64,
         /// what was seen
         detail: &'static str,

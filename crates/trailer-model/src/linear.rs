@@ -10,7 +10,7 @@ use crate::{Inputs, Model, ModelError, State4, State7};
 /// x = [σ1, σ2, σ3, θ, ψ, x̃_H, y_H], u = δ, y = ψ̇, and their 4×4 blocks Ã, B̃, C̃.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Linearization {
-    /// speed V [m/s] the linearisation is taken at
+    /// speed V \[m/s\] the linearisation is taken at
     pub speed: f64,
     /// A (7×7), with the zero pattern of eq. (11)
     pub a: SMatrix<f64, 7, 7>,
@@ -87,7 +87,7 @@ impl Model {
         sorted_eigenvalues(&self.linearize(speed).a4)
     }
 
-    /// Spectral abscissa max Re λ(Ã(V)) [1/s] of the open loop.
+    /// Spectral abscissa max Re λ(Ã(V)) \[1/s\] of the open loop.
     pub fn spectral_abscissa(&self, speed: f64) -> f64 {
         self.open_loop_eigenvalues(speed)[0].re
     }
@@ -105,26 +105,26 @@ pub fn sorted_eigenvalues(a: &Matrix4<f64>) -> [Complex<f64>; 4] {
 /// Where straight running loses stability: the open-loop critical speed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CriticalSpeed {
-    /// V_crit [m/s]: the spectral abscissa of Ã changes sign
+    /// V_crit \[m/s\]: the spectral abscissa of Ã changes sign
     pub v_crit_mps: f64,
-    /// frequency of the critical pair Im λ / 2π [Hz] at V_crit
+    /// frequency of the critical pair Im λ / 2π \[Hz\] at V_crit
     pub hopf_frequency_hz: f64,
-    /// angular frequency ω [rad/s] at V_crit
+    /// angular frequency ω \[rad/s\] at V_crit
     pub hopf_omega_rad_s: f64,
-    /// d(max Re λ)/dV at V_crit [1/m]: the transversality of the crossing
+    /// d(max Re λ)/dV at V_crit \[1/m\]: the transversality of the crossing
     pub crossing_speed: f64,
 }
 
 /// Options of the V_crit search.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CriticalSpeedOptions {
-    /// lowest speed scanned [m/s]
+    /// lowest speed scanned \[m/s\]
     pub v_min: f64,
-    /// highest speed scanned [m/s]
+    /// highest speed scanned \[m/s\]
     pub v_max: f64,
-    /// scan step for the sign change [m/s]
+    /// scan step for the sign change \[m/s\]
     pub scan_step: f64,
-    /// bracket width at which bisection stops [m/s]
+    /// bracket width at which bisection stops \[m/s\]
     pub tolerance: f64,
 }
 

@@ -6,13 +6,13 @@ use tires::{BrushTire, TireModel};
 
 use crate::{AxleLoads, ModelError, VehicleParams};
 
-/// Reduced state [σ1, σ2, σ3, θ]: lateral hitch velocity σ1 [m/s], pseudovelocities
-/// σ2, σ3 [1/s] of eq. (4) and hitch angle θ [rad]. Stability, continuation and charts
+/// Reduced state [σ1, σ2, σ3, θ]: lateral hitch velocity σ1 \[m/s\], pseudovelocities
+/// σ2, σ3 \[1/s\] of eq. (4) and hitch angle θ \[rad\]. Stability, continuation and charts
 /// work on this 4-state system: its dynamics do not depend on ψ, x_H, y_H.
 pub type State4<D = f64> = SVector<D, 4>;
 
 /// Full state [σ1, σ2, σ3, θ, ψ, x_H, y_H] in the order of eq. (10): the reduced state,
-/// the tractor's yaw angle ψ [rad] and the hitch position x_H, y_H [m].
+/// the tractor's yaw angle ψ \[rad\] and the hitch position x_H, y_H \[m\].
 pub type State7<D = f64> = SVector<D, 7>;
 
 /// Index of the hitch angle θ in [`State4`] and [`State7`].
@@ -23,16 +23,16 @@ pub const YAW_ANGLE: usize = 4;
 /// The model's inputs at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Inputs<D = f64> {
-    /// steering angle δ [rad]
+    /// steering angle δ \[rad\]
     pub steering_angle: D,
-    /// prescribed longitudinal speed V [m/s] of the tractor (constraint eq. 3)
+    /// prescribed longitudinal speed V \[m/s\] of the tractor (constraint eq. 3)
     pub speed: D,
-    /// its time derivative V̇ [m/s²] (enters eq. 6)
+    /// its time derivative V̇ \[m/s²\] (enters eq. 6)
     pub acceleration: D,
 }
 
 impl Inputs<f64> {
-    /// Straight running at constant speed V [m/s] without steering.
+    /// Straight running at constant speed V \[m/s\] without steering.
     pub fn constant_speed(speed: f64) -> Self {
         Self {
             steering_angle: 0.0,
@@ -51,14 +51,14 @@ impl Inputs<f64> {
     }
 }
 
-/// Slip angles (α_F, α_R, α_T) [rad] of the front, rear and trailer axles.
+/// Slip angles (α_F, α_R, α_T) \[rad\] of the front, rear and trailer axles.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SlipAngles<D = f64> {
-    /// front axle α_F [rad]
+    /// front axle α_F \[rad\]
     pub front: D,
-    /// rear axle α_R [rad]
+    /// rear axle α_R \[rad\]
     pub rear: D,
-    /// trailer axle α_T [rad]
+    /// trailer axle α_T \[rad\]
     pub trailer: D,
 }
 
@@ -205,7 +205,7 @@ impl Model {
         [&self.front_tire, &self.rear_tire, &self.trailer_tire]
     }
 
-    /// Critical slip angles α_cr (eq. 15) of the front, rear and trailer tires [rad].
+    /// Critical slip angles α_cr (eq. 15) of the front, rear and trailer tires \[rad\].
     pub fn critical_slip_angles(&self) -> SlipAngles<f64> {
         let a = |t: &BrushTire| t.critical_slip_angle().unwrap_or(f64::INFINITY);
         SlipAngles {
@@ -215,23 +215,23 @@ impl Model {
         }
     }
 
-    /// I1 = J1 + m1 d² [kg m²] (tractor inertia about the hitch).
+    /// I1 = J1 + m1 d² \[kg m²\] (tractor inertia about the hitch).
     pub fn i1(&self) -> f64 {
         self.i1
     }
 
-    /// I2 = J2 + m2 h² [kg m²] (trailer inertia about the hitch).
+    /// I2 = J2 + m2 h² \[kg m²\] (trailer inertia about the hitch).
     pub fn i2(&self) -> f64 {
         self.i2
     }
 
-    /// Yaw rate of the tractor ψ̇ = σ2 − (m1 d / I1) σ1 [rad/s] (eq. 5); the measured
+    /// Yaw rate of the tractor ψ̇ = σ2 − (m1 d / I1) σ1 \[rad/s\] (eq. 5); the measured
     /// output y of eq. (10).
     pub fn yaw_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> D {
         x[1] - x[0] * self.k.m1d_i1
     }
 
-    /// Hitch-angle rate θ̇ [rad/s] (eq. 5).
+    /// Hitch-angle rate θ̇ \[rad/s\] (eq. 5).
     pub fn hitch_angle_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> D {
         self.kinematics(x).hitch_angle_rate
     }
@@ -247,7 +247,7 @@ impl Model {
         }
     }
 
-    /// Longitudinal velocity [m/s] of the trailer wheel, V cos θ + σ1 sin θ: the
+    /// Longitudinal velocity \[m/s\] of the trailer wheel, V cos θ + σ1 sin θ: the
     /// denominator of α_T. The model is meaningful only while it is positive.
     pub fn trailer_wheel_speed<D: DualNum<Primitive = f64> + Copy>(
         &self,
@@ -302,7 +302,7 @@ impl Model {
         }
     }
 
-    /// Lateral tire forces (F_F, F_R, F_T) [N] of eq. (14) at the current slip angles.
+    /// Lateral tire forces (F_F, F_R, F_T) \[N\] of eq. (14) at the current slip angles.
     pub fn tire_forces<D: DualNum<Primitive = f64> + Copy>(
         &self,
         x: &State4<D>,

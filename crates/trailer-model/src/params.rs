@@ -8,19 +8,19 @@ use crate::ModelError;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TractorParams {
-    /// mass m1 [kg] (with occupants)
+    /// mass m1 \[kg\] (with occupants)
     pub mass: f64,
-    /// yaw moment of inertia J1 about the centre of gravity C1 [kg m²]
+    /// yaw moment of inertia J1 about the centre of gravity C1 \[kg m²\]
     pub yaw_inertia: f64,
-    /// f [m]: hitch H → front axle F
+    /// f \[m\]: hitch H → front axle F
     pub front_axle: f64,
-    /// d [m]: hitch H → centre of gravity C1
+    /// d \[m\]: hitch H → centre of gravity C1
     pub cog: f64,
-    /// c [m]: hitch H → rear axle R
+    /// c \[m\]: hitch H → rear axle R
     pub rear_axle: f64,
-    /// C_F [N/rad]: cornering stiffness of the front axle
+    /// C_F \[N/rad\]: cornering stiffness of the front axle
     pub front_cornering_stiffness: f64,
-    /// C_R [N/rad]: cornering stiffness of the rear axle
+    /// C_R \[N/rad\]: cornering stiffness of the rear axle
     pub rear_cornering_stiffness: f64,
 }
 
@@ -28,15 +28,15 @@ pub struct TractorParams {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrailerParams {
-    /// mass m2 [kg] (with load)
+    /// mass m2 \[kg\] (with load)
     pub mass: f64,
-    /// yaw moment of inertia J2 about the centre of gravity C2 [kg m²]
+    /// yaw moment of inertia J2 about the centre of gravity C2 \[kg m²\]
     pub yaw_inertia: f64,
-    /// h [m]: hitch H → centre of gravity C2
+    /// h \[m\]: hitch H → centre of gravity C2
     pub cog: f64,
-    /// l [m]: hitch H → trailer axle T
+    /// l \[m\]: hitch H → trailer axle T
     pub axle: f64,
-    /// C_T [N/rad]: cornering stiffness of the trailer axle
+    /// C_T \[N/rad\]: cornering stiffness of the trailer axle
     pub cornering_stiffness: f64,
 }
 
@@ -44,9 +44,9 @@ pub struct TrailerParams {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FrictionParams {
-    /// static friction coefficient μ0 [-]
+    /// static friction coefficient μ0 \[-\]
     pub mu_static: f64,
-    /// dynamic (sliding) friction coefficient μ [-]
+    /// dynamic (sliding) friction coefficient μ \[-\]
     pub mu_dynamic: f64,
 }
 
@@ -62,7 +62,7 @@ pub struct VehicleParams {
     pub trailer: TrailerParams,
     /// tire–road friction
     pub friction: FrictionParams,
-    /// gravitational acceleration g [m/s²] (not given in the paper)
+    /// gravitational acceleration g \[m/s²\] (not given in the paper)
     #[serde(default = "default_gravity")]
     pub gravity: f64,
 }
@@ -194,16 +194,16 @@ impl VehicleParams {
     }
 }
 
-/// Static vertical axle loads [N] from the geometry of Fig. 2 (see DESIGN.md).
+/// Static vertical axle loads \[N\] from the geometry of Fig. 2 (see DESIGN.md).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct AxleLoads {
-    /// front axle load F_z,F [N]
+    /// front axle load F_z,F \[N\]
     pub front: f64,
-    /// rear axle load F_z,R [N]
+    /// rear axle load F_z,R \[N\]
     pub rear: f64,
-    /// trailer axle load F_z,T [N]
+    /// trailer axle load F_z,T \[N\]
     pub trailer: f64,
-    /// vertical hitch force on the trailer H [N] (negative: the trailer lifts the hitch)
+    /// vertical hitch force on the trailer H \[N\] (negative: the trailer lifts the hitch)
     pub hitch: f64,
 }
 

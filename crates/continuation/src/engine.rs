@@ -40,6 +40,13 @@ pub trait ContinuationSystem {
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()>;
     /// weights of the arclength metric ‖u‖² = Σ w_i u_i² (length N + 1)
     fn weights(&self) -> Vec<f64>;
+    /// A fill-reducing column elimination order for the sparse LU of the bordered Jacobian
+    /// [G_u; bᵀ] (forward array of length N + 1: the k-th eliminated column is `order[k]`),
+    /// from the system's known structure; None: a generic ordering (COLAMD) is computed on
+    /// every factorisation.
+    fn column_order(&self) -> Option<Vec<usize>> {
+        None
+    }
     /// called on every accepted point (e.g. to update a phase-condition reference)
     fn accept(&mut self, _u: &[f64]) {}
     /// stability of the solution `u` (None if the system does not compute it)
@@ -291,7 +298,7 @@ fn bordered_step<S: ContinuationSystem>(
         });
     }
     bordered_jacobian(sys, u, border, entries)?;
-    let lu = SparseLu::new(nu, entries, what)?;
+    let lu = SparseLu::with_order(nu, entries, sys.column_order().as_deref(), what)?;
     let mut update: Vec<f64> = r.iter().map(|v| -v).collect();
     lu.solve(&mut update, what)?;
     Ok(BorderedStep {
@@ -453,7 +460,11 @@ impl Continuation {
     ) -> Result<Determinant> {
         let mut entries = Vec::new();
         bordered_jacobian(sys, u, &border(w, t), &mut entries)?;
-        Ok(SparseLu::new(u.len(), &entries, "branch-point test")?.determinant())
+        let order = sys.column_order();
+        Ok(
+            SparseLu::with_order(u.len(), &entries, order.as_deref(), "branch-point test")?
+                .determinant(),
+        )
     }
 
     fn make_point<S: ContinuationSystem>(&self, sys: &mut S, c: Corrected) -> Result<BranchPoint> {

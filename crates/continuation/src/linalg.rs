@@ -5,9 +5,9 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::lu::simplicial::{
-    SimplicialLu, factorize_simplicial_numeric_lu, factorize_simplicial_numeric_lu_scratch,
+    self, SimplicialLu, factorize_simplicial_numeric_lu, factorize_simplicial_numeric_lu_scratch,
 };
-use faer::sparse::linalg::lu::{LuSymbolicParams, SymbolicLu, factorize_symbolic_lu};
+use faer::sparse::linalg::lu::{LuSymbolicParams, factorize_symbolic_lu};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Conj, Mat, MatMut, Par};
 use num_complex::Complex64;
@@ -15,15 +15,17 @@ use num_complex::Complex64;
 /// Triplet (row, column, value) of a sparse matrix under assembly.
 pub type Entry = Triplet<usize, usize, f64>;
 
-/// Sparse LU factorisation P·A·Q = L·U of a square matrix (COLAMD column ordering Q, partial
-/// pivoting P, simplicial: the collocation matrices are too sparse for supernodes to pay off).
+/// Sparse LU factorisation P·A·Q = L·U of a square matrix (column ordering Q: COLAMD, or a
+/// fill-reducing order supplied by the caller; partial pivoting P; simplicial: the collocation
+/// matrices are too sparse for supernodes to pay off).
 /// The factors are kept so that the determinant is available (branch-point test function).
 #[derive(Debug)]
 pub(crate) struct SparseLu {
-    symbolic: SymbolicLu<usize>,
     numeric: SimplicialLu<usize, f64>,
     row_perm: Vec<usize>,
     row_perm_inv: Vec<usize>,
+    col_perm: Vec<usize>,
+    col_perm_inv: Vec<usize>,
     n: usize,
 }
 
@@ -55,23 +57,64 @@ fn permutation_sign(fwd: &[usize]) -> f64 {
     sign
 }
 
+/// COLAMD column ordering of `a` (forward array)
+fn colamd_order(a: &SparseColMat<usize, f64>) -> Option<Vec<usize>> {
+    let symbolic = factorize_symbolic_lu(
+        a.symbolic(),
+        LuSymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+            ..Default::default()
+        },
+    )
+    .ok()?;
+    Some(symbolic.col_perm().arrays().0.to_vec())
+}
+
+/// inverse of the permutation `fwd`; None unless `fwd` is a permutation of 0..n
+fn inverse_permutation(fwd: &[usize], n: usize) -> Option<Vec<usize>> {
+    if fwd.len() != n {
+        return None;
+    }
+    let mut inv = vec![usize::MAX; n];
+    for (k, &j) in fwd.iter().enumerate() {
+        if j >= n || inv[j] != usize::MAX {
+            return None;
+        }
+        inv[j] = k;
+    }
+    Some(inv)
+}
+
 impl SparseLu {
-    /// factorise the `n × n` matrix given by triplets (duplicates are summed)
+    /// factorise the `n × n` matrix given by triplets (duplicates are summed), COLAMD ordering
     pub(crate) fn new(n: usize, entries: &[Entry], what: &str) -> Result<Self> {
+        Self::with_order(n, entries, None, what)
+    }
+
+    /// factorise the `n × n` matrix given by triplets (duplicates are summed); `order`: the
+    /// column elimination order (forward array: the k-th eliminated column is `order[k]`),
+    /// COLAMD when None
+    pub(crate) fn with_order(
+        n: usize,
+        entries: &[Entry],
+        order: Option<&[usize]>,
+        what: &str,
+    ) -> Result<Self> {
         let singular = || Error::SingularSystem {
             size: n,
             what: what.to_string(),
         };
         let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, entries)
             .map_err(|_| singular())?;
-        let symbolic = factorize_symbolic_lu(
-            a.symbolic(),
-            LuSymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
-                ..Default::default()
-            },
-        )
-        .map_err(|_| singular())?;
+        let col_perm = match order {
+            Some(o) => o.to_vec(),
+            None => colamd_order(&a).ok_or_else(singular)?,
+        };
+        let col_perm_inv = inverse_permutation(&col_perm, n).ok_or_else(|| {
+            Error::InvalidInput(format!(
+                "{what}: the column order is not a permutation of 0..{n}"
+            ))
+        })?;
         let mut numeric = SimplicialLu::new();
         let mut row_perm = vec![0usize; n];
         let mut row_perm_inv = vec![0usize; n];
@@ -82,15 +125,16 @@ impl SparseLu {
             &mut row_perm_inv,
             &mut numeric,
             a.as_ref(),
-            symbolic.col_perm(),
+            PermRef::new_checked(&col_perm, &col_perm_inv, n),
             MemStack::new(&mut mem),
         )
         .map_err(|_| singular())?;
         Ok(Self {
-            symbolic,
             numeric,
             row_perm,
             row_perm_inv,
+            col_perm,
+            col_perm_inv,
             n,
         })
     }
@@ -99,12 +143,20 @@ impl SparseLu {
         PermRef::new_checked(&self.row_perm, &self.row_perm_inv, self.n)
     }
 
+    fn col_perm(&self) -> PermRef<'_, usize> {
+        PermRef::new_checked(&self.col_perm, &self.col_perm_inv, self.n)
+    }
+
     fn solve_inplace(&self, b: MatMut<'_, f64>) {
         let k = b.ncols();
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
+        let mut mem = MemBuffer::new(simplicial::solve_in_place_scratch::<usize, f64>(
+            self.n,
+            k,
+            Par::Seq,
+        ));
         self.numeric.solve_in_place_with_conj(
             self.row_perm(),
-            self.symbolic.col_perm(),
+            self.col_perm(),
             Conj::No,
             b,
             Par::Seq,
@@ -115,8 +167,7 @@ impl SparseLu {
     /// det A from the factors: sign(P)·sign(Q)·Π U_ii
     pub(crate) fn determinant(&self) -> Determinant {
         let u = self.numeric.u_factor_unsorted();
-        let mut sign = permutation_sign(&self.row_perm)
-            * permutation_sign(self.symbolic.col_perm().arrays().0);
+        let mut sign = permutation_sign(&self.row_perm) * permutation_sign(&self.col_perm);
         let mut log_abs = 0.0;
         for j in 0..self.n {
             let diag = u
@@ -189,12 +240,25 @@ mod tests {
             dense[(e.row, e.col)] += e.val;
         }
         let expected = dense.determinant();
-        let d = SparseLu::new(n, entries, "test").expect("LU").determinant();
-        let got = d.sign * d.log_abs.exp();
-        assert!(
-            (got - expected).abs() <= 1e-12 * expected.abs(),
-            "{got} vs {expected}"
-        );
+        // COLAMD and a caller-supplied (reversed) column order
+        let reversed: Vec<usize> = (0..n).rev().collect();
+        for order in [None, Some(reversed.as_slice())] {
+            let lu = SparseLu::with_order(n, entries, order, "test").expect("LU");
+            let d = lu.determinant();
+            let got = d.sign * d.log_abs.exp();
+            assert!(
+                (got - expected).abs() <= 1e-12 * expected.abs(),
+                "{got} vs {expected}"
+            );
+        }
+    }
+
+    /// a column order that is not a permutation is a typed error, not a panic
+    #[test]
+    fn invalid_column_order_is_an_error() {
+        let entries = [Entry::new(0, 0, 1.0), Entry::new(1, 1, 2.0)];
+        assert!(SparseLu::with_order(2, &entries, Some(&[0, 0]), "test").is_err());
+        assert!(SparseLu::with_order(2, &entries, Some(&[0]), "test").is_err());
     }
 
     #[test]

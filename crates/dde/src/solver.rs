@@ -877,6 +877,33 @@ fn propagate(base: f64, k_min: usize, delays: &[f64], order: usize, out: &mut Ve
 
 // ---------------------------------------------------------------------------------------
 
+/// The read accessors both solvers share: time, state, counters, dense output and options
+/// of the common stepping core.
+macro_rules! core_accessors {
+    () => {
+        /// current time
+        pub fn t(&self) -> f64 {
+            self.core.t
+        }
+        /// current state
+        pub fn state(&self) -> &SV<N> {
+            &self.core.x
+        }
+        /// work counters since construction
+        pub fn stats(&self) -> Stats {
+            self.core.stats
+        }
+        /// the kept dense output ([`DenseOutput::Keep`])
+        pub fn solution(&self) -> Option<&Solution<N>> {
+            self.core.solution.as_ref()
+        }
+        /// the options in use
+        pub fn options(&self) -> &Options {
+            &self.core.opts
+        }
+    };
+}
+
 /// Integration state of an ODE (cloneable: save and restore it freely). The problem is
 /// passed to every call; the solver never owns it.
 #[derive(Debug, Clone)]
@@ -903,26 +930,7 @@ impl<const N: usize> OdeSolver<N> {
         self.core.run(&mut OdeRhs(p), t_end, events, observer)
     }
 
-    /// current time
-    pub fn t(&self) -> f64 {
-        self.core.t
-    }
-    /// current state
-    pub fn state(&self) -> &SV<N> {
-        &self.core.x
-    }
-    /// work counters since construction
-    pub fn stats(&self) -> Stats {
-        self.core.stats
-    }
-    /// the kept dense output ([`DenseOutput::Keep`])
-    pub fn solution(&self) -> Option<&Solution<N>> {
-        self.core.solution.as_ref()
-    }
-    /// the options in use
-    pub fn options(&self) -> &Options {
-        &self.core.opts
-    }
+    core_accessors!();
 }
 
 /// Integration state of a DDE with constant delays: current state, the computed past
@@ -1000,26 +1008,7 @@ impl<const N: usize> DdeSolver<N> {
         self.core.run(&mut rhs, t_end, events, observer)
     }
 
-    /// current time
-    pub fn t(&self) -> f64 {
-        self.core.t
-    }
-    /// current state
-    pub fn state(&self) -> &SV<N> {
-        &self.core.x
-    }
-    /// work counters since construction
-    pub fn stats(&self) -> Stats {
-        self.core.stats
-    }
-    /// the kept dense output ([`DenseOutput::Keep`])
-    pub fn solution(&self) -> Option<&Solution<N>> {
-        self.core.solution.as_ref()
-    }
-    /// the options in use
-    pub fn options(&self) -> &Options {
-        &self.core.opts
-    }
+    core_accessors!();
     /// the breakpoint schedule (sorted, after t0)
     pub fn breakpoints(&self) -> &[f64] {
         &self.core.breakpoints

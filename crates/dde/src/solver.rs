@@ -425,15 +425,21 @@ impl<const N: usize> Core<N> {
     /// Makes `k1 = f(t, x)` valid (after construction, a breakpoint or a terminal event).
     fn ensure_fsal<R: Rhs<N>>(&mut self, rhs: &mut R) -> Result<(), Error> {
         if !self.k1_valid {
-            let mut k1 = SV::<N>::zeros();
-            rhs.eval(self.t, &self.x, &mut k1);
-            self.stats.rhs_evals += 1;
-            if !is_finite(&k1) {
-                return Err(Error::NonFiniteState { t: self.t });
-            }
-            self.k1 = k1;
+            self.evaluate_k1(rhs)?;
             self.k1_valid = true;
         }
+        Ok(())
+    }
+
+    /// `k1 = f(t, x)` evaluated afresh at the current point (counted, checked finite).
+    fn evaluate_k1<R: Rhs<N>>(&mut self, rhs: &mut R) -> Result<(), Error> {
+        let mut k1 = SV::<N>::zeros();
+        rhs.eval(self.t, &self.x, &mut k1);
+        self.stats.rhs_evals += 1;
+        if !is_finite(&k1) {
+            return Err(Error::NonFiniteState { t: self.t });
+        }
+        self.k1 = k1;
         Ok(())
     }
 
@@ -614,13 +620,7 @@ impl<const N: usize> Core<N> {
         if p.at_bp {
             self.bp_next += 1;
             // right limit of f after the jump
-            let mut k = SV::<N>::zeros();
-            rhs.eval(p.t_new, &s.x_new, &mut k);
-            self.stats.rhs_evals += 1;
-            if !is_finite(&k) {
-                return Err(Error::NonFiniteState { t: p.t_new });
-            }
-            self.k1 = k;
+            self.evaluate_k1(rhs)?;
         } else {
             self.k1 = s.k[6];
         }

@@ -4,87 +4,10 @@
 //! degree N, 8 rightmost roots, Newton-refined) at every point and codimension-two points
 //! (two double-Hopf points) located. The spectrum dominates the cost: N = 30 (the default)
 //! and N = 20 (enough for the rightmost roots here: |λ|τ ≲ 15) are measured.
+use continuation::textbook::DelayedOscillators;
 use continuation::*;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-
-/// q_i'' = −2ζ q_i' − q_i − k q_i(t − τ) + ε (q_j − q_i) − q_i³, state [q1, q1', q2, q2'],
-/// p = [k, τ]
-struct DelayedOscillators {
-    zeta: f64,
-    eps: f64,
-}
-
-impl Problem for DelayedOscillators {
-    fn dim(&self) -> usize {
-        4
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[1]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 1 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        let (z, e, k) = (self.zeta, self.eps, p[0]);
-        f[0] = x[1];
-        f[1] = -2.0 * z * x[1] - x[0] - k * x[4] + e * (x[2] - x[0]) - x[0].powi(3);
-        f[2] = x[3];
-        f[3] = -2.0 * z * x[3] - x[2] - k * x[6] + e * (x[0] - x[2]) - x[2].powi(3);
-    }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
-        let (z, e, k) = (self.zeta, self.eps, p[0]);
-        j.iter_mut().for_each(|v| *v = 0.0);
-        j[1] = 1.0;
-        j[8] = -1.0 - e - 3.0 * x[0] * x[0];
-        j[8 + 1] = -2.0 * z;
-        j[8 + 2] = e;
-        j[8 + 4] = -k;
-        j[16 + 3] = 1.0;
-        j[24] = e;
-        j[24 + 2] = -1.0 - e - 3.0 * x[2] * x[2];
-        j[24 + 3] = -2.0 * z;
-        j[24 + 6] = -k;
-    }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        out.iter_mut().for_each(|v| *v = 0.0);
-        if ip == 0 {
-            out[1] = -x[4];
-            out[3] = -x[6];
-        }
-    }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out.iter_mut().for_each(|v| *v = 0.0);
-        out[1] = -6.0 * x[0] * a[0] * b[0];
-        out[3] = -6.0 * x[2] * a[2] * b[2];
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out.iter_mut().for_each(|v| *v = 0.0);
-        if ip == 0 {
-            out[1] = -a[4];
-            out[3] = -a[6];
-        }
-        Ok(())
-    }
-}
 
 fn cont() -> Continuation {
     Continuation::new(ContinuationOptions {

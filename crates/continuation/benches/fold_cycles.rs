@@ -2,125 +2,11 @@
 //! number of mesh intervals L, and of a whole curve of 80 points, on a 4-dimensional delayed
 //! problem: two coupled Bautin oscillators with delayed cubic terms (the in-phase rotating
 //! waves have folds of cycles).
+use continuation::textbook::DelayedBautin;
 use continuation::*;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::f64::consts::PI;
 use std::hint::black_box;
-
-/// z_o' = (μ1 + i) z_o + μ2 |z_o(t−τ)|² z_o(t−τ) − |z_o|⁴ z_o + ε (z_other − z_o), o = 1, 2;
-/// p = [μ1, μ2, τ]
-struct CoupledDelayedBautin {
-    eps: f64,
-}
-
-fn dot2(a: &[f64], b: &[f64]) -> f64 {
-    a[0] * b[0] + a[1] * b[1]
-}
-
-impl Problem for CoupledDelayedBautin {
-    fn dim(&self) -> usize {
-        4
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[2]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 2 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, a: &[f64], p: &[f64], f: &mut [f64]) {
-        for o in 0..2 {
-            let (x, y, z) = (
-                &a[2 * o..2 * o + 2],
-                &a[4 + 2 * o..6 + 2 * o],
-                &a[2 - 2 * o..4 - 2 * o],
-            );
-            let (r, s) = (dot2(x, x), dot2(y, y));
-            for i in 0..2 {
-                f[2 * o + i] = (p[0] - r * r - self.eps) * x[i] + p[1] * s * y[i] + self.eps * z[i];
-            }
-            f[2 * o] -= x[1];
-            f[2 * o + 1] += x[0];
-        }
-    }
-    fn jacobian(&self, a: &[f64], p: &[f64], j: &mut [f64]) {
-        j.iter_mut().for_each(|v| *v = 0.0);
-        for o in 0..2 {
-            let (x, y) = (&a[2 * o..2 * o + 2], &a[4 + 2 * o..6 + 2 * o]);
-            let (r, s) = (dot2(x, x), dot2(y, y));
-            for i in 0..2 {
-                let row = (2 * o + i) * 8;
-                for k in 0..2 {
-                    let id = if i == k { 1.0 } else { 0.0 };
-                    j[row + 2 * o + k] = (p[0] - r * r - self.eps) * id - 4.0 * r * x[i] * x[k];
-                    j[row + 4 + 2 * o + k] = p[1] * (s * id + 2.0 * y[i] * y[k]);
-                }
-                j[row + 2 - 2 * o + i] = self.eps;
-            }
-            j[(2 * o) * 8 + 2 * o + 1] -= 1.0;
-            j[(2 * o + 1) * 8 + 2 * o] += 1.0;
-        }
-    }
-    fn dfdp(&self, a: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        for o in 0..2 {
-            let (x, y) = (&a[2 * o..2 * o + 2], &a[4 + 2 * o..6 + 2 * o]);
-            for i in 0..2 {
-                out[2 * o + i] = match ip {
-                    0 => x[i],
-                    1 => dot2(y, y) * y[i],
-                    _ => 0.0,
-                };
-            }
-        }
-    }
-    fn second_derivative(
-        &self,
-        args: &[f64],
-        p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        for o in 0..2 {
-            let (xr, yr) = (2 * o..2 * o + 2, 4 + 2 * o..6 + 2 * o);
-            let (x, y) = (&args[xr.clone()], &args[yr.clone()]);
-            let (ax, ay, bx, by) = (&a[xr.clone()], &a[yr.clone()], &b[xr], &b[yr]);
-            let r = dot2(x, x);
-            let (xa, xb, ab) = (dot2(x, ax), dot2(x, bx), dot2(ax, bx));
-            let (ya, yb, aby) = (dot2(y, ay), dot2(y, by), dot2(ay, by));
-            for i in 0..2 {
-                out[2 * o + i] = -4.0 * r * (xa * bx[i] + xb * ax[i] + ab * x[i])
-                    - 8.0 * xa * xb * x[i]
-                    + 2.0 * p[1] * (ya * by[i] + yb * ay[i] + aby * y[i]);
-            }
-        }
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        args: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        for o in 0..2 {
-            let y = &args[4 + 2 * o..6 + 2 * o];
-            let ay = &a[4 + 2 * o..6 + 2 * o];
-            let (s, ya) = (dot2(y, y), dot2(y, ay));
-            for i in 0..2 {
-                out[2 * o + i] = match ip {
-                    0 => a[2 * o + i],
-                    1 => s * ay[i] + 2.0 * ya * y[i],
-                    _ => 0.0,
-                };
-            }
-        }
-        Ok(())
-    }
-}
 
 const MU2: f64 = 1.0;
 /// mesh of the whole-curve benchmark (the rotating waves are resolved to ~1e-7 on it)
@@ -130,14 +16,10 @@ const TAU: f64 = 0.5;
 /// the fold of the in-phase cycles at (μ2, τ) = (1, 0.5) on L intervals, as the start of
 /// a fold-of-cycles curve in (μ1, μ2): system, corrected first point
 fn fold_start(
-    problem: &CoupledDelayedBautin,
+    problem: &DelayedBautin,
     l: usize,
     multipliers: bool,
-) -> (
-    FoldOfCyclesSystem<'_, CoupledDelayedBautin>,
-    Vec<f64>,
-    Vec<f64>,
-) {
+) -> (FoldOfCyclesSystem<'_, DelayedBautin>, Vec<f64>, Vec<f64>) {
     // in-phase rotating wave of radius 1: ω = 1 − μ2 sin ωτ, μ1 = 1 − μ2 cos ωτ
     let mut w: f64 = 1.0;
     for _ in 0..100 {
@@ -184,7 +66,7 @@ fn fold_start(
 }
 
 fn bench(c: &mut Criterion) {
-    let problem = CoupledDelayedBautin { eps: 0.1 };
+    let problem = DelayedBautin::coupled(0.1);
     let mut group = c.benchmark_group("fold_cycles_4d_dde");
     group.sample_size(10);
     for &l in &[20usize, 40, 80, 160] {

@@ -6,57 +6,16 @@
 //!
 //! keeps the cycles z = √μ e^{it} (period 2π) of the undelayed oscillator for every κ, τ, so
 //! the table can be checked by eye: the amplitude column must equal √μ and the period 2π.
-//! Its Jacobian is supplied exactly. Run with
+//! The problem is [`continuation::textbook::DelayedStuartLandau`], with its Jacobian supplied
+//! exactly. Run with
 //!
 //! ```text
 //! cargo run --example delayed_hopf -p continuation
 //! ```
 
+use continuation::textbook::DelayedStuartLandau;
 use continuation::*;
 use std::f64::consts::PI;
-
-/// parameters p = [μ, κ, τ]; one delay τ = p\[2\]
-struct DelayedStuartLandau;
-
-impl Problem for DelayedStuartLandau {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[2]
-    }
-    // args = [x0(t), x1(t), x0(t − τ), x1(t − τ)]
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        let (mu, k, tau) = (p[0], p[1], p[2]);
-        let r2 = x[0] * x[0] + x[1] * x[1];
-        let (c, s) = (tau.cos(), tau.sin());
-        f[0] = (mu - r2) * x[0] - x[1] + k * (x[2] - (c * x[0] + s * x[1]));
-        f[1] = x[0] + (mu - r2) * x[1] + k * (x[3] - (-s * x[0] + c * x[1]));
-    }
-    // exact Jacobian, row-major 2 × 4
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
-        let (mu, k, tau) = (p[0], p[1], p[2]);
-        let r2 = x[0] * x[0] + x[1] * x[1];
-        let (c, s) = (tau.cos(), tau.sin());
-        j.copy_from_slice(&[
-            mu - r2 - 2.0 * x[0] * x[0] - k * c,
-            -2.0 * x[0] * x[1] - 1.0 - k * s,
-            k,
-            0.0,
-            1.0 - 2.0 * x[0] * x[1] + k * s,
-            mu - r2 - 2.0 * x[1] * x[1] - k * c,
-            0.0,
-            k,
-        ]);
-    }
-    // only μ is ever free here
-    fn dfdp(&self, x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
-        out.copy_from_slice(&x[..2]);
-    }
-}
 
 fn main() -> Result<()> {
     let (kappa, tau) = (0.2, 1.0);

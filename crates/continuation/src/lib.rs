@@ -29,6 +29,9 @@
 //!   system with the null vector, exact second derivatives, sparse), with cusps of cycles and
 //!   the end at a generalised Hopf point.
 //!
+//! - [`textbook`]: problems with closed-form answers (normal forms, delayed oscillators) with
+//!   exact derivatives, to test a setup against a known answer.
+//!
 //! The crate knows nothing about any application.
 //!
 //! # Example: Hopf point and cycle branch of the Stuart–Landau oscillator
@@ -92,6 +95,7 @@ mod periodic;
 mod problem;
 mod roots;
 mod stability;
+pub mod textbook;
 
 pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};

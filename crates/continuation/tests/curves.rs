@@ -1,105 +1,19 @@
 //! Two-parameter curves of Hopf points and folds of equilibria, codimension-two points:
 //! every check against a closed form (or, for the Jacobians, central differences).
+mod common;
 
+use common::{cont, hopf_on_branch};
+use continuation::textbook::*;
 use continuation::*;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
-
-fn cont(step: f64, max_step: f64) -> Continuation {
-    Continuation::new(ContinuationOptions {
-        initial_step: step,
-        max_step,
-        ..Default::default()
-    })
-}
-
-/// x' = −γ x + b x(t − τ), p = [γ, b, τ]; the delay is a parameter.
-/// Hopf points (b < −γ < 0): ω = √(b² − γ²), τ = arccos(γ/b)/ω.
-struct ScalarDelay;
-
-impl Problem for ScalarDelay {
-    fn dim(&self) -> usize {
-        1
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[2]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 2 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        f[0] = -p[0] * x[0] + p[1] * x[1];
-    }
-    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
-        j[0] = -p[0];
-        j[1] = p[1];
-    }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        out[0] = match ip {
-            0 => -x[0],
-            1 => x[1],
-            _ => 0.0,
-        };
-    }
-    fn second_derivative(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        _a: &[f64],
-        _b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out[0] = 0.0;
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out[0] = match ip {
-            0 => -a[0],
-            1 => a[1],
-            _ => 0.0,
-        };
-        Ok(())
-    }
-}
-
-/// closed form of the Hopf curve of [`ScalarDelay`]: (ω, τ) at b
-fn scalar_hopf(gamma: f64, b: f64) -> (f64, f64) {
-    let omega = (b * b - gamma * gamma).sqrt();
-    (omega, (gamma / b).acos() / omega)
-}
-
-/// Hopf point of an equilibrium branch x = 0 continued in parameter `ip` from `p[ip]`
-fn hopf_on_branch<P: Problem>(problem: &P, p: Vec<f64>, ip: usize, steps: usize) -> HopfPoint {
-    let c = cont(0.05, 0.1);
-    let p0 = p[ip];
-    let mut eq = EquilibriumSystem::new(problem, p, ip, ChebyshevRoots::default()).unwrap();
-    let dir = eq.parameter_direction();
-    let mut u0 = vec![0.0; problem.dim()];
-    u0.push(p0);
-    let mut br = c.start(&mut eq, &u0, &dir).unwrap();
-    c.extend(&mut eq, &mut br, steps).unwrap();
-    let (i, sp) = br.first(SpecialKind::Hopf).expect("a Hopf point");
-    assert_eq!(sp.location, Location::Located);
-    eq.hopf_point(&br.points[i].u, sp.transversality.unwrap())
-        .unwrap()
-}
 
 #[test]
 fn delay_as_free_parameter_of_equilibria_and_hopf_points() {
     // reference: closed form τ* = arccos(γ/b)/ω, ω = √(b² − γ²) at γ = 1, b = −2;
     // location tolerance 1e-10 in τ, required 1e-8; ω from Newton-refined roots, 1e-10
     let hopf = hopf_on_branch(&ScalarDelay, vec![1.0, -2.0, 0.3], 2, 40);
-    let (omega, tau) = scalar_hopf(1.0, -2.0);
+    let (omega, tau) = ScalarDelay::hopf(1.0, -2.0);
     assert!(
         (hopf.parameter - tau).abs() < 1e-8,
         "τ = {}",
@@ -133,7 +47,7 @@ fn analytic_hopf_curve_with_the_delay_as_parameter() {
         for pt in &curve.points {
             let (tau, b) = (pt.parameter, pt.secondary_parameter.unwrap());
             assert!(b < -1.0, "b = {b}");
-            let (omega, tau_exact) = scalar_hopf(1.0, b);
+            let (omega, tau_exact) = ScalarDelay::hopf(1.0, b);
             assert!(
                 (hc.omega(&pt.u) - omega).abs() < 1e-9 * omega,
                 "ω at b = {b}"
@@ -151,55 +65,6 @@ fn analytic_hopf_curve_with_the_delay_as_parameter() {
         // the curve moves along b in the requested direction
         let b_end = curve.points.last().unwrap().secondary_parameter.unwrap();
         assert!(sign * (b_end + 2.0) > 0.1, "b_end = {b_end}");
-    }
-}
-
-/// Bogdanov–Takens normal form x' = y, y' = β1 + β2 y + x² − x y, p = [β1, β2].
-/// Equilibria (x, 0) with x² = −β1; fold curve β1 = 0 (x = 0); Hopf curve x = β2 < 0,
-/// β1 = −β2², ω² = −2β2; Bogdanov–Takens point at (0, 0).
-struct BogdanovTakens;
-
-impl Problem for BogdanovTakens {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        f[0] = x[1];
-        f[1] = p[0] + p[1] * x[1] + x[0] * x[0] - x[0] * x[1];
-    }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
-        j[0] = 0.0;
-        j[1] = 1.0;
-        j[2] = 2.0 * x[0] - x[1];
-        j[3] = p[1] - x[0];
-    }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        out[0] = 0.0;
-        out[1] = if ip == 0 { 1.0 } else { x[1] };
-    }
-    fn second_derivative(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out[0] = 0.0;
-        out[1] = 2.0 * a[0] * b[0] - a[0] * b[1] - a[1] * b[0];
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out[0] = 0.0;
-        out[1] = if ip == 1 { a[1] } else { 0.0 };
-        Ok(())
     }
 }
 
@@ -312,46 +177,6 @@ fn fold_curve_of_the_bt_normal_form_and_its_bt_point() {
     );
 }
 
-/// x' = p1 + p2 x − x³: fold curve p1 = −2x³, p2 = 3x² (27 p1² = 4 p2³), cusp at (0, 0)
-struct Cubic;
-
-impl Problem for Cubic {
-    fn dim(&self) -> usize {
-        1
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        f[0] = p[0] + p[1] * x[0] - x[0].powi(3);
-    }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
-        j[0] = p[1] - 3.0 * x[0] * x[0];
-    }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        out[0] = if ip == 0 { 1.0 } else { x[0] };
-    }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out[0] = -6.0 * x[0] * a[0] * b[0];
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out[0] = if ip == 1 { a[0] } else { 0.0 };
-        Ok(())
-    }
-}
-
 #[test]
 fn fold_curve_with_a_cusp() {
     // reference: closed form 27 p1² = 4 p2³ (p1 = −2x³, p2 = 3x²), cusp at (0, 0).
@@ -396,83 +221,6 @@ fn fold_curve_with_a_cusp() {
         curve.points[c2[0].index].special.as_ref().unwrap().location,
         Location::Located
     );
-}
-
-/// Two decoupled modes with a common delay τ, p = [b1, τ]:
-/// x1' = −γ1 x1 + b1 x1(t − τ) and either x2' = −γ2 x2 + b2 x2(t − τ) (`real = None`)
-/// or x2' = (b1 + β) x2 (`real = Some(β)`, a real root through 0 at b1 = −β).
-struct TwoModes {
-    gamma1: f64,
-    gamma2: f64,
-    b2: f64,
-    real: Option<f64>,
-}
-
-impl TwoModes {
-    /// γ, b of x' = −γx + b x(t − τ) with the first Hopf point at (τ, ω):
-    /// γ = −ω cot(ωτ), b = −ω / sin(ωτ) (π/2 < ωτ < π)
-    fn mode(tau: f64, omega: f64) -> (f64, f64) {
-        let th = omega * tau;
-        (-omega * th.cos() / th.sin(), -omega / th.sin())
-    }
-    fn row2(&self, p: &[f64]) -> [f64; 4] {
-        match self.real {
-            Some(beta) => [0.0, p[0] + beta, 0.0, 0.0],
-            None => [0.0, -self.gamma2, 0.0, self.b2],
-        }
-    }
-}
-
-impl Problem for TwoModes {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[1]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 1 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        let r2 = self.row2(p);
-        f[0] = -self.gamma1 * x[0] + p[0] * x[2];
-        f[1] = (0..4).map(|i| r2[i] * x[i]).sum();
-    }
-    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
-        j[..4].copy_from_slice(&[-self.gamma1, 0.0, p[0], 0.0]);
-        j[4..].copy_from_slice(&self.row2(p));
-    }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        let b1 = ip == 0;
-        out[0] = if b1 { x[2] } else { 0.0 };
-        out[1] = if b1 && self.real.is_some() { x[1] } else { 0.0 };
-    }
-    fn second_derivative(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        _a: &[f64],
-        _b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        out.iter_mut().for_each(|o| *o = 0.0);
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        // f is linear in the state and in b1: ∂J/∂b1 · a = ∂f/∂b1 evaluated at a
-        self.dfdp(a, p, ip, out);
-        Ok(())
-    }
 }
 
 /// Hopf curve of mode 1 of `problem` from b1 = −3, in (τ, b1) with b1 increasing
@@ -535,7 +283,7 @@ fn double_hopf_point_of_two_delayed_modes() {
     // every point on mode 1's closed-form curve τ = arccos(γ1/b1)/√(b1² − γ1²)
     for pt in &curve.points {
         let (tau, b1) = (pt.parameter, pt.secondary_parameter.unwrap());
-        let (omega, tau_exact) = scalar_hopf(p.gamma1, b1);
+        let (omega, tau_exact) = ScalarDelay::hopf(p.gamma1, b1);
         assert!((tau - tau_exact).abs() < 1e-9 * tau_exact);
         assert!((hc.omega(&pt.u) - omega).abs() < 1e-9 * omega);
     }
@@ -560,7 +308,7 @@ fn zero_hopf_point_of_a_delayed_mode_and_a_real_mode() {
         .filter(|c| c.kind == SpecialKind::ZeroHopf)
         .collect();
     assert_eq!(zh.len(), 1, "{zh:?}");
-    let (omega, tau) = scalar_hopf(gamma1, -2.5);
+    let (omega, tau) = ScalarDelay::hopf(gamma1, -2.5);
     assert!((zh[0].p2 + 2.5).abs() < 1e-8, "b1 = {}", zh[0].p2);
     assert!((zh[0].p1 - tau).abs() < 1e-8);
     assert!((zh[0].omegas[0] - omega).abs() < 1e-8);
@@ -594,87 +342,6 @@ fn hopf_curve_resumed_from_json_equals_an_uninterrupted_run() {
         );
     }
     assert!(loaded.first(SpecialKind::DoubleHopf).is_some());
-}
-
-/// A nonlinear test problem with two parameter-dependent delays, p = [a, b, c, τ]:
-/// f1 = −a x1 + b tanh(y2) + c x1 z2, f2 = −x2 + a tanh(y1) − b x2² + c z1,
-/// y = x(t − τ), z = x(t − cτ).
-struct TanhNet;
-
-impl Problem for TanhNet {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn n_delays(&self) -> usize {
-        2
-    }
-    fn delay(&self, j: usize, p: &[f64]) -> f64 {
-        if j == 0 { p[3] } else { p[3] * p[2] }
-    }
-    fn delay_dp(&self, j: usize, p: &[f64], ip: usize) -> f64 {
-        match (j, ip) {
-            (0, 3) => 1.0,
-            (1, 3) => p[2],
-            (1, 2) => p[3],
-            _ => 0.0,
-        }
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        let (a, b, c) = (p[0], p[1], p[2]);
-        f[0] = -a * x[0] + b * x[3].tanh() + c * x[0] * x[5];
-        f[1] = -x[1] + a * x[2].tanh() - b * x[1] * x[1] + c * x[4];
-    }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
-        let (a, b, c) = (p[0], p[1], p[2]);
-        let s = |v: f64| 1.0 / v.cosh().powi(2);
-        j.iter_mut().for_each(|v| *v = 0.0);
-        j[0] = -a + c * x[5];
-        j[3] = b * s(x[3]);
-        j[5] = c * x[0];
-        j[6 + 1] = -1.0 - 2.0 * b * x[1];
-        j[6 + 2] = a * s(x[2]);
-        j[6 + 4] = c;
-    }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        let v = match ip {
-            0 => [-x[0], x[2].tanh()],
-            1 => [x[3].tanh(), -x[1] * x[1]],
-            2 => [x[0] * x[5], x[4]],
-            _ => [0.0, 0.0],
-        };
-        out.copy_from_slice(&v);
-    }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        let d2 = |v: f64| -2.0 * v.tanh() / v.cosh().powi(2);
-        out[0] = p[1] * d2(x[3]) * a[3] * b[3] + p[2] * (a[0] * b[5] + a[5] * b[0]);
-        out[1] = -2.0 * p[1] * a[1] * b[1] + p[0] * d2(x[2]) * a[2] * b[2];
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        let s = |v: f64| 1.0 / v.cosh().powi(2);
-        let v = match ip {
-            0 => [-a[0], s(x[2]) * a[2]],
-            1 => [s(x[3]) * a[3], -2.0 * x[1] * a[1]],
-            2 => [x[5] * a[0] + x[0] * a[5], a[4]],
-            _ => [0.0, 0.0],
-        };
-        out.copy_from_slice(&v);
-        Ok(())
-    }
 }
 
 /// dense Jacobian of a continuation system from its triplets
@@ -768,23 +435,14 @@ fn exact_jacobians_of_the_curve_systems_match_central_differences() {
 #[test]
 fn missing_second_derivatives_are_reported() {
     // reference: the trait default reports MissingDerivative instead of guessing
-    struct NoSecond;
-    impl Problem for NoSecond {
-        fn dim(&self) -> usize {
-            1
-        }
-        fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-            f[0] = p[0] - x[0] * x[0];
-        }
-        fn jacobian(&self, x: &[f64], _p: &[f64], j: &mut [f64]) {
-            j[0] = -2.0 * x[0];
-        }
-        fn dfdp(&self, _x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
-            out[0] = 1.0;
-        }
-    }
-    let mut fc =
-        FoldCurveSystem::new(&NoSecond, vec![0.0, 0.0], [0, 1], ChebyshevRoots::default()).unwrap();
+    // (`SaddleNode` supplies first derivatives only)
+    let mut fc = FoldCurveSystem::new(
+        &SaddleNode,
+        vec![0.0, 0.0],
+        [0, 1],
+        ChebyshevRoots::default(),
+    )
+    .unwrap();
     let mut entries = Vec::new();
     let err = fc
         .jacobian(&[0.0, 1.0, 0.0, 0.0], &mut entries)

@@ -2,7 +2,8 @@
 mod common;
 
 use approx::assert_relative_eq;
-use common::{DelayedStuartLandau, LinearDelay};
+use common::{colloc, cycles_from_hopf};
+use continuation::textbook::{DelayedStuartLandau, LinearDelay};
 use continuation::*;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -78,19 +79,7 @@ fn delayed_stuart_landau(tau: f64) {
         .unwrap();
     assert_relative_eq!(hopf.omega, 1.0, max_relative = 1e-10);
 
-    let mut po = PeriodicOrbitSystem::new(
-        &p,
-        vec![0.0, kappa, tau],
-        0,
-        CollocationOptions {
-            intervals: 30,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let (guess, dir) = po.hopf_guess(&hopf, 0.05);
-    let mut cyc = c.start(&mut po, &guess, &dir).unwrap();
-    c.extend(&mut po, &mut cyc, 30).unwrap();
+    let (po, cyc) = cycles_from_hopf(&c, &p, vec![0.0, kappa, tau], 30, &hopf, 30);
     assert_eq!(criticality(&hopf, &cyc), Some(Criticality::Supercritical));
     let mut checked = 0;
     for pt in cyc.points.iter().filter(|p| p.parameter > 0.05) {
@@ -167,16 +156,7 @@ fn torus_bifurcation_of_the_delayed_stuart_landau_cycle() {
     let kappa_star = 0.5 * (a + b);
 
     let p = DelayedStuartLandau;
-    let mut po = PeriodicOrbitSystem::new(
-        &p,
-        vec![mu, 0.55, tau],
-        1,
-        CollocationOptions {
-            intervals: 30,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let mut po = PeriodicOrbitSystem::new(&p, vec![mu, 0.55, tau], 1, colloc(30)).unwrap();
     let guess = po.unknowns_from(
         |s| {
             vec![

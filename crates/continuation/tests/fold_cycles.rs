@@ -1,191 +1,11 @@
 //! Folds of cycles in two parameters (ODE and DDE) and delays as free parameters of cycles,
 //! against closed forms (radial normal forms, rotating waves) and finite differences.
+mod common;
 use approx::assert_relative_eq;
+use common::{colloc, cont};
+use continuation::textbook::{DelayedBautin, Radial};
 use continuation::*;
 use std::f64::consts::PI;
-
-/// Radial normal form in Cartesian coordinates, p = [μ1, μ2]:
-/// x' = g(ρ) x − y + ε x², y' = x + g(ρ) y with ρ = x² + y², g = μ1 + μ2 ρ + c2 ρ² + c3 ρ³.
-/// For ε = 0 the cycles are circles of radius √ρ with g(ρ) = 0 and period 2π.
-/// - Bautin (generalised Hopf) normal form: c2 = −1, c3 = 0 (z' = (μ1 + i)z + μ2|z|²z − |z|⁴z);
-/// - a cusp of cycles: c2 = 3, c3 = −1.
-#[derive(Debug)]
-struct Radial {
-    c2: f64,
-    c3: f64,
-    eps: f64,
-}
-
-impl Radial {
-    const BAUTIN: Radial = Radial {
-        c2: -1.0,
-        c3: 0.0,
-        eps: 0.0,
-    };
-    /// g, g', g'' in ρ
-    fn g(&self, p: &[f64], r: f64) -> (f64, f64, f64) {
-        (
-            p[0] + p[1] * r + self.c2 * r * r + self.c3 * r * r * r,
-            p[1] + 2.0 * self.c2 * r + 3.0 * self.c3 * r * r,
-            2.0 * self.c2 + 6.0 * self.c3 * r,
-        )
-    }
-}
-
-fn dot2(a: &[f64], b: &[f64]) -> f64 {
-    a[0] * b[0] + a[1] * b[1]
-}
-
-impl Problem for Radial {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        let (g, _, _) = self.g(p, dot2(x, x));
-        f[0] = g * x[0] - x[1] + self.eps * x[0] * x[0];
-        f[1] = x[0] + g * x[1];
-    }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
-        let (g, dg, _) = self.g(p, dot2(x, x));
-        for r in 0..2 {
-            for c in 0..2 {
-                j[r * 2 + c] = 2.0 * dg * x[r] * x[c] + if r == c { g } else { 0.0 };
-            }
-        }
-        j[1] -= 1.0;
-        j[2] += 1.0;
-        j[0] += 2.0 * self.eps * x[0];
-    }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        let s = if ip == 0 { 1.0 } else { dot2(x, x) };
-        out[0] = s * x[0];
-        out[1] = s * x[1];
-    }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        let (_, dg, ddg) = self.g(p, dot2(x, x));
-        let (xa, xb, ab) = (dot2(x, a), dot2(x, b), dot2(a, b));
-        for i in 0..2 {
-            out[i] = 2.0 * dg * (xa * b[i] + xb * a[i] + ab * x[i]) + 4.0 * ddg * xa * xb * x[i];
-        }
-        out[0] += 2.0 * self.eps * a[0] * b[0];
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        // ∂g/∂μ1 = 1, ∂g'/∂μ1 = 0; ∂g/∂μ2 = ρ, ∂g'/∂μ2 = 1
-        let (gp, dgp) = if ip == 0 {
-            (1.0, 0.0)
-        } else {
-            (dot2(x, x), 1.0)
-        };
-        let xa = dot2(x, a);
-        for i in 0..2 {
-            out[i] = gp * a[i] + 2.0 * dgp * xa * x[i];
-        }
-        Ok(())
-    }
-}
-
-/// Bautin normal form with the cubic term delayed, p = [μ1, μ2, τ]:
-/// z' = (μ1 + i) z + μ2 |z(t−τ)|² z(t−τ) − |z|⁴ z.
-/// Rotating waves z = √ρ e^{iωt} solve μ1 + μ2 ρ cos ωτ − ρ² = 0, ω = 1 − μ2 ρ sin ωτ.
-#[derive(Debug)]
-struct DelayedBautin;
-
-impl Problem for DelayedBautin {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[2]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 2 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, a: &[f64], p: &[f64], f: &mut [f64]) {
-        let (x, y) = (&a[..2], &a[2..]);
-        let (r, s) = (dot2(x, x), dot2(y, y));
-        f[0] = (p[0] - r * r) * x[0] - x[1] + p[1] * s * y[0];
-        f[1] = x[0] + (p[0] - r * r) * x[1] + p[1] * s * y[1];
-    }
-    fn jacobian(&self, a: &[f64], p: &[f64], j: &mut [f64]) {
-        let (x, y) = (&a[..2], &a[2..]);
-        let (r, s) = (dot2(x, x), dot2(y, y));
-        for i in 0..2 {
-            for k in 0..2 {
-                let id = if i == k { 1.0 } else { 0.0 };
-                j[i * 4 + k] = (p[0] - r * r) * id - 4.0 * r * x[i] * x[k];
-                j[i * 4 + 2 + k] = p[1] * (s * id + 2.0 * y[i] * y[k]);
-            }
-        }
-        j[1] -= 1.0;
-        j[4] += 1.0;
-    }
-    fn dfdp(&self, a: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
-        let (x, y) = (&a[..2], &a[2..]);
-        for i in 0..2 {
-            out[i] = match ip {
-                0 => x[i],
-                1 => dot2(y, y) * y[i],
-                _ => 0.0,
-            };
-        }
-    }
-    fn second_derivative(
-        &self,
-        args: &[f64],
-        p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        let (x, y) = (&args[..2], &args[2..]);
-        let (ax, ay, bx, by) = (&a[..2], &a[2..], &b[..2], &b[2..]);
-        let r = dot2(x, x);
-        let (xa, xb, ab) = (dot2(x, ax), dot2(x, bx), dot2(ax, bx));
-        let (ya, yb, aby) = (dot2(y, ay), dot2(y, by), dot2(ay, by));
-        for i in 0..2 {
-            out[i] = -4.0 * r * (xa * bx[i] + xb * ax[i] + ab * x[i]) - 8.0 * xa * xb * x[i]
-                + 2.0 * p[1] * (ya * by[i] + yb * ay[i] + aby * y[i]);
-        }
-        Ok(())
-    }
-    fn jacobian_dp(
-        &self,
-        args: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
-        let y = &args[2..];
-        let (s, ya) = (dot2(y, y), dot2(y, &a[2..]));
-        for i in 0..2 {
-            out[i] = match ip {
-                0 => a[i],
-                1 => s * a[2 + i] + 2.0 * ya * y[i],
-                _ => 0.0,
-            };
-        }
-        Ok(())
-    }
-}
 
 /// rotating wave (ρ, ω) of `DelayedBautin` near the guess, by Newton on the 2 × 2 system
 /// (independent of collocation)
@@ -239,21 +59,6 @@ fn rotating_wave_fold(mu2: f64, tau: f64) -> (f64, f64, f64) {
 
 fn circle(r: f64) -> impl Fn(f64) -> Vec<f64> {
     move |s| vec![r * (2.0 * PI * s).cos(), r * (2.0 * PI * s).sin()]
-}
-
-fn colloc(intervals: usize) -> CollocationOptions {
-    CollocationOptions {
-        intervals,
-        ..Default::default()
-    }
-}
-
-fn cont(step: f64, max_step: f64) -> Continuation {
-    Continuation::new(ContinuationOptions {
-        initial_step: step,
-        max_step,
-        ..Default::default()
-    })
 }
 
 /// continue the cycle `u0` of `po` in its free parameter (direction `sign`) to the first
@@ -349,7 +154,7 @@ fn delayed_bautin_fold_curve_in_mu1_and_the_delay_matches_rotating_waves() {
     // (L = 24, m = 4) reads delayed values off the interpolant, error O(h^(m+1)): measured
     // ~6e-8 in μ1 at L = 12 and ~2e-8 relative in the radius at L = 24; tolerances 1e-8 on μ1,
     // 1e-7 relative on radius and period.
-    let p = DelayedBautin;
+    let p = DelayedBautin::SINGLE;
     let (mu2, tau) = (1.0, 0.5);
     // the rotating wave of radius 1 (ρ = 1): ω = 1 − μ2 sin ωτ, μ1 = 1 − μ2 cos ωτ
     let mut w0: f64 = 1.0;
@@ -418,7 +223,7 @@ fn cycles_continued_in_the_delay_match_rotating_waves() {
     // delay τ as free parameter (Jacobian column −T f_τ + Σ J_d x'(s − τ/T) ∂τ/∂p).
     // Tolerance 1e-7 relative (DDE collocation, m = 4, delayed values read off the
     // interpolant, error O(h^(m+1)): measured 1.1e-7 at L = 12, so L = 24 is used).
-    let p = DelayedBautin;
+    let p = DelayedBautin::SINGLE;
     let (mu1, mu2, tau0) = (0.3, -1.0, 0.2);
     let (rho, w) = rotating_wave(mu1, mu2, tau0, (0.3, 1.0));
     let mut po = PeriodicOrbitSystem::new(&p, vec![mu1, mu2, tau0], 2, colloc(24)).unwrap();
@@ -537,7 +342,7 @@ fn fold_cycles_jacobian_matches_central_differences() {
     let e = jacobian_error(&mut sys, &u);
     assert!(e < 1e-6, "ODE: Jacobian error {e:e}");
 
-    let dde = DelayedBautin;
+    let dde = DelayedBautin::SINGLE;
     for (ip1, ip2, seed) in [(0, 2, 11), (2, 1, 13), (1, 0, 17)] {
         let params = vec![-0.2, 1.0, 1.3];
         let po = PeriodicOrbitSystem::new(&dde, params.clone(), ip1, col.clone()).unwrap();
@@ -563,7 +368,8 @@ fn periodic_orbit_jacobian_with_the_delay_as_free_parameter_matches_central_diff
         degree: 3,
         ..Default::default()
     };
-    let mut po = PeriodicOrbitSystem::new(&DelayedBautin, vec![-0.2, 1.0, 1.3], 2, col).unwrap();
+    let mut po =
+        PeriodicOrbitSystem::new(&DelayedBautin::SINGLE, vec![-0.2, 1.0, 1.3], 2, col).unwrap();
     let mut u = po.unknowns_from(circle(0.7), 5.5, 1.3);
     let np = po.period_index();
     for (x, e) in u[..np].iter_mut().zip(random(np, 5)) {

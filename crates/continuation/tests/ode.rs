@@ -2,58 +2,24 @@
 mod common;
 
 use approx::assert_relative_eq;
-use common::{NormalForm, VanDerPol};
+use common::{colloc, cont, cycles_from_hopf, hopf_on_branch};
+use continuation::textbook::{NormalForm, SaddleNode, VanDerPol};
 use continuation::*;
 use std::f64::consts::PI;
-
-fn cont(step: f64, max_step: f64) -> Continuation {
-    Continuation::new(ContinuationOptions {
-        initial_step: step,
-        max_step,
-        ..Default::default()
-    })
-}
-
-/// equilibrium branch of x = 0 from p0 upwards, returns the Hopf point
-fn hopf_of<P: Problem>(p: &P, p0: f64, steps: usize) -> HopfPoint {
-    let c = cont(0.05, 0.1);
-    let mut eq = EquilibriumSystem::new(p, vec![p0], 0, ChebyshevRoots::default()).unwrap();
-    let dir = eq.parameter_direction();
-    let mut u0 = vec![0.0; p.dim()];
-    u0.push(p0);
-    let mut br = c.start(&mut eq, &u0, &dir).unwrap();
-    c.extend(&mut eq, &mut br, steps).unwrap();
-    let (i, sp) = br.first(SpecialKind::Hopf).expect("a Hopf point");
-    assert_eq!(sp.location, Location::Located);
-    eq.hopf_point(&br.points[i].u, sp.transversality.unwrap())
-        .unwrap()
-}
 
 #[test]
 fn stuart_landau_hopf_amplitude_period_multiplier() {
     // reference: closed form of r' = r(μ − r²), θ' = ω + b r²: Hopf at μ = 0 with frequency ω,
     // cycle radius √μ, period 2π/(ω + bμ), nontrivial Floquet multiplier exp(−2μT).
     let p = NormalForm::stuart_landau(1.3, 0.4);
-    let hopf = hopf_of(&p, -0.37, 30);
+    let hopf = hopf_on_branch(&p, vec![-0.37], 0, 30);
     // location tolerance 1e-10 in the options; required 1e-8
     assert!(hopf.parameter.abs() < 1e-8, "Hopf at {}", hopf.parameter);
     assert_relative_eq!(hopf.omega, 1.3, max_relative = 1e-12);
     assert!(hopf.transversality > 0.0);
 
     let c = cont(0.05, 0.2);
-    let mut po = PeriodicOrbitSystem::new(
-        &p,
-        vec![0.0],
-        0,
-        CollocationOptions {
-            intervals: 20,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let (guess, dir) = po.hopf_guess(&hopf, 0.05);
-    let mut br = c.start(&mut po, &guess, &dir).unwrap();
-    c.extend(&mut po, &mut br, 25).unwrap();
+    let (po, br) = cycles_from_hopf(&c, &p, vec![0.0], 20, &hopf, 25);
     assert_eq!(criticality(&hopf, &br), Some(Criticality::Supercritical));
     let mut checked = 0;
     for pt in &br.points {
@@ -89,7 +55,7 @@ fn subcritical_normal_form_fold_of_cycles() {
     // reference: r' = r(μ + 2r² − r⁴): cycles on μ = r⁴ − 2r², fold at μ = −1, r = 1;
     // multiplier exp(2π·4r²(1 − r²)) (unstable for r < 1, stable for r > 1); period 2π.
     let p = NormalForm::subcritical();
-    let hopf = hopf_of(&p, -0.5, 30);
+    let hopf = hopf_on_branch(&p, vec![-0.5], 0, 30);
     assert!(hopf.parameter.abs() < 1e-8);
 
     let c = Continuation::new(ContinuationOptions {
@@ -98,19 +64,7 @@ fn subcritical_normal_form_fold_of_cycles() {
         parameter_range: (-2.0, 1.0),
         ..Default::default()
     });
-    let mut po = PeriodicOrbitSystem::new(
-        &p,
-        vec![0.0],
-        0,
-        CollocationOptions {
-            intervals: 20,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let (guess, dir) = po.hopf_guess(&hopf, 0.05);
-    let mut br = c.start(&mut po, &guess, &dir).unwrap();
-    c.extend(&mut po, &mut br, 80).unwrap();
+    let (po, br) = cycles_from_hopf(&c, &p, vec![0.0], 20, &hopf, 80);
     assert_eq!(criticality(&hopf, &br), Some(Criticality::Subcritical));
     let (i, fold) = br.first(SpecialKind::Fold).expect("fold of cycles");
     assert_eq!(fold.location, Location::Located);
@@ -145,16 +99,7 @@ fn van_der_pol_period_liouville_and_mesh_doubling() {
     let c = cont(0.1, 0.3);
     let mut results = Vec::new();
     for l in [40usize, 80] {
-        let mut po = PeriodicOrbitSystem::new(
-            &VanDerPol,
-            vec![1.0],
-            0,
-            CollocationOptions {
-                intervals: l,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let mut po = PeriodicOrbitSystem::new(&VanDerPol, vec![1.0], 0, colloc(l)).unwrap();
         let guess = po.unknowns_from(
             |s| vec![2.0 * (2.0 * PI * s).cos(), -2.0 * (2.0 * PI * s).sin()],
             2.0 * PI,
@@ -213,25 +158,6 @@ fn branch_saved_and_continued_later_gives_the_same_points() {
     c.extend(&mut eq, &mut restored, 10).unwrap();
     assert_eq!(restored, br);
     assert!(br.first(SpecialKind::Hopf).is_some());
-}
-
-/// x' = p − x²: saddle-node of equilibria at p = 0, x = 0
-#[derive(Debug)]
-struct SaddleNode;
-
-impl Problem for SaddleNode {
-    fn dim(&self) -> usize {
-        1
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
-        f[0] = p[0] - x[0] * x[0];
-    }
-    fn jacobian(&self, x: &[f64], _p: &[f64], j: &mut [f64]) {
-        j[0] = -2.0 * x[0];
-    }
-    fn dfdp(&self, _x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
-        out[0] = 1.0;
-    }
 }
 
 #[test]

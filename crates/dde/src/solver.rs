@@ -425,15 +425,21 @@ impl<const N: usize> Core<N> {
     /// Makes `k1 = f(t, x)` valid (after construction, a breakpoint or a terminal event).
     fn ensure_fsal<R: Rhs<N>>(&mut self, rhs: &mut R) -> Result<(), Error> {
         if !self.k1_valid {
-            let mut k1 = SV::<N>::zeros();
-            rhs.eval(self.t, &self.x, &mut k1);
-            self.stats.rhs_evals += 1;
-            if !is_finite(&k1) {
-                return Err(Error::NonFiniteState { t: self.t });
-            }
-            self.k1 = k1;
+            self.evaluate_k1(rhs)?;
             self.k1_valid = true;
         }
+        Ok(())
+    }
+
+    /// `k1 = f(t, x)` evaluated afresh at the current point (counted, checked finite).
+    fn evaluate_k1<R: Rhs<N>>(&mut self, rhs: &mut R) -> Result<(), Error> {
+        let mut k1 = SV::<N>::zeros();
+        rhs.eval(self.t, &self.x, &mut k1);
+        self.stats.rhs_evals += 1;
+        if !is_finite(&k1) {
+            return Err(Error::NonFiniteState { t: self.t });
+        }
+        self.k1 = k1;
         Ok(())
     }
 
@@ -614,13 +620,7 @@ impl<const N: usize> Core<N> {
         if p.at_bp {
             self.bp_next += 1;
             // right limit of f after the jump
-            let mut k = SV::<N>::zeros();
-            rhs.eval(p.t_new, &s.x_new, &mut k);
-            self.stats.rhs_evals += 1;
-            if !is_finite(&k) {
-                return Err(Error::NonFiniteState { t: p.t_new });
-            }
-            self.k1 = k;
+            self.evaluate_k1(rhs)?;
         } else {
             self.k1 = s.k[6];
         }
@@ -877,6 +877,33 @@ fn propagate(base: f64, k_min: usize, delays: &[f64], order: usize, out: &mut Ve
 
 // ---------------------------------------------------------------------------------------
 
+/// The read accessors both solvers share: time, state, counters, dense output and options
+/// of the common stepping core.
+macro_rules! core_accessors {
+    () => {
+        /// current time
+        pub fn t(&self) -> f64 {
+            self.core.t
+        }
+        /// current state
+        pub fn state(&self) -> &SV<N> {
+            &self.core.x
+        }
+        /// work counters since construction
+        pub fn stats(&self) -> Stats {
+            self.core.stats
+        }
+        /// the kept dense output ([`DenseOutput::Keep`])
+        pub fn solution(&self) -> Option<&Solution<N>> {
+            self.core.solution.as_ref()
+        }
+        /// the options in use
+        pub fn options(&self) -> &Options {
+            &self.core.opts
+        }
+    };
+}
+
 /// Integration state of an ODE (cloneable: save and restore it freely). The problem is
 /// passed to every call; the solver never owns it.
 #[derive(Debug, Clone)]
@@ -903,26 +930,7 @@ impl<const N: usize> OdeSolver<N> {
         self.core.run(&mut OdeRhs(p), t_end, events, observer)
     }
 
-    /// current time
-    pub fn t(&self) -> f64 {
-        self.core.t
-    }
-    /// current state
-    pub fn state(&self) -> &SV<N> {
-        &self.core.x
-    }
-    /// work counters since construction
-    pub fn stats(&self) -> Stats {
-        self.core.stats
-    }
-    /// the kept dense output ([`DenseOutput::Keep`])
-    pub fn solution(&self) -> Option<&Solution<N>> {
-        self.core.solution.as_ref()
-    }
-    /// the options in use
-    pub fn options(&self) -> &Options {
-        &self.core.opts
-    }
+    core_accessors!();
 }
 
 /// Integration state of a DDE with constant delays: current state, the computed past
@@ -1000,26 +1008,7 @@ impl<const N: usize> DdeSolver<N> {
         self.core.run(&mut rhs, t_end, events, observer)
     }
 
-    /// current time
-    pub fn t(&self) -> f64 {
-        self.core.t
-    }
-    /// current state
-    pub fn state(&self) -> &SV<N> {
-        &self.core.x
-    }
-    /// work counters since construction
-    pub fn stats(&self) -> Stats {
-        self.core.stats
-    }
-    /// the kept dense output ([`DenseOutput::Keep`])
-    pub fn solution(&self) -> Option<&Solution<N>> {
-        self.core.solution.as_ref()
-    }
-    /// the options in use
-    pub fn options(&self) -> &Options {
-        &self.core.opts
-    }
+    core_accessors!();
     /// the breakpoint schedule (sorted, after t0)
     pub fn breakpoints(&self) -> &[f64] {
         &self.core.breakpoints

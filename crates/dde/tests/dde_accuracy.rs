@@ -1,6 +1,8 @@
 //! Accuracy of the DDE path against exact solutions.
+mod common;
 
 use approx::assert_abs_diff_eq;
+use common::slope;
 use dde::{DdeProblem, DdeSolver, NoObserver, Options, StepController, solve_dde};
 use nalgebra::SVector;
 
@@ -130,18 +132,6 @@ fn exp_history_exact_solution_checked_at_tight_tolerance() {
             epsilon = 1e-9
         );
     }
-}
-
-/// Least-squares slope of log(err) against log(h).
-fn slope(hs: &[f64], errs: &[f64]) -> f64 {
-    let n = hs.len() as f64;
-    let xs: Vec<f64> = hs.iter().map(|h| h.ln()).collect();
-    let ys: Vec<f64> = errs.iter().map(|e| e.ln()).collect();
-    let mx = xs.iter().sum::<f64>() / n;
-    let my = ys.iter().sum::<f64>() / n;
-    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
-    let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
-    sxy / sxx
 }
 
 #[test]

@@ -1,7 +1,9 @@
 //! Accuracy of the ODE path: convergence order, tolerance proportionality, breakpoints,
 //! events, state save/restore and errors.
+mod common;
 
 use approx::{assert_abs_diff_eq, assert_relative_eq};
+use common::slope;
 use dde::{
     Direction, Error, Event, EventAction, EventHit, Flow, NoObserver, Observer, OdeProblem,
     OdeSolver, Options, Status, StepController, StepView, solve_ode,
@@ -27,17 +29,6 @@ impl OdeProblem<2> for Harmonic {
         dx[0] = x[1];
         dx[1] = -x[0];
     }
-}
-
-fn slope(hs: &[f64], errs: &[f64]) -> f64 {
-    let n = hs.len() as f64;
-    let xs: Vec<f64> = hs.iter().map(|h| h.ln()).collect();
-    let ys: Vec<f64> = errs.iter().map(|e| e.ln()).collect();
-    let mx = xs.iter().sum::<f64>() / n;
-    let my = ys.iter().sum::<f64>() / n;
-    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
-    let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
-    sxy / sxx
 }
 
 #[test]

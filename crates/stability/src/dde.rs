@@ -172,37 +172,64 @@ impl LinearDde {
                 what: "Newton start",
             });
         }
-        let mut lambda = lambda0;
-        let mut last = f64::INFINITY;
-        for _ in 0..options.max_iterations {
+        newton(lambda0, options, |lambda| {
             let lu = self.characteristic_matrix(lambda).lu();
             let dprime = self.characteristic_matrix_derivative(lambda);
             let Some(x) = lu.solve(&dprime) else {
                 // Δ(λ) exactly singular: λ is a root
-                return Ok(lambda);
+                return NewtonStep::Root;
             };
             let tr = x.trace();
             if tr == Complex64::ZERO {
-                break;
+                return NewtonStep::Stuck;
             }
-            let step = tr.inv();
-            lambda -= step;
-            let prev = last;
-            last = step.norm();
-            if !last.is_finite() {
-                break;
-            }
-            let scale = lambda.norm().max(1.0);
-            if last <= options.tolerance * scale || stagnated(last, prev, scale) {
-                return Ok(lambda);
-            }
-        }
-        Err(StabilityError::NewtonDivergence {
-            start: lambda0,
-            iterations: options.max_iterations,
-            last_step: last,
+            NewtonStep::Step(tr.inv())
         })
     }
+}
+
+/// What one evaluation of a Newton iteration on a characteristic equation found.
+pub(crate) enum NewtonStep {
+    /// λ is exactly a root
+    Root,
+    /// the Newton step to subtract from λ
+    Step(Complex64),
+    /// no step can be taken (zero derivative)
+    Stuck,
+}
+
+/// Newton's iteration λ ← λ − step(λ) from `lambda0`, stopped when the step is below
+/// `tolerance·max(1, |λ|)` or has [`stagnated`]; `NewtonDivergence` after
+/// `max_iterations`, at a non-finite step or when it is [`NewtonStep::Stuck`].
+pub(crate) fn newton(
+    lambda0: Complex64,
+    options: &NewtonOptions,
+    mut step_at: impl FnMut(Complex64) -> NewtonStep,
+) -> Result<Complex64> {
+    let mut lambda = lambda0;
+    let mut last = f64::INFINITY;
+    for _ in 0..options.max_iterations {
+        let step = match step_at(lambda) {
+            NewtonStep::Root => return Ok(lambda),
+            NewtonStep::Stuck => break,
+            NewtonStep::Step(step) => step,
+        };
+        let prev = last;
+        last = step.norm();
+        if !last.is_finite() {
+            break;
+        }
+        lambda -= step;
+        let scale = lambda.norm().max(1.0);
+        if last <= options.tolerance * scale || stagnated(last, prev, scale) {
+            return Ok(lambda);
+        }
+    }
+    Err(StabilityError::NewtonDivergence {
+        start: lambda0,
+        iterations: options.max_iterations,
+        last_step: last,
+    })
 }
 
 /// Newton has reached the round-off floor of a (near-)multiple root: the step is already

@@ -29,7 +29,7 @@
 use nalgebra::{DMatrix, Dim, Matrix, Storage, U1};
 use num_complex::Complex64;
 
-use crate::dde::{LinearDde, NewtonOptions, sort_rightmost, stagnated};
+use crate::dde::{LinearDde, NewtonOptions, NewtonStep, newton, sort_rightmost};
 use crate::error::{Result, StabilityError, eigenvalues};
 use crate::roots::{RootOptions, confirmed_rightmost};
 
@@ -217,29 +217,13 @@ impl RankOneFeedback {
         tau: f64,
         options: &NewtonOptions,
     ) -> Result<Complex64> {
-        let mut lambda = lambda0;
-        let mut last = f64::INFINITY;
-        for _ in 0..options.max_iterations {
+        newton(lambda0, options, |lambda| {
             let (f, df) = self.characteristic(lambda, d, tau);
             if f == Complex64::ZERO {
-                return Ok(lambda);
+                NewtonStep::Root
+            } else {
+                NewtonStep::Step(f / df)
             }
-            let step = f / df;
-            let prev = last;
-            last = step.norm();
-            if !last.is_finite() {
-                break;
-            }
-            lambda -= step;
-            let scale = lambda.norm().max(1.0);
-            if last <= options.tolerance * scale || stagnated(last, prev, scale) {
-                return Ok(lambda);
-            }
-        }
-        Err(StabilityError::NewtonDivergence {
-            start: lambda0,
-            iterations: options.max_iterations,
-            last_step: last,
         })
     }
 

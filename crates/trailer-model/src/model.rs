@@ -266,16 +266,7 @@ impl Model {
         x: &State4<D>,
         u: &Inputs<D>,
     ) -> SlipAngles<D> {
-        self.slip_angles_with(x, u, &self.kinematics(x))
-    }
-
-    fn slip_angles_with<D: DualNum<Primitive = f64> + Copy>(
-        &self,
-        x: &State4<D>,
-        u: &Inputs<D>,
-        k: &Kinematics<D>,
-    ) -> SlipAngles<D> {
-        let t = self.slip_tangents(x, u, k);
+        let t = self.slip_tangents(x, u, &self.kinematics(x));
         SlipAngles {
             front: t.front,
             rear: t.rear.atan(),
@@ -308,16 +299,14 @@ impl Model {
         x: &State4<D>,
         u: &Inputs<D>,
     ) -> SlipAngles<D> {
-        self.tire_forces_with(x, u, &self.kinematics(x))
+        self.tire_forces_at(self.slip_tangents(x, u, &self.kinematics(x)))
     }
 
-    fn tire_forces_with<D: DualNum<Primitive = f64> + Copy>(
+    /// the forces at the slip ratios `t` of [`Self::slip_tangents`]
+    fn tire_forces_at<D: DualNum<Primitive = f64> + Copy>(
         &self,
-        x: &State4<D>,
-        u: &Inputs<D>,
-        k: &Kinematics<D>,
+        t: SlipAngles<D>,
     ) -> SlipAngles<D> {
-        let t = self.slip_tangents(x, u, k);
         SlipAngles {
             front: self.front_tire.lateral_force(t.front),
             rear: self.rear_tire.lateral_force_from_tan(t.rear),
@@ -342,7 +331,7 @@ impl Model {
         let (v, v_dot) = (u.speed, u.acceleration);
         let kin = self.kinematics(x);
         let (sn, cs) = (kin.sin_theta, kin.cos_theta);
-        let forces = self.tire_forces_with(x, u, &kin);
+        let forces = self.tire_forces_at(self.slip_tangents(x, u, &kin));
         let (f_f, f_r, f_t) = (forces.front, forces.rear, forces.trailer);
         let f_f_cos_delta = f_f * u.steering_angle.cos();
 

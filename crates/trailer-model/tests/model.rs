@@ -30,6 +30,12 @@ fn random_point(rng: &mut ChaCha8Rng) -> (State4, Inputs, f64) {
     (x, u, rng.random_range(-3.2..3.2))
 }
 
+/// `count` reproducible random (state, inputs, heading ψ) triples from `seed`
+fn random_points(seed: u64, count: usize) -> impl Iterator<Item = (State4, Inputs, f64)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..count).map(move |_| random_point(&mut rng))
+}
+
 #[test]
 fn static_axle_loads_match_statics() {
     // Reference: DESIGN.md's independently checked values (printed to 0.1 N) and the
@@ -59,10 +65,8 @@ fn equations_of_motion_match_newton_euler() {
     // Tolerance 1e-10 relative to the size of each component's terms: both formulations
     // are exact, the difference is round-off of sums of terms up to ~1e25 (eq. 7).
     let model = table_i();
-    let mut rng = ChaCha8Rng::seed_from_u64(2024);
     let mut worst: f64 = 0.0;
-    for _ in 0..2000 {
-        let (x, u, psi) = random_point(&mut rng);
+    for (x, u, psi) in random_points(2024, 2000) {
         let a = model.rhs4(&x, &u);
         let b = common::newton_euler(&model, &x, &u, psi);
         // scale: accelerations of this state are O(1..100); use the largest of the
@@ -102,9 +106,7 @@ fn printed_sigma3_prefactor_is_dimensionally_inconsistent() {
     q.trailer.cornering_stiffness *= force;
     q.gravity *= lsc / (tsc * tsc);
     let (m, ms) = (Model::new(p).expect("valid"), Model::new(q).expect("valid"));
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    for _ in 0..200 {
-        let (x, u, _) = random_point(&mut rng);
+    for (x, u, _) in random_points(11, 200) {
         let xs = State4::new(x[0] * lsc / tsc, x[1] / tsc, x[2] / tsc, x[3]);
         let us = Inputs {
             steering_angle: u.steering_angle,
@@ -142,9 +144,7 @@ fn full_system_kinematics() {
     // Reference: eq. (5), ẋ_H = V cos ψ − σ1 sin ψ, ẏ_H = V sin ψ + σ1 cos ψ and
     // ψ̇ = σ2 − m1 d σ1 / I1; the reduced part equals rhs4.
     let model = table_i();
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
-    for _ in 0..100 {
-        let (x4, u, psi) = random_point(&mut rng);
+    for (x4, u, psi) in random_points(5, 100) {
         let x7 =
             SVector::<f64, 7>::from_column_slice(&[x4[0], x4[1], x4[2], x4[3], psi, 3.0, -2.0]);
         let r7 = model.rhs7(&x7, &u);
@@ -172,9 +172,7 @@ fn jacobian_matches_central_differences() {
     // ~1e-12·f''' plus round-off ~1e-10/1e-6): agreement to 1e-6 relative to the
     // Jacobian's column norm. Random states generically avoid the tire kinks.
     let model = table_i();
-    let mut rng = ChaCha8Rng::seed_from_u64(99);
-    for _ in 0..200 {
-        let (x, u, _) = random_point(&mut rng);
+    for (x, u, _) in random_points(99, 200) {
         let (j, jd) = model.jacobian4(&x, &u);
         let step = 1e-6;
         for k in 0..5 {

@@ -1,0 +1,860 @@
+//! Textbook problems with closed-form answers, with exact Jacobians (and, where the
+//! two-parameter systems need them, exact second derivatives and parameter derivatives of
+//! the Jacobian).
+//!
+//! They serve this crate's tests, benchmarks and examples, and users who want to test their
+//! own setup (options, root finders, meshes) against a known answer before trusting it on
+//! their own system. Each type's documentation gives the equation, the parameter vector
+//! `p` and the closed forms it is checked against.
+
+use crate::{Problem, Result};
+
+/// Polar normal form r' = r(μ + a r² − r⁴)·(sign), θ' = ω + b r², in Cartesian coordinates.
+/// Parameter p[0] = μ.
+/// - `a = −1` (with r⁴ term dropped, `quartic = false`): Stuart–Landau, supercritical
+///   Hopf at μ = 0, cycles r = √μ, period 2π/(ω + bμ), nontrivial multiplier exp(−2μT).
+/// - `a = 2`, `quartic = true`: subcritical Hopf at μ = 0, fold of cycles at μ = −1, r = 1.
+#[derive(Debug)]
+pub struct NormalForm {
+    /// coefficient of r² in the radial equation
+    pub a: f64,
+    /// whether the −r⁴ term is present
+    pub quartic: bool,
+    /// frequency ω at r = 0
+    pub omega: f64,
+    /// frequency shift b per r²
+    pub b: f64,
+}
+
+impl NormalForm {
+    /// Stuart–Landau: r' = r(μ − r²), θ' = ω + b r² (supercritical Hopf at μ = 0).
+    pub fn stuart_landau(omega: f64, b: f64) -> Self {
+        Self {
+            a: -1.0,
+            quartic: false,
+            omega,
+            b,
+        }
+    }
+    /// r' = r(μ + 2r² − r⁴), θ' = 1: subcritical Hopf at μ = 0, fold of cycles at μ = −1, r = 1.
+    pub fn subcritical() -> Self {
+        Self {
+            a: 2.0,
+            quartic: true,
+            omega: 1.0,
+            b: 0.0,
+        }
+    }
+    /// g(r²) with r' = r g
+    fn g(&self, mu: f64, r2: f64) -> (f64, f64) {
+        let q = if self.quartic { 1.0 } else { 0.0 };
+        (mu + self.a * r2 - q * r2 * r2, self.a - 2.0 * q * r2)
+    }
+}
+
+impl Problem for NormalForm {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        let r2 = x[0] * x[0] + x[1] * x[1];
+        let (g, _) = self.g(p[0], r2);
+        let w = self.omega + self.b * r2;
+        f[0] = g * x[0] - w * x[1];
+        f[1] = w * x[0] + g * x[1];
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        let r2 = x[0] * x[0] + x[1] * x[1];
+        let (g, dg) = self.g(p[0], r2);
+        let w = self.omega + self.b * r2;
+        let (x0, x1) = (x[0], x[1]);
+        // ∂(r²)/∂x = 2x
+        j[0] = g + dg * 2.0 * x0 * x0 - self.b * 2.0 * x0 * x1;
+        j[1] = dg * 2.0 * x1 * x0 - w - self.b * 2.0 * x1 * x1;
+        j[2] = w + self.b * 2.0 * x0 * x0 + dg * 2.0 * x0 * x1;
+        j[3] = self.b * 2.0 * x1 * x0 + g + dg * 2.0 * x1 * x1;
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
+        out[0] = x[0];
+        out[1] = x[1];
+    }
+}
+
+/// van der Pol oscillator x'' − μ(1 − x²)x' + x = 0, p[0] = μ.
+#[derive(Debug)]
+pub struct VanDerPol;
+
+impl Problem for VanDerPol {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        f[0] = x[1];
+        f[1] = p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0];
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        j[0] = 0.0;
+        j[1] = 1.0;
+        j[2] = -2.0 * p[0] * x[0] * x[1] - 1.0;
+        j[3] = p[0] * (1.0 - x[0] * x[0]);
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
+        out[0] = 0.0;
+        out[1] = (1.0 - x[0] * x[0]) * x[1];
+    }
+}
+
+/// Scalar DDE x'(t) = −a x(t − τ), p = [a, τ]: Hopf at aτ = π/2 with ω = a.
+#[derive(Debug)]
+pub struct LinearDelay;
+
+impl Problem for LinearDelay {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn n_delays(&self) -> usize {
+        1
+    }
+    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+        p[1]
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        f[0] = -p[0] * x[1];
+    }
+    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
+        j[0] = 0.0;
+        j[1] = -p[0];
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        out[0] = if ip == 0 { -x[1] } else { 0.0 };
+    }
+}
+
+/// Stuart–Landau oscillator with delayed coupling (complex z = x0 + i x1):
+/// z' = (μ + i) z − |z|² z + κ (z(t−τ) − e^{−iτ} z(t)), p = [μ, κ, τ].
+/// The coupling vanishes on z = √μ e^{it}: a known periodic solution (period 2π) for every τ,
+/// and a Hopf point at μ = 0 with ω = 1. In the co-rotating frame w = z e^{−it} the cycle is
+/// the equilibrium w = √μ of w' = (μ − |w|²) w + κ e^{−iτ}(w(t−τ) − w(t)), so its Floquet
+/// multipliers are exp(2π λ) for the characteristic roots λ of that equilibrium.
+#[derive(Debug)]
+pub struct DelayedStuartLandau;
+
+impl Problem for DelayedStuartLandau {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn n_delays(&self) -> usize {
+        1
+    }
+    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+        p[2]
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        let (mu, k, tau) = (p[0], p[1], p[2]);
+        let r2 = x[0] * x[0] + x[1] * x[1];
+        let (c, s) = (tau.cos(), tau.sin());
+        // e^{−iτ} z = (c x0 + s x1) + i(−s x0 + c x1)
+        let rz = (c * x[0] + s * x[1], -s * x[0] + c * x[1]);
+        f[0] = (mu - r2) * x[0] - x[1] + k * (x[2] - rz.0);
+        f[1] = x[0] + (mu - r2) * x[1] + k * (x[3] - rz.1);
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        let (mu, k, tau) = (p[0], p[1], p[2]);
+        let r2 = x[0] * x[0] + x[1] * x[1];
+        let (c, s) = (tau.cos(), tau.sin());
+        // row-major 2 × 4: [∂/∂x0, ∂/∂x1, ∂/∂x0(t−τ), ∂/∂x1(t−τ)]
+        j[0] = mu - r2 - 2.0 * x[0] * x[0] - k * c;
+        j[1] = -2.0 * x[0] * x[1] - 1.0 - k * s;
+        j[2] = k;
+        j[3] = 0.0;
+        j[4] = 1.0 - 2.0 * x[0] * x[1] + k * s;
+        j[5] = mu - r2 - 2.0 * x[1] * x[1] - k * c;
+        j[6] = 0.0;
+        j[7] = k;
+    }
+    fn dfdp(&self, x: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
+        match ip {
+            0 => {
+                out[0] = x[0];
+                out[1] = x[1];
+            }
+            1 => {
+                // ∂/∂κ: z(t−τ) − e^{−iτ} z(t)
+                let (c, s) = (p[2].cos(), p[2].sin());
+                out[0] = x[2] - (c * x[0] + s * x[1]);
+                out[1] = x[3] - (-s * x[0] + c * x[1]);
+            }
+            _ => {
+                out[0] = f64::NAN;
+                out[1] = f64::NAN;
+            }
+        }
+    }
+}
+
+/// x' = −γ x + b x(t − τ), p = [γ, b, τ]; the delay is a parameter.
+/// Hopf points (b < −γ < 0): ω = √(b² − γ²), τ = arccos(γ/b)/ω.
+#[derive(Debug)]
+pub struct ScalarDelay;
+
+impl Problem for ScalarDelay {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn n_delays(&self) -> usize {
+        1
+    }
+    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+        p[2]
+    }
+    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
+        if ip == 2 { 1.0 } else { 0.0 }
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        f[0] = -p[0] * x[0] + p[1] * x[1];
+    }
+    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
+        j[0] = -p[0];
+        j[1] = p[1];
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        out[0] = match ip {
+            0 => -x[0],
+            1 => x[1],
+            _ => 0.0,
+        };
+    }
+    fn second_derivative(
+        &self,
+        _x: &[f64],
+        _p: &[f64],
+        _a: &[f64],
+        _b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out[0] = 0.0;
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        _x: &[f64],
+        _p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out[0] = match ip {
+            0 => -a[0],
+            1 => a[1],
+            _ => 0.0,
+        };
+        Ok(())
+    }
+}
+
+impl ScalarDelay {
+    /// Closed form of the Hopf curve: (ω, τ) of the first Hopf point at (γ, b), b < −|γ|.
+    pub fn hopf(gamma: f64, b: f64) -> (f64, f64) {
+        let omega = (b * b - gamma * gamma).sqrt();
+        (omega, (gamma / b).acos() / omega)
+    }
+}
+
+/// Bogdanov–Takens normal form x' = y, y' = β1 + β2 y + x² − x y, p = [β1, β2].
+/// Equilibria (x, 0) with x² = −β1; fold curve β1 = 0 (x = 0); Hopf curve x = β2 < 0,
+/// β1 = −β2², ω² = −2β2; Bogdanov–Takens point at (0, 0).
+#[derive(Debug)]
+pub struct BogdanovTakens;
+
+impl Problem for BogdanovTakens {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        f[0] = x[1];
+        f[1] = p[0] + p[1] * x[1] + x[0] * x[0] - x[0] * x[1];
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        j[0] = 0.0;
+        j[1] = 1.0;
+        j[2] = 2.0 * x[0] - x[1];
+        j[3] = p[1] - x[0];
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        out[0] = 0.0;
+        out[1] = if ip == 0 { 1.0 } else { x[1] };
+    }
+    fn second_derivative(
+        &self,
+        _x: &[f64],
+        _p: &[f64],
+        a: &[f64],
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out[0] = 0.0;
+        out[1] = 2.0 * a[0] * b[0] - a[0] * b[1] - a[1] * b[0];
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        _x: &[f64],
+        _p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out[0] = 0.0;
+        out[1] = if ip == 1 { a[1] } else { 0.0 };
+        Ok(())
+    }
+}
+
+/// x' = p1 + p2 x − x³: fold curve p1 = −2x³, p2 = 3x² (27 p1² = 4 p2³), cusp at (0, 0)
+#[derive(Debug)]
+pub struct Cubic;
+
+impl Problem for Cubic {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        f[0] = p[0] + p[1] * x[0] - x[0].powi(3);
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        j[0] = p[1] - 3.0 * x[0] * x[0];
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        out[0] = if ip == 0 { 1.0 } else { x[0] };
+    }
+    fn second_derivative(
+        &self,
+        x: &[f64],
+        _p: &[f64],
+        a: &[f64],
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out[0] = -6.0 * x[0] * a[0] * b[0];
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        _x: &[f64],
+        _p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out[0] = if ip == 1 { a[0] } else { 0.0 };
+        Ok(())
+    }
+}
+
+/// Two decoupled modes with a common delay τ, p = [b1, τ]:
+/// x1' = −γ1 x1 + b1 x1(t − τ) and either x2' = −γ2 x2 + b2 x2(t − τ) (`real = None`)
+/// or x2' = (b1 + β) x2 (`real = Some(β)`, a real root through 0 at b1 = −β).
+#[derive(Debug)]
+pub struct TwoModes {
+    /// γ1 of mode 1
+    pub gamma1: f64,
+    /// γ2 of the delayed mode 2 (unused with `real`)
+    pub gamma2: f64,
+    /// b2 of the delayed mode 2 (unused with `real`)
+    pub b2: f64,
+    /// `Some(β)`: mode 2 is the real mode x2' = (b1 + β) x2
+    pub real: Option<f64>,
+}
+
+impl TwoModes {
+    /// γ, b of x' = −γx + b x(t − τ) with the first Hopf point at (τ, ω):
+    /// γ = −ω cot(ωτ), b = −ω / sin(ωτ) (π/2 < ωτ < π)
+    pub fn mode(tau: f64, omega: f64) -> (f64, f64) {
+        let th = omega * tau;
+        (-omega * th.cos() / th.sin(), -omega / th.sin())
+    }
+    fn row2(&self, p: &[f64]) -> [f64; 4] {
+        match self.real {
+            Some(beta) => [0.0, p[0] + beta, 0.0, 0.0],
+            None => [0.0, -self.gamma2, 0.0, self.b2],
+        }
+    }
+}
+
+impl Problem for TwoModes {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn n_delays(&self) -> usize {
+        1
+    }
+    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+        p[1]
+    }
+    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
+        if ip == 1 { 1.0 } else { 0.0 }
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        let r2 = self.row2(p);
+        f[0] = -self.gamma1 * x[0] + p[0] * x[2];
+        f[1] = (0..4).map(|i| r2[i] * x[i]).sum();
+    }
+    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
+        j[..4].copy_from_slice(&[-self.gamma1, 0.0, p[0], 0.0]);
+        j[4..].copy_from_slice(&self.row2(p));
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        let b1 = ip == 0;
+        out[0] = if b1 { x[2] } else { 0.0 };
+        out[1] = if b1 && self.real.is_some() { x[1] } else { 0.0 };
+    }
+    fn second_derivative(
+        &self,
+        _x: &[f64],
+        _p: &[f64],
+        _a: &[f64],
+        _b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        _x: &[f64],
+        p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        // f is linear in the state and in b1: ∂J/∂b1 · a = ∂f/∂b1 evaluated at a
+        self.dfdp(a, p, ip, out);
+        Ok(())
+    }
+}
+
+/// A nonlinear test problem with two parameter-dependent delays, p = [a, b, c, τ]:
+/// f1 = −a x1 + b tanh(y2) + c x1 z2, f2 = −x2 + a tanh(y1) − b x2² + c z1,
+/// y = x(t − τ), z = x(t − cτ).
+#[derive(Debug)]
+pub struct TanhNet;
+
+impl Problem for TanhNet {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn n_delays(&self) -> usize {
+        2
+    }
+    fn delay(&self, j: usize, p: &[f64]) -> f64 {
+        if j == 0 { p[3] } else { p[3] * p[2] }
+    }
+    fn delay_dp(&self, j: usize, p: &[f64], ip: usize) -> f64 {
+        match (j, ip) {
+            (0, 3) => 1.0,
+            (1, 3) => p[2],
+            (1, 2) => p[3],
+            _ => 0.0,
+        }
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        let (a, b, c) = (p[0], p[1], p[2]);
+        f[0] = -a * x[0] + b * x[3].tanh() + c * x[0] * x[5];
+        f[1] = -x[1] + a * x[2].tanh() - b * x[1] * x[1] + c * x[4];
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        let (a, b, c) = (p[0], p[1], p[2]);
+        let s = |v: f64| 1.0 / v.cosh().powi(2);
+        j.iter_mut().for_each(|v| *v = 0.0);
+        j[0] = -a + c * x[5];
+        j[3] = b * s(x[3]);
+        j[5] = c * x[0];
+        j[6 + 1] = -1.0 - 2.0 * b * x[1];
+        j[6 + 2] = a * s(x[2]);
+        j[6 + 4] = c;
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        let v = match ip {
+            0 => [-x[0], x[2].tanh()],
+            1 => [x[3].tanh(), -x[1] * x[1]],
+            2 => [x[0] * x[5], x[4]],
+            _ => [0.0, 0.0],
+        };
+        out.copy_from_slice(&v);
+    }
+    fn second_derivative(
+        &self,
+        x: &[f64],
+        p: &[f64],
+        a: &[f64],
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        let d2 = |v: f64| -2.0 * v.tanh() / v.cosh().powi(2);
+        out[0] = p[1] * d2(x[3]) * a[3] * b[3] + p[2] * (a[0] * b[5] + a[5] * b[0]);
+        out[1] = -2.0 * p[1] * a[1] * b[1] + p[0] * d2(x[2]) * a[2] * b[2];
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        x: &[f64],
+        _p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        let s = |v: f64| 1.0 / v.cosh().powi(2);
+        let v = match ip {
+            0 => [-a[0], s(x[2]) * a[2]],
+            1 => [s(x[3]) * a[3], -2.0 * x[1] * a[1]],
+            2 => [x[5] * a[0] + x[0] * a[5], a[4]],
+            _ => [0.0, 0.0],
+        };
+        out.copy_from_slice(&v);
+        Ok(())
+    }
+}
+
+/// Radial normal form in Cartesian coordinates, p = [μ1, μ2]:
+/// x' = g(ρ) x − y + ε x², y' = x + g(ρ) y with ρ = x² + y², g = μ1 + μ2 ρ + c2 ρ² + c3 ρ³.
+/// For ε = 0 the cycles are circles of radius √ρ with g(ρ) = 0 and period 2π.
+/// - Bautin (generalised Hopf) normal form: c2 = −1, c3 = 0 (z' = (μ1 + i)z + μ2|z|²z − |z|⁴z);
+/// - a cusp of cycles: c2 = 3, c3 = −1.
+#[derive(Debug)]
+pub struct Radial {
+    /// coefficient of ρ² in g
+    pub c2: f64,
+    /// coefficient of ρ³ in g
+    pub c3: f64,
+    /// ε of the symmetry-breaking term ε x²
+    pub eps: f64,
+}
+
+impl Radial {
+    /// The Bautin normal form (c2 = −1, c3 = 0, ε = 0).
+    pub const BAUTIN: Radial = Radial {
+        c2: -1.0,
+        c3: 0.0,
+        eps: 0.0,
+    };
+    /// g, g', g'' in ρ
+    fn g(&self, p: &[f64], r: f64) -> (f64, f64, f64) {
+        (
+            p[0] + p[1] * r + self.c2 * r * r + self.c3 * r * r * r,
+            p[1] + 2.0 * self.c2 * r + 3.0 * self.c3 * r * r,
+            2.0 * self.c2 + 6.0 * self.c3 * r,
+        )
+    }
+}
+
+/// a₀b₀ + a₁b₁
+fn dot2(a: &[f64], b: &[f64]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+impl Problem for Radial {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        let (g, _, _) = self.g(p, dot2(x, x));
+        f[0] = g * x[0] - x[1] + self.eps * x[0] * x[0];
+        f[1] = x[0] + g * x[1];
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        let (g, dg, _) = self.g(p, dot2(x, x));
+        for r in 0..2 {
+            for c in 0..2 {
+                j[r * 2 + c] = 2.0 * dg * x[r] * x[c] + if r == c { g } else { 0.0 };
+            }
+        }
+        j[1] -= 1.0;
+        j[2] += 1.0;
+        j[0] += 2.0 * self.eps * x[0];
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        let s = if ip == 0 { 1.0 } else { dot2(x, x) };
+        out[0] = s * x[0];
+        out[1] = s * x[1];
+    }
+    fn second_derivative(
+        &self,
+        x: &[f64],
+        p: &[f64],
+        a: &[f64],
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        let (_, dg, ddg) = self.g(p, dot2(x, x));
+        let (xa, xb, ab) = (dot2(x, a), dot2(x, b), dot2(a, b));
+        for i in 0..2 {
+            out[i] = 2.0 * dg * (xa * b[i] + xb * a[i] + ab * x[i]) + 4.0 * ddg * xa * xb * x[i];
+        }
+        out[0] += 2.0 * self.eps * a[0] * b[0];
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        x: &[f64],
+        _p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        // ∂g/∂μ1 = 1, ∂g'/∂μ1 = 0; ∂g/∂μ2 = ρ, ∂g'/∂μ2 = 1
+        let (gp, dgp) = if ip == 0 {
+            (1.0, 0.0)
+        } else {
+            (dot2(x, x), 1.0)
+        };
+        let xa = dot2(x, a);
+        for i in 0..2 {
+            out[i] = gp * a[i] + 2.0 * dgp * xa * x[i];
+        }
+        Ok(())
+    }
+}
+
+/// Bautin normal form with the cubic term delayed, p = [μ1, μ2, τ], for one oscillator or
+/// two coupled ones (z_o = x_{2o} + i x_{2o+1}, o = 1, 2):
+/// z_o' = (μ1 + i) z_o + μ2 |z_o(t−τ)|² z_o(t−τ) − |z_o|⁴ z_o + ε (z_other − z_o).
+/// (In-phase) rotating waves z = √ρ e^{iωt} solve μ1 + μ2 ρ cos ωτ − ρ² = 0,
+/// ω = 1 − μ2 ρ sin ωτ, and have folds of cycles.
+#[derive(Debug, Clone, Copy)]
+pub struct DelayedBautin {
+    /// `Some(ε)`: two oscillators coupled with strength ε; `None`: one oscillator
+    pub coupling: Option<f64>,
+}
+
+impl DelayedBautin {
+    /// One oscillator (dimension 2).
+    pub const SINGLE: DelayedBautin = DelayedBautin { coupling: None };
+
+    /// Two oscillators coupled with strength ε (dimension 4).
+    pub fn coupled(eps: f64) -> Self {
+        Self {
+            coupling: Some(eps),
+        }
+    }
+
+    fn oscillators(&self) -> usize {
+        if self.coupling.is_some() { 2 } else { 1 }
+    }
+
+    /// oscillator `o`'s current and delayed components of the argument vector
+    fn split<'a>(&self, args: &'a [f64], o: usize) -> (&'a [f64], &'a [f64]) {
+        let n = self.dim();
+        (&args[2 * o..2 * o + 2], &args[n + 2 * o..n + 2 * o + 2])
+    }
+}
+
+impl Problem for DelayedBautin {
+    fn dim(&self) -> usize {
+        2 * self.oscillators()
+    }
+    fn n_delays(&self) -> usize {
+        1
+    }
+    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+        p[2]
+    }
+    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
+        if ip == 2 { 1.0 } else { 0.0 }
+    }
+    fn rhs(&self, a: &[f64], p: &[f64], f: &mut [f64]) {
+        for o in 0..self.oscillators() {
+            let (x, y) = self.split(a, o);
+            let (r, s) = (dot2(x, x), dot2(y, y));
+            for i in 0..2 {
+                f[2 * o + i] = (p[0] - r * r) * x[i] + p[1] * s * y[i];
+                if let Some(eps) = self.coupling {
+                    f[2 * o + i] += eps * (a[2 - 2 * o + i] - x[i]);
+                }
+            }
+            f[2 * o] -= x[1];
+            f[2 * o + 1] += x[0];
+        }
+    }
+    fn jacobian(&self, a: &[f64], p: &[f64], j: &mut [f64]) {
+        let n = self.dim();
+        j.iter_mut().for_each(|v| *v = 0.0);
+        for o in 0..self.oscillators() {
+            let (x, y) = self.split(a, o);
+            let (r, s) = (dot2(x, x), dot2(y, y));
+            for i in 0..2 {
+                let row = (2 * o + i) * 2 * n;
+                for k in 0..2 {
+                    let id = if i == k { 1.0 } else { 0.0 };
+                    j[row + 2 * o + k] = (p[0] - r * r) * id - 4.0 * r * x[i] * x[k];
+                    j[row + n + 2 * o + k] = p[1] * (s * id + 2.0 * y[i] * y[k]);
+                }
+                if let Some(eps) = self.coupling {
+                    j[row + 2 * o + i] -= eps;
+                    j[row + 2 - 2 * o + i] = eps;
+                }
+            }
+            j[2 * o * 2 * n + 2 * o + 1] -= 1.0;
+            j[(2 * o + 1) * 2 * n + 2 * o] += 1.0;
+        }
+    }
+    fn dfdp(&self, a: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        for o in 0..self.oscillators() {
+            let (x, y) = self.split(a, o);
+            for i in 0..2 {
+                out[2 * o + i] = match ip {
+                    0 => x[i],
+                    1 => dot2(y, y) * y[i],
+                    _ => 0.0,
+                };
+            }
+        }
+    }
+    fn second_derivative(
+        &self,
+        args: &[f64],
+        p: &[f64],
+        a: &[f64],
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        for o in 0..self.oscillators() {
+            let (x, y) = self.split(args, o);
+            let ((ax, ay), (bx, by)) = (self.split(a, o), self.split(b, o));
+            let r = dot2(x, x);
+            let (xa, xb, ab) = (dot2(x, ax), dot2(x, bx), dot2(ax, bx));
+            let (ya, yb, aby) = (dot2(y, ay), dot2(y, by), dot2(ay, by));
+            for i in 0..2 {
+                out[2 * o + i] = -4.0 * r * (xa * bx[i] + xb * ax[i] + ab * x[i])
+                    - 8.0 * xa * xb * x[i]
+                    + 2.0 * p[1] * (ya * by[i] + yb * ay[i] + aby * y[i]);
+            }
+        }
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        args: &[f64],
+        _p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        for o in 0..self.oscillators() {
+            let ((_, y), (ax, ay)) = (self.split(args, o), self.split(a, o));
+            let (s, ya) = (dot2(y, y), dot2(y, ay));
+            for i in 0..2 {
+                out[2 * o + i] = match ip {
+                    0 => ax[i],
+                    1 => s * ay[i] + 2.0 * ya * y[i],
+                    _ => 0.0,
+                };
+            }
+        }
+        Ok(())
+    }
+}
+
+/// x' = p − x²: saddle-node of equilibria at p = 0, x = 0 (branches x = ±√p).
+/// First derivatives only: the trait's default [`Problem::second_derivative`] reports
+/// that it is missing.
+#[derive(Debug)]
+pub struct SaddleNode;
+
+impl Problem for SaddleNode {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        f[0] = p[0] - x[0] * x[0];
+    }
+    fn jacobian(&self, x: &[f64], _p: &[f64], j: &mut [f64]) {
+        j[0] = -2.0 * x[0];
+    }
+    fn dfdp(&self, _x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
+        out[0] = 1.0;
+    }
+}
+
+/// q_i'' = −2ζ q_i' − q_i − k q_i(t − τ) + ε (q_j − q_i) − q_i³, state [q1, q1', q2, q2'],
+/// p = [k, τ]. The linearisation at 0 splits into the in-phase mode (ε drops out) and the
+/// anti-phase mode (stiffness 1 + 2ε): each has Hopf points where
+/// −ω² + 2ζiω + s + k e^{−iωτ} = 0 (s = 1 or 1 + 2ε), and their crossings are double-Hopf
+/// points.
+#[derive(Debug)]
+pub struct DelayedOscillators {
+    /// damping ratio ζ
+    pub zeta: f64,
+    /// coupling ε
+    pub eps: f64,
+}
+
+impl Problem for DelayedOscillators {
+    fn dim(&self) -> usize {
+        4
+    }
+    fn n_delays(&self) -> usize {
+        1
+    }
+    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+        p[1]
+    }
+    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
+        if ip == 1 { 1.0 } else { 0.0 }
+    }
+    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+        let (z, e, k) = (self.zeta, self.eps, p[0]);
+        f[0] = x[1];
+        f[1] = -2.0 * z * x[1] - x[0] - k * x[4] + e * (x[2] - x[0]) - x[0].powi(3);
+        f[2] = x[3];
+        f[3] = -2.0 * z * x[3] - x[2] - k * x[6] + e * (x[0] - x[2]) - x[2].powi(3);
+    }
+    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+        let (z, e, k) = (self.zeta, self.eps, p[0]);
+        j.iter_mut().for_each(|v| *v = 0.0);
+        j[1] = 1.0;
+        j[8] = -1.0 - e - 3.0 * x[0] * x[0];
+        j[8 + 1] = -2.0 * z;
+        j[8 + 2] = e;
+        j[8 + 4] = -k;
+        j[16 + 3] = 1.0;
+        j[24] = e;
+        j[24 + 2] = -1.0 - e - 3.0 * x[2] * x[2];
+        j[24 + 3] = -2.0 * z;
+        j[24 + 6] = -k;
+    }
+    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        if ip == 0 {
+            out[1] = -x[4];
+            out[3] = -x[6];
+        }
+    }
+    fn second_derivative(
+        &self,
+        x: &[f64],
+        _p: &[f64],
+        a: &[f64],
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        out[1] = -6.0 * x[0] * a[0] * b[0];
+        out[3] = -6.0 * x[2] * a[2] * b[2];
+        Ok(())
+    }
+    fn jacobian_dp(
+        &self,
+        _x: &[f64],
+        _p: &[f64],
+        ip: usize,
+        a: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        if ip == 0 {
+            out[1] = -a[4];
+            out[3] = -a[6];
+        }
+        Ok(())
+    }
+}

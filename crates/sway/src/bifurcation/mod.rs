@@ -27,19 +27,19 @@ use trailer_model::{HITCH_ANGLE, Inputs, Model, State4};
 
 use crate::SwayError;
 
-/// index of the speed V [m/s] in the parameter vector
+/// index of the speed V \[m/s\] in the parameter vector
 pub const SPEED: usize = 0;
-/// index of the feedback gain D [s] in the parameter vector
+/// index of the feedback gain D \[s\] in the parameter vector
 pub const GAIN: usize = 1;
-/// index of the feedback delay τ [s] in the parameter vector
+/// index of the feedback delay τ \[s\] in the parameter vector
 pub const DELAY: usize = 2;
 
 /// The steering feedback δ(t) = −D·ψ̇(t − τ) of eq. (8).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Feedback {
-    /// gain D [s]
+    /// gain D \[s\]
     pub gain_d_s: f64,
-    /// delay τ [s]
+    /// delay τ \[s\]
     pub delay_s: f64,
 }
 
@@ -87,7 +87,7 @@ impl<'a> ClosedLoop<'a> {
         State4::new(x[0], x[1], x[2], x[3])
     }
 
-    /// steering angle δ [rad] from the (delayed) state
+    /// steering angle δ \[rad\] from the (delayed) state
     fn steering(&self, x_fb: &[f64]) -> f64 {
         -self.feedback.gain_d_s * (0..4).map(|k| self.yaw_gradient[k] * x_fb[k]).sum::<f64>()
     }
@@ -207,9 +207,9 @@ impl Problem for ClosedLoop<'_> {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DiagramOptions {
-    /// lowest speed of the diagram [m/s] (start of the straight-running branch)
+    /// lowest speed of the diagram \[m/s\] (start of the straight-running branch)
     pub v_min_mps: f64,
-    /// highest speed of the diagram [m/s]
+    /// highest speed of the diagram \[m/s\]
     pub v_max_mps: f64,
     /// mesh intervals L of the periodic orbits
     pub intervals: usize,
@@ -247,22 +247,22 @@ impl Default for DiagramOptions {
 /// The fold of the cycle branch.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FoldPoint {
-    /// speed at the fold [m/s]
+    /// speed at the fold \[m/s\]
     pub speed_mps: f64,
-    /// max |θ| on the cycle at the fold [deg]
+    /// max |θ| on the cycle at the fold \[deg\]
     pub amplitude_deg: f64,
-    /// period at the fold [s]
+    /// period at the fold \[s\]
     pub period_s: f64,
 }
 
 /// One point of the cycle branch, in the paper's quantities.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CycleSummary {
-    /// speed V [m/s]
+    /// speed V \[m/s\]
     pub speed_mps: f64,
-    /// max |θ| over the cycle [deg]
+    /// max |θ| over the cycle \[deg\]
     pub amplitude_deg: f64,
-    /// period [s]
+    /// period \[s\]
     pub period_s: f64,
     /// linearly stable (all nontrivial Floquet multipliers inside the unit circle)
     pub stable: bool,
@@ -327,7 +327,7 @@ impl Diagram {
         .map_err(num("cycle system".into()))
     }
 
-    /// The cycles at speed V [m/s] (all crossings of the branch), corrected at fixed V.
+    /// The cycles at speed V \[m/s\] (all crossings of the branch), corrected at fixed V.
     pub fn cycles_at(&self, model: &Model, speed: f64) -> Result<Vec<CycleSummary>, SwayError> {
         let problem = ClosedLoop::new(model, self.feedback);
         let mut sys = self.cycle_system(&problem)?;

@@ -10,7 +10,7 @@
 use crate::{Problem, Result};
 
 /// Polar normal form r' = r(μ + a r² − r⁴)·(sign), θ' = ω + b r², in Cartesian coordinates.
-/// Parameter p[0] = μ.
+/// Parameter p\[0\] = μ.
 /// - `a = −1` (with r⁴ term dropped, `quartic = false`): Stuart–Landau, supercritical
 ///   Hopf at μ = 0, cycles r = √μ, period 2π/(ω + bμ), nontrivial multiplier exp(−2μT).
 /// - `a = 2`, `quartic = true`: subcritical Hopf at μ = 0, fold of cycles at μ = −1, r = 1.
@@ -80,7 +80,7 @@ impl Problem for NormalForm {
     }
 }
 
-/// van der Pol oscillator x'' − μ(1 − x²)x' + x = 0, p[0] = μ.
+/// van der Pol oscillator x'' − μ(1 − x²)x' + x = 0, p\[0\] = μ.
 #[derive(Debug)]
 pub struct VanDerPol;
 

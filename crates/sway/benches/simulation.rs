@@ -4,41 +4,25 @@
 //! - the threshold sweep of `configs/sweep_threshold.toml` (64 × 16 points, 60 s each) on
 //!   1 and 2 threads (≤ 3 s on 2 cores, ≥ 1.8× faster on 2 threads).
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::spec;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::progress::NoProgress;
 use sway::sim::sweep::{SweepConfig, run_sweep};
-use sway::sim::{
-    Controller, MetricSettings, Recording, RunSettings, SimSpec, SolverSettings, SpeedProfile,
-    ValidityGuard, simulate,
-};
-use trailer_model::{Model, State7, VehicleParams};
-
-fn spec(profile: SpeedProfile, controller: Controller, horizon_s: f64) -> SimSpec {
-    SimSpec {
-        profile,
-        controller,
-        horizon_s,
-        action_s: 0.0,
-        settings: RunSettings {
-            guard: ValidityGuard::Stop,
-            solver: SolverSettings {
-                rtol: 1e-8,
-                atol: 1e-10,
-                ..SolverSettings::default()
-            },
-            metrics: MetricSettings::default(),
-        },
-    }
-}
+use sway::sim::{Controller, Recording, SpeedProfile, simulate};
+use trailer_model::State7;
 
 fn single_runs(c: &mut Criterion) {
-    let model = Model::new(VehicleParams::default()).unwrap();
+    let model = common::model();
     let x0 = State7::from_column_slice(&[0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0]);
     let s1 = spec(
         SpeedProfile::Constant { speed_mps: 33.0 },
         Controller::None,
         60.0,
+        1e-8,
     );
     let s3 = spec(
         SpeedProfile::Constant { speed_mps: 35.0 },
@@ -49,6 +33,7 @@ fn single_runs(c: &mut Criterion) {
             off_s: None,
         },
         40.0,
+        1e-8,
     );
     for (name, s) in [("S1", &s1), ("S3", &s3)] {
         let r = simulate::<7>(&model, s, x0, Recording::None).unwrap();
@@ -71,7 +56,7 @@ fn single_runs(c: &mut Criterion) {
 }
 
 fn sweep(c: &mut Criterion) {
-    let model = Model::new(VehicleParams::default()).unwrap();
+    let model = common::model();
     let file =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/sweep_threshold.toml");
     let cfg: SweepConfig = toml::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();

@@ -1,7 +1,9 @@
 //! Simulation layer: the closed-loop DDE path against the ODE path, tolerance refinement,
 //! the sway amplitude, the validity guard, metrics against dense sampling, sweep determinism.
+mod common;
 
 use approx::assert_abs_diff_eq;
+use common::{model, spec, x7};
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::SVector;
 use sway::config::Positive;
@@ -11,33 +13,7 @@ use sway::sim::{
     Controller, InitialCondition, LossOfControl, MetricSettings, Outcome, Plant, Recording,
     RunSettings, SimSpec, SolverSettings, SpeedProfile, ValidityGuard, settle, simulate,
 };
-use trailer_model::{Inputs, Model, State4, State7, VehicleParams};
-
-fn model() -> Model {
-    Model::new(VehicleParams::default()).unwrap()
-}
-
-fn spec(profile: SpeedProfile, controller: Controller, horizon_s: f64, rtol: f64) -> SimSpec {
-    SimSpec {
-        profile,
-        controller,
-        horizon_s,
-        action_s: 0.0,
-        settings: RunSettings {
-            guard: ValidityGuard::Stop,
-            solver: SolverSettings {
-                rtol,
-                atol: rtol * 1e-2,
-                ..SolverSettings::default()
-            },
-            metrics: MetricSettings::default(),
-        },
-    }
-}
-
-fn x7(theta_deg: f64) -> State7 {
-    State7::from_column_slice(&[0.0, 0.0, 0.0, theta_deg.to_radians(), 0.0, 0.0, 0.0])
-}
+use trailer_model::{Inputs, State4, State7};
 
 #[test]
 fn plant_rhs_matches_the_model_rhs7() {

@@ -188,7 +188,8 @@ enum Out<'b> {
 /// let (i, _) = cycles.first(SpecialKind::Fold).expect("fold of cycles");
 ///
 /// // the fold continued in (μ1, μ2) towards small μ2: it ends at the Bautin point
-/// let (mut fold, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &cycles.points[i], 1, FoldCyclesOptions::default())?;
+/// let options = FoldCyclesOptions { min_amplitude: 0.03, ..Default::default() };
+/// let (mut fold, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &cycles.points[i], 1, options)?;
 /// let back: Vec<f64> = dir.iter().map(|d| -d).collect();
 /// let mut curve = cont.start(&mut fold, &guess, &back)?;
 /// let stop = fold.extend_curve(&cont, &mut curve, 200)?;

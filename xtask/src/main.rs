@@ -6,7 +6,16 @@
 //! cargo xtask linear [--vehicle FILE] [--config FILE]
 //! cargo xtask fig3 | fig4 | all          # groups of tasks
 //! cargo xtask roots --speed V --gain D --delay TAU [--count N]   # rightmost characteristic roots
+//! cargo xtask <task|group> --check       # validate configs, print the plan, run nothing
 //! ```
+//!
+//! `--check` loads and validates the vehicle and task configs through the same path as a
+//! real run ([`tasks::prepare_checked`]), prints what would run with estimates of memory
+//! and time ([`sway_tasks::limits`]) and exits: 0 for valid input, 1 otherwise.
+//!
+//! SIGINT and SIGTERM stop a running task: the results directory is left as it was
+//! (this process's staging directories removed, [`sway_tasks::io::interrupt`]) and the
+//! process exits with status 130 after one line on stderr.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -41,6 +50,9 @@ struct TaskArgs {
     /// where results/TASK/ goes
     #[arg(long)]
     results: Option<PathBuf>,
+    /// validate the configs and print what would run (with estimates), then exit
+    #[arg(long)]
+    check: bool,
 }
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).
@@ -63,7 +75,7 @@ impl Progress for Bar {
 
 fn usage() -> String {
     let mut s = String::from(
-        "usage: cargo xtask <task|group> [--vehicle FILE] [--config FILE] [--results DIR]\n\ntasks:\n",
+        "usage: cargo xtask <task|group> [--vehicle FILE] [--config FILE] [--results DIR] [--check]\n\ntasks:\n",
     );
     for t in tasks::registry() {
         s.push_str(&format!("  {:<10} {}\n", t.name, t.about));
@@ -129,16 +141,49 @@ fn run() -> Result<()> {
     let progress = Bar(bar);
     let ctx = TaskContext::new(&vehicle, &configs_dir, &results, &progress)?;
 
-    // Load and validate every config before any work: a bad config stops the run here.
+    // Load and validate every config (and its resource plan) before any work: a bad
+    // config stops the run here.
     let mut prepared = Vec::new();
     for task in &task_list {
         let config = match &opts.config {
             Some(c) => c.clone(),
             None => configs_dir.join(task.config),
         };
-        prepared.push((task, (task.prepare)(&ctx, &config)?));
+        let (p, plan) = tasks::prepare_checked(task, &ctx, &config)?;
+        if opts.check {
+            println!("[{}] valid (config {})", task.name, config.display());
+            for line in plan.lines() {
+                println!("  {line}");
+            }
+        }
+        prepared.push((task, p));
     }
+    sway_tasks::io::ensure_writable(&results)?;
+    if opts.check {
+        println!("results would go to {}", results.display());
+        return Ok(());
+    }
+    stop_cleanly_on_signals(&results, &progress.0)?;
     run_prepared(prepared, &ctx, &progress)
+}
+
+/// On SIGINT or SIGTERM: stop writing, remove this run's staging directories (results/
+/// stays as it was) and exit with status 130 after one line on stderr.
+fn stop_cleanly_on_signals(results: &Path, bar: &ProgressBar) -> Result<()> {
+    let results = results.to_path_buf();
+    let bar = bar.clone();
+    ctrlc::set_handler(move || {
+        let (_guard, removed) = sway_tasks::io::interrupt(&results);
+        bar.finish_and_clear();
+        eprintln!(
+            "interrupted: stopped, {} left as it was ({} staging director{} removed)",
+            results.display(),
+            removed.len(),
+            if removed.len() == 1 { "y" } else { "ies" }
+        );
+        std::process::exit(130);
+    })
+    .context("cannot install the SIGINT/SIGTERM handler")
 }
 
 /// `cargo xtask roots`: the rightmost characteristic roots of the closed loop (eq. 13).
@@ -160,6 +205,9 @@ struct RootsArgs {
     /// vehicle parameters (the form of configs/vehicle.toml)
     #[arg(long)]
     vehicle: Option<PathBuf>,
+    /// validate the arguments and the vehicle, then exit
+    #[arg(long)]
+    check: bool,
 }
 
 fn roots(args: &[String]) -> Result<()> {
@@ -168,6 +216,15 @@ fn roots(args: &[String]) -> Result<()> {
         .vehicle
         .unwrap_or_else(|| repo_root().join("configs").join("vehicle.toml"));
     let (_, model) = config_file::load_vehicle(&vehicle)?;
+    if a.check {
+        sway_tasks::tasks::roots::validate_args(a.speed, a.gain, a.delay, a.count)?;
+        println!(
+            "[roots] valid: the {} rightmost roots at V = {} m/s, D = {} s, τ = {} s",
+            a.count, a.speed, a.gain, a.delay
+        );
+        println!("  estimate: memory ≈ 1 MB, time ≈ 0.01 s");
+        return Ok(());
+    }
     let roots = sway_tasks::tasks::roots::roots(&model, a.speed, a.gain, a.delay, a.count)?;
     print!("{}", sway_tasks::tasks::roots::format_roots(&roots));
     Ok(())

@@ -4,6 +4,8 @@
 use std::path::Path;
 
 use serde::de::DeserializeOwned;
+
+use crate::limits::{self, MAX_ARRAY_LEN, MAX_STRING_LEN};
 use sway::SwayError;
 use sway::sim::RunSettings;
 use trailer_model::{Model, ModelError, VehicleParams};
@@ -14,11 +16,67 @@ use trailer_model::{Model, ModelError, VehicleParams};
 /// [`SwayError::Read`] if the file cannot be read; [`SwayError::Config`] with the key path
 /// (e.g. `tractor.mass`) and line for syntax errors, unknown keys and wrong types.
 pub fn load_toml<T: DeserializeOwned>(file: &Path) -> Result<T, SwayError> {
-    let text = std::fs::read_to_string(file).map_err(|source| SwayError::Read {
+    let bytes = std::fs::read(file).map_err(|source| SwayError::Read {
         file: file.to_path_buf(),
         source,
     })?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = good.iter().filter(|b| **b == b'\n').count() + 1;
+        SwayError::config(
+            file,
+            "<syntax>",
+            format!("invalid UTF-8 (line {line}); config files are UTF-8 text"),
+        )
+    })?;
     parse_toml(&text, file)
+}
+
+/// Refuses arrays longer than [`MAX_ARRAY_LEN`] and strings longer than
+/// [`MAX_STRING_LEN`] anywhere in the document, naming the key path.
+fn check_sizes(value: &toml::Value, key: &str, file: &Path) -> Result<(), SwayError> {
+    let sub = |k: &str| {
+        if key.is_empty() {
+            k.to_string()
+        } else {
+            format!("{key}.{k}")
+        }
+    };
+    let key_or_root = || {
+        if key.is_empty() {
+            "<root>".to_string()
+        } else {
+            key.to_string()
+        }
+    };
+    match value {
+        toml::Value::Array(a) => {
+            limits::bound(
+                file,
+                &key_or_root(),
+                a.len() as f64,
+                MAX_ARRAY_LEN as f64,
+                || "array entries; every array of a config is a short list".into(),
+            )?;
+            a.iter()
+                .enumerate()
+                .try_for_each(|(i, v)| check_sizes(v, &format!("{}[{i}]", key_or_root()), file))
+        }
+        toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| {
+            limits::bound(file, &sub(k), k.len() as f64, MAX_STRING_LEN as f64, || {
+                "bytes in a key".into()
+            })?;
+            check_sizes(v, &sub(k), file)
+        }),
+        toml::Value::String(s) => limits::bound(
+            file,
+            &key_or_root(),
+            s.len() as f64,
+            MAX_STRING_LEN as f64,
+            || "bytes in a string".into(),
+        ),
+        _ => Ok(()),
+    }
 }
 
 /// Deserialises TOML text; `file` is only used in error messages.
@@ -33,8 +91,11 @@ pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, Swa
         }
         None => message.trim().to_string(),
     };
-    let de = toml::de::Deserializer::parse(text)
-        .map_err(|e| SwayError::config(file, "<syntax>", located(e.message(), e.span())))?;
+    let syntax =
+        |e: toml::de::Error| SwayError::config(file, "<syntax>", located(e.message(), e.span()));
+    let document: toml::Table = toml::from_str(text).map_err(syntax)?;
+    check_sizes(&toml::Value::Table(document), "", file)?;
+    let de = toml::de::Deserializer::parse(text).map_err(syntax)?;
     serde_path_to_error::deserialize(de).map_err(|e| {
         let key = e.path().to_string();
         let inner = e.into_inner();

@@ -3,6 +3,8 @@
 //! run leaves the previous results untouched and nothing half-written.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -19,6 +21,88 @@ pub fn fmt_num(x: f64) -> String {
     }
 }
 
+/// Serialises the changes to `results/` (file writes, creating and committing a staging
+/// directory) with [`interrupt`], so that an interruption never sees half a commit.
+static RESULTS_LOCK: Mutex<()> = Mutex::new(());
+
+/// Set by [`interrupt`]: no further result is written.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+fn results_lock() -> MutexGuard<'static, ()> {
+    RESULTS_LOCK
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Whether [`interrupt`] has been called (a task may stop early).
+pub fn interrupted() -> bool {
+    INTERRUPTED.load(Ordering::SeqCst)
+}
+
+fn refuse_if_interrupted(path: &Path) -> Result<(), SwayError> {
+    if interrupted() {
+        Err(SwayError::Write {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::Interrupted, "interrupted"),
+        })
+    } else {
+        Ok(())
+    }
+}
+
+/// Stops all result writing of this process and restores `results_root` to what it was
+/// before the run: removes this process's staging directories and, if a commit was
+/// between its two renames, puts the previous results back. Returns the removed
+/// directories. Called from a signal handler thread (SIGINT, SIGTERM) right before the
+/// process exits; the returned guard keeps every other writer blocked until then.
+pub fn interrupt(results_root: &Path) -> (MutexGuard<'static, ()>, Vec<PathBuf>) {
+    let guard = results_lock();
+    INTERRUPTED.store(true, Ordering::SeqCst);
+    let pid = std::process::id().to_string();
+    let mut removed = Vec::new();
+    let Ok(entries) = std::fs::read_dir(results_root) else {
+        return (guard, removed);
+    };
+    for entry in entries.filter_map(Result::ok) {
+        let Some(name) = entry.file_name().to_str().map(str::to_string) else {
+            continue;
+        };
+        let path = entry.path();
+        if staging_pid(&name).is_some_and(|p| p.to_string() == pid) {
+            if std::fs::remove_dir_all(&path).is_ok() {
+                removed.push(path);
+            }
+        } else if let Some(task) = name
+            .strip_prefix('.')
+            .and_then(|r| r.strip_suffix(&format!(".old-{pid}")))
+        {
+            // a commit was interrupted between its renames: the old results go back
+            let final_dir = results_root.join(task);
+            if !final_dir.exists() {
+                let _ = std::fs::rename(&path, &final_dir);
+            }
+        }
+    }
+    (guard, removed)
+}
+
+/// Checks that results can be written under `results_root` (creating it if needed), by
+/// creating and removing a probe directory: an unwritable `--results` is an error before
+/// any work.
+///
+/// # Errors
+/// [`SwayError::Write`] naming the directory.
+pub fn ensure_writable(results_root: &Path) -> Result<(), SwayError> {
+    let err = |source| SwayError::Write {
+        path: results_root.to_path_buf(),
+        source,
+    };
+    std::fs::create_dir_all(results_root).map_err(err)?;
+    let probe = results_root.join(format!(".write-probe-{}", std::process::id()));
+    std::fs::create_dir(&probe).map_err(err)?;
+    std::fs::remove_dir(&probe).map_err(err)
+}
+
 /// Writes `bytes` to `path` through a temporary file and a rename.
 ///
 /// # Errors
@@ -28,6 +112,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SwayError> {
         path: path.to_path_buf(),
         source,
     };
+    let _lock = results_lock();
+    refuse_if_interrupted(path)?;
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(err)?;
     }
@@ -138,6 +224,8 @@ impl OutputDir {
             path: staging.clone(),
             source,
         };
+        let _lock = results_lock();
+        refuse_if_interrupted(&staging)?;
         remove_stale_staging(results_root)?;
         if staging.exists() {
             std::fs::remove_dir_all(&staging).map_err(err)?;
@@ -269,6 +357,8 @@ impl OutputDir {
         let old =
             self.final_dir
                 .with_file_name(format!(".{}.old-{}", self.name, std::process::id()));
+        let _lock = results_lock();
+        refuse_if_interrupted(&self.final_dir)?;
         if self.final_dir.exists() {
             std::fs::rename(&self.final_dir, &old).map_err(err(&self.final_dir))?;
         }

@@ -10,6 +10,7 @@
 pub mod config_file;
 pub mod figures;
 pub mod io;
+pub mod limits;
 pub mod plot;
 pub mod report;
 pub mod tasks;

@@ -146,9 +146,15 @@ impl From<NonNegative> for f64 {
     }
 }
 
+/// Most points of a [`Grid`]: 100 000. The default grids have at most 591 points; a grid
+/// is evaluated point by point and its rows kept (≈ 500 bytes each), so 100 000 points
+/// stay below 50 MB however expensive a point is, and a typo (`points = 3000000`) is
+/// refused when the file is read.
+pub const MAX_GRID_POINTS: usize = 100_000;
+
 /// A uniform grid `[min, max]` with `points` points, as written in task configs; validated
-/// when deserialised (finite min < max, at least 2 points), so the error names the grid's
-/// key path.
+/// when deserialised (finite min < max, 2 ≤ points ≤ [`MAX_GRID_POINTS`]), so the error
+/// names the grid's key path.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "GridKeys")]
 pub struct Grid {
@@ -156,7 +162,7 @@ pub struct Grid {
     pub min: f64,
     /// last value
     pub max: f64,
-    /// number of points (≥ 2)
+    /// number of points (2 ≤ points ≤ [`MAX_GRID_POINTS`])
     pub points: usize,
 }
 
@@ -180,6 +186,13 @@ impl TryFrom<GridKeys> for Grid {
         }
         if g.points < 2 {
             return Err(format!("expected at least 2 points, got {}", g.points));
+        }
+        if g.points > MAX_GRID_POINTS {
+            return Err(format!(
+                "points = {} exceeds the limit {MAX_GRID_POINTS} (≈ {} MB of rows); reduce it",
+                g.points,
+                g.points / 2000
+            ));
         }
         Ok(Self {
             min: g.min,
@@ -236,6 +249,10 @@ mod tests {
             (
                 "x = 1.0\ng = { min = 0.0, max = 1.0, points = 3, step = 1 }",
                 "step",
+            ),
+            (
+                "x = 1.0\ng = { min = 0.0, max = 1.0, points = 100000000 }",
+                "limit 100000",
             ),
         ] {
             let e = toml::from_str::<Holder>(text).expect_err(text).to_string();

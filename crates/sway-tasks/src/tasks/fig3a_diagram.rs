@@ -52,6 +52,19 @@ impl Default for DiagramConfig {
     }
 }
 
+/// Most points of a cycle branch: 100 000 (default 600). A point stores its collocation
+/// vector, so the memory also depends on the mesh ([`cycle_branch_bytes`]), which is
+/// checked against [`crate::limits::MEMORY_BUDGET_BYTES`] as well.
+pub const MAX_CYCLE_POINTS: usize = 100_000;
+
+/// Estimated memory of a cycle branch \[bytes\]: each point stores the profile
+/// ((L·m + 1) mesh values of the 4 reduced states, 8 bytes each) about four times over
+/// (the point, its tangent, Floquet data and the written rows), an upper estimate.
+pub fn cycle_branch_bytes(o: &DiagramOptions) -> f64 {
+    let profile = (o.intervals as f64 * o.degree as f64 + 1.0) * 4.0 * 8.0;
+    o.max_cycle_points as f64 * profile * 4.0
+}
+
 /// Checks continuation settings shared by fig3a and fig4b (`prefix` is the key path).
 ///
 /// # Errors
@@ -123,6 +136,26 @@ pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result
         file,
         &key("max_cycle_points"),
         || format!("expected at least 2, got {}", o.max_cycle_points),
+    )?;
+    let bytes = cycle_branch_bytes(o);
+    crate::limits::bound(
+        file,
+        &key("max_cycle_points"),
+        o.max_cycle_points as f64,
+        MAX_CYCLE_POINTS as f64,
+        || format!("≈ {} of stored cycles", crate::limits::human_bytes(bytes)),
+    )?;
+    crate::limits::bound(
+        file,
+        &key("max_cycle_points"),
+        bytes,
+        crate::limits::MEMORY_BUDGET_BYTES,
+        || {
+            format!(
+                "estimated bytes of the stored branch: {} points × ({} intervals × degree {} + 1) × 4 states",
+                o.max_cycle_points, o.intervals, o.degree
+            )
+        },
     )?;
     ensure(
         (4..=200).contains(&o.root_degree),

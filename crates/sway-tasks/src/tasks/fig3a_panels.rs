@@ -20,6 +20,7 @@ use super::series::{RunEntry, line, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::{Keyed, OutputDir};
+use crate::limits::{Plan, series_plan};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::report::{SeriesRow, loss_marker, theta_deg};
 
@@ -266,6 +267,27 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
 }
 
 impl Prepared for Fig3aTask {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let p = &self.config.panels;
+        let o = &self.config.diagram.options;
+        let mut plan = series_plan(
+            &self.file,
+            "panels.",
+            (p.horizon_s.get(), p.output_step_s.get()),
+            p.theta0_deg.len(),
+            ("panels.horizon_s", 0.0),
+            "fig3a: time panels",
+        )?;
+        let bytes = super::fig3a_diagram::cycle_branch_bytes(o);
+        plan.work.push(format!(
+            "fig3a: cycle branch of at most {} points on a mesh of {} intervals × degree {}",
+            o.max_cycle_points, o.intervals, o.degree
+        ));
+        plan.memory_bytes += bytes;
+        plan.time_s += 1.0; // the committed diagram takes 0.77 s
+        Ok(plan)
+    }
+
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress

@@ -14,6 +14,10 @@ use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::figures::chart_panel;
 use crate::io::{Keyed, OutputDir};
+use crate::limits::{
+    FIG4A_BYTES_PER_CELL, FIG4A_SECONDS_PER_CELL, MAX_AXIS_POINTS, MAX_CHART_CELLS, Plan, bound,
+    human_bytes, human_seconds,
+};
 use crate::plot::Figure;
 
 /// The task.
@@ -438,6 +442,35 @@ fn delay_entries(
 }
 
 impl Prepared for Fig4aTask {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let c = &self.config;
+        let file = self.file.as_path();
+        let axis_cost = |n: usize| {
+            move || format!("≈ {} per delay at the other axis' size", human_bytes(n as f64 * 200.0 * FIG4A_BYTES_PER_CELL))
+        };
+        bound(file, "speed.cells", c.speed.cells as f64, MAX_AXIS_POINTS as f64, axis_cost(c.speed.cells))?;
+        bound(file, "gain.cells", c.gain.cells as f64, MAX_AXIS_POINTS as f64, axis_cost(c.gain.cells))?;
+        let cells = c.speed.cells as f64 * c.gain.cells as f64 * c.delays_s.len() as f64;
+        let plan = Plan::new(
+            vec![format!(
+                "fig4a: {} speed × {} gain cells × {} delays = {cells} chart cells",
+                c.speed.cells,
+                c.gain.cells,
+                c.delays_s.len()
+            )],
+            cells * FIG4A_BYTES_PER_CELL,
+            cells * FIG4A_SECONDS_PER_CELL,
+        );
+        bound(file, "speed.cells", cells, MAX_CHART_CELLS as f64, || {
+            format!(
+                "speed × gain × delays = {cells} cells, ≈ {} and {}",
+                human_bytes(plan.memory_bytes),
+                human_seconds(plan.time_s)
+            )
+        })?;
+        Ok(plan)
+    }
+
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;

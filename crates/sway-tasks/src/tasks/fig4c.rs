@@ -15,6 +15,7 @@ use super::series::{Overlay, RunEntry, line, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::{Keyed, OutputDir};
+use crate::limits::{Plan, series_plan};
 use crate::plot::{Figure, Rgb, Stroke};
 use crate::report::SeriesRow;
 
@@ -158,6 +159,18 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
 }
 
 impl Prepared for Fig4cTask {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let c = &self.config;
+        series_plan(
+            &self.file,
+            "",
+            (c.horizon_s.get(), c.output_step_s.get()),
+            STRATEGIES.len(),
+            ("start.settle_s", c.start.settle_s.get()),
+            "fig4c: mitigation strategies",
+        )
+    }
+
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let c = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;

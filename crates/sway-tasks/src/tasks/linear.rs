@@ -11,6 +11,7 @@ use sway::linear::{
 };
 use trailer_model::{CriticalSpeed, CriticalSpeedOptions, VehicleParams};
 
+use crate::limits::{BYTES_PER_ROW, LINEAR_SECONDS_PER_POINT, Plan};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::{Keyed, OutputDir};
@@ -434,6 +435,17 @@ fn headline_lines(vc: &CriticalSpeed, cfg: &LinearConfig, study: &RoundingStudy)
 }
 
 impl Prepared for LinearTask {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let n = self.config.speed_grid.points as f64;
+        Ok(Plan::new(
+            vec![format!(
+                "linear: eigenvalues at {n} speeds, V_crit, sensitivities of every parameter"
+            )],
+            n * BYTES_PER_ROW,
+            n * LINEAR_SECONDS_PER_POINT + 0.05,
+        ))
+    }
+
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;

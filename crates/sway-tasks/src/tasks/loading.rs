@@ -9,6 +9,9 @@ use sway::config::{Grid, ensure};
 use sway::loading::{InertiaScaling, loaded, tongue_load_fraction, v_crit_map, v_crit_of};
 use trailer_model::{CriticalSpeedOptions, VehicleParams};
 
+use crate::limits::{
+    BYTES_PER_ROW, LOADING_SECONDS_PER_CELL, MAX_SIMULATIONS, Plan, bound, human_seconds,
+};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::OutputDir;
@@ -250,6 +253,27 @@ fn draw(
 }
 
 impl Prepared for LoadingTask {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let c = &self.config;
+        let cells = c.trailer_mass_kg.points as f64 * c.trailer_cog_m.points as f64;
+        let plan = Plan::new(
+            vec![format!(
+                "loading: {} masses × {} centres of gravity = {cells} V_crit searches",
+                c.trailer_mass_kg.points, c.trailer_cog_m.points
+            )],
+            cells * BYTES_PER_ROW,
+            cells * LOADING_SECONDS_PER_CELL,
+        );
+        // each axis is a Grid (≤ MAX_GRID_POINTS); the product is bounded like a sweep
+        bound(&self.file, "trailer_mass_kg.points", cells, MAX_SIMULATIONS as f64, || {
+            format!(
+                "mass × cog = {cells} cells, ≈ {}",
+                human_seconds(plan.time_s)
+            )
+        })?;
+        Ok(plan)
+    }
+
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;

@@ -12,6 +12,7 @@ use trailer_model::{Model, VehicleParams};
 
 use crate::config_file;
 use crate::io::OutputDir;
+use crate::limits::Plan;
 use sway::SwayError;
 use sway::progress::Progress;
 
@@ -147,6 +148,33 @@ pub trait Prepared: Send {
     /// # Errors
     /// Numerical failures with context, or write errors.
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError>;
+
+    /// What [`run`](Self::run) would compute, with estimates of memory and time; refuses
+    /// work beyond the limits of [`crate::limits`] naming the key. The default describes a
+    /// task without a cost model of its own (its counts are bounded by its validation).
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the key whose value exceeds a limit.
+    fn plan(&self) -> Result<Plan, SwayError> {
+        Ok(Plan::described(
+            "(no cost model: counts bounded by validation)",
+        ))
+    }
+}
+
+/// Loads and validates `task`'s config `file` and checks its [`Plan`] against the
+/// resource limits: the one validation path of both `--check` and a real run.
+///
+/// # Errors
+/// [`SwayError::Read`] / [`SwayError::Config`] naming the file and the key.
+pub fn prepare_checked(
+    task: &Task,
+    ctx: &TaskContext<'_>,
+    file: &Path,
+) -> Result<(Box<dyn Prepared>, Plan), SwayError> {
+    let prepared = (task.prepare)(ctx, file)?;
+    let plan = prepared.plan()?;
+    Ok((prepared, plan))
 }
 
 /// Loads and validates a task's config.

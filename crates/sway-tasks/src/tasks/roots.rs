@@ -12,11 +12,14 @@ use sway::SwayError;
 /// Default number of roots printed.
 pub const DEFAULT_COUNT: usize = 6;
 
+/// Most roots one call computes: 200 (default 6). The root finder's matrices grow with the
+/// count; 200 roots reach far into the left half-plane, where nothing is of interest.
+pub const MAX_COUNT: usize = 200;
+
 /// The roots at speed V \[m/s\], gain D \[s\], delay τ \[s\].
 ///
 /// # Errors
-/// [`SwayError::Config`] for a non-positive speed, negative delay or zero count (naming the
-/// command-line option), [`SwayError::Numerical`] if the roots cannot be confirmed.
+/// As [`validate_args`], and [`SwayError::Numerical`] if the roots cannot be confirmed.
 pub fn roots(
     model: &Model,
     speed: f64,
@@ -24,6 +27,24 @@ pub fn roots(
     delay: f64,
     count: usize,
 ) -> Result<Vec<Complex64>, SwayError> {
+    validate_args(speed, gain, delay, count)?;
+    // one more root than asked, so that a conjugate pair is never split: if the N-th
+    // root is complex, its conjugate is listed too (N + 1 lines)
+    let mut r = sway::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
+    if r.len() > count {
+        let (last, next) = (r[count - 1], r[count]);
+        let pair = last.im != 0.0 && (next - last.conj()).norm() <= 1e-9 * last.norm().max(1.0);
+        r.truncate(if pair { count + 1 } else { count });
+    }
+    Ok(r)
+}
+
+/// Checks the command-line arguments of `roots` (what `--check` validates).
+///
+/// # Errors
+/// [`SwayError::Config`] for a non-positive speed, a non-finite gain, a negative delay, a
+/// zero count or one above [`MAX_COUNT`] (naming the command-line option).
+pub fn validate_args(speed: f64, gain: f64, delay: f64, count: usize) -> Result<(), SwayError> {
     let arg = |key: &str, problem: String| SwayError::config("command line", key, problem);
     if !(speed.is_finite() && speed > 0.0) {
         return Err(arg(
@@ -46,15 +67,15 @@ pub fn roots(
     if count == 0 {
         return Err(arg("--count", "expected at least 1".into()));
     }
-    // one more root than asked, so that a conjugate pair is never split: if the N-th
-    // root is complex, its conjugate is listed too (N + 1 lines)
-    let mut r = sway::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
-    if r.len() > count {
-        let (last, next) = (r[count - 1], r[count]);
-        let pair = last.im != 0.0 && (next - last.conj()).norm() <= 1e-9 * last.norm().max(1.0);
-        r.truncate(if pair { count + 1 } else { count });
+    if count > MAX_COUNT {
+        return Err(arg(
+            "--count",
+            format!(
+                "{count} exceeds the limit {MAX_COUNT} (the root finder's matrices grow with the count)"
+            ),
+        ));
     }
-    Ok(r)
+    Ok(())
 }
 
 /// Formats roots as `<re> <im>` lines (shortest round-trip representation of each number).

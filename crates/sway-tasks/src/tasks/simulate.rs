@@ -12,6 +12,7 @@ use super::series::{RunEntry, line, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::OutputDir;
+use crate::limits::{Plan, series_plan, settle_s};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::report::{TrajectoryRow, loss_marker, max_abs_theta_deg};
 
@@ -102,6 +103,18 @@ fn figure(cfg: &ScenarioConfig, action_s: f64, r: &SimResult<7>) -> Figure {
 }
 
 impl Prepared for SimulateTask {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let c = &self.config;
+        series_plan(
+            &self.file,
+            "",
+            (c.horizon_s.get(), c.output_step_s.get()),
+            1,
+            ("initial.settle_s", settle_s(&c.initial)),
+            &format!("simulate {}", c.name),
+        )
+    }
+
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;

@@ -13,6 +13,10 @@ use sway::sim::{Metrics, Outcome};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::{OutputDir, row_cells};
+use crate::limits::{
+    BYTES_PER_ROW, MAX_AXIS_POINTS, MAX_SIMULATED_S, MAX_SIMULATIONS, Plan,
+    SIM_SECONDS_PER_SIM_SECOND, bound, human_bytes, human_seconds, settle_s,
+};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 
 /// The task (its default config is the bistability threshold map).
@@ -265,6 +269,48 @@ fn heatmap(
 }
 
 impl Prepared for SweepTask {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let c = &self.config;
+        let file = self.file.as_path();
+        let mut sims = 1.0_f64;
+        for (i, a) in c.axes.iter().enumerate() {
+            bound(
+                file,
+                &format!("axes[{i}].points"),
+                a.points as f64,
+                MAX_AXIS_POINTS as f64,
+                || format!("{} simulations on this axis alone", a.points),
+            )?;
+            sims *= a.points as f64;
+        }
+        let settle = settle_s(&c.base.initial);
+        bound(file, "base.initial.settle_s", settle, MAX_SIMULATED_S, || {
+            format!("{} per simulation", human_seconds(settle * SIM_SECONDS_PER_SIM_SECOND))
+        })?;
+        let horizon = c.base.horizon_s.get();
+        bound(file, "base.horizon_s", horizon, MAX_SIMULATED_S, || {
+            format!("{} per simulation", human_seconds(horizon * SIM_SECONDS_PER_SIM_SECOND))
+        })?;
+        let per_sim = (horizon + settle) * SIM_SECONDS_PER_SIM_SECOND;
+        let plan = Plan::new(
+            vec![format!(
+                "{}: {} axes, {sims} simulations of {horizon} s (+ {settle} s settling)",
+                c.name,
+                c.axes.len()
+            )],
+            sims * BYTES_PER_ROW,
+            sims * per_sim / 2.0, // rayon on 2 cores
+        );
+        bound(file, "axes", sims, MAX_SIMULATIONS as f64, || {
+            format!(
+                "product of the axis points = {sims} simulations, ≈ {} and {}",
+                human_bytes(plan.memory_bytes),
+                human_seconds(plan.time_s)
+            )
+        })?;
+        Ok(plan)
+    }
+
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;

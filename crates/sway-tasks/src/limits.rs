@@ -1,0 +1,283 @@
+//! Resource bounds and the work plan of a task (`cargo xtask <task> --check`).
+//!
+//! Every task states, before any work, what it would compute ([`Plan`]: grid sizes,
+//! number of simulations or cells) with an estimate of memory and time from the
+//! benchmarks' per-unit costs (the constants below, each with its source). A config whose
+//! work exceeds a limit is refused by [`bound`] with a message naming the file, the key,
+//! the value, the limit and the estimated cost. The limits are generous: 40× to 1000×
+//! the defaults (see the README table), so that only a typo or an unbounded value hits
+//! them.
+
+use std::path::Path;
+
+use sway::SwayError;
+
+/// Memory budget of one task \[bytes\]: 4 GiB. A config whose estimated peak memory is
+/// above it is refused (the largest default run, `fig4a`, needs well under 100 MB).
+pub const MEMORY_BUDGET_BYTES: f64 = 4.0 * 1024.0 * 1024.0 * 1024.0;
+
+/// Longest array in any config file (entries): 10 000. The longest default array has 5
+/// entries; the generic check in `config_file` refuses longer ones before deserialising.
+pub const MAX_ARRAY_LEN: usize = 10_000;
+
+/// Longest string in any config file (bytes): 4096 (names and kinds are a few words).
+pub const MAX_STRING_LEN: usize = 4096;
+
+/// Points of one grid axis (`Grid::points`, sweep axes, fig4a cells per axis): 100 000
+/// (defaults: at most 591).
+pub const MAX_AXIS_POINTS: usize = sway::config::MAX_GRID_POINTS;
+
+/// fig4a: cells over all panels (speed × gain × delays): 20 000 000 (default 240 000,
+/// 83×): ≈ 1.3 GB at [`FIG4A_BYTES_PER_CELL`] and ≈ 60 s at [`FIG4A_SECONDS_PER_CELL`].
+pub const MAX_CHART_CELLS: usize = 20_000_000;
+
+/// Simulations of one sweep (product of the axis points): 1 000 000 (defaults 1024 and
+/// 1281, ≈ 800×): ≈ 500 MB of rows and ≈ 40 min at [`SIM_SECONDS_PER_SIM_SECOND`].
+pub const MAX_SIMULATIONS: usize = 1_000_000;
+
+/// Output samples of one task (horizon / output step, summed over its runs): 5 000 000
+/// (defaults ≤ 12 000, 400×): ≈ 2 GB at [`BYTES_PER_SAMPLE`].
+pub const MAX_SAMPLES: f64 = 5_000_000.0;
+
+/// Simulated time of one run (horizon, settling time) \[s\]: 100 000 s (defaults ≤ 200 s,
+/// 500×): ≈ 13 s of integration at [`SIM_SECONDS_PER_SIM_SECOND`] (the DDE history is
+/// bounded by the delay, so memory does not grow with it).
+pub const MAX_SIMULATED_S: f64 = 100_000.0;
+
+/// Cost of one output sample of a time series \[bytes\]: the trajectory sample (t, seven
+/// states, V, δ: ≈ 100 bytes), its CSV row (≈ 200 bytes) and the figure polylines
+/// (≈ 100 bytes); an upper estimate.
+pub const BYTES_PER_SAMPLE: f64 = 400.0;
+
+/// Integration cost per simulated second \[s\]: `crates/sway/benches/simulation.rs`, S3
+/// (closed loop, 40 s in ≤ 5 ms, rtol 1e-8), rounded up to 1.3e-4 s/s.
+pub const SIM_SECONDS_PER_SIM_SECOND: f64 = 1.3e-4;
+
+/// fig4a: cost of one chart cell \[s\] on 2 cores: the committed
+/// `results/fig4a/summary.json` (240 000 cells in 0.73 s), rounded up to 3e-6 s.
+pub const FIG4A_SECONDS_PER_CELL: f64 = 3e-6;
+
+/// fig4a: memory per chart cell \[bytes\]: the stored cell (unstable-root count,
+/// rightmost real part) plus the CSV row and figure raster, an upper estimate.
+pub const FIG4A_BYTES_PER_CELL: f64 = 64.0;
+
+/// loading: cost of one (mass, cog) cell \[s\] (a V_crit search): the committed
+/// `results/loading/summary.json` (4026 cells in 0.47 s), rounded up to 1.2e-4 s.
+pub const LOADING_SECONDS_PER_CELL: f64 = 1.2e-4;
+
+/// linear: cost of one speed point \[s\] (eigenvalues of a 4×4 matrix and the table row),
+/// from `results/linear/summary.json` (591 points and the sensitivities in 0.04 s).
+pub const LINEAR_SECONDS_PER_POINT: f64 = 5e-5;
+
+/// Memory per result row of a grid task (linear, loading, sweep) \[bytes\]: the row and
+/// its CSV text, an upper estimate.
+pub const BYTES_PER_ROW: f64 = 500.0;
+
+/// What a task would do: printed by `--check` before (instead of) the work.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// what would run, one line each (grids, counts)
+    pub work: Vec<String>,
+    /// estimated peak memory \[bytes\]
+    pub memory_bytes: f64,
+    /// estimated wall time \[s\] (2 cores, release build)
+    pub time_s: f64,
+}
+
+impl Plan {
+    /// A plan of `work` lines with its estimates.
+    pub fn new(work: Vec<String>, memory_bytes: f64, time_s: f64) -> Self {
+        Self {
+            work,
+            memory_bytes,
+            time_s,
+        }
+    }
+
+    /// The plan of a task without a cost model: its work described, small estimates.
+    pub fn described(work: impl Into<String>) -> Self {
+        Self::new(vec![work.into()], 0.0, 0.0)
+    }
+
+    /// The plan as printed: the work lines, then `memory ≈ …, time ≈ …`.
+    pub fn lines(&self) -> Vec<String> {
+        let mut l = self.work.clone();
+        l.push(format!(
+            "estimate: memory ≈ {}, time ≈ {}",
+            human_bytes(self.memory_bytes),
+            human_seconds(self.time_s)
+        ));
+        l
+    }
+}
+
+/// `1.5 GB`, `12 MB`, `300 kB`.
+pub fn human_bytes(b: f64) -> String {
+    if b >= 1e9 {
+        format!("{:.1} GB", b / 1e9)
+    } else if b >= 1e6 {
+        format!("{:.1} MB", b / 1e6)
+    } else {
+        format!("{:.0} kB", (b / 1e3).max(1.0))
+    }
+}
+
+/// `0.2 s`, `3.5 min`, `2.0 h`.
+pub fn human_seconds(s: f64) -> String {
+    if s >= 7200.0 {
+        format!("{:.1} h", s / 3600.0)
+    } else if s >= 120.0 {
+        format!("{:.1} min", s / 60.0)
+    } else {
+        format!("{s:.2} s")
+    }
+}
+
+/// Refuses `value` of `key` above `limit`; `cost` says what the value would cost (memory,
+/// time) and is only evaluated on failure.
+///
+/// # Errors
+/// [`SwayError::Config`] naming the key, the value, the limit and the cost.
+pub fn bound(
+    file: &Path,
+    key: &str,
+    value: f64,
+    limit: f64,
+    cost: impl FnOnce() -> String,
+) -> Result<(), SwayError> {
+    if value.is_finite() && value <= limit {
+        Ok(())
+    } else {
+        Err(SwayError::config(
+            file,
+            key,
+            format!("{value} exceeds the limit {limit} ({}); reduce it", cost()),
+        ))
+    }
+}
+
+/// Refuses a plan whose memory estimate exceeds [`MEMORY_BUDGET_BYTES`]; `key` names the
+/// setting that drives it.
+///
+/// # Errors
+/// [`SwayError::Config`].
+pub fn check_memory(file: &Path, key: &str, plan: &Plan) -> Result<(), SwayError> {
+    bound(file, key, plan.memory_bytes, MEMORY_BUDGET_BYTES, || {
+        "estimated peak memory in bytes above the 4 GiB budget".into()
+    })
+}
+
+/// The cost of `samples` output samples over `simulated_s` simulated seconds.
+pub fn series_cost(samples: f64, simulated_s: f64) -> (f64, f64) {
+    (
+        samples * BYTES_PER_SAMPLE,
+        simulated_s * SIM_SECONDS_PER_SIM_SECOND,
+    )
+}
+
+/// Checks a horizon and its output step: the horizon below [`MAX_SIMULATED_S`] and the
+/// samples `horizon / step × runs` below [`MAX_SAMPLES`]; returns the samples.
+///
+/// # Errors
+/// [`SwayError::Config`] naming `<prefix>horizon_s` or `<prefix>output_step_s`.
+pub fn check_series(
+    file: &Path,
+    prefix: &str,
+    horizon_s: f64,
+    output_step_s: f64,
+    runs: usize,
+) -> Result<f64, SwayError> {
+    bound(
+        file,
+        &format!("{prefix}horizon_s"),
+        horizon_s,
+        MAX_SIMULATED_S,
+        || {
+            format!(
+                "≈ {} of integration per run",
+                human_seconds(horizon_s * SIM_SECONDS_PER_SIM_SECOND)
+            )
+        },
+    )?;
+    let samples = (horizon_s / output_step_s).ceil() * runs as f64;
+    bound(
+        file,
+        &format!("{prefix}output_step_s"),
+        samples,
+        MAX_SAMPLES,
+        || {
+            format!(
+                "output_step_s = {output_step_s} gives {samples} samples over {runs} run(s), ≈ {}",
+                human_bytes(samples * BYTES_PER_SAMPLE)
+            )
+        },
+    )?;
+    Ok(samples)
+}
+
+/// The settling time of an initial condition \[s\] (0 for a given state).
+pub fn settle_s(initial: &sway::sim::InitialCondition) -> f64 {
+    match initial {
+        sway::sim::InitialCondition::SwayCycle { settle_s, .. } => *settle_s,
+        sway::sim::InitialCondition::State { .. } => 0.0,
+    }
+}
+
+/// The plan of `runs` time series of `horizon_s` each, sampled every `output_step_s`,
+/// after a settling run of `settle_s` (run once, shared); checks [`check_series`] and the
+/// settling time (key `<settle_key>`).
+///
+/// # Errors
+/// [`SwayError::Config`] naming the key over its limit.
+pub fn series_plan(
+    file: &Path,
+    prefix: &str,
+    (horizon_s, output_step_s): (f64, f64),
+    runs: usize,
+    (settle_key, settle): (&str, f64),
+    what: &str,
+) -> Result<Plan, SwayError> {
+    bound(file, settle_key, settle, MAX_SIMULATED_S, || {
+        format!(
+            "≈ {} of integration",
+            human_seconds(settle * SIM_SECONDS_PER_SIM_SECOND)
+        )
+    })?;
+    let samples = check_series(file, prefix, horizon_s, output_step_s, runs)?;
+    let (memory, time) = series_cost(samples, horizon_s * runs as f64 + settle);
+    let plan = Plan::new(
+        vec![format!(
+            "{what}: {runs} run(s) of {horizon_s} s (+ {settle} s settling), {samples} output samples"
+        )],
+        memory,
+        time,
+    );
+    check_memory(file, &format!("{prefix}output_step_s"), &plan)?;
+    Ok(plan)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_name_key_value_limit_and_cost() {
+        let e = bound(Path::new("f.toml"), "speed.cells", 1e8, 1e5, || {
+            "≈ 6 GB".into()
+        })
+        .expect_err("over the limit")
+        .to_string();
+        for part in ["f.toml", "speed.cells", "100000000", "100000", "6 GB"] {
+            assert!(e.contains(part), "{e} lacks {part}");
+        }
+        assert!(bound(Path::new("f"), "k", f64::NAN, 1.0, String::new).is_err());
+        let e = check_series(Path::new("f"), "", 40.0, 1e-9, 1)
+            .expect_err("4e10 samples")
+            .to_string();
+        assert!(e.contains("output_step_s"), "{e}");
+        assert_eq!(
+            check_series(Path::new("f"), "", 40.0, 0.02, 4).ok(),
+            Some(8000.0)
+        );
+    }
+}

@@ -59,6 +59,32 @@ impl SwayStart {
             || format!("expected |θ(0)| < 1.5 rad, got {}", self.theta0_rad),
         )
     }
+
+    /// Checks a run that starts here (fig3b and fig4c): the start under `start`, an output
+    /// step within the horizon, and the time `action_s` of the intervention (key
+    /// `action_key`) in [0, horizon).
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the key.
+    pub fn validate_run(
+        &self,
+        file: &Path,
+        horizon: f64,
+        output_step: f64,
+        action_key: &str,
+        action_s: f64,
+    ) -> Result<(), SwayError> {
+        self.validate(file, "start")?;
+        ensure(output_step <= horizon, file, "output_step_s", || {
+            format!("expected 0 < output_step_s <= horizon_s, got {output_step}")
+        })?;
+        ensure(
+            action_s.is_finite() && (0.0..horizon).contains(&action_s),
+            file,
+            action_key,
+            || format!("expected 0 <= {action_key} < horizon_s, got {action_s}"),
+        )
+    }
 }
 
 /// `configs/fig3b.toml`.
@@ -124,21 +150,13 @@ struct Fig3bTask {
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
     let c: Fig3bConfig = load_toml(file)?;
-    c.start.validate(file, "start")?;
     let horizon = c.horizon_s.get();
-    ensure(c.output_step_s.get() <= horizon, file, "output_step_s", || {
-        format!("expected 0 < output_step_s <= horizon_s, got {}", c.output_step_s.get())
-    })?;
-    ensure(
-        c.brake_start_s.is_finite() && (0.0..horizon).contains(&c.brake_start_s),
+    c.start.validate_run(
         file,
+        horizon,
+        c.output_step_s.get(),
         "brake_start_s",
-        || {
-            format!(
-                "expected 0 <= brake_start_s < horizon_s, got {}",
-                c.brake_start_s
-            )
-        },
+        c.brake_start_s,
     )?;
     ensure(
         c.speed_change_mps.is_finite() && c.start.speed_mps.get() + c.speed_change_mps > 0.0,

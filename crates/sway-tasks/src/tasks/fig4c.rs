@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use sway::SwayError;
-use sway::config::{Positive, ensure};
+use sway::config::Positive;
 use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
 
 use super::fig3b::SwayStart;
@@ -132,17 +132,8 @@ struct Fig4cTask {
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
     let c: Fig4cConfig = load_toml(file)?;
-    c.start.validate(file, "start")?;
-    let horizon = c.horizon_s.get();
-    ensure(c.output_step_s.get() <= horizon, file, "output_step_s", || {
-        format!("expected 0 < output_step_s <= horizon_s, got {}", c.output_step_s.get())
-    })?;
-    ensure(
-        c.action_s.is_finite() && (0.0..horizon).contains(&c.action_s),
-        file,
-        "action_s",
-        || format!("expected 0 <= action_s < horizon_s, got {}", c.action_s),
-    )?;
+    c.start
+        .validate_run(file, c.horizon_s.get(), c.output_step_s.get(), "action_s", c.action_s)?;
     // the combined strategy has both the braking and the steering of the others
     let spec = c.spec(true, true);
     spec.profile

@@ -2,9 +2,12 @@
 //! [`crate::FoldCurveSystem`]): codimension-two points, the linearisation at an
 //! equilibrium and the bookkeeping of test functions between accepted points.
 
+use crate::engine::Branch;
 use crate::error::{Error, Result};
+use crate::linalg::Entry;
 use crate::problem::Problem;
-use crate::stability::{SpecialKind, Stability};
+use crate::roots::CharacteristicRoots;
+use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -37,6 +40,140 @@ pub(crate) fn check_free(free: [usize; 2], n_params: usize) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+/// What every two-parameter curve system holds besides its own defining system: the
+/// problem, all parameters (the two free ones, indices `free = [p1, p2]`, overwritten
+/// from the unknowns), how to compute the remaining spectrum, and the linearisation at the
+/// current equilibrium.
+#[derive(Debug)]
+pub(crate) struct CurveBase<'a, P: Problem, R: CharacteristicRoots> {
+    pub problem: &'a P,
+    pub params: Vec<f64>,
+    pub free: [usize; 2],
+    pub roots: R,
+    pub lin: Linearisation,
+}
+
+impl<'a, P: Problem, R: CharacteristicRoots> CurveBase<'a, P, R> {
+    /// Check the free parameters and allocate the linearisation buffers.
+    pub fn new(problem: &'a P, params: Vec<f64>, free: [usize; 2], roots: R) -> Result<Self> {
+        check_free(free, params.len())?;
+        Ok(Self {
+            lin: Linearisation::new(problem),
+            problem,
+            params,
+            free,
+            roots,
+        })
+    }
+
+    /// state dimension n
+    pub fn n(&self) -> usize {
+        self.lin.n
+    }
+
+    /// Set the free parameters to (p1, p2) and linearise at the equilibrium x.
+    pub fn set(&mut self, x: &[f64], p1: f64, p2: f64) {
+        self.params[self.free[0]] = p1;
+        self.params[self.free[1]] = p2;
+        self.lin.set(self.problem, x, &self.params);
+    }
+
+    /// The start direction along a curve from a point computed with `parameter` (one of
+    /// the two free ones) free: the unit vector (of length `len`) of the other free
+    /// parameter, where p1 is unknown number `p1_at` and p2 the next.
+    pub fn start_direction(&self, len: usize, p1_at: usize, parameter: usize) -> Vec<f64> {
+        let mut dir = vec![0.0; len];
+        let other = if parameter == self.free[0] { 1 } else { 0 };
+        dir[p1_at + other] = 1.0;
+        dir
+    }
+
+    /// The current values (p1, p2) of the free parameters.
+    pub fn free_values(&self) -> [f64; 2] {
+        [self.params[self.free[0]], self.params[self.free[1]]]
+    }
+
+    /// The rightmost roots at the current linearisation without the roots nearest to
+    /// `critical` (each removed if within `tol` of it).
+    pub fn remaining_spectrum(&self, critical: &[Complex64], tol: f64) -> Result<Vec<Complex64>> {
+        let a = self.lin.matrices();
+        let mut roots = self.roots.rightmost_roots(&a, &self.lin.delays())?;
+        remove_nearest(&mut roots, critical, tol);
+        Ok(roots)
+    }
+
+    /// the equilibrium rows of the residual: r\[..n\] = f(x, x, …, x; p) at the current
+    /// linearisation
+    pub fn equilibrium_residual(&self, r: &mut [f64]) {
+        self.problem
+            .rhs(&self.lin.args, &self.params, &mut r[..self.lin.n]);
+    }
+
+    /// entry (i, m) of J = Σ_d A_d (the Jacobian of x ↦ f(x, x, …, x))
+    pub fn j(&self, i: usize, m: usize) -> f64 {
+        (0..=self.lin.k).map(|d| self.lin.a(d, i, m)).sum()
+    }
+
+    /// `out` = ∂(Σ_d A_d w_d)/∂x_m: the second derivative of f along the unit direction
+    /// e_m of x (in every argument block) and the stacked vector w
+    pub fn second_derivative_x(&mut self, m: usize, w: &[f64], out: &mut [f64]) -> Result<()> {
+        self.lin.set_unit_direction(m);
+        let lin = &self.lin;
+        self.problem
+            .second_derivative(&lin.args, &self.params, &lin.dir, w, out)
+    }
+
+    /// For each free parameter (slot 0, 1): ∂f/∂p into `buf` and the entries
+    /// `(i, col0 + slot)` of the equilibrium rows; then `more(slot, ip)` for the rest of
+    /// that column (given the column, the parameter index and `buf` as scratch).
+    pub fn parameter_columns(
+        &self,
+        col0: usize,
+        buf: &mut [f64],
+        entries: &mut Vec<Entry>,
+        mut more: impl FnMut(usize, usize, &mut [f64], &mut Vec<Entry>) -> Result<()>,
+    ) -> Result<()> {
+        for (slot, &ip) in self.free.iter().enumerate() {
+            self.problem.dfdp(&self.lin.args, &self.params, ip, buf);
+            for (i, &v) in buf.iter().enumerate() {
+                entries.push(Entry::new(i, col0 + slot, v));
+            }
+            more(col0 + slot, ip, buf, entries)?;
+        }
+        Ok(())
+    }
+}
+
+/// The codimension-two points among the located special points of `curve`: `kind` maps a
+/// point (index, special point) to its codimension-two kind and critical frequencies, or
+/// to None when it is not one; `parameters` reads (p1, p2) off the unknowns.
+pub(crate) fn located_codim2<E>(
+    curve: &Branch,
+    parameters: impl Fn(&[f64]) -> (f64, f64),
+    mut kind: impl FnMut(
+        usize,
+        &SpecialPoint,
+    ) -> std::result::Result<Option<(SpecialKind, Vec<f64>)>, E>,
+) -> std::result::Result<Vec<Codim2Point>, E> {
+    let mut out = Vec::new();
+    for (index, sp) in curve.special_points() {
+        if sp.location != Location::Located {
+            continue;
+        }
+        if let Some((kind, omegas)) = kind(index, sp)? {
+            let (p1, p2) = parameters(&curve.points[index].u);
+            out.push(Codim2Point {
+                kind,
+                index,
+                p1,
+                p2,
+                omegas,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// Evaluation buffers for the linearisation at an equilibrium x* of
@@ -149,8 +286,24 @@ pub(crate) fn remove_nearest(roots: &mut Vec<Complex64>, targets: &[Complex64], 
     }
 }
 
+/// whether the number of complex (|Im| > 1e-8) and the number of real values in the open
+/// right half plane differ between two stabilities: (complex, real)
+pub(crate) fn crossings(a: &Stability, b: &Stability) -> (bool, bool) {
+    let (ca, ra) = unstable_counts(a);
+    let (cb, rb) = unstable_counts(b);
+    (ca != cb, ra != rb)
+}
+
+/// the kind of the first test that fires (the tests in order of precedence), if any
+pub(crate) fn first_kind<const N: usize>(tests: [(bool, SpecialKind); N]) -> Option<SpecialKind> {
+    tests
+        .into_iter()
+        .find(|(fires, _)| *fires)
+        .map(|(_, kind)| kind)
+}
+
 /// number of values in the open right half plane, complex (|Im| > 1e-8) or real
-pub(crate) fn unstable_counts(s: &Stability) -> (usize, usize) {
+fn unstable_counts(s: &Stability) -> (usize, usize) {
     let complex = s
         .values
         .iter()

@@ -117,16 +117,25 @@ impl<'a, P: Problem, R: CharacteristicRoots> EquilibriumSystem<'a, P, R> {
         }
     }
 
-    /// the matrices A0, A1, …, Ak of the linearisation at u
-    pub fn linearisation(&mut self, u: &[f64]) -> Vec<DMatrix<f64>> {
-        let n = self.problem.dim();
-        let k = self.problem.n_delays();
+    /// set u and evaluate the Jacobian there; returns (n, k)
+    fn linearise(&mut self, u: &[f64]) -> (usize, usize) {
         self.set(u);
         self.problem
             .jacobian(&self.args, &self.params, &mut self.jac);
-        let nc = n * (k + 1);
+        (self.problem.dim(), self.problem.n_delays())
+    }
+
+    /// entry (i, j) of the matrix A_d of argument block d at the last `linearise`
+    fn a(&self, d: usize, i: usize, j: usize) -> f64 {
+        let n = self.problem.dim();
+        self.jac[i * self.args.len() + d * n + j]
+    }
+
+    /// the matrices A0, A1, …, Ak of the linearisation at u
+    pub fn linearisation(&mut self, u: &[f64]) -> Vec<DMatrix<f64>> {
+        let (n, k) = self.linearise(u);
         (0..=k)
-            .map(|d| DMatrix::from_fn(n, n, |i, j| self.jac[i * nc + d * n + j]))
+            .map(|d| DMatrix::from_fn(n, n, |i, j| self.a(d, i, j)))
             .collect()
     }
 
@@ -216,15 +225,10 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for EquilibriumSyste
         Ok(())
     }
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
-        let n = self.problem.dim();
-        let k = self.problem.n_delays();
-        self.set(u);
-        self.problem
-            .jacobian(&self.args, &self.params, &mut self.jac);
-        let nc = n * (k + 1);
+        let (n, k) = self.linearise(u);
         for i in 0..n {
             for j in 0..n {
-                let v: f64 = (0..=k).map(|d| self.jac[i * nc + d * n + j]).sum();
+                let v: f64 = (0..=k).map(|d| self.a(d, i, j)).sum();
                 entries.push(Entry::new(i, j, v));
             }
         }

@@ -62,14 +62,14 @@
 //! ```
 
 use crate::codim2::{
-    Codim2Point, Linearisation, TestPair, check_free, nearest_axis, remove_nearest, unstable_counts,
+    Codim2Point, CurveBase, TestPair, crossings, first_kind, located_codim2, nearest_axis,
 };
 use crate::engine::{Branch, ContinuationSystem};
 use crate::error::{Error, Result};
 use crate::linalg::Entry;
 use crate::problem::Problem;
 use crate::roots::CharacteristicRoots;
-use crate::stability::{Location, SpecialKind, Stability};
+use crate::stability::{SpecialKind, Stability};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
@@ -88,11 +88,7 @@ struct FoldTests {
 /// `secondary_parameter` p2.
 #[derive(Debug)]
 pub struct FoldCurveSystem<'a, P: Problem, R: CharacteristicRoots> {
-    problem: &'a P,
-    params: Vec<f64>,
-    free: [usize; 2],
-    roots: R,
-    lin: Linearisation,
+    base: CurveBase<'a, P, R>,
     /// normalisation vector (c·v = 1)
     c: Vec<f64>,
     /// orientation of the left null vector w (w·r > 0); None before the first point
@@ -107,25 +103,16 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
     /// `params`: all parameters (the free ones, indices `free = [p1, p2]`, are overwritten
     /// from the unknowns); `roots`: how to compute the remaining spectrum.
     pub fn new(problem: &'a P, params: Vec<f64>, free: [usize; 2], roots: R) -> Result<Self> {
-        check_free(free, params.len())?;
-        let lin = Linearisation::new(problem);
-        let n = lin.n;
+        let base = CurveBase::new(problem, params, free, roots)?;
+        let n = base.lin.n;
         Ok(Self {
-            problem,
-            params,
-            free,
-            roots,
             c: vec![0.0; n],
             reference: None,
-            vs: vec![0.0; lin.nc()],
+            vs: vec![0.0; base.lin.nc()],
             buf: vec![0.0; n],
-            lin,
+            base,
             tests: TestPair::default(),
         })
-    }
-
-    fn n(&self) -> usize {
-        self.lin.n
     }
 
     /// Start data from a fold located on an equilibrium branch: the equilibrium `x` at the
@@ -139,39 +126,38 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
         fold_parameter: usize,
         value: f64,
     ) -> Result<(Vec<f64>, Vec<f64>)> {
-        let n = self.n();
-        if !self.free.contains(&fold_parameter) || x.len() != n {
+        let n = self.base.n();
+        if !self.base.free.contains(&fold_parameter) || x.len() != n {
             return Err(Error::InvalidInput(format!(
                 "start_at_fold: parameter {fold_parameter} must be one of {:?} and x of length {n}",
-                self.free
+                self.base.free
             )));
         }
-        self.params[fold_parameter] = value;
-        self.lin.set(self.problem, x, &self.params);
+        self.base.params[fold_parameter] = value;
+        let [p1, p2] = self.base.free_values();
+        self.base.set(x, p1, p2);
         let (_, v) = null_vectors(&self.matrix_j())?;
         let mut u = x.to_vec();
         u.extend(v.iter());
-        u.extend([self.params[self.free[0]], self.params[self.free[1]]]);
+        u.extend([p1, p2]);
         self.set_reference(&u);
-        let mut dir = vec![0.0; u.len()];
-        let other = if fold_parameter == self.free[0] { 1 } else { 0 };
-        dir[2 * n + other] = 1.0;
+        let dir = self.base.start_direction(u.len(), 2 * n, fold_parameter);
         Ok((u, dir))
     }
 
     /// the equilibrium x of a point
     pub fn state<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        &u[..self.n()]
+        &u[..self.base.n()]
     }
 
     /// the null vector v of J at a point (c·v = 1)
     pub fn null_vector<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        &u[self.n()..2 * self.n()]
+        &u[self.base.n()..2 * self.base.n()]
     }
 
     /// the two free parameters (p1, p2) of a point
     pub fn parameters(&self, u: &[f64]) -> (f64, f64) {
-        let n = self.n();
+        let n = self.base.n();
         (u[2 * n], u[2 * n + 1])
     }
 
@@ -187,10 +173,8 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
     /// the remaining spectrum at u: the rightmost roots without the zero root
     pub fn remaining_spectrum(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
         self.set(u);
-        let a = self.lin.matrices();
-        let mut roots = self.roots.rightmost_roots(&a, &self.lin.delays())?;
-        remove_nearest(&mut roots, &[Complex64::new(0.0, 0.0)], 1e-6);
-        Ok(roots)
+        self.base
+            .remaining_spectrum(&[Complex64::new(0.0, 0.0)], 1e-6)
     }
 
     /// The quadratic (cusp) coefficient w·f_xx(v, v) at u, with w the unit left null
@@ -204,40 +188,33 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
     /// the engine as a fold) across which the cusp coefficient changes sign is reported
     /// as a cusp; for zero-Hopf points the frequency is read off the remaining spectrum.
     pub fn codim2_points(&mut self, curve: &Branch) -> Result<Vec<Codim2Point>> {
-        let mut out = Vec::new();
-        let located: Vec<(usize, SpecialKind)> = curve
-            .special_points()
-            .filter(|(_, sp)| sp.location == Location::Located)
-            .map(|(i, sp)| (i, sp.kind))
-            .collect();
-        for (i, kind) in located {
-            let u = &curve.points[i].u;
-            let kind = match kind {
-                SpecialKind::Fold if self.cusp_changes_sign(curve, i)? => SpecialKind::Cusp,
-                k @ (SpecialKind::Cusp | SpecialKind::ZeroHopf | SpecialKind::BogdanovTakens) => k,
-                _ => continue,
-            };
-            let omegas = if kind == SpecialKind::ZeroHopf {
-                let s = Stability::from_eigenvalues(self.remaining_spectrum(u)?);
-                s.values
-                    .iter()
-                    .filter(|z| z.im > 1e-8)
-                    .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))
-                    .map(|z| vec![z.im])
-                    .unwrap_or_default()
-            } else {
-                vec![]
-            };
-            let (p1, p2) = self.parameters(u);
-            out.push(Codim2Point {
-                kind,
-                index: i,
-                p1,
-                p2,
-                omegas,
-            });
-        }
-        Ok(out)
+        let n = self.base.n();
+        located_codim2(
+            curve,
+            |u| (u[2 * n], u[2 * n + 1]),
+            |i, sp| {
+                let kind = match sp.kind {
+                    SpecialKind::Fold if self.cusp_changes_sign(curve, i)? => SpecialKind::Cusp,
+                    k @ (SpecialKind::Cusp
+                    | SpecialKind::ZeroHopf
+                    | SpecialKind::BogdanovTakens) => k,
+                    _ => return Ok(None),
+                };
+                let omegas = if kind == SpecialKind::ZeroHopf {
+                    let s =
+                        Stability::from_eigenvalues(self.remaining_spectrum(&curve.points[i].u)?);
+                    s.values
+                        .iter()
+                        .filter(|z| z.im > 1e-8)
+                        .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))
+                        .map(|z| vec![z.im])
+                        .unwrap_or_default()
+                } else {
+                    vec![]
+                };
+                Ok(Some((kind, omegas)))
+            },
+        )
     }
 
     fn cusp_changes_sign(&mut self, curve: &Branch, i: usize) -> Result<bool> {
@@ -254,10 +231,8 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
     }
 
     fn set(&mut self, u: &[f64]) {
-        let n = self.n();
-        self.params[self.free[0]] = u[2 * n];
-        self.params[self.free[1]] = u[2 * n + 1];
-        self.lin.set(self.problem, &u[..n], &self.params);
+        let n = self.base.n();
+        self.base.set(&u[..n], u[2 * n], u[2 * n + 1]);
         for c in self.vs.chunks_mut(n) {
             c.copy_from_slice(&u[n..2 * n]);
         }
@@ -265,15 +240,13 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
 
     /// J = Σ_d A_d at the current linearisation
     fn matrix_j(&self) -> DMatrix<f64> {
-        DMatrix::from_fn(self.n(), self.n(), |i, m| {
-            (0..=self.lin.k).map(|d| self.lin.a(d, i, m)).sum()
-        })
+        DMatrix::from_fn(self.base.n(), self.base.n(), |i, m| self.base.j(i, m))
     }
 
     /// test functions at u and the unit left null vector w (oriented along `reference`,
     /// or by its largest component without one)
     fn tests_at(&mut self, u: &[f64], reference: Option<&[f64]>) -> Result<(FoldTests, Vec<f64>)> {
-        let n = self.n();
+        let n = self.base.n();
         self.set(u);
         let j = self.matrix_j();
         let v = DVector::from_column_slice(&u[n..2 * n]);
@@ -281,10 +254,10 @@ impl<'a, P: Problem, R: CharacteristicRoots> FoldCurveSystem<'a, P, R> {
             Some(r) => bordered_left_null(&j, &v, r)?,
             None => null_vectors(&j)?.0,
         };
-        let lin = &self.lin;
-        self.problem.second_derivative(
+        let lin = &self.base.lin;
+        self.base.problem.second_derivative(
             &lin.args,
-            &self.params,
+            &self.base.params,
             &self.vs,
             &self.vs,
             &mut self.buf,
@@ -347,19 +320,19 @@ fn bordered_left_null(j: &DMatrix<f64>, v: &DVector<f64>, r: &[f64]) -> Result<V
 
 impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for FoldCurveSystem<'_, P, R> {
     fn n_unknowns(&self) -> usize {
-        2 * self.n() + 2
+        2 * self.base.n() + 2
     }
     fn parameter_index(&self) -> usize {
-        2 * self.n()
+        2 * self.base.n()
     }
     fn secondary_parameter_index(&self) -> Option<usize> {
-        Some(2 * self.n() + 1)
+        Some(2 * self.base.n() + 1)
     }
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
-        let n = self.n();
         self.set(u);
-        self.problem.rhs(&self.lin.args, &self.params, &mut r[..n]);
-        let lin = &self.lin;
+        self.base.equilibrium_residual(r);
+        let n = self.base.n();
+        let lin = &self.base.lin;
         lin.apply(&lin.ones, &self.vs, &mut r[n..2 * n]);
         r[2 * n] = self
             .c
@@ -371,42 +344,29 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for FoldCurveSystem<
         Ok(())
     }
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
-        let n = self.n();
+        let n = self.base.n();
         self.set(u);
         for m in 0..n {
             for i in 0..n {
-                let a: f64 = (0..=self.lin.k).map(|d| self.lin.a(d, i, m)).sum();
+                let a = self.base.j(i, m);
                 entries.push(Entry::new(i, m, a));
                 entries.push(Entry::new(n + i, n + m, a));
             }
-            self.lin.set_unit_direction(m);
-            let lin = &self.lin;
-            self.problem.second_derivative(
-                &lin.args,
-                &self.params,
-                &lin.dir,
-                &self.vs,
-                &mut self.buf,
-            )?;
+            self.base.second_derivative_x(m, &self.vs, &mut self.buf)?;
             for i in 0..n {
                 entries.push(Entry::new(n + i, m, self.buf[i]));
             }
             entries.push(Entry::new(2 * n, n + m, self.c[m]));
         }
-        for (slot, &ip) in self.free.iter().enumerate() {
-            let col = 2 * n + slot;
-            self.problem
-                .dfdp(&self.lin.args, &self.params, ip, &mut self.buf);
+        let (base, vs) = (&self.base, &self.vs);
+        base.parameter_columns(2 * n, &mut self.buf, entries, |col, ip, buf, entries| {
+            base.problem
+                .jacobian_dp(&base.lin.args, &base.params, ip, vs, buf)?;
             for i in 0..n {
-                entries.push(Entry::new(i, col, self.buf[i]));
+                entries.push(Entry::new(n + i, col, buf[i]));
             }
-            self.problem
-                .jacobian_dp(&self.lin.args, &self.params, ip, &self.vs, &mut self.buf)?;
-            for i in 0..n {
-                entries.push(Entry::new(n + i, col, self.buf[i]));
-            }
-        }
-        Ok(())
+            Ok(())
+        })
     }
     fn weights(&self) -> Vec<f64> {
         vec![1.0; self.n_unknowns()]
@@ -430,17 +390,15 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for FoldCurveSystem<
         )))
     }
     fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
-        let (ca, ra) = unstable_counts(a);
-        let (cb, rb) = unstable_counts(b);
-        if self.tests.sign_change(|t| t.cusp) {
-            Some(SpecialKind::Cusp)
-        } else if self.tests.sign_change(|t| t.bt) || ra != rb {
-            Some(SpecialKind::BogdanovTakens)
-        } else if ca != cb {
-            Some(SpecialKind::ZeroHopf)
-        } else {
-            None
-        }
+        let (complex, real) = crossings(a, b);
+        first_kind([
+            (self.tests.sign_change(|t| t.cusp), SpecialKind::Cusp),
+            (
+                self.tests.sign_change(|t| t.bt) || real,
+                SpecialKind::BogdanovTakens,
+            ),
+            (complex, SpecialKind::ZeroHopf),
+        ])
     }
     fn test_function(&mut self, kind: SpecialKind, u: &[f64]) -> Result<Option<f64>> {
         let reference = self.reference.clone();

@@ -78,7 +78,7 @@
 //! ```
 
 use crate::codim2::{
-    Codim2Point, Linearisation, TestPair, check_free, nearest_axis, remove_nearest, unstable_counts,
+    Codim2Point, CurveBase, TestPair, crossings, first_kind, located_codim2, nearest_axis,
 };
 use crate::engine::{Branch, ContinuationSystem};
 use crate::equilibrium::HopfPoint;
@@ -86,7 +86,7 @@ use crate::error::{Error, Result};
 use crate::linalg::Entry;
 use crate::problem::Problem;
 use crate::roots::CharacteristicRoots;
-use crate::stability::{Location, SpecialKind, Stability};
+use crate::stability::{SpecialKind, Stability};
 use num_complex::Complex64;
 
 /// Continuation system of Hopf points in two free parameters (see the module docs).
@@ -95,11 +95,7 @@ use num_complex::Complex64;
 /// its `secondary_parameter` p2.
 #[derive(Debug)]
 pub struct HopfCurveSystem<'a, P: Problem, R: CharacteristicRoots> {
-    problem: &'a P,
-    params: Vec<f64>,
-    free: [usize; 2],
-    roots: R,
-    lin: Linearisation,
+    base: CurveBase<'a, P, R>,
     /// normalisation vector c (c^H v = 1)
     c: Vec<Complex64>,
     /// cos(ω τ_d), sin(ω τ_d) for d = 0..=k
@@ -119,14 +115,9 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
     /// `params`: all parameters (the free ones, indices `free = [p1, p2]`, are overwritten
     /// from the unknowns); `roots`: how to compute the remaining spectrum.
     pub fn new(problem: &'a P, params: Vec<f64>, free: [usize; 2], roots: R) -> Result<Self> {
-        check_free(free, params.len())?;
-        let lin = Linearisation::new(problem);
-        let (n, k) = (lin.n, lin.k);
+        let base = CurveBase::new(problem, params, free, roots)?;
+        let (n, k) = (base.lin.n, base.lin.k);
         Ok(Self {
-            problem,
-            params,
-            free,
-            roots,
             c: vec![Complex64::new(0.0, 0.0); n],
             cs: vec![(1.0, 0.0); k + 1],
             wr: vec![0.0; n * (k + 1)],
@@ -134,13 +125,9 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
             scale: vec![0.0; k + 1],
             buf: vec![0.0; n],
             buf2: vec![0.0; n],
-            lin,
+            base,
             tests: TestPair::default(),
         })
-    }
-
-    fn n(&self) -> usize {
-        self.lin.n
     }
 
     /// Start data from a Hopf point located on an equilibrium branch whose free parameter
@@ -153,11 +140,11 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
         hopf: &HopfPoint,
         hopf_parameter: usize,
     ) -> Result<(Vec<f64>, Vec<f64>)> {
-        let n = self.n();
-        if !self.free.contains(&hopf_parameter) {
+        let n = self.base.n();
+        if !self.base.free.contains(&hopf_parameter) {
             return Err(Error::InvalidInput(format!(
                 "the Hopf point's parameter {hopf_parameter} is not one of the free parameters {:?}",
-                self.free
+                self.base.free
             )));
         }
         if hopf.state.len() != n || hopf.eigenvector.len() != n {
@@ -166,30 +153,27 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
                 hopf.state.len()
             )));
         }
-        self.params[hopf_parameter] = hopf.parameter;
+        self.base.params[hopf_parameter] = hopf.parameter;
         let mut u = hopf.state.clone();
         u.extend(hopf.eigenvector.iter().map(|z| z.re));
         u.extend(hopf.eigenvector.iter().map(|z| z.im));
-        u.extend([
-            hopf.omega,
-            self.params[self.free[0]],
-            self.params[self.free[1]],
-        ]);
+        u.push(hopf.omega);
+        u.extend(self.base.free_values());
         self.set_reference(&u);
-        let mut dir = vec![0.0; u.len()];
-        let other = if hopf_parameter == self.free[0] { 2 } else { 1 };
-        dir[3 * n + other] = 1.0;
+        let dir = self
+            .base
+            .start_direction(u.len(), 3 * n + 1, hopf_parameter);
         Ok((u, dir))
     }
 
     /// the equilibrium x of a point
     pub fn state<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        &u[..self.n()]
+        &u[..self.base.n()]
     }
 
     /// the critical eigenvector v of a point (Δ(iω) v = 0, c^H v = 1)
     pub fn eigenvector(&self, u: &[f64]) -> Vec<Complex64> {
-        let n = self.n();
+        let n = self.base.n();
         (0..n)
             .map(|i| Complex64::new(u[n + i], u[2 * n + i]))
             .collect()
@@ -198,21 +182,21 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
     /// the angular frequency ω of the critical pair ±iω \[rad / time unit\]
     /// (negative beyond a Bogdanov–Takens point, where the curve retraces itself)
     pub fn omega(&self, u: &[f64]) -> f64 {
-        u[3 * self.n()]
+        u[3 * self.base.n()]
     }
 
     /// the two free parameters (p1, p2) of a point
     pub fn parameters(&self, u: &[f64]) -> (f64, f64) {
-        let n = self.n();
+        let n = self.base.n();
         (u[3 * n + 1], u[3 * n + 2])
     }
 
     /// all parameters at a point (the free ones taken from u)
     pub fn parameters_at(&self, u: &[f64]) -> Vec<f64> {
-        let mut p = self.params.clone();
+        let mut p = self.base.params.clone();
         let (p1, p2) = self.parameters(u);
-        p[self.free[0]] = p1;
-        p[self.free[1]] = p2;
+        p[self.base.free[0]] = p1;
+        p[self.base.free[1]] = p2;
         p
     }
 
@@ -228,56 +212,43 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
     /// the remaining spectrum at u: the rightmost roots without the critical pair ±iω
     pub fn remaining_spectrum(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
         self.set(u);
-        let a = self.lin.matrices();
-        let mut roots = self.roots.rightmost_roots(&a, &self.lin.delays())?;
         let w = self.omega(u);
         let tol = 1e-6 * (1.0 + w.abs());
-        remove_nearest(
-            &mut roots,
-            &[Complex64::new(0.0, w), Complex64::new(0.0, -w)],
-            tol,
-        );
-        Ok(roots)
+        self.base
+            .remaining_spectrum(&[Complex64::new(0.0, w), Complex64::new(0.0, -w)], tol)
     }
 
     /// The codimension-two points located on `curve`, with their critical frequencies.
     /// A turning point of p1 where ω changes sign (recorded by the engine as a fold) is
     /// reported as a Bogdanov–Takens point; other turning points are not codimension two.
     pub fn codim2_points(&self, curve: &Branch) -> Vec<Codim2Point> {
-        let mut out = Vec::new();
-        for (i, sp) in curve.special_points() {
-            if sp.location != Location::Located {
-                continue;
-            }
-            let pt = &curve.points[i];
-            let w = self.omega(&pt.u).abs();
-            let kind = match sp.kind {
-                SpecialKind::Fold if self.omega_changes_sign(curve, i) => {
-                    SpecialKind::BogdanovTakens
-                }
-                k @ (SpecialKind::DoubleHopf
-                | SpecialKind::ZeroHopf
-                | SpecialKind::BogdanovTakens) => k,
-                _ => continue,
-            };
-            let omegas = match kind {
-                SpecialKind::DoubleHopf => {
-                    let w2 = sp.critical.map(|z| z.im.abs()).unwrap_or(f64::NAN);
-                    vec![w, w2]
-                }
-                SpecialKind::ZeroHopf => vec![w],
-                _ => vec![],
-            };
-            let (p1, p2) = self.parameters(&pt.u);
-            out.push(Codim2Point {
-                kind,
-                index: i,
-                p1,
-                p2,
-                omegas,
-            });
-        }
-        out
+        let points = located_codim2::<std::convert::Infallible>(
+            curve,
+            |u| self.parameters(u),
+            |i, sp| {
+                let w = self.omega(&curve.points[i].u).abs();
+                let kind = match sp.kind {
+                    SpecialKind::Fold if self.omega_changes_sign(curve, i) => {
+                        SpecialKind::BogdanovTakens
+                    }
+                    k @ (SpecialKind::DoubleHopf
+                    | SpecialKind::ZeroHopf
+                    | SpecialKind::BogdanovTakens) => k,
+                    _ => return Ok(None),
+                };
+                let omegas = match kind {
+                    SpecialKind::DoubleHopf => {
+                        let w2 = sp.critical.map(|z| z.im.abs()).unwrap_or(f64::NAN);
+                        vec![w, w2]
+                    }
+                    SpecialKind::ZeroHopf => vec![w],
+                    _ => vec![],
+                };
+                Ok(Some((kind, omegas)))
+            },
+        );
+        let Ok(points) = points;
+        points
     }
 
     fn omega_changes_sign(&self, curve: &Branch, i: usize) -> bool {
@@ -289,13 +260,11 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
     /// evaluate everything that depends on u: parameters, linearisation, delays,
     /// e^{−iωτ_d} and the stacked V_d = e^{−iωτ_d} v
     fn set(&mut self, u: &[f64]) {
-        let n = self.n();
-        self.params[self.free[0]] = u[3 * n + 1];
-        self.params[self.free[1]] = u[3 * n + 2];
-        self.lin.set(self.problem, &u[..n], &self.params);
+        let n = self.base.n();
+        self.base.set(&u[..n], u[3 * n + 1], u[3 * n + 2]);
         let w = u[3 * n];
-        for d in 0..=self.lin.k {
-            let th = w * self.lin.tau[d];
+        for d in 0..=self.base.lin.k {
+            let th = w * self.base.lin.tau[d];
             let (c, s) = (th.cos(), th.sin());
             self.cs[d] = (c, s);
             for m in 0..n {
@@ -308,66 +277,50 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
 
     /// columns of the two free parameters
     fn parameter_columns(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
-        let n = self.n();
+        let n = self.base.n();
         let w = u[3 * n];
-        for (slot, &ip) in self.free.iter().enumerate() {
-            let col = 3 * n + 1 + slot;
-            self.problem
-                .dfdp(&self.lin.args, &self.params, ip, &mut self.buf);
-            for i in 0..n {
-                entries.push(Entry::new(i, col, self.buf[i]));
-            }
-            // explicit dependence of the A_d
-            self.problem
-                .jacobian_dp(&self.lin.args, &self.params, ip, &self.wr, &mut self.buf)?;
-            self.problem
-                .jacobian_dp(&self.lin.args, &self.params, ip, &self.wi, &mut self.buf2)?;
-            for i in 0..n {
-                entries.push(Entry::new(n + i, col, -self.buf[i]));
-                entries.push(Entry::new(2 * n + i, col, -self.buf2[i]));
-            }
-            // dependence of the delays: dV_d/dp = −iω τ_d' V_d
-            self.scale[0] = 0.0;
-            for j in 0..self.lin.k {
-                self.scale[j + 1] = w * self.problem.delay_dp(j, &self.params, ip);
-            }
-            if self.scale.iter().any(|&s| s != 0.0) {
-                self.lin.apply(&self.scale, &self.wi, &mut self.buf);
-                self.lin.apply(&self.scale, &self.wr, &mut self.buf2);
+        let base = &self.base;
+        let (wr, wi, buf2, scale) = (&self.wr, &self.wi, &mut self.buf2, &mut self.scale);
+        base.parameter_columns(
+            3 * n + 1,
+            &mut self.buf,
+            entries,
+            |col, ip, buf, entries| {
+                let (problem, lin, params) = (base.problem, &base.lin, &base.params);
+                // explicit dependence of the A_d
+                problem.jacobian_dp(&lin.args, params, ip, wr, buf)?;
+                problem.jacobian_dp(&lin.args, params, ip, wi, buf2)?;
                 for i in 0..n {
-                    entries.push(Entry::new(n + i, col, -self.buf[i]));
-                    entries.push(Entry::new(2 * n + i, col, self.buf2[i]));
+                    entries.push(Entry::new(n + i, col, -buf[i]));
+                    entries.push(Entry::new(2 * n + i, col, -buf2[i]));
                 }
-            }
-        }
-        Ok(())
+                // dependence of the delays: dV_d/dp = −iω τ_d' V_d
+                scale[0] = 0.0;
+                for j in 0..lin.k {
+                    scale[j + 1] = w * problem.delay_dp(j, params, ip);
+                }
+                if scale.iter().any(|&s| s != 0.0) {
+                    lin.apply(scale, wi, buf);
+                    lin.apply(scale, wr, buf2);
+                    for i in 0..n {
+                        entries.push(Entry::new(n + i, col, -buf[i]));
+                        entries.push(Entry::new(2 * n + i, col, buf2[i]));
+                    }
+                }
+                Ok(())
+            },
+        )
     }
 
     /// columns of x: Σ A_d in the equilibrium rows, −∂(A V)/∂x from second derivatives
     fn state_columns(&mut self, entries: &mut Vec<Entry>) -> Result<()> {
-        let n = self.n();
-        let k = self.lin.k;
+        let n = self.base.n();
         for m in 0..n {
             for i in 0..n {
-                let v: f64 = (0..=k).map(|d| self.lin.a(d, i, m)).sum();
-                entries.push(Entry::new(i, m, v));
+                entries.push(Entry::new(i, m, self.base.j(i, m)));
             }
-            self.lin.set_unit_direction(m);
-            let lin = &self.lin;
-            self.problem.second_derivative(
-                &lin.args,
-                &self.params,
-                &lin.dir,
-                &self.wr,
-                &mut self.buf,
-            )?;
-            self.problem.second_derivative(
-                &lin.args,
-                &self.params,
-                &lin.dir,
-                &self.wi,
-                &mut self.buf2,
-            )?;
+            self.base.second_derivative_x(m, &self.wr, &mut self.buf)?;
+            self.base.second_derivative_x(m, &self.wi, &mut self.buf2)?;
             for i in 0..n {
                 entries.push(Entry::new(n + i, m, -self.buf[i]));
                 entries.push(Entry::new(2 * n + i, m, -self.buf2[i]));
@@ -378,14 +331,14 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
 
     /// columns of Re v, Im v and ω in the rows of Δ(iω) v = 0, and the normalisation rows
     fn eigen_columns(&mut self, u: &[f64], entries: &mut Vec<Entry>) {
-        let n = self.n();
-        let k = self.lin.k;
+        let n = self.base.n();
+        let lin = &self.base.lin;
         let w = u[3 * n];
         for i in 0..n {
             for m in 0..n {
                 let (mut ac, mut as_) = (0.0, 0.0);
-                for d in 0..=k {
-                    let a = self.lin.a(d, i, m);
+                for d in 0..=lin.k {
+                    let a = lin.a(d, i, m);
                     ac += self.cs[d].0 * a;
                     as_ += self.cs[d].1 * a;
                 }
@@ -397,9 +350,9 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
             }
         }
         // ∂/∂ω: dV_d/dω = −iτ_d V_d
-        self.scale.copy_from_slice(&self.lin.tau);
-        self.lin.apply(&self.scale, &self.wi, &mut self.buf);
-        self.lin.apply(&self.scale, &self.wr, &mut self.buf2);
+        self.scale.copy_from_slice(&lin.tau);
+        lin.apply(&self.scale, &self.wi, &mut self.buf);
+        lin.apply(&self.scale, &self.wr, &mut self.buf2);
         for i in 0..n {
             entries.push(Entry::new(n + i, 3 * n, -u[2 * n + i] - self.buf[i]));
             entries.push(Entry::new(2 * n + i, 3 * n, u[n + i] + self.buf2[i]));
@@ -415,33 +368,18 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
 
 impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for HopfCurveSystem<'_, P, R> {
     fn n_unknowns(&self) -> usize {
-        3 * self.n() + 3
+        3 * self.base.n() + 3
     }
     fn parameter_index(&self) -> usize {
-        3 * self.n() + 1
+        3 * self.base.n() + 1
     }
     fn secondary_parameter_index(&self) -> Option<usize> {
-        Some(3 * self.n() + 2)
+        Some(3 * self.base.n() + 2)
     }
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
-        let n = self.n();
         self.set(u);
-        self.problem.rhs(&self.lin.args, &self.params, &mut r[..n]);
-        let w = u[3 * n];
-        self.lin.apply(&self.lin.ones, &self.wr, &mut self.buf);
-        self.lin.apply(&self.lin.ones, &self.wi, &mut self.buf2);
-        for i in 0..n {
-            r[n + i] = -w * u[2 * n + i] - self.buf[i];
-            r[2 * n + i] = w * u[n + i] - self.buf2[i];
-        }
-        let (mut re, mut im) = (-1.0, 0.0);
-        for (m, c) in self.c.iter().enumerate() {
-            let (vr, vi) = (u[n + m], u[2 * n + m]);
-            re += c.re * vr + c.im * vi;
-            im += c.re * vi - c.im * vr;
-        }
-        r[3 * n] = re;
-        r[3 * n + 1] = im;
+        self.base.equilibrium_residual(r);
+        self.eigen_residual(u, r);
         Ok(())
     }
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
@@ -464,17 +402,12 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for HopfCurveSystem<
         )))
     }
     fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
-        let (ca, ra) = unstable_counts(a);
-        let (cb, rb) = unstable_counts(b);
-        if self.tests.sign_change(|w| *w) {
-            Some(SpecialKind::BogdanovTakens)
-        } else if ca != cb {
-            Some(SpecialKind::DoubleHopf)
-        } else if ra != rb {
-            Some(SpecialKind::ZeroHopf)
-        } else {
-            None
-        }
+        let (complex, real) = crossings(a, b);
+        first_kind([
+            (self.tests.sign_change(|w| *w), SpecialKind::BogdanovTakens),
+            (complex, SpecialKind::DoubleHopf),
+            (real, SpecialKind::ZeroHopf),
+        ])
     }
     fn test_function(&mut self, kind: SpecialKind, u: &[f64]) -> Result<Option<f64>> {
         Ok(match kind {
@@ -485,5 +418,28 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for HopfCurveSystem<
             }
             _ => None,
         })
+    }
+}
+
+impl<P: Problem, R: CharacteristicRoots> HopfCurveSystem<'_, P, R> {
+    /// the rows of Δ(iω) v = 0 and of the normalisation c^H v = 1 (after `set(u)`)
+    fn eigen_residual(&mut self, u: &[f64], r: &mut [f64]) {
+        let n = self.base.n();
+        let lin = &self.base.lin;
+        let w = u[3 * n];
+        lin.apply(&lin.ones, &self.wr, &mut self.buf);
+        lin.apply(&lin.ones, &self.wi, &mut self.buf2);
+        for i in 0..n {
+            r[n + i] = -w * u[2 * n + i] - self.buf[i];
+            r[2 * n + i] = w * u[n + i] - self.buf2[i];
+        }
+        let (mut re, mut im) = (-1.0, 0.0);
+        for (m, c) in self.c.iter().enumerate() {
+            let (vr, vi) = (u[n + m], u[2 * n + m]);
+            re += c.re * vr + c.im * vi;
+            im += c.re * vi - c.im * vr;
+        }
+        r[3 * n] = re;
+        r[3 * n + 1] = im;
     }
 }

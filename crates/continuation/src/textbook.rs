@@ -9,6 +9,75 @@
 
 use crate::{Problem, Result};
 
+/// Writes `impl Problem for $ty` from compact method headers, so that each problem states
+/// only its equations. `fn name(self, a, b, …) { … }` becomes the [`Problem`] method of that
+/// name with the trait's argument types (and `-> Result<()>` where the trait has it).
+/// `delay = p[k]` after the type declares one delay τ = p\[k\] \[time units\]; with `, free`
+/// the delay also reports ∂τ/∂p_k = 1, so p\[k\] may be a free (continuation) parameter.
+macro_rules! textbook_problem {
+    ($ty:ty $(, delay = p[$k:literal] $(, $free:ident)?)?; $(fn $name:ident($($arg:tt)*) $body:block)*) => {
+        impl Problem for $ty {
+            $(textbook_problem!(@delay $k $($free)?);)?
+            $(textbook_problem!(@fn $name($($arg)*) $body);)*
+        }
+    };
+    (@delay $k:literal) => {
+        fn n_delays(&self) -> usize {
+            1
+        }
+        fn delay(&self, _j: usize, p: &[f64]) -> f64 {
+            p[$k]
+        }
+    };
+    (@delay $k:literal free) => {
+        textbook_problem!(@delay $k);
+        fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
+            if ip == $k { 1.0 } else { 0.0 }
+        }
+    };
+    (@fn dim($s:ident) $body:block) => {
+        fn dim(&$s) -> usize $body
+    };
+    (@fn n_delays($s:ident) $body:block) => {
+        fn n_delays(&$s) -> usize $body
+    };
+    (@fn delay($s:ident, $j:pat, $p:pat) $body:block) => {
+        fn delay(&$s, $j: usize, $p: &[f64]) -> f64 $body
+    };
+    (@fn delay_dp($s:ident, $j:pat, $p:pat, $ip:pat) $body:block) => {
+        fn delay_dp(&$s, $j: usize, $p: &[f64], $ip: usize) -> f64 $body
+    };
+    (@fn rhs($s:ident, $x:pat, $p:pat, $f:pat) $body:block) => {
+        fn rhs(&$s, $x: &[f64], $p: &[f64], $f: &mut [f64]) $body
+    };
+    (@fn jacobian($s:ident, $x:pat, $p:pat, $j:pat) $body:block) => {
+        fn jacobian(&$s, $x: &[f64], $p: &[f64], $j: &mut [f64]) $body
+    };
+    (@fn dfdp($s:ident, $x:pat, $p:pat, $ip:pat, $out:pat) $body:block) => {
+        fn dfdp(&$s, $x: &[f64], $p: &[f64], $ip: usize, $out: &mut [f64]) $body
+    };
+    (@fn second_derivative($s:ident, $x:pat, $p:pat, $a:pat, $b:pat, $out:pat) $body:block) => {
+        fn second_derivative(
+            &$s,
+            $x: &[f64],
+            $p: &[f64],
+            $a: &[f64],
+            $b: &[f64],
+            $out: &mut [f64],
+        ) -> Result<()> $body
+    };
+    (@fn jacobian_dp($s:ident, $x:pat, $p:pat, $ip:pat, $a:pat, $out:pat) $body:block) => {
+        fn jacobian_dp(
+            &$s,
+            $x: &[f64],
+            $p: &[f64],
+            $ip: usize,
+            $a: &[f64],
+            $out: &mut [f64],
+        ) -> Result<()> $body
+    };
+}
+
 /// Polar normal form r' = r(μ + a r² − r⁴)·(sign), θ' = ω + b r², in Cartesian coordinates.
 /// Parameter p\[0\] = μ.
 /// - `a = −1` (with r⁴ term dropped, `quartic = false`): Stuart–Landau, supercritical
@@ -52,18 +121,16 @@ impl NormalForm {
     }
 }
 
-impl Problem for NormalForm {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { NormalForm;
+    fn dim(self) { 2 }
+    fn rhs(self, x, p, f) {
         let r2 = x[0] * x[0] + x[1] * x[1];
         let (g, _) = self.g(p[0], r2);
         let w = self.omega + self.b * r2;
         f[0] = g * x[0] - w * x[1];
         f[1] = w * x[0] + g * x[1];
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         let r2 = x[0] * x[0] + x[1] * x[1];
         let (g, dg) = self.g(p[0], r2);
         let w = self.omega + self.b * r2;
@@ -74,7 +141,7 @@ impl Problem for NormalForm {
         j[2] = w + self.b * 2.0 * x0 * x0 + dg * 2.0 * x0 * x1;
         j[3] = self.b * 2.0 * x1 * x0 + g + dg * 2.0 * x1 * x1;
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, _ip, out) {
         out[0] = x[0];
         out[1] = x[1];
     }
@@ -84,21 +151,19 @@ impl Problem for NormalForm {
 #[derive(Debug)]
 pub struct VanDerPol;
 
-impl Problem for VanDerPol {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { VanDerPol;
+    fn dim(self) { 2 }
+    fn rhs(self, x, p, f) {
         f[0] = x[1];
         f[1] = p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0];
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         j[0] = 0.0;
         j[1] = 1.0;
         j[2] = -2.0 * p[0] * x[0] * x[1] - 1.0;
         j[3] = p[0] * (1.0 - x[0] * x[0]);
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, _ip, out) {
         out[0] = 0.0;
         out[1] = (1.0 - x[0] * x[0]) * x[1];
     }
@@ -108,24 +173,16 @@ impl Problem for VanDerPol {
 #[derive(Debug)]
 pub struct LinearDelay;
 
-impl Problem for LinearDelay {
-    fn dim(&self) -> usize {
-        1
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[1]
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { LinearDelay, delay = p[1];
+    fn dim(self) { 1 }
+    fn rhs(self, x, p, f) {
         f[0] = -p[0] * x[1];
     }
-    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, _x, p, j) {
         j[0] = 0.0;
         j[1] = -p[0];
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         out[0] = if ip == 0 { -x[1] } else { 0.0 };
     }
 }
@@ -139,17 +196,9 @@ impl Problem for LinearDelay {
 #[derive(Debug)]
 pub struct DelayedStuartLandau;
 
-impl Problem for DelayedStuartLandau {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[2]
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { DelayedStuartLandau, delay = p[2];
+    fn dim(self) { 2 }
+    fn rhs(self, x, p, f) {
         let (mu, k, tau) = (p[0], p[1], p[2]);
         let r2 = x[0] * x[0] + x[1] * x[1];
         let (c, s) = (tau.cos(), tau.sin());
@@ -158,7 +207,7 @@ impl Problem for DelayedStuartLandau {
         f[0] = (mu - r2) * x[0] - x[1] + k * (x[2] - rz.0);
         f[1] = x[0] + (mu - r2) * x[1] + k * (x[3] - rz.1);
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         let (mu, k, tau) = (p[0], p[1], p[2]);
         let r2 = x[0] * x[0] + x[1] * x[1];
         let (c, s) = (tau.cos(), tau.sin());
@@ -172,7 +221,7 @@ impl Problem for DelayedStuartLandau {
         j[6] = 0.0;
         j[7] = k;
     }
-    fn dfdp(&self, x: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, p, ip, out) {
         match ip {
             0 => {
                 out[0] = x[0];
@@ -197,52 +246,27 @@ impl Problem for DelayedStuartLandau {
 #[derive(Debug)]
 pub struct ScalarDelay;
 
-impl Problem for ScalarDelay {
-    fn dim(&self) -> usize {
-        1
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[2]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 2 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { ScalarDelay, delay = p[2], free;
+    fn dim(self) { 1 }
+    fn rhs(self, x, p, f) {
         f[0] = -p[0] * x[0] + p[1] * x[1];
     }
-    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, _x, p, j) {
         j[0] = -p[0];
         j[1] = p[1];
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         out[0] = match ip {
             0 => -x[0],
             1 => x[1],
             _ => 0.0,
         };
     }
-    fn second_derivative(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        _a: &[f64],
-        _b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, _x, _p, _a, _b, out) {
         out[0] = 0.0;
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, _x, _p, ip, a, out) {
         out[0] = match ip {
             0 => -a[0],
             1 => a[1],
@@ -266,44 +290,28 @@ impl ScalarDelay {
 #[derive(Debug)]
 pub struct BogdanovTakens;
 
-impl Problem for BogdanovTakens {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { BogdanovTakens;
+    fn dim(self) { 2 }
+    fn rhs(self, x, p, f) {
         f[0] = x[1];
         f[1] = p[0] + p[1] * x[1] + x[0] * x[0] - x[0] * x[1];
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         j[0] = 0.0;
         j[1] = 1.0;
         j[2] = 2.0 * x[0] - x[1];
         j[3] = p[1] - x[0];
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         out[0] = 0.0;
         out[1] = if ip == 0 { 1.0 } else { x[1] };
     }
-    fn second_derivative(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, _x, _p, a, b, out) {
         out[0] = 0.0;
         out[1] = 2.0 * a[0] * b[0] - a[0] * b[1] - a[1] * b[0];
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, _x, _p, ip, a, out) {
         out[0] = 0.0;
         out[1] = if ip == 1 { a[1] } else { 0.0 };
         Ok(())
@@ -314,38 +322,22 @@ impl Problem for BogdanovTakens {
 #[derive(Debug)]
 pub struct Cubic;
 
-impl Problem for Cubic {
-    fn dim(&self) -> usize {
-        1
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { Cubic;
+    fn dim(self) { 1 }
+    fn rhs(self, x, p, f) {
         f[0] = p[0] + p[1] * x[0] - x[0].powi(3);
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         j[0] = p[1] - 3.0 * x[0] * x[0];
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         out[0] = if ip == 0 { 1.0 } else { x[0] };
     }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, x, _p, a, b, out) {
         out[0] = -6.0 * x[0] * a[0] * b[0];
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, _x, _p, ip, a, out) {
         out[0] = if ip == 1 { a[0] } else { 0.0 };
         Ok(())
     }
@@ -381,52 +373,27 @@ impl TwoModes {
     }
 }
 
-impl Problem for TwoModes {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[1]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 1 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { TwoModes, delay = p[1], free;
+    fn dim(self) { 2 }
+    fn rhs(self, x, p, f) {
         let r2 = self.row2(p);
         f[0] = -self.gamma1 * x[0] + p[0] * x[2];
         f[1] = (0..4).map(|i| r2[i] * x[i]).sum();
     }
-    fn jacobian(&self, _x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, _x, p, j) {
         j[..4].copy_from_slice(&[-self.gamma1, 0.0, p[0], 0.0]);
         j[4..].copy_from_slice(&self.row2(p));
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         let b1 = ip == 0;
         out[0] = if b1 { x[2] } else { 0.0 };
         out[1] = if b1 && self.real.is_some() { x[1] } else { 0.0 };
     }
-    fn second_derivative(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        _a: &[f64],
-        _b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, _x, _p, _a, _b, out) {
         out.iter_mut().for_each(|o| *o = 0.0);
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, _x, p, ip, a, out) {
         // f is linear in the state and in b1: ∂J/∂b1 · a = ∂f/∂b1 evaluated at a
         self.dfdp(a, p, ip, out);
         Ok(())
@@ -439,17 +406,15 @@ impl Problem for TwoModes {
 #[derive(Debug)]
 pub struct TanhNet;
 
-impl Problem for TanhNet {
-    fn dim(&self) -> usize {
+textbook_problem! { TanhNet;
+    fn dim(self) { 2 }
+    fn n_delays(self) {
         2
     }
-    fn n_delays(&self) -> usize {
-        2
-    }
-    fn delay(&self, j: usize, p: &[f64]) -> f64 {
+    fn delay(self, j, p) {
         if j == 0 { p[3] } else { p[3] * p[2] }
     }
-    fn delay_dp(&self, j: usize, p: &[f64], ip: usize) -> f64 {
+    fn delay_dp(self, j, p, ip) {
         match (j, ip) {
             (0, 3) => 1.0,
             (1, 3) => p[2],
@@ -457,12 +422,12 @@ impl Problem for TanhNet {
             _ => 0.0,
         }
     }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+    fn rhs(self, x, p, f) {
         let (a, b, c) = (p[0], p[1], p[2]);
         f[0] = -a * x[0] + b * x[3].tanh() + c * x[0] * x[5];
         f[1] = -x[1] + a * x[2].tanh() - b * x[1] * x[1] + c * x[4];
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         let (a, b, c) = (p[0], p[1], p[2]);
         let s = |v: f64| 1.0 / v.cosh().powi(2);
         j.iter_mut().for_each(|v| *v = 0.0);
@@ -473,7 +438,7 @@ impl Problem for TanhNet {
         j[6 + 2] = a * s(x[2]);
         j[6 + 4] = c;
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         let v = match ip {
             0 => [-x[0], x[2].tanh()],
             1 => [x[3].tanh(), -x[1] * x[1]],
@@ -482,27 +447,13 @@ impl Problem for TanhNet {
         };
         out.copy_from_slice(&v);
     }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, x, p, a, b, out) {
         let d2 = |v: f64| -2.0 * v.tanh() / v.cosh().powi(2);
         out[0] = p[1] * d2(x[3]) * a[3] * b[3] + p[2] * (a[0] * b[5] + a[5] * b[0]);
         out[1] = -2.0 * p[1] * a[1] * b[1] + p[0] * d2(x[2]) * a[2] * b[2];
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, x, _p, ip, a, out) {
         let s = |v: f64| 1.0 / v.cosh().powi(2);
         let v = match ip {
             0 => [-a[0], s(x[2]) * a[2]],
@@ -552,16 +503,14 @@ fn dot2(a: &[f64], b: &[f64]) -> f64 {
     a[0] * b[0] + a[1] * b[1]
 }
 
-impl Problem for Radial {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { Radial;
+    fn dim(self) { 2 }
+    fn rhs(self, x, p, f) {
         let (g, _, _) = self.g(p, dot2(x, x));
         f[0] = g * x[0] - x[1] + self.eps * x[0] * x[0];
         f[1] = x[0] + g * x[1];
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         let (g, dg, _) = self.g(p, dot2(x, x));
         for r in 0..2 {
             for c in 0..2 {
@@ -572,19 +521,12 @@ impl Problem for Radial {
         j[2] += 1.0;
         j[0] += 2.0 * self.eps * x[0];
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         let s = if ip == 0 { 1.0 } else { dot2(x, x) };
         out[0] = s * x[0];
         out[1] = s * x[1];
     }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, x, p, a, b, out) {
         let (_, dg, ddg) = self.g(p, dot2(x, x));
         let (xa, xb, ab) = (dot2(x, a), dot2(x, b), dot2(a, b));
         for i in 0..2 {
@@ -593,14 +535,7 @@ impl Problem for Radial {
         out[0] += 2.0 * self.eps * a[0] * b[0];
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, x, _p, ip, a, out) {
         // ∂g/∂μ1 = 1, ∂g'/∂μ1 = 0; ∂g/∂μ2 = ρ, ∂g'/∂μ2 = 1
         let (gp, dgp) = if ip == 0 {
             (1.0, 0.0)
@@ -648,20 +583,9 @@ impl DelayedBautin {
     }
 }
 
-impl Problem for DelayedBautin {
-    fn dim(&self) -> usize {
-        2 * self.oscillators()
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[2]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 2 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, a: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { DelayedBautin, delay = p[2], free;
+    fn dim(self) { 2 * self.oscillators() }
+    fn rhs(self, a, p, f) {
         for o in 0..self.oscillators() {
             let (x, y) = self.split(a, o);
             let (r, s) = (dot2(x, x), dot2(y, y));
@@ -675,7 +599,7 @@ impl Problem for DelayedBautin {
             f[2 * o + 1] += x[0];
         }
     }
-    fn jacobian(&self, a: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, a, p, j) {
         let n = self.dim();
         j.iter_mut().for_each(|v| *v = 0.0);
         for o in 0..self.oscillators() {
@@ -697,7 +621,7 @@ impl Problem for DelayedBautin {
             j[(2 * o + 1) * 2 * n + 2 * o] += 1.0;
         }
     }
-    fn dfdp(&self, a: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, a, _p, ip, out) {
         for o in 0..self.oscillators() {
             let (x, y) = self.split(a, o);
             for i in 0..2 {
@@ -709,14 +633,7 @@ impl Problem for DelayedBautin {
             }
         }
     }
-    fn second_derivative(
-        &self,
-        args: &[f64],
-        p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, args, p, a, b, out) {
         for o in 0..self.oscillators() {
             let (x, y) = self.split(args, o);
             let ((ax, ay), (bx, by)) = (self.split(a, o), self.split(b, o));
@@ -731,14 +648,7 @@ impl Problem for DelayedBautin {
         }
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        args: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, args, _p, ip, a, out) {
         for o in 0..self.oscillators() {
             let ((_, y), (ax, ay)) = (self.split(args, o), self.split(a, o));
             let (s, ya) = (dot2(y, y), dot2(y, ay));
@@ -760,17 +670,15 @@ impl Problem for DelayedBautin {
 #[derive(Debug)]
 pub struct SaddleNode;
 
-impl Problem for SaddleNode {
-    fn dim(&self) -> usize {
-        1
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { SaddleNode;
+    fn dim(self) { 1 }
+    fn rhs(self, x, p, f) {
         f[0] = p[0] - x[0] * x[0];
     }
-    fn jacobian(&self, x: &[f64], _p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, _p, j) {
         j[0] = -2.0 * x[0];
     }
-    fn dfdp(&self, _x: &[f64], _p: &[f64], _ip: usize, out: &mut [f64]) {
+    fn dfdp(self, _x, _p, _ip, out) {
         out[0] = 1.0;
     }
 }
@@ -788,27 +696,16 @@ pub struct DelayedOscillators {
     pub eps: f64,
 }
 
-impl Problem for DelayedOscillators {
-    fn dim(&self) -> usize {
-        4
-    }
-    fn n_delays(&self) -> usize {
-        1
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[1]
-    }
-    fn delay_dp(&self, _j: usize, _p: &[f64], ip: usize) -> f64 {
-        if ip == 1 { 1.0 } else { 0.0 }
-    }
-    fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+textbook_problem! { DelayedOscillators, delay = p[1], free;
+    fn dim(self) { 4 }
+    fn rhs(self, x, p, f) {
         let (z, e, k) = (self.zeta, self.eps, p[0]);
         f[0] = x[1];
         f[1] = -2.0 * z * x[1] - x[0] - k * x[4] + e * (x[2] - x[0]) - x[0].powi(3);
         f[2] = x[3];
         f[3] = -2.0 * z * x[3] - x[2] - k * x[6] + e * (x[0] - x[2]) - x[2].powi(3);
     }
-    fn jacobian(&self, x: &[f64], p: &[f64], j: &mut [f64]) {
+    fn jacobian(self, x, p, j) {
         let (z, e, k) = (self.zeta, self.eps, p[0]);
         j.iter_mut().for_each(|v| *v = 0.0);
         j[1] = 1.0;
@@ -822,34 +719,20 @@ impl Problem for DelayedOscillators {
         j[24 + 3] = -2.0 * z;
         j[24 + 6] = -k;
     }
-    fn dfdp(&self, x: &[f64], _p: &[f64], ip: usize, out: &mut [f64]) {
+    fn dfdp(self, x, _p, ip, out) {
         out.iter_mut().for_each(|v| *v = 0.0);
         if ip == 0 {
             out[1] = -x[4];
             out[3] = -x[6];
         }
     }
-    fn second_derivative(
-        &self,
-        x: &[f64],
-        _p: &[f64],
-        a: &[f64],
-        b: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn second_derivative(self, x, _p, a, b, out) {
         out.iter_mut().for_each(|v| *v = 0.0);
         out[1] = -6.0 * x[0] * a[0] * b[0];
         out[3] = -6.0 * x[2] * a[2] * b[2];
         Ok(())
     }
-    fn jacobian_dp(
-        &self,
-        _x: &[f64],
-        _p: &[f64],
-        ip: usize,
-        a: &[f64],
-        out: &mut [f64],
-    ) -> Result<()> {
+    fn jacobian_dp(self, _x, _p, ip, a, out) {
         out.iter_mut().for_each(|v| *v = 0.0);
         if ip == 0 {
             out[1] = -a[4];

@@ -70,20 +70,44 @@ fn cont(step: f64, max_step: f64, range: (f64, f64)) -> Continuation {
     })
 }
 
+/// the equilibrium system of `problem` in its one parameter and the branch started with `c`
+/// at the unknowns `u0` (x, then the parameter), towards larger values
+fn started<'a, P: Problem>(
+    c: &Continuation,
+    problem: &'a P,
+    u0: &[f64],
+) -> (EquilibriumSystem<'a, P, ChebyshevRoots>, Branch) {
+    let p = vec![u0[u0.len() - 1]];
+    let mut eq = EquilibriumSystem::new(problem, p, 0, ChebyshevRoots::default()).expect("system");
+    let dir = eq.parameter_direction();
+    let br = c.start(&mut eq, u0, &dir).expect("start");
+    (eq, br)
+}
+
+/// the trivial branch x = 0 of the tanh pair from a = 0.5, 40 steps of up to 0.25 towards
+/// a = 3 (through the branch point): the continuation, the system, the branch and why it
+/// stopped
+fn tanh_pair_from_zero() -> (
+    Continuation,
+    EquilibriumSystem<'static, TanhPair, ChebyshevRoots>,
+    Branch,
+    Stop,
+) {
+    let c = cont(0.1, 0.25, (0.0, 3.0));
+    let (mut eq, mut br) = started(&c, &TanhPair, &[0.0, 0.0, 0.5]);
+    let stop = c
+        .extend(&mut eq, &mut br, 40)
+        .expect("the engine passes the branch point");
+    (c, eq, br, stop)
+}
+
 #[test]
 fn tanh_pair_branch_point_at_a_9_over_4_is_located_and_passed() {
     // reference: at x = 0 the characteristic matrix at λ = 0 is
     // Δ(0) = −A0 − A1 − A2 = [[1/2 + 1, −1], [−a, 1/2 + 1]], det Δ(0) = 9/4 − a, so a zero
     // root appears at a = 2.25 exactly (and x = 0 stays an equilibrium: a branch point).
     // Location tolerance 1e-10 on the parameter; required 1e-8.
-    let c = cont(0.1, 0.25, (0.0, 3.0));
-    let mut eq =
-        EquilibriumSystem::new(&TanhPair, vec![0.5], 0, ChebyshevRoots::default()).expect("system");
-    let dir = eq.parameter_direction();
-    let mut br = c.start(&mut eq, &[0.0, 0.0, 0.5], &dir).expect("start");
-    let stop = c
-        .extend(&mut eq, &mut br, 40)
-        .expect("the engine passes the branch point");
+    let (_, _, br, stop) = tanh_pair_from_zero();
     assert_eq!(stop, Stop::ParameterRange);
     let (i, bp) = br.first(SpecialKind::BranchPoint).expect("branch point");
     assert_eq!(bp.location, Location::Located);
@@ -121,12 +145,7 @@ fn tanh_pair_branch(x1: f64) -> (f64, f64) {
 fn switching_at_the_tanh_pair_branch_point_follows_the_pitchfork() {
     // reference: the closed-form nontrivial branch (tanh_pair_branch), a → 9/4 as x1 → 0;
     // Newton tolerance 1e-10, required 1e-9
-    let c = cont(0.1, 0.25, (0.0, 3.0));
-    let mut eq =
-        EquilibriumSystem::new(&TanhPair, vec![0.5], 0, ChebyshevRoots::default()).expect("system");
-    let dir = eq.parameter_direction();
-    let mut br = c.start(&mut eq, &[0.0, 0.0, 0.5], &dir).expect("start");
-    c.extend(&mut eq, &mut br, 40).expect("extend");
+    let (c, mut eq, br, _) = tanh_pair_from_zero();
     let (i, _) = br.first(SpecialKind::BranchPoint).expect("branch point");
     let phi = c
         .branch_direction(&mut eq, &br.points[i])
@@ -157,10 +176,7 @@ fn transcritical_branch_point_and_switch_onto_x_equals_p() {
     // reference: x' = p x − x² has the branches x = 0 and x = p crossing at p = 0;
     // location tolerance 1e-10 (required 1e-8), Newton tolerance 1e-10 (required 1e-9)
     let c = cont(0.1, 0.2, (-1.0, 1.0));
-    let mut eq = EquilibriumSystem::new(&Transcritical, vec![-1.0], 0, ChebyshevRoots::default())
-        .expect("system");
-    let dir = eq.parameter_direction();
-    let mut br = c.start(&mut eq, &[0.0, -1.0], &dir).expect("start");
+    let (mut eq, mut br) = started(&c, &Transcritical, &[0.0, -1.0]);
     let stop = c.extend(&mut eq, &mut br, 30).expect("extend");
     assert_eq!(stop, Stop::ParameterRange);
     let (i, bp) = br.first(SpecialKind::BranchPoint).expect("branch point");
@@ -193,10 +209,7 @@ fn observer_sees_every_point_and_can_stop_the_run() {
     // reference: counting (one call per added point), the stop rule's threshold, and the
     // checkpoint being the branch itself
     let c = cont(0.1, 0.2, (-1.0, 1.0));
-    let mut eq = EquilibriumSystem::new(&Transcritical, vec![-1.0], 0, ChebyshevRoots::default())
-        .expect("system");
-    let dir = eq.parameter_direction();
-    let start = c.start(&mut eq, &[0.0, -1.0], &dir).expect("start");
+    let (mut eq, start) = started(&c, &Transcritical, &[0.0, -1.0]);
 
     // progress: one call per added point, the new point last
     let mut br = start.clone();

@@ -2,10 +2,12 @@
 //! every check against a closed form (or, for the Jacobians, central differences).
 mod common;
 
-use common::{cont, hopf_on_branch};
+use common::{
+    cont, continued, curve_system, dense_jacobian, equilibrium_branch, fd_jacobian_of,
+    hopf_on_branch, only_codim2, single_codim2,
+};
 use continuation::textbook::*;
 use continuation::*;
-use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 #[test]
@@ -32,17 +34,15 @@ fn analytic_hopf_curve_with_the_delay_as_parameter() {
     let hopf = hopf_on_branch(&ScalarDelay, vec![1.0, -2.0, 0.3], 2, 40);
     let c = cont(0.05, 0.2);
     for sign in [1.0, -1.0] {
-        let mut hc = HopfCurveSystem::new(
+        let mut hc = curve_system(
+            HopfCurveSystem::new,
             &ScalarDelay,
             vec![1.0, -2.0, 0.3],
             [2, 1],
-            ChebyshevRoots::default(),
-        )
-        .unwrap();
+        );
         let (guess, dir) = hc.start_at_hopf(&hopf, 2).unwrap();
         let dir: Vec<f64> = dir.iter().map(|d| sign * d).collect();
-        let mut curve = c.start(&mut hc, &guess, &dir).unwrap();
-        c.extend(&mut hc, &mut curve, 30).unwrap();
+        let curve = continued(&c, &mut hc, &guess, &dir, 30);
         let mut checked = 0;
         for pt in &curve.points {
             let (tau, b) = (pt.parameter, pt.secondary_parameter.unwrap());
@@ -76,16 +76,8 @@ fn ode_hopf_curve_ends_at_a_bogdanov_takens_point() {
     // required |β2|, |β1| < 1e-8.
     // Hopf point on the equilibrium x = −1 (β1 = −1) continued in β2 from −2: β2 = −1
     let c = cont(0.05, 0.1);
-    let mut eq = EquilibriumSystem::new(
-        &BogdanovTakens,
-        vec![-1.0, -2.0],
-        1,
-        ChebyshevRoots::default(),
-    )
-    .unwrap();
-    let dir = eq.parameter_direction();
-    let mut br = c.start(&mut eq, &[-1.0, 0.0, -2.0], &dir).unwrap();
-    c.extend(&mut eq, &mut br, 40).unwrap();
+    let (mut eq, br) =
+        equilibrium_branch(&BogdanovTakens, vec![-1.0, -2.0], 1, &[-1.0, 0.0, -2.0], 40);
     let (i, sp) = br.first(SpecialKind::Hopf).expect("Hopf point");
     let hopf = eq
         .hopf_point(&br.points[i].u, sp.transversality.unwrap())
@@ -93,16 +85,14 @@ fn ode_hopf_curve_ends_at_a_bogdanov_takens_point() {
     assert!((hopf.parameter + 1.0).abs() < 1e-8);
     assert!((hopf.omega - 2f64.sqrt()).abs() < 1e-10);
 
-    let mut hc = HopfCurveSystem::new(
+    let mut hc = curve_system(
+        HopfCurveSystem::new,
         &BogdanovTakens,
         vec![-1.0, -1.0],
         [1, 0],
-        ChebyshevRoots::default(),
-    )
-    .unwrap();
+    );
     let (guess, dir) = hc.start_at_hopf(&hopf, 1).unwrap();
-    let mut curve = c.start(&mut hc, &guess, &dir).unwrap();
-    c.extend(&mut hc, &mut curve, 80).unwrap();
+    let curve = continued(&c, &mut hc, &guess, &dir, 80);
     for pt in &curve.points {
         let (beta2, beta1) = hc.parameters(&pt.u);
         let w = hc.omega(&pt.u);
@@ -113,18 +103,9 @@ fn ode_hopf_curve_ends_at_a_bogdanov_takens_point() {
         assert!((w * w + 2.0 * beta2).abs() < 1e-9, "ω = {w}, β2 = {beta2}");
         assert!((hc.state(&pt.u)[0] - beta2).abs() < 1e-9);
     }
-    let bt: Vec<_> = hc
-        .codim2_points(&curve)
-        .into_iter()
-        .filter(|c| c.kind == SpecialKind::BogdanovTakens)
-        .collect();
-    assert_eq!(bt.len(), 1, "{bt:?}");
-    assert!(
-        bt[0].p1.abs() < 1e-8 && bt[0].p2.abs() < 1e-8,
-        "{:?}",
-        bt[0]
-    );
-    assert!(bt[0].omegas.is_empty());
+    let bt = single_codim2(hc.codim2_points(&curve), SpecialKind::BogdanovTakens);
+    assert!(bt.p1.abs() < 1e-8 && bt.p2.abs() < 1e-8, "{bt:?}");
+    assert!(bt.omegas.is_empty());
 }
 
 #[test]
@@ -134,31 +115,20 @@ fn fold_curve_of_the_bt_normal_form_and_its_bt_point() {
     // BT located to 1e-10 in p1 = β2, required 1e-8.
     let c = cont(0.05, 0.1);
     // fold of the equilibrium x = −√(−β1) at β1 = 0, β2 = 0.5
-    let mut eq = EquilibriumSystem::new(
-        &BogdanovTakens,
-        vec![-1.0, 0.5],
-        0,
-        ChebyshevRoots::default(),
-    )
-    .unwrap();
-    let dir = eq.parameter_direction();
-    let mut br = c.start(&mut eq, &[-1.0, 0.0, -1.0], &dir).unwrap();
-    c.extend(&mut eq, &mut br, 60).unwrap();
+    let (_, br) = equilibrium_branch(&BogdanovTakens, vec![-1.0, 0.5], 0, &[-1.0, 0.0, -1.0], 60);
     let (i, sp) = br.first(SpecialKind::Fold).expect("fold");
     assert!(sp.parameter.abs() < 1e-8);
     let x_fold = br.points[i].u[..2].to_vec();
 
-    let mut fc = FoldCurveSystem::new(
+    let mut fc = curve_system(
+        FoldCurveSystem::new,
         &BogdanovTakens,
         vec![0.0, 0.5],
         [1, 0],
-        ChebyshevRoots::default(),
-    )
-    .unwrap();
+    );
     let (guess, dir) = fc.start_at_fold(&x_fold, 0, sp.parameter).unwrap();
     let dir: Vec<f64> = dir.iter().map(|d| -d).collect(); // β2 decreasing
-    let mut curve = c.start(&mut fc, &guess, &dir).unwrap();
-    c.extend(&mut fc, &mut curve, 30).unwrap();
+    let curve = continued(&c, &mut fc, &guess, &dir, 30);
     for pt in &curve.points {
         let (beta2, beta1) = fc.parameters(&pt.u);
         assert!(beta1.abs() < 1e-12 && fc.state(&pt.u).iter().all(|x| x.abs() < 1e-12));
@@ -168,13 +138,7 @@ fn fold_curve_of_the_bt_normal_form_and_its_bt_point() {
         }
     }
     let c2 = fc.codim2_points(&curve).unwrap();
-    assert_eq!(c2.len(), 1, "{c2:?}");
-    assert_eq!(c2[0].kind, SpecialKind::BogdanovTakens);
-    assert!(
-        c2[0].p1.abs() < 1e-8 && c2[0].p2.abs() < 1e-12,
-        "{:?}",
-        c2[0]
-    );
+    only_codim2(c2, SpecialKind::BogdanovTakens, (1e-8, 1e-12));
 }
 
 #[test]
@@ -182,24 +146,17 @@ fn fold_curve_with_a_cusp() {
     // reference: closed form 27 p1² = 4 p2³ (p1 = −2x³, p2 = 3x²), cusp at (0, 0).
     // Points to 1e-9 relative (Newton-converged); the cusp is located by regula falsi on
     // the quadratic coefficient until p1 changes by < 1e-10; required |p1|, |p2| < 1e-8.
-    let c = cont(0.05, 0.1);
-    let mut eq =
-        EquilibriumSystem::new(&Cubic, vec![-2.0, 3.0], 0, ChebyshevRoots::default()).unwrap();
-    let dir = eq.parameter_direction();
-    let mut br = c.start(&mut eq, &[-2.0, -2.0], &dir).unwrap();
-    c.extend(&mut eq, &mut br, 80).unwrap();
+    let (_, br) = equilibrium_branch(&Cubic, vec![-2.0, 3.0], 0, &[-2.0, -2.0], 80);
     let (i, sp) = br.first(SpecialKind::Fold).expect("fold");
     assert!((sp.parameter - 2.0).abs() < 1e-8);
 
-    let mut fc =
-        FoldCurveSystem::new(&Cubic, vec![2.0, 3.0], [0, 1], ChebyshevRoots::default()).unwrap();
+    let mut fc = curve_system(FoldCurveSystem::new, &Cubic, vec![2.0, 3.0], [0, 1]);
     let (guess, dir) = fc
         .start_at_fold(&br.points[i].u[..1], 0, sp.parameter)
         .unwrap();
     let dir: Vec<f64> = dir.iter().map(|d| -d).collect(); // p2 decreasing, towards the cusp
     let c = cont(0.1, 0.3);
-    let mut curve = c.start(&mut fc, &guess, &dir).unwrap();
-    c.extend(&mut fc, &mut curve, 80).unwrap();
+    let curve = continued(&c, &mut fc, &guess, &dir, 80);
     for pt in &curve.points {
         let (p1, p2) = fc.parameters(&pt.u);
         let x = fc.state(&pt.u)[0];
@@ -209,16 +166,13 @@ fn fold_curve_with_a_cusp() {
     }
     // the curve passed through the cusp to the other side (x > 0)
     assert!(fc.state(&curve.points.last().unwrap().u)[0] > 0.2);
-    let c2 = fc.codim2_points(&curve).unwrap();
-    assert_eq!(c2.len(), 1, "{c2:?}");
-    assert_eq!(c2[0].kind, SpecialKind::Cusp);
-    assert!(
-        c2[0].p1.abs() < 1e-8 && c2[0].p2.abs() < 1e-8,
-        "{:?}",
-        c2[0]
+    let cusp = only_codim2(
+        fc.codim2_points(&curve).unwrap(),
+        SpecialKind::Cusp,
+        (1e-8, 1e-8),
     );
     assert_eq!(
-        curve.points[c2[0].index].special.as_ref().unwrap().location,
+        curve.points[cusp.index].special.as_ref().unwrap().location,
         Location::Located
     );
 }
@@ -229,14 +183,12 @@ fn mode_one_curve(
     points: usize,
 ) -> (HopfCurveSystem<'_, TwoModes, ChebyshevRoots>, Branch) {
     let hopf = hopf_on_branch(problem, vec![-3.0, 0.3], 1, 40);
-    let mut hc =
-        HopfCurveSystem::new(problem, vec![-3.0, 0.3], [1, 0], ChebyshevRoots::default()).unwrap();
+    let mut hc = curve_system(HopfCurveSystem::new, problem, vec![-3.0, 0.3], [1, 0]);
     let (guess, dir) = hc.start_at_hopf(&hopf, 1).unwrap();
     let mut c = cont(0.05, 0.1);
     // stop before mode 2's next crossing at τ = (2.5 + 2π)/2.5 ≈ 3.5
     c.options.parameter_range = (0.0, 3.0);
-    let mut curve = c.start(&mut hc, &guess, &dir).unwrap();
-    c.extend(&mut hc, &mut curve, points).unwrap();
+    let curve = continued(&c, &mut hc, &guess, &dir, points);
     (hc, curve)
 }
 
@@ -262,13 +214,7 @@ fn double_hopf_point_of_two_delayed_modes() {
     // until τ changes by < 1e-10; required 1e-8 on (τ, b1) and on both frequencies.
     let (p, b1_star) = double_hopf_problem();
     let (hc, curve) = mode_one_curve(&p, 40);
-    let dh: Vec<_> = hc
-        .codim2_points(&curve)
-        .into_iter()
-        .filter(|c| c.kind == SpecialKind::DoubleHopf)
-        .collect();
-    assert_eq!(dh.len(), 1, "{dh:?}");
-    let d = &dh[0];
+    let d = &single_codim2(hc.codim2_points(&curve), SpecialKind::DoubleHopf);
     assert!((d.p1 - 1.0).abs() < 1e-8, "τ = {}", d.p1);
     assert!((d.p2 - b1_star).abs() < 1e-8, "b1 = {} vs {b1_star}", d.p2);
     assert_eq!(d.omegas.len(), 2);
@@ -302,16 +248,11 @@ fn zero_hopf_point_of_a_delayed_mode_and_a_real_mode() {
         real: Some(2.5),
     };
     let (hc, curve) = mode_one_curve(&p, 30);
-    let zh: Vec<_> = hc
-        .codim2_points(&curve)
-        .into_iter()
-        .filter(|c| c.kind == SpecialKind::ZeroHopf)
-        .collect();
-    assert_eq!(zh.len(), 1, "{zh:?}");
+    let zh = single_codim2(hc.codim2_points(&curve), SpecialKind::ZeroHopf);
     let (omega, tau) = ScalarDelay::hopf(gamma1, -2.5);
-    assert!((zh[0].p2 + 2.5).abs() < 1e-8, "b1 = {}", zh[0].p2);
-    assert!((zh[0].p1 - tau).abs() < 1e-8);
-    assert!((zh[0].omegas[0] - omega).abs() < 1e-8);
+    assert!((zh.p2 + 2.5).abs() < 1e-8, "b1 = {}", zh.p2);
+    assert!((zh.p1 - tau).abs() < 1e-8);
+    assert!((zh.omegas[0] - omega).abs() < 1e-8);
 }
 
 #[test]
@@ -326,8 +267,7 @@ fn hopf_curve_resumed_from_json_equals_an_uninterrupted_run() {
     let (_, half) = mode_one_curve(&p, 20);
     let json = serde_json::to_string(&half).unwrap();
     let mut loaded: Branch = serde_json::from_str(&json).unwrap();
-    let mut hc =
-        HopfCurveSystem::new(&p, vec![-3.0, 0.3], [1, 0], ChebyshevRoots::default()).unwrap();
+    let mut hc = curve_system(HopfCurveSystem::new, &p, vec![-3.0, 0.3], [1, 0]);
     let mut c = cont(0.05, 0.1);
     c.options.parameter_range = (0.0, 3.0);
     c.extend(&mut hc, &mut loaded, 20).unwrap();
@@ -344,38 +284,6 @@ fn hopf_curve_resumed_from_json_equals_an_uninterrupted_run() {
     assert!(loaded.first(SpecialKind::DoubleHopf).is_some());
 }
 
-/// dense Jacobian of a continuation system from its triplets
-fn dense_jacobian<S: ContinuationSystem>(sys: &mut S, u: &[f64]) -> DMatrix<f64> {
-    let nu = sys.n_unknowns();
-    let mut entries = Vec::new();
-    sys.jacobian(u, &mut entries).unwrap();
-    let mut j = DMatrix::zeros(nu - 1, nu);
-    for e in entries {
-        j[(e.row, e.col)] += e.val;
-    }
-    j
-}
-
-/// central differences of the residual, h = 1e-6 (1 + |u_i|)
-fn fd_jacobian_of<S: ContinuationSystem>(sys: &mut S, u: &[f64]) -> DMatrix<f64> {
-    let nu = sys.n_unknowns();
-    let mut j = DMatrix::zeros(nu - 1, nu);
-    let (mut rp, mut rm) = (vec![0.0; nu - 1], vec![0.0; nu - 1]);
-    let mut x = u.to_vec();
-    for col in 0..nu {
-        let h = 1e-6 * (1.0 + u[col].abs());
-        x[col] = u[col] + h;
-        sys.residual(&x, &mut rp).unwrap();
-        x[col] = u[col] - h;
-        sys.residual(&x, &mut rm).unwrap();
-        x[col] = u[col];
-        for row in 0..nu - 1 {
-            j[(row, col)] = (rp[row] - rm[row]) / (2.0 * h);
-        }
-    }
-    j
-}
-
 /// deterministic pseudo-random numbers in (−1, 1)
 fn lcg(state: &mut u64) -> f64 {
     *state = state
@@ -384,7 +292,25 @@ fn lcg(state: &mut u64) -> f64 {
     ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
 }
 
-fn assert_close(exact: &DMatrix<f64>, fd: &DMatrix<f64>, what: &str) {
+/// `n` of them
+fn random(n: usize, seed: &mut u64) -> Vec<f64> {
+    (0..n).map(|_| lcg(seed)).collect()
+}
+
+/// random unknowns, the two free parameters (the last two) in [1, 1.5) to keep the delays
+/// positive
+fn random_unknowns(n: usize, seed: &mut u64) -> Vec<f64> {
+    let mut u = random(n, seed);
+    for p in &mut u[n - 2..] {
+        *p = 1.0 + 0.5 * p.abs();
+    }
+    u
+}
+
+/// the exact Jacobian of `sys` at `u` against central differences
+fn assert_exact_jacobian<S: ContinuationSystem>(sys: &mut S, u: &[f64], what: &str) {
+    let exact = dense_jacobian(sys, u);
+    let fd = fd_jacobian_of(sys, u);
     for (e, f) in exact.iter().zip(fd.iter()) {
         assert!(
             (e - f).abs() < 1e-6 * (1.0 + e.abs()),
@@ -402,32 +328,17 @@ fn exact_jacobians_of_the_curve_systems_match_central_differences() {
     let mut seed = 42u64;
     for free in [[3, 2], [2, 3], [0, 1]] {
         for _ in 0..5 {
-            let mut hc =
-                HopfCurveSystem::new(&TanhNet, params.clone(), free, ChebyshevRoots::default())
-                    .unwrap();
-            let mut u: Vec<f64> = (0..hc.n_unknowns()).map(|_| lcg(&mut seed)).collect();
+            let mut hc = curve_system(HopfCurveSystem::new, &TanhNet, params.clone(), free);
+            let mut u = random_unknowns(hc.n_unknowns(), &mut seed);
             let nu = u.len();
             u[nu - 3] += 1.0; // ω
-            u[nu - 2] = 1.0 + 0.5 * u[nu - 2].abs(); // keep the delays positive
-            u[nu - 1] = 1.0 + 0.5 * u[nu - 1].abs();
-            let c: Vec<f64> = (0..nu).map(|_| lcg(&mut seed)).collect();
-            hc.set_reference(&c);
-            let exact = dense_jacobian(&mut hc, &u);
-            let fd = fd_jacobian_of(&mut hc, &u);
-            assert_close(&exact, &fd, "Hopf curve");
+            hc.set_reference(&random(nu, &mut seed));
+            assert_exact_jacobian(&mut hc, &u, "Hopf curve");
 
-            let mut fc =
-                FoldCurveSystem::new(&TanhNet, params.clone(), free, ChebyshevRoots::default())
-                    .unwrap();
-            let mut u: Vec<f64> = (0..fc.n_unknowns()).map(|_| lcg(&mut seed)).collect();
-            let nu = u.len();
-            u[nu - 2] = 1.0 + 0.5 * u[nu - 2].abs();
-            u[nu - 1] = 1.0 + 0.5 * u[nu - 1].abs();
-            let c: Vec<f64> = (0..nu).map(|_| lcg(&mut seed)).collect();
-            fc.set_reference(&c);
-            let exact = dense_jacobian(&mut fc, &u);
-            let fd = fd_jacobian_of(&mut fc, &u);
-            assert_close(&exact, &fd, "fold curve");
+            let mut fc = curve_system(FoldCurveSystem::new, &TanhNet, params.clone(), free);
+            let u = random_unknowns(fc.n_unknowns(), &mut seed);
+            fc.set_reference(&random(u.len(), &mut seed));
+            assert_exact_jacobian(&mut fc, &u, "fold curve");
         }
     }
 }
@@ -436,13 +347,7 @@ fn exact_jacobians_of_the_curve_systems_match_central_differences() {
 fn missing_second_derivatives_are_reported() {
     // reference: the trait default reports MissingDerivative instead of guessing
     // (`SaddleNode` supplies first derivatives only)
-    let mut fc = FoldCurveSystem::new(
-        &SaddleNode,
-        vec![0.0, 0.0],
-        [0, 1],
-        ChebyshevRoots::default(),
-    )
-    .unwrap();
+    let mut fc = curve_system(FoldCurveSystem::new, &SaddleNode, vec![0.0, 0.0], [0, 1]);
     let mut entries = Vec::new();
     let err = fc
         .jacobian(&[0.0, 1.0, 0.0, 0.0], &mut entries)

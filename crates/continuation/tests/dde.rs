@@ -39,6 +39,11 @@ fn linear_delay_equation_hopf_at_a_tau_pi_half() {
 }
 
 /// characteristic roots of the co-rotating linearisation of the delayed Stuart–Landau cycle
+/// the distance from z to the nearest of `values` (∞ without values)
+fn distance(z: Complex64, values: impl Iterator<Item = Complex64>) -> f64 {
+    values.map(|v| (v - z).norm()).fold(f64::INFINITY, f64::min)
+}
+
 fn rotating_frame_roots(mu: f64, kappa: f64, tau: f64) -> Vec<Complex64> {
     let (c, s) = (tau.cos(), tau.sin());
     let a0 = DMatrix::from_row_slice(
@@ -93,10 +98,7 @@ fn delayed_stuart_landau(tau: f64) {
         let expected: Vec<Complex64> = roots.iter().map(|l| (l * 2.0 * PI).exp()).collect();
         // every computed multiplier with |μ| > 1e-3 is exp(2πλ) of some root, to 1e-6
         for m in st.values.iter().filter(|m| m.norm() > 1e-3) {
-            let err = expected
-                .iter()
-                .map(|e| (e - m).norm())
-                .fold(f64::INFINITY, f64::min);
+            let err = distance(*m, expected.iter().copied());
             assert!(
                 err < 1e-6,
                 "multiplier {m} not among exp(2πλ): error {err:e}"
@@ -108,10 +110,7 @@ fn delayed_stuart_landau(tau: f64) {
             .filter(|e| (*e - 1.0).norm() > 1e-6)
             .max_by(|a, b| a.norm().total_cmp(&b.norm()))
             .unwrap();
-        let err = st
-            .nontrivial()
-            .map(|m| (m - lead).norm())
-            .fold(f64::INFINITY, f64::min);
+        let err = distance(*lead, st.nontrivial());
         assert!(
             err < 1e-6,
             "leading multiplier {lead} missing (error {err:e})"

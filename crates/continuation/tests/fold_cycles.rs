@@ -2,7 +2,7 @@
 //! against closed forms (radial normal forms, rotating waves) and finite differences.
 mod common;
 use approx::assert_relative_eq;
-use common::{colloc, cont};
+use common::{colloc, cont, dense_jacobian, fd_jacobian_of};
 use continuation::textbook::{DelayedBautin, Radial};
 use continuation::*;
 use std::f64::consts::PI;
@@ -85,6 +85,30 @@ fn first_fold<P: Problem>(
     br.points[i].clone()
 }
 
+/// the first fold of the cycles of the radial form `p` from the circle of radius `r` at
+/// `params` (continued in p\[0\] in the direction `sign`), on `intervals` mesh intervals
+fn fold_from_circle(
+    p: &Radial,
+    params: Vec<f64>,
+    intervals: usize,
+    r: f64,
+    sign: f64,
+) -> (PeriodicOrbitSystem<'_, Radial>, BranchPoint) {
+    let mu1 = params[0];
+    let mut po = PeriodicOrbitSystem::new(p, params, 0, colloc(intervals)).unwrap();
+    let u0 = po.unknowns_from(circle(r), 2.0 * PI, mu1);
+    let fold = first_fold(&mut po, &u0, sign);
+    (po, fold)
+}
+
+/// fold-of-cycles options without Floquet multipliers along the curve
+fn without_multipliers() -> FoldCyclesOptions {
+    FoldCyclesOptions {
+        multipliers: false,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn bautin_fold_of_cycles_curve_is_analytic_and_ends_at_the_bautin_point() {
     // reference: the folds of cycles of the Bautin normal form lie exactly on μ1 = −μ2²/4 with
@@ -93,9 +117,7 @@ fn bautin_fold_of_cycles_curve_is_analytic_and_ends_at_the_bautin_point() {
     // is a trigonometric polynomial; superconvergence at the mesh points), so the tolerance is
     // 1e-8 on μ1, radius and period; multipliers (a double eigenvalue: errors ~√ε) 1e-6.
     let p = Radial::BAUTIN;
-    let mut po = PeriodicOrbitSystem::new(&p, vec![0.0, 1.0], 0, colloc(12)).unwrap();
-    let u0 = po.unknowns_from(circle(1.0), 2.0 * PI, 0.0);
-    let fold = first_fold(&mut po, &u0, -1.0);
+    let (po, fold) = fold_from_circle(&p, vec![0.0, 1.0], 12, 1.0, -1.0);
     assert!(
         (fold.parameter + 0.25).abs() < 1e-8,
         "fold at {}",
@@ -172,10 +194,7 @@ fn delayed_bautin_fold_curve_in_mu1_and_the_delay_matches_rotating_waves() {
         fold.parameter
     );
 
-    let opts = FoldCyclesOptions {
-        multipliers: false,
-        ..Default::default()
-    };
+    let opts = without_multipliers();
     let (mut sys, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &fold, 2, opts).unwrap();
     let c = cont(0.05, 0.1);
     let mut curve = c.start(&mut sys, &guess, &dir).unwrap();
@@ -253,38 +272,13 @@ fn cycles_continued_in_the_delay_match_rotating_waves() {
     }
 }
 
-/// dense Jacobian of a continuation system from its triplets
-fn dense_jacobian<S: ContinuationSystem>(sys: &mut S, u: &[f64]) -> Vec<Vec<f64>> {
-    let nu = sys.n_unknowns();
-    let mut entries = Vec::new();
-    sys.jacobian(u, &mut entries).unwrap();
-    let mut jac = vec![vec![0.0; nu]; nu - 1];
-    for e in &entries {
-        jac[e.row][e.col] += e.val;
-    }
-    jac
-}
-
 /// max over entries of |J − J_fd| / (1 + |J|) with central differences (h = 1e-6)
 fn jacobian_error<S: ContinuationSystem>(sys: &mut S, u: &[f64]) -> f64 {
-    let nu = sys.n_unknowns();
     let jac = dense_jacobian(sys, u);
-    let mut err: f64 = 0.0;
-    let (mut rp, mut rm) = (vec![0.0; nu - 1], vec![0.0; nu - 1]);
-    let mut v = u.to_vec();
-    for col in 0..nu {
-        let h = 1e-6 * (1.0 + u[col].abs());
-        v[col] = u[col] + h;
-        sys.residual(&v, &mut rp).unwrap();
-        v[col] = u[col] - h;
-        sys.residual(&v, &mut rm).unwrap();
-        v[col] = u[col];
-        for row in 0..nu - 1 {
-            let fd = (rp[row] - rm[row]) / (2.0 * h);
-            err = err.max((fd - jac[row][col]).abs() / (1.0 + jac[row][col].abs()));
-        }
-    }
-    err
+    let fd = fd_jacobian_of(sys, u);
+    jac.iter().zip(fd.iter()).fold(0.0, |err: f64, (j, f)| {
+        err.max((f - j).abs() / (1.0 + j.abs()))
+    })
 }
 
 /// deterministic pseudo-random numbers in [−1, 1] (xorshift)
@@ -308,14 +302,31 @@ fn random_point<P: Problem>(
     p2: f64,
     seed: u64,
 ) -> Vec<f64> {
-    let mut orbit = po.unknowns_from(circle(0.7), 5.5, p1);
+    let orbit = perturbed_circle(po, p1, seed);
     let np = po.period_index();
-    for (x, e) in orbit[..np].iter_mut().zip(random(np, seed)) {
-        *x += 0.1 * e;
-    }
     let mut v = random(np + 1, seed + 1);
     v[np] = 0.3;
     sys.unknowns(&orbit, p2, &v).unwrap()
+}
+
+/// 5 intervals of degree 3: a small collocation system for the Jacobian checks
+fn small_mesh() -> CollocationOptions {
+    CollocationOptions {
+        intervals: 5,
+        degree: 3,
+        ..Default::default()
+    }
+}
+
+/// the unknowns of the circle of radius 0.7 and period 5.5 at the parameter `p1`, its
+/// profile perturbed by 0.1 × random numbers from `seed`
+fn perturbed_circle<P: Problem>(po: &PeriodicOrbitSystem<'_, P>, p1: f64, seed: u64) -> Vec<f64> {
+    let mut u = po.unknowns_from(circle(0.7), 5.5, p1);
+    let np = po.period_index();
+    for (x, e) in u[..np].iter_mut().zip(random(np, seed)) {
+        *x += 0.1 * e;
+    }
+    u
 }
 
 #[test]
@@ -323,11 +334,7 @@ fn fold_cycles_jacobian_matches_central_differences() {
     // reference: central differences of the residual (h = 1e-6: error ~1e-10 relative) at
     // random points, ODE (non-symmetric radial form) and DDE with the delay as second and as
     // first free parameter; tolerance 1e-6 relative to 1 + |entry|
-    let col = CollocationOptions {
-        intervals: 5,
-        degree: 3,
-        ..Default::default()
-    };
+    let col = small_mesh();
     let opts = FoldCyclesOptions::default();
     let ode = Radial {
         c2: -1.0,
@@ -363,18 +370,14 @@ fn fold_cycles_jacobian_matches_central_differences() {
 fn periodic_orbit_jacobian_with_the_delay_as_free_parameter_matches_central_differences() {
     // reference: central differences of the collocation residual (h = 1e-6) at a random
     // profile; the parameter column contains the moving delayed value; tolerance 1e-6
-    let col = CollocationOptions {
-        intervals: 5,
-        degree: 3,
-        ..Default::default()
-    };
-    let mut po =
-        PeriodicOrbitSystem::new(&DelayedBautin::SINGLE, vec![-0.2, 1.0, 1.3], 2, col).unwrap();
-    let mut u = po.unknowns_from(circle(0.7), 5.5, 1.3);
-    let np = po.period_index();
-    for (x, e) in u[..np].iter_mut().zip(random(np, 5)) {
-        *x += 0.1 * e;
-    }
+    let mut po = PeriodicOrbitSystem::new(
+        &DelayedBautin::SINGLE,
+        vec![-0.2, 1.0, 1.3],
+        2,
+        small_mesh(),
+    )
+    .unwrap();
+    let u = perturbed_circle(&po, 1.3, 5);
     po.set_reference(&u);
     let e = jacobian_error(&mut po, &u);
     assert!(e < 1e-6, "Jacobian error {e:e}");
@@ -392,18 +395,13 @@ fn cusp_of_cycles_is_detected_where_two_folds_meet() {
     };
     let mu2 = -2.25;
     let mu1 = 0.390625; // the cycle ρ = 0.25 at μ2 = −2.25
-    let mut po = PeriodicOrbitSystem::new(&p, vec![mu1, mu2], 0, colloc(12)).unwrap();
-    let u0 = po.unknowns_from(circle(0.5), 2.0 * PI, mu1);
-    let fold = first_fold(&mut po, &u0, 1.0);
+    let (po, fold) = fold_from_circle(&p, vec![mu1, mu2], 12, 0.5, 1.0);
     assert!(
         (fold.parameter - 0.5).abs() < 1e-8,
         "fold at μ1 = {}",
         fold.parameter
     );
-    let opts = FoldCyclesOptions {
-        multipliers: false,
-        ..Default::default()
-    };
+    let opts = without_multipliers();
     let (mut sys, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &fold, 1, opts).unwrap();
     let back: Vec<f64> = dir.iter().map(|d| -d).collect();
     let c = cont(0.05, 0.1);
@@ -440,13 +438,8 @@ fn distorted_fold_curve(l: usize) -> (Vec<f64>, Vec<BranchPoint>) {
         c3: 0.0,
         eps: 0.3,
     };
-    let mut po = PeriodicOrbitSystem::new(&p, vec![0.0, 1.0], 0, colloc(l)).unwrap();
-    let u0 = po.unknowns_from(circle(1.0), 2.0 * PI, 0.0);
-    let fold = first_fold(&mut po, &u0, -1.0);
-    let opts = FoldCyclesOptions {
-        multipliers: false,
-        ..Default::default()
-    };
+    let (po, fold) = fold_from_circle(&p, vec![0.0, 1.0], l, 1.0, -1.0);
+    let opts = without_multipliers();
     let (mut sys, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &fold, 1, opts).unwrap();
     let c = cont(0.05, 0.1);
     let mut curve = c.start(&mut sys, &guess, &dir).unwrap();
@@ -484,13 +477,8 @@ fn fold_curve_saved_and_continued_later_gives_the_same_points() {
     // reference: continuing a deserialised curve (new system, same inputs) must reproduce
     // continuing the original
     let p = Radial::BAUTIN;
-    let mut po = PeriodicOrbitSystem::new(&p, vec![0.0, 1.0], 0, colloc(8)).unwrap();
-    let u0 = po.unknowns_from(circle(1.0), 2.0 * PI, 0.0);
-    let fold = first_fold(&mut po, &u0, -1.0);
-    let opts = FoldCyclesOptions {
-        multipliers: false,
-        ..Default::default()
-    };
+    let (po, fold) = fold_from_circle(&p, vec![0.0, 1.0], 8, 1.0, -1.0);
+    let opts = without_multipliers();
     let (mut sys, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &fold, 1, opts.clone()).unwrap();
     let c = cont(0.05, 0.1);
     let mut curve = c.start(&mut sys, &guess, &dir).unwrap();

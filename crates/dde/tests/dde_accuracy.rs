@@ -22,6 +22,28 @@ impl DdeProblem<1> for NegFeedback {
     }
 }
 
+/// x'(t) = f(t, x(t − τ1), …) with x ≡ 1 before the start, the delays τ and the declared
+/// breakpoints given: the test problems with a constant history.
+struct UnitHistory<F> {
+    delays: Vec<f64>,
+    breakpoints: Vec<f64>,
+    f: F,
+}
+impl<F: Fn(f64, &[V1]) -> f64> DdeProblem<1> for UnitHistory<F> {
+    fn delays(&self) -> &[f64] {
+        &self.delays
+    }
+    fn history(&self, _t: f64) -> V1 {
+        V1::from([1.0])
+    }
+    fn rhs(&self, t: f64, _x: &V1, xd: &[V1], dx: &mut V1) {
+        dx[0] = (self.f)(t, xd);
+    }
+    fn breakpoints(&self) -> &[f64] {
+        &self.breakpoints
+    }
+}
+
 /// Exact solution of [`NegFeedback`] by the method of steps:
 /// x(t) = Σ_{k≥0} (−1)^k (t − (k − 1))₊^k / k!.
 fn neg_feedback_exact(t: f64) -> f64 {
@@ -60,26 +82,16 @@ fn delayed_negative_feedback_matches_exact_piecewise_polynomial() {
 #[test]
 fn breakpoint_schedule_propagates_initial_discontinuity() {
     // two delays 1 and 1.5: t0 + k1·1 + k2·1.5 with 1 <= k1 + k2 <= order
-    struct TwoDelays;
-    impl DdeProblem<1> for TwoDelays {
-        fn delays(&self) -> &[f64] {
-            &[1.0, 1.5]
-        }
-        fn history(&self, _t: f64) -> V1 {
-            V1::from([1.0])
-        }
-        fn rhs(&self, _t: f64, _x: &V1, xd: &[V1], dx: &mut V1) {
-            dx[0] = -xd[0][0] + 0.5 * xd[1][0];
-        }
-        fn breakpoints(&self) -> &[f64] {
-            &[0.25]
-        }
-    }
+    let two_delays = UnitHistory {
+        delays: vec![1.0, 1.5],
+        breakpoints: vec![0.25],
+        f: |_, xd: &[V1]| -xd[0][0] + 0.5 * xd[1][0],
+    };
     let opts = Options {
         breakpoint_order: 2,
         ..Options::default()
     };
-    let s = DdeSolver::new(&TwoDelays, 0.0, opts).unwrap();
+    let s = DdeSolver::new(&two_delays, 0.0, opts).unwrap();
     // from t0 = 0: 1, 1.5, 2, 2.5, 3; from the user breakpoint 0.25: 0.25, 1.25, 1.75, 2.25, 2.75, 3.25
     let expected = [0.25, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75, 3.0, 3.25];
     assert_eq!(s.breakpoints(), &expected);
@@ -165,20 +177,13 @@ fn dde_observed_order_is_five_with_fixed_steps() {
 #[test]
 fn zero_delay_gives_the_current_state() {
     // x'(t) = −x(t − 0) is the ODE x' = −x: exact e^{−t}
-    struct ZeroDelay;
-    impl DdeProblem<1> for ZeroDelay {
-        fn delays(&self) -> &[f64] {
-            &[0.0]
-        }
-        fn history(&self, _t: f64) -> V1 {
-            V1::from([1.0])
-        }
-        fn rhs(&self, _t: f64, _x: &V1, xd: &[V1], dx: &mut V1) {
-            dx[0] = -xd[0][0];
-        }
-    }
-    let mut s = DdeSolver::new(&ZeroDelay, 0.0, Options::with_tolerances(1e-10, 1e-12)).unwrap();
-    s.integrate(&ZeroDelay, 2.0, &[], &mut NoObserver).unwrap();
+    let zero_delay = UnitHistory {
+        delays: vec![0.0],
+        breakpoints: vec![],
+        f: |_, xd: &[V1]| -xd[0][0],
+    };
+    let mut s = DdeSolver::new(&zero_delay, 0.0, Options::with_tolerances(1e-10, 1e-12)).unwrap();
+    s.integrate(&zero_delay, 2.0, &[], &mut NoObserver).unwrap();
     // reference: exp(−2); global error at rtol 1e-10 stays within 1e-9 relative
     approx::assert_relative_eq!(s.state()[0], (-2.0f64).exp(), max_relative = 1e-9);
 }
@@ -188,23 +193,15 @@ fn input_jump_in_dde_with_declared_breakpoint_matches_exact_solution() {
     // x'(t) = −x(t − 1) + u(t), u = 0 for t < 0.5 and 1 after, x ≡ 1 on [−1, 0].
     // Exact: [0, 0.5]: 1 − t; [0.5, 1]: 1 − t + (t − 0.5) = 0.5;
     // [1, 1.5]: x' = −(1 − (t − 1)) + 1 = t − 1, so x = 0.5 + (t − 1)²/2.
-    struct Jump;
-    impl DdeProblem<1> for Jump {
-        fn delays(&self) -> &[f64] {
-            &[1.0]
-        }
-        fn history(&self, _t: f64) -> V1 {
-            V1::from([1.0])
-        }
-        fn rhs(&self, t: f64, _x: &V1, xd: &[V1], dx: &mut V1) {
+    let jump = UnitHistory {
+        delays: vec![1.0],
+        breakpoints: vec![0.5],
+        f: |t, xd: &[V1]| {
             let u = if t < 0.5 { 0.0 } else { 1.0 };
-            dx[0] = -xd[0][0] + u;
-        }
-        fn breakpoints(&self) -> &[f64] {
-            &[0.5]
-        }
-    }
-    let sol = solve_dde(&Jump, 0.0, 1.5, Options::with_tolerances(1e-10, 1e-12)).unwrap();
+            -xd[0][0] + u
+        },
+    };
+    let sol = solve_dde(&jump, 0.0, 1.5, Options::with_tolerances(1e-10, 1e-12)).unwrap();
     let exact = |t: f64| {
         if t <= 0.5 {
             1.0 - t

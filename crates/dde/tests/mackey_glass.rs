@@ -4,7 +4,7 @@
 //! steps written here (grid step h = τ/1700, delayed values read off the grid, midpoints by
 //! cubic Hermite interpolation; global error O(h⁴)).
 
-use dde::{DdeProblem, Options, solve_dde};
+use dde::{DdeProblem, Options, Solution, solve_dde};
 use nalgebra::SVector;
 
 type V1 = SVector<f64, 1>;
@@ -69,16 +69,21 @@ fn method_of_steps_rk4(m: usize, steps: usize) -> Vec<f64> {
     x
 }
 
+/// the solution on [0, `t_end`] at rtol 1e-10, atol 1e-13
+fn accurate(t_end: f64) -> Solution<1> {
+    solve_dde(
+        &MackeyGlass,
+        0.0,
+        t_end,
+        Options::with_tolerances(1e-10, 1e-13),
+    )
+    .unwrap()
+}
+
 #[test]
 fn first_interval_matches_closed_form() {
     // on [0, τ] the delayed term is the history: x = c/γ + (x₀ − c/γ) e^{−γt}, c = β x₀/(1 + x₀ⁿ)
-    let sol = solve_dde(
-        &MackeyGlass,
-        0.0,
-        TAU,
-        Options::with_tolerances(1e-10, 1e-13),
-    )
-    .unwrap();
+    let sol = accurate(TAU);
     let c = production(X0);
     for k in 0..=34 {
         let t = 0.5 * f64::from(k);
@@ -97,13 +102,7 @@ fn matches_independent_fixed_step_rk4_over_six_delays() {
     let steps = 6 * m;
     let reference = method_of_steps_rk4(m, steps);
     let t_end = 6.0 * TAU;
-    let sol = solve_dde(
-        &MackeyGlass,
-        0.0,
-        t_end,
-        Options::with_tolerances(1e-10, 1e-13),
-    )
-    .unwrap();
+    let sol = accurate(t_end);
     let h = TAU / m as f64;
     let mut worst: f64 = 0.0;
     for k in (0..=steps).step_by(100) {

@@ -34,24 +34,22 @@ fn resolution(c: &mut Criterion) {
     let sys = test_loop(5.0).unwrap();
     let dde = sys.closed_loop(0.3, 0.2).unwrap();
     let mut g = c.benchmark_group("resolution");
-    for r in [10usize, 20, 40, 80] {
-        g.bench_with_input(BenchmarkId::new("semi_discretisation_r", r), &r, |b, &r| {
-            b.iter(|| {
-                SemiDiscretisation { steps_per_delay: r }
-                    .roots(black_box(&dde))
-                    .unwrap()
-            })
-        });
-    }
-    for n in [8usize, 16, 32, 64] {
-        g.bench_with_input(BenchmarkId::new("chebyshev_degree", n), &n, |b, &n| {
-            b.iter(|| {
-                ChebyshevCollocation { degree: n }
-                    .eigenvalues(black_box(&dde))
-                    .unwrap()
-            })
-        });
-    }
+    // one benchmark `name`/size of `run(size)` per size
+    let mut sizes = |name: &str, sizes: [usize; 4], run: &dyn Fn(usize)| {
+        for size in sizes {
+            g.bench_with_input(BenchmarkId::new(name, size), &size, |b, &size| {
+                b.iter(|| run(size))
+            });
+        }
+    };
+    sizes("semi_discretisation_r", [10, 20, 40, 80], &|r| {
+        let solver = SemiDiscretisation { steps_per_delay: r };
+        black_box(solver.roots(black_box(&dde)).unwrap());
+    });
+    sizes("chebyshev_degree", [8, 16, 32, 64], &|n| {
+        let solver = ChebyshevCollocation { degree: n };
+        black_box(solver.eigenvalues(black_box(&dde)).unwrap());
+    });
     g.finish();
 }
 

@@ -1,11 +1,12 @@
 //! Reading TOML config files: typed, with `deny_unknown_fields`, and errors that name the
 //! file, the key path and the problem. Nothing is computed before a config has loaded.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
 use crate::limits::{self, MAX_ARRAY_LEN, MAX_STRING_LEN};
+use crate::tasks::{Prepared, Task, TaskContext};
 use sway::SwayError;
 use sway::sim::RunSettings;
 use trailer_model::{Model, ModelError, VehicleParams};
@@ -163,4 +164,64 @@ pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), SwayError> {
         other => SwayError::config(file, "<root>", other.to_string()),
     })?;
     Ok((params, model))
+}
+
+/// A task's config that can check itself beyond what deserialisation checks (ranges,
+/// consistency between keys), so that the task can be prepared by [`prepare_config`].
+pub trait TaskConfig: DeserializeOwned + Send + 'static {
+    /// Checks the loaded config of `file`.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the key.
+    fn check(&self, file: &Path) -> Result<(), SwayError>;
+}
+
+/// A prepared task that is a config file and its checked contents (the common shape of the
+/// tasks' [`Prepared`] values).
+#[derive(Debug)]
+pub struct Configured<C> {
+    /// the config file
+    pub file: PathBuf,
+    /// its contents, checked
+    pub config: C,
+}
+
+/// The [`crate::tasks::Task::prepare`] of a task whose prepared value is [`Configured`]:
+/// reads `file`, checks it ([`TaskConfig::check`]) and boxes it.
+///
+/// # Errors
+/// Read and config errors.
+pub fn prepare_config<C: TaskConfig>(
+    _ctx: &TaskContext<'_>,
+    file: &Path,
+) -> Result<Box<dyn Prepared>, SwayError>
+where
+    Configured<C>: Prepared,
+{
+    let config: C = load_toml(file)?;
+    config.check(file)?;
+    Ok(Box::new(Configured {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+impl Task {
+    /// The task `name` (`about` it, default config file `config` in `configs/`) whose
+    /// prepared value is a [`Configured`] `C` ([`prepare_config`]).
+    pub const fn configured<C: TaskConfig>(
+        name: &'static str,
+        about: &'static str,
+        config: &'static str,
+    ) -> Self
+    where
+        Configured<C>: Prepared,
+    {
+        Self {
+            name,
+            about,
+            config,
+            prepare: prepare_config::<C>,
+        }
+    }
 }

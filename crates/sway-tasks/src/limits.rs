@@ -99,6 +99,27 @@ impl Plan {
         Self::new(vec![work.into()], 0.0, 0.0)
     }
 
+    /// The plan, or [`SwayError::Config`] under `key` when its `count` of units (cells,
+    /// simulations) exceeds `limit`: the message `what()` followed by the plan's memory
+    /// and time, `…, ≈ 1.3 GB and 60.00 s`.
+    ///
+    /// # Errors
+    /// As [`bound`].
+    pub fn within(
+        self,
+        file: &Path,
+        key: &str,
+        count: f64,
+        limit: usize,
+        what: impl FnOnce() -> String,
+    ) -> Result<Self, SwayError> {
+        bound(file, key, count, limit as f64, || {
+            let (memory, time) = (human_bytes(self.memory_bytes), human_seconds(self.time_s));
+            format!("{}, ≈ {memory} and {time}", what())
+        })?;
+        Ok(self)
+    }
+
     /// The plan as printed: the work lines, then `memory ≈ …, time ≈ …`.
     pub fn lines(&self) -> Vec<String> {
         let mut l = self.work.clone();
@@ -113,24 +134,26 @@ impl Plan {
 
 /// `1.5 GB`, `12 MB`, `300 kB`.
 pub fn human_bytes(b: f64) -> String {
-    if b >= 1e9 {
-        format!("{:.1} GB", b / 1e9)
-    } else if b >= 1e6 {
-        format!("{:.1} MB", b / 1e6)
-    } else {
+    scaled(b, [(1e9, 1e9, "GB"), (1e6, 1e6, "MB")], |b| {
         format!("{:.0} kB", (b / 1e3).max(1.0))
-    }
+    })
 }
 
 /// `0.2 s`, `3.5 min`, `2.0 h`.
 pub fn human_seconds(s: f64) -> String {
-    if s >= 7200.0 {
-        format!("{:.1} h", s / 3600.0)
-    } else if s >= 120.0 {
-        format!("{:.1} min", s / 60.0)
-    } else {
+    scaled(s, [(7200.0, 3600.0, "h"), (120.0, 60.0, "min")], |s| {
         format!("{s:.2} s")
-    }
+    })
+}
+
+/// `v` in the first of `units` (from, divisor, name) that it reaches (v ≥ from), with one
+/// decimal; below them all, `small(v)`.
+fn scaled(v: f64, units: [(f64, f64, &str); 2], small: impl Fn(f64) -> String) -> String {
+    units
+        .iter()
+        .find(|(from, _, _)| v >= *from)
+        .map(|(_, divisor, name)| format!("{:.1} {name}", v / divisor))
+        .unwrap_or_else(|| small(v))
 }
 
 /// Refuses `value` of `key` above `limit`; `cost` says what the value would cost (memory,

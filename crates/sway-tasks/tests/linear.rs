@@ -11,6 +11,17 @@ fn root() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
 }
 
+/// The task context on the shipped vehicle and configs, writing below `results`.
+fn context(results: &Path) -> TaskContext<'static> {
+    TaskContext::new(
+        &root().join("configs/vehicle.toml"),
+        &root().join("configs"),
+        results,
+        &NoProgress,
+    )
+    .expect("vehicle loads")
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).expect("write temp file");
@@ -26,13 +37,7 @@ fn linear_task_writes_its_results_and_the_headline_fields() {
         "linear.toml",
         "speed_grid = { min = 20.0, max = 50.0, points = 31 }\n",
     );
-    let ctx = TaskContext::new(
-        &root().join("configs/vehicle.toml"),
-        &root().join("configs"),
-        &results,
-        &NoProgress,
-    )
-    .expect("vehicle loads");
+    let ctx = context(&results);
     let task = tasks::resolve("linear").expect("known")[0];
     let report = (task.prepare)(&ctx, &cfg)
         .expect("config valid")
@@ -80,40 +85,43 @@ fn linear_task_writes_its_results_and_the_headline_fields() {
 fn bad_vehicle_files_are_rejected_with_file_and_key() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let good = std::fs::read_to_string(root().join("configs/vehicle.toml")).expect("read");
-    let cases: Vec<(&str, String, &str)> = vec![
+    // (what, replaced text, replacement, the key the error must name)
+    let cases = [
         (
             "negative mass",
-            good.replace("mass = 985.0", "mass = -985.0"),
+            "mass = 985.0",
+            "mass = -985.0",
             "trailer.mass",
         ),
         (
             "c >= f",
-            good.replace("rear_axle = 1.35", "rear_axle = 6.0"),
+            "rear_axle = 1.35",
+            "rear_axle = 6.0",
             "tractor.rear_axle",
         ),
         (
             "unknown key",
-            good.replace("cog = 2.9", "cog = 2.9\nwheelbase = 3.0"),
+            "cog = 2.9",
+            "cog = 2.9\nwheelbase = 3.0",
             "trailer",
         ),
         (
             "wrong type",
-            good.replace("mass = 2400.0", "mass = \"heavy\""),
+            "mass = 2400.0",
+            "mass = \"heavy\"",
             "tractor.mass",
         ),
-        (
-            "syntax",
-            good.replace("[friction]", "[friction"),
-            "<syntax>",
-        ),
-        ("missing key", good.replace("axle = 2.8", ""), "trailer"),
+        ("syntax", "[friction]", "[friction", "<syntax>"),
+        ("missing key", "axle = 2.8", "", "trailer"),
         (
             "mu > mu0",
-            good.replace("mu_dynamic = 0.6", "mu_dynamic = 1.2"),
+            "mu_dynamic = 0.6",
+            "mu_dynamic = 1.2",
             "friction.mu_dynamic",
         ),
     ];
-    for (what, text, key) in cases {
+    for (what, from, to, key) in cases {
+        let text = good.replace(from, to);
         let file = write(tmp.path(), "vehicle.toml", &text);
         let results = tmp.path().join("results");
         let err = TaskContext::new(&file, &root().join("configs"), &results, &NoProgress)
@@ -141,33 +149,22 @@ fn bad_vehicle_files_are_rejected_with_file_and_key() {
 fn bad_task_configs_are_rejected_before_any_work() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let results = tmp.path().join("results");
-    let ctx = TaskContext::new(
-        &root().join("configs/vehicle.toml"),
-        &root().join("configs"),
-        &results,
-        &NoProgress,
-    )
-    .expect("vehicle loads");
+    let ctx = context(&results);
     let task = tasks::resolve("linear").expect("known")[0];
-    for (text, key) in [
+    // (speed grid min, max, points), a further line, the key the error must name
+    for ((min, max, points), extra, key) in [
+        ((50.0, 20.0, 31), "", "speed_grid"),
+        ((0.0, 20.0, 31), "", "speed_grid.min"),
         (
-            "speed_grid = { min = 50.0, max = 20.0, points = 31 }\n",
-            "speed_grid",
-        ),
-        (
-            "speed_grid = { min = 0.0, max = 20.0, points = 31 }\n",
-            "speed_grid.min",
-        ),
-        (
-            "speed_grid = { min = 1.0, max = 20.0, points = 1 }\n",
+            (1.0, 20.0, 1),
+            "",
             "`speed_grid`: expected at least 2 points",
         ),
-        (
-            "speed_grid = { min = 1.0, max = 20.0, points = 10 }\nspeed = 3\n",
-            "speed",
-        ),
+        ((1.0, 20.0, 10), "speed = 3\n", "speed"),
     ] {
-        let cfg = write(tmp.path(), "linear.toml", text);
+        let text =
+            format!("speed_grid = {{ min = {min:?}, max = {max:?}, points = {points} }}\n{extra}");
+        let cfg = write(tmp.path(), "linear.toml", &text);
         let err = match (task.prepare)(&ctx, &cfg) {
             Ok(_) => panic!("accepted: {text}"),
             Err(e) => e.to_string(),

@@ -89,25 +89,35 @@ impl Positive {
         );
         Self(x)
     }
-
-    /// The value.
-    pub fn get(self) -> f64 {
-        self.0
-    }
 }
 
-impl TryFrom<f64> for Positive {
-    type Error = String;
-    fn try_from(x: f64) -> Result<Self, String> {
-        Self::new(x)
-    }
+/// The rest of a checked number type `$t(f64)` with a checking `$t::new`: `get`, and the
+/// conversions from and to `f64` through which serde reads (checking) and writes it.
+macro_rules! checked_number {
+    ($t:ident) => {
+        impl $t {
+            /// The value.
+            pub fn get(self) -> f64 {
+                self.0
+            }
+        }
+
+        impl TryFrom<f64> for $t {
+            type Error = String;
+            fn try_from(x: f64) -> Result<Self, String> {
+                Self::new(x)
+            }
+        }
+
+        impl From<$t> for f64 {
+            fn from(p: $t) -> f64 {
+                p.0
+            }
+        }
+    };
 }
 
-impl From<Positive> for f64 {
-    fn from(p: Positive) -> f64 {
-        p.0
-    }
-}
+checked_number!(Positive);
 
 /// A finite number ≥ 0, validated when deserialised (see [`Positive`]).
 #[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize)]
@@ -126,25 +136,9 @@ impl NonNegative {
             Err(format!("expected a finite number >= 0, got {x}"))
         }
     }
-
-    /// The value.
-    pub fn get(self) -> f64 {
-        self.0
-    }
 }
 
-impl TryFrom<f64> for NonNegative {
-    type Error = String;
-    fn try_from(x: f64) -> Result<Self, String> {
-        Self::new(x)
-    }
-}
-
-impl From<NonNegative> for f64 {
-    fn from(p: NonNegative) -> f64 {
-        p.0
-    }
-}
+checked_number!(NonNegative);
 
 /// Most points of a [`Grid`]: 100 000. The default grids have at most 591 points; a grid
 /// is evaluated point by point and its rows kept (≈ 500 bytes each), so 100 000 points

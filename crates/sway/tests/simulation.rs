@@ -11,7 +11,7 @@ use sway::progress::NoProgress;
 use sway::sim::sweep::{Axis, BaseScenario, SweepConfig, SweepParameter, run_point, run_sweep};
 use sway::sim::{
     Controller, InitialCondition, LossOfControl, MetricSettings, Outcome, Plant, Recording,
-    RunSettings, SimSpec, SolverSettings, SpeedProfile, ValidityGuard, settle, simulate,
+    RunSettings, SimResult, SimSpec, SolverSettings, SpeedProfile, ValidityGuard, settle, simulate,
 };
 use trailer_model::{Inputs, State4, State7};
 
@@ -95,28 +95,39 @@ fn open_loop_equals_delay_solver_with_zero_gain() {
     }
 }
 
+/// The errors of θ(`horizon_s`) \[rad\] at rtol = 1e-5, 1e-7, 1e-9 against rtol = 1e-12,
+/// at the constant speed `speed_mps` \[m/s\] from θ(0) = `theta0_deg` \[deg\].
+fn refinement_errors(
+    speed_mps: f64,
+    controller: Controller,
+    horizon_s: f64,
+    theta0_deg: f64,
+) -> Vec<f64> {
+    let m = model();
+    let run = |rtol: f64| {
+        let s = spec(
+            SpeedProfile::Constant { speed_mps },
+            controller,
+            horizon_s,
+            rtol,
+        );
+        simulate::<7>(&m, &s, x7(theta0_deg), Recording::None)
+            .unwrap()
+            .x_end[3]
+    };
+    let reference = run(1e-12);
+    [1e-5, 1e-7, 1e-9]
+        .iter()
+        .map(|&r| (run(r) - reference).abs())
+        .collect()
+}
+
 #[test]
 fn tolerance_refinement_converges() {
     // θ(20 s) at V = 33 m/s from θ(0) = 8° (growing sway, which amplifies errors) for
     // rtol = 1e-5 … 1e-9 against rtol = 1e-12: the error falls with the tolerance and is
     // below 1e-6 rad at 1e-9 (measured: 1.1e-4, 2.3e-5, 1.8e-7 rad)
-    let m = model();
-    let run = |rtol: f64| {
-        let s = spec(
-            SpeedProfile::Constant { speed_mps: 33.0 },
-            Controller::None,
-            20.0,
-            rtol,
-        );
-        simulate::<7>(&m, &s, x7(8.0), Recording::None)
-            .unwrap()
-            .x_end[3]
-    };
-    let reference = run(1e-12);
-    let errs: Vec<f64> = [1e-5, 1e-7, 1e-9]
-        .iter()
-        .map(|&r| (run(r) - reference).abs())
-        .collect();
+    let errs = refinement_errors(33.0, Controller::None, 20.0, 8.0);
     assert!(errs[0] > errs[1] && errs[1] > errs[2], "{errs:?}");
     assert!(errs[2] < 1e-6, "{errs:?}");
 }
@@ -124,24 +135,13 @@ fn tolerance_refinement_converges() {
 #[test]
 fn closed_loop_tolerance_refinement_converges() {
     // the DDE path: V = 35 m/s, D = 0.1 s, τ = 0.2 s switched on at t = 1 s
-    let m = model();
     let ctl = Controller::YawRateFeedback {
         gain_s: 0.1,
         delay_s: 0.2,
         on_s: 1.0,
         off_s: None,
     };
-    let run = |rtol: f64| {
-        let s = spec(SpeedProfile::Constant { speed_mps: 35.0 }, ctl, 10.0, rtol);
-        simulate::<7>(&m, &s, x7(10.0), Recording::None)
-            .unwrap()
-            .x_end[3]
-    };
-    let reference = run(1e-12);
-    let errs: Vec<f64> = [1e-5, 1e-7, 1e-9]
-        .iter()
-        .map(|&r| (run(r) - reference).abs())
-        .collect();
+    let errs = refinement_errors(35.0, ctl, 10.0, 10.0);
     eprintln!("closed-loop errors {errs:?}");
     assert!(errs[0] > errs[2], "{errs:?}");
     assert!(errs[2] < 1e-7, "{errs:?}");
@@ -182,20 +182,38 @@ fn sway_amplitude_at_35_agrees_with_tight_tolerance_run() {
     assert_abs_diff_eq!(a_default, a_tight, epsilon = 0.01);
 }
 
+/// An open-loop run at the constant speed `speed_mps` \[m/s\] from θ(0) = `theta0_deg`
+/// \[deg\], rtol 1e-9, horizon `horizon_s` and action at `action_s` \[s\], sampled every
+/// 1 ms.
+fn sampled_run(
+    speed_mps: f64,
+    horizon_s: f64,
+    action_s: f64,
+    theta0_deg: f64,
+) -> (SimSpec, SimResult<7>) {
+    let mut s = spec(
+        SpeedProfile::Constant { speed_mps },
+        Controller::None,
+        horizon_s,
+        1e-9,
+    );
+    s.action_s = action_s;
+    let r = simulate::<7>(
+        &model(),
+        &s,
+        x7(theta0_deg),
+        Recording::Every { step_s: 0.001 },
+    )
+    .unwrap();
+    (s, r)
+}
+
 #[test]
 fn metrics_agree_with_dense_sampling() {
     // peak and final amplitude come from θ̇ = 0 events on the continuous extension: they
     // bound the maximum of a 1 ms sampling from above and exceed it by less than the
     // sampling error (θ'' Δt²/8 ≈ 1e-4°)
-    let m = model();
-    let mut s = spec(
-        SpeedProfile::Constant { speed_mps: 33.0 },
-        Controller::None,
-        30.0,
-        1e-9,
-    );
-    s.action_s = 3.0;
-    let r = simulate::<7>(&m, &s, x7(8.0), Recording::Every { step_s: 0.001 }).unwrap();
+    let (_, r) = sampled_run(33.0, 30.0, 3.0, 8.0);
     let max_from = |t0: f64| {
         r.trajectory
             .iter()
@@ -222,15 +240,7 @@ fn metrics_agree_with_dense_sampling() {
 fn settle_time_is_the_last_fall_below_the_threshold() {
     // V = 25 m/s (stable), θ(0) = 5°: decays; after action + settle_time |θ| < 1° to the
     // end, just before it |θ| was ≥ 1° (checked on a 1 ms sampling)
-    let m = model();
-    let mut s = spec(
-        SpeedProfile::Constant { speed_mps: 25.0 },
-        Controller::None,
-        20.0,
-        1e-9,
-    );
-    s.action_s = 1.0;
-    let r = simulate::<7>(&m, &s, x7(5.0), Recording::Every { step_s: 0.001 }).unwrap();
+    let (s, r) = sampled_run(25.0, 20.0, 1.0, 5.0);
     let ts = s.action_s + r.metrics.settle_time_s.unwrap();
     assert!(ts > 1.0 && ts < 20.0);
     let th = 1f64.to_radians();

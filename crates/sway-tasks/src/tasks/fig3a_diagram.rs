@@ -91,24 +91,15 @@ pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result
             )
         },
     )?;
-    ensure(
-        (4..=2000).contains(&o.intervals),
-        file,
-        &key("intervals"),
-        || format!("expected 4 ≤ intervals ≤ 2000, got {}", o.intervals),
-    )?;
-    ensure(
-        (1..=continuation::MAX_DEGREE).contains(&o.degree),
-        file,
-        &key("degree"),
-        || {
-            format!(
-                "expected 1 ≤ degree ≤ {}, got {}",
-                continuation::MAX_DEGREE,
-                o.degree
-            )
-        },
-    )?;
+    // a count `name` within `range`
+    let within = |name: &str, value: usize, range: std::ops::RangeInclusive<usize>| {
+        ensure(range.contains(&value), file, &key(name), || {
+            let (lo, hi) = range.clone().into_inner();
+            format!("expected {lo} ≤ {name} ≤ {hi}, got {value}")
+        })
+    };
+    within("intervals", o.intervals, 4..=2000)?;
+    within("degree", o.degree, 1..=continuation::MAX_DEGREE)?;
     ensure(
         o.hopf_amplitude > 0.0 && o.hopf_amplitude < 0.1,
         file,
@@ -157,12 +148,7 @@ pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result
             )
         },
     )?;
-    ensure(
-        (4..=200).contains(&o.root_degree),
-        file,
-        &key("root_degree"),
-        || format!("expected 4 ≤ root_degree ≤ 200, got {}", o.root_degree),
-    )
+    within("root_degree", o.root_degree, 4..=200)
 }
 
 impl DiagramConfig {
@@ -371,41 +357,45 @@ pub fn run_diagram(
     Ok((summary, panel, lines))
 }
 
+/// An empty panel of cycle amplitudes max |θ| \[deg\] against V \[m/s\] over the speed range
+/// of `o`, the θ axis up to 1.08 × the largest of `amplitudes`.
+pub fn amplitude_panel(
+    title: &str,
+    o: &DiagramOptions,
+    amplitudes: impl Iterator<Item = f64>,
+) -> Panel {
+    let y_max = amplitudes.fold(0.0, f64::max) * 1.08;
+    Panel::new(title, "V [m/s]", "max |θ| [deg]")
+        .x_range(o.v_min_mps, o.v_max_mps)
+        .y_range(-0.03 * y_max, y_max)
+}
+
 /// The diagram as a figure panel (paper Fig. 3a, top).
 pub fn diagram_panel(d: &Diagram) -> Panel {
     let o = &d.options;
     let vh = d.hopf.parameter;
-    let y_max = d
-        .cycle_summary
-        .iter()
-        .map(|c| c.amplitude_deg)
-        .fold(0.0, f64::max)
-        * 1.08;
-    let mut p = Panel::new(
+    let mut p = amplitude_panel(
         "Open loop: straight running and sway cycles (max |θ|) vs speed",
-        "V [m/s]",
-        "max |θ| [deg]",
+        o,
+        d.cycle_summary.iter().map(|c| c.amplitude_deg),
     )
-    .x_range(o.v_min_mps, o.v_max_mps)
-    .y_range(-0.03 * y_max, y_max)
     .legend(Legend::UpperLeft);
-    match d.bistable_range() {
-        Some((vf, _)) => {
-            p.layers.push(Layer::band(
-                o.v_min_mps,
-                vf,
-                Rgb::GREEN,
-                Some("stable range"),
-            ));
-            p.layers
-                .push(Layer::band(vf, vh, Rgb::ORANGE, Some("bistable range")));
-        }
-        None => p.layers.push(Layer::band(
-            o.v_min_mps,
+    // stable up to the fold of cycles (bistable from there) or the Hopf point
+    let bistable = d.bistable_range();
+    let stable_end = bistable.map_or(vh, |(vf, _)| vf);
+    p.layers.push(Layer::band(
+        o.v_min_mps,
+        stable_end,
+        Rgb::GREEN,
+        Some("stable range"),
+    ));
+    if bistable.is_some() {
+        p.layers.push(Layer::band(
+            stable_end,
             vh,
-            Rgb::GREEN,
-            Some("stable range"),
-        )),
+            Rgb::ORANGE,
+            Some("bistable range"),
+        ));
     }
     p.layers.push(Layer::band(
         vh,
@@ -414,31 +404,16 @@ pub fn diagram_panel(d: &Diagram) -> Panel {
         Some("unstable range"),
     ));
     let (eq_s, eq_u) = straight_running(d);
-    p.layers.push(Layer::line(
-        eq_s,
-        Rgb::GREEN,
-        Stroke::Solid,
-        Some("straight running, stable"),
-    ));
-    p.layers.push(Layer::line(
-        eq_u,
-        Rgb::RED,
-        Stroke::Solid,
-        Some("straight running, unstable"),
-    ));
     let (cs, cu) = split_by_stability(d);
-    p.layers.push(Layer::line(
-        cu,
-        Rgb::RED,
-        Stroke::Dashed,
-        Some("unstable cycle (threshold)"),
-    ));
-    p.layers.push(Layer::line(
-        cs,
-        Rgb::GREEN,
-        Stroke::Dashed,
-        Some("stable cycle (sway)"),
-    ));
+    for (points, color, stroke, label) in [
+        (eq_s, Rgb::GREEN, Stroke::Solid, "straight running, stable"),
+        (eq_u, Rgb::RED, Stroke::Solid, "straight running, unstable"),
+        (cu, Rgb::RED, Stroke::Dashed, "unstable cycle (threshold)"),
+        (cs, Rgb::GREEN, Stroke::Dashed, "stable cycle (sway)"),
+    ] {
+        p.layers
+            .push(Layer::line(points, color, stroke, Some(label)));
+    }
     p.layers.push(Layer::markers(
         vec![(vh, 0.0)],
         Rgb::BLACK,

@@ -2,28 +2,25 @@
 //! V0 = 35 m/s, lower V by 10 m/s over T ∈ {2, 3, 5, 10} s from t = 2 s, 40 s horizon;
 //! panels V(t) and θ(t); metrics per T in `summary.json` under `"T2"`, `"T3"`, `"T5"`, `"T10"`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use sway::SwayError;
 use sway::config::{NonNegative, Positive, ensure};
 use sway::sim::{Controller, InitialCondition, RunSettings, SimSpec, SpeedProfile};
 
-use super::series::{Overlay, RunEntry, line, run_and_write};
-use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::load_toml;
-use crate::io::{Keyed, OutputDir};
-use crate::limits::{Plan, series_plan};
-use crate::plot::{Figure, Rgb, Stroke};
-use crate::report::SeriesRow;
+use super::Task;
+use super::series::{Overlay, OverlayRun, RunEntry, SwayRuns};
+use crate::config_file::TaskConfig;
+use crate::io::Keyed;
+use crate::plot::{Rgb, Stroke};
 
 /// The task.
-pub const TASK: Task = Task {
-    name: "fig3b",
-    about: "paper Fig. 3b: braking out of sway with T = 2, 3, 5, 10 s",
-    config: "fig3b.toml",
-    prepare,
-};
+pub const TASK: Task = Task::configured::<Fig3bConfig>(
+    "fig3b",
+    "paper Fig. 3b: braking out of sway with T = 2, 3, 5, 10 s",
+    "fig3b.toml",
+);
 
 /// Start on the sway cycle (shared by fig3b and fig4c).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -143,90 +140,62 @@ pub struct BrakeRun {
 /// `brake_duration_s`.
 pub type Fig3bSummary = Keyed<RunEntry<BrakeRun>>;
 
-struct Fig3bTask {
-    file: PathBuf,
-    config: Fig3bConfig,
-}
-
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
-    let c: Fig3bConfig = load_toml(file)?;
-    let horizon = c.horizon_s.get();
-    c.start.validate_run(
-        file,
-        horizon,
-        c.output_step_s.get(),
-        "brake_start_s",
-        c.brake_start_s,
-    )?;
-    ensure(
-        c.speed_change_mps.is_finite() && c.start.speed_mps.get() + c.speed_change_mps > 0.0,
-        file,
-        "speed_change_mps",
-        || {
-            format!(
-                "the final speed must stay > 0 m/s, got {}",
-                c.start.speed_mps.get() + c.speed_change_mps
-            )
-        },
-    )?;
-    ensure(!c.brake_durations_s.is_empty(), file, "brake_durations_s", || {
-        "expected a list of durations > 0 s, got none".into()
-    })?;
-    c.settings.solver.validate_at(file, "solver")?;
-    Ok(Box::new(Fig3bTask {
-        file: file.to_path_buf(),
-        config: c,
-    }))
-}
-
-impl Prepared for Fig3bTask {
-    fn plan(&self) -> Result<Plan, SwayError> {
-        let c = &self.config;
-        series_plan(
-            &self.file,
-            "",
-            (c.horizon_s.get(), c.output_step_s.get()),
-            c.brake_durations_s.len(),
-            ("start.settle_s", c.start.settle_s.get()),
-            "fig3b: braking runs",
-        )
+impl TaskConfig for Fig3bConfig {
+    fn check(&self, file: &Path) -> Result<(), SwayError> {
+        let start_speed = self.start.speed_mps.get();
+        self.start.validate_run(
+            file,
+            self.horizon_s.get(),
+            self.output_step_s.get(),
+            "brake_start_s",
+            self.brake_start_s,
+        )?;
+        ensure(
+            self.speed_change_mps.is_finite() && start_speed + self.speed_change_mps > 0.0,
+            file,
+            "speed_change_mps",
+            || {
+                format!(
+                    "the final speed must stay > 0 m/s, got {}",
+                    start_speed + self.speed_change_mps
+                )
+            },
+        )?;
+        ensure(
+            !self.brake_durations_s.is_empty(),
+            file,
+            "brake_durations_s",
+            || "expected a list of durations > 0 s, got none".into(),
+        )?;
+        self.settings.solver.validate_at(file, "solver")
     }
+}
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
-        let c = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress
-            .start("fig3b: braking", c.brake_durations_s.len() as u64 + 1);
-        let x0 = c.start.initial().state7(&ctx.model, &c.settings.solver)?;
-        ctx.progress.advance(1);
-        let mut summary = Fig3bSummary::default();
-        let mut lines = Vec::new();
-        let mut figure = Overlay::new("hitch angle", "Fig. 3b: speed profiles");
-        for (i, tt) in c.brake_durations_s.iter().map(|t| t.get()).enumerate() {
-            let key = duration_key(tt);
-            let r = run_and_write::<SeriesRow>(
-                ctx,
-                &out,
-                &c.spec(tt),
-                x0,
-                c.output_step_s.get(),
-                &format!("{key}.csv"),
-            )?;
-            lines.push(line(&format!("fig3b T = {tt} s"), &r));
-            figure.add(&r, Rgb::palette(i), &format!("T = {tt} s"), Stroke::Solid);
-            summary.0.push((
-                key,
-                RunEntry {
-                    metrics: r.metrics,
-                    about: BrakeRun {
-                        brake_duration_s: tt,
-                    },
+impl SwayRuns for Fig3bConfig {
+    fn runs(&self) -> (Overlay, Vec<OverlayRun<BrakeRun>>) {
+        let durations = self.brake_durations_s.iter().map(|t| t.get());
+        let runs = durations
+            .enumerate()
+            .map(|(i, tt)| OverlayRun {
+                key: duration_key(tt),
+                line: format!("fig3b T = {tt} s"),
+                label: format!("T = {tt} s"),
+                color: Rgb::palette(i),
+                speed_stroke: Stroke::Solid,
+                spec: self.spec(tt),
+                about: BrakeRun {
+                    brake_duration_s: tt,
                 },
-            ));
-            ctx.progress.advance(1);
-        }
-        let (p_th, p_v) = figure.panels(c.horizon_s.get());
-        Figure::column(vec![p_v, p_th]).render(&out.path("fig3b"))?;
-        ctx.conclude(out, summary, c, &self.file, lines)
+            })
+            .collect();
+        (Overlay::new("hitch angle", "Fig. 3b: speed profiles"), runs)
+    }
+    const LABELS: (&'static str, &'static str, &'static str) =
+        (TASK.name, "fig3b: braking", "fig3b: braking runs");
+    const SPEED_FIRST: bool = true;
+    type About = BrakeRun;
+    fn setup(&self) -> (&SwayStart, (f64, f64), &RunSettings) {
+        let sampling = (self.horizon_s.get(), self.output_step_s.get());
+        (&self.start, sampling, &self.settings)
     }
 }

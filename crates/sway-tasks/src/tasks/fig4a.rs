@@ -1,7 +1,7 @@
 //! `cargo xtask fig4a`: stability charts of the delayed yaw-rate feedback in the (V, D) plane
 //! for several delays (paper Fig. 4(a)).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use stability::{Axis, ChartOptions, StabilityChart};
@@ -11,22 +11,21 @@ use sway::config::ensure;
 use trailer_model::CriticalSpeedOptions;
 
 use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::load_toml;
+use crate::config_file::{Configured, TaskConfig};
 use crate::figures::chart_panel;
 use crate::io::{Keyed, OutputDir};
 use crate::limits::{
     FIG4A_BYTES_PER_CELL, FIG4A_SECONDS_PER_CELL, MAX_AXIS_POINTS, MAX_CHART_CELLS, Plan, bound,
-    human_bytes, human_seconds,
+    human_bytes,
 };
 use crate::plot::Figure;
 
 /// The task.
-pub const TASK: Task = Task {
-    name: "fig4a",
-    about: "stability charts in the (V, D) plane for several delays τ (Fig. 4a)",
-    config: "fig4a.toml",
-    prepare,
-};
+pub const TASK: Task = Task::configured::<Fig4aConfig>(
+    "fig4a",
+    "stability charts in the (V, D) plane for several delays τ (Fig. 4a)",
+    "fig4a.toml",
+);
 
 /// Speed axis \[m/s\].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -112,6 +111,23 @@ pub struct Fig4aConfig {
     pub numerics: NumericsConfig,
 }
 
+/// Checks the chart axis `key` with (min, max, cells): `range_ok` (else "expected
+/// `expected`, got min and max" under `key`) and at least 2 cells (under `key.cells`).
+fn check_axis(
+    file: &Path,
+    key: &str,
+    (min, max, cells): (f64, f64, usize),
+    range_ok: bool,
+    expected: &str,
+) -> Result<(), SwayError> {
+    ensure(range_ok, file, key, || {
+        format!("expected {expected}, got {min} and {max}")
+    })?;
+    ensure(cells >= 2, file, &format!("{key}.cells"), || {
+        format!("expected ≥ 2, got {cells}")
+    })
+}
+
 impl Fig4aConfig {
     /// The speed axis.
     pub fn speed_axis(&self) -> Axis {
@@ -144,35 +160,12 @@ impl Fig4aConfig {
     /// [`SwayError::Config`].
     pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
         let s = &self.speed;
-        ensure(
-            s.min_mps >= 0.0 && s.max_mps > s.min_mps && s.max_mps.is_finite(),
-            file,
-            "speed",
-            || {
-                format!(
-                    "expected 0 ≤ min_mps < max_mps, got {} and {}",
-                    s.min_mps, s.max_mps
-                )
-            },
-        )?;
-        ensure(s.cells >= 2, file, "speed.cells", || {
-            format!("expected ≥ 2, got {}", s.cells)
-        })?;
+        let speed_ok = s.min_mps >= 0.0 && s.max_mps > s.min_mps && s.max_mps.is_finite();
+        let speed = (s.min_mps, s.max_mps, s.cells);
+        check_axis(file, "speed", speed, speed_ok, "0 ≤ min_mps < max_mps")?;
         let g = &self.gain;
-        ensure(
-            g.min_s.is_finite() && g.max_s.is_finite() && g.min_s < g.max_s,
-            file,
-            "gain",
-            || {
-                format!(
-                    "expected finite min_s < max_s, got {} and {}",
-                    g.min_s, g.max_s
-                )
-            },
-        )?;
-        ensure(g.cells >= 2, file, "gain.cells", || {
-            format!("expected ≥ 2, got {}", g.cells)
-        })?;
+        let gain_ok = g.min_s.is_finite() && g.max_s.is_finite() && g.min_s < g.max_s;
+        check_axis(file, "gain", (g.min_s, g.max_s, g.cells), gain_ok, "finite min_s < max_s")?;
         ensure(!self.delays_s.is_empty(), file, "delays_s", || {
             "expected at least one delay".into()
         })?;
@@ -213,33 +206,21 @@ impl Fig4aConfig {
                 )
             },
         )?;
-        ensure(
-            self.numerics.reseed_interval >= 1,
-            file,
-            "numerics.reseed_interval",
-            || "expected ≥ 1".into(),
-        )?;
-        ensure(
-            self.numerics.tracked_roots >= 1,
-            file,
-            "numerics.tracked_roots",
-            || "expected ≥ 1".into(),
-        )
+        let n = &self.numerics;
+        for (key, count) in [
+            ("numerics.reseed_interval", n.reseed_interval),
+            ("numerics.tracked_roots", n.tracked_roots),
+        ] {
+            ensure(count >= 1, file, key, || "expected ≥ 1".into())?;
+        }
+        Ok(())
     }
 }
 
-struct Fig4aTask {
-    file: PathBuf,
-    config: Fig4aConfig,
-}
-
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
-    let config: Fig4aConfig = load_toml(file)?;
-    config.validate(file)?;
-    Ok(Box::new(Fig4aTask {
-        file: file.to_path_buf(),
-        config,
-    }))
+impl TaskConfig for Fig4aConfig {
+    fn check(&self, file: &Path) -> Result<(), SwayError> {
+        self.validate(file)
+    }
 }
 
 /// Headline numbers of one chart.
@@ -441,7 +422,7 @@ fn delay_entries(
     (entries, lines)
 }
 
-impl Prepared for Fig4aTask {
+impl Prepared for Configured<Fig4aConfig> {
     fn plan(&self) -> Result<Plan, SwayError> {
         let c = &self.config;
         let file = self.file.as_path();
@@ -461,14 +442,9 @@ impl Prepared for Fig4aTask {
             cells * FIG4A_BYTES_PER_CELL,
             cells * FIG4A_SECONDS_PER_CELL,
         );
-        bound(file, "speed.cells", cells, MAX_CHART_CELLS as f64, || {
-            format!(
-                "speed × gain × delays = {cells} cells, ≈ {} and {}",
-                human_bytes(plan.memory_bytes),
-                human_seconds(plan.time_s)
-            )
-        })?;
-        Ok(plan)
+        plan.within(file, "speed.cells", cells, MAX_CHART_CELLS, || {
+            format!("speed × gain × delays = {cells} cells")
+        })
     }
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
@@ -500,6 +476,7 @@ impl Prepared for Fig4aTask {
 mod tests {
     use super::*;
     use crate::config_file::parse_toml;
+    use std::path::PathBuf;
 
     fn shipped() -> (PathBuf, String) {
         let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/fig4a.toml");

@@ -3,29 +3,26 @@
 //! (δ = −D·ψ̇(t − τ), τ = 0.2 s, D = 0.1 s), `"braking"` (−10 m/s over 5 s) and
 //! `"combined"`; θ(t) of the four overlaid, metrics per strategy in `summary.json`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use sway::SwayError;
 use sway::config::Positive;
 use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
 
+use super::Task;
 use super::fig3b::SwayStart;
-use super::series::{Overlay, RunEntry, line, run_and_write};
-use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::load_toml;
-use crate::io::{Keyed, OutputDir};
-use crate::limits::{Plan, series_plan};
-use crate::plot::{Figure, Rgb, Stroke};
-use crate::report::SeriesRow;
+use super::series::{Overlay, OverlayRun, RunEntry, SwayRuns};
+use crate::config_file::TaskConfig;
+use crate::io::Keyed;
+use crate::plot::{Rgb, Stroke};
 
 /// The task.
-pub const TASK: Task = Task {
-    name: "fig4c",
-    about: "paper Fig. 4c: sway suppression by braking, steering, and both",
-    config: "fig4c.toml",
-    prepare,
-};
+pub const TASK: Task = Task::configured::<Fig4cConfig>(
+    "fig4c",
+    "paper Fig. 4c: sway suppression by braking, steering, and both",
+    "fig4c.toml",
+);
 
 /// The steering controller of the strategies "steering" and "combined".
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -125,88 +122,58 @@ pub struct Strategy {
 /// and `braking`, `steering`.
 pub type Fig4cSummary = Keyed<RunEntry<Strategy>>;
 
-struct Fig4cTask {
-    file: PathBuf,
-    config: Fig4cConfig,
-}
-
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
-    let c: Fig4cConfig = load_toml(file)?;
-    c.start
-        .validate_run(file, c.horizon_s.get(), c.output_step_s.get(), "action_s", c.action_s)?;
-    // the combined strategy has both the braking and the steering of the others
-    let spec = c.spec(true, true);
-    spec.profile
-        .validate()
-        .map_err(|(k, p)| SwayError::config(file, format!("braking ({k})"), p))?;
-    spec.controller
-        .validate()
-        .map_err(|(k, p)| SwayError::config(file, format!("steering.{k}"), p))?;
-    c.settings.solver.validate_at(file, "solver")?;
-    Ok(Box::new(Fig4cTask {
-        file: file.to_path_buf(),
-        config: c,
-    }))
-}
-
-impl Prepared for Fig4cTask {
-    fn plan(&self) -> Result<Plan, SwayError> {
-        let c = &self.config;
-        series_plan(
-            &self.file,
-            "",
-            (c.horizon_s.get(), c.output_step_s.get()),
-            STRATEGIES.len(),
-            ("start.settle_s", c.start.settle_s.get()),
-            "fig4c: mitigation strategies",
-        )
+impl TaskConfig for Fig4cConfig {
+    fn check(&self, file: &Path) -> Result<(), SwayError> {
+        let (horizon, step) = (self.horizon_s.get(), self.output_step_s.get());
+        self.start
+            .validate_run(file, horizon, step, "action_s", self.action_s)?;
+        // the combined strategy has both the braking and the steering of the others
+        let spec = self.spec(true, true);
+        spec.profile
+            .validate()
+            .map_err(|(k, p)| SwayError::config(file, format!("braking ({k})"), p))?;
+        spec.controller
+            .validate()
+            .map_err(|(k, p)| SwayError::config(file, format!("steering.{k}"), p))?;
+        self.settings.solver.validate_at(file, "solver")
     }
+}
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
-        let c = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress
-            .start("fig4c: strategies", STRATEGIES.len() as u64 + 1);
-        let x0 = c.start.initial().state7(&ctx.model, &c.settings.solver)?;
-        ctx.progress.advance(1);
-        let mut summary = Fig4cSummary::default();
-        let mut lines = Vec::new();
-        let mut figure = Overlay::new(
+impl SwayRuns for Fig4cConfig {
+    fn runs(&self) -> (Overlay, Vec<OverlayRun<Strategy>>) {
+        let overlay = Overlay::new(
             &format!(
                 "Fig. 4c: sway suppression from V0 = {} m/s, action at t = {} s",
-                c.start.speed_mps.get(),
-                c.action_s
+                self.start.speed_mps.get(),
+                self.action_s
             ),
             "speed",
         );
-        for (key, braking, steering, color) in STRATEGIES {
-            let r = run_and_write::<SeriesRow>(
-                ctx,
-                &out,
-                &c.spec(braking, steering),
-                x0,
-                c.output_step_s.get(),
-                &format!("{key}.csv"),
-            )?;
-            lines.push(line(&format!("fig4c {key}"), &r));
+        let runs = STRATEGIES.map(|(key, braking, steering, color)| OverlayRun {
+            key: key.to_string(),
+            line: format!("fig4c {key}"),
+            label: key.to_string(),
+            color,
             // the speed profiles coincide in pairs: steering-only runs dashed on top
-            let stroke = if steering {
+            speed_stroke: if steering {
                 Stroke::Dashed
             } else {
                 Stroke::Solid
-            };
-            figure.add(&r, color, key, stroke);
-            summary.0.push((
-                key.to_string(),
-                RunEntry {
-                    metrics: r.metrics,
-                    about: Strategy { braking, steering },
-                },
-            ));
-            ctx.progress.advance(1);
-        }
-        let (p_th, p_v) = figure.panels(c.horizon_s.get());
-        Figure::column(vec![p_th, p_v]).render(&out.path("fig4c"))?;
-        ctx.conclude(out, summary, c, &self.file, lines)
+            },
+            spec: self.spec(braking, steering),
+            about: Strategy { braking, steering },
+        });
+        (overlay, runs.into())
+    }
+    const LABELS: (&'static str, &'static str, &'static str) =
+        (TASK.name, "fig4c: strategies", "fig4c: mitigation strategies");
+    const SPEED_FIRST: bool = false;
+    type About = Strategy;
+    fn setup(&self) -> (&SwayStart, (f64, f64), &RunSettings) {
+        (
+            &self.start,
+            (self.horizon_s.get(), self.output_step_s.get()),
+            &self.settings,
+        )
     }
 }

@@ -1,16 +1,21 @@
 //! The one skeleton of the time-series tasks (`fig3a` panels, `fig3b`, `fig4c`,
 //! `simulate`): every run is simulated on the 7-state model, written as one CSV of typed
-//! rows, drawn, and summarised by its [`Metrics`] plus what distinguishes it.
+//! rows, drawn, and summarised by its [`Metrics`] plus what distinguishes it. The tasks of
+//! several runs from the sway cycle drawn over each other (`fig3b`, `fig4c`) share all of
+//! their [`Prepared`] through [`SwayRuns`].
 
 use serde::Serialize;
 use sway::SwayError;
-use sway::sim::{Metrics, Recording, Sample, SimResult, SimSpec, simulate};
+use sway::sim::{Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, simulate};
 use trailer_model::State7;
 
-use super::TaskContext;
-use crate::io::OutputDir;
-use crate::plot::{Layer, Legend, Panel, Rgb, Stroke};
-use crate::report::{loss_marker, max_abs_theta_deg, metrics_line, speed, theta_deg};
+use super::fig3b::SwayStart;
+use super::{Prepared, Report, TaskContext};
+use crate::config_file::{Configured, TaskConfig};
+use crate::io::{Keyed, OutputDir};
+use crate::limits::{Plan, series_plan};
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
+use crate::report::{SeriesRow, loss_marker, max_abs_theta_deg, metrics_line, speed, theta_deg};
 
 /// The summary entry of one run: its metrics (the field names of [`Metrics`]) followed by
 /// the fields of `about` that say which run it is (e.g. `brake_duration_s`).
@@ -105,5 +110,97 @@ impl Overlay {
             self.theta.x_range(0.0, horizon_s).y_range(-a, a),
             self.speed.x_range(0.0, horizon_s),
         )
+    }
+}
+
+/// One run of a [`SwayRuns`] task.
+#[derive(Debug, Clone)]
+pub struct OverlayRun<E> {
+    /// its key in `summary.json` and the stem of its CSV file (`T2`, `braking`)
+    pub key: String,
+    /// the label of its printed metrics line
+    pub line: String,
+    /// its legend label
+    pub label: String,
+    /// the colour of its curves
+    pub color: Rgb,
+    /// the stroke of its speed curve
+    pub speed_stroke: Stroke,
+    /// the simulation
+    pub spec: SimSpec,
+    /// what distinguishes it in `summary.json`
+    pub about: E,
+}
+
+/// A task of several runs from the sway cycle drawn over each other (`fig3b`, `fig4c`).
+/// Its config says what differs; the plan, the settling run, the runs' CSV files, the
+/// figure (θ(t) and V(t) of all runs, see [`Overlay`]) and `summary.json` (one
+/// [`RunEntry`] per run, keyed by [`OverlayRun::key`]) are written once, by the
+/// [`Prepared`] of [`Configured`] configs of this trait.
+pub trait SwayRuns: TaskConfig + Serialize {
+    /// the task's name (results directory and figure stem), its progress label and the
+    /// plan's description of its runs
+    const LABELS: (&'static str, &'static str, &'static str);
+    /// whether the speed panel is drawn above the hitch-angle panel
+    const SPEED_FIRST: bool;
+    /// what distinguishes a run in `summary.json`
+    type About: Serialize;
+    /// The empty overlay (the panel titles) and the runs in drawing order.
+    fn runs(&self) -> (Overlay, Vec<OverlayRun<Self::About>>);
+    /// The start on the sway cycle, (horizon, output step) \[s\] and the run settings.
+    fn setup(&self) -> (&SwayStart, (f64, f64), &RunSettings);
+}
+
+impl<C: SwayRuns> Prepared for Configured<C> {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let (start, sampling, _) = self.config.setup();
+        series_plan(
+            &self.file,
+            "",
+            sampling,
+            self.config.runs().1.len(),
+            ("start.settle_s", start.settle_s.get()),
+            C::LABELS.2,
+        )
+    }
+
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+        let c = &self.config;
+        let (start, (horizon_s, output_step_s), settings) = c.setup();
+        let (mut figure, runs) = c.runs();
+        let out = OutputDir::create(&ctx.results_dir, C::LABELS.0)?;
+        ctx.progress.start(C::LABELS.1, runs.len() as u64 + 1);
+        let x0 = start.initial().state7(&ctx.model, &settings.solver)?;
+        ctx.progress.advance(1);
+        let mut summary = Keyed::default();
+        let mut lines = Vec::new();
+        for run in runs {
+            let r = run_and_write::<SeriesRow>(
+                ctx,
+                &out,
+                &run.spec,
+                x0,
+                output_step_s,
+                &format!("{}.csv", run.key),
+            )?;
+            lines.push(line(&run.line, &r));
+            figure.add(&r, run.color, &run.label, run.speed_stroke);
+            summary.0.push((
+                run.key,
+                RunEntry {
+                    metrics: r.metrics,
+                    about: run.about,
+                },
+            ));
+            ctx.progress.advance(1);
+        }
+        let (p_th, p_v) = figure.panels(horizon_s);
+        let panels = if C::SPEED_FIRST {
+            vec![p_v, p_th]
+        } else {
+            vec![p_th, p_v]
+        };
+        Figure::column(panels).render(&out.path(C::LABELS.0))?;
+        ctx.conclude(out, summary, c, &self.file, lines)
     }
 }

@@ -2,7 +2,7 @@
 //! Writes `results/<name>/trajectory.csv` (t, σ1, σ2, σ3, θ, ψ, x_H, y_H, V, δ),
 //! `summary.json` and `trajectory.svg/.png` (θ and V versus t, and the path).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Serialize;
 use sway::SwayError;
@@ -10,19 +10,18 @@ use sway::sim::{ScenarioConfig, SimResult};
 
 use super::series::{RunEntry, line, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::load_toml;
+use crate::config_file::{Configured, TaskConfig};
 use crate::io::OutputDir;
 use crate::limits::{Plan, series_plan, settle_s};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::report::{TrajectoryRow, loss_marker, max_abs_theta_deg};
 
 /// The task (its default config is an example scenario).
-pub const TASK: Task = Task {
-    name: "simulate",
-    about: "simulate a user scenario (TOML): trajectory, metrics, figure",
-    config: "scenario_example.toml",
-    prepare,
-};
+pub const TASK: Task = Task::configured::<ScenarioConfig>(
+    "simulate",
+    "simulate a user scenario (TOML): trajectory, metrics, figure",
+    "scenario_example.toml",
+);
 
 /// What a scenario's `summary.json` says about the run beside its metrics.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -48,18 +47,10 @@ pub struct ScenarioSummary {
     pub run: RunEntry<ScenarioRun>,
 }
 
-struct SimulateTask {
-    file: PathBuf,
-    config: ScenarioConfig,
-}
-
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
-    let config: ScenarioConfig = load_toml(file)?;
-    config.validate(file)?;
-    Ok(Box::new(SimulateTask {
-        file: file.to_path_buf(),
-        config,
-    }))
+impl TaskConfig for ScenarioConfig {
+    fn check(&self, file: &Path) -> Result<(), SwayError> {
+        self.validate(file)
+    }
 }
 
 /// θ(t) with the action time and the loss of control, V(t), and the hitch's path.
@@ -102,7 +93,7 @@ fn figure(cfg: &ScenarioConfig, action_s: f64, r: &SimResult<7>) -> Figure {
     Figure::column(vec![p1, p2, p3])
 }
 
-impl Prepared for SimulateTask {
+impl Prepared for Configured<ScenarioConfig> {
     fn plan(&self) -> Result<Plan, SwayError> {
         let c = &self.config;
         series_plan(

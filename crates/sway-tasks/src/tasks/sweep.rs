@@ -3,7 +3,7 @@
 //! (a failed point says why in its row), a heat map of the final sway amplitude over the
 //! first two axes, and `summary.json`. Same numbers whatever the thread count.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Serialize;
 use sway::SwayError;
@@ -11,43 +11,33 @@ use sway::sim::sweep::{Axis, PointResult, SweepConfig, run_sweep};
 use sway::sim::{Metrics, Outcome};
 
 use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::load_toml;
+use crate::config_file::{Configured, TaskConfig};
 use crate::io::{OutputDir, row_cells};
 use crate::limits::{
     BYTES_PER_ROW, MAX_AXIS_POINTS, MAX_SIMULATED_S, MAX_SIMULATIONS, Plan,
-    SIM_SECONDS_PER_SIM_SECOND, bound, human_bytes, human_seconds, settle_s,
+    SIM_SECONDS_PER_SIM_SECOND, bound, human_seconds, settle_s,
 };
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 
 /// The task (its default config is the bistability threshold map).
-pub const TASK: Task = Task {
-    name: "sweep",
-    about: "parallel grid of simulations (TOML); default: which perturbations trigger sway",
-    config: "sweep_threshold.toml",
-    prepare,
-};
+pub const TASK: Task = Task::configured::<SweepConfig>(
+    "sweep",
+    "parallel grid of simulations (TOML); default: which perturbations trigger sway",
+    "sweep_threshold.toml",
+);
 
 /// The same sweep runner on `configs/sweep_brake_timing.toml`: when braking from sway
 /// loses control (beyond the paper), so that `cargo xtask all` regenerates it too.
-pub const BRAKE_TIMING: Task = Task {
-    name: "brake_timing",
-    about: "sweep of braking start t_b × duration T from sway: where braking loses control (beyond the paper)",
-    config: "sweep_brake_timing.toml",
-    prepare,
-};
+pub const BRAKE_TIMING: Task = Task::configured::<SweepConfig>(
+    "brake_timing",
+    "sweep of braking start t_b × duration T from sway: where braking loses control (beyond the paper)",
+    "sweep_brake_timing.toml",
+);
 
-struct SweepTask {
-    file: PathBuf,
-    config: SweepConfig,
-}
-
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
-    let config: SweepConfig = load_toml(file)?;
-    config.validate(file)?;
-    Ok(Box::new(SweepTask {
-        file: file.to_path_buf(),
-        config,
-    }))
+impl TaskConfig for SweepConfig {
+    fn check(&self, file: &Path) -> Result<(), SwayError> {
+        self.validate(file)
+    }
 }
 
 /// One row of `sweep.csv`: the axis values (one column per axis, named by its parameter),
@@ -268,7 +258,7 @@ fn heatmap(
     Ok(Some((summary, line)))
 }
 
-impl Prepared for SweepTask {
+impl Prepared for Configured<SweepConfig> {
     fn plan(&self) -> Result<Plan, SwayError> {
         let c = &self.config;
         let file = self.file.as_path();
@@ -301,14 +291,9 @@ impl Prepared for SweepTask {
             sims * BYTES_PER_ROW,
             sims * per_sim / 2.0, // rayon on 2 cores
         );
-        bound(file, "axes", sims, MAX_SIMULATIONS as f64, || {
-            format!(
-                "product of the axis points = {sims} simulations, ≈ {} and {}",
-                human_bytes(plan.memory_bytes),
-                human_seconds(plan.time_s)
-            )
-        })?;
-        Ok(plan)
+        plan.within(file, "axes", sims, MAX_SIMULATIONS, || {
+            format!("product of the axis points = {sims} simulations")
+        })
     }
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {

@@ -8,6 +8,18 @@ fn model() -> Model {
     Model::new(VehicleParams::default()).unwrap()
 }
 
+/// a chart axis of `count` cells over [min, max]
+fn axis(min: f64, max: f64, count: usize) -> Axis {
+    Axis { min, max, count }
+}
+
+/// the model's open-loop critical speed \[m/s\] (default search)
+fn open_loop_v_crit(m: &Model) -> f64 {
+    m.critical_speed(&CriticalSpeedOptions::default())
+        .unwrap()
+        .v_crit_mps
+}
+
 #[test]
 fn zero_delay_roots_are_eigenvalues_of_closed_loop_matrix() {
     // reference: eigenvalues of Ã − B̃·D·C̃ (nalgebra Schur on the 4×4 matrix); tolerance 1e-9
@@ -31,10 +43,7 @@ fn zero_delay_roots_are_eigenvalues_of_closed_loop_matrix() {
 fn open_loop_critical_speed_is_where_d_zero_loses_stability() {
     // reference: the model's own V_crit (bisection on the eigenvalues of Ã); tolerance 1e-6 m/s
     let m = model();
-    let vc = m
-        .critical_speed(&CriticalSpeedOptions::default())
-        .unwrap()
-        .v_crit_mps;
+    let vc = open_loop_v_crit(&m);
     for tau in [0.0, 0.2] {
         let v = critical_speed_at_gain(&m, tau, 0.0, 1.0, 60.0, 60, 1e-9)
             .unwrap()
@@ -48,16 +57,8 @@ fn small_delay_enlarges_stable_region_for_positive_gain() {
     // paper: "having a small delay (τ = 0.1 s) increases the stable region in the physically
     // relevant case of D > 0". Compared on the same grid (exact counts per cell).
     let m = model();
-    let speed = Axis {
-        min: 0.0,
-        max: 60.0,
-        count: 60,
-    };
-    let gain = Axis {
-        min: 0.0,
-        max: 0.5,
-        count: 25,
-    };
+    let speed = axis(0.0, 60.0, 60);
+    let gain = axis(0.0, 0.5, 25);
     let charts = fig4a_charts(&m, &[0.0, 0.1], speed, gain, &ChartOptions::default()).unwrap();
     let stable = |c: &StabilityChart| c.cells.iter().filter(|x| x.is_stable()).count();
     let (s0, s1) = (stable(&charts[0]), stable(&charts[1]));
@@ -72,10 +73,7 @@ fn large_delay_lowers_critical_speed_below_open_loop() {
     // paper: "for large delay values ... the critical velocity may be significantly smaller
     // compared even to the open-loop case". Reference: the open-loop V_crit of the model.
     let m = model();
-    let vc = m
-        .critical_speed(&CriticalSpeedOptions::default())
-        .unwrap()
-        .v_crit_mps;
+    let vc = open_loop_v_crit(&m);
     let lowest = [0.05, 0.1, 0.2, 0.3]
         .iter()
         .filter_map(|&d| critical_speed_at_gain(&m, 0.4, d, 1.0, 60.0, 120, 1e-6).unwrap())
@@ -90,16 +88,8 @@ fn large_delay_lowers_critical_speed_below_open_loop() {
 fn chart_boundaries_carry_roots_on_the_axis() {
     // every dynamic boundary point of a model chart has a root with |Re λ| < 1e-8
     let m = model();
-    let speed = Axis {
-        min: 0.0,
-        max: 60.0,
-        count: 12,
-    };
-    let gain = Axis {
-        min: -0.5,
-        max: 0.5,
-        count: 10,
-    };
+    let speed = axis(0.0, 60.0, 12);
+    let gain = axis(-0.5, 0.5, 10);
     let charts = fig4a_charts(&m, &[0.0, 0.2, 0.4], speed, gain, &ChartOptions::default()).unwrap();
     for ch in &charts {
         assert!(ch.failures.is_empty(), "{:?}", ch.failures);
@@ -178,16 +168,8 @@ fn column_mismatches(m: &Model, ch: &StabilityChart, iv: usize) -> Vec<String> {
 fn assert_charts_match_pointwise_roots(count_v: usize, count_d: usize) {
     use rayon::prelude::*;
     let m = model();
-    let speed = Axis {
-        min: 0.0,
-        max: 60.0,
-        count: count_v,
-    };
-    let gain = Axis {
-        min: -0.5,
-        max: 0.5,
-        count: count_d,
-    };
+    let speed = axis(0.0, 60.0, count_v);
+    let gain = axis(-0.5, 0.5, count_d);
     let charts = fig4a_charts(
         &m,
         &[0.0, 0.1, 0.2, 0.4],

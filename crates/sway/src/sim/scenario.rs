@@ -151,32 +151,67 @@ fn default_output_step() -> Positive {
     Positive::literal(0.01)
 }
 
-/// A scenario file (see `configs/scenario_example.toml`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ScenarioConfig {
-    /// results go to `results/<name>/`
-    pub name: String,
-    /// end time \[s\]
-    #[serde(default = "default_horizon")]
-    pub horizon_s: Positive,
-    /// trajectory sampling interval \[s\]
-    #[serde(default = "default_output_step")]
-    pub output_step_s: Positive,
-    /// when the action starts \[s\]; default: the earliest of braking start and controller
-    /// switch-on, else 0
-    #[serde(default)]
-    pub action_s: Option<f64>,
-    /// V(t)
-    pub speed: SpeedProfile,
-    /// δ(t)
-    #[serde(default)]
-    pub controller: Controller,
-    /// x(0)
-    pub initial: InitialCondition,
-    /// validity guard (`guard = "stop"` or `"off"`), `[solver]`, `[metrics]`
-    #[serde(flatten)]
-    pub settings: RunSettings,
+/// Declares a config struct with its own leading fields followed by the fields that define
+/// a run, in this order (so scenario and sweep files read and echo them alike): `action_s`,
+/// `speed`, `controller`, `initial` and the flattened run settings.
+macro_rules! with_run_fields {
+    (
+        $(#[$attr:meta])*
+        pub struct $name:ident {
+            $($(#[$field_attr:meta])* pub $field:ident: $ty:ty,)*
+        }
+    ) => {
+        $(#[$attr])*
+        pub struct $name {
+            $($(#[$field_attr])* pub $field: $ty,)*
+            /// when the action starts \[s\]; default: the earliest of braking start and
+            /// controller switch-on, else 0
+            #[serde(default)]
+            pub action_s: Option<f64>,
+            /// V(t)
+            pub speed: SpeedProfile,
+            /// δ(t)
+            #[serde(default)]
+            pub controller: Controller,
+            /// x(0)
+            pub initial: InitialCondition,
+            /// validity guard (`guard = "stop"` or `"off"`), `[solver]`, `[metrics]`
+            #[serde(flatten)]
+            pub settings: RunSettings,
+        }
+    };
+}
+pub(crate) use with_run_fields;
+
+with_run_fields! {
+    /// A scenario file (see `configs/scenario_example.toml`).
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    pub struct ScenarioConfig {
+        /// results go to `results/<name>/`
+        pub name: String,
+        /// end time \[s\]
+        #[serde(default = "default_horizon")]
+        pub horizon_s: Positive,
+        /// trajectory sampling interval \[s\]
+        #[serde(default = "default_output_step")]
+        pub output_step_s: Positive,
+    }
+}
+
+/// Checks the `name` of a scenario or sweep file (it names the results directory): not
+/// empty, letters, digits, '_' and '-' only; else "expected `expected`, got \"name\"".
+///
+/// # Errors
+/// [`SwayError::Config`] under the key `name`.
+pub fn ensure_name(file: &Path, name: &str, expected: &str) -> Result<(), SwayError> {
+    let valid = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+    ensure(
+        !name.is_empty() && name.chars().all(valid),
+        file,
+        "name",
+        || format!("expected {expected}, got {name:?}"),
+    )
 }
 
 /// Validates the parts shared by scenario and sweep files that do not validate themselves
@@ -224,20 +259,10 @@ impl ScenarioConfig {
     /// # Errors
     /// [`SwayError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
-        ensure(
-            !self.name.is_empty()
-                && self
-                    .name
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'),
+        ensure_name(
             file,
-            "name",
-            || {
-                format!(
-                    "expected a non-empty name of letters, digits, '_' or '-' (it names the results directory), got {:?}",
-                    self.name
-                )
-            },
+            &self.name,
+            "a non-empty name of letters, digits, '_' or '-' (it names the results directory)",
         )?;
         validate_parts(
             file,

@@ -10,7 +10,9 @@ use serde::{Deserialize, Serialize};
 use trailer_model::{Model, State4};
 
 use super::run::{Metrics, Recording, RunSettings, SimSpec, simulate};
-use super::scenario::{InitialCondition, default_action_time, validate_parts};
+use super::scenario::{
+    InitialCondition, default_action_time, ensure_name, validate_parts, with_run_fields,
+};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
 use crate::config::{Positive, ensure};
@@ -99,26 +101,15 @@ fn default_horizon() -> Positive {
     Positive::literal(60.0)
 }
 
-/// The scenario every grid point starts from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BaseScenario {
-    /// end time \[s\]
-    #[serde(default = "default_horizon")]
-    pub horizon_s: Positive,
-    /// action time \[s\] (default: braking start / controller switch-on / 0)
-    #[serde(default)]
-    pub action_s: Option<f64>,
-    /// V(t)
-    pub speed: SpeedProfile,
-    /// δ(t)
-    #[serde(default)]
-    pub controller: Controller,
-    /// x(0)
-    pub initial: InitialCondition,
-    /// validity guard (`guard = "stop"` or `"off"`), `[solver]`, `[metrics]`
-    #[serde(flatten)]
-    pub settings: RunSettings,
+with_run_fields! {
+    /// The scenario every grid point starts from.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    pub struct BaseScenario {
+        /// end time \[s\]
+        #[serde(default = "default_horizon")]
+        pub horizon_s: Positive,
+    }
 }
 
 /// A sweep file (see `configs/sweep_threshold.toml`).
@@ -150,21 +141,7 @@ impl SweepConfig {
     /// # Errors
     /// [`SwayError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
-        ensure(
-            !self.name.is_empty()
-                && self
-                    .name
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'),
-            file,
-            "name",
-            || {
-                format!(
-                    "expected a name of letters, digits, '_' or '-', got {:?}",
-                    self.name
-                )
-            },
-        )?;
+        ensure_name(file, &self.name, "a name of letters, digits, '_' or '-'")?;
         ensure(!self.axes.is_empty(), file, "axes", || {
             "expected at least one axis".into()
         })?;

@@ -3,7 +3,7 @@
 mod common;
 
 use approx::assert_abs_diff_eq;
-use common::{model, spec, x7};
+use common::{braking_35_to_25, model, spec, x7};
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::SVector;
 use sway::config::Positive;
@@ -19,12 +19,7 @@ use trailer_model::{Inputs, State4, State7};
 fn plant_rhs_matches_the_model_rhs7() {
     // reference: trailer_model's own 7-state right-hand side (eq. 5–6), written separately
     let m = model();
-    let profile = SpeedProfile::Ramp {
-        initial_mps: 35.0,
-        change_mps: -10.0,
-        start_s: 1.0,
-        duration_s: 5.0,
-    };
+    let profile = braking_35_to_25(1.0, 5.0);
     let ctl = Controller::YawRateFeedback {
         gain_s: 0.1,
         delay_s: 0.2,
@@ -262,12 +257,7 @@ fn guard_stops_hard_braking_exactly_at_axle_saturation() {
     let m = model();
     let x4 = settle(&m, 35.0, 0.1, 200.0, &SolverSettings::default()).unwrap();
     let x0 = State7::from_column_slice(&[x4[0], x4[1], x4[2], x4[3], 0.0, 0.0, 0.0]);
-    let profile = SpeedProfile::Ramp {
-        initial_mps: 35.0,
-        change_mps: -10.0,
-        start_s: 2.0,
-        duration_s: 2.0,
-    };
+    let profile = braking_35_to_25(2.0, 2.0);
     let mut s = spec(profile.clone(), Controller::None, 40.0, 1e-8);
     s.action_s = 2.0;
     let r = simulate::<7>(&m, &s, x0, Recording::None).unwrap();

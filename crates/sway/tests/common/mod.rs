@@ -36,3 +36,13 @@ pub fn spec(profile: SpeedProfile, controller: Controller, horizon_s: f64, rtol:
 pub fn x7(theta_deg: f64) -> State7 {
     State7::from_column_slice(&[0.0, 0.0, 0.0, theta_deg.to_radians(), 0.0, 0.0, 0.0])
 }
+
+/// braking from 35 to 25 m/s, linearly over `duration_s` from `start_s` (both s)
+pub fn braking_35_to_25(start_s: f64, duration_s: f64) -> SpeedProfile {
+    SpeedProfile::Ramp {
+        initial_mps: 35.0,
+        change_mps: -10.0,
+        start_s,
+        duration_s,
+    }
+}

@@ -209,3 +209,34 @@ impl Model {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::VehicleParams;
+
+    #[test]
+    fn a_tolerance_or_scan_step_below_round_off_ends_instead_of_looping() {
+        // reference: the default search; a tolerance of 1e-300 m/s (below the spacing of
+        // floats near 35 m/s) ends at adjacent floats, within 1e-11 of it
+        let m = Model::new(VehicleParams::default()).expect("Table I");
+        let v = m
+            .critical_speed(&CriticalSpeedOptions::default())
+            .expect("default")
+            .v_crit_mps;
+        let tiny = CriticalSpeedOptions {
+            tolerance: 1e-300,
+            ..CriticalSpeedOptions::default()
+        };
+        let w = m.critical_speed(&tiny).expect("tiny tolerance").v_crit_mps;
+        assert!((v - w).abs() < 1e-11, "{v} vs {w}");
+        // speeds where a 1 m/s step cannot move the speed: an error, never an endless loop
+        let stuck = CriticalSpeedOptions {
+            v_min: 1e17,
+            v_max: 2e17,
+            scan_step: 1.0,
+            ..CriticalSpeedOptions::default()
+        };
+        assert!(m.critical_speed(&stuck).is_err());
+    }
+}

@@ -16,6 +16,15 @@
 //! SIGINT and SIGTERM stop a running task: the results directory is left as it was
 //! (this process's staging directories removed, [`sway_tasks::io::interrupt`]) and the
 //! process exits with status 130 after one line on stderr.
+//!
+//! The process exits from the handler instead of setting a flag that the loops poll, which
+//! is safe here: `ctrlc` runs the handler on its own thread (not in signal context), and
+//! every change to `results/` (each CSV, JSON and figure file, and the two renames of a
+//! commit) is made under one lock that the handler takes first. So a write in progress
+//! completes, later writes are refused, the staging directories are removed and the
+//! process exits still holding the lock; a task's `results/<task>/` is either the previous
+//! one or, if the commit completed before the signal, the new one, never a mixture.
+//! `xtask/tests/interrupt.rs` sends SIGTERM (and SIGKILL) to a running task.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -28,11 +28,15 @@ pub const MAX_STRING_LEN: usize = 4096;
 pub const MAX_AXIS_POINTS: usize = sway::config::MAX_GRID_POINTS;
 
 /// fig4a: cells over all panels (speed × gain × delays): 20 000 000 (default 240 000,
-/// 83×): ≈ 1.3 GB at [`FIG4A_BYTES_PER_CELL`] and ≈ 60 s at [`FIG4A_SECONDS_PER_CELL`].
+/// 83×): ≈ 1.3 GB at [`FIG4A_BYTES_PER_CELL`] and ≈ 2.7 min at [`FIG4A_SECONDS_PER_CELL`].
+/// Measured (release build, 2 shared cores, `/usr/bin/time -v`): 5000 × 1000 cells × 4
+/// delays ran in 171 s with a peak RSS of 1.25 GB and wrote 0.9 GB of CSV; 1000 × 600 × 4
+/// (2.4 M cells) in 16 s with 180 MB; the default 240 000 cells in 2.0 s with 37 MB.
 pub const MAX_CHART_CELLS: usize = 20_000_000;
 
 /// Simulations of one sweep (product of the axis points): 1 000 000 (defaults 1024 and
-/// 1281, ≈ 800×): ≈ 500 MB of rows and ≈ 40 min at [`SIM_SECONDS_PER_SIM_SECOND`].
+/// 1281, ≈ 800×): ≈ 500 MB of rows and ≈ 15 min of 60 s simulations at
+/// [`SWEEP_SECONDS_PER_SIM_SECOND`] on 2 cores.
 pub const MAX_SIMULATIONS: usize = 1_000_000;
 
 /// Output samples of one task (horizon / output step, summed over its runs): 5 000 000
@@ -53,12 +57,25 @@ pub const BYTES_PER_SAMPLE: f64 = 400.0;
 /// (closed loop, 40 s in ≤ 5 ms, rtol 1e-8), rounded up to 1.3e-4 s/s.
 pub const SIM_SECONDS_PER_SIM_SECOND: f64 = 1.3e-4;
 
-/// fig4a: cost of one chart cell \[s\] on 2 cores: the committed
-/// `results/fig4a/summary.json` (240 000 cells in 0.73 s), rounded up to 3e-6 s.
-pub const FIG4A_SECONDS_PER_CELL: f64 = 3e-6;
+/// Cost of a sweep's simulations per simulated second \[s\] (CPU time; the plan divides by
+/// the 2 cores): the 4-state model without recording, measured on release runs of the two
+/// default sweeps on 2 cores, wall × 2 / (simulations × simulated s):
+/// `sweep_brake_timing` (rtol 1e-8, settling per point: 1281 × 240 s) in 3.4 s (committed
+/// summary; 6.5 s on a loaded machine), 2.2e-5 (4.2e-5 loaded), and `sweep_threshold`
+/// (rtol 1e-6, 1024 × 60 s) in 0.33 s (0.56 s loaded), 1.1e-5 (1.8e-5); set to 3e-5 s/s.
+/// The closed-loop 7-state rate [`SIM_SECONDS_PER_SIM_SECOND`] used before made `--check`
+/// 6× (brake timing: 20 s) to 12× (threshold: 4.0 s) too pessimistic for sweeps.
+pub const SWEEP_SECONDS_PER_SIM_SECOND: f64 = 3e-5;
+
+/// fig4a: cost of one chart cell \[s\] on 2 cores: release runs of 240 000 cells (the
+/// committed `results/fig4a/summary.json`: 1.66 s, 6.9e-6 s per cell), 2.4 M cells (16.2 s,
+/// 6.8e-6 s) and 20 M cells (171 s on a loaded machine, 8.6e-6 s), rounded to 8e-6 s
+/// (was 3e-6 s, 2–3× optimistic).
+pub const FIG4A_SECONDS_PER_CELL: f64 = 8e-6;
 
 /// fig4a: memory per chart cell \[bytes\]: the stored cell (unstable-root count,
-/// rightmost real part) plus the CSV row and figure raster, an upper estimate.
+/// rightmost real part) plus the CSV row and figure raster; the measured peak RSS is
+/// 63 bytes per cell at 20 M cells and 75 at 2.4 M (a fixed ≈ 20 MB included).
 pub const FIG4A_BYTES_PER_CELL: f64 = 64.0;
 
 /// loading: cost of one (mass, cog) cell \[s\] (a V_crit search): the committed
@@ -190,11 +207,18 @@ pub fn check_memory(file: &Path, key: &str, plan: &Plan) -> Result<(), SwayError
     })
 }
 
-/// The cost of `samples` output samples over `simulated_s` simulated seconds.
+/// Cost of one output sample of a time series after the integration \[s\]: its CSV row
+/// and its share of the figure. Measured: `simulate` at the sample limit (5 000 000
+/// samples over 100 000 s, release build) ran 159 s, of which ≈ 13 s integration, with a
+/// peak RSS of 1.46 GB (estimate 2.0 GB); rounded up to 3e-5 s.
+pub const SECONDS_PER_SAMPLE: f64 = 3e-5;
+
+/// The cost (memory \[bytes\], time \[s\]) of `samples` output samples over `simulated_s`
+/// simulated seconds.
 pub fn series_cost(samples: f64, simulated_s: f64) -> (f64, f64) {
     (
         samples * BYTES_PER_SAMPLE,
-        simulated_s * SIM_SECONDS_PER_SIM_SECOND,
+        simulated_s * SIM_SECONDS_PER_SIM_SECOND + samples * SECONDS_PER_SAMPLE,
     )
 }
 

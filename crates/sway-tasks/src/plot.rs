@@ -11,7 +11,7 @@
 //! Figure::single(panel).render(std::path::Path::new("/tmp/speed")).unwrap();
 //! ```
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, Once, OnceLock};
 
 use plotters::coord::Shift;
@@ -436,8 +436,10 @@ impl Figure {
             path: png_path.clone(),
             message,
         })?;
-        write_atomic(&svg_path, svg.as_bytes())?;
-        write_atomic(&png_path, &png)
+        // through the results lock: never into a staging directory that an interruption
+        // is removing (which would leave it behind)
+        crate::io::write_atomic(&svg_path, svg.as_bytes())?;
+        crate::io::write_atomic(&png_path, &png)
     }
 
     /// The figure as an SVG document.
@@ -475,22 +477,6 @@ type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64
 
 fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
-}
-
-/// Writes `bytes` to `path` through a temporary file and a rename.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SwayError> {
-    let tmp = tmp_path(path);
-    let write_error = |source| SwayError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-    std::fs::write(&tmp, bytes).map_err(write_error)?;
-    std::fs::rename(&tmp, path).map_err(write_error)
-}
-
-fn tmp_path(path: &Path) -> PathBuf {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    path.with_extension(format!("tmp.{ext}"))
 }
 
 /// Fonts for plotters' text layout (label areas, legend sizes): the shipped DejaVu Sans.
@@ -680,12 +666,71 @@ fn plot_rect(chart: &Chart<'_, '_>, cell: &Area<'_>) -> PixelRect {
 
 // --- layers -------------------------------------------------------------------------------
 
+/// How far outside the axes a coordinate may lie, in axis spans, before [`clamped`] pulls
+/// it in.
+const CLAMP_SPANS: f64 = 100.0;
+
+/// `v` pulled into `[lo − 100·span, hi + 100·span]` (non-finite values, line breaks, are
+/// kept).
+fn clamp_to(v: f64, (lo, hi): (f64, f64)) -> f64 {
+    let m = CLAMP_SPANS * (hi - lo).abs();
+    if v.is_finite() && lo.is_finite() && hi.is_finite() && !m.is_nan() {
+        v.clamp(lo.min(hi) - m, lo.max(hi) + m)
+    } else {
+        v
+    }
+}
+
+/// The layer with every coordinate at most [`CLAMP_SPANS`] axis spans outside the axes:
+/// plotters maps coordinates to `i32` pixels, and a point 10⁸ spans outside (a V_crit line
+/// beside an axis of a few µm/s) overflows that mapping (a panic in debug builds, a wrong
+/// line in release). What lies outside the axes is clipped anyway; only the direction of
+/// a segment towards such a far point changes.
+fn clamped(layer: &Layer, (xr, yr): ((f64, f64), (f64, f64))) -> Layer {
+    let mut l = layer.clone();
+    let cx = |v: &mut f64| *v = clamp_to(*v, xr);
+    let cy = |v: &mut f64| *v = clamp_to(*v, yr);
+    match &mut l {
+        Layer::Line { points, .. } | Layer::Markers { points, .. } => {
+            for (x, y) in points.iter_mut() {
+                cx(x);
+                cy(y);
+            }
+        }
+        Layer::Band { x0, x1, .. } => {
+            cx(x0);
+            cx(x1);
+        }
+        Layer::Rects { rects, .. } => {
+            for r in rects.iter_mut() {
+                let [a, b, c, d] = r;
+                cx(a);
+                cx(b);
+                cy(c);
+                cy(d);
+            }
+        }
+        Layer::Heatmap {
+            x_edges, y_edges, ..
+        } => {
+            x_edges.iter_mut().for_each(cx);
+            y_edges.iter_mut().for_each(cy);
+        }
+        Layer::Text { x, y, .. } => {
+            cx(x);
+            cy(y);
+        }
+    }
+    l
+}
+
 fn draw_layer(
     chart: &mut Chart<'_, '_>,
     layer: &Layer,
-    (_, (y0, y1)): ((f64, f64), (f64, f64)),
+    ranges: ((f64, f64), (f64, f64)),
 ) -> Result<(), String> {
-    match layer {
+    let (_, (y0, y1)) = ranges;
+    match &clamped(layer, ranges) {
         Layer::Line {
             points,
             color,

@@ -147,36 +147,51 @@ impl Model {
     /// [`ModelError::NoCriticalSpeed`] if straight running is stable (or unstable)
     /// on the whole scanned range.
     pub fn critical_speed(&self, opts: &CriticalSpeedOptions) -> Result<CriticalSpeed, ModelError> {
+        let no_crossing = |detail| ModelError::NoCriticalSpeed {
+            v_min: opts.v_min,
+            v_max: opts.v_max,
+            detail,
+        };
+        let abscissa = |v: f64| {
+            let a = self.spectral_abscissa(v);
+            if a.is_finite() {
+                Ok(a)
+            } else {
+                Err(no_crossing(
+                    "the eigenvalues are not finite on the scanned range (speed beyond the model's range)",
+                ))
+            }
+        };
         let mut lo = opts.v_min;
-        let mut a_lo = self.spectral_abscissa(lo);
-        if a_lo >= 0.0 {
-            return Err(ModelError::NoCriticalSpeed {
-                v_min: opts.v_min,
-                v_max: opts.v_max,
-                detail: "straight running is already unstable at v_min",
-            });
+        if abscissa(lo)? >= 0.0 {
+            return Err(no_crossing("straight running is already unstable at v_min"));
         }
         let mut hi = lo;
         loop {
-            hi = (hi + opts.scan_step).min(opts.v_max);
-            let a_hi = self.spectral_abscissa(hi);
-            if a_hi >= 0.0 {
+            let next = (hi + opts.scan_step).min(opts.v_max);
+            if next <= hi {
+                // a step below the round-off of the speed would never reach v_max
+                return Err(no_crossing(
+                    "the scan step is below the round-off of the speed (the scan cannot advance)",
+                ));
+            }
+            hi = next;
+            if abscissa(hi)? >= 0.0 {
                 break;
             }
             if hi >= opts.v_max {
-                return Err(ModelError::NoCriticalSpeed {
-                    v_min: opts.v_min,
-                    v_max: opts.v_max,
-                    detail: "straight running stays stable up to v_max",
-                });
+                return Err(no_crossing("straight running stays stable up to v_max"));
             }
             lo = hi;
-            a_lo = a_hi;
         }
-        let _ = a_lo;
+        // bisection down to the tolerance or to adjacent floating-point numbers (a
+        // tolerance below the round-off of the speed ends there instead of looping)
         while hi - lo > opts.tolerance {
             let mid = 0.5 * (lo + hi);
-            if self.spectral_abscissa(mid) < 0.0 {
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            if abscissa(mid)? < 0.0 {
                 lo = mid;
             } else {
                 hi = mid;
@@ -192,5 +207,36 @@ impl Model {
             hopf_frequency_hz: ev[0].im.abs() / (2.0 * std::f64::consts::PI),
             crossing_speed: slope,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::VehicleParams;
+
+    #[test]
+    fn a_tolerance_or_scan_step_below_round_off_ends_instead_of_looping() {
+        // reference: the default search; a tolerance of 1e-300 m/s (below the spacing of
+        // floats near 35 m/s) ends at adjacent floats, within 1e-11 of it
+        let m = Model::new(VehicleParams::default()).expect("Table I");
+        let v = m
+            .critical_speed(&CriticalSpeedOptions::default())
+            .expect("default")
+            .v_crit_mps;
+        let tiny = CriticalSpeedOptions {
+            tolerance: 1e-300,
+            ..CriticalSpeedOptions::default()
+        };
+        let w = m.critical_speed(&tiny).expect("tiny tolerance").v_crit_mps;
+        assert!((v - w).abs() < 1e-11, "{v} vs {w}");
+        // speeds where a 1 m/s step cannot move the speed: an error, never an endless loop
+        let stuck = CriticalSpeedOptions {
+            v_min: 1e17,
+            v_max: 2e17,
+            scan_step: 1.0,
+            ..CriticalSpeedOptions::default()
+        };
+        assert!(m.critical_speed(&stuck).is_err());
     }
 }

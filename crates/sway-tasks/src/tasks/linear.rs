@@ -176,6 +176,18 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
         "critical_speed.scan_step_mps",
         || format!("must be positive, got {}", s.scan_step_mps),
     )?;
+    let scan_points = (s.v_max_mps - s.v_min_mps) / s.scan_step_mps;
+    crate::limits::bound(
+        file,
+        "critical_speed.scan_step_mps",
+        scan_points,
+        sway::config::MAX_GRID_POINTS as f64,
+        || {
+            format!(
+                "{scan_points:.3e} scan points from v_min_mps to v_max_mps, one eigenvalue problem each; use a larger step"
+            )
+        },
+    )?;
     ensure(
         s.tolerance_mps > 0.0 && s.tolerance_mps < 1e-3,
         file,

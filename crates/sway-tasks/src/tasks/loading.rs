@@ -47,6 +47,9 @@ pub struct LoadingConfig {
 fn default_tongue() -> Vec<f64> {
     vec![-4.0, 0.0, 4.0, 7.0, 10.0]
 }
+/// Scan step of each cell's V_crit search \[m/s\].
+const SCAN_STEP_MPS: f64 = 0.5;
+
 fn default_v_range() -> [f64; 2] {
     [1.0, 120.0]
 }
@@ -100,6 +103,20 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
     ensure(a > 0.0 && b > a, file, "v_range_mps", || {
         format!("expected 0 < min < max, got [{a}, {b}]")
     })?;
+    // every cell scans the range in steps of SCAN_STEP_MPS until straight running turns
+    // unstable: at most MAX_GRID_POINTS steps (a trailer stable at every speed scans it all)
+    let scan_points = (b - a) / SCAN_STEP_MPS;
+    crate::limits::bound(
+        file,
+        "v_range_mps",
+        scan_points,
+        sway::config::MAX_GRID_POINTS as f64,
+        || {
+            format!(
+                "{scan_points:.3e} scan steps of {SCAN_STEP_MPS} m/s per cell; narrow the range"
+            )
+        },
+    )?;
     Ok(Box::new(LoadingTask {
         file: file.to_path_buf(),
         config,
@@ -280,7 +297,7 @@ impl Prepared for LoadingTask {
         let opts = CriticalSpeedOptions {
             v_min: cfg.v_range_mps[0],
             v_max: cfg.v_range_mps[1],
-            scan_step: 0.5,
+            scan_step: SCAN_STEP_MPS,
             tolerance: 1e-6,
         };
         let m = compute(ctx, cfg, &opts);

@@ -15,7 +15,7 @@ use crate::config_file::{Configured, TaskConfig};
 use crate::io::{OutputDir, row_cells};
 use crate::limits::{
     BYTES_PER_ROW, MAX_AXIS_POINTS, MAX_SIMULATED_S, MAX_SIMULATIONS, Plan,
-    SIM_SECONDS_PER_SIM_SECOND, bound, human_seconds, settle_s,
+    SWEEP_SECONDS_PER_SIM_SECOND, bound, human_seconds, settle_s,
 };
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 
@@ -275,13 +275,13 @@ impl Prepared for Configured<SweepConfig> {
         }
         let settle = settle_s(&c.base.initial);
         bound(file, "base.initial.settle_s", settle, MAX_SIMULATED_S, || {
-            format!("{} per simulation", human_seconds(settle * SIM_SECONDS_PER_SIM_SECOND))
+            format!("{} per simulation", human_seconds(settle * SWEEP_SECONDS_PER_SIM_SECOND))
         })?;
         let horizon = c.base.horizon_s.get();
         bound(file, "base.horizon_s", horizon, MAX_SIMULATED_S, || {
-            format!("{} per simulation", human_seconds(horizon * SIM_SECONDS_PER_SIM_SECOND))
+            format!("{} per simulation", human_seconds(horizon * SWEEP_SECONDS_PER_SIM_SECOND))
         })?;
-        let per_sim = (horizon + settle) * SIM_SECONDS_PER_SIM_SECOND;
+        let per_sim = (horizon + settle) * SWEEP_SECONDS_PER_SIM_SECOND;
         let plan = Plan::new(
             vec![format!(
                 "{}: {} axes, {sims} simulations of {horizon} s (+ {settle} s settling)",

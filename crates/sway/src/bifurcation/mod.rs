@@ -2,10 +2,12 @@
 //! the vehicle model wired into the general-purpose [`continuation`] crate.
 //!
 //! The closed loop of eq. (8), x'(t) = f(x(t), δ(t) = −D·ψ̇(t−τ); V), on the reduced state
-//! x = [σ1, σ2, σ3, θ] is a [`continuation::Problem`] with parameters p = [V, D, τ]; the
-//! open loop is D = 0 (an ODE). Straight running x = 0 is continued in V, its Hopf point
-//! located, the cycle branch started from it with a finite amplitude (the Hopf point is
-//! non-smooth: the brush tire is only C¹ at α = 0) and continued through the fold.
+//! x = [σ1, σ2, σ3, θ] is a [`continuation::Problem`] ([`ClosedLoop`]) with parameters
+//! p = [V, D, τ], any of which may be free (exact first and second derivatives); it is a
+//! DDE for τ > 0 (whatever D) and an ODE for τ = 0 (the open loop is D = τ = 0).
+//! Straight running x = 0 is continued in V, its Hopf point located, the cycle branch
+//! started from it with a finite amplitude (the Hopf point is non-smooth: the brush tire is
+//! only C¹ at α = 0) and continued through the fold.
 //!
 //! ```no_run
 //! use sway::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
@@ -20,188 +22,13 @@ use continuation::{
     ContinuationOptions, Criticality, EquilibriumSystem, HopfPoint, PeriodicOrbitSystem, Problem,
     Refinement, SpecialKind, criticality, points_at_parameter,
 };
-use nalgebra::SVector;
-use num_dual::{Dual64, DualSVec64, jacobian};
 use serde::{Deserialize, Serialize};
-use trailer_model::{HITCH_ANGLE, Inputs, Model, State4};
+use trailer_model::{HITCH_ANGLE, Model};
 
 use crate::SwayError;
 
-/// index of the speed V [m/s] in the parameter vector
-pub const SPEED: usize = 0;
-/// index of the feedback gain D [s] in the parameter vector
-pub const GAIN: usize = 1;
-/// index of the feedback delay τ [s] in the parameter vector
-pub const DELAY: usize = 2;
-
-/// The steering feedback δ(t) = −D·ψ̇(t − τ) of eq. (8).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Feedback {
-    /// gain D [s]
-    pub gain_d_s: f64,
-    /// delay τ [s]
-    pub delay_s: f64,
-}
-
-impl Feedback {
-    /// no steering control (δ ≡ 0)
-    pub const OPEN_LOOP: Feedback = Feedback {
-        gain_d_s: 0.0,
-        delay_s: 0.0,
-    };
-
-    /// the problem is a delay equation (D ≠ 0 and τ > 0)
-    pub fn is_delayed(&self) -> bool {
-        self.gain_d_s != 0.0 && self.delay_s > 0.0
-    }
-}
-
-/// The closed loop as a continuation problem, parameters p = [V, D, τ] (V may be free;
-/// D and τ are fixed by the [`Feedback`] it was built with).
-#[derive(Debug, Clone, Copy)]
-pub struct ClosedLoop<'a> {
-    model: &'a Model,
-    feedback: Feedback,
-    /// gradient of the yaw rate ψ̇ = c·x (linear in x, eq. 5)
-    yaw_gradient: [f64; 4],
-}
-
-impl<'a> ClosedLoop<'a> {
-    /// The closed loop of `model` with `feedback`.
-    pub fn new(model: &'a Model, feedback: Feedback) -> Self {
-        let e = |i: usize| State4::from_fn(|k, _| if k == i { 1.0 } else { 0.0 });
-        let yaw_gradient = [0, 1, 2, 3].map(|i| model.yaw_rate(&e(i)));
-        Self {
-            model,
-            feedback,
-            yaw_gradient,
-        }
-    }
-
-    /// parameter vector [V, D, τ]
-    pub fn parameters(&self, speed: f64) -> Vec<f64> {
-        vec![speed, self.feedback.gain_d_s, self.feedback.delay_s]
-    }
-
-    fn state(x: &[f64]) -> State4 {
-        State4::new(x[0], x[1], x[2], x[3])
-    }
-
-    /// steering angle δ [rad] from the (delayed) state
-    fn steering(&self, x_fb: &[f64]) -> f64 {
-        -self.feedback.gain_d_s * (0..4).map(|k| self.yaw_gradient[k] * x_fb[k]).sum::<f64>()
-    }
-
-    /// the state the feedback reads: x(t − τ) for a delay equation, x(t) otherwise
-    fn feedback_state<'b>(&self, args: &'b [f64]) -> &'b [f64] {
-        if self.feedback.is_delayed() {
-            &args[4..8]
-        } else {
-            &args[..4]
-        }
-    }
-}
-
-impl Problem for ClosedLoop<'_> {
-    fn dim(&self) -> usize {
-        4
-    }
-    fn n_delays(&self) -> usize {
-        usize::from(self.feedback.is_delayed())
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[DELAY]
-    }
-    fn rhs(&self, args: &[f64], p: &[f64], f: &mut [f64]) {
-        let x = Self::state(args);
-        let u = Inputs {
-            steering_angle: self.steering(self.feedback_state(args)),
-            speed: p[SPEED],
-            acceleration: 0.0,
-        };
-        let r = self.model.rhs4(&x, &u);
-        f[..4].copy_from_slice(r.as_slice());
-    }
-    fn jacobian(&self, args: &[f64], p: &[f64], jac: &mut [f64]) {
-        let delta = self.steering(self.feedback_state(args));
-        let z = SVector::<f64, 5>::new(args[0], args[1], args[2], args[3], delta);
-        let speed = p[SPEED];
-        let (_, j) = jacobian(
-            |z: SVector<DualSVec64<5>, 5>| {
-                let x = State4::new(z[0], z[1], z[2], z[3]);
-                let u = Inputs {
-                    steering_angle: z[4],
-                    speed: DualSVec64::<5>::from(speed),
-                    acceleration: DualSVec64::<5>::from(0.0),
-                };
-                self.model.rhs4(&x, &u)
-            },
-            &z,
-        );
-        let nc = if self.feedback.is_delayed() { 8 } else { 4 };
-        let off = if self.feedback.is_delayed() { 4 } else { 0 };
-        jac.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..4 {
-            for k in 0..4 {
-                jac[i * nc + k] = j[(i, k)];
-            }
-            // chain rule through δ = −D c·x_fb
-            for k in 0..4 {
-                jac[i * nc + off + k] +=
-                    j[(i, 4)] * (-self.feedback.gain_d_s * self.yaw_gradient[k]);
-            }
-        }
-    }
-    fn n_switching(&self) -> usize {
-        6
-    }
-    /// slip angles α_F, α_R, α_T (the brush tire is only C¹ at α = 0) and |α| − α_cr
-    /// (sliding starts, the force curve's second derivative jumps)
-    fn switching(&self, args: &[f64], p: &[f64], g: &mut [f64]) {
-        let x = Self::state(args);
-        let u = Inputs {
-            steering_angle: self.steering(self.feedback_state(args)),
-            speed: p[SPEED],
-            acceleration: 0.0,
-        };
-        let a = self.model.slip_angles(&x, &u);
-        let cr = self.model.critical_slip_angles();
-        g[0] = a.front;
-        g[1] = a.rear;
-        g[2] = a.trailer;
-        g[3] = a.front.abs() - cr.front;
-        g[4] = a.rear.abs() - cr.rear;
-        g[5] = a.trailer.abs() - cr.trailer;
-    }
-    fn dfdp(&self, args: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
-        let delta = self.steering(self.feedback_state(args));
-        let x = Self::state(args).map(Dual64::from);
-        let yaw: f64 = (0..4)
-            .map(|k| self.yaw_gradient[k] * self.feedback_state(args)[k])
-            .sum();
-        let u = match ip {
-            SPEED => Inputs {
-                steering_angle: Dual64::from(delta),
-                speed: Dual64::new(p[SPEED], 1.0),
-                acceleration: Dual64::from(0.0),
-            },
-            GAIN => Inputs {
-                steering_angle: Dual64::new(delta, -yaw),
-                speed: Dual64::from(p[SPEED]),
-                acceleration: Dual64::from(0.0),
-            },
-            _ => {
-                // the delay is not a continuation parameter here
-                out[..4].iter_mut().for_each(|v| *v = f64::NAN);
-                return;
-            }
-        };
-        let r = self.model.rhs4(&x, &u);
-        for i in 0..4 {
-            out[i] = r[i].eps;
-        }
-    }
-}
+mod closed_loop;
+pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, SPEED};
 
 /// Options of the bifurcation diagram of one feedback setting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -19,7 +19,7 @@
 
 use continuation::{
     ArclengthWeights, Branch, ChebyshevRoots, CollocationOptions, Continuation,
-    ContinuationOptions, Criticality, EquilibriumSystem, HopfPoint, PeriodicOrbitSystem, Problem,
+    ContinuationOptions, Criticality, EquilibriumSystem, HopfPoint, PeriodicOrbitSystem,
     Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
@@ -131,14 +131,6 @@ fn collocation(o: &DiagramOptions) -> CollocationOptions {
     }
 }
 
-fn roots(o: &DiagramOptions) -> ChebyshevRoots {
-    ChebyshevRoots {
-        degree: o.root_degree,
-        count: 8,
-        refinement: Refinement::Newton,
-    }
-}
-
 impl Diagram {
     /// The collocation system the cycle branch was computed with (to evaluate its points).
     pub fn cycle_system<'a>(
@@ -194,6 +186,102 @@ fn summarise(
     }
 }
 
+/// Straight running x = 0 of `problem` continued in V from `v_min` to `v_max` (steps of
+/// 0.5 m/s) at the gain and delay of `params` = [V, D, τ], and its first Hopf point (located
+/// by the engine, with its critical eigenvector and transversality).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if there is no Hopf point in the range or a step fails.
+pub fn straight_running(
+    problem: &ClosedLoop<'_>,
+    params: &[f64],
+    (v_min, v_max): (f64, f64),
+    root_degree: usize,
+) -> Result<(Branch, HopfPoint), SwayError> {
+    let ctx = format!(
+        "straight running (D = {} s, τ = {} s)",
+        params[GAIN], params[DELAY]
+    );
+    let cont_eq = Continuation::new(ContinuationOptions {
+        initial_step: 0.5,
+        max_step: 0.5,
+        parameter_range: (v_min, v_max),
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = v_min;
+    let roots = ChebyshevRoots {
+        degree: root_degree,
+        count: 8,
+        refinement: Refinement::Newton,
+    };
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, roots).map_err(num(ctx.clone()))?;
+    let dir = eq.parameter_direction();
+    let mut equilibria = cont_eq
+        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, v_min], &dir)
+        .map_err(num(format!("{ctx} at V = {v_min} m/s")))?;
+    let n_eq = ((v_max - v_min) / 0.5).ceil() as usize + 8;
+    cont_eq
+        .extend(&mut eq, &mut equilibria, n_eq)
+        .map_err(num(ctx.clone()))?;
+    let (ih, sp) = equilibria.first(SpecialKind::Hopf).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(format!(
+                "no Hopf point of straight running in [{v_min}, {v_max}] m/s; widen the speed range"
+            )),
+        )
+    })?;
+    let hopf = eq
+        .hopf_point(&equilibria.points[ih].u, sp.transversality.unwrap_or(1.0))
+        .map_err(num(format!("{ctx}: Hopf point")))?;
+    Ok((equilibria, hopf))
+}
+
+/// The cycle branch born at `hopf` continued in V for at most `max_points` points (or
+/// until it leaves [v_min, v_max]), and the criticality it shows.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
+/// leave the Hopf point.
+pub fn cycles_from_hopf<'a>(
+    problem: &'a ClosedLoop<'a>,
+    params: &[f64],
+    hopf: &HopfPoint,
+    o: &DiagramOptions,
+    max_points: usize,
+) -> Result<(PeriodicOrbitSystem<'a, ClosedLoop<'a>>, Branch, Criticality), SwayError> {
+    let ctx = format!(
+        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
+        hopf.parameter, params[GAIN], params[DELAY]
+    );
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = hopf.parameter;
+    let mut po =
+        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
+    let (guess, dir) = po.hopf_guess(hopf, o.hopf_amplitude);
+    let mut cycles = cont
+        .start(&mut po, &guess, &dir)
+        .map_err(num(format!("{ctx}: first cycle")))?;
+    cont.extend(&mut po, &mut cycles, max_points)
+        .map_err(num(format!("{ctx}: cycle branch")))?;
+    let crit = criticality(hopf, &cycles).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(
+                "the cycle branch does not leave the Hopf point".into(),
+            ),
+        )
+    })?;
+    Ok((po, cycles, crit))
+}
+
 /// Computes the bifurcation diagram of straight running and sway for one feedback setting:
 /// the straight-running branch on [v_min, v_max] with its Hopf point, then the cycle branch
 /// from the Hopf point until it leaves [v_min, v_max] (through the fold, if any).
@@ -208,73 +296,10 @@ pub fn bifurcation_diagram(
 ) -> Result<Diagram, SwayError> {
     let o = options;
     let problem = ClosedLoop::new(model, feedback);
-    let ctx = format!(
-        "bifurcation diagram (D = {} s, τ = {} s)",
-        feedback.gain_d_s, feedback.delay_s
-    );
-
-    // 1. straight running x = 0 versus V
-    let cont_eq = Continuation::new(ContinuationOptions {
-        initial_step: 0.5,
-        max_step: 0.5,
-        parameter_range: (o.v_min_mps, o.v_max_mps),
-        ..Default::default()
-    });
-    let mut eq = EquilibriumSystem::new(&problem, problem.parameters(o.v_min_mps), SPEED, roots(o))
-        .map_err(num(ctx.clone()))?;
-    let dir = eq.parameter_direction();
-    let mut equilibria = cont_eq
-        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, o.v_min_mps], &dir)
-        .map_err(num(format!(
-            "{ctx}: straight running at V = {} m/s",
-            o.v_min_mps
-        )))?;
-    let n_eq = ((o.v_max_mps - o.v_min_mps) / 0.5).ceil() as usize + 8;
-    cont_eq
-        .extend(&mut eq, &mut equilibria, n_eq)
-        .map_err(num(format!("{ctx}: straight running")))?;
-    let (ih, sp) = equilibria.first(SpecialKind::Hopf).ok_or_else(|| {
-        SwayError::numerical(
-            ctx.clone(),
-            continuation::Error::InvalidInput(format!(
-                "no Hopf point of straight running in [{}, {}] m/s; widen the speed range",
-                o.v_min_mps, o.v_max_mps
-            )),
-        )
-    })?;
-    let hopf = eq
-        .hopf_point(&equilibria.points[ih].u, sp.transversality.unwrap_or(1.0))
-        .map_err(num(format!("{ctx}: Hopf point")))?;
-
-    // 2. cycles from the Hopf point
-    let cont = Continuation::new(ContinuationOptions {
-        initial_step: o.initial_step,
-        max_step: o.max_step,
-        parameter_range: (o.v_min_mps, o.v_max_mps),
-        ..Default::default()
-    });
-    let mut po = PeriodicOrbitSystem::new(
-        &problem,
-        problem.parameters(hopf.parameter),
-        SPEED,
-        collocation(o),
-    )
-    .map_err(num(ctx.clone()))?;
-    let (guess, dir) = po.hopf_guess(&hopf, o.hopf_amplitude);
-    let mut cycles = cont.start(&mut po, &guess, &dir).map_err(num(format!(
-        "{ctx}: first cycle at the Hopf point V = {} m/s",
-        hopf.parameter
-    )))?;
-    cont.extend(&mut po, &mut cycles, o.max_cycle_points)
-        .map_err(num(format!("{ctx}: cycle branch")))?;
-    let crit = criticality(&hopf, &cycles).ok_or_else(|| {
-        SwayError::numerical(
-            ctx.clone(),
-            continuation::Error::InvalidInput(
-                "the cycle branch does not leave the Hopf point".into(),
-            ),
-        )
-    })?;
+    let params = problem.parameters(o.v_min_mps);
+    let (equilibria, hopf) =
+        straight_running(&problem, &params, (o.v_min_mps, o.v_max_mps), o.root_degree)?;
+    let (po, cycles, crit) = cycles_from_hopf(&problem, &params, &hopf, o, o.max_cycle_points)?;
     let cycle_summary: Vec<CycleSummary> = cycles
         .points
         .iter()

@@ -54,6 +54,37 @@ pub fn lagrange(m: usize, xi: f64, l: &mut [f64; MAX_DEGREE + 1], dl: &mut [f64;
     }
 }
 
+/// Lagrange basis of degree m on the equispaced nodes ξ_j = j/m with second derivatives:
+/// values ℓ_j(ξ), ℓ'_j(ξ) and ℓ''_j(ξ) written to the first m + 1 entries of `l`, `dl`, `ddl`
+/// (the second derivatives are needed by the Jacobians of defining systems that contain
+/// delayed values of derivatives, e.g. folds of cycles of delay equations).
+pub fn lagrange_d2(
+    m: usize,
+    xi: f64,
+    l: &mut [f64; MAX_DEGREE + 1],
+    dl: &mut [f64; MAX_DEGREE + 1],
+    ddl: &mut [f64; MAX_DEGREE + 1],
+) {
+    let node = |j: usize| j as f64 / m as f64;
+    for j in 0..=m {
+        let (mut v, mut d, mut dd) = (1.0, 0.0, 0.0);
+        for k in 0..=m {
+            if k == j {
+                continue;
+            }
+            let den = node(j) - node(k);
+            let q = (xi - node(k)) / den;
+            // product rule for v·q with q' = 1/den, q'' = 0
+            dd = dd * q + 2.0 * d / den;
+            d = d * q + v / den;
+            v *= q;
+        }
+        l[j] = v;
+        dl[j] = d;
+        ddl[j] = dd;
+    }
+}
+
 /// Precomputed values at the collocation points of one interval.
 #[derive(Debug, Clone)]
 pub(crate) struct Basis {
@@ -114,6 +145,31 @@ mod tests {
             let d: f64 = (0..=m).map(|j| dl[j] * p(j as f64 / m as f64)).sum();
             assert_relative_eq!(v, p(xi), epsilon = 1e-13);
             assert_relative_eq!(d, dp(xi), epsilon = 1e-11);
+        }
+    }
+
+    #[test]
+    fn lagrange_d2_reproduces_second_derivatives_and_agrees_with_lagrange() {
+        // reference: interpolation of a degree-m polynomial is exact, so are its derivatives;
+        // values and first derivatives must equal `lagrange` (tolerance: rounding, 1e-10)
+        let m = 5;
+        let p = |x: f64| 1.0 + 2.0 * x - 3.0 * x.powi(3) + 0.5 * x.powi(5);
+        let ddp = |x: f64| -18.0 * x + 10.0 * x.powi(3);
+        let (mut l, mut dl, mut ddl) = (
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+        );
+        let (mut l1, mut dl1) = ([0.0; MAX_DEGREE + 1], [0.0; MAX_DEGREE + 1]);
+        for &xi in &[0.0, 0.13, 0.5, 0.77, 1.0] {
+            lagrange_d2(m, xi, &mut l, &mut dl, &mut ddl);
+            lagrange(m, xi, &mut l1, &mut dl1);
+            let dd: f64 = (0..=m).map(|j| ddl[j] * p(j as f64 / m as f64)).sum();
+            assert_relative_eq!(dd, ddp(xi), epsilon = 1e-9);
+            for j in 0..=m {
+                assert_relative_eq!(l[j], l1[j], epsilon = 1e-12);
+                assert_relative_eq!(dl[j], dl1[j], epsilon = 1e-10);
+            }
         }
     }
 }

@@ -15,7 +15,11 @@
 //!   period as unknown, integral phase condition; delayed values read off the periodic
 //!   profile), sparse LU (faer) so a Newton step costs O(L); Floquet multipliers from the
 //!   discretised monodromy operator, folds located, period-doubling and torus points
-//!   detected; branch switching from Hopf points with a finite amplitude.
+//!   detected; branch switching from Hopf points with a finite amplitude; the free
+//!   parameter may be a delay ([`Problem::delay_dp`]);
+//! - [`FoldOfCyclesSystem`]: folds of periodic orbits continued in two parameters (extended
+//!   system with the null vector, exact second derivatives, sparse), with cusps of cycles and
+//!   the end at a generalised Hopf point.
 //!
 //! The crate knows nothing about any application.
 //!
@@ -71,12 +75,13 @@ mod collocation;
 mod engine;
 mod equilibrium;
 mod error;
+mod fold_cycles;
 mod linalg;
 mod periodic;
 mod problem;
 mod stability;
 
-pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange};
+pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
     SpecialPoints, Stop, newton_step, points_at_parameter,
@@ -85,6 +90,7 @@ pub use equilibrium::{
     CharacteristicRoots, ChebyshevRoots, EquilibriumSystem, HopfPoint, Refinement, refine_root,
 };
 pub use error::{Error, Result};
+pub use fold_cycles::{FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfEnd};
 pub use linalg::Entry;
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
 pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};

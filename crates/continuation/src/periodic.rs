@@ -8,6 +8,10 @@
 //! end nodes, node L·m ≡ node 0). Collocation at the m Gauss–Legendre points of each
 //! interval plus the integral phase condition ∫₀¹ ⟨x(s) − x_ref(s), x_ref'(s)⟩ ds = 0 give
 //! n·L·m + 1 equations for the n·L·m + 2 unknowns u = [profile, T, p].
+//!
+//! The free parameter may be a delay: when p moves τ_j (see [`Problem::delay_dp`]) the
+//! delayed value x(s − τ_j/T) moves along the profile, and the Jacobian column of p contains
+//! ∂τ_j/∂p · J_j(s) x'(s − τ_j/T) besides −T ∂f/∂p.
 
 use crate::collocation::{Basis, MAX_DEGREE, lagrange};
 use crate::engine::ContinuationSystem;
@@ -69,32 +73,43 @@ impl Default for ArclengthWeights {
 /// Periodic-orbit boundary value problem as a continuation system.
 #[derive(Debug)]
 pub struct PeriodicOrbitSystem<'a, P: Problem> {
-    problem: &'a P,
-    params: Vec<f64>,
-    ip: usize,
-    mesh: Vec<f64>,
-    basis: Basis,
-    options: CollocationOptions,
+    pub(crate) problem: &'a P,
+    pub(crate) params: Vec<f64>,
+    pub(crate) ip: usize,
+    pub(crate) mesh: Vec<f64>,
+    pub(crate) basis: Basis,
+    pub(crate) options: CollocationOptions,
     /// phase condition: coefficients for the profile and constant
-    phase_row: Vec<f64>,
+    pub(crate) phase_row: Vec<f64>,
     phase_const: f64,
     // scratch
-    args: Vec<f64>,
+    /// stacked arguments [x(s), x(s − τ1/T), …] of the last `fill_args`
+    pub(crate) args: Vec<f64>,
     jac: Vec<f64>,
     fbuf: Vec<f64>,
     fp: Vec<f64>,
-    dx: Vec<f64>,
+    /// dx/ds at the delayed points of the last `fill_args` (n per delay)
+    pub(crate) dx: Vec<f64>,
 }
 
 /// location of a point of the (extended) mesh
 #[derive(Debug, Clone, Copy)]
-struct Loc {
+pub(crate) struct Loc {
     /// interval index (in the extended mesh may be negative or ≥ L)
     q: i64,
     /// base interval q mod L
-    base: usize,
+    pub(crate) base: usize,
     /// local coordinate
-    xi: f64,
+    pub(crate) xi: f64,
+}
+
+impl Loc {
+    /// placeholder before `fill_args` writes the real locations
+    pub(crate) const ZERO: Loc = Loc {
+        q: 0,
+        base: 0,
+        xi: 0.0,
+    };
 }
 
 impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
@@ -228,7 +243,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         }
     }
 
-    fn node(&self, base: usize, j: usize) -> usize {
+    pub(crate) fn node(&self, base: usize, j: usize) -> usize {
         (base * self.degree() + j) % self.n_nodes()
     }
 
@@ -312,11 +327,11 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         }
     }
 
-    fn set_params(&mut self, u: &[f64]) {
+    pub(crate) fn set_params(&mut self, u: &[f64]) {
         self.params[self.ip] = u[u.len() - 1];
     }
 
-    fn delays(&self) -> Vec<f64> {
+    pub(crate) fn delays(&self) -> Vec<f64> {
         (0..self.problem.n_delays())
             .map(|j| self.problem.delay(j, &self.params))
             .collect()
@@ -324,7 +339,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
 
     /// Fill `args` with x(s_c) and the delayed values for collocation point c of interval i;
     /// returns the locations of the delayed values (periodic wrapping).
-    fn fill_args(
+    pub(crate) fn fill_args(
         &mut self,
         u: &[f64],
         i: usize,
@@ -635,14 +650,7 @@ impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
         self.set_params(u);
         let period = self.period(u);
         let delays = self.delays();
-        let mut locs = vec![
-            Loc {
-                q: 0,
-                base: 0,
-                xi: 0.0
-            };
-            delays.len()
-        ];
+        let mut locs = vec![Loc::ZERO; delays.len()];
         for i in 0..self.intervals() {
             let h = self.mesh[i + 1] - self.mesh[i];
             for c in 0..m {
@@ -681,17 +689,14 @@ impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
         self.set_params(u);
         let period = self.period(u);
         let delays = self.delays();
+        // ∂τ_d/∂p of the free parameter: a delay may be the free parameter
+        let dtau: Vec<f64> = (0..k)
+            .map(|d| self.problem.delay_dp(d, &self.params, self.ip))
+            .collect();
         let it = self.period_index();
         let ipu = it + 1;
         let nc = n * (k + 1);
-        let mut locs = vec![
-            Loc {
-                q: 0,
-                base: 0,
-                xi: 0.0
-            };
-            k
-        ];
+        let mut locs = vec![Loc::ZERO; k];
         let mut l_d = [0.0; MAX_DEGREE + 1];
         let mut dl_d = [0.0; MAX_DEGREE + 1];
         for i in 0..self.intervals() {
@@ -732,16 +737,19 @@ impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
                     }
                 }
                 for r in 0..n {
-                    // ∂/∂T: −f − T Σ_d J_d x'(s_d) τ_d/T²
+                    // ∂/∂T: −f − T Σ_d J_d x'(s_d) τ_d/T²;
+                    // ∂/∂p: −T f_p + Σ_d J_d x'(s_d) ∂τ_d/∂p (x(s − τ(p)/T) moves with τ)
                     let mut dt = -self.fbuf[r];
+                    let mut dp = -period * self.fp[r];
                     for (d, &tau) in delays.iter().enumerate() {
                         let jd: f64 = (0..n)
                             .map(|kk| self.jac[r * nc + (d + 1) * n + kk] * self.dx[d * n + kk])
                             .sum();
                         dt -= jd * tau / period;
+                        dp += jd * dtau[d];
                     }
                     entries.push(Entry::new(row0 + r, it, dt));
-                    entries.push(Entry::new(row0 + r, ipu, -period * self.fp[r]));
+                    entries.push(Entry::new(row0 + r, ipu, dp));
                 }
             }
         }

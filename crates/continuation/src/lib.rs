@@ -19,7 +19,13 @@
 //!   parameter may be a delay ([`Problem::delay_dp`]);
 //! - [`FoldOfCyclesSystem`]: folds of periodic orbits continued in two parameters (extended
 //!   system with the null vector, exact second derivatives, sparse), with cusps of cycles and
-//!   the end at a generalised Hopf point.
+//!   the end at a generalised Hopf point;
+//! - [`HopfCurveSystem`], [`FoldCurveSystem`]: curves of Hopf points and of folds of
+//!   equilibria in two free parameters (either may be a delay), with exact Jacobians from
+//!   [`Problem::second_derivative`], [`Problem::jacobian_dp`] and [`Problem::delay_dp`];
+//!   stability along the curve from the remaining spectrum; codimension-two points
+//!   (double Hopf, zero-Hopf, Bogdanov–Takens, cusp) located as special points and
+//!   collected as [`Codim2Point`]s.
 //!
 //! The crate knows nothing about any application.
 //!
@@ -71,16 +77,20 @@
 //! # }
 //! ```
 
+mod codim2;
 mod collocation;
 mod engine;
 mod equilibrium;
 mod error;
+mod fold_curve;
 mod fold_cycles;
+mod hopf_curve;
 mod linalg;
 mod periodic;
 mod problem;
 mod stability;
 
+pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
@@ -90,7 +100,9 @@ pub use equilibrium::{
     CharacteristicRoots, ChebyshevRoots, EquilibriumSystem, HopfPoint, Refinement, refine_root,
 };
 pub use error::{Error, Result};
+pub use fold_curve::FoldCurveSystem;
 pub use fold_cycles::{FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfEnd};
+pub use hopf_curve::HopfCurveSystem;
 pub use linalg::Entry;
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
 pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};

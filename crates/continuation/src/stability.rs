@@ -87,7 +87,8 @@ impl Stability {
                 .min_by(|a, b| f(a).total_cmp(&f(b)))
         };
         match (self.kind, kind) {
-            (SpectrumKind::Eigenvalues, SpecialKind::Hopf) => {
+            // on a Hopf curve the values are the remaining spectrum: the second pair
+            (SpectrumKind::Eigenvalues, SpecialKind::Hopf | SpecialKind::DoubleHopf) => {
                 pick(&|z| z.re.abs(), &|z| z.im > 1e-9)
             }
             (SpectrumKind::Eigenvalues, _) => pick(&|z| z.norm(), &|z| z.im.abs() <= 1e-9),

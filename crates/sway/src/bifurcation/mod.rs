@@ -27,6 +27,7 @@ use trailer_model::{HITCH_ANGLE, Model};
 
 use crate::SwayError;
 
+pub mod chart;
 mod closed_loop;
 pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, SPEED};
 

@@ -4,6 +4,7 @@
 //! monodromy matrices from simulations, and mesh refinement.
 
 use super::*;
+use continuation::Problem;
 use approx::assert_relative_eq;
 use dde::{DdeProblem, OdeProblem, Options, solve_dde, solve_ode};
 use nalgebra::{DMatrix, SVector};

@@ -5,7 +5,7 @@
 //! so a branch can be saved, loaded and extended later.
 
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, SparseLu};
+use crate::linalg::{Determinant, Entry, SparseLu};
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
 use serde::{Deserialize, Serialize};
 
@@ -156,6 +156,43 @@ pub enum Stop {
         /// the step that failed
         step: f64,
     },
+    /// the [`Observer`] asked to stop (user stop rule)
+    Observer,
+}
+
+/// What an [`Observer`] tells the engine after an accepted point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Decision {
+    /// go on
+    Continue,
+    /// stop now; [`Continuation::extend_observed`] returns [`Stop::Observer`]
+    Stop,
+}
+
+/// Called by [`Continuation::extend_observed`] after every point added to the branch
+/// (accepted steps and located special points), as argmin's observers are: for progress
+/// reports, checkpoints (the branch so far is plain serialisable data) and user stop rules.
+///
+/// Closures `FnMut(&Branch) -> Decision` are observers.
+pub trait Observer {
+    /// `branch`: the branch so far, the new point last; `branch.state` is the solver state
+    fn observe(&mut self, branch: &Branch) -> Decision;
+}
+
+impl<F: FnMut(&Branch) -> Decision> Observer for F {
+    fn observe(&mut self, branch: &Branch) -> Decision {
+        self(branch)
+    }
+}
+
+/// The observer that does nothing (what [`Continuation::extend`] uses).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NoObserver;
+
+impl Observer for NoObserver {
+    fn observe(&mut self, _branch: &Branch) -> Decision {
+        Decision::Continue
+    }
 }
 
 /// A branch of solutions: points and the state needed to continue it.
@@ -194,6 +231,58 @@ struct Corrected {
     u: Vec<f64>,
     tangent: Vec<f64>,
     iterations: usize,
+    /// determinant of the bordered Jacobian of the last Newton iteration
+    determinant: Determinant,
+}
+
+/// One assembled, factorised and solved bordered Newton system at `u`:
+///
+/// ```text
+/// [ G_u(u) ] Δu = − [ G(u)       ]
+/// [ bᵀ     ]        [ constraint ]
+/// ```
+struct BorderedStep {
+    lu: SparseLu,
+    update: Vec<f64>,
+    residual_norm: f64,
+}
+
+/// The one bordered solve shared by [`newton_step`] and the corrector: residual and sparse
+/// Jacobian of the system, the border row `border` (entries b_i = w_i t_i), sparse LU and
+/// solve. `entries` is a reusable buffer.
+fn bordered_step<S: ContinuationSystem>(
+    sys: &mut S,
+    u: &[f64],
+    border: &[f64],
+    constraint: f64,
+    entries: &mut Vec<Entry>,
+    what: &str,
+) -> Result<BorderedStep> {
+    let nu = sys.n_unknowns();
+    let mut r = vec![0.0; nu];
+    sys.residual(u, &mut r[..nu - 1])?;
+    r[nu - 1] = constraint;
+    let residual_norm = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !residual_norm.is_finite() {
+        return Err(Error::NonFinite {
+            parameter: u[sys.parameter_index()],
+        });
+    }
+    entries.clear();
+    sys.jacobian(u, entries)?;
+    for (i, &b) in border.iter().enumerate() {
+        if b != 0.0 {
+            entries.push(Entry::new(nu - 1, i, b));
+        }
+    }
+    let lu = SparseLu::new(nu, entries, what)?;
+    let mut update: Vec<f64> = r.iter().map(|v| -v).collect();
+    lu.solve(&mut update, what)?;
+    Ok(BorderedStep {
+        lu,
+        update,
+        residual_norm,
+    })
 }
 
 fn weighted_dot(w: &[f64], a: &[f64], b: &[f64]) -> f64 {
@@ -205,6 +294,62 @@ fn normalise(w: &[f64], t: &mut [f64]) {
     if n > 0.0 {
         t.iter_mut().for_each(|v| *v /= n);
     }
+}
+
+/// the border row w∘t of the arclength condition
+fn border(w: &[f64], t: &[f64]) -> Vec<f64> {
+    w.iter().zip(t).map(|(w, t)| w * t).collect()
+}
+
+/// `a + s·t`
+fn along(a: &[f64], t: &[f64], s: f64) -> Vec<f64> {
+    a.iter().zip(t).map(|(u, t)| u + s * t).collect()
+}
+
+/// A scalar test function whose zero the location looks for.
+#[derive(Debug, Clone, Copy)]
+enum TestFunction {
+    /// the parameter component of the tangent (fold)
+    Fold,
+    /// det of the bordered Jacobian [G_u; (w∘t_a)ᵀ] divided by |det| at the bracket's start
+    /// (branch point: the determinant changes sign while the tangent does not turn)
+    BranchPoint {
+        /// log |det| at the start of the bracket
+        log_scale: f64,
+        /// sign of det at the start of the bracket
+        start_sign: f64,
+    },
+    /// the system's own test function of this kind
+    System(SpecialKind),
+}
+
+impl TestFunction {
+    fn kind(self) -> SpecialKind {
+        match self {
+            TestFunction::Fold => SpecialKind::Fold,
+            TestFunction::BranchPoint { .. } => SpecialKind::BranchPoint,
+            TestFunction::System(k) => k,
+        }
+    }
+
+    /// value on a corrected point (None: the system has no test function of this kind)
+    fn value<S: ContinuationSystem>(self, sys: &mut S, c: &Corrected) -> Result<Option<f64>> {
+        Ok(match self {
+            TestFunction::Fold => Some(c.tangent[sys.parameter_index()]),
+            TestFunction::BranchPoint { log_scale, .. } => {
+                Some(c.determinant.sign * (c.determinant.log_abs - log_scale).exp())
+            }
+            TestFunction::System(k) => sys.test_function(k, &c.u)?,
+        })
+    }
+}
+
+/// bracket of a special point between the accepted points `a` and `b` (step `ds` from `a`)
+struct Bracket<'p> {
+    a: &'p BranchPoint,
+    ds: f64,
+    ga: f64,
+    gb: f64,
 }
 
 impl Continuation {
@@ -222,44 +367,20 @@ impl Continuation {
         t: &[f64],
         w: &[f64],
     ) -> Result<Corrected> {
-        let nu = sys.n_unknowns();
         let ip = sys.parameter_index();
+        let b = border(w, t);
         let mut u = pred.to_vec();
-        let mut r = vec![0.0; nu];
         let mut entries = Vec::new();
         let mut last_update = f64::INFINITY;
         let mut res_norm = f64::INFINITY;
         for it in 1..=self.options.max_newton_iterations {
-            sys.residual(&u, &mut r[..nu - 1])?;
-            r[nu - 1] = (0..nu).map(|i| w[i] * t[i] * (u[i] - pred[i])).sum();
-            res_norm = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            if !res_norm.is_finite() {
-                return Err(Error::NonFinite { parameter: u[ip] });
-            }
-            entries.clear();
-            sys.jacobian(&u, &mut entries)?;
-            for i in 0..nu {
-                let v = w[i] * t[i];
-                if v != 0.0 {
-                    entries.push(Entry::new(nu - 1, i, v));
-                }
-            }
-            let lu = SparseLu::new(nu, &entries, "Newton corrector")?;
-            let mut du: Vec<f64> = r.iter().map(|v| -v).collect();
-            lu.solve(&mut du, "Newton corrector")?;
-            let upd = du.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            u.iter_mut().zip(&du).for_each(|(a, b)| *a += b);
+            let constraint = (0..u.len()).map(|i| b[i] * (u[i] - pred[i])).sum();
+            let step = bordered_step(sys, &u, &b, constraint, &mut entries, "Newton corrector")?;
+            res_norm = step.residual_norm;
+            let upd = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
             if upd <= self.options.newton_tolerance * (1.0 + u[ip].abs()) {
-                // tangent from the same factorisation: [J; w∘t] τ = e_N
-                let mut tau = vec![0.0; nu];
-                tau[nu - 1] = 1.0;
-                lu.solve(&mut tau, "tangent")?;
-                normalise(w, &mut tau);
-                return Ok(Corrected {
-                    u,
-                    tangent: tau,
-                    iterations: it,
-                });
+                return Self::corrected(step.lu, u, w, it);
             }
             if it > 2 && upd > 2.0 * last_update {
                 break;
@@ -272,6 +393,39 @@ impl Continuation {
             residual: res_norm,
             update: last_update,
         })
+    }
+
+    /// the converged corrector's tangent from the same factorisation: [J; w∘t] τ = e_N
+    fn corrected(lu: SparseLu, u: Vec<f64>, w: &[f64], iterations: usize) -> Result<Corrected> {
+        let nu = u.len();
+        let mut tau = vec![0.0; nu];
+        tau[nu - 1] = 1.0;
+        lu.solve(&mut tau, "tangent")?;
+        normalise(w, &mut tau);
+        Ok(Corrected {
+            u,
+            tangent: tau,
+            iterations,
+            determinant: lu.determinant(),
+        })
+    }
+
+    /// determinant of the bordered Jacobian [G_u(u); (w∘t)ᵀ] (one assembly and LU)
+    fn bordered_determinant<S: ContinuationSystem>(
+        sys: &mut S,
+        u: &[f64],
+        t: &[f64],
+        w: &[f64],
+    ) -> Result<Determinant> {
+        let mut entries = Vec::new();
+        sys.jacobian(u, &mut entries)?;
+        let nu = u.len();
+        for (i, &b) in border(w, t).iter().enumerate() {
+            if b != 0.0 {
+                entries.push(Entry::new(nu - 1, i, b));
+            }
+        }
+        Ok(SparseLu::new(nu, &entries, "branch-point test")?.determinant())
     }
 
     fn make_point<S: ContinuationSystem>(&self, sys: &mut S, c: Corrected) -> Result<BranchPoint> {
@@ -326,27 +480,39 @@ impl Continuation {
     }
 
     /// Continue `branch` by up to `max_points` new points (located special points count too).
+    ///
+    /// Equivalent to [`Continuation::extend_observed`] with [`NoObserver`].
     pub fn extend<S: ContinuationSystem>(
         &self,
         sys: &mut S,
         branch: &mut Branch,
         max_points: usize,
     ) -> Result<Stop> {
+        self.extend_observed(sys, branch, max_points, &mut NoObserver)
+    }
+
+    /// Continue `branch` by up to `max_points` new points (located special points count too),
+    /// calling `observer` after every point added; it may stop the run ([`Stop::Observer`]).
+    ///
+    /// Branch points (pitchfork, transcritical) are detected by a sign change of the
+    /// determinant of the bordered Jacobian [G_u; (w∘t)ᵀ] while the tangent does not turn,
+    /// located as [`SpecialKind::BranchPoint`], and stepped over; see
+    /// [`Continuation::switch_branch`] for the crossing branch.
+    pub fn extend_observed<S: ContinuationSystem, O: Observer + ?Sized>(
+        &self,
+        sys: &mut S,
+        branch: &mut Branch,
+        max_points: usize,
+        observer: &mut O,
+    ) -> Result<Stop> {
         let w = sys.weights();
-        let ip = sys.parameter_index();
+        let last = Self::last_point(sys, branch)?.clone();
+        sys.accept(&last.u);
+        // sign of det [G_u; (w∘t)ᵀ] at the last point (0: not available, no detection)
+        let mut sign_a =
+            Self::bordered_determinant(sys, &last.u, &last.tangent, &w).map_or(0.0, |d| d.sign);
         let o = &self.options;
         let mut added = 0;
-        let Some(last) = branch.points.last() else {
-            return Err(Error::EmptyBranch);
-        };
-        if last.u.len() != sys.n_unknowns() {
-            return Err(Error::InvalidInput(format!(
-                "branch points have {} unknowns, the system has {}",
-                last.u.len(),
-                sys.n_unknowns()
-            )));
-        }
-        sys.accept(&last.u.clone());
         while added < max_points {
             let a = branch.points.last().cloned().ok_or(Error::EmptyBranch)?;
             if a.parameter < o.parameter_range.0 || a.parameter > o.parameter_range.1 {
@@ -356,91 +522,176 @@ impl Continuation {
             if ds < o.min_step {
                 return Ok(Stop::StepSizeUnderflow { step: ds });
             }
-            let pred: Vec<f64> =
-                a.u.iter()
-                    .zip(&a.tangent)
-                    .map(|(u, t)| u + ds * t)
-                    .collect();
-            let c = match self.correct(sys, &pred, &a.tangent, &w) {
-                Ok(c)
-                    if weighted_dot(&w, &c.tangent, &a.tangent) >= o.min_tangent_cosine
-                        || ds <= 2.0 * o.min_step =>
-                {
-                    c
-                }
-                _ => {
-                    branch.state.step *= o.step_reduction;
-                    branch.state.rejected_steps += 1;
-                    continue;
-                }
+            let Some(c) = self.predict_correct(sys, &a, ds, &w) else {
+                branch.state.step *= o.step_reduction;
+                branch.state.rejected_steps += 1;
+                continue;
             };
-            // step control from the Newton iteration count
-            let its = c.iterations;
-            let mut next = if its < o.target_newton_iterations {
-                ds * o.step_growth
-            } else if its > o.target_newton_iterations {
-                ds * o.step_reduction.max(0.7)
-            } else {
-                ds
-            };
-            next = next.min(o.max_step);
+            let next = self.next_step(ds, c.iterations);
+            let det_b = c.determinant;
             let mut b = self.make_point(sys, c)?;
             branch.state.accepted_steps += 1;
-
-            // special points between a and b
-            let mut located: Option<BranchPoint> = None;
-            if o.special_points != SpecialPoints::Ignore {
-                let fold = a.tangent[ip] * b.tangent[ip] < 0.0;
-                let stab_kind = match (&a.stability, &b.stability) {
-                    (Some(sa), Some(sb)) => sys.classify(sa, sb),
-                    _ => None,
-                };
-                let kind = if fold {
-                    Some(SpecialKind::Fold)
-                } else {
-                    stab_kind
-                };
-                if let Some(kind) = kind {
-                    let test_a = if kind == SpecialKind::Fold {
-                        Some(a.tangent[ip])
-                    } else {
-                        sys.test_function(kind, &a.u)?
-                    };
-                    match (o.special_points, test_a) {
-                        (SpecialPoints::Locate, Some(ga)) => {
-                            let gb = if kind == SpecialKind::Fold {
-                                b.tangent[ip]
-                            } else {
-                                sys.test_function(kind, &b.u)?.unwrap_or(ga)
-                            };
-                            if ga * gb < 0.0 {
-                                let mut point = self.locate(sys, kind, &a, ds, ga, gb, &w)?;
-                                let dp = b.parameter - a.parameter;
-                                if let Some(sp) = point.special.as_mut()
-                                    && kind != SpecialKind::Fold
-                                    && dp != 0.0
-                                {
-                                    sp.transversality = Some((gb - ga) / dp);
-                                }
-                                located = Some(point);
-                            } else {
-                                b.special = Some(self.detected(kind, &b));
-                            }
-                        }
-                        _ => b.special = Some(self.detected(kind, &b)),
-                    }
-                }
-            }
+            let located = self.special_between(sys, &a, &mut b, ds, sign_a, det_b, &w)?;
+            sign_a = det_b.sign;
             if let Some(p) = located {
                 branch.points.push(p);
                 added += 1;
+                if observer.observe(branch) == Decision::Stop {
+                    return Ok(Stop::Observer);
+                }
             }
             sys.accept(&b.u);
             branch.points.push(b);
             added += 1;
             branch.state.step = next;
+            if observer.observe(branch) == Decision::Stop {
+                return Ok(Stop::Observer);
+            }
         }
         Ok(Stop::MaxPoints)
+    }
+
+    /// the last point of a branch, checked against the system's size
+    fn last_point<'b, S: ContinuationSystem>(
+        sys: &S,
+        branch: &'b Branch,
+    ) -> Result<&'b BranchPoint> {
+        let last = branch.points.last().ok_or(Error::EmptyBranch)?;
+        if last.u.len() != sys.n_unknowns() {
+            return Err(Error::InvalidInput(format!(
+                "branch points have {} unknowns, the system has {}",
+                last.u.len(),
+                sys.n_unknowns()
+            )));
+        }
+        Ok(last)
+    }
+
+    /// predictor along a's tangent and corrector; None if the step is to be rejected
+    /// (Newton failed, or the tangent turned more than `min_tangent_cosine` allows)
+    fn predict_correct<S: ContinuationSystem>(
+        &self,
+        sys: &mut S,
+        a: &BranchPoint,
+        ds: f64,
+        w: &[f64],
+    ) -> Option<Corrected> {
+        let o = &self.options;
+        let pred = along(&a.u, &a.tangent, ds);
+        match self.correct(sys, &pred, &a.tangent, w) {
+            Ok(c)
+                if weighted_dot(w, &c.tangent, &a.tangent) >= o.min_tangent_cosine
+                    || ds <= 2.0 * o.min_step =>
+            {
+                Some(c)
+            }
+            _ => None,
+        }
+    }
+
+    /// step control from the Newton iteration count
+    fn next_step(&self, ds: f64, iterations: usize) -> f64 {
+        let o = &self.options;
+        let next = if iterations < o.target_newton_iterations {
+            ds * o.step_growth
+        } else if iterations > o.target_newton_iterations {
+            ds * o.step_reduction.max(0.7)
+        } else {
+            ds
+        };
+        next.min(o.max_step)
+    }
+
+    /// Special points between the accepted points `a` and `b`: `b` is flagged (detected) or
+    /// the located point is returned (to be inserted before `b`).
+    #[allow(clippy::too_many_arguments)]
+    fn special_between<S: ContinuationSystem>(
+        &self,
+        sys: &mut S,
+        a: &BranchPoint,
+        b: &mut BranchPoint,
+        ds: f64,
+        sign_a: f64,
+        det_b: Determinant,
+        w: &[f64],
+    ) -> Result<Option<BranchPoint>> {
+        if self.options.special_points == SpecialPoints::Ignore {
+            return Ok(None);
+        }
+        let Some(test) = self.test_between(sys, a, b, sign_a, det_b, w)? else {
+            return Ok(None);
+        };
+        let kind = test.kind();
+        let ga = match test {
+            TestFunction::Fold => Some(a.tangent[sys.parameter_index()]),
+            TestFunction::BranchPoint { start_sign, .. } => Some(start_sign),
+            TestFunction::System(k) => sys.test_function(k, &a.u)?,
+        };
+        let (SpecialPoints::Locate, Some(ga)) = (self.options.special_points, ga) else {
+            b.special = Some(self.detected(kind, b));
+            return Ok(None);
+        };
+        let gb = match test {
+            TestFunction::Fold => b.tangent[sys.parameter_index()],
+            TestFunction::BranchPoint { log_scale, .. } => {
+                det_b.sign * (det_b.log_abs - log_scale).exp()
+            }
+            TestFunction::System(k) => sys.test_function(k, &b.u)?.unwrap_or(ga),
+        };
+        if ga * gb >= 0.0 {
+            b.special = Some(self.detected(kind, b));
+            return Ok(None);
+        }
+        let bracket = Bracket { a, ds, ga, gb };
+        let mut point = match self.locate(sys, test, &bracket, w) {
+            Ok(p) => p,
+            // a branch point that cannot be located is still reported, and the branch goes on
+            Err(_) if kind == SpecialKind::BranchPoint => {
+                b.special = Some(self.detected(kind, b));
+                return Ok(None);
+            }
+            Err(e) => return Err(e),
+        };
+        let dp = b.parameter - a.parameter;
+        if let Some(sp) = point.special.as_mut()
+            && matches!(test, TestFunction::System(_))
+            && dp != 0.0
+        {
+            sp.transversality = Some((gb - ga) / dp);
+        }
+        Ok(Some(point))
+    }
+
+    /// Which test function changes sign between `a` and `b`, if any: a fold (the tangent's
+    /// parameter component changes sign), a branch point (the bordered determinant changes
+    /// sign, confirmed with a's determinant recomputed on the same border as b's), or a kind
+    /// the system classifies from the two stabilities.
+    fn test_between<S: ContinuationSystem>(
+        &self,
+        sys: &mut S,
+        a: &BranchPoint,
+        b: &BranchPoint,
+        sign_a: f64,
+        det_b: Determinant,
+        w: &[f64],
+    ) -> Result<Option<TestFunction>> {
+        let ip = sys.parameter_index();
+        if a.tangent[ip] * b.tangent[ip] < 0.0 {
+            return Ok(Some(TestFunction::Fold));
+        }
+        if sign_a * det_b.sign < 0.0
+            && let Ok(det_a) = Self::bordered_determinant(sys, &a.u, &a.tangent, w)
+            && det_a.sign * det_b.sign < 0.0
+        {
+            return Ok(Some(TestFunction::BranchPoint {
+                log_scale: det_a.log_abs,
+                start_sign: det_a.sign,
+            }));
+        }
+        Ok(match (&a.stability, &b.stability) {
+            (Some(sa), Some(sb)) => sys.classify(sa, sb).map(TestFunction::System),
+            _ => None,
+        })
     }
 
     fn detected(&self, kind: SpecialKind, b: &BranchPoint) -> SpecialPoint {
@@ -453,42 +704,60 @@ impl Continuation {
         }
     }
 
+    /// corrector at step `s` along a's tangent, for the location; at a branch point the
+    /// bordered Jacobian is singular, so an exactly singular system there is retried a
+    /// hair (1e-10 of the step) further on and reported as converged (`true`)
+    fn correct_at<S: ContinuationSystem>(
+        &self,
+        sys: &mut S,
+        test: TestFunction,
+        bracket: &Bracket<'_>,
+        s: f64,
+        w: &[f64],
+    ) -> Result<(Corrected, bool)> {
+        let a = bracket.a;
+        match self.correct(sys, &along(&a.u, &a.tangent, s), &a.tangent, w) {
+            Err(Error::SingularSystem { .. })
+                if matches!(test, TestFunction::BranchPoint { .. }) =>
+            {
+                let nudged = along(&a.u, &a.tangent, s + 1e-10 * bracket.ds);
+                Ok((self.correct(sys, &nudged, &a.tangent, w)?, true))
+            }
+            r => Ok((r?, false)),
+        }
+    }
+
     /// Locate the zero of a test function between `a` (step 0) and the step `ds`
     /// (Illinois variant of regula falsi on the step length along a's tangent).
     fn locate<S: ContinuationSystem>(
         &self,
         sys: &mut S,
-        kind: SpecialKind,
-        a: &BranchPoint,
-        ds: f64,
-        ga: f64,
-        gb: f64,
+        test: TestFunction,
+        bracket: &Bracket<'_>,
         w: &[f64],
     ) -> Result<BranchPoint> {
+        let kind = test.kind();
+        let a = bracket.a;
         let ip = sys.parameter_index();
-        let (mut s0, mut g0, mut s1, mut g1) = (0.0, ga, ds, gb);
+        let failed = |p1: f64, iterations: usize| Error::LocationFailed {
+            kind: kind.to_string(),
+            p0: a.parameter,
+            p1,
+            iterations,
+        };
+        let (mut s0, mut g0, mut s1, mut g1) = (0.0, bracket.ga, bracket.ds, bracket.gb);
         let mut side = 0i8;
         let mut p_prev = f64::NAN;
         let mut best: Option<Corrected> = None;
         for it in 0..self.options.max_location_iterations {
             let s = s1 - g1 * (s1 - s0) / (g1 - g0);
-            let pred: Vec<f64> = a.u.iter().zip(&a.tangent).map(|(u, t)| u + s * t).collect();
-            let c = self.correct(sys, &pred, &a.tangent, w)?;
-            let g = if kind == SpecialKind::Fold {
-                c.tangent[ip]
-            } else {
-                sys.test_function(kind, &c.u)?
-                    .ok_or(Error::LocationFailed {
-                        kind: kind.to_string(),
-                        p0: a.parameter,
-                        p1: c.u[ip],
-                        iterations: it,
-                    })?
-            };
+            let (c, singular) = self.correct_at(sys, test, bracket, s, w)?;
+            let g = test.value(sys, &c)?.ok_or_else(|| failed(c.u[ip], it))?;
             let p = c.u[ip];
-            let done = (p - p_prev).abs() <= self.options.location_tolerance
+            let done = singular
+                || (p - p_prev).abs() <= self.options.location_tolerance
                 || g == 0.0
-                || (s1 - s0).abs() < 1e-15 * ds;
+                || (s1 - s0).abs() < 1e-15 * bracket.ds;
             p_prev = p;
             best = Some(c);
             if done {
@@ -505,20 +774,14 @@ impl Continuation {
             }
             (s1, g1) = (s, g);
             if it + 1 == self.options.max_location_iterations {
-                return Err(Error::LocationFailed {
-                    kind: kind.to_string(),
-                    p0: a.parameter,
-                    p1: p,
-                    iterations: it + 1,
-                });
+                return Err(failed(p, it + 1));
             }
         }
-        let c = best.ok_or(Error::LocationFailed {
-            kind: kind.to_string(),
-            p0: a.parameter,
-            p1: a.parameter,
-            iterations: 0,
-        })?;
+        let mut c = best.ok_or_else(|| failed(a.parameter, 0))?;
+        if kind == SpecialKind::BranchPoint {
+            // the tangent solve is singular at a branch point: keep the branch's direction
+            c.tangent = a.tangent.clone();
+        }
         let mut point = self.make_point(sys, c)?;
         point.special = Some(SpecialPoint {
             kind,
@@ -529,32 +792,91 @@ impl Continuation {
         });
         Ok(point)
     }
+
+    /// Direction of the branch crossing at the branch point `point` (a point of a branch of
+    /// `sys` located as [`SpecialKind::BranchPoint`]): the null vector φ of G_u orthogonal
+    /// (weighted metric) to the branch's tangent, unit length, its largest entry positive.
+    ///
+    /// At a simple branch point the null space of G_u is spanned by the tangents of the two
+    /// crossing branches; φ is the null vector of the bordered Jacobian [G_u; (w∘t)ᵀ], found
+    /// by two steps of inverse iteration with its LU. The hyperplane through the branch point
+    /// orthogonal to φ holds the old branch's tangent, so a corrector constrained to
+    /// φ·(u − u*) = h finds the crossing branch (pitchfork and transcritical alike).
+    pub fn branch_direction<S: ContinuationSystem>(
+        &self,
+        sys: &mut S,
+        point: &BranchPoint,
+    ) -> Result<Vec<f64>> {
+        let w = sys.weights();
+        let b = border(&w, &point.tangent);
+        let mut entries = Vec::new();
+        // exactly at the branch point the LU may break down: step a hair along the branch
+        let step = match bordered_step(sys, &point.u, &b, 0.0, &mut entries, "branch direction") {
+            Err(Error::SingularSystem { .. }) => {
+                let u = along(&point.u, &point.tangent, 1e-9);
+                bordered_step(sys, &u, &b, 0.0, &mut entries, "branch direction")?
+            }
+            r => r?,
+        };
+        let nu = point.u.len();
+        // a fixed, generic start vector (deterministic)
+        let mut phi: Vec<f64> = (0..nu)
+            .map(|i| 0.5 + ((i + 1) as f64 * 0.618_033_988_749_895).fract())
+            .collect();
+        for _ in 0..2 {
+            step.lu.solve(&mut phi, "branch direction")?;
+            normalise(&w, &mut phi);
+        }
+        let along_t = weighted_dot(&w, &phi, &point.tangent);
+        phi.iter_mut()
+            .zip(&point.tangent)
+            .for_each(|(p, t)| *p -= along_t * t);
+        normalise(&w, &mut phi);
+        let big = phi
+            .iter()
+            .fold(0.0f64, |m, v| if v.abs() > m.abs() { *v } else { m });
+        if big < 0.0 {
+            phi.iter_mut().for_each(|v| *v = -*v);
+        }
+        Ok(phi)
+    }
+
+    /// Start the branch that crosses at the branch point `point`: the corrector runs on the
+    /// hyperplane at weighted distance `amplitude` along [`Continuation::branch_direction`]
+    /// (the sign of `amplitude` chooses the side); the new branch is oriented away from the
+    /// branch point and can be extended as usual.
+    pub fn switch_branch<S: ContinuationSystem>(
+        &self,
+        sys: &mut S,
+        point: &BranchPoint,
+        amplitude: f64,
+    ) -> Result<Branch> {
+        let phi = self.branch_direction(sys, point)?;
+        let guess = along(&point.u, &phi, amplitude);
+        let direction: Vec<f64> = phi.iter().map(|v| v * amplitude.signum()).collect();
+        self.start(sys, &guess, &direction)
+    }
 }
 
 /// One Newton step for the bordered system G(u) = 0, Σ w_i t_i (u_i − u_i) = 0 at `u`:
-/// assembly of the residual and the sparse Jacobian, sparse LU and solve. Returns the
-/// update Δu. (The building block of the corrector, exposed for benchmarks and tests.)
+/// assembly of the residual and the sparse Jacobian, sparse LU and solve (the same bordered
+/// solve the corrector runs). Returns the update Δu. (Exposed for benchmarks and tests.)
 pub fn newton_step<S: ContinuationSystem>(
     sys: &mut S,
     u: &[f64],
     tangent: &[f64],
 ) -> Result<Vec<f64>> {
-    let nu = sys.n_unknowns();
     let w = sys.weights();
-    let mut r = vec![0.0; nu];
-    sys.residual(u, &mut r[..nu - 1])?;
     let mut entries = Vec::new();
-    sys.jacobian(u, &mut entries)?;
-    for i in 0..nu {
-        let v = w[i] * tangent[i];
-        if v != 0.0 {
-            entries.push(Entry::new(nu - 1, i, v));
-        }
-    }
-    let lu = SparseLu::new(nu, &entries, "Newton step")?;
-    let mut du: Vec<f64> = r.iter().map(|v| -v).collect();
-    lu.solve(&mut du, "Newton step")?;
-    Ok(du)
+    let step = bordered_step(
+        sys,
+        u,
+        &border(&w, tangent),
+        0.0,
+        &mut entries,
+        "Newton step",
+    )?;
+    Ok(step.update)
 }
 
 /// Solutions on `branch` at the parameter value `p`: for every pair of consecutive points

@@ -3,55 +3,13 @@
 
 use crate::engine::ContinuationSystem;
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, eigenvalues};
+use crate::linalg::Entry;
 use crate::problem::Problem;
+use crate::roots::CharacteristicRoots;
 use crate::stability::{SpecialKind, Stability};
-use faer::Mat;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
-
-/// Rightmost roots of the characteristic equation of the linear DDE
-/// y'(t) = A0 y(t) + Σ_j A_j y(t − τ_j), i.e. det(λI − A0 − Σ_j A_j e^{−λτ_j}) = 0.
-///
-/// Plug in any method (e.g. a semi-discretisation from another crate); [`ChebyshevRoots`]
-/// is the built-in one. For an ODE (`a.len() == 1`) it must return the eigenvalues of A0.
-pub trait CharacteristicRoots {
-    /// the rightmost roots (any order); `a[0]` = A0, `a[j]` the matrix of delay τ_j
-    fn rightmost_roots(&self, a: &[DMatrix<f64>], delays: &[f64]) -> Result<Vec<Complex64>>;
-}
-
-/// Newton refinement of approximate characteristic roots.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Refinement {
-    /// Newton on det Δ(λ) (λ ← λ − 1/tr(Δ(λ)⁻¹Δ'(λ))) to machine precision
-    Newton,
-    /// keep the discretised values
-    None,
-}
-
-/// Characteristic roots by Chebyshev collocation of the infinitesimal generator
-/// (Breda, Maset & Vermiglio, SIAM J. Sci. Comput. 27, 2005) on N + 1 Chebyshev points of
-/// [−τ_max, 0], followed by Newton refinement on the characteristic matrix.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct ChebyshevRoots {
-    /// polynomial degree N of the collocation
-    pub degree: usize,
-    /// how many rightmost roots to return
-    pub count: usize,
-    /// refinement of the discretised roots
-    pub refinement: Refinement,
-}
-
-impl Default for ChebyshevRoots {
-    fn default() -> Self {
-        Self {
-            degree: 30,
-            count: 8,
-            refinement: Refinement::Newton,
-        }
-    }
-}
 
 /// characteristic matrix Δ(λ) = λI − A0 − Σ A_j e^{−λτ_j} and its derivative
 fn char_matrix(
@@ -81,112 +39,6 @@ fn char_matrix(
     (d, dd)
 }
 
-/// Newton on det Δ(λ): λ ← λ − 1/tr(Δ⁻¹Δ'). Returns None if it does not converge.
-pub fn refine_root(a: &[DMatrix<f64>], delays: &[f64], mut lambda: Complex64) -> Option<Complex64> {
-    for _ in 0..50 {
-        let (d, dd) = char_matrix(a, delays, lambda);
-        let lu = d.lu();
-        let x = lu.solve(&dd)?;
-        let tr = x.trace();
-        if tr.norm() == 0.0 || !tr.is_finite() {
-            return None;
-        }
-        let step = 1.0 / tr;
-        lambda -= step;
-        if step.norm() <= 1e-14 * (1.0 + lambda.norm()) {
-            return Some(lambda);
-        }
-    }
-    None
-}
-
-impl CharacteristicRoots for ChebyshevRoots {
-    fn rightmost_roots(&self, a: &[DMatrix<f64>], delays: &[f64]) -> Result<Vec<Complex64>> {
-        let n = a[0].nrows();
-        let tau_max = delays.iter().cloned().fold(0.0f64, f64::max);
-        if a.len() == 1 || tau_max == 0.0 {
-            let a0 = a.iter().fold(DMatrix::<f64>::zeros(n, n), |s, m| s + m);
-            let m = Mat::<f64>::from_fn(n, n, |i, j| a0[(i, j)]);
-            return eigenvalues(&m);
-        }
-        let nn = self.degree.max(2);
-        let x: Vec<f64> = (0..=nn)
-            .map(|i| (std::f64::consts::PI * i as f64 / nn as f64).cos())
-            .collect();
-        let c: Vec<f64> = (0..=nn)
-            .map(
-                |i| if i == 0 || i == nn { 2.0 } else { 1.0 } * if i % 2 == 0 { 1.0 } else { -1.0 },
-            )
-            .collect();
-        let dim = n * (nn + 1);
-        let mut m = Mat::<f64>::zeros(dim, dim);
-        // rows 1..N: derivative of the interpolant, θ = τ_max/2 (x − 1) ⇒ d/dθ = 2/τ_max d/dx
-        for i in 1..=nn {
-            let mut diag = 0.0;
-            for j in 0..=nn {
-                if i != j {
-                    let dij = c[i] / c[j] / (x[i] - x[j]) * 2.0 / tau_max;
-                    diag -= dij;
-                    for k in 0..n {
-                        m[(i * n + k, j * n + k)] = dij;
-                    }
-                }
-            }
-            for k in 0..n {
-                m[(i * n + k, i * n + k)] = diag;
-            }
-        }
-        // row 0: y'(0) = A0 y(0) + Σ A_j p(−τ_j)
-        for r in 0..n {
-            for k in 0..n {
-                m[(r, k)] += a[0][(r, k)];
-            }
-        }
-        let bw: Vec<f64> = (0..=nn)
-            .map(
-                |i| if i == 0 || i == nn { 0.5 } else { 1.0 } * if i % 2 == 0 { 1.0 } else { -1.0 },
-            )
-            .collect();
-        for (aj, &tau) in a[1..].iter().zip(delays) {
-            let xs = 1.0 - 2.0 * tau / tau_max;
-            let mut l = vec![0.0; nn + 1];
-            if let Some(hit) = x.iter().position(|&xi| (xi - xs).abs() < 1e-14) {
-                l[hit] = 1.0;
-            } else {
-                let terms: Vec<f64> = (0..=nn).map(|i| bw[i] / (xs - x[i])).collect();
-                let s: f64 = terms.iter().sum();
-                for i in 0..=nn {
-                    l[i] = terms[i] / s;
-                }
-            }
-            for (q, lq) in l.iter().enumerate() {
-                for r in 0..n {
-                    for k in 0..n {
-                        m[(r, q * n + k)] += lq * aj[(r, k)];
-                    }
-                }
-            }
-        }
-        let mut ev = eigenvalues(&m)?;
-        ev.sort_by(|p, q| q.re.total_cmp(&p.re));
-        let mut out: Vec<Complex64> = Vec::new();
-        for z in ev.into_iter().take(2 * self.count) {
-            let r = match self.refinement {
-                Refinement::Newton => refine_root(a, delays, z)
-                    .filter(|r| (r - z).norm() < 0.1 * (1.0 + z.norm()))
-                    .unwrap_or(z),
-                Refinement::None => z,
-            };
-            if !out.iter().any(|o| (o - r).norm() < 1e-8 * (1.0 + r.norm())) {
-                out.push(r);
-            }
-        }
-        out.sort_by(|p, q| q.re.total_cmp(&p.re));
-        out.truncate(self.count);
-        Ok(out)
-    }
-}
-
 /// A Hopf point of an equilibrium branch, ready for branch switching.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HopfPoint {
@@ -204,6 +56,11 @@ pub struct HopfPoint {
 
 /// The equilibrium problem f(x, x, …, x; p) = 0 as a continuation system.
 /// Unknowns u = [x (n), p_free].
+///
+/// The free parameter may be a delay (or enter the delays): the delays are re-evaluated
+/// from u at every point, for the spectrum, the Hopf test function and [`Self::hopf_point`].
+/// At an equilibrium f does not see the delays, so [`Problem::dfdp`] only needs the
+/// explicit dependence of f on the parameter.
 #[derive(Debug)]
 pub struct EquilibriumSystem<'a, P: Problem, R: CharacteristicRoots> {
     problem: &'a P,
@@ -271,6 +128,15 @@ impl<'a, P: Problem, R: CharacteristicRoots> EquilibriumSystem<'a, P, R> {
         (0..=k)
             .map(|d| DMatrix::from_fn(n, n, |i, j| self.jac[i * nc + d * n + j]))
             .collect()
+    }
+
+    /// all parameters at u (the free one taken from u), e.g. to start a two-parameter
+    /// curve ([`crate::HopfCurveSystem`], [`crate::FoldCurveSystem`]) from a point of this
+    /// branch
+    pub fn parameters_at(&self, u: &[f64]) -> Vec<f64> {
+        let mut p = self.params.clone();
+        p[self.ip] = u[self.problem.dim()];
+        p
     }
 
     /// delays at the parameters of u

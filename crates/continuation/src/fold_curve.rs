@@ -65,10 +65,10 @@ use crate::codim2::{
     Codim2Point, Linearisation, TestPair, check_free, nearest_axis, remove_nearest, unstable_counts,
 };
 use crate::engine::{Branch, ContinuationSystem};
-use crate::equilibrium::CharacteristicRoots;
 use crate::error::{Error, Result};
 use crate::linalg::Entry;
 use crate::problem::Problem;
+use crate::roots::CharacteristicRoots;
 use crate::stability::{Location, SpecialKind, Stability};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;

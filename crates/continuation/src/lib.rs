@@ -5,11 +5,13 @@
 //! - [`Problem`]: the system, with exact Jacobians supplied by the user (finite differences
 //!   only as an explicit option: [`fd_jacobian`], [`fd_dfdp`]);
 //! - [`Continuation`]: pseudo-arclength continuation with Newton-iteration step control,
-//!   detection and location of special points; a [`Branch`] is plain serialisable data
-//!   (points + [`ContinuationState`]) and can be saved and extended later;
+//!   detection and location of special points (folds, branch points with
+//!   [`Continuation::switch_branch`], and what the system classifies); a [`Branch`] is plain
+//!   serialisable data (points + [`ContinuationState`]) and can be saved and extended later;
+//!   an [`Observer`] sees every accepted point (progress, checkpoints, user stop rules);
 //! - [`EquilibriumSystem`]: equilibria, stability from eigenvalues (ODE) or the rightmost
 //!   characteristic roots (DDE; pluggable via [`CharacteristicRoots`], built in:
-//!   [`ChebyshevRoots`]), Hopf points located by regula falsi on the real part of the
+//!   [`ChebyshevRoots`], the `stability` crate's collocation and Newton polishing), Hopf points located by regula falsi on the real part of the
 //!   critical pair;
 //! - [`PeriodicOrbitSystem`]: periodic orbits by orthogonal collocation (Gauss–Legendre points,
 //!   period as unknown, integral phase condition; delayed values read off the periodic
@@ -88,17 +90,16 @@ mod hopf_curve;
 mod linalg;
 mod periodic;
 mod problem;
+mod roots;
 mod stability;
 
 pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
-    SpecialPoints, Stop, newton_step, points_at_parameter,
+    Decision, NoObserver, Observer, SpecialPoints, Stop, newton_step, points_at_parameter,
 };
-pub use equilibrium::{
-    CharacteristicRoots, ChebyshevRoots, EquilibriumSystem, HopfPoint, Refinement, refine_root,
-};
+pub use equilibrium::{EquilibriumSystem, HopfPoint};
 pub use error::{Error, Result};
 pub use fold_curve::FoldCurveSystem;
 pub use fold_cycles::{FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfEnd};
@@ -106,6 +107,7 @@ pub use hopf_curve::HopfCurveSystem;
 pub use linalg::Entry;
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
 pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
+pub use roots::{CharacteristicRoots, ChebyshevRoots, Refinement, refine_root};
 pub use stability::{Criticality, Location, SpecialKind, SpecialPoint, SpectrumKind, Stability};
 
 /// Criticality of a Hopf bifurcation from the computed cycle branch: subcritical if the

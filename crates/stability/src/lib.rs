@@ -12,7 +12,7 @@
 //! * [`ChebyshevCollocation`] — spectral collocation of the infinitesimal generator (Breda, Maset,
 //!   Vermiglio), the independent second method;
 //! * [`rightmost_roots`], [`spectral_abscissa`], [`unstable_root_count`] — confirmed and polished
-//!   rightmost roots;
+//!   rightmost roots; [`collocation_roots`] — polished rightmost roots at one fixed degree;
 //! * [`RankOneFeedback`] — single-input delayed feedback `u = −D·C·x(t − τ)`: the quasi-polynomial
 //!   `p(λ) + D e^{−λτ} q(λ)`, D-subdivision (static and dynamic boundaries), exact unstable-root
 //!   counting by signed crossings, stable gain intervals;
@@ -70,6 +70,8 @@ pub use dde::{DelayedTerm, LinearDde, NewtonOptions, sort_rightmost};
 pub use error::{Result, StabilityError};
 pub use num_complex::Complex64;
 pub use rank_one::{Crossing, RankOneFeedback, polynomial_roots};
-pub use roots::{RootOptions, rightmost_roots, spectral_abscissa, unstable_root_count};
+pub use roots::{
+    RootOptions, collocation_roots, rightmost_roots, spectral_abscissa, unstable_root_count,
+};
 pub use semi_discretisation::SemiDiscretisation;
 pub use spectral::{ChebyshevCollocation, chebyshev_differentiation};

@@ -145,3 +145,46 @@ pub fn unstable_root_count(dde: &LinearDde, options: &RootOptions) -> Result<usi
         want *= 2;
     }
 }
+
+/// Largest distance `|polished − seed| / (1 + |seed|)` for which [`collocation_roots`] accepts
+/// a polished root; farther, Newton went to another root and the seed is kept.
+const MAX_POLISH_MOVE: f64 = 0.1;
+
+/// Rightmost `count` characteristic roots at one fixed Chebyshev degree, without the adaptive
+/// confirmation of [`rightmost_roots`] (for callers that choose the resolution themselves,
+/// e.g. along a continuation branch, where a root count must never fail).
+///
+/// The `2·count` rightmost eigenvalues of [`ChebyshevCollocation`] of degree `degree` (≥ 2)
+/// are each polished by Newton's method on `det Δ(λ)` when `newton` is given (a polished root
+/// that moved farther than 0.1·(1 + |seed|), or a failed polish, keeps the seed), duplicates
+/// within 1e-8·(1 + |λ|) are merged, and the `count` rightmost are returned sorted as
+/// [`sort_rightmost`] does. For an ODE (no delayed terms) all eigenvalues of `A0` are returned.
+/// Accuracy: that of [`LinearDde::polish_root`] (~1e-14 relative for simple roots) when
+/// polishing, otherwise the collocation's (spectral in the degree).
+pub fn collocation_roots(
+    dde: &LinearDde,
+    degree: usize,
+    count: usize,
+    newton: Option<&NewtonOptions>,
+) -> Result<Vec<Complex64>> {
+    let collocation = ChebyshevCollocation {
+        degree: degree.max(2),
+    };
+    let eigenvalues = collocation.eigenvalues(dde)?;
+    if dde.delayed_terms().is_empty() {
+        return Ok(eigenvalues);
+    }
+    let mut out: Vec<Complex64> = Vec::with_capacity(2 * count);
+    for z in eigenvalues.into_iter().take(2 * count) {
+        let r = newton
+            .and_then(|o| dde.polish_root(z, o).ok())
+            .filter(|r| (r - z).norm() < MAX_POLISH_MOVE * (1.0 + z.norm()))
+            .unwrap_or(z);
+        if !out.iter().any(|o| (o - r).norm() < 1e-8 * (1.0 + r.norm())) {
+            out.push(r);
+        }
+    }
+    sort_rightmost(&mut out);
+    out.truncate(count);
+    Ok(out)
+}

@@ -20,8 +20,8 @@
 
 use continuation::{
     Branch, BranchPoint, ChebyshevRoots, Continuation, ContinuationOptions, ContinuationSystem,
-    Criticality, FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfCurveSystem,
-    HopfPoint, Refinement, SpecialKind, Stop,
+    Criticality, FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfCurveSystem, HopfPoint,
+    Refinement, SpecialKind, Stop,
 };
 use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Model};
@@ -336,7 +336,12 @@ fn curve_points_at<S: ContinuationSystem>(
                 continue;
             }
             let t = (value - a) / (c - a);
-            let guess: Vec<f64> = w[0].u.iter().zip(&w[1].u).map(|(x, y)| x + t * (y - x)).collect();
+            let guess: Vec<f64> = w[0]
+                .u
+                .iter()
+                .zip(&w[1].u)
+                .map(|(x, y)| x + t * (y - x))
+                .collect();
             let mut e = vec![0.0; guess.len()];
             e[index] = 1.0;
             sys.accept(&guess);
@@ -398,7 +403,9 @@ fn hopf_curve(
     for sign in [-1.0, 1.0] {
         sys.accept(&guess);
         let dir: Vec<f64> = dir.iter().map(|v| sign * v).collect();
-        let mut b = cont.start(&mut sys, &guess, &dir).map_err(num(ctx.clone()))?;
+        let mut b = cont
+            .start(&mut sys, &guess, &dir)
+            .map_err(num(ctx.clone()))?;
         extend_in_box(&cont, &mut sys, &mut b, o.hopf_max_points, inside)
             .map_err(num(ctx.clone()))?;
         branches.push(b);
@@ -518,7 +525,10 @@ fn fold_indices(sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_>>) -> (usize, usize) 
     (ip, ip + 1)
 }
 
-fn fold_curve_point(sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_>>, u: &[f64]) -> Result<FoldCurvePoint, continuation::Error> {
+fn fold_curve_point(
+    sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_>>,
+    u: &[f64],
+) -> Result<FoldCurvePoint, continuation::Error> {
     let (iv, id) = fold_indices(sys);
     let po = sys.periodic_system(u)?;
     Ok(FoldCurvePoint {
@@ -567,7 +577,10 @@ fn corrected_fold<'a>(
     o: &ChartOptions,
 ) -> Result<Option<(FoldSystem<'a>, Branch, Vec<f64>)>, SwayError> {
     let fb = diagram.feedback;
-    let ctx = format!("fold of cycles at D = {} s, τ = {} s", fb.gain_d_s, fb.delay_s);
+    let ctx = format!(
+        "fold of cycles at D = {} s, τ = {} s",
+        fb.gain_d_s, fb.delay_s
+    );
     let Some((i, _)) = diagram.cycles.first(SpecialKind::Fold) else {
         return Ok(None);
     };
@@ -595,9 +608,9 @@ pub fn critical_speeds(
     let d = diagram.feedback.gain_d_s;
     let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
     let fold = match corrected_fold(&problem, diagram, o)? {
-        Some((sys, first, _)) => Some(
-            fold_curve_point(&sys, &first.points[0].u).map_err(num("fold of cycles".into()))?,
-        ),
+        Some((sys, first, _)) => {
+            Some(fold_curve_point(&sys, &first.points[0].u).map_err(num("fold of cycles".into()))?)
+        }
         None => None,
     };
     Ok(CriticalSpeeds {
@@ -644,10 +657,7 @@ fn fold_curve(
             let stop = sys
                 .extend_curve(&cont, &mut b, 8)
                 .map_err(num(ctx.clone()))?;
-            let out = b
-                .points
-                .last()
-                .is_some_and(|p| !o.in_box(p.u[id], p.u[iv]));
+            let out = b.points.last().is_some_and(|p| !o.in_box(p.u[id], p.u[iv]));
             match stop {
                 FoldCyclesStop::HopfEnd(end) => {
                     codim2.push(Codim2 {
@@ -776,7 +786,10 @@ pub fn nonlinear_chart(
     }
     eprintln!("DEBUG criticality {:?}", t0.elapsed());
     let sys = hopf_system(&problem, first_seed, o)?;
-    let mut codim2: Vec<Codim2> = hopf_curves.iter().flat_map(|c| hopf_codim2(&sys, c)).collect();
+    let mut codim2: Vec<Codim2> = hopf_curves
+        .iter()
+        .flat_map(|c| hopf_codim2(&sys, c))
+        .collect();
     let mut fold_curves = Vec::new();
     if let Some((f, c2)) = fold_curve(model, tau, first_seed, o)? {
         fold_curves.push(f);
@@ -849,6 +862,63 @@ impl NonlinearChart {
             }
         }
         Ok(best)
+    }
+}
+
+/// What straight running does at a point of the (V, D) plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Region {
+    /// stable, and no computed cycle coexists (below the fold-of-cycles curve, or below a
+    /// supercritical Hopf curve): safe against any perturbation as far as the cycles tell
+    Safe,
+    /// stable, but beyond the fold-of-cycles curve: a large enough kick triggers sway
+    Bistable,
+    /// unstable (beyond a Hopf curve): sway starts by itself
+    SelfExcited,
+}
+
+impl NonlinearChart {
+    /// The lowest fold-of-cycles speed at gain D \[s\] interpolated linearly between the
+    /// computed curve points (for shading; [`NonlinearChart::fold_speed_at`] is exact).
+    pub fn fold_speed_interpolated(&self, d: f64) -> Option<f64> {
+        self.fold_curves
+            .iter()
+            .flat_map(|c| c.points.windows(2))
+            .filter_map(|w| {
+                let (a, b) = (w[0], w[1]);
+                if (a.d_s - d) * (b.d_s - d) > 0.0 || a.d_s == b.d_s {
+                    return None;
+                }
+                let t = (d - a.d_s) / (b.d_s - a.d_s);
+                Some(a.v_mps + t * (b.v_mps - a.v_mps))
+            })
+            .reduce(f64::min)
+    }
+
+    /// The regions on the cells of a linear stability chart of the same τ (the `fig4a`
+    /// computation: exact counts of unstable roots): self-excited where straight running is
+    /// unstable, bistable where it is stable at or beyond the fold-of-cycles curve, safe
+    /// elsewhere. Indexed like the chart's cells, `iv·d.len() + id`.
+    pub fn regions(&self, linear: &stability::StabilityChart) -> Vec<Region> {
+        let fold: Vec<Option<f64>> = linear
+            .d
+            .iter()
+            .map(|&d| self.fold_speed_interpolated(d))
+            .collect();
+        let mut out = Vec::with_capacity(linear.cells.len());
+        for (iv, &v) in linear.v.iter().enumerate() {
+            for (id, f) in fold.iter().enumerate() {
+                out.push(if !linear.cell(iv, id).is_stable() {
+                    Region::SelfExcited
+                } else if f.is_some_and(|f| v >= f) {
+                    Region::Bistable
+                } else {
+                    Region::Safe
+                });
+            }
+        }
+        out
     }
 }
 

@@ -4,8 +4,8 @@
 //! monodromy matrices from simulations, and mesh refinement.
 
 use super::*;
-use continuation::Problem;
 use approx::assert_relative_eq;
+use continuation::Problem;
 use dde::{DdeProblem, OdeProblem, Options, solve_dde, solve_ode};
 use nalgebra::{DMatrix, SVector};
 use stability::{RankOneFeedback, first_unstable_parameter};

@@ -12,7 +12,10 @@ fn model() -> &'static Model {
 #[test]
 #[ignore = "exploration"]
 fn explore() {
-    let tau: f64 = std::env::var("TAU").ok().and_then(|s| s.parse().ok()).unwrap_or(0.2);
+    let tau: f64 = std::env::var("TAU")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.2);
     let o = ChartOptions::default();
     let t0 = std::time::Instant::now();
     let c = nonlinear_chart(model(), tau, &o).unwrap();
@@ -28,7 +31,17 @@ fn explore() {
             h.points.last()
         );
         for b in &h.branches {
-            let v: Vec<String> = b.points.iter().step_by(8).map(|p| format!("({:.4},{:.2},{:.2})", p.u[HOPF_D], p.u[HOPF_V], p.u[HOPF_OMEGA])).collect();
+            let v: Vec<String> = b
+                .points
+                .iter()
+                .step_by(8)
+                .map(|p| {
+                    format!(
+                        "({:.4},{:.2},{:.2})",
+                        p.u[HOPF_D], p.u[HOPF_V], p.u[HOPF_OMEGA]
+                    )
+                })
+                .collect();
             eprintln!("  {}", v.join(" "));
         }
         for s in &h.criticality {

@@ -81,12 +81,12 @@ impl Default for ChartOptions {
             d_max_s: 0.3,
             seed_gains_s: vec![0.1, 0.3, -0.1],
             hopf_step: 0.1,
-            hopf_max_step: 0.5,
+            hopf_max_step: 1.0,
             hopf_max_points: 400,
-            fold_step: 0.05,
-            fold_max_step: 0.5,
+            fold_step: 0.1,
+            fold_max_step: 2.0,
             fold_max_points: 300,
-            criticality_samples: 7,
+            criticality_samples: 5,
             criticality_cycle_points: 3,
             fold_min_amplitude: 1e-3,
             cycles: DiagramOptions {
@@ -734,6 +734,73 @@ fn dedup_codim2(mut points: Vec<Codim2>) -> Vec<Codim2> {
     out
 }
 
+/// The Hopf curves of one delay τ \[s\] (step 1 of the pipeline, without criticality):
+/// one curve per seed gain whose first Hopf point is not on an earlier curve, and notes on
+/// the skipped seeds.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a curve fails; a seed without a Hopf point in the speed
+/// range is only noted.
+pub fn hopf_curves(
+    model: &Model,
+    tau: f64,
+    o: &ChartOptions,
+) -> Result<(Vec<HopfCurve>, Vec<String>), SwayError> {
+    let problem = ClosedLoop::new(
+        model,
+        Feedback {
+            gain_d_s: 0.0,
+            delay_s: tau,
+        },
+    );
+    let mut notes = Vec::new();
+    let mut curves: Vec<HopfCurve> = Vec::new();
+    for &d in &o.seed_gains_s {
+        let mut params = problem.parameters(o.v_min_mps);
+        params[GAIN] = d;
+        let range = (o.v_min_mps, o.v_max_mps);
+        let hopf = match straight_running(&problem, &params, range, o.cycles.root_degree) {
+            Ok((_, h)) => h,
+            Err(e) => {
+                notes.push(format!("seed D = {d} s: {e}"));
+                continue;
+            }
+        };
+        if on_curve(&curves, d, &hopf) {
+            notes.push(format!(
+                "seed D = {d} s: Hopf point V = {:.3} m/s lies on a computed curve",
+                hopf.parameter
+            ));
+            continue;
+        }
+        curves.push(hopf_curve(&problem, d, &hopf, o)?);
+    }
+    Ok((curves, notes))
+}
+
+/// The lowest speed \[m/s\] of `curves` (Hopf curves of delay τ \[s\]) at gain D \[s\],
+/// each crossing corrected at fixed D on the Hopf-curve system; None if no curve crosses D
+/// in the speed range.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a correction fails.
+pub fn hopf_speed_at(
+    model: &Model,
+    tau: f64,
+    curves: &[HopfCurve],
+    d: f64,
+    o: &ChartOptions,
+) -> Result<Option<f64>, SwayError> {
+    let problem = ClosedLoop::new(
+        model,
+        Feedback {
+            gain_d_s: 0.0,
+            delay_s: tau,
+        },
+    );
+    lowest_hopf_speed(&problem, curves, d, o)
+}
+
 /// Computes the nonlinear chart of one delay τ \[s\] (see the module documentation).
 ///
 /// # Errors
@@ -757,34 +824,10 @@ pub fn nonlinear_chart(
             delay_s: tau,
         },
     );
-    let t0 = std::time::Instant::now();
-    let mut notes = Vec::new();
-    let mut hopf_curves: Vec<HopfCurve> = Vec::new();
-    for &d in &o.seed_gains_s {
-        let mut params = problem.parameters(o.v_min_mps);
-        params[GAIN] = d;
-        let range = (o.v_min_mps, o.v_max_mps);
-        let hopf = match straight_running(&problem, &params, range, o.cycles.root_degree) {
-            Ok((_, h)) => h,
-            Err(e) => {
-                notes.push(format!("seed D = {d} s: {e}"));
-                continue;
-            }
-        };
-        if on_curve(&hopf_curves, d, &hopf) {
-            notes.push(format!(
-                "seed D = {d} s: Hopf point V = {:.3} m/s lies on a computed curve",
-                hopf.parameter
-            ));
-            continue;
-        }
-        hopf_curves.push(hopf_curve(&problem, d, &hopf, o)?);
-    }
-    eprintln!("DEBUG curves {:?}", t0.elapsed());
+    let (mut hopf_curves, notes) = hopf_curves(model, tau, o)?;
     for c in &mut hopf_curves {
         c.criticality = sample_criticality(&problem, c, o)?;
     }
-    eprintln!("DEBUG criticality {:?}", t0.elapsed());
     let sys = hopf_system(&problem, first_seed, o)?;
     let mut codim2: Vec<Codim2> = hopf_curves
         .iter()
@@ -795,7 +838,6 @@ pub fn nonlinear_chart(
         fold_curves.push(f);
         codim2.extend(c2);
     }
-    eprintln!("DEBUG fold {:?}", t0.elapsed());
     codim2.retain(|c| o.in_box(c.d_s, c.v_mps));
     Ok(NonlinearChart {
         tau_s: tau,
@@ -824,8 +866,7 @@ impl NonlinearChart {
     /// # Errors
     /// [`SwayError::Numerical`] if a correction fails.
     pub fn hopf_speed_at(&self, model: &Model, d: f64) -> Result<Option<f64>, SwayError> {
-        let problem = self.problem(model);
-        lowest_hopf_speed(&problem, &self.hopf_curves, d, &self.options)
+        hopf_speed_at(model, self.tau_s, &self.hopf_curves, d, &self.options)
     }
 
     /// The lowest speed \[m/s\] of the fold-of-cycles curves at gain D \[s\] (corrected at

@@ -4,6 +4,11 @@
 //! equations: their periodic orbits are computed by collocation with the delayed values read
 //! off the periodic profile, their stability from the DDE Floquet multipliers.
 //!
+//! The Hopf and fold speeds are read off the two-parameter machinery of the nonlinear chart
+//! ([`critical_speeds`]: the located Hopf point and cycle fold corrected on the Hopf-curve
+//! and fold-of-cycles defining systems at the pair's D), so they are points of the curves
+//! of `chart_nonlinear`.
+//!
 //! `summary.json`: `"pairs"`, an array with, per pair, `"tau_s"`, `"d_s"`, `"hopf_v_mps"`,
 //! `"fold_v_mps"`, `"criticality"` (plus the fold amplitude and the bistable range).
 
@@ -16,6 +21,7 @@ use serde_json::{Map, Value, json};
 use super::fig3a_diagram::{split_by_stability, validate_options};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::SwayError;
+use crate::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
 use crate::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
 use crate::config::{ensure, load_toml};
 use crate::io::OutputDir;
@@ -135,8 +141,19 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
     }))
 }
 
-/// All diagrams of the config, in its order (parallel over pairs; each diagram is
-/// deterministic, so the result does not depend on the thread count).
+/// The chart options that correct a diagram computed with `o` (same mesh, roots and range).
+pub fn correction_options(o: &DiagramOptions) -> ChartOptions {
+    ChartOptions {
+        v_min_mps: o.v_min_mps,
+        v_max_mps: o.v_max_mps,
+        cycles: o.clone(),
+        ..ChartOptions::default()
+    }
+}
+
+/// All diagrams of the config with their corrected Hopf and fold speeds, in config order
+/// (parallel over pairs; each is deterministic, so the result does not depend on the
+/// thread count).
 ///
 /// # Errors
 /// The first failing pair's error (in config order).
@@ -144,8 +161,9 @@ pub fn diagrams(
     model: &trailer_model::Model,
     cfg: &Fig4bConfig,
     progress: &dyn crate::progress::Progress,
-) -> Result<Vec<Diagram>, SwayError> {
-    let results: Vec<Result<Diagram, SwayError>> = cfg
+) -> Result<Vec<(Diagram, CriticalSpeeds)>, SwayError> {
+    let co = correction_options(&cfg.continuation);
+    let results: Vec<Result<(Diagram, CriticalSpeeds), SwayError>> = cfg
         .pairs
         .par_iter()
         .map(|p| {
@@ -153,7 +171,8 @@ pub fn diagrams(
                 gain_d_s: p.d_s,
                 delay_s: p.tau_s,
             };
-            let r = bifurcation_diagram(model, fb, &cfg.continuation);
+            let r = bifurcation_diagram(model, fb, &cfg.continuation)
+                .and_then(|d| critical_speeds(model, &d, &co).map(|c| (d, c)));
             progress.advance(1);
             r
         })
@@ -173,7 +192,7 @@ impl Prepared for Fig4bTask {
         let mut lines = Vec::new();
         let y_max = ds
             .iter()
-            .flat_map(|d| d.cycle_summary.iter().map(|c| c.amplitude_deg))
+            .flat_map(|(d, _)| d.cycle_summary.iter().map(|c| c.amplitude_deg))
             .fold(0.0, f64::max)
             * 1.08;
         let mut panel = Panel::new(
@@ -184,7 +203,7 @@ impl Prepared for Fig4bTask {
         .x_range(o.v_min_mps, o.v_max_mps)
         .y_range(-0.03 * y_max, 1.25 * y_max)
         .legend(Legend::UpperLeft);
-        for (i, (p, d)) in cfg.pairs.iter().zip(&ds).enumerate() {
+        for (i, (p, (d, cs))) in cfg.pairs.iter().zip(&ds).enumerate() {
             let rows: Vec<[f64; 5]> = d
                 .cycle_summary
                 .iter()
@@ -209,26 +228,33 @@ impl Prepared for Fig4bTask {
                 ],
                 &rows,
             )?;
-            let fold = d.fold;
+            let fold = cs.fold;
+            let bistable = match (cs.criticality, fold) {
+                (continuation::Criticality::Subcritical, Some(f)) => {
+                    Some(vec![f.v_mps, cs.hopf_v_mps])
+                }
+                _ => None,
+            };
             entries.push(json!({
                 "tau_s": p.tau_s,
                 "d_s": p.d_s,
-                "hopf_v_mps": d.hopf.parameter,
-                "fold_v_mps": fold.map(|f| f.speed_mps),
-                "criticality": d.criticality.to_string(),
+                "hopf_v_mps": cs.hopf_v_mps,
+                "fold_v_mps": fold.map(|f| f.v_mps),
+                "criticality": cs.criticality.to_string(),
                 "fold_amplitude_deg": fold.map(|f| f.amplitude_deg),
-                "hopf_omega_rad_s": d.hopf.omega,
-                "bistable_range_mps": d.bistable_range().map(|(a, b)| vec![a, b]),
+                "fold_period_s": fold.map(|f| f.period_s),
+                "hopf_omega_rad_s": cs.hopf_omega_rad_s,
+                "bistable_range_mps": bistable,
                 "cycle_points": d.cycle_summary.len(),
             }));
             lines.push(format!(
                 "fig4b {}: Hopf at {:.4} m/s ({}), fold at {}",
                 label(p),
-                d.hopf.parameter,
-                d.criticality,
+                cs.hopf_v_mps,
+                cs.criticality,
                 fold.map_or("none".into(), |f| format!(
                     "{:.4} m/s, {:.2}°",
-                    f.speed_mps, f.amplitude_deg
+                    f.v_mps, f.amplitude_deg
                 ))
             ));
             let color = Rgb::palette(i);
@@ -241,10 +267,10 @@ impl Prepared for Fig4bTask {
                 .push(Layer::line(unstable, color, Stroke::Dashed, None));
             panel
                 .layers
-                .push(Layer::markers(vec![(d.hopf.parameter, 0.0)], color, None));
+                .push(Layer::markers(vec![(cs.hopf_v_mps, 0.0)], color, None));
             if let Some(f) = fold {
                 panel.layers.push(Layer::Markers {
-                    points: vec![(f.speed_mps, f.amplitude_deg)],
+                    points: vec![(f.v_mps, f.amplitude_deg)],
                     color,
                     shape: Shape::Triangle,
                     size: 6,

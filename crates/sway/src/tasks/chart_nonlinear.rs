@@ -388,11 +388,20 @@ fn hopf_lines(r: &DelayResult) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
     (sub, sup)
 }
 
-fn static_boundary(lin: &StabilityChart) -> Vec<(f64, f64)> {
+/// The static boundary (λ = 0) of the linear chart as (V, D) lines, without the points on
+/// the gain range's edges (where the chart clamps crossings that lie outside it).
+fn static_boundary(lin: &StabilityChart, (d_min, d_max): (f64, f64)) -> Vec<(f64, f64)> {
+    let eps = 1e-9 * (d_max - d_min);
     let mut pts = Vec::new();
     for l in &lin.static_boundary {
         pts.push((f64::NAN, f64::NAN));
-        pts.extend(l.points.iter().map(|p| (p.v, p.d)));
+        for p in &l.points {
+            if p.d > d_min + eps && p.d < d_max - eps {
+                pts.push((p.v, p.d));
+            } else {
+                pts.push((f64::NAN, f64::NAN));
+            }
+        }
     }
     pts
 }
@@ -434,7 +443,7 @@ fn panel(r: &DelayResult, cfg: &ChartNonlinearConfig) -> Panel {
     let (sub, sup) = hopf_lines(r);
     p = p
         .with(Layer::line(
-            static_boundary(&r.linear),
+            static_boundary(&r.linear, (c.d_min_s, c.d_max_s)),
             Rgb::BLUE,
             Stroke::Dotted,
             Some("static boundary (fig4a)"),

@@ -353,7 +353,7 @@ fn curve_points_at<S: ContinuationSystem>(
 
 /// The two branches of a curve joined in curve order: the first reversed, then the second
 /// without its first point (both start at the seed).
-fn joined<'b>(branches: &'b [Branch; 2]) -> impl Iterator<Item = &'b BranchPoint> {
+fn joined(branches: &[Branch; 2]) -> impl Iterator<Item = &BranchPoint> {
     branches[0]
         .points
         .iter()

@@ -362,7 +362,10 @@ fn region_rects(lin: &StabilityChart, regions: &[Region], which: Region) -> Vec<
 }
 
 /// Curve points (V, D) split into runs of equal criticality, as two NaN-separated lines.
-fn hopf_lines(r: &DelayResult) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+/// A polyline in the (V, D) plane; NaN points split it.
+type Line = Vec<(f64, f64)>;
+
+fn hopf_lines(r: &DelayResult) -> (Line, Line) {
     let (mut sub, mut sup) = (Vec::new(), Vec::new());
     for h in &r.chart.hopf_curves {
         let mut prev: Option<bool> = None;

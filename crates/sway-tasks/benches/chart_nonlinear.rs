@@ -5,7 +5,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::progress::NoProgress;
-use sway::tasks::chart_nonlinear::{ChartNonlinearConfig, compute, compute_delay};
+use sway_tasks::tasks::chart_nonlinear::{ChartNonlinearConfig, compute, compute_delay};
 use trailer_model::{Model, VehicleParams};
 
 fn bench(c: &mut Criterion) {

@@ -224,16 +224,6 @@ pub struct Fig4bSummary {
     pub pairs: Vec<PairEntry>,
 }
 
-/// The chart options that correct a diagram computed with `o` (same mesh, roots and range).
-pub fn correction_options(o: &DiagramOptions) -> ChartOptions {
-    ChartOptions {
-        v_min_mps: o.v_min_mps,
-        v_max_mps: o.v_max_mps,
-        cycles: o.clone(),
-        ..ChartOptions::default()
-    }
-}
-
 /// All diagrams of the config with their corrected Hopf and fold speeds, in config order
 /// (parallel over pairs; each is deterministic, so the result does not depend on the
 /// thread count).
@@ -245,7 +235,7 @@ pub fn diagrams(
     cfg: &Fig4bConfig,
     progress: &dyn sway::progress::Progress,
 ) -> Result<Vec<(Diagram, CriticalSpeeds)>, SwayError> {
-    let co = correction_options(&cfg.continuation);
+    let co = ChartOptions::correcting(&cfg.continuation);
     let results: Vec<Result<(Diagram, CriticalSpeeds), SwayError>> = cfg
         .pairs
         .par_iter()

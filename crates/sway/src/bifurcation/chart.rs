@@ -99,6 +99,17 @@ impl Default for ChartOptions {
 }
 
 impl ChartOptions {
+    /// The chart options that correct a diagram computed with `o` (same mesh, roots and
+    /// speed range; curve settings at their defaults), as `fig4b` uses them.
+    pub fn correcting(o: &DiagramOptions) -> Self {
+        Self {
+            v_min_mps: o.v_min_mps,
+            v_max_mps: o.v_max_mps,
+            cycles: o.clone(),
+            ..Self::default()
+        }
+    }
+
     fn cycle_options(&self) -> DiagramOptions {
         DiagramOptions {
             v_min_mps: self.v_min_mps,

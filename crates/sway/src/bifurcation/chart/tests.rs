@@ -56,7 +56,7 @@ fn curves_pass_through_the_fig4b_hopf_and_fold_speeds() {
             delay_s: tau,
         };
         let d = bifurcation_diagram(model(), fb, &fig4b_options()).unwrap();
-        let co = crate::tasks::fig4b::correction_options(&fig4b_options());
+        let co = ChartOptions::correcting(&fig4b_options());
         let cs = critical_speeds(model(), &d, &co).unwrap();
         let fold = cs.fold.expect("fig4b fold");
         assert!(

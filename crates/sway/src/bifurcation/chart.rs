@@ -27,8 +27,8 @@ use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Model};
 
 use super::{
-    ClosedLoop, Diagram, DiagramOptions, Feedback, GAIN, SPEED, bifurcation_diagram,
-    cycles_from_hopf, straight_running,
+    ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, SPEED,
+    bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
 
@@ -60,6 +60,12 @@ pub struct ChartOptions {
     pub fold_max_step: f64,
     /// at most this many points per fold-of-cycles curve and direction
     pub fold_max_points: usize,
+    /// a step along a curve is rejected when the (weighted) tangent turns by more than
+    /// arccos of this; the reported speeds are corrected at fixed D, so this only sets how
+    /// densely the curves are sampled (0.8: 37°)
+    pub curve_min_tangent_cosine: f64,
+    /// the step along a curve grows when Newton needs fewer iterations than this
+    pub curve_target_newton_iterations: usize,
     /// criticality sampled at this many points per Hopf curve (at least 2)
     pub criticality_samples: usize,
     /// cycle points used to judge the criticality at a sample
@@ -86,6 +92,8 @@ impl Default for ChartOptions {
             fold_step: 0.1,
             fold_max_step: 2.0,
             fold_max_points: 300,
+            curve_min_tangent_cosine: 0.8,
+            curve_target_newton_iterations: 4,
             criticality_samples: 5,
             criticality_cycle_points: 3,
             fold_min_amplitude: 1e-3,
@@ -299,13 +307,19 @@ fn invalid(context: String, message: String) -> SwayError {
     SwayError::numerical(context, continuation::Error::InvalidInput(message))
 }
 
-fn continuation(step: f64, max_step: f64, range: (f64, f64)) -> Continuation {
-    Continuation::new(ContinuationOptions {
-        initial_step: step,
-        max_step,
-        parameter_range: range,
-        ..Default::default()
-    })
+impl ChartOptions {
+    /// The continuation of a curve with first step `step`, largest step `max_step`, the
+    /// primary parameter in `range`, and the chart's step control.
+    fn continuation(&self, step: f64, max_step: f64, range: (f64, f64)) -> Continuation {
+        Continuation::new(ContinuationOptions {
+            initial_step: step,
+            max_step,
+            parameter_range: range,
+            min_tangent_cosine: self.curve_min_tangent_cosine,
+            target_newton_iterations: self.curve_target_newton_iterations,
+            ..Default::default()
+        })
+    }
 }
 
 type HopfSystem<'a> = HopfCurveSystem<'a, ClosedLoop<'a>, ChebyshevRoots>;
@@ -407,7 +421,7 @@ fn hopf_curve(
 ) -> Result<HopfCurve, SwayError> {
     let ctx = format!("Hopf curve from D = {d} s, V = {} m/s", hopf.parameter);
     let mut sys = hopf_system(problem, d, o)?;
-    let cont = continuation(o.hopf_step, o.hopf_max_step, (o.d_min_s, o.d_max_s));
+    let cont = o.continuation(o.hopf_step, o.hopf_max_step, (o.d_min_s, o.d_max_s));
     let inside = |p: &BranchPoint| o.in_box(p.u[HOPF_D], p.u[HOPF_V]);
     let mut branches = Vec::new();
     let (guess, dir) = sys.start_at_hopf(hopf, SPEED).map_err(num(ctx.clone()))?;
@@ -599,7 +613,7 @@ fn corrected_fold<'a>(
     let (mut sys, guess, dir) =
         FoldOfCyclesSystem::from_fold(&po, &diagram.cycles.points[i], GAIN, fold_options(o))
             .map_err(num(ctx.clone()))?;
-    let cont = continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
+    let cont = o.continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
     let first = cont.start(&mut sys, &guess, &dir).map_err(num(ctx))?;
     Ok(Some((sys, first, dir)))
 }
@@ -646,7 +660,7 @@ fn fold_curve(
         gain_d_s: d,
         delay_s: tau,
     };
-    let diagram = bifurcation_diagram(model, fb, &o.cycle_options())?;
+    let diagram = bifurcation_diagram_until(model, fb, &o.cycle_options(), CycleExtent::FirstFold)?;
     if diagram.criticality != Criticality::Subcritical {
         return Ok(None);
     }
@@ -655,7 +669,7 @@ fn fold_curve(
         return Ok(None);
     };
     let ctx = format!("fold-of-cycles curve from D = {d} s, τ = {tau} s");
-    let cont = continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
+    let cont = o.continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
     let (iv, id) = fold_indices(&sys);
     let u0 = first.points[0].u.clone();
     let mut branches = Vec::new();

@@ -239,6 +239,16 @@ pub fn straight_running(
     Ok((equilibria, hopf))
 }
 
+/// How far a cycle branch is continued.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CycleExtent {
+    /// until it leaves the speed range or has `max_cycle_points` points (the diagrams)
+    WholeRange,
+    /// until the first fold of cycles (or as [`CycleExtent::WholeRange`] if there is none):
+    /// enough to start a fold-of-cycles curve
+    FirstFold,
+}
+
 /// The cycle branch born at `hopf` continued in V for at most `max_points` points (or
 /// until it leaves [v_min, v_max]), and the criticality it shows.
 ///
@@ -251,6 +261,28 @@ pub fn cycles_from_hopf<'a>(
     hopf: &HopfPoint,
     o: &DiagramOptions,
     max_points: usize,
+) -> Result<(PeriodicOrbitSystem<'a, ClosedLoop<'a>>, Branch, Criticality), SwayError> {
+    cycles_from_hopf_until(
+        problem,
+        params,
+        hopf,
+        o,
+        max_points,
+        CycleExtent::WholeRange,
+    )
+}
+
+/// [`cycles_from_hopf`] continued as far as `extent` says.
+///
+/// # Errors
+/// As [`cycles_from_hopf`].
+pub fn cycles_from_hopf_until<'a>(
+    problem: &'a ClosedLoop<'a>,
+    params: &[f64],
+    hopf: &HopfPoint,
+    o: &DiagramOptions,
+    max_points: usize,
+    extent: CycleExtent,
 ) -> Result<(PeriodicOrbitSystem<'a, ClosedLoop<'a>>, Branch, Criticality), SwayError> {
     let ctx = format!(
         "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
@@ -270,8 +302,25 @@ pub fn cycles_from_hopf<'a>(
     let mut cycles = cont
         .start(&mut po, &guess, &dir)
         .map_err(num(format!("{ctx}: first cycle")))?;
-    cont.extend(&mut po, &mut cycles, max_points)
-        .map_err(num(format!("{ctx}: cycle branch")))?;
+    match extent {
+        CycleExtent::WholeRange => {
+            cont.extend(&mut po, &mut cycles, max_points)
+                .map_err(num(format!("{ctx}: cycle branch")))?;
+        }
+        CycleExtent::FirstFold => {
+            // in chunks (a resumed branch continues exactly as an uninterrupted one)
+            const CHUNK: usize = 8;
+            while cycles.points.len() < max_points && cycles.first(SpecialKind::Fold).is_none() {
+                let chunk = CHUNK.min(max_points - cycles.points.len());
+                let stop = cont
+                    .extend(&mut po, &mut cycles, chunk)
+                    .map_err(num(format!("{ctx}: cycle branch")))?;
+                if stop != continuation::Stop::MaxPoints {
+                    break;
+                }
+            }
+        }
+    }
     let crit = criticality(hopf, &cycles).ok_or_else(|| {
         SwayError::numerical(
             ctx.clone(),
@@ -295,12 +344,26 @@ pub fn bifurcation_diagram(
     feedback: Feedback,
     options: &DiagramOptions,
 ) -> Result<Diagram, SwayError> {
+    bifurcation_diagram_until(model, feedback, options, CycleExtent::WholeRange)
+}
+
+/// [`bifurcation_diagram`] with the cycle branch continued as far as `extent` says.
+///
+/// # Errors
+/// As [`bifurcation_diagram`].
+pub fn bifurcation_diagram_until(
+    model: &Model,
+    feedback: Feedback,
+    options: &DiagramOptions,
+    extent: CycleExtent,
+) -> Result<Diagram, SwayError> {
     let o = options;
     let problem = ClosedLoop::new(model, feedback);
     let params = problem.parameters(o.v_min_mps);
     let (equilibria, hopf) =
         straight_running(&problem, &params, (o.v_min_mps, o.v_max_mps), o.root_degree)?;
-    let (po, cycles, crit) = cycles_from_hopf(&problem, &params, &hopf, o, o.max_cycle_points)?;
+    let (po, cycles, crit) =
+        cycles_from_hopf_until(&problem, &params, &hopf, o, o.max_cycle_points, extent)?;
     let cycle_summary: Vec<CycleSummary> = cycles
         .points
         .iter()

@@ -1,6 +1,7 @@
 //! Tests of the nonlinear chart on the vehicle model.
 
 use super::*;
+use crate::bifurcation::bifurcation_diagram;
 use std::sync::OnceLock;
 use trailer_model::VehicleParams;
 

@@ -6,12 +6,18 @@
 //!
 //! `summary.json`: `"pairs"`, an array with, per pair, `"tau_s"`, `"d_s"`, `"hopf_v_mps"`,
 //! `"fold_v_mps"`, `"criticality"` (plus the fold amplitude and the bistable range).
+//!
+//! The Hopf and fold speeds are read off the two-parameter machinery of the nonlinear
+//! chart ([`sway::bifurcation::chart::critical_speeds`]): the Hopf point and the fold of
+//! cycles located on the diagram are corrected on the Hopf and fold-of-cycles defining
+//! systems, so `fig4b` and `chart_nonlinear` share one implementation.
 
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sway::SwayError;
+use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
 use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
 use sway::config::ensure;
 
@@ -154,6 +160,8 @@ pub struct PairEntry {
     pub criticality: String,
     /// max |θ| at the fold \[deg\]
     pub fold_amplitude_deg: Option<f64>,
+    /// period of the cycle at the fold \[s\]
+    pub fold_period_s: Option<f64>,
     /// ω at the Hopf point \[rad/s\]
     pub hopf_omega_rad_s: f64,
     /// from the fold to the Hopf point \[m/s\]
@@ -163,18 +171,23 @@ pub struct PairEntry {
 }
 
 impl PairEntry {
-    /// The entry of pair `p` with diagram `d`.
-    fn new(p: &Pair, d: &Diagram) -> Self {
-        let fold = d.fold;
+    /// The entry of pair `p` with diagram `d` and its corrected critical speeds `cs`.
+    fn new(p: &Pair, d: &Diagram, cs: &CriticalSpeeds) -> Self {
+        let fold = cs.fold;
+        let bistable_range_mps = match (cs.criticality, fold) {
+            (continuation::Criticality::Subcritical, Some(f)) => Some([f.v_mps, cs.hopf_v_mps]),
+            _ => None,
+        };
         Self {
             tau_s: p.delay_s,
             d_s: p.gain_s,
-            hopf_v_mps: d.hopf.parameter,
-            fold_v_mps: fold.map(|f| f.speed_mps),
-            criticality: d.criticality.to_string(),
+            hopf_v_mps: cs.hopf_v_mps,
+            fold_v_mps: fold.map(|f| f.v_mps),
+            criticality: cs.criticality.to_string(),
             fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
-            hopf_omega_rad_s: d.hopf.omega,
-            bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
+            fold_period_s: fold.map(|f| f.period_s),
+            hopf_omega_rad_s: cs.hopf_omega_rad_s,
+            bistable_range_mps,
             cycle_points: d.cycle_summary.len(),
         }
     }
@@ -182,7 +195,7 @@ impl PairEntry {
 
 /// One pair's layers: stable cycles solid (labelled), unstable dashed, the Hopf point and
 /// the fold.
-fn add_pair(panel: &mut Panel, d: &Diagram, color: Rgb, label: &str) {
+fn add_pair(panel: &mut Panel, d: &Diagram, cs: &CriticalSpeeds, color: Rgb, label: &str) {
     let (stable, unstable) = split_by_stability(d);
     panel
         .layers
@@ -192,10 +205,10 @@ fn add_pair(panel: &mut Panel, d: &Diagram, color: Rgb, label: &str) {
         .push(Layer::line(unstable, color, Stroke::Dashed, None));
     panel
         .layers
-        .push(Layer::markers(vec![(d.hopf.parameter, 0.0)], color, None));
-    if let Some(f) = d.fold {
+        .push(Layer::markers(vec![(cs.hopf_v_mps, 0.0)], color, None));
+    if let Some(f) = cs.fold {
         panel.layers.push(Layer::Markers {
-            points: vec![(f.speed_mps, f.amplitude_deg)],
+            points: vec![(f.v_mps, f.amplitude_deg)],
             color,
             shape: Shape::Triangle,
             size: 6,
@@ -211,8 +224,9 @@ pub struct Fig4bSummary {
     pub pairs: Vec<PairEntry>,
 }
 
-/// All diagrams of the config, in its order (parallel over pairs; each diagram is
-/// deterministic, so the result does not depend on the thread count).
+/// All diagrams of the config with their corrected Hopf and fold speeds, in config order
+/// (parallel over pairs; each is deterministic, so the result does not depend on the
+/// thread count).
 ///
 /// # Errors
 /// The first failing pair's error (in config order).
@@ -220,8 +234,9 @@ pub fn diagrams(
     model: &trailer_model::Model,
     cfg: &Fig4bConfig,
     progress: &dyn sway::progress::Progress,
-) -> Result<Vec<Diagram>, SwayError> {
-    let results: Vec<Result<Diagram, SwayError>> = cfg
+) -> Result<Vec<(Diagram, CriticalSpeeds)>, SwayError> {
+    let co = ChartOptions::correcting(&cfg.continuation);
+    let results: Vec<Result<(Diagram, CriticalSpeeds), SwayError>> = cfg
         .pairs
         .par_iter()
         .map(|p| {
@@ -229,7 +244,8 @@ pub fn diagrams(
                 gain_d_s: p.gain_s,
                 delay_s: p.delay_s,
             };
-            let r = bifurcation_diagram(model, fb, &cfg.continuation);
+            let r = bifurcation_diagram(model, fb, &cfg.continuation)
+                .and_then(|d| critical_speeds(model, &d, &co).map(|c| (d, c)));
             progress.advance(1);
             r
         })
@@ -249,7 +265,7 @@ impl Prepared for Fig4bTask {
         let mut lines = Vec::new();
         let y_max = ds
             .iter()
-            .flat_map(|d| d.cycle_summary.iter().map(|c| c.amplitude_deg))
+            .flat_map(|(d, _)| d.cycle_summary.iter().map(|c| c.amplitude_deg))
             .fold(0.0, f64::max)
             * 1.08;
         let mut panel = Panel::new(
@@ -260,24 +276,24 @@ impl Prepared for Fig4bTask {
         .x_range(o.v_min_mps, o.v_max_mps)
         .y_range(-0.03 * y_max, 1.25 * y_max)
         .legend(Legend::UpperLeft);
-        for (i, (p, d)) in cfg.pairs.iter().zip(&ds).enumerate() {
+        for (i, (p, (d, cs))) in cfg.pairs.iter().zip(&ds).enumerate() {
             out.write_table(
                 &format!("{}.csv", file_stem(p)),
                 d.cycle_summary.iter().map(CycleRow::from),
             )?;
-            let fold = d.fold;
-            entries.push(PairEntry::new(p, d));
+            let fold = cs.fold;
+            entries.push(PairEntry::new(p, d, cs));
             lines.push(format!(
                 "fig4b {}: Hopf at {:.4} m/s ({}), fold at {}",
                 label(p),
-                d.hopf.parameter,
-                d.criticality,
+                cs.hopf_v_mps,
+                cs.criticality,
                 fold.map_or("none".into(), |f| format!(
                     "{:.4} m/s, {:.2}°",
-                    f.speed_mps, f.amplitude_deg
+                    f.v_mps, f.amplitude_deg
                 ))
             ));
-            add_pair(&mut panel, d, Rgb::palette(i), &label(p));
+            add_pair(&mut panel, d, cs, Rgb::palette(i), &label(p));
         }
         panel.layers.push(Layer::Markers {
             points: vec![(f64::NAN, f64::NAN)],

@@ -2,10 +2,12 @@
 //! the vehicle model wired into the general-purpose [`continuation`] crate.
 //!
 //! The closed loop of eq. (8), x'(t) = f(x(t), δ(t) = −D·ψ̇(t−τ); V), on the reduced state
-//! x = [σ1, σ2, σ3, θ] is a [`continuation::Problem`] with parameters p = [V, D, τ]; the
-//! open loop is D = 0 (an ODE). Straight running x = 0 is continued in V, its Hopf point
-//! located, the cycle branch started from it with a finite amplitude (the Hopf point is
-//! non-smooth: the brush tire is only C¹ at α = 0) and continued through the fold.
+//! x = [σ1, σ2, σ3, θ] is a [`continuation::Problem`] ([`ClosedLoop`]) with parameters
+//! p = [V, D, τ], any of which may be free (exact first and second derivatives); it is a
+//! DDE for τ > 0 (whatever D) and an ODE for τ = 0 (the open loop is D = τ = 0).
+//! Straight running x = 0 is continued in V, its Hopf point located, the cycle branch
+//! started from it with a finite amplitude (the Hopf point is non-smooth: the brush tire is
+//! only C¹ at α = 0) and continued through the fold.
 //!
 //! ```no_run
 //! use sway::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
@@ -17,191 +19,17 @@
 
 use continuation::{
     ArclengthWeights, Branch, ChebyshevRoots, CollocationOptions, Continuation,
-    ContinuationOptions, Criticality, EquilibriumSystem, HopfPoint, PeriodicOrbitSystem, Problem,
+    ContinuationOptions, Criticality, EquilibriumSystem, HopfPoint, PeriodicOrbitSystem,
     Refinement, SpecialKind, criticality, points_at_parameter,
 };
-use nalgebra::SVector;
-use num_dual::{Dual64, DualSVec64, jacobian};
 use serde::{Deserialize, Serialize};
-use trailer_model::{HITCH_ANGLE, Inputs, Model, State4};
+use trailer_model::{HITCH_ANGLE, Model};
 
 use crate::SwayError;
 
-/// index of the speed V \[m/s\] in the parameter vector
-pub const SPEED: usize = 0;
-/// index of the feedback gain D \[s\] in the parameter vector
-pub const GAIN: usize = 1;
-/// index of the feedback delay τ \[s\] in the parameter vector
-pub const DELAY: usize = 2;
-
-/// The steering feedback δ(t) = −D·ψ̇(t − τ) of eq. (8).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Feedback {
-    /// gain D \[s\]
-    pub gain_d_s: f64,
-    /// delay τ \[s\]
-    pub delay_s: f64,
-}
-
-impl Feedback {
-    /// no steering control (δ ≡ 0)
-    pub const OPEN_LOOP: Feedback = Feedback {
-        gain_d_s: 0.0,
-        delay_s: 0.0,
-    };
-
-    /// the problem is a delay equation (D ≠ 0 and τ > 0)
-    pub fn is_delayed(&self) -> bool {
-        self.gain_d_s != 0.0 && self.delay_s > 0.0
-    }
-}
-
-/// The closed loop as a continuation problem, parameters p = [V, D, τ] (V may be free;
-/// D and τ are fixed by the [`Feedback`] it was built with).
-#[derive(Debug, Clone, Copy)]
-pub struct ClosedLoop<'a> {
-    model: &'a Model,
-    feedback: Feedback,
-    /// gradient of the yaw rate ψ̇ = c·x (linear in x, eq. 5)
-    yaw_gradient: [f64; 4],
-}
-
-impl<'a> ClosedLoop<'a> {
-    /// The closed loop of `model` with `feedback`.
-    pub fn new(model: &'a Model, feedback: Feedback) -> Self {
-        let e = |i: usize| State4::from_fn(|k, _| if k == i { 1.0 } else { 0.0 });
-        let yaw_gradient = [0, 1, 2, 3].map(|i| model.yaw_rate(&e(i)));
-        Self {
-            model,
-            feedback,
-            yaw_gradient,
-        }
-    }
-
-    /// parameter vector [V, D, τ]
-    pub fn parameters(&self, speed: f64) -> Vec<f64> {
-        vec![speed, self.feedback.gain_d_s, self.feedback.delay_s]
-    }
-
-    fn state(x: &[f64]) -> State4 {
-        State4::new(x[0], x[1], x[2], x[3])
-    }
-
-    /// steering angle δ \[rad\] from the (delayed) state
-    fn steering(&self, x_fb: &[f64]) -> f64 {
-        -self.feedback.gain_d_s * (0..4).map(|k| self.yaw_gradient[k] * x_fb[k]).sum::<f64>()
-    }
-
-    /// the state the feedback reads: x(t − τ) for a delay equation, x(t) otherwise
-    fn feedback_state<'b>(&self, args: &'b [f64]) -> &'b [f64] {
-        if self.feedback.is_delayed() {
-            &args[4..8]
-        } else {
-            &args[..4]
-        }
-    }
-}
-
-impl Problem for ClosedLoop<'_> {
-    fn dim(&self) -> usize {
-        4
-    }
-    fn n_delays(&self) -> usize {
-        usize::from(self.feedback.is_delayed())
-    }
-    fn delay(&self, _j: usize, p: &[f64]) -> f64 {
-        p[DELAY]
-    }
-    fn rhs(&self, args: &[f64], p: &[f64], f: &mut [f64]) {
-        let x = Self::state(args);
-        let u = Inputs {
-            steering_angle: self.steering(self.feedback_state(args)),
-            speed: p[SPEED],
-            acceleration: 0.0,
-        };
-        let r = self.model.rhs4(&x, &u);
-        f[..4].copy_from_slice(r.as_slice());
-    }
-    fn jacobian(&self, args: &[f64], p: &[f64], jac: &mut [f64]) {
-        let delta = self.steering(self.feedback_state(args));
-        let z = SVector::<f64, 5>::new(args[0], args[1], args[2], args[3], delta);
-        let speed = p[SPEED];
-        let (_, j) = jacobian(
-            |z: SVector<DualSVec64<5>, 5>| {
-                let x = State4::new(z[0], z[1], z[2], z[3]);
-                let u = Inputs {
-                    steering_angle: z[4],
-                    speed: DualSVec64::<5>::from(speed),
-                    acceleration: DualSVec64::<5>::from(0.0),
-                };
-                self.model.rhs4(&x, &u)
-            },
-            &z,
-        );
-        let nc = if self.feedback.is_delayed() { 8 } else { 4 };
-        let off = if self.feedback.is_delayed() { 4 } else { 0 };
-        jac.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..4 {
-            for k in 0..4 {
-                jac[i * nc + k] = j[(i, k)];
-            }
-            // chain rule through δ = −D c·x_fb
-            for k in 0..4 {
-                jac[i * nc + off + k] +=
-                    j[(i, 4)] * (-self.feedback.gain_d_s * self.yaw_gradient[k]);
-            }
-        }
-    }
-    fn n_switching(&self) -> usize {
-        6
-    }
-    /// slip angles α_F, α_R, α_T (the brush tire is only C¹ at α = 0) and |α| − α_cr
-    /// (sliding starts, the force curve's second derivative jumps)
-    fn switching(&self, args: &[f64], p: &[f64], g: &mut [f64]) {
-        let x = Self::state(args);
-        let u = Inputs {
-            steering_angle: self.steering(self.feedback_state(args)),
-            speed: p[SPEED],
-            acceleration: 0.0,
-        };
-        let a = self.model.slip_angles(&x, &u);
-        let cr = self.model.critical_slip_angles();
-        g[0] = a.front;
-        g[1] = a.rear;
-        g[2] = a.trailer;
-        g[3] = a.front.abs() - cr.front;
-        g[4] = a.rear.abs() - cr.rear;
-        g[5] = a.trailer.abs() - cr.trailer;
-    }
-    fn dfdp(&self, args: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
-        let delta = self.steering(self.feedback_state(args));
-        let x = Self::state(args).map(Dual64::from);
-        let yaw: f64 = (0..4)
-            .map(|k| self.yaw_gradient[k] * self.feedback_state(args)[k])
-            .sum();
-        let u = match ip {
-            SPEED => Inputs {
-                steering_angle: Dual64::from(delta),
-                speed: Dual64::new(p[SPEED], 1.0),
-                acceleration: Dual64::from(0.0),
-            },
-            GAIN => Inputs {
-                steering_angle: Dual64::new(delta, -yaw),
-                speed: Dual64::from(p[SPEED]),
-                acceleration: Dual64::from(0.0),
-            },
-            _ => {
-                // the delay is not a continuation parameter here
-                out[..4].iter_mut().for_each(|v| *v = f64::NAN);
-                return;
-            }
-        };
-        let r = self.model.rhs4(&x, &u);
-        for i in 0..4 {
-            out[i] = r[i].eps;
-        }
-    }
-}
+pub mod chart;
+mod closed_loop;
+pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, SPEED};
 
 /// Options of the bifurcation diagram of one feedback setting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -304,14 +132,6 @@ fn collocation(o: &DiagramOptions) -> CollocationOptions {
     }
 }
 
-fn roots(o: &DiagramOptions) -> ChebyshevRoots {
-    ChebyshevRoots {
-        degree: o.root_degree,
-        count: 8,
-        refinement: Refinement::Newton,
-    }
-}
-
 impl Diagram {
     /// The collocation system the cycle branch was computed with (to evaluate its points).
     pub fn cycle_system<'a>(
@@ -367,6 +187,151 @@ fn summarise(
     }
 }
 
+/// Straight running x = 0 of `problem` continued in V from `v_min` to `v_max` (steps of
+/// 0.5 m/s) at the gain and delay of `params` = [V, D, τ], and its first Hopf point (located
+/// by the engine, with its critical eigenvector and transversality).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if there is no Hopf point in the range or a step fails.
+pub fn straight_running(
+    problem: &ClosedLoop<'_>,
+    params: &[f64],
+    (v_min, v_max): (f64, f64),
+    root_degree: usize,
+) -> Result<(Branch, HopfPoint), SwayError> {
+    let ctx = format!(
+        "straight running (D = {} s, τ = {} s)",
+        params[GAIN], params[DELAY]
+    );
+    let cont_eq = Continuation::new(ContinuationOptions {
+        initial_step: 0.5,
+        max_step: 0.5,
+        parameter_range: (v_min, v_max),
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = v_min;
+    let roots = ChebyshevRoots {
+        degree: root_degree,
+        count: 8,
+        refinement: Refinement::Newton,
+    };
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, roots).map_err(num(ctx.clone()))?;
+    let dir = eq.parameter_direction();
+    let mut equilibria = cont_eq
+        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, v_min], &dir)
+        .map_err(num(format!("{ctx} at V = {v_min} m/s")))?;
+    let n_eq = ((v_max - v_min) / 0.5).ceil() as usize + 8;
+    cont_eq
+        .extend(&mut eq, &mut equilibria, n_eq)
+        .map_err(num(ctx.clone()))?;
+    let (ih, sp) = equilibria.first(SpecialKind::Hopf).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(format!(
+                "no Hopf point of straight running in [{v_min}, {v_max}] m/s; widen the speed range"
+            )),
+        )
+    })?;
+    let hopf = eq
+        .hopf_point(&equilibria.points[ih].u, sp.transversality.unwrap_or(1.0))
+        .map_err(num(format!("{ctx}: Hopf point")))?;
+    Ok((equilibria, hopf))
+}
+
+/// How far a cycle branch is continued.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CycleExtent {
+    /// until it leaves the speed range or has `max_cycle_points` points (the diagrams)
+    WholeRange,
+    /// until the first fold of cycles (or as [`CycleExtent::WholeRange`] if there is none):
+    /// enough to start a fold-of-cycles curve
+    FirstFold,
+}
+
+/// The cycle branch born at `hopf` continued in V for at most `max_points` points (or
+/// until it leaves [v_min, v_max]), and the criticality it shows.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
+/// leave the Hopf point.
+pub fn cycles_from_hopf<'a>(
+    problem: &'a ClosedLoop<'a>,
+    params: &[f64],
+    hopf: &HopfPoint,
+    o: &DiagramOptions,
+    max_points: usize,
+) -> Result<(PeriodicOrbitSystem<'a, ClosedLoop<'a>>, Branch, Criticality), SwayError> {
+    cycles_from_hopf_until(
+        problem,
+        params,
+        hopf,
+        o,
+        max_points,
+        CycleExtent::WholeRange,
+    )
+}
+
+/// [`cycles_from_hopf`] continued as far as `extent` says.
+///
+/// # Errors
+/// As [`cycles_from_hopf`].
+pub fn cycles_from_hopf_until<'a>(
+    problem: &'a ClosedLoop<'a>,
+    params: &[f64],
+    hopf: &HopfPoint,
+    o: &DiagramOptions,
+    max_points: usize,
+    extent: CycleExtent,
+) -> Result<(PeriodicOrbitSystem<'a, ClosedLoop<'a>>, Branch, Criticality), SwayError> {
+    let ctx = format!(
+        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
+        hopf.parameter, params[GAIN], params[DELAY]
+    );
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = hopf.parameter;
+    let mut po =
+        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
+    let (guess, dir) = po.hopf_guess(hopf, o.hopf_amplitude);
+    let mut cycles = cont
+        .start(&mut po, &guess, &dir)
+        .map_err(num(format!("{ctx}: first cycle")))?;
+    match extent {
+        CycleExtent::WholeRange => {
+            cont.extend(&mut po, &mut cycles, max_points)
+                .map_err(num(format!("{ctx}: cycle branch")))?;
+        }
+        CycleExtent::FirstFold => {
+            // in chunks (a resumed branch continues exactly as an uninterrupted one)
+            const CHUNK: usize = 8;
+            while cycles.points.len() < max_points && cycles.first(SpecialKind::Fold).is_none() {
+                let chunk = CHUNK.min(max_points - cycles.points.len());
+                let stop = cont
+                    .extend(&mut po, &mut cycles, chunk)
+                    .map_err(num(format!("{ctx}: cycle branch")))?;
+                if stop != continuation::Stop::MaxPoints {
+                    break;
+                }
+            }
+        }
+    }
+    let crit = criticality(hopf, &cycles).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(
+                "the cycle branch does not leave the Hopf point".into(),
+            ),
+        )
+    })?;
+    Ok((po, cycles, crit))
+}
+
 /// Computes the bifurcation diagram of straight running and sway for one feedback setting:
 /// the straight-running branch on [v_min, v_max] with its Hopf point, then the cycle branch
 /// from the Hopf point until it leaves [v_min, v_max] (through the fold, if any).
@@ -379,75 +344,26 @@ pub fn bifurcation_diagram(
     feedback: Feedback,
     options: &DiagramOptions,
 ) -> Result<Diagram, SwayError> {
+    bifurcation_diagram_until(model, feedback, options, CycleExtent::WholeRange)
+}
+
+/// [`bifurcation_diagram`] with the cycle branch continued as far as `extent` says.
+///
+/// # Errors
+/// As [`bifurcation_diagram`].
+pub fn bifurcation_diagram_until(
+    model: &Model,
+    feedback: Feedback,
+    options: &DiagramOptions,
+    extent: CycleExtent,
+) -> Result<Diagram, SwayError> {
     let o = options;
     let problem = ClosedLoop::new(model, feedback);
-    let ctx = format!(
-        "bifurcation diagram (D = {} s, τ = {} s)",
-        feedback.gain_d_s, feedback.delay_s
-    );
-
-    // 1. straight running x = 0 versus V
-    let cont_eq = Continuation::new(ContinuationOptions {
-        initial_step: 0.5,
-        max_step: 0.5,
-        parameter_range: (o.v_min_mps, o.v_max_mps),
-        ..Default::default()
-    });
-    let mut eq = EquilibriumSystem::new(&problem, problem.parameters(o.v_min_mps), SPEED, roots(o))
-        .map_err(num(ctx.clone()))?;
-    let dir = eq.parameter_direction();
-    let mut equilibria = cont_eq
-        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, o.v_min_mps], &dir)
-        .map_err(num(format!(
-            "{ctx}: straight running at V = {} m/s",
-            o.v_min_mps
-        )))?;
-    let n_eq = ((o.v_max_mps - o.v_min_mps) / 0.5).ceil() as usize + 8;
-    cont_eq
-        .extend(&mut eq, &mut equilibria, n_eq)
-        .map_err(num(format!("{ctx}: straight running")))?;
-    let (ih, sp) = equilibria.first(SpecialKind::Hopf).ok_or_else(|| {
-        SwayError::numerical(
-            ctx.clone(),
-            continuation::Error::InvalidInput(format!(
-                "no Hopf point of straight running in [{}, {}] m/s; widen the speed range",
-                o.v_min_mps, o.v_max_mps
-            )),
-        )
-    })?;
-    let hopf = eq
-        .hopf_point(&equilibria.points[ih].u, sp.transversality.unwrap_or(1.0))
-        .map_err(num(format!("{ctx}: Hopf point")))?;
-
-    // 2. cycles from the Hopf point
-    let cont = Continuation::new(ContinuationOptions {
-        initial_step: o.initial_step,
-        max_step: o.max_step,
-        parameter_range: (o.v_min_mps, o.v_max_mps),
-        ..Default::default()
-    });
-    let mut po = PeriodicOrbitSystem::new(
-        &problem,
-        problem.parameters(hopf.parameter),
-        SPEED,
-        collocation(o),
-    )
-    .map_err(num(ctx.clone()))?;
-    let (guess, dir) = po.hopf_guess(&hopf, o.hopf_amplitude);
-    let mut cycles = cont.start(&mut po, &guess, &dir).map_err(num(format!(
-        "{ctx}: first cycle at the Hopf point V = {} m/s",
-        hopf.parameter
-    )))?;
-    cont.extend(&mut po, &mut cycles, o.max_cycle_points)
-        .map_err(num(format!("{ctx}: cycle branch")))?;
-    let crit = criticality(&hopf, &cycles).ok_or_else(|| {
-        SwayError::numerical(
-            ctx.clone(),
-            continuation::Error::InvalidInput(
-                "the cycle branch does not leave the Hopf point".into(),
-            ),
-        )
-    })?;
+    let params = problem.parameters(o.v_min_mps);
+    let (equilibria, hopf) =
+        straight_running(&problem, &params, (o.v_min_mps, o.v_max_mps), o.root_degree)?;
+    let (po, cycles, crit) =
+        cycles_from_hopf_until(&problem, &params, &hopf, o, o.max_cycle_points, extent)?;
     let cycle_summary: Vec<CycleSummary> = cycles
         .points
         .iter()

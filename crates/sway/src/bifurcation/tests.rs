@@ -5,11 +5,12 @@
 
 use super::*;
 use approx::assert_relative_eq;
+use continuation::Problem;
 use dde::{DdeProblem, OdeProblem, Options, solve_dde, solve_ode};
 use nalgebra::{DMatrix, SVector};
 use stability::{RankOneFeedback, first_unstable_parameter};
 use std::sync::OnceLock;
-use trailer_model::{CriticalSpeedOptions, VehicleParams};
+use trailer_model::{CriticalSpeedOptions, State4, VehicleParams};
 
 fn model() -> &'static Model {
     static M: OnceLock<Model> = OnceLock::new();
@@ -60,7 +61,7 @@ impl<H: Fn(f64) -> State4> OdeProblem<4> for Sim<'_, H> {
     }
 }
 
-/// max |θ| [deg] and period [s] (from upward zero crossings of θ) over [t0, t1] of a solution
+/// max |θ| \[deg\] and period \[s\] (from upward zero crossings of θ) over [t0, t1] of a solution
 fn amplitude_and_period(eval: impl Fn(f64) -> State4, t0: f64, t1: f64) -> (f64, f64) {
     let dt = 5e-4;
     let n = ((t1 - t0) / dt) as usize;

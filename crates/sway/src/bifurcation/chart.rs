@@ -1,0 +1,992 @@
+//! The nonlinear stability chart of one delay τ (issue 8): curves of Hopf points V_hopf(D)
+//! and of folds of cycles V_fold(D) of the closed loop (eq. 8) continued in the (D, V)
+//! plane, the criticality of the Hopf points along the Hopf curves, and the
+//! codimension-two points on the curves.
+//!
+//! Pipeline for one τ (no plotting, no I/O):
+//! 1. at each seed gain D_s the first Hopf point of straight running in V
+//!    ([`straight_running`]), refined and continued as a curve of Hopf points in (D, V)
+//!    with [`HopfCurveSystem`] (both directions, until it leaves the (D, V) box); a seed
+//!    lying on an already computed curve is skipped;
+//! 2. the criticality of the Hopf points at sample points of every curve, from the
+//!    direction of a short cycle branch started there ([`cycles_from_hopf`]);
+//! 3. at the first seed, the cycle branch through its fold (the `fig4b` diagram); the fold
+//!    refined and continued in (V, D) with [`FoldOfCyclesSystem`] until it leaves the box,
+//!    ends on the Hopf curve (criticality change) or meets a cusp of cycles;
+//! 4. the codimension-two points located on the curves.
+//!
+//! [`critical_speeds`] is the same machinery at one (τ, D): the Hopf and fold speeds that
+//! `fig4b` reports, corrected on the two-parameter defining systems at fixed D.
+
+use continuation::{
+    Branch, BranchPoint, ChebyshevRoots, Continuation, ContinuationOptions, ContinuationSystem,
+    Criticality, FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfCurveSystem, HopfPoint,
+    Refinement, SpecialKind, Stop,
+};
+use serde::{Deserialize, Serialize};
+use trailer_model::{HITCH_ANGLE, Model};
+
+use super::{
+    ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, SPEED,
+    bifurcation_diagram_until, cycles_from_hopf, straight_running,
+};
+use crate::SwayError;
+
+/// Options of the nonlinear chart of one delay.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ChartOptions {
+    /// speed range of the curves [v_min, v_max] \[m/s\]
+    pub v_min_mps: f64,
+    /// upper end of the speed range \[m/s\]
+    pub v_max_mps: f64,
+    /// gain range of the curves [d_min, d_max] \[s\]
+    pub d_min_s: f64,
+    /// upper end of the gain range \[s\]
+    pub d_max_s: f64,
+    /// gains at which Hopf curves are started \[s\] (the first one also starts the
+    /// fold-of-cycles curve); a seed on an already computed curve is skipped
+    pub seed_gains_s: Vec<f64>,
+    /// first and largest continuation step along the Hopf curves (weighted arclength in
+    /// the unknowns [x, v, ω, D, V]; dominated by V \[m/s\])
+    pub hopf_step: f64,
+    /// largest step along the Hopf curves
+    pub hopf_max_step: f64,
+    /// at most this many points per Hopf curve and direction
+    pub hopf_max_points: usize,
+    /// first continuation step along the fold-of-cycles curves
+    pub fold_step: f64,
+    /// largest step along the fold-of-cycles curves
+    pub fold_max_step: f64,
+    /// at most this many points per fold-of-cycles curve and direction
+    pub fold_max_points: usize,
+    /// a step along a curve is rejected when the (weighted) tangent turns by more than
+    /// arccos of this; the reported speeds are corrected at fixed D, so this only sets how
+    /// densely the curves are sampled (0.8: 37°)
+    pub curve_min_tangent_cosine: f64,
+    /// the step along a curve grows when Newton needs fewer iterations than this
+    pub curve_target_newton_iterations: usize,
+    /// criticality sampled at this many points per Hopf curve (at least 2)
+    pub criticality_samples: usize,
+    /// cycle points used to judge the criticality at a sample
+    pub criticality_cycle_points: usize,
+    /// a fold-of-cycles curve ends on the Hopf curve when the cycle's amplitude (largest
+    /// half peak-to-peak range of a state component) falls below this
+    pub fold_min_amplitude: f64,
+    /// cycles: collocation mesh, degree, first amplitude, steps (its speed range is
+    /// replaced by [v_min, v_max])
+    pub cycles: DiagramOptions,
+}
+
+impl Default for ChartOptions {
+    fn default() -> Self {
+        Self {
+            v_min_mps: 5.0,
+            v_max_mps: 70.0,
+            d_min_s: -0.1,
+            d_max_s: 0.3,
+            seed_gains_s: vec![0.1, 0.3, -0.1],
+            hopf_step: 0.1,
+            hopf_max_step: 1.0,
+            hopf_max_points: 400,
+            fold_step: 0.1,
+            fold_max_step: 2.0,
+            fold_max_points: 300,
+            curve_min_tangent_cosine: 0.8,
+            curve_target_newton_iterations: 4,
+            criticality_samples: 5,
+            criticality_cycle_points: 3,
+            fold_min_amplitude: 1e-3,
+            cycles: DiagramOptions {
+                intervals: 40,
+                max_step: 0.5,
+                ..DiagramOptions::default()
+            },
+        }
+    }
+}
+
+impl ChartOptions {
+    /// The chart options that correct a diagram computed with `o` (same mesh, roots and
+    /// speed range; curve settings at their defaults), as `fig4b` uses them.
+    pub fn correcting(o: &DiagramOptions) -> Self {
+        Self {
+            v_min_mps: o.v_min_mps,
+            v_max_mps: o.v_max_mps,
+            cycles: o.clone(),
+            ..Self::default()
+        }
+    }
+
+    fn cycle_options(&self) -> DiagramOptions {
+        DiagramOptions {
+            v_min_mps: self.v_min_mps,
+            v_max_mps: self.v_max_mps,
+            ..self.cycles.clone()
+        }
+    }
+
+    fn in_box(&self, d: f64, v: f64) -> bool {
+        d >= self.d_min_s && d <= self.d_max_s && v >= self.v_min_mps && v <= self.v_max_mps
+    }
+
+    fn roots(&self) -> ChebyshevRoots {
+        ChebyshevRoots {
+            degree: self.cycles.root_degree,
+            count: 8,
+            refinement: Refinement::Newton,
+        }
+    }
+}
+
+/// One point of a Hopf curve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HopfCurvePoint {
+    /// gain D \[s\]
+    pub d_s: f64,
+    /// speed V \[m/s\]
+    pub v_mps: f64,
+    /// frequency ω of the critical pair \[rad/s\]
+    pub omega_rad_s: f64,
+}
+
+/// The criticality of the Hopf point at one point of a Hopf curve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CriticalitySample {
+    /// index of the point in [`HopfCurve::points`]
+    pub index: usize,
+    /// gain D \[s\]
+    pub d_s: f64,
+    /// speed V \[m/s\]
+    pub v_mps: f64,
+    /// from the direction of the cycle branch born there
+    pub criticality: Criticality,
+}
+
+/// A curve of Hopf points in the (D, V) plane.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HopfCurve {
+    /// the seed gain it was started at \[s\]
+    pub seed_d_s: f64,
+    /// the continuation towards decreasing and increasing D from the seed (unknowns of
+    /// [`HopfCurveSystem`] with free parameters [D, V])
+    pub branches: [Branch; 2],
+    /// the points in order along the curve (from the decreasing-D end to the other end)
+    pub points: Vec<HopfCurvePoint>,
+    /// criticality at sample points, in curve order
+    pub criticality: Vec<CriticalitySample>,
+}
+
+impl HopfCurve {
+    /// Criticality of the curve point `i`: that of the nearest sample (None without
+    /// samples).
+    pub fn criticality_at(&self, i: usize) -> Option<Criticality> {
+        self.criticality
+            .iter()
+            .min_by_key(|s| s.index.abs_diff(i))
+            .map(|s| s.criticality)
+    }
+}
+
+/// One point of a fold-of-cycles curve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FoldCurvePoint {
+    /// gain D \[s\]
+    pub d_s: f64,
+    /// speed V \[m/s\]
+    pub v_mps: f64,
+    /// period of the fold's cycle \[s\]
+    pub period_s: f64,
+    /// max |θ| on the fold's cycle \[deg\]
+    pub amplitude_deg: f64,
+}
+
+/// A curve of folds of cycles in the (D, V) plane.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FoldCurve {
+    /// the seed gain \[s\]
+    pub seed_d_s: f64,
+    /// the continuation towards decreasing and increasing D from the seed (unknowns of
+    /// [`FoldOfCyclesSystem`] with free parameters [V, D])
+    pub branches: [Branch; 2],
+    /// the points in order along the curve
+    pub points: Vec<FoldCurvePoint>,
+}
+
+/// The kinds of codimension-two points of the chart (serialised as in `summary.json`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Codim2Kind {
+    /// two critical pairs ±iω1, ±iω2 on a Hopf curve
+    DoubleHopf,
+    /// a zero eigenvalue and a pair ±iω
+    ZeroHopf,
+    /// a double zero eigenvalue
+    BogdanovTakens,
+    /// the Hopf point changes criticality (a fold-of-cycles curve ends on the Hopf curve)
+    CriticalityChange,
+    /// two folds of cycles meet
+    CuspOfCycles,
+}
+
+impl Codim2Kind {
+    fn from_special(kind: SpecialKind) -> Option<Self> {
+        Some(match kind {
+            SpecialKind::DoubleHopf => Self::DoubleHopf,
+            SpecialKind::ZeroHopf => Self::ZeroHopf,
+            SpecialKind::BogdanovTakens => Self::BogdanovTakens,
+            SpecialKind::CriticalityChange => Self::CriticalityChange,
+            SpecialKind::CuspOfCycles => Self::CuspOfCycles,
+            _ => return None,
+        })
+    }
+
+    /// the name used in `summary.json`
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::DoubleHopf => "double_hopf",
+            Self::ZeroHopf => "zero_hopf",
+            Self::BogdanovTakens => "bogdanov_takens",
+            Self::CriticalityChange => "criticality_change",
+            Self::CuspOfCycles => "cusp_of_cycles",
+        }
+    }
+}
+
+/// A codimension-two point of the chart.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Codim2 {
+    /// what it is
+    pub kind: Codim2Kind,
+    /// gain D \[s\]
+    pub d_s: f64,
+    /// speed V \[m/s\]
+    pub v_mps: f64,
+    /// the critical frequencies \[rad/s\] (both at a double-Hopf point)
+    pub omega_rad_s: Vec<f64>,
+}
+
+/// The nonlinear chart of one delay.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NonlinearChart {
+    /// delay τ \[s\]
+    pub tau_s: f64,
+    /// the options used
+    pub options: ChartOptions,
+    /// the Hopf curves
+    pub hopf_curves: Vec<HopfCurve>,
+    /// the fold-of-cycles curves
+    pub fold_curves: Vec<FoldCurve>,
+    /// codimension-two points on the curves
+    pub codim2_points: Vec<Codim2>,
+    /// seeds that were skipped or failed, with the reason
+    pub notes: Vec<String>,
+}
+
+/// The Hopf and fold speeds of one feedback setting, each corrected on its two-parameter
+/// defining system at the fixed gain (the points the chart's curves pass through).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CriticalSpeeds {
+    /// the Hopf point as located on the straight-running branch (start of the correction)
+    pub located_hopf: HopfPoint,
+    /// Hopf speed \[m/s\]
+    pub hopf_v_mps: f64,
+    /// Hopf frequency \[rad/s\]
+    pub hopf_omega_rad_s: f64,
+    /// criticality (from the cycle branch)
+    pub criticality: Criticality,
+    /// the fold of cycles, if the branch has one in the speed range
+    pub fold: Option<FoldCurvePoint>,
+}
+
+fn num(context: String) -> impl FnOnce(continuation::Error) -> SwayError {
+    move |e| SwayError::numerical(context, e)
+}
+
+fn invalid(context: String, message: String) -> SwayError {
+    SwayError::numerical(context, continuation::Error::InvalidInput(message))
+}
+
+impl ChartOptions {
+    /// The continuation of a curve with first step `step`, largest step `max_step`, the
+    /// primary parameter in `range`, and the chart's step control.
+    fn continuation(&self, step: f64, max_step: f64, range: (f64, f64)) -> Continuation {
+        Continuation::new(ContinuationOptions {
+            initial_step: step,
+            max_step,
+            parameter_range: range,
+            min_tangent_cosine: self.curve_min_tangent_cosine,
+            target_newton_iterations: self.curve_target_newton_iterations,
+            ..Default::default()
+        })
+    }
+}
+
+type HopfSystem<'a> = HopfCurveSystem<'a, ClosedLoop<'a>, ChebyshevRoots>;
+
+/// Extends `branch` in chunks until it stops, leaves the box (through the secondary
+/// parameter, which the engine does not watch) or has `max_points` points.
+fn extend_in_box<S: ContinuationSystem>(
+    cont: &Continuation,
+    sys: &mut S,
+    branch: &mut Branch,
+    max_points: usize,
+    inside: impl Fn(&BranchPoint) -> bool,
+) -> Result<(), continuation::Error> {
+    const CHUNK: usize = 8;
+    while branch.points.len() < max_points {
+        let stop = cont.extend(sys, branch, CHUNK)?;
+        let out = branch.points.last().is_some_and(|p| !inside(p));
+        if stop != Stop::MaxPoints || out {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// Points of a curve where the unknown `index` equals `value`: every bracketing pair of
+/// consecutive points, linearly interpolated and corrected with that unknown fixed.
+fn curve_points_at<S: ContinuationSystem>(
+    sys: &mut S,
+    branches: &[Branch],
+    index: usize,
+    value: f64,
+) -> Result<Vec<Vec<f64>>, continuation::Error> {
+    let cont = Continuation::default();
+    let mut out = Vec::new();
+    for b in branches {
+        for w in b.points.windows(2) {
+            let (a, c) = (w[0].u[index], w[1].u[index]);
+            if (a - value) * (c - value) > 0.0 || a == c || c == value {
+                continue;
+            }
+            let t = (value - a) / (c - a);
+            let guess: Vec<f64> = w[0]
+                .u
+                .iter()
+                .zip(&w[1].u)
+                .map(|(x, y)| x + t * (y - x))
+                .collect();
+            let mut e = vec![0.0; guess.len()];
+            e[index] = 1.0;
+            sys.accept(&guess);
+            out.push(cont.start(sys, &guess, &e)?.points.remove(0).u);
+        }
+    }
+    Ok(out)
+}
+
+/// The two branches of a curve joined in curve order: the first reversed, then the second
+/// without its first point (both start at the seed).
+fn joined(branches: &[Branch; 2]) -> impl Iterator<Item = &BranchPoint> {
+    branches[0]
+        .points
+        .iter()
+        .rev()
+        .chain(branches[1].points.iter().skip(1))
+}
+
+/// The Hopf-curve system of the closed loop with free parameters [D, V] (D primary),
+/// the gain set to `d` (where [`HopfCurveSystem::start_at_hopf`] starts).
+fn hopf_system<'a>(
+    problem: &'a ClosedLoop<'a>,
+    d: f64,
+    o: &ChartOptions,
+) -> Result<HopfSystem<'a>, SwayError> {
+    let mut params = problem.parameters(0.0);
+    params[GAIN] = d;
+    HopfCurveSystem::new(problem, params, [GAIN, SPEED], o.roots())
+        .map_err(num("Hopf curve system".into()))
+}
+
+/// index of D and V in the Hopf-curve unknowns [x (4), Re v (4), Im v (4), ω, D, V]
+const HOPF_D: usize = 13;
+const HOPF_V: usize = 14;
+const HOPF_OMEGA: usize = 12;
+
+fn hopf_curve_point(u: &[f64]) -> HopfCurvePoint {
+    HopfCurvePoint {
+        d_s: u[HOPF_D],
+        v_mps: u[HOPF_V],
+        omega_rad_s: u[HOPF_OMEGA],
+    }
+}
+
+/// The Hopf curve through the located Hopf point `hopf` at gain `d`, both directions.
+fn hopf_curve(
+    problem: &ClosedLoop<'_>,
+    d: f64,
+    hopf: &HopfPoint,
+    o: &ChartOptions,
+) -> Result<HopfCurve, SwayError> {
+    let ctx = format!("Hopf curve from D = {d} s, V = {} m/s", hopf.parameter);
+    let mut sys = hopf_system(problem, d, o)?;
+    let cont = o.continuation(o.hopf_step, o.hopf_max_step, (o.d_min_s, o.d_max_s));
+    let inside = |p: &BranchPoint| o.in_box(p.u[HOPF_D], p.u[HOPF_V]);
+    let mut branches = Vec::new();
+    let (guess, dir) = sys.start_at_hopf(hopf, SPEED).map_err(num(ctx.clone()))?;
+    for sign in [-1.0, 1.0] {
+        sys.accept(&guess);
+        let dir: Vec<f64> = dir.iter().map(|v| sign * v).collect();
+        let mut b = cont
+            .start(&mut sys, &guess, &dir)
+            .map_err(num(ctx.clone()))?;
+        extend_in_box(&cont, &mut sys, &mut b, o.hopf_max_points, inside)
+            .map_err(num(ctx.clone()))?;
+        branches.push(b);
+    }
+    let branches: [Branch; 2] = branches
+        .try_into()
+        .map_err(|_| invalid(ctx.clone(), "two directions expected".into()))?;
+    let points = joined(&branches).map(|p| hopf_curve_point(&p.u)).collect();
+    Ok(HopfCurve {
+        seed_d_s: d,
+        branches,
+        points,
+        criticality: Vec::new(),
+    })
+}
+
+/// Criticality of the Hopf point at (D, V) of a curve with frequency ω: the Hopf point
+/// re-located on straight running near V (so that the transversality is known), then a
+/// short cycle branch from it. None if the located point is another mode (ω differs by
+/// more than 1 %).
+fn criticality_at(
+    problem: &ClosedLoop<'_>,
+    p: &HopfCurvePoint,
+    o: &ChartOptions,
+) -> Result<Option<Criticality>, SwayError> {
+    let mut params = problem.parameters(p.v_mps);
+    params[GAIN] = p.d_s;
+    let half = 0.3;
+    let (_, hopf) = straight_running(
+        problem,
+        &params,
+        (p.v_mps - half, p.v_mps + half),
+        o.cycles.root_degree,
+    )?;
+    if (hopf.omega - p.omega_rad_s.abs()).abs() > 0.01 * p.omega_rad_s.abs() {
+        return Ok(None);
+    }
+    let co = o.cycle_options();
+    let (_, _, crit) = cycles_from_hopf(problem, &params, &hopf, &co, o.criticality_cycle_points)?;
+    Ok(Some(crit))
+}
+
+/// Samples the criticality at evenly spaced points of the curve inside the box.
+fn sample_criticality(
+    problem: &ClosedLoop<'_>,
+    curve: &HopfCurve,
+    o: &ChartOptions,
+) -> Result<Vec<CriticalitySample>, SwayError> {
+    let inside: Vec<usize> = (0..curve.points.len())
+        .filter(|&i| o.in_box(curve.points[i].d_s, curve.points[i].v_mps))
+        .collect();
+    if inside.is_empty() {
+        return Ok(Vec::new());
+    }
+    let k = o.criticality_samples.max(2);
+    let mut picks: Vec<usize> = (0..k)
+        .map(|j| inside[j * (inside.len() - 1) / (k - 1)])
+        .collect();
+    picks.dedup();
+    let mut out = Vec::new();
+    for i in picks {
+        let p = curve.points[i];
+        if let Some(c) = criticality_at(problem, &p, o)? {
+            out.push(CriticalitySample {
+                index: i,
+                d_s: p.d_s,
+                v_mps: p.v_mps,
+                criticality: c,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Lowest speed of the Hopf curves at gain `d`, each crossing corrected at fixed D.
+fn lowest_hopf_speed(
+    problem: &ClosedLoop<'_>,
+    curves: &[HopfCurve],
+    d: f64,
+    o: &ChartOptions,
+) -> Result<Option<f64>, SwayError> {
+    let mut sys = hopf_system(problem, d, o)?;
+    let mut best: Option<f64> = None;
+    for c in curves {
+        let pts = curve_points_at(&mut sys, &c.branches, HOPF_D, d)
+            .map_err(num(format!("Hopf curve at D = {d} s")))?;
+        for u in pts {
+            let v = u[HOPF_V];
+            if v >= o.v_min_mps && v <= o.v_max_mps {
+                best = Some(best.map_or(v, |b: f64| b.min(v)));
+            }
+        }
+    }
+    Ok(best)
+}
+
+/// A seed lies on a computed curve: same frequency (1 %) and within 0.5 m/s of a curve
+/// point interpolated at its gain.
+fn on_curve(curves: &[HopfCurve], d: f64, hopf: &HopfPoint) -> bool {
+    curves.iter().any(|c| {
+        c.points.windows(2).any(|w| {
+            let (a, b) = (w[0], w[1]);
+            if (a.d_s - d) * (b.d_s - d) > 0.0 || a.d_s == b.d_s {
+                return false;
+            }
+            let t = (d - a.d_s) / (b.d_s - a.d_s);
+            let v = a.v_mps + t * (b.v_mps - a.v_mps);
+            let w = a.omega_rad_s.abs() + t * (b.omega_rad_s.abs() - a.omega_rad_s.abs());
+            (v - hopf.parameter).abs() < 0.5 && (w - hopf.omega).abs() < 0.01 * w
+        })
+    })
+}
+
+/// Fold-of-cycles system unknowns [x, T, V, D, v, v_T]: index of V and D
+fn fold_indices(sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_>>) -> (usize, usize) {
+    let ip = sys.parameter_index();
+    (ip, ip + 1)
+}
+
+fn fold_curve_point(
+    sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_>>,
+    u: &[f64],
+) -> Result<FoldCurvePoint, continuation::Error> {
+    let (iv, id) = fold_indices(sys);
+    let po = sys.periodic_system(u)?;
+    Ok(FoldCurvePoint {
+        d_s: u[id],
+        v_mps: u[iv],
+        period_s: sys.period(u),
+        amplitude_deg: po.max_abs(sys.orbit(u), HITCH_ANGLE).to_degrees(),
+    })
+}
+
+fn fold_options(o: &ChartOptions) -> FoldCyclesOptions {
+    FoldCyclesOptions {
+        min_amplitude: o.fold_min_amplitude,
+        multipliers: false,
+    }
+}
+
+/// The Hopf point `hopf` (located on straight running at the gain of `problem`'s
+/// parameters) corrected on the Hopf-curve system at fixed D; returns the unknowns.
+fn corrected_hopf(
+    problem: &ClosedLoop<'_>,
+    d: f64,
+    hopf: &HopfPoint,
+    o: &ChartOptions,
+) -> Result<Vec<f64>, SwayError> {
+    let ctx = format!(
+        "Hopf point at D = {d} s, τ = {} s",
+        problem.feedback().delay_s
+    );
+    let mut hs = hopf_system(problem, d, o)?;
+    let (guess, dir) = hs.start_at_hopf(hopf, SPEED).map_err(num(ctx.clone()))?;
+    let mut b = Continuation::default()
+        .start(&mut hs, &guess, &dir)
+        .map_err(num(ctx))?;
+    Ok(b.points.remove(0).u)
+}
+
+type FoldSystem<'a> = FoldOfCyclesSystem<'a, ClosedLoop<'a>>;
+
+/// The fold of the cycle branch of `diagram` corrected on the fold-of-cycles system at the
+/// diagram's gain: the system, a branch holding the corrected point and the direction +D.
+/// None if the cycle branch has no fold.
+fn corrected_fold<'a>(
+    problem: &'a ClosedLoop<'a>,
+    diagram: &Diagram,
+    o: &ChartOptions,
+) -> Result<Option<(FoldSystem<'a>, Branch, Vec<f64>)>, SwayError> {
+    let fb = diagram.feedback;
+    let ctx = format!(
+        "fold of cycles at D = {} s, τ = {} s",
+        fb.gain_d_s, fb.delay_s
+    );
+    let Some((i, _)) = diagram.cycles.first(SpecialKind::Fold) else {
+        return Ok(None);
+    };
+    let po = diagram.cycle_system(problem)?;
+    let (mut sys, guess, dir) =
+        FoldOfCyclesSystem::from_fold(&po, &diagram.cycles.points[i], GAIN, fold_options(o))
+            .map_err(num(ctx.clone()))?;
+    let cont = o.continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
+    let first = cont.start(&mut sys, &guess, &dir).map_err(num(ctx))?;
+    Ok(Some((sys, first, dir)))
+}
+
+/// The Hopf and fold speeds of a one-parameter diagram read off the two-parameter
+/// defining systems at the diagram's fixed D (what `fig4b` reports; the chart's curves
+/// pass through them). Uses the diagram's located Hopf point and cycle fold as guesses.
+///
+/// # Errors
+/// [`SwayError::Numerical`] naming the failing stage.
+pub fn critical_speeds(
+    model: &Model,
+    diagram: &Diagram,
+    o: &ChartOptions,
+) -> Result<CriticalSpeeds, SwayError> {
+    let problem = ClosedLoop::new(model, diagram.feedback);
+    let d = diagram.feedback.gain_d_s;
+    let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
+    let fold = match corrected_fold(&problem, diagram, o)? {
+        Some((sys, first, _)) => {
+            Some(fold_curve_point(&sys, &first.points[0].u).map_err(num("fold of cycles".into()))?)
+        }
+        None => None,
+    };
+    Ok(CriticalSpeeds {
+        located_hopf: diagram.hopf.clone(),
+        hopf_v_mps: hu[HOPF_V],
+        hopf_omega_rad_s: hu[HOPF_OMEGA],
+        criticality: diagram.criticality,
+        fold,
+    })
+}
+
+/// The fold-of-cycles curve started at the fold of the cycle branch at gain `d` (if the
+/// Hopf point there is subcritical and the branch folds in the speed range), both
+/// directions; with the codimension-two points it ends at or passes.
+fn fold_curve(
+    model: &Model,
+    tau: f64,
+    d: f64,
+    o: &ChartOptions,
+) -> Result<Option<(FoldCurve, Vec<Codim2>)>, SwayError> {
+    let fb = Feedback {
+        gain_d_s: d,
+        delay_s: tau,
+    };
+    let diagram = bifurcation_diagram_until(model, fb, &o.cycle_options(), CycleExtent::FirstFold)?;
+    if diagram.criticality != Criticality::Subcritical {
+        return Ok(None);
+    }
+    let problem = ClosedLoop::new(model, fb);
+    let Some((mut sys, first, dir)) = corrected_fold(&problem, &diagram, o)? else {
+        return Ok(None);
+    };
+    let ctx = format!("fold-of-cycles curve from D = {d} s, τ = {tau} s");
+    let cont = o.continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
+    let (iv, id) = fold_indices(&sys);
+    let u0 = first.points[0].u.clone();
+    let mut branches = Vec::new();
+    let mut codim2 = Vec::new();
+    for sign in [-1.0, 1.0] {
+        sys.accept(&u0);
+        let dir: Vec<f64> = dir.iter().map(|v| sign * v).collect();
+        let mut b = cont.start(&mut sys, &u0, &dir).map_err(num(ctx.clone()))?;
+        while b.points.len() < o.fold_max_points {
+            let stop = sys
+                .extend_curve(&cont, &mut b, 8)
+                .map_err(num(ctx.clone()))?;
+            let out = b.points.last().is_some_and(|p| !o.in_box(p.u[id], p.u[iv]));
+            match stop {
+                FoldCyclesStop::HopfEnd(end) => {
+                    codim2.push(Codim2 {
+                        kind: Codim2Kind::CriticalityChange,
+                        d_s: end.parameters[1],
+                        v_mps: end.parameters[0],
+                        omega_rad_s: vec![end.omega],
+                    });
+                    break;
+                }
+                FoldCyclesStop::Continuation(Stop::MaxPoints) if !out => {}
+                _ => break,
+            }
+        }
+        codim2.extend(b.special_points().filter_map(|(i, sp)| {
+            let located = sp.location == continuation::Location::Located;
+            (sp.kind == SpecialKind::CuspOfCycles && located).then(|| Codim2 {
+                kind: Codim2Kind::CuspOfCycles,
+                d_s: b.points[i].u[id],
+                v_mps: b.points[i].u[iv],
+                omega_rad_s: Vec::new(),
+            })
+        }));
+        branches.push(b);
+    }
+    let branches: [Branch; 2] = branches
+        .try_into()
+        .map_err(|_| invalid(ctx.clone(), "two directions expected".into()))?;
+    let points = joined(&branches)
+        .map(|p| fold_curve_point(&sys, &p.u))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(num(ctx))?;
+    Ok(Some((
+        FoldCurve {
+            seed_d_s: d,
+            branches,
+            points,
+        },
+        codim2,
+    )))
+}
+
+/// Codimension-two points the Hopf-curve system located on a curve.
+fn hopf_codim2(sys: &HopfSystem<'_>, curve: &HopfCurve) -> Vec<Codim2> {
+    curve
+        .branches
+        .iter()
+        .flat_map(|b| sys.codim2_points(b))
+        .filter_map(|c| {
+            Some(Codim2 {
+                kind: Codim2Kind::from_special(c.kind)?,
+                d_s: c.p1,
+                v_mps: c.p2,
+                omega_rad_s: c.omegas.iter().map(|w| w.abs()).collect(),
+            })
+        })
+        .collect()
+}
+
+/// Drops repeated points (the same kind within 1e-3 s and 1e-2 m/s: found on two curves
+/// or on both directions from a seed) and sorts by kind, then D.
+fn dedup_codim2(mut points: Vec<Codim2>) -> Vec<Codim2> {
+    let mut out: Vec<Codim2> = Vec::new();
+    points.sort_by(|a, b| a.d_s.total_cmp(&b.d_s));
+    for p in points {
+        let dup = out.iter().any(|q| {
+            q.kind == p.kind && (q.d_s - p.d_s).abs() < 1e-3 && (q.v_mps - p.v_mps).abs() < 1e-2
+        });
+        if !dup {
+            out.push(p);
+        }
+    }
+    out.sort_by_key(|p| p.kind.name());
+    out
+}
+
+/// The Hopf curves of one delay τ \[s\] (step 1 of the pipeline, without criticality):
+/// one curve per seed gain whose first Hopf point is not on an earlier curve, and notes on
+/// the skipped seeds.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a curve fails; a seed without a Hopf point in the speed
+/// range is only noted.
+pub fn hopf_curves(
+    model: &Model,
+    tau: f64,
+    o: &ChartOptions,
+) -> Result<(Vec<HopfCurve>, Vec<String>), SwayError> {
+    let problem = ClosedLoop::new(
+        model,
+        Feedback {
+            gain_d_s: 0.0,
+            delay_s: tau,
+        },
+    );
+    let mut notes = Vec::new();
+    let mut curves: Vec<HopfCurve> = Vec::new();
+    for &d in &o.seed_gains_s {
+        let mut params = problem.parameters(o.v_min_mps);
+        params[GAIN] = d;
+        let range = (o.v_min_mps, o.v_max_mps);
+        let hopf = match straight_running(&problem, &params, range, o.cycles.root_degree) {
+            Ok((_, h)) => h,
+            Err(e) => {
+                notes.push(format!("seed D = {d} s: {e}"));
+                continue;
+            }
+        };
+        if on_curve(&curves, d, &hopf) {
+            notes.push(format!(
+                "seed D = {d} s: Hopf point V = {:.3} m/s lies on a computed curve",
+                hopf.parameter
+            ));
+            continue;
+        }
+        curves.push(hopf_curve(&problem, d, &hopf, o)?);
+    }
+    Ok((curves, notes))
+}
+
+/// The lowest speed \[m/s\] of `curves` (Hopf curves of delay τ \[s\]) at gain D \[s\],
+/// each crossing corrected at fixed D on the Hopf-curve system; None if no curve crosses D
+/// in the speed range.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a correction fails.
+pub fn hopf_speed_at(
+    model: &Model,
+    tau: f64,
+    curves: &[HopfCurve],
+    d: f64,
+    o: &ChartOptions,
+) -> Result<Option<f64>, SwayError> {
+    let problem = ClosedLoop::new(
+        model,
+        Feedback {
+            gain_d_s: 0.0,
+            delay_s: tau,
+        },
+    );
+    lowest_hopf_speed(&problem, curves, d, o)
+}
+
+/// Computes the nonlinear chart of one delay τ \[s\] (see the module documentation).
+///
+/// # Errors
+/// [`SwayError::Numerical`] naming the failing stage; a seed gain without a Hopf point in
+/// the speed range is not an error (it is recorded in [`NonlinearChart::notes`]).
+pub fn nonlinear_chart(
+    model: &Model,
+    tau: f64,
+    o: &ChartOptions,
+) -> Result<NonlinearChart, SwayError> {
+    let Some(&first_seed) = o.seed_gains_s.first() else {
+        return Err(invalid(
+            format!("nonlinear chart τ = {tau} s"),
+            "no seed gain; give at least one in seed_gains_s".into(),
+        ));
+    };
+    let problem = ClosedLoop::new(
+        model,
+        Feedback {
+            gain_d_s: first_seed,
+            delay_s: tau,
+        },
+    );
+    let (mut hopf_curves, notes) = hopf_curves(model, tau, o)?;
+    for c in &mut hopf_curves {
+        c.criticality = sample_criticality(&problem, c, o)?;
+    }
+    let sys = hopf_system(&problem, first_seed, o)?;
+    let mut codim2: Vec<Codim2> = hopf_curves
+        .iter()
+        .flat_map(|c| hopf_codim2(&sys, c))
+        .collect();
+    let mut fold_curves = Vec::new();
+    if let Some((f, c2)) = fold_curve(model, tau, first_seed, o)? {
+        fold_curves.push(f);
+        codim2.extend(c2);
+    }
+    codim2.retain(|c| o.in_box(c.d_s, c.v_mps));
+    Ok(NonlinearChart {
+        tau_s: tau,
+        options: o.clone(),
+        hopf_curves,
+        fold_curves,
+        codim2_points: dedup_codim2(codim2),
+        notes,
+    })
+}
+
+impl NonlinearChart {
+    fn problem<'a>(&self, model: &'a Model) -> ClosedLoop<'a> {
+        ClosedLoop::new(
+            model,
+            Feedback {
+                gain_d_s: 0.0,
+                delay_s: self.tau_s,
+            },
+        )
+    }
+
+    /// The lowest speed \[m/s\] of the Hopf curves at gain D \[s\] (each crossing corrected
+    /// at fixed D on the Hopf-curve system); None if no curve crosses D in the speed range.
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] if a correction fails.
+    pub fn hopf_speed_at(&self, model: &Model, d: f64) -> Result<Option<f64>, SwayError> {
+        hopf_speed_at(model, self.tau_s, &self.hopf_curves, d, &self.options)
+    }
+
+    /// The lowest speed \[m/s\] of the fold-of-cycles curves at gain D \[s\] (corrected at
+    /// fixed D on the fold-of-cycles system); None if no curve crosses D in the speed range.
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] if a correction fails.
+    pub fn fold_speed_at(&self, model: &Model, d: f64) -> Result<Option<f64>, SwayError> {
+        let problem = self.problem(model);
+        let o = &self.options;
+        let mut best: Option<f64> = None;
+        for c in &self.fold_curves {
+            let Some(p0) = c.branches[1].points.first() else {
+                continue;
+            };
+            let mut params = problem.parameters(p0.parameter);
+            params[GAIN] = c.seed_d_s;
+            let mut sys = FoldOfCyclesSystem::new(
+                &problem,
+                params,
+                (SPEED, GAIN),
+                super::collocation(&o.cycles),
+                fold_options(o),
+            )
+            .map_err(num("fold-of-cycles system".into()))?;
+            let (iv, id) = fold_indices(&sys);
+            let pts = curve_points_at(&mut sys, &c.branches, id, d)
+                .map_err(num(format!("fold-of-cycles curve at D = {d} s")))?;
+            for u in pts {
+                let v = u[iv];
+                if v >= o.v_min_mps && v <= o.v_max_mps {
+                    best = Some(best.map_or(v, |b: f64| b.min(v)));
+                }
+            }
+        }
+        Ok(best)
+    }
+}
+
+/// What straight running does at a point of the (V, D) plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Region {
+    /// stable, and no computed cycle coexists (below the fold-of-cycles curve, or below a
+    /// supercritical Hopf curve): safe against any perturbation as far as the cycles tell
+    Safe,
+    /// stable, but beyond the fold-of-cycles curve: a large enough kick triggers sway
+    Bistable,
+    /// unstable (beyond a Hopf curve): sway starts by itself
+    SelfExcited,
+}
+
+impl NonlinearChart {
+    /// The lowest fold-of-cycles speed at gain D \[s\] interpolated linearly between the
+    /// computed curve points (for shading; [`NonlinearChart::fold_speed_at`] is exact).
+    pub fn fold_speed_interpolated(&self, d: f64) -> Option<f64> {
+        self.fold_curves
+            .iter()
+            .flat_map(|c| c.points.windows(2))
+            .filter_map(|w| {
+                let (a, b) = (w[0], w[1]);
+                if (a.d_s - d) * (b.d_s - d) > 0.0 || a.d_s == b.d_s {
+                    return None;
+                }
+                let t = (d - a.d_s) / (b.d_s - a.d_s);
+                Some(a.v_mps + t * (b.v_mps - a.v_mps))
+            })
+            .reduce(f64::min)
+    }
+
+    /// The regions on the cells of a linear stability chart of the same τ (the `fig4a`
+    /// computation: exact counts of unstable roots): self-excited where straight running is
+    /// unstable, bistable where it is stable at or beyond the fold-of-cycles curve, safe
+    /// elsewhere. Indexed like the chart's cells, `iv·d.len() + id`.
+    pub fn regions(&self, linear: &stability::StabilityChart) -> Vec<Region> {
+        let fold: Vec<Option<f64>> = linear
+            .d
+            .iter()
+            .map(|&d| self.fold_speed_interpolated(d))
+            .collect();
+        let mut out = Vec::with_capacity(linear.cells.len());
+        for (iv, &v) in linear.v.iter().enumerate() {
+            for (id, f) in fold.iter().enumerate() {
+                out.push(if !linear.cell(iv, id).is_stable() {
+                    Region::SelfExcited
+                } else if f.is_some_and(|f| v >= f) {
+                    Region::Bistable
+                } else {
+                    Region::Safe
+                });
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -13,56 +13,49 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
+/// A sweep config `name` over `speeds` (min, max, points) × the `theta0_deg` values of
+/// `theta0` (None: no second axis), each simulation `horizon_s` long.
+fn sweep_toml(
+    name: &str,
+    speeds: (f64, f64, usize),
+    theta0: Option<(f64, f64, usize)>,
+    horizon_s: f64,
+) -> String {
+    let axis = |parameter: &str, (min, max, points): (f64, f64, usize)| {
+        format!(
+            "[[axes]]\nparameter = \"{parameter}\"\nmin = {min:?}\nmax = {max:?}\npoints = {points}\n\n"
+        )
+    };
+    let mut text = format!("name = \"{name}\"\n\n{}", axis("speed_mps", speeds));
+    if let Some(t) = theta0 {
+        text += &axis("theta0_deg", t);
+    }
+    text += &format!(
+        "[base]\nhorizon_s = {horizon_s:?}\naction_s = 0.0\n\
+         speed = {{ kind = \"constant\", speed_mps = 33.0 }}\n\
+         controller = {{ kind = \"none\" }}\n\
+         initial = {{ kind = \"state\", theta0_deg = 2.0 }}\nguard = \"stop\"\n\n\
+         [base.solver]\nrtol = 1e-9\natol = 1e-11\n\n\
+         [base.metrics]\nfinal_window_s = {:?}\n",
+        (0.5f64).min(horizon_s / 2.0)
+    );
+    text
+}
+
 /// The sweep that cannot finish within the test: 320 × 320 points of 600 s each.
-const SLOW_SWEEP: &str = r#"
-name = "slow_sweep"
-
-[[axes]]
-parameter = "speed_mps"
-min = 28.0
-max = 36.0
-points = 320
-
-[[axes]]
-parameter = "theta0_deg"
-min = 0.5
-max = 15.0
-points = 320
-
-[base]
-horizon_s = 600.0
-action_s = 0.0
-speed = { kind = "constant", speed_mps = 33.0 }
-controller = { kind = "none" }
-initial = { kind = "state", theta0_deg = 2.0 }
-guard = "stop"
-
-[base.solver]
-rtol = 1e-9
-atol = 1e-11
-"#;
+fn slow_sweep() -> String {
+    sweep_toml(
+        "slow_sweep",
+        (28.0, 36.0, 320),
+        Some((0.5, 15.0, 320)),
+        600.0,
+    )
+}
 
 /// A sweep of a few short simulations: the "next run" after a SIGKILL.
-const QUICK_SWEEP: &str = r#"
-name = "quick_sweep"
-
-[[axes]]
-parameter = "speed_mps"
-min = 30.0
-max = 31.0
-points = 2
-
-[base]
-horizon_s = 1.0
-action_s = 0.0
-speed = { kind = "constant", speed_mps = 30.0 }
-controller = { kind = "none" }
-initial = { kind = "state", theta0_deg = 2.0 }
-guard = "stop"
-
-[base.metrics]
-final_window_s = 0.5
-"#;
+fn quick_sweep() -> String {
+    sweep_toml("quick_sweep", (30.0, 31.0, 2), None, 1.0)
+}
 
 /// How long the staging directory may take to appear, and the process to exit after a
 /// signal (generous: a debug build on a loaded machine).
@@ -190,7 +183,7 @@ fn sigterm_stops_the_task_and_leaves_results_as_they_were() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let results = results_with_earlier_runs(tmp.path());
     let before = snapshot(&results);
-    let config = write_config(tmp.path(), "slow.toml", SLOW_SWEEP);
+    let config = write_config(tmp.path(), "slow.toml", &slow_sweep());
 
     let mut child = xtask(&[&config], &results).spawn().expect("spawn xtask");
     let staging = wait_until_computing(&mut child, &results);
@@ -223,8 +216,8 @@ fn staging_left_by_sigkill_is_removed_by_the_next_run() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let results = results_with_earlier_runs(tmp.path());
     let before = snapshot(&results);
-    let slow = write_config(tmp.path(), "slow.toml", SLOW_SWEEP);
-    let quick = write_config(tmp.path(), "quick.toml", QUICK_SWEEP);
+    let slow = write_config(tmp.path(), "slow.toml", &slow_sweep());
+    let quick = write_config(tmp.path(), "quick.toml", &quick_sweep());
 
     let mut child = xtask(&[&slow], &results).spawn().expect("spawn xtask");
     let staging = wait_until_computing(&mut child, &results);

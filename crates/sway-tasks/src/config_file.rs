@@ -8,6 +8,7 @@ use serde::de::DeserializeOwned;
 use crate::limits::{self, MAX_ARRAY_LEN, MAX_STRING_LEN};
 use crate::tasks::{Prepared, Task, TaskContext};
 use sway::SwayError;
+use sway::config::ensure;
 use sway::sim::RunSettings;
 use trailer_model::{Model, ModelError, VehicleParams};
 
@@ -174,6 +175,25 @@ pub trait TaskConfig: DeserializeOwned + Send + 'static {
     /// # Errors
     /// [`SwayError::Config`] naming the key.
     fn check(&self, file: &Path) -> Result<(), SwayError>;
+}
+
+/// Checks a list of delays τ \[s\] under `key`: at least one, each finite and ≥ 0.
+///
+/// # Errors
+/// [`SwayError::Config`] naming `key` or the failing entry `key[i]`.
+pub fn check_delays(file: &Path, key: &str, delays_s: &[f64]) -> Result<(), SwayError> {
+    ensure(!delays_s.is_empty(), file, key, || {
+        "expected at least one delay".into()
+    })?;
+    for (i, t) in delays_s.iter().enumerate() {
+        ensure(
+            t.is_finite() && *t >= 0.0,
+            file,
+            &format!("{key}[{i}]"),
+            || format!("delays must be finite and ≥ 0 s, got {t}"),
+        )?;
+    }
+    Ok(())
 }
 
 /// A prepared task that is a config file and its checked contents (the common shape of the

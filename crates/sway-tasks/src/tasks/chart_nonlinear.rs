@@ -11,7 +11,7 @@
 //! `"codim2_points"` holds `{"kind", "d_s", "v_mps", "omega_rad_s"}`, and
 //! `"bistable_width_mps"` is V_hopf − V_fold at the `bistable_gain_s` of the config.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -26,18 +26,17 @@ use trailer_model::Model;
 
 use super::fig3a_diagram::validate_options;
 use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::load_toml;
+use crate::config_file::{Configured, TaskConfig, check_delays};
 use crate::io::OutputDir;
 use crate::limits::{Plan, bound, human_seconds};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Shape, Stroke};
 
 /// The task.
-pub const TASK: Task = Task {
-    name: "chart_nonlinear",
-    about: "nonlinear stability chart: Hopf and fold-of-cycles curves in (V, D), bistable band, codim-2 points",
-    config: "chart_nonlinear.toml",
-    prepare,
-};
+pub const TASK: Task = Task::configured::<ChartNonlinearConfig>(
+    "chart_nonlinear",
+    "nonlinear stability chart: Hopf and fold-of-cycles curves in (V, D), bistable band, codim-2 points",
+    "chart_nonlinear.toml",
+);
 
 /// The shading grid (cells of the linear stability chart, exact unstable-root counts).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -92,17 +91,7 @@ impl ChartNonlinearConfig {
     /// # Errors
     /// [`SwayError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
-        ensure(!self.delays_s.is_empty(), file, "delays_s", || {
-            "expected at least one delay".into()
-        })?;
-        for (i, t) in self.delays_s.iter().enumerate() {
-            ensure(
-                t.is_finite() && *t >= 0.0,
-                file,
-                &format!("delays_s[{i}]"),
-                || format!("delays must be finite and ≥ 0 s, got {t}"),
-            )?;
-        }
+        check_delays(file, "delays_s", &self.delays_s)?;
         let c = &self.chart;
         ensure(
             c.d_min_s.is_finite() && c.d_max_s.is_finite() && c.d_min_s < c.d_max_s,
@@ -163,18 +152,10 @@ impl ChartNonlinearConfig {
     }
 }
 
-struct ChartTask {
-    file: PathBuf,
-    config: ChartNonlinearConfig,
-}
-
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
-    let config: ChartNonlinearConfig = load_toml(file)?;
-    config.validate(file)?;
-    Ok(Box::new(ChartTask {
-        file: file.to_path_buf(),
-        config,
-    }))
+impl TaskConfig for ChartNonlinearConfig {
+    fn check(&self, file: &Path) -> Result<(), SwayError> {
+        self.validate(file)
+    }
 }
 
 /// The summary row of one gain.
@@ -578,7 +559,7 @@ pub const HOPF_SECONDS_PER_POINT: f64 = 5e-3;
 /// steps per point), rounded up.
 pub const FOLD_SECONDS_PER_POINT_INTERVAL: f64 = 2e-3;
 
-impl Prepared for ChartTask {
+impl Prepared for Configured<ChartNonlinearConfig> {
     fn plan(&self) -> Result<Plan, SwayError> {
         let c = &self.config;
         let file = self.file.as_path();
@@ -684,6 +665,7 @@ impl Prepared for ChartTask {
 mod tests {
     use super::*;
     use crate::config_file::parse_toml;
+    use std::path::PathBuf;
 
     fn shipped() -> (PathBuf, String) {
         let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/chart_nonlinear.toml");

@@ -11,7 +11,7 @@ use sway::config::ensure;
 use trailer_model::CriticalSpeedOptions;
 
 use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::{Configured, TaskConfig};
+use crate::config_file::{Configured, TaskConfig, check_delays};
 use crate::figures::chart_panel;
 use crate::io::{Keyed, OutputDir};
 use crate::limits::{
@@ -166,17 +166,7 @@ impl Fig4aConfig {
         let g = &self.gain;
         let gain_ok = g.min_s.is_finite() && g.max_s.is_finite() && g.min_s < g.max_s;
         check_axis(file, "gain", (g.min_s, g.max_s, g.cells), gain_ok, "finite min_s < max_s")?;
-        ensure(!self.delays_s.is_empty(), file, "delays_s", || {
-            "expected at least one delay".into()
-        })?;
-        for (i, t) in self.delays_s.iter().enumerate() {
-            ensure(
-                t.is_finite() && *t >= 0.0,
-                file,
-                &format!("delays_s[{i}]"),
-                || format!("delays must be finite and ≥ 0 s, got {t}"),
-            )?;
-        }
+        check_delays(file, "delays_s", &self.delays_s)?;
         let m = &self.summary;
         ensure(
             m.speed_for_gain_interval_mps > 0.0 && m.speed_for_gain_interval_mps.is_finite(),

@@ -295,20 +295,23 @@ impl Prepared for Fig4bTask {
             ));
             add_pair(&mut panel, d, cs, Rgb::palette(i), &label(p));
         }
-        panel.layers.push(Layer::Markers {
-            points: vec![(f64::NAN, f64::NAN)],
-            color: Rgb::BLACK,
-            shape: Shape::Circle,
-            size: 4,
-            label: Some("Hopf points (straight running loses stability)".into()),
-        });
-        panel.layers.push(Layer::Markers {
-            points: vec![(f64::NAN, f64::NAN)],
-            color: Rgb::BLACK,
-            shape: Shape::Triangle,
-            size: 6,
-            label: Some("folds of cycles".into()),
-        });
+        // legend entries only (no points): what the coloured markers mean
+        for (shape, size, label) in [
+            (
+                Shape::Circle,
+                4,
+                "Hopf points (straight running loses stability)",
+            ),
+            (Shape::Triangle, 6, "folds of cycles"),
+        ] {
+            panel.layers.push(Layer::Markers {
+                points: vec![(f64::NAN, f64::NAN)],
+                color: Rgb::BLACK,
+                shape,
+                size,
+                label: Some(label.into()),
+            });
+        }
         Figure::single(panel)
             .titled("Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback")
             .render(&out.path("diagrams"))?;

@@ -406,6 +406,42 @@ fn region_rects(lin: &StabilityChart, regions: &[Region], which: Region) -> Vec<
 /// A polyline in the (V, D) plane; NaN points split it.
 type Line = Vec<(f64, f64)>;
 
+/// `line` cut to the gain range [d_min, d_max]: a segment that leaves the range ends at the
+/// boundary (linear interpolation) and the line is broken until it comes back, so that no
+/// piece of a curve outside the chart is drawn along its edge.
+fn clip_to_gains(line: &[(f64, f64)], (d_min, d_max): (f64, f64)) -> Line {
+    let inside = |p: &(f64, f64)| p.1 >= d_min && p.1 <= d_max;
+    let crossing = |a: (f64, f64), b: (f64, f64)| {
+        let d = if (a.1 - d_min) * (b.1 - d_min) < 0.0 { d_min } else { d_max };
+        let t = (d - a.1) / (b.1 - a.1);
+        (a.0 + t * (b.0 - a.0), d)
+    };
+    let mut out = Vec::with_capacity(line.len());
+    let mut prev: Option<(f64, f64)> = None;
+    for &p in line {
+        if p.0.is_nan() || p.1.is_nan() {
+            out.push(p);
+            prev = None;
+            continue;
+        }
+        match (prev, inside(&p)) {
+            (Some(a), true) if !inside(&a) => {
+                out.push((f64::NAN, f64::NAN));
+                out.push(crossing(a, p));
+                out.push(p);
+            }
+            (Some(a), false) if inside(&a) => {
+                out.push(crossing(a, p));
+                out.push((f64::NAN, f64::NAN));
+            }
+            (_, true) => out.push(p),
+            (_, false) => {}
+        }
+        prev = Some(p);
+    }
+    out
+}
+
 fn hopf_lines(r: &DelayResult) -> (Line, Line) {
     let (mut sub, mut sup) = (Vec::new(), Vec::new());
     for h in &r.chart.hopf_curves {
@@ -483,7 +519,9 @@ fn panel(r: &DelayResult, cfg: &ChartNonlinearConfig) -> Panel {
             label: Some(label.into()),
         });
     }
+    let gains = (c.d_min_s, c.d_max_s);
     let (sub, sup) = hopf_lines(r);
+    let (sub, sup) = (clip_to_gains(&sub, gains), clip_to_gains(&sup, gains));
     p = p
         .with(Layer::line(
             static_boundary(&r.linear, (c.d_min_s, c.d_max_s)),
@@ -509,7 +547,7 @@ fn panel(r: &DelayResult, cfg: &ChartNonlinearConfig) -> Panel {
         fold.extend(f.points.iter().map(|q| (q.v_mps, q.d_s)));
     }
     p = p.with(Layer::line(
-        fold,
+        clip_to_gains(&fold, gains),
         Rgb::BLUE,
         Stroke::Solid,
         Some("fold of cycles"),
@@ -682,6 +720,22 @@ mod tests {
         assert_eq!((cfg.chart.d_min_s, cfg.chart.d_max_s), (-0.1, 0.3));
         assert_eq!(cfg.summary_gains_s, vec![0.0, 0.05, 0.1, 0.15, 0.2, 0.25]);
         assert_eq!(cfg.bistable_gain_s, 0.1);
+    }
+
+    #[test]
+    fn lines_are_cut_at_the_gain_range() {
+        // reference: the crossings of the segments with D = 0 and D = 1, by hand
+        let line = [(0.0, -1.0), (2.0, 1.0), (4.0, 3.0), (6.0, 0.5), (8.0, 0.25)];
+        let cut = clip_to_gains(&line, (0.0, 1.0));
+        let nan = |p: &(f64, f64)| p.0.is_nan();
+        assert!(nan(&cut[0]));
+        assert_eq!(cut[1], (1.0, 0.0));
+        assert_eq!(cut[2], (2.0, 1.0));
+        assert_eq!(cut[3], (2.0, 1.0));
+        assert!(nan(&cut[4]) && nan(&cut[5]));
+        // (4, 3) → (6, 0.5) meets D = 1 at t = 0.8: V = 5.6 (round-off only)
+        assert!((cut[6].0 - 5.6).abs() < 1e-12 && cut[6].1 == 1.0, "{:?}", cut[6]);
+        assert_eq!(&cut[7..], &[(6.0, 0.5), (8.0, 0.25)]);
     }
 
     #[test]

@@ -31,6 +31,7 @@ use super::{
     bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
+use rayon::prelude::*;
 
 /// Options of the nonlinear chart of one delay.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -490,19 +491,19 @@ fn sample_criticality(
         .map(|j| inside[j * (inside.len() - 1) / (k - 1)])
         .collect();
     picks.dedup();
-    let mut out = Vec::new();
-    for i in picks {
-        let p = curve.points[i];
-        if let Some(c) = criticality_at(problem, &p, o)? {
-            out.push(CriticalitySample {
+    let samples = picks
+        .par_iter()
+        .map(|&i| {
+            let p = curve.points[i];
+            Ok(criticality_at(problem, &p, o)?.map(|c| CriticalitySample {
                 index: i,
                 d_s: p.d_s,
                 v_mps: p.v_mps,
                 criticality: c,
-            });
-        }
-    }
-    Ok(out)
+            }))
+        })
+        .collect::<Result<Vec<_>, SwayError>>()?;
+    Ok(samples.into_iter().flatten().collect())
 }
 
 /// Lowest speed of the Hopf curves at gain `d`, each crossing corrected at fixed D.
@@ -849,17 +850,27 @@ pub fn nonlinear_chart(
             delay_s: tau,
         },
     );
-    let (mut hopf_curves, notes) = hopf_curves(model, tau, o)?;
-    for c in &mut hopf_curves {
-        c.criticality = sample_criticality(&problem, c, o)?;
-    }
+    // the Hopf curves with their criticality and the fold-of-cycles curve are independent:
+    // computed side by side (each deterministic, so the result does not depend on threads)
+    let (hopf_stage, fold_stage) = rayon::join(
+        || -> Result<_, SwayError> {
+            let (mut curves, notes) = hopf_curves(model, tau, o)?;
+            curves.par_iter_mut().try_for_each(|c| {
+                c.criticality = sample_criticality(&problem, c, o)?;
+                Ok::<_, SwayError>(())
+            })?;
+            Ok((curves, notes))
+        },
+        || fold_curve(model, tau, first_seed, o),
+    );
+    let (hopf_curves, notes) = hopf_stage?;
     let sys = hopf_system(&problem, first_seed, o)?;
     let mut codim2: Vec<Codim2> = hopf_curves
         .iter()
         .flat_map(|c| hopf_codim2(&sys, c))
         .collect();
     let mut fold_curves = Vec::new();
-    if let Some((f, c2)) = fold_curve(model, tau, first_seed, o)? {
+    if let Some((f, c2)) = fold_stage? {
         fold_curves.push(f);
         codim2.extend(c2);
     }

@@ -108,6 +108,28 @@ pub struct ContinuationOptions {
     /// transcritical); off: such points are stepped over unnoticed, as before this test existed
     #[serde(default = "branch_points_default")]
     pub branch_points: bool,
+    /// how the corrector updates its Jacobian (default: a new factorisation every iteration)
+    #[serde(default)]
+    pub newton: NewtonUpdate,
+}
+
+/// How the Newton corrector treats the Jacobian between iterations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NewtonUpdate {
+    /// assemble and factorise the bordered Jacobian at every iterate (quadratic
+    /// convergence)
+    #[default]
+    Full,
+    /// after `full` iterations with new factorisations, keep the last one (chord method:
+    /// linear convergence with a rate of the order of the last update, so one or two cheap
+    /// iterations finish what Newton started); worth it when the factorisation dominates,
+    /// as for large delay-coupled collocation systems. The tangent then comes from that
+    /// factorisation, accurate to the size of the update it was made at.
+    Chord {
+        /// iterations with a new factorisation before it is kept (at least 1)
+        full: usize,
+    },
 }
 
 fn branch_points_default() -> bool {
@@ -131,6 +153,7 @@ impl Default for ContinuationOptions {
             location_tolerance: 1e-10,
             max_location_iterations: 60,
             branch_points: true,
+            newton: NewtonUpdate::Full,
         }
     }
 }
@@ -288,17 +311,49 @@ fn bordered_step<S: ContinuationSystem>(
     what: &str,
 ) -> Result<BorderedStep> {
     let nu = sys.n_unknowns();
+    let (r, residual_norm) = bordered_residual(sys, u, constraint)?;
+    bordered_jacobian(sys, u, border, entries)?;
+    let lu = SparseLu::with_order(nu, entries, sys.column_order().as_deref(), what)?;
+    let mut update: Vec<f64> = r.iter().map(|v| -v).collect();
+    lu.solve(&mut update, what)?;
+    Ok(BorderedStep {
+        lu,
+        update,
+        residual_norm,
+    })
+}
+
+/// The residual of the bordered system at `u` (with `constraint` as its last entry) and
+/// its max-norm.
+fn bordered_residual<S: ContinuationSystem>(
+    sys: &mut S,
+    u: &[f64],
+    constraint: f64,
+) -> Result<(Vec<f64>, f64)> {
+    let nu = sys.n_unknowns();
     let mut r = vec![0.0; nu];
     sys.residual(u, &mut r[..nu - 1])?;
     r[nu - 1] = constraint;
     let residual_norm = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !residual_norm.is_finite() {
-        return Err(Error::NonFinite {
+    if residual_norm.is_finite() {
+        Ok((r, residual_norm))
+    } else {
+        Err(Error::NonFinite {
             parameter: u[sys.parameter_index()],
-        });
+        })
     }
-    bordered_jacobian(sys, u, border, entries)?;
-    let lu = SparseLu::with_order(nu, entries, sys.column_order().as_deref(), what)?;
+}
+
+/// A chord step ([`NewtonUpdate::Chord`]): the residual at `u` solved with a kept
+/// factorisation of the bordered Jacobian at an earlier iterate.
+fn chord_step<S: ContinuationSystem>(
+    sys: &mut S,
+    u: &[f64],
+    constraint: f64,
+    lu: SparseLu,
+    what: &str,
+) -> Result<BorderedStep> {
+    let (r, residual_norm) = bordered_residual(sys, u, constraint)?;
     let mut update: Vec<f64> = r.iter().map(|v| -v).collect();
     lu.solve(&mut update, what)?;
     Ok(BorderedStep {
@@ -414,15 +469,26 @@ impl Continuation {
         let mut entries = Vec::new();
         let mut last_update = f64::INFINITY;
         let mut res_norm = f64::INFINITY;
+        let refactorise = |it: usize| match self.options.newton {
+            NewtonUpdate::Full => true,
+            NewtonUpdate::Chord { full } => it <= full.max(1),
+        };
+        let mut kept: Option<SparseLu> = None;
         for it in 1..=self.options.max_newton_iterations {
             let constraint = (0..u.len()).map(|i| b[i] * (u[i] - pred[i])).sum();
-            let step = bordered_step(sys, &u, &b, constraint, &mut entries, "Newton corrector")?;
+            let step = match kept.take() {
+                Some(lu) if !refactorise(it) => {
+                    chord_step(sys, &u, constraint, lu, "Newton corrector (chord)")?
+                }
+                _ => bordered_step(sys, &u, &b, constraint, &mut entries, "Newton corrector")?,
+            };
             res_norm = step.residual_norm;
             let upd = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
             if upd <= self.options.newton_tolerance * (1.0 + u[ip].abs()) {
                 return Self::corrected(step.lu, u, w, it);
             }
+            kept = Some(step.lu);
             if it > 2 && upd > 2.0 * last_update {
                 break;
             }

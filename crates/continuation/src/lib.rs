@@ -101,7 +101,8 @@ pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
-    Decision, NoObserver, Observer, SpecialPoints, Stop, newton_step, points_at_parameter,
+    Decision, NewtonUpdate, NoObserver, Observer, SpecialPoints, Stop, newton_step,
+    points_at_parameter,
 };
 pub use equilibrium::{EquilibriumSystem, HopfPoint};
 pub use error::{Error, Result};

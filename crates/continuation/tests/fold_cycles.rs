@@ -194,45 +194,54 @@ fn delayed_bautin_fold_curve_in_mu1_and_the_delay_matches_rotating_waves() {
         fold.parameter
     );
 
-    let opts = without_multipliers();
-    let (mut sys, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &fold, 2, opts).unwrap();
-    let c = cont(0.05, 0.1);
-    let mut curve = c.start(&mut sys, &guess, &dir).unwrap();
-    sys.extend_curve(&c, &mut curve, 15).unwrap();
-    let taus: Vec<f64> = curve
-        .points
-        .iter()
-        .map(|p| p.secondary_parameter.unwrap())
-        .collect();
-    assert!(
-        taus.last().unwrap() - taus[0] > 0.25,
-        "τ moved from {} to {}",
-        taus[0],
-        taus.last().unwrap()
-    );
-    for pt in &curve.points {
-        let tau = pt.secondary_parameter.unwrap();
-        let (mu1_star, r_star, w_star) = rotating_wave_fold(mu2, tau);
+    for newton in [NewtonUpdate::Full, NewtonUpdate::Chord { full: 2 }] {
+        let opts = without_multipliers();
+        let (mut sys, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &fold, 2, opts).unwrap();
+        // the chord corrector (NewtonUpdate::Chord) converges to the same points: the same
+        // analytic tolerances hold for both
+        let c = Continuation::new(ContinuationOptions {
+            initial_step: 0.05,
+            max_step: 0.1,
+            newton,
+            ..Default::default()
+        });
+        let mut curve = c.start(&mut sys, &guess, &dir).unwrap();
+        sys.extend_curve(&c, &mut curve, 15).unwrap();
+        let taus: Vec<f64> = curve
+            .points
+            .iter()
+            .map(|p| p.secondary_parameter.unwrap())
+            .collect();
         assert!(
-            (pt.parameter - mu1_star).abs() < 1e-8,
-            "μ1 {} vs {mu1_star} at τ = {tau}",
-            pt.parameter
+            taus.last().unwrap() - taus[0] > 0.25,
+            "τ moved from {} to {}",
+            taus[0],
+            taus.last().unwrap()
         );
-        let cyc = sys.periodic_system(&pt.u).unwrap();
-        assert_relative_eq!(
-            cyc.max_abs(sys.orbit(&pt.u), 0),
-            r_star.sqrt(),
-            max_relative = 1e-7
+        for pt in &curve.points {
+            let tau = pt.secondary_parameter.unwrap();
+            let (mu1_star, r_star, w_star) = rotating_wave_fold(mu2, tau);
+            assert!(
+                (pt.parameter - mu1_star).abs() < 1e-8,
+                "μ1 {} vs {mu1_star} at τ = {tau}",
+                pt.parameter
+            );
+            let cyc = sys.periodic_system(&pt.u).unwrap();
+            assert_relative_eq!(
+                cyc.max_abs(sys.orbit(&pt.u), 0),
+                r_star.sqrt(),
+                max_relative = 1e-7
+            );
+            assert_relative_eq!(sys.period(&pt.u), 2.0 * PI / w_star, max_relative = 1e-7);
+        }
+        // the Floquet multipliers of the fold's cycle: trivial and fold multiplier both 1
+        let last = curve.points.last().unwrap().u.clone();
+        let mu = sys.multipliers(&last).unwrap();
+        assert!(
+            (mu[0] - 1.0).norm() < 1e-5 && (mu[1] - 1.0).norm() < 1e-5,
+            "{mu:?}"
         );
-        assert_relative_eq!(sys.period(&pt.u), 2.0 * PI / w_star, max_relative = 1e-7);
     }
-    // the Floquet multipliers of the fold's cycle: trivial and fold multiplier both 1
-    let last = curve.points.last().unwrap().u.clone();
-    let mu = sys.multipliers(&last).unwrap();
-    assert!(
-        (mu[0] - 1.0).norm() < 1e-5 && (mu[1] - 1.0).norm() < 1e-5,
-        "{mu:?}"
-    );
 }
 
 #[test]

@@ -21,7 +21,7 @@
 use continuation::{
     Branch, BranchPoint, ChebyshevRoots, Continuation, ContinuationOptions, ContinuationSystem,
     Criticality, FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfCurveSystem, HopfPoint,
-    Refinement, SpecialKind, Stop,
+    NewtonUpdate, Refinement, SpecialKind, Stop,
 };
 use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Model};
@@ -67,6 +67,10 @@ pub struct ChartOptions {
     pub curve_min_tangent_cosine: f64,
     /// the step along a curve grows when Newton needs fewer iterations than this
     pub curve_target_newton_iterations: usize,
+    /// how the corrector along a curve updates its Jacobian (the chord method after two
+    /// full iterations: the factorisations of the delay-coupled fold-of-cycles system
+    /// dominate the chart's cost)
+    pub curve_newton: NewtonUpdate,
     /// criticality sampled at this many points per Hopf curve (at least 2)
     pub criticality_samples: usize,
     /// cycle points used to judge the criticality at a sample
@@ -95,6 +99,7 @@ impl Default for ChartOptions {
             fold_max_points: 300,
             curve_min_tangent_cosine: 0.8,
             curve_target_newton_iterations: 4,
+            curve_newton: NewtonUpdate::Chord { full: 2 },
             criticality_samples: 5,
             criticality_cycle_points: 3,
             fold_min_amplitude: 1e-3,
@@ -318,6 +323,7 @@ impl ChartOptions {
             parameter_range: range,
             min_tangent_cosine: self.curve_min_tangent_cosine,
             target_newton_iterations: self.curve_target_newton_iterations,
+            newton: self.curve_newton,
             ..Default::default()
         })
     }

@@ -311,9 +311,14 @@ fn bordered_step<S: ContinuationSystem>(
     what: &str,
 ) -> Result<BorderedStep> {
     let nu = sys.n_unknowns();
-    let (r, residual_norm) = bordered_residual(sys, u, constraint)?;
+    let residual = bordered_residual(sys, u, constraint)?;
     bordered_jacobian(sys, u, border, entries)?;
     let lu = SparseLu::with_order(nu, entries, sys.column_order().as_deref(), what)?;
+    solved(lu, residual, what)
+}
+
+/// The Newton update −J⁻¹ r from the factorisation `lu` and the residual `(r, ‖r‖∞)`.
+fn solved(lu: SparseLu, (r, residual_norm): (Vec<f64>, f64), what: &str) -> Result<BorderedStep> {
     let mut update: Vec<f64> = r.iter().map(|v| -v).collect();
     lu.solve(&mut update, what)?;
     Ok(BorderedStep {
@@ -353,14 +358,8 @@ fn chord_step<S: ContinuationSystem>(
     lu: SparseLu,
     what: &str,
 ) -> Result<BorderedStep> {
-    let (r, residual_norm) = bordered_residual(sys, u, constraint)?;
-    let mut update: Vec<f64> = r.iter().map(|v| -v).collect();
-    lu.solve(&mut update, what)?;
-    Ok(BorderedStep {
-        lu,
-        update,
-        residual_norm,
-    })
+    let residual = bordered_residual(sys, u, constraint)?;
+    solved(lu, residual, what)
 }
 
 /// triplets of the bordered Jacobian [G_u(u); bᵀ] into `entries` (cleared first)

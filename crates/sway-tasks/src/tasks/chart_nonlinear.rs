@@ -589,12 +589,15 @@ pub const MAX_CURVE_POINTS: usize = 20_000;
 pub const MAX_DELAYS: usize = 64;
 
 /// chart_nonlinear: cost of one Hopf-curve point \[s\] (release, 2 cores): the
-/// `chart_nonlinear` bench's Hopf curve, rounded up.
+/// `hopf_curve_4d_dde_100_points` bench (245 ms per 100 points at Chebyshev degree 20),
+/// doubled for the model's degree 24.
 pub const HOPF_SECONDS_PER_POINT: f64 = 5e-3;
 
 /// chart_nonlinear: cost of one fold-of-cycles point per mesh interval \[s\] (release):
-/// the `fold_cycles` bench (one Newton step grows about linearly in L; three to four
-/// steps per point), rounded up.
+/// about 3 Newton steps of the `fold_cycles` bench (22.8 ms at L = 40). The delay widens
+/// the factorisation's band, so a point at τ = 0.4 s costs up to 10× this; the plan
+/// multiplies by the *largest* number of points (the curves stop far earlier), and the
+/// resulting bound (≈ 2 min for the default config) is above the measured 46 s.
 pub const FOLD_SECONDS_PER_POINT_INTERVAL: f64 = 2e-3;
 
 impl Prepared for Configured<ChartNonlinearConfig> {

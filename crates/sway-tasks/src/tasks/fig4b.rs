@@ -71,13 +71,7 @@ fn default_pairs() -> Vec<Pair> {
 }
 
 fn default_options() -> DiagramOptions {
-    DiagramOptions {
-        v_min_mps: 25.0,
-        v_max_mps: 60.0,
-        intervals: 40,
-        max_step: 0.5,
-        ..DiagramOptions::default()
-    }
+    DiagramOptions::closed_loop()
 }
 
 /// `configs/fig4b.toml`.

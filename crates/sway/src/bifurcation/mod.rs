@@ -56,6 +56,20 @@ pub struct DiagramOptions {
     pub root_degree: usize,
 }
 
+impl DiagramOptions {
+    /// The closed-loop diagrams' settings (`fig4b`, the nonlinear chart's tests):
+    /// 25–60 m/s, mesh L = 40, largest step 0.5, the rest as [`DiagramOptions::default`].
+    pub fn closed_loop() -> Self {
+        Self {
+            v_min_mps: 25.0,
+            v_max_mps: 60.0,
+            intervals: 40,
+            max_step: 0.5,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for DiagramOptions {
     fn default() -> Self {
         Self {

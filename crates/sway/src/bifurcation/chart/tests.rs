@@ -14,13 +14,7 @@ fn model() -> &'static Model {
 /// is between independent runs of the same discretisation (they differ only through the
 /// phase of the computed cycle relative to the mesh: ~2e-6 relative at L = 20)
 fn fig4b_options() -> DiagramOptions {
-    DiagramOptions {
-        v_min_mps: 25.0,
-        v_max_mps: 60.0,
-        intervals: 40,
-        max_step: 0.5,
-        ..DiagramOptions::default()
-    }
+    DiagramOptions::closed_loop()
 }
 
 /// a chart restricted to D ∈ [−0.02, 0.12], started at D = 0 (not at the compared gain)

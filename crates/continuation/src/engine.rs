@@ -10,7 +10,7 @@
 //! bordered determinant, whose change with a non-turning tangent marks a branch point.
 
 use crate::error::{Error, Result};
-use crate::linalg::{Determinant, Entry, SparseLu};
+use crate::linalg::{Determinant, Entry, Factorisation, SparseLu};
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
 use serde::{Deserialize, Serialize};
 
@@ -40,10 +40,11 @@ pub trait ContinuationSystem {
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()>;
     /// weights of the arclength metric ‖u‖² = Σ w_i u_i² (length N + 1)
     fn weights(&self) -> Vec<f64>;
-    /// A fill-reducing column elimination order for the sparse LU of the bordered Jacobian
-    /// [G_u; bᵀ] (forward array of length N + 1: the k-th eliminated column is `order[k]`),
-    /// from the system's known structure; None: a generic ordering (COLAMD) is computed on
-    /// every factorisation.
+    /// A fill-reducing column elimination order for the simplicial sparse LU of the
+    /// bordered Jacobian [G_u; bᵀ] (forward array of length N + 1: the k-th eliminated
+    /// column is `order[k]`), from the system's known structure; None: COLAMD. Used where
+    /// the engine needs the determinant (branch-point test); elsewhere the engine orders by
+    /// COLAMD and lets faer choose simplicial or supernodal factors.
     fn column_order(&self) -> Option<Vec<usize>> {
         None
     }
@@ -283,8 +284,9 @@ struct Corrected {
     u: Vec<f64>,
     tangent: Vec<f64>,
     iterations: usize,
-    /// determinant of the bordered Jacobian of the last Newton iteration
-    determinant: Determinant,
+    /// determinant of the bordered Jacobian of the last Newton iteration (None when the
+    /// engine does not watch this system for branch points)
+    determinant: Option<Determinant>,
 }
 
 /// One assembled, factorised and solved bordered Newton system at `u`:
@@ -299,6 +301,14 @@ struct BorderedStep {
     residual_norm: f64,
 }
 
+/// Whether a factorisation must provide the determinant (the branch-point test watches its
+/// sign); without, the faster factors of [`Factorisation::Fast`] are used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum NeedsDeterminant {
+    Yes,
+    No,
+}
+
 /// The one bordered solve shared by [`newton_step`] and the corrector: residual and sparse
 /// Jacobian of the system, the border row `border` (entries b_i = w_i t_i), sparse LU and
 /// solve. `entries` is a reusable buffer.
@@ -308,12 +318,18 @@ fn bordered_step<S: ContinuationSystem>(
     border: &[f64],
     constraint: f64,
     entries: &mut Vec<Entry>,
+    determinant: NeedsDeterminant,
     what: &str,
 ) -> Result<BorderedStep> {
     let nu = sys.n_unknowns();
     let residual = bordered_residual(sys, u, constraint)?;
     bordered_jacobian(sys, u, border, entries)?;
-    let lu = SparseLu::with_order(nu, entries, sys.column_order().as_deref(), what)?;
+    let order = sys.column_order();
+    let factorisation = match determinant {
+        NeedsDeterminant::Yes => Factorisation::WithDeterminant(order.as_deref()),
+        NeedsDeterminant::No => Factorisation::Fast(order.as_deref()),
+    };
+    let lu = SparseLu::new(nu, entries, factorisation, what)?;
     solved(lu, residual, what)
 }
 
@@ -431,9 +447,9 @@ impl TestFunction {
     fn value<S: ContinuationSystem>(self, sys: &mut S, c: &Corrected) -> Result<Option<f64>> {
         Ok(match self {
             TestFunction::Fold => Some(c.tangent[sys.parameter_index()]),
-            TestFunction::BranchPoint { log_scale, .. } => {
-                Some(c.determinant.sign * (c.determinant.log_abs - log_scale).exp())
-            }
+            TestFunction::BranchPoint { log_scale, .. } => c
+                .determinant
+                .map(|d| d.sign * (d.log_abs - log_scale).exp()),
             TestFunction::System(k) => sys.test_function(k, &c.u)?,
         })
     }
@@ -451,6 +467,15 @@ impl Continuation {
     /// Method with the given options.
     pub fn new(options: ContinuationOptions) -> Self {
         Self { options }
+    }
+
+    /// whether the branch-point test watches `sys` (then factorisations keep the determinant)
+    fn needs_determinant<S: ContinuationSystem>(&self, sys: &S) -> NeedsDeterminant {
+        if self.options.branch_points && sys.detects_branch_points() {
+            NeedsDeterminant::Yes
+        } else {
+            NeedsDeterminant::No
+        }
     }
 
     /// Newton corrector for G(u) = 0, Σ w_i t_i (u_i − pred_i) = 0.
@@ -479,7 +504,15 @@ impl Continuation {
                 Some(lu) if !refactorise(it) => {
                     chord_step(sys, &u, constraint, lu, "Newton corrector (chord)")?
                 }
-                _ => bordered_step(sys, &u, &b, constraint, &mut entries, "Newton corrector")?,
+                _ => bordered_step(
+                    sys,
+                    &u,
+                    &b,
+                    constraint,
+                    &mut entries,
+                    self.needs_determinant(sys),
+                    "Newton corrector",
+                )?,
             };
             res_norm = step.residual_norm;
             let upd = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -526,10 +559,13 @@ impl Continuation {
         let mut entries = Vec::new();
         bordered_jacobian(sys, u, &border(w, t), &mut entries)?;
         let order = sys.column_order();
-        Ok(
-            SparseLu::with_order(u.len(), &entries, order.as_deref(), "branch-point test")?
-                .determinant(),
-        )
+        let f = Factorisation::WithDeterminant(order.as_deref());
+        SparseLu::new(u.len(), &entries, f, "branch-point test")?
+            .determinant()
+            .ok_or(Error::SingularSystem {
+                size: u.len(),
+                what: "branch-point test: no determinant".into(),
+            })
     }
 
     fn make_point<S: ContinuationSystem>(&self, sys: &mut S, c: Corrected) -> Result<BranchPoint> {
@@ -636,7 +672,7 @@ impl Continuation {
             let mut b = self.make_point(sys, c)?;
             branch.state.accepted_steps += 1;
             let located = self.special_between(sys, &a, &mut b, ds, sign_a, det_b, &w)?;
-            sign_a = det_b.sign;
+            sign_a = det_b.map_or(0.0, |d| d.sign);
             if let Some(p) = located {
                 branch.points.push(p);
                 added += 1;
@@ -716,7 +752,7 @@ impl Continuation {
         b: &mut BranchPoint,
         ds: f64,
         sign_a: f64,
-        det_b: Determinant,
+        det_b: Option<Determinant>,
         w: &[f64],
     ) -> Result<Option<BranchPoint>> {
         if self.options.special_points == SpecialPoints::Ignore {
@@ -738,7 +774,7 @@ impl Continuation {
         let gb = match test {
             TestFunction::Fold => b.tangent[sys.parameter_index()],
             TestFunction::BranchPoint { log_scale, .. } => {
-                det_b.sign * (det_b.log_abs - log_scale).exp()
+                det_b.map_or(0.0, |d| d.sign * (d.log_abs - log_scale).exp())
             }
             TestFunction::System(k) => sys.test_function(k, &b.u)?.unwrap_or(ga),
         };
@@ -776,18 +812,19 @@ impl Continuation {
         a: &BranchPoint,
         b: &BranchPoint,
         sign_a: f64,
-        det_b: Determinant,
+        det_b: Option<Determinant>,
         w: &[f64],
     ) -> Result<Option<TestFunction>> {
+        let sign_b = det_b.map_or(0.0, |d| d.sign);
         let ip = sys.parameter_index();
         if a.tangent[ip] * b.tangent[ip] < 0.0 {
             return Ok(Some(TestFunction::Fold));
         }
         if self.options.branch_points
             && sys.detects_branch_points()
-            && sign_a * det_b.sign < 0.0
+            && sign_a * sign_b < 0.0
             && let Ok(det_a) = Self::bordered_determinant(sys, &a.u, &a.tangent, w)
-            && det_a.sign * det_b.sign < 0.0
+            && det_a.sign * sign_b < 0.0
         {
             return Ok(Some(TestFunction::BranchPoint {
                 log_scale: det_a.log_abs,
@@ -917,10 +954,12 @@ impl Continuation {
         let b = border(&w, &point.tangent);
         let mut entries = Vec::new();
         // exactly at the branch point the LU may break down: step a hair along the branch
-        let step = match bordered_step(sys, &point.u, &b, 0.0, &mut entries, "branch direction") {
+        let what = "branch direction";
+        let no = NeedsDeterminant::No;
+        let step = match bordered_step(sys, &point.u, &b, 0.0, &mut entries, no, what) {
             Err(Error::SingularSystem { .. }) => {
                 let u = along(&point.u, &point.tangent, 1e-9);
-                bordered_step(sys, &u, &b, 0.0, &mut entries, "branch direction")?
+                bordered_step(sys, &u, &b, 0.0, &mut entries, no, what)?
             }
             r => r?,
         };
@@ -980,6 +1019,7 @@ pub fn newton_step<S: ContinuationSystem>(
         &border(&w, tangent),
         0.0,
         &mut entries,
+        NeedsDeterminant::No,
         "Newton step",
     )?;
     Ok(step.update)

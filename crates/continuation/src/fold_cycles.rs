@@ -192,7 +192,7 @@ enum Out<'b> {
 /// let (mut fold, guess, dir) = FoldOfCyclesSystem::from_fold(&po, &cycles.points[i], 1, options)?;
 /// let back: Vec<f64> = dir.iter().map(|d| -d).collect();
 /// let mut curve = cont.start(&mut fold, &guess, &back)?;
-/// let stop = fold.extend_curve(&cont, &mut curve, 200)?;
+/// let stop = fold.extend_curve(&cont, &mut curve, 300)?;
 /// for pt in &curve.points {
 ///     let (mu1, mu2) = (pt.parameter, pt.secondary_parameter.unwrap());
 ///     assert!((mu1 + mu2 * mu2 / 4.0).abs() < 1e-6);
@@ -352,6 +352,20 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         let np = self.np();
         self.po.params[self.ip2] = u[np + 2];
         self.po.set_params(&u[..np + 2]);
+    }
+
+    /// The point u with the cycle and the null vector shifted in phase so that profile
+    /// component `component` of the cycle is largest at s = 0 (see
+    /// [`PeriodicOrbitSystem::canonical_phase`]). Correcting again from it, after
+    /// [`ContinuationSystem::accept`], makes folds located from guesses of different phase
+    /// solutions of the same discretised system.
+    pub fn canonical(&self, u: &[f64], component: usize) -> Vec<f64> {
+        let np = self.np();
+        let shift = self.po.canonical_phase(self.orbit(u), component);
+        let mut out = self.po.shifted(self.orbit(u), shift);
+        out.push(u[np + 2]);
+        out.extend(self.po.shifted(self.null_vector(u), shift));
+        out
     }
 
     /// the periodic-orbit unknowns [x, T, p1] of the fold's cycle
@@ -785,6 +799,10 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
     /// ([x_0, v_0, x_1, v_1, …]) and the border (T, v_T, p1, p2) last: the doubled Jacobian
     /// [[A, 0], [B(v), A]] is then banded like A, and the LU fills only that band (half the
     /// Newton-step cost of COLAMD at L = 20, a third at L = 80, see benches/fold_cycles.rs)
+    /// x and v interleaved node by node (each node's state of the cycle, then of the null
+    /// vector), the borders (T, v_T, p1, p2) last: the fill of simplicial factors stays in
+    /// the band of the delay couplings (large systems are factorised with supernodes in
+    /// COLAMD order instead, see the engine)
     fn column_order(&self) -> Option<Vec<usize>> {
         let np = self.np();
         let n = self.po.dim();

@@ -17,7 +17,7 @@ use crate::collocation::{Basis, MAX_DEGREE, lagrange};
 use crate::engine::ContinuationSystem;
 use crate::equilibrium::HopfPoint;
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, SparseLu, eigenvalues};
+use crate::linalg::{Entry, Factorisation, SparseLu, eigenvalues};
 use crate::problem::Problem;
 use crate::stability::{SpecialKind, Stability};
 use faer::Mat;
@@ -269,12 +269,19 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
 
     /// maximum over one period of |x_component(s)| (dense sampling plus golden-section refinement)
     pub fn max_abs(&self, u: &[f64], component: usize) -> f64 {
+        self.maximum(u, |x| x[component].abs()).1
+    }
+
+    /// (s*, g(x(s*))): the maximum over one period of a function `g` of the profile x(s),
+    /// sampled at 4 points per node, then refined by golden-section search to ~1e-12 of the
+    /// period around the best sample
+    fn maximum(&self, u: &[f64], g: impl Fn(&[f64]) -> f64) -> (f64, f64) {
         let n = self.dim();
         let mut x = vec![0.0; n];
         let mut dx = vec![0.0; n];
         let mut f = |s: f64| {
             self.eval(u, s, &mut x, &mut dx);
-            x[component].abs()
+            g(&x)
         };
         let samples = 4 * self.n_nodes();
         let (mut best_s, mut best) = (0.0, f(0.0));
@@ -288,17 +295,49 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         }
         let ds = 1.0 / samples as f64;
         let (mut a, mut b) = (best_s - ds, best_s + ds);
-        let g = 0.5 * (5f64.sqrt() - 1.0);
+        let ratio = 0.5 * (5f64.sqrt() - 1.0);
         for _ in 0..60 {
-            let c = b - g * (b - a);
-            let d = a + g * (b - a);
+            let c = b - ratio * (b - a);
+            let d = a + ratio * (b - a);
             if f(c) > f(d) {
                 b = d;
             } else {
                 a = c;
             }
         }
-        best.max(f(0.5 * (a + b)))
+        let s = 0.5 * (a + b);
+        let v = f(s);
+        if v >= best { (s, v) } else { (best_s, best) }
+    }
+
+    /// The phase s* ∈ [0, 1) at which profile component `component` is largest: a canonical
+    /// phase of the cycle (see [`PeriodicOrbitSystem::shifted`]).
+    pub fn canonical_phase(&self, u: &[f64], component: usize) -> f64 {
+        self.maximum(u, |x| x[component]).0.rem_euclid(1.0)
+    }
+
+    /// The profile part (first n·L·m entries) of `u` shifted in phase by `shift`: the
+    /// returned nodes hold x(s + shift). Entries after the profile (period, parameters) are
+    /// copied. Shifting by [`PeriodicOrbitSystem::canonical_phase`] puts the maximum of that
+    /// component at s = 0, so corrections of the same cycle started from guesses of
+    /// different phase, with the shifted solution as the phase reference, solve the same
+    /// discretised problem (the discrete cycle depends on its phase relative to the mesh at
+    /// the level of the discretisation error).
+    pub fn shifted(&self, u: &[f64], shift: f64) -> Vec<f64> {
+        let n = self.dim();
+        let np = self.period_index();
+        let mut x = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        let mut out: Vec<f64> = self
+            .node_times()
+            .into_iter()
+            .flat_map(|s| {
+                self.eval(u, s + shift, &mut x, &mut dx);
+                x.clone()
+            })
+            .collect();
+        out.extend_from_slice(&u[np..]);
+        out
     }
 
     /// Set the phase-condition reference to the profile of `u`.
@@ -562,7 +601,12 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                 parameter: u[u.len() - 1],
             });
         }
-        let lu = SparseLu::new(n * np, &ap, "monodromy (collocation)")?;
+        let lu = SparseLu::new(
+            n * np,
+            &ap,
+            Factorisation::Fast(None),
+            "monodromy (collocation)",
+        )?;
         lu.solve_mat(&mut ah, "monodromy (collocation)")?;
         let dim = n * nh;
         let mut mono = Mat::<f64>::zeros(dim, dim);

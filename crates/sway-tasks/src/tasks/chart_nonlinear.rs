@@ -215,23 +215,25 @@ pub fn compute_delay(
     cfg: &ChartNonlinearConfig,
     tau: f64,
 ) -> Result<DelayResult, SwayError> {
-    let chart = nonlinear_chart(model, tau, &cfg.chart)?;
-    let (sa, ga) = grid_axes(cfg);
-    let linear = fig4a_charts(model, &[tau], sa, ga, &stability::ChartOptions::default())?
-        .into_iter()
-        .next()
-        .ok_or_else(|| {
-            SwayError::numerical(
-                format!("linear chart τ = {tau} s"),
-                continuation::Error::InvalidInput("no chart returned".into()),
-            )
-        })?;
-    let curves = cfg
+    // the curves and the linear chart side by side, then the speeds at every summary gain
+    // and at the bistable gain (the last entry) in parallel; each piece is deterministic
+    let (chart, linear) = rayon::join(
+        || nonlinear_chart(model, tau, &cfg.chart),
+        || linear_chart(model, cfg, tau),
+    );
+    let (chart, linear) = (chart?, linear?);
+    let mut curves = cfg
         .summary_gains_s
-        .iter()
+        .par_iter()
+        .chain([cfg.bistable_gain_s].par_iter())
         .map(|&d| speeds_at(model, &chart, d))
         .collect::<Result<Vec<_>, _>>()?;
-    let at = speeds_at(model, &chart, cfg.bistable_gain_s)?;
+    let at = curves.pop().ok_or_else(|| {
+        SwayError::numerical(
+            format!("speeds at D = {} s, τ = {tau} s", cfg.bistable_gain_s),
+            continuation::Error::InvalidInput("no speeds returned".into()),
+        )
+    })?;
     let bistable_width_mps = match (at.v_hopf_mps, at.v_fold_mps) {
         (Some(h), Some(f)) => Some(h - f),
         _ => None,
@@ -242,6 +244,24 @@ pub fn compute_delay(
         curves,
         bistable_width_mps,
     })
+}
+
+/// fig4a's linear chart of delay τ on the shading grid (exact counts of unstable roots).
+fn linear_chart(
+    model: &Model,
+    cfg: &ChartNonlinearConfig,
+    tau: f64,
+) -> Result<stability::StabilityChart, SwayError> {
+    let (sa, ga) = grid_axes(cfg);
+    fig4a_charts(model, &[tau], sa, ga, &stability::ChartOptions::default())?
+        .into_iter()
+        .next()
+        .ok_or_else(|| {
+            SwayError::numerical(
+                format!("linear chart τ = {tau} s"),
+                continuation::Error::InvalidInput("no chart returned".into()),
+            )
+        })
 }
 
 /// All delays of the config, in its order (parallel over delays; each is deterministic).

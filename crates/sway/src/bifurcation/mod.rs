@@ -54,6 +54,21 @@ pub struct DiagramOptions {
     pub max_cycle_points: usize,
     /// degree of the Chebyshev collocation for characteristic roots (delayed case)
     pub root_degree: usize,
+    /// whether the cycle branch watches for branch points of cycles (symmetry breaking,
+    /// transcritical): "watch" (default) or "ignore" (cheaper: the engine then factorises
+    /// with supernodes, which give no determinant)
+    pub cycle_branch_points: BranchPointTest,
+}
+
+/// Whether a branch watches the sign of the bordered determinant for branch points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BranchPointTest {
+    /// detect and locate branch points
+    #[default]
+    Watch,
+    /// step over them unnoticed
+    Ignore,
 }
 
 impl DiagramOptions {
@@ -82,6 +97,7 @@ impl Default for DiagramOptions {
             max_step: 0.25,
             max_cycle_points: 600,
             root_degree: 24,
+            cycle_branch_points: BranchPointTest::Watch,
         }
     }
 }
@@ -306,6 +322,7 @@ pub fn cycles_from_hopf_until<'a>(
         initial_step: o.initial_step,
         max_step: o.max_step,
         parameter_range: (o.v_min_mps, o.v_max_mps),
+        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
         ..Default::default()
     });
     let mut p = params.to_vec();

@@ -35,7 +35,8 @@ use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
 use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
+use crate::bifurcation::chart::{ChartOptions, NonlinearChart, critical_speeds, nonlinear_chart};
+use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
 use crate::charts::critical_speed_at_gain;
 
 /// Settings of the search for the best gain at one delay.
@@ -431,7 +432,8 @@ fn fold_points_in_range(chart: &NonlinearChart, o: &GainSearch) -> Vec<(f64, f64
 
 /// The nonlinear optimum at delay τ \[s\] (see the module documentation): the fold-of-cycles
 /// curve of `chart` (with [`fold_chart_options`]), V_safe at its points, Brent between the
-/// neighbours of the best point on fold speeds corrected at fixed D. A delay whose curve
+/// neighbours of the best point (or the end of the gain range beyond the first or last
+/// point, where V_safe = V_crit if no fold crosses) on fold speeds corrected at fixed D. A delay whose curve
 /// cannot be computed is not an error: the result then has no optimum and a note.
 ///
 /// # Errors
@@ -478,9 +480,28 @@ pub fn fold_optimum(
         .collect::<Result<Vec<_>, SwayError>>()?;
     let g = |d: f64| safe_speed(model, &ch, d, o).map(|s| s.0);
     let k = first_argmax(&ys);
-    let (a, b) = (xs[k.saturating_sub(1)], xs[(k + 1).min(xs.len() - 1)]);
-    let known = (xs[k], g(xs[k])?);
-    let (d, _, n) = maximise(g, (a, b), known, o.gain_tolerance_s, o.max_iterations)?;
+    // the bracket: the neighbours of the best point, or the range end beyond the first or
+    // last point (the curve's points may stop short of it)
+    let a = if k == 0 { o.d_min_s } else { xs[k - 1] };
+    let b = if k + 1 == xs.len() {
+        o.d_max_s
+    } else {
+        xs[k + 1]
+    };
+    let mut known = (xs[k], g(xs[k])?);
+    let mut n = 1;
+    for end in [(k == 0).then_some(a), (k + 1 == xs.len()).then_some(b)]
+        .into_iter()
+        .flatten()
+    {
+        let v = g(end)?;
+        n += 1;
+        if v > known.1 {
+            known = (end, v);
+        }
+    }
+    let (d, _, m) = maximise(g, (a, b), known, o.gain_tolerance_s, o.max_iterations)?;
+    let n = n + m;
     let (v, vf, vc) = safe_speed(model, &ch, d, o)?;
     let vf = vf.unwrap_or(f64::INFINITY);
     Ok(FoldResult {
@@ -497,11 +518,34 @@ pub fn fold_optimum(
             },
             on_range_end: RangeEnd::of(d, o),
             curve_points: pts.len(),
-            evaluations: n + 1,
+            evaluations: n,
         }),
         curve,
         notes,
     })
+}
+
+/// The open-loop fold-of-cycles speed V_fold(D = 0) \[m/s\] (the delay plays no role
+/// without feedback): the fold of the cycle branch of straight running, corrected on the
+/// fold-of-cycles system with the mesh of `chart`; None if the branch does not fold in
+/// the chart's speed range.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the diagram or the correction fails.
+pub fn open_loop_fold_speed(model: &Model, chart: &ChartOptions) -> Result<Option<f64>, SwayError> {
+    let options = DiagramOptions {
+        v_min_mps: chart.v_min_mps,
+        v_max_mps: chart.v_max_mps,
+        ..chart.cycles.clone()
+    };
+    let feedback = Feedback {
+        gain_d_s: 0.0,
+        delay_s: 0.0,
+    };
+    let diagram = bifurcation_diagram_until(model, feedback, &options, CycleExtent::FirstFold)?;
+    Ok(critical_speeds(model, &diagram, chart)?
+        .fold
+        .map(|f| f.v_mps))
 }
 
 /// The delay budget.

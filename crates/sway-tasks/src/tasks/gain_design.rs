@@ -160,7 +160,7 @@ impl GainDesignConfig {
 
     /// Whether the nonlinear part runs at grid index `i`.
     pub fn is_nonlinear(&self, i: usize) -> bool {
-        self.nonlinear.every > 0 && i % self.nonlinear.every == 0
+        self.nonlinear.every > 0 && i.is_multiple_of(self.nonlinear.every)
     }
 }
 

@@ -2,6 +2,8 @@
 
 use trailer_model::{Model, VehicleParams};
 
+use crate::bifurcation::DiagramOptions;
+
 use super::*;
 use crate::charts::rightmost_roots;
 
@@ -204,4 +206,54 @@ fn delay_budget_is_where_the_rise_drops_below_ten_percent() {
     let best = |t: f64| linear_optimum(&m, t, &o).unwrap().v_crit_max_mps;
     assert!(best(tau) >= 1.1 * v_open);
     assert!(best(tau + 2.0 * tol) < 1.1 * v_open);
+}
+
+/// The chart options of the task's default (mesh L = 20, seed D = 0.1 s) with mesh `l`.
+fn fold_chart(l: usize) -> ChartOptions {
+    ChartOptions {
+        seed_gains_s: vec![0.1],
+        fold_max_step: 4.0,
+        cycles: DiagramOptions {
+            intervals: l,
+            max_step: 0.5,
+            ..DiagramOptions::default()
+        },
+        ..ChartOptions::default()
+    }
+}
+
+/// Heavy: two fold-of-cycles curves at τ = 0.2 s (≈ 40 s in release on 2 cores, minutes in
+/// the dev profile): `cargo test --release -p sway --lib -- --ignored fold_optimum`.
+#[test]
+#[ignore = "heavy: two fold-of-cycles curves; run in release with --ignored"]
+fn fold_optimum_at_tau_0_2_tops_its_curve_and_converges_in_the_mesh() {
+    // reference 1: the fold-of-cycles curve's own points (each a converged fold of cycles)
+    // with V_crit at their gains: the refined maximum of min(V_fold, V_crit) is not below any
+    // of them (tolerance 1e-6 m/s: the corrections' Newton tolerance is far below).
+    // reference 2: the curve on the twice finer mesh L = 40 (chart_nonlinear's), corrected at
+    // the same gain D_fold*: fold speeds agree to 0.02 m/s (measured 5e-3 m/s at L = 20).
+    let m = model();
+    let o = small_search(26);
+    let r = fold_optimum(&m, 0.2, &o, &fold_chart(20)).unwrap();
+    let opt = r
+        .optimum
+        .clone()
+        .expect("a fold-of-cycles optimum at τ = 0.2 s");
+    let best_point = r
+        .curve
+        .iter()
+        .map(|&(d, v)| v.min(critical_speed(&m, 0.2, d, &o).unwrap()))
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(
+        opt.v_fold_max_mps >= best_point - 1e-6,
+        "{opt:?} below the curve point {best_point}"
+    );
+    let fine = nonlinear_chart(&m, 0.2, &fold_chart_options(&fold_chart(40), &o)).unwrap();
+    let v40 = fine.fold_speed_at(&m, opt.d_fold_s).unwrap().unwrap();
+    eprintln!(
+        "τ = 0.2 s: D_fold* = {:.6} s, V_fold,max = {:.6} m/s (L = 20), {v40:.6} m/s (L = 40)",
+        opt.d_fold_s, opt.v_fold_at_optimum_mps
+    );
+    assert!((v40 - opt.v_fold_at_optimum_mps).abs() < 0.02);
+    assert_eq!(opt.limited_by, SafeSpeedLimit::FoldOfCycles);
 }

@@ -624,17 +624,19 @@ fn gain_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
 pub const MAX_FOLD_POINTS: usize = 20_000;
 
 /// gain_design: the most critical speeds V_crit(D) of one run (delays × scanned and
-/// refining gains): 10 000 000 (default ≈ 8 000, 1250×; ≈ 2 h at
+/// refining gains): 10 000 000 (default ≈ 8 000, 1250×; ≈ 3.5 h at
 /// [`SECONDS_PER_CRITICAL_SPEED`] on 2 cores).
 pub const MAX_CRITICAL_SPEEDS: usize = 10_000_000;
 
-/// gain_design: cost of one critical speed V_crit(D) \[s\] (release, one core): a scan of
-/// exact root counts at ≈ 50 speeds and ≈ 35 bisection steps; measured on the default run
-/// (see `plan`).
-pub const SECONDS_PER_CRITICAL_SPEED: f64 = 1.5e-3;
+/// gain_design: cost of one critical speed V_crit(D) \[s\] (one core): a scan of exact
+/// root counts at ≈ 50 speeds and ≈ 35 bisection steps; 3 ms measured in the dev profile
+/// (the root counts run in the optimised dependencies), ≈ 2.5 ms in release from the
+/// default run (≈ 55 s of CPU: ≈ 7 200 critical speeds and six fold-of-cycles curves of
+/// ≈ 30 s together).
+pub const SECONDS_PER_CRITICAL_SPEED: f64 = 2.5e-3;
 
 /// gain_design: evaluations of V_crit(D) per delay beyond the coarse scan: Brent (≈ 15–30)
-/// and the two band bisections (≈ 2 × 14 at 1e-6 s), measured 13–26 + 0–28.
+/// and the two band bisections (≈ 2 × 14 at 1e-6 s).
 pub const REFINEMENT_EVALUATIONS: f64 = 60.0;
 
 /// gain_design: cost of the nonlinear part of one delay \[s\] per cycle-mesh interval

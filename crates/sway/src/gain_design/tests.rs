@@ -57,7 +57,8 @@ fn optimal_gain_at_tau_0_2_matches_a_spectral_abscissa_grid() {
     // whole interval, see fig4a). Tolerances: D* within one spacing h of the grid maximiser
     // (the maximum of a kinked curve sampled at spacing h lies within h of the best
     // sample); V_crit,max not below any reference value by more than the two bisection
-    // tolerances (1e-6 + 1e-9 m/s), and above the best one by at most the slope × h.
+    // tolerances (1e-6 + 1e-9 m/s), above the best one by at most the slope × h, and equal
+    // to the reference critical speed at D* itself to those tolerances.
     let m = model();
     let tau = 0.2;
     let opt = linear_optimum(&m, tau, &small_search(26)).unwrap();
@@ -95,6 +96,14 @@ fn optimal_gain_at_tau_0_2_matches_a_spectral_abscissa_grid() {
         opt.v_crit_max_mps,
         refs[k]
     );
+    // and at D* itself the spectral-abscissa crossing is the reported maximum (both
+    // bisections: 1e-6 and 1e-9 m/s)
+    let at_opt = reference_critical_speed(&m, opt.d_opt_s, tau, 40.0, 0.5);
+    eprintln!(
+        "spectral V_crit(D*) = {at_opt:.7} m/s, difference {:.1e} m/s",
+        at_opt - opt.v_crit_max_mps
+    );
+    assert!((at_opt - opt.v_crit_max_mps).abs() < 2e-6, "{at_opt}");
     assert!(opt.on_range_end.is_none(), "{opt:?}");
 }
 

@@ -134,8 +134,44 @@ pub struct LinearOptimum {
     /// V_crit,max is the top of the speed range: stable up to v_max, the true critical
     /// speed is higher
     pub speed_capped: bool,
+    /// the rightmost characteristic roots confirm V_crit,max (see [`roots_confirm`]);
+    /// false flags a disagreement with the crossing count of [`critical_speed_at_gain`]
+    pub roots_confirm: bool,
     /// evaluations of the critical speed
     pub evaluations: usize,
+}
+
+/// Speed offset of the check of [`roots_confirm`] \[m/s\].
+pub const CONFIRM_OFFSET_MPS: f64 = 1e-4;
+
+/// Whether the rightmost characteristic roots of eq. (13) (Chebyshev collocation of the
+/// generator, Newton-polished: [`crate::charts::rightmost_roots`], independent of the
+/// crossing count behind [`critical_speed_at_gain`]) confirm that V \[m/s\] is the critical
+/// speed at (τ, D): Re λ < 0 at V − [`CONFIRM_OFFSET_MPS`] and > 0 at V +
+/// [`CONFIRM_OFFSET_MPS`] (only the first when V is the top of the speed range). The
+/// crossing count misses a pair of crossings where a Hopf curve turns back in D (the tip
+/// at τ = 0.4 s, D ≈ 0.148 s), which shows as a plateau of V_crit(D) below the true
+/// maximum; this check flags it.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the roots cannot be confirmed.
+pub fn roots_confirm(
+    model: &Model,
+    tau: f64,
+    d: f64,
+    v: f64,
+    o: &GainSearch,
+) -> Result<bool, SwayError> {
+    let abscissa = |v: f64| -> Result<f64, SwayError> {
+        Ok(crate::charts::rightmost_roots(model, v, d, tau, 2)?
+            .first()
+            .map_or(f64::NAN, |z| z.re))
+    };
+    let below = abscissa(v - CONFIRM_OFFSET_MPS)? < 0.0;
+    if v >= o.v_max_mps {
+        return Ok(below);
+    }
+    Ok(below && abscissa(v + CONFIRM_OFFSET_MPS)? > 0.0)
 }
 
 /// The linear critical speed \[m/s\] at delay τ \[s\] and gain D \[s\]: the lowest speed in
@@ -321,6 +357,7 @@ pub fn linear_optimum(model: &Model, tau: f64, o: &GainSearch) -> Result<LinearO
         band_s: band,
         on_range_end: RangeEnd::of(d, o),
         speed_capped: v >= o.v_max_mps,
+        roots_confirm: roots_confirm(model, tau, d, v, o)?,
         evaluations: gains.len() + n,
     })
 }

@@ -345,6 +345,9 @@ pub struct OptimalGainEntry {
     pub on_range_end: Option<RangeEnd>,
     /// the critical speed reached the top of the speed range (it is higher)
     pub v_crit_capped: bool,
+    /// the rightmost characteristic roots confirm `v_crit_mps` (false: the crossing count
+    /// of `fig4a` disagrees with the roots there, see `sway::gain_design::roots_confirm`)
+    pub v_crit_confirmed_by_roots: bool,
     /// the gain of `v_fold_mps` \[s\]
     pub d_fold_s: Option<f64>,
     /// D_fold\* − D\* \[s\]
@@ -393,6 +396,8 @@ pub struct OptimalGainRow {
     pub d_band_hi_s: f64,
     /// `lower` / `upper` / empty
     pub on_range_end: String,
+    /// 1 if the rightmost roots confirm V_crit(D\*), 0 if not
+    pub confirmed_by_roots: u8,
     /// max min(V_fold, V_crit) \[m/s\] (empty: not computed)
     pub v_fold_mps: Option<f64>,
     /// its gain \[s\]
@@ -437,6 +442,7 @@ impl GainDesign {
                     band: Keyed(vec![(key.clone(), l.band_s)]),
                     on_range_end: l.on_range_end,
                     v_crit_capped: l.speed_capped,
+                    v_crit_confirmed_by_roots: l.roots_confirm,
                     d_fold_s: opt.map(|o| o.d_fold_s),
                     d_fold_minus_d_s: opt.map(|o| o.d_fold_s - l.d_opt_s),
                     fold_limited_by: opt.map(|o| o.limited_by),
@@ -460,6 +466,7 @@ impl GainDesign {
                     d_band_lo_s: l.band_s[0],
                     d_band_hi_s: l.band_s[1],
                     on_range_end: end_name(l.on_range_end),
+                    confirmed_by_roots: u8::from(l.roots_confirm),
                     v_fold_mps: opt.map(|o| o.v_fold_max_mps),
                     d_fold_s: opt.map(|o| o.d_fold_s),
                 }
@@ -474,7 +481,7 @@ impl GainDesign {
         let l = &self.linear[i];
         let fold = self.fold[i].as_ref().and_then(|f| f.optimum.as_ref());
         Some(format!(
-            "τ = {} s: D* = {:.4} s{} (within 1 %: {:.4}…{:.4} s), V_crit,max = {:.3} m/s; {}",
+            "τ = {} s: D* = {:.4} s{} (within 1 %: {:.4}…{:.4} s), V_crit,max = {:.3} m/s{}; {}",
             l.tau_s,
             l.d_opt_s,
             match l.on_range_end {
@@ -484,6 +491,11 @@ impl GainDesign {
             l.band_s[0],
             l.band_s[1],
             l.v_crit_max_mps,
+            if l.roots_confirm {
+                ""
+            } else {
+                " (not confirmed by the roots: the crossing count misses a crossing here)"
+            },
             fold.map_or("V_fold,max: not computed".into(), |f| format!(
                 "V_fold,max = {:.3} m/s at D = {:.4} s",
                 f.v_fold_max_mps, f.d_fold_s

@@ -266,3 +266,25 @@ fn fold_optimum_at_tau_0_2_tops_its_curve_and_converges_in_the_mesh() {
     assert!((v40 - opt.v_fold_at_optimum_mps).abs() < 0.02);
     assert_eq!(opt.limited_by, SafeSpeedLimit::FoldOfCycles);
 }
+
+#[test]
+fn roots_flag_the_crossing_count_at_the_tip_of_the_hopf_curve() {
+    // reference: bisection on the spectral abscissa (Chebyshev collocation + Newton) at
+    // τ = 0.4 s, D = 0.1484 s: V_crit = 60.148 m/s, while the crossing count of fig4a stops
+    // at 60.128 m/s (it misses the pair of crossings at the tip where the Hopf curve turns
+    // back in D; checked once with the paper's semi-discretisation, 400 steps per delay,
+    // which agrees with the roots to 1e-10). The check must reject the count's value there
+    // (difference > 0.01 m/s, 100× the check's offset) and accept it at D = 0.1479 s, away
+    // from the tip, where both agree.
+    let m = model();
+    let o = GainSearch::default();
+    let (tau, d) = (0.4, 0.1484);
+    let v_count = critical_speed(&m, tau, d, &o).unwrap();
+    let v_roots = reference_critical_speed(&m, d, tau, 55.0, 0.5);
+    assert!(v_roots - v_count > 0.01, "count {v_count}, roots {v_roots}");
+    assert!(!roots_confirm(&m, tau, d, v_count, &o).unwrap());
+    let d_off = 0.1479;
+    let v_off = critical_speed(&m, tau, d_off, &o).unwrap();
+    assert!((reference_critical_speed(&m, d_off, tau, 55.0, 0.5) - v_off).abs() < 2e-6);
+    assert!(roots_confirm(&m, tau, d_off, v_off, &o).unwrap());
+}

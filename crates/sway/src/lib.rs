@@ -1,7 +1,8 @@
 //! Trailer-sway scenarios: the library that wires the vehicle model ([`trailer_model`])
 //! into the numerical crates ([`dde`], [`stability`], [`continuation`]) — simulation
 //! ([`sim`]), bifurcation diagrams ([`bifurcation`]), stability charts ([`charts`]),
-//! linear analysis ([`linear`]) and trailer loading ([`loading`]) — with typed configs as
+//! linear analysis ([`linear`]), trailer loading ([`loading`]) and the design of the
+//! feedback gain ([`gain_design`]) — with typed configs as
 //! plain serde data and their validation ([`config`]).
 //!
 //! It computes and returns values: it reads no files, writes no files and does not
@@ -23,6 +24,7 @@ pub mod bifurcation;
 pub mod charts;
 pub mod config;
 mod error;
+pub mod gain_design;
 pub mod linear;
 pub mod loading;
 pub mod progress;

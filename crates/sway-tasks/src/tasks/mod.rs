@@ -39,6 +39,7 @@ registry! {
     fig4b => [TASK],
     fig4c => [TASK],
     chart_nonlinear => [TASK],
+    gain_design => [TASK],
     simulate => [TASK],
     sweep => [TASK, BRAKE_TIMING],
 }

@@ -1,0 +1,790 @@
+//! `cargo xtask gain_design` (issue 10, beyond the paper): the best gain D of the delayed
+//! yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8) for each delay τ of a grid
+//! ([`sway::gain_design`]): the gain D\*(τ) maximising the linear critical speed, the
+//! maximal critical speed, the gains within 1 % of it and whether the optimum sits on an
+//! end of the gain range; at every `nonlinear.every`-th delay the nonlinear counterpart
+//! (the gain maximising the speed below which no perturbation triggers sway, from the
+//! fold-of-cycles curve of the two-parameter continuation); and the delay budget, the
+//! largest τ at which the best gain still raises the critical speed by 10 % over the open
+//! loop.
+//!
+//! `summary.json`: `"optimal_gain"`, an array of `{"tau_s", "d_s", "v_crit_mps",
+//! "v_fold_mps", "d_within_1pct_s", "on_range_end", "d_fold_s", "d_fold_minus_d_s", …}`
+//! (`v_fold_mps` and the fold fields are null at the delays without the nonlinear part or
+//! without a fold-of-cycles curve), `"delay_budget_s"`, `"open_loop_v_crit_mps"` and
+//! `"open_loop_v_fold_mps"`. `optimal_gain.csv` holds the same rows; `fold_cycles_tau_<τ>.csv`
+//! the fold-of-cycles curve points used at each nonlinear delay.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sway::SwayError;
+use sway::bifurcation::DiagramOptions;
+use sway::bifurcation::chart::ChartOptions;
+use sway::config::{Grid, ensure, ensure_positive};
+use sway::gain_design::{
+    DelayBudget, FoldResult, GainSearch, LinearOptimum, RangeEnd, SafeSpeedLimit, critical_speed,
+    delay_budget, fold_optimum, linear_optimum, open_loop_fold_speed,
+};
+use trailer_model::Model;
+
+use super::fig3a_diagram::validate_options;
+use super::{Prepared, Report, Task, TaskContext};
+use crate::config_file::{Configured, TaskConfig};
+use crate::io::{Keyed, OutputDir};
+use crate::limits::{Plan, bound, human_seconds};
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Shape, Stroke};
+
+/// The task.
+pub const TASK: Task = Task::configured::<GainDesignConfig>(
+    "gain_design",
+    "best feedback gain D*(τ) for each delay: linear and fold-of-cycles optimum, 1 % band, delay budget",
+    "gain_design.toml",
+);
+
+/// The delay budget's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BudgetConfig {
+    /// the required rise of the critical speed over the open loop (0.1: 10 %)
+    pub rise_fraction: f64,
+    /// bisection tolerance in τ \[s\]
+    pub tau_tolerance_s: f64,
+}
+
+impl Default for BudgetConfig {
+    fn default() -> Self {
+        Self {
+            rise_fraction: 0.1,
+            tau_tolerance_s: 1e-5,
+        }
+    }
+}
+
+/// The nonlinear part's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NonlinearConfig {
+    /// the fold-of-cycles optimum at every `every`-th delay of the grid, the first one
+    /// included (0: none)
+    pub every: usize,
+    /// the fold-of-cycles curve: its speed range, seed gain (the first of
+    /// `seed_gains_s`), steps and cycle mesh; its gain range is the search's
+    pub chart: ChartOptions,
+}
+
+/// The chart settings of the gain design: those of `chart_nonlinear` with the fold seeded
+/// at D = 0.1 s, a coarser cycle mesh (L = 20: fold speeds within 0.01 m/s of L = 40 at
+/// τ = 0.2 s, 3× faster) and longer fold steps.
+pub fn default_chart() -> ChartOptions {
+    ChartOptions {
+        seed_gains_s: vec![0.1],
+        fold_max_step: 4.0,
+        cycles: DiagramOptions {
+            intervals: 20,
+            max_step: 0.5,
+            ..DiagramOptions::default()
+        },
+        ..ChartOptions::default()
+    }
+}
+
+impl Default for NonlinearConfig {
+    fn default() -> Self {
+        Self {
+            every: 10,
+            chart: default_chart(),
+        }
+    }
+}
+
+fn default_delays() -> Grid {
+    Grid {
+        min: 0.0,
+        max: 0.5,
+        points: 51,
+    }
+}
+
+fn default_headline_delays() -> Vec<f64> {
+    vec![0.1, 0.2, 0.4]
+}
+
+/// `configs/gain_design.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GainDesignConfig {
+    /// the delays τ \[s\]
+    #[serde(default = "default_delays")]
+    pub delays_s: Grid,
+    /// delays whose optimum is printed as a headline line \[s\] (the nearest grid delay)
+    #[serde(default = "default_headline_delays")]
+    pub headline_delays_s: Vec<f64>,
+    /// the search for the best gain at one delay
+    #[serde(default)]
+    pub search: GainSearch,
+    /// the delay budget
+    #[serde(default)]
+    pub budget: BudgetConfig,
+    /// the fold-of-cycles optimum
+    #[serde(default)]
+    pub nonlinear: NonlinearConfig,
+}
+
+impl GainDesignConfig {
+    /// Checks the keys.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+        ensure(self.delays_s.min >= 0.0, file, "delays_s.min", || {
+            format!("expected a delay ≥ 0 s, got {}", self.delays_s.min)
+        })?;
+        for (i, t) in self.headline_delays_s.iter().enumerate() {
+            ensure(t.is_finite(), file, &format!("headline_delays_s[{i}]"), || {
+                format!("expected a finite delay, got {t}")
+            })?;
+        }
+        validate_search(&self.search, file)?;
+        let b = &self.budget;
+        ensure_positive(b.rise_fraction, file, "budget.rise_fraction", "a fraction > 0")?;
+        ensure_positive(b.tau_tolerance_s, file, "budget.tau_tolerance_s", "a tolerance > 0 s")?;
+        validate_chart(&self.nonlinear.chart, &self.search, file)
+    }
+
+    /// The delays of the grid \[s\].
+    pub fn delays(&self) -> Vec<f64> {
+        self.delays_s.values()
+    }
+
+    /// Whether the nonlinear part runs at grid index `i`.
+    pub fn is_nonlinear(&self, i: usize) -> bool {
+        self.nonlinear.every > 0 && i.is_multiple_of(self.nonlinear.every)
+    }
+}
+
+fn validate_search(s: &GainSearch, file: &Path) -> Result<(), SwayError> {
+    ensure(
+        s.d_min_s.is_finite() && s.d_max_s.is_finite() && s.d_min_s < s.d_max_s,
+        file,
+        "search.d_min_s",
+        || format!("expected finite d_min_s < d_max_s, got {} and {}", s.d_min_s, s.d_max_s),
+    )?;
+    ensure(
+        s.v_min_mps.is_finite() && s.v_min_mps > 0.0 && s.v_max_mps.is_finite() && s.v_min_mps < s.v_max_mps,
+        file,
+        "search.v_min_mps",
+        || format!("expected 0 < v_min_mps < v_max_mps, got {} and {}", s.v_min_mps, s.v_max_mps),
+    )?;
+    for (key, n) in [("search.gain_samples", s.gain_samples), ("search.speed_samples", s.speed_samples)] {
+        ensure(n >= 3, file, key, || format!("expected ≥ 3, got {n}"))?;
+    }
+    ensure(s.max_iterations >= 1, file, "search.max_iterations", || "expected ≥ 1".into())?;
+    ensure(
+        s.speed_tolerance_mps > 0.0 && s.speed_tolerance_mps < 1e-2,
+        file,
+        "search.speed_tolerance_mps",
+        || format!("expected 0 < tolerance < 0.01 m/s, got {}", s.speed_tolerance_mps),
+    )?;
+    let span = s.d_max_s - s.d_min_s;
+    ensure(
+        s.gain_tolerance_s > 0.0 && s.gain_tolerance_s < 1e-2 * span,
+        file,
+        "search.gain_tolerance_s",
+        || format!("expected 0 < tolerance < 1 % of the gain range, got {}", s.gain_tolerance_s),
+    )?;
+    ensure(
+        s.band_fraction > 0.0 && s.band_fraction < 1.0,
+        file,
+        "search.band_fraction",
+        || format!("expected 0 < fraction < 1, got {}", s.band_fraction),
+    )
+}
+
+fn validate_chart(c: &ChartOptions, s: &GainSearch, file: &Path) -> Result<(), SwayError> {
+    ensure(
+        c.v_min_mps.is_finite() && c.v_min_mps > 0.0 && c.v_max_mps.is_finite() && c.v_min_mps < c.v_max_mps,
+        file,
+        "nonlinear.chart.v_min_mps",
+        || format!("expected 0 < v_min_mps < v_max_mps, got {} and {}", c.v_min_mps, c.v_max_mps),
+    )?;
+    let seed = c.seed_gains_s.first().copied();
+    ensure(
+        seed.is_some_and(|d| d >= s.d_min_s && d <= s.d_max_s),
+        file,
+        "nonlinear.chart.seed_gains_s",
+        || format!("expected a first seed gain inside the search's gain range [{}, {}] s", s.d_min_s, s.d_max_s),
+    )?;
+    for (key, v) in [
+        ("nonlinear.chart.fold_step", c.fold_step),
+        ("nonlinear.chart.fold_max_step", c.fold_max_step),
+        ("nonlinear.chart.fold_min_amplitude", c.fold_min_amplitude),
+        ("nonlinear.chart.hopf_step", c.hopf_step),
+        ("nonlinear.chart.hopf_max_step", c.hopf_max_step),
+    ] {
+        ensure_positive(v, file, key, "a positive number")?;
+    }
+    ensure(
+        c.curve_min_tangent_cosine.is_finite() && c.curve_min_tangent_cosine < 1.0,
+        file,
+        "nonlinear.chart.curve_min_tangent_cosine",
+        || format!("expected a cosine < 1, got {}", c.curve_min_tangent_cosine),
+    )?;
+    ensure(c.fold_max_points >= 2, file, "nonlinear.chart.fold_max_points", || {
+        format!("expected ≥ 2, got {}", c.fold_max_points)
+    })?;
+    bound(file, "nonlinear.chart.fold_max_points", c.fold_max_points as f64, MAX_FOLD_POINTS as f64, || {
+        "points per direction, each kept with its orbit".into()
+    })?;
+    validate_options(&c.cycles, file, "nonlinear.chart.cycles")
+}
+
+impl TaskConfig for GainDesignConfig {
+    fn check(&self, file: &Path) -> Result<(), SwayError> {
+        self.validate(file)
+    }
+}
+
+/// Everything computed (no I/O).
+#[derive(Debug, Clone)]
+pub struct GainDesign {
+    /// the delays \[s\]
+    pub delays_s: Vec<f64>,
+    /// the linear optimum of each delay
+    pub linear: Vec<LinearOptimum>,
+    /// the nonlinear part of each delay (None where it was not computed)
+    pub fold: Vec<Option<FoldResult>>,
+    /// the delay budget
+    pub budget: DelayBudget,
+    /// V_fold(D = 0) \[m/s\] (None: no fold in the speed range, or the nonlinear part is off)
+    pub open_loop_v_fold_mps: Option<f64>,
+}
+
+/// The whole computation (no I/O): the linear optima of all delays and the nonlinear part
+/// of the selected ones side by side on the thread pool (each delay deterministic, results
+/// in grid order), then the delay budget.
+///
+/// # Errors
+/// [`SwayError::Numerical`].
+pub fn compute(
+    model: &Model,
+    cfg: &GainDesignConfig,
+    progress: &dyn sway::progress::Progress,
+) -> Result<GainDesign, SwayError> {
+    let delays = cfg.delays();
+    let o = &cfg.search;
+    let chart = &cfg.nonlinear.chart;
+    let nonlinear: Vec<usize> = (0..delays.len()).filter(|&i| cfg.is_nonlinear(i)).collect();
+    let (linear, (fold, v_fold_open)) = rayon::join(
+        || {
+            let r: Vec<Result<LinearOptimum, SwayError>> = delays
+                .par_iter()
+                .map(|&tau| {
+                    let r = linear_optimum(model, tau, o);
+                    progress.advance(1);
+                    r
+                })
+                .collect();
+            r.into_iter().collect::<Result<Vec<_>, _>>()
+        },
+        || {
+            let r: Vec<Result<FoldResult, SwayError>> = nonlinear
+                .par_iter()
+                .map(|&i| {
+                    let r = fold_optimum(model, delays[i], o, chart);
+                    progress.advance(1);
+                    r
+                })
+                .collect();
+            let open = if nonlinear.is_empty() {
+                Ok(None)
+            } else {
+                open_loop_fold_speed(model, chart)
+            };
+            (r, open)
+        },
+    );
+    let linear = linear?;
+    let mut folds: Vec<Option<FoldResult>> = vec![None; delays.len()];
+    for (&i, r) in nonlinear.iter().zip(fold) {
+        folds[i] = Some(r?);
+    }
+    let v_open = critical_speed(model, 0.0, 0.0, o)?;
+    let b = &cfg.budget;
+    let budget = delay_budget(model, &linear, v_open, b.rise_fraction, b.tau_tolerance_s, o)?;
+    progress.advance(1);
+    Ok(GainDesign {
+        delays_s: delays,
+        linear,
+        fold: folds,
+        budget,
+        open_loop_v_fold_mps: v_fold_open?,
+    })
+}
+
+/// One entry of `"optimal_gain"` in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OptimalGainEntry {
+    /// the delay τ \[s\]
+    pub tau_s: f64,
+    /// the gain D\* maximising the linear critical speed \[s\]
+    pub d_s: f64,
+    /// the maximal critical speed V_crit(D\*) \[m/s\]
+    pub v_crit_mps: f64,
+    /// the largest speed below which no perturbation triggers sway, max over D of
+    /// min(V_fold(D), V_crit(D)) \[m/s\] (null: not computed at this delay, or no
+    /// fold-of-cycles curve)
+    pub v_fold_mps: Option<f64>,
+    /// one key, `d_within_<p>pct_s` (p = 100·band_fraction): the gains whose critical
+    /// speed is within p % of the maximum, `[lo, hi]` \[s\]
+    #[serde(flatten)]
+    pub band: Keyed<[f64; 2]>,
+    /// `"lower"` / `"upper"` if D\* is an end of the gain range (the maximum may lie beyond),
+    /// else null
+    pub on_range_end: Option<RangeEnd>,
+    /// the critical speed reached the top of the speed range (it is higher)
+    pub v_crit_capped: bool,
+    /// the rightmost characteristic roots confirm `v_crit_mps` (false: the crossing count
+    /// of `fig4a` disagrees with the roots there, see `sway::gain_design::roots_confirm`)
+    pub v_crit_confirmed_by_roots: bool,
+    /// the gain of `v_fold_mps` \[s\]
+    pub d_fold_s: Option<f64>,
+    /// D_fold\* − D\* \[s\]
+    pub d_fold_minus_d_s: Option<f64>,
+    /// what limits `v_fold_mps`: `"fold_of_cycles"` or `"critical_speed"`
+    pub fold_limited_by: Option<SafeSpeedLimit>,
+    /// `"lower"` / `"upper"` if D_fold\* is an end of the gain range
+    pub fold_on_range_end: Option<RangeEnd>,
+    /// notes of the nonlinear part (no curve, failed seeds)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub fold_notes: Vec<String>,
+}
+
+/// `summary.json` of gain_design (before the common fields of [`crate::io::Summary`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GainDesignSummary {
+    /// one entry per delay of the grid
+    pub optimal_gain: Vec<OptimalGainEntry>,
+    /// the largest delay at which the best gain raises the critical speed by
+    /// `budget_rise_fraction` over the open loop \[s\] (null: not even at the first delay)
+    pub delay_budget_s: Option<f64>,
+    /// the budget is the last grid delay (the true budget is larger)
+    pub delay_budget_at_grid_end: bool,
+    /// the required rise (0.1: 10 %)
+    pub budget_rise_fraction: f64,
+    /// V_crit(D = 0) \[m/s\]
+    pub open_loop_v_crit_mps: f64,
+    /// V_fold(D = 0) \[m/s\]
+    pub open_loop_v_fold_mps: Option<f64>,
+    /// the delays with the nonlinear part \[s\]
+    pub nonlinear_delays_s: Vec<f64>,
+}
+
+/// One row of `optimal_gain.csv`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct OptimalGainRow {
+    /// delay τ \[s\]
+    pub tau_s: f64,
+    /// D\* \[s\]
+    pub d_s: f64,
+    /// V_crit(D\*) \[m/s\]
+    pub v_crit_mps: f64,
+    /// lower end of the band \[s\]
+    pub d_band_lo_s: f64,
+    /// upper end of the band \[s\]
+    pub d_band_hi_s: f64,
+    /// `lower` / `upper` / empty
+    pub on_range_end: String,
+    /// 1 if the rightmost roots confirm V_crit(D\*), 0 if not
+    pub confirmed_by_roots: u8,
+    /// max min(V_fold, V_crit) \[m/s\] (empty: not computed)
+    pub v_fold_mps: Option<f64>,
+    /// its gain \[s\]
+    pub d_fold_s: Option<f64>,
+}
+
+/// One row of `fold_cycles_tau_<τ>.csv`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct FoldPointRow {
+    /// gain D \[s\]
+    pub d_s: f64,
+    /// fold-of-cycles speed \[m/s\]
+    pub v_mps: f64,
+}
+
+/// A fraction as a percentage for names and labels (0.01 → "1", 0.005 → "0.5").
+fn percent(fraction: f64) -> String {
+    format!("{}", (fraction * 100.0 * 1e6).round() / 1e6)
+}
+
+fn end_name(e: Option<RangeEnd>) -> String {
+    match e {
+        Some(RangeEnd::Lower) => "lower".into(),
+        Some(RangeEnd::Upper) => "upper".into(),
+        None => String::new(),
+    }
+}
+
+impl GainDesign {
+    fn entries(&self, cfg: &GainDesignConfig) -> Vec<OptimalGainEntry> {
+        let key = format!("d_within_{}pct_s", percent(cfg.search.band_fraction));
+        self.linear
+            .iter()
+            .zip(&self.fold)
+            .map(|(l, f)| {
+                let opt = f.as_ref().and_then(|f| f.optimum.as_ref());
+                OptimalGainEntry {
+                    tau_s: l.tau_s,
+                    d_s: l.d_opt_s,
+                    v_crit_mps: l.v_crit_max_mps,
+                    v_fold_mps: opt.map(|o| o.v_fold_max_mps),
+                    band: Keyed(vec![(key.clone(), l.band_s)]),
+                    on_range_end: l.on_range_end,
+                    v_crit_capped: l.speed_capped,
+                    v_crit_confirmed_by_roots: l.roots_confirm,
+                    d_fold_s: opt.map(|o| o.d_fold_s),
+                    d_fold_minus_d_s: opt.map(|o| o.d_fold_s - l.d_opt_s),
+                    fold_limited_by: opt.map(|o| o.limited_by),
+                    fold_on_range_end: opt.and_then(|o| o.on_range_end),
+                    fold_notes: f.as_ref().map(|f| f.notes.clone()).unwrap_or_default(),
+                }
+            })
+            .collect()
+    }
+
+    fn rows(&self) -> Vec<OptimalGainRow> {
+        self.linear
+            .iter()
+            .zip(&self.fold)
+            .map(|(l, f)| {
+                let opt = f.as_ref().and_then(|f| f.optimum.as_ref());
+                OptimalGainRow {
+                    tau_s: l.tau_s,
+                    d_s: l.d_opt_s,
+                    v_crit_mps: l.v_crit_max_mps,
+                    d_band_lo_s: l.band_s[0],
+                    d_band_hi_s: l.band_s[1],
+                    on_range_end: end_name(l.on_range_end),
+                    confirmed_by_roots: u8::from(l.roots_confirm),
+                    v_fold_mps: opt.map(|o| o.v_fold_max_mps),
+                    d_fold_s: opt.map(|o| o.d_fold_s),
+                }
+            })
+            .collect()
+    }
+
+    /// The headline line of the grid delay nearest to `tau`.
+    fn headline(&self, tau: f64) -> Option<String> {
+        let i = (0..self.delays_s.len())
+            .min_by(|&a, &b| (self.delays_s[a] - tau).abs().total_cmp(&(self.delays_s[b] - tau).abs()))?;
+        let l = &self.linear[i];
+        let fold = self.fold[i].as_ref().and_then(|f| f.optimum.as_ref());
+        Some(format!(
+            "τ = {} s: D* = {:.4} s{} (within 1 %: {:.4}…{:.4} s), V_crit,max = {:.3} m/s{}; {}",
+            l.tau_s,
+            l.d_opt_s,
+            match l.on_range_end {
+                Some(_) => " (range end)",
+                None => "",
+            },
+            l.band_s[0],
+            l.band_s[1],
+            l.v_crit_max_mps,
+            if l.roots_confirm {
+                ""
+            } else {
+                " (not confirmed by the roots: the crossing count misses a crossing here)"
+            },
+            fold.map_or("V_fold,max: not computed".into(), |f| format!(
+                "V_fold,max = {:.3} m/s at D = {:.4} s",
+                f.v_fold_max_mps, f.d_fold_s
+            ))
+        ))
+    }
+}
+
+fn write_tables(out: &OutputDir, r: &GainDesign) -> Result<(), SwayError> {
+    out.write_table("optimal_gain.csv", r.rows())?;
+    for f in r.fold.iter().flatten() {
+        if let (Some(o), false) = (&f.optimum, f.curve.is_empty()) {
+            out.write_table(
+                &format!("fold_cycles_tau_{}.csv", o.tau_s),
+                f.curve.iter().map(|&(d_s, v_mps)| FoldPointRow { d_s, v_mps }),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The speed panel: V_crit,max(τ), V_fold,max(τ), the open-loop values, the 10 % line and
+/// the delay budget.
+fn speed_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
+    let (t0, t1) = (cfg.delays_s.min, cfg.delays_s.max);
+    let v_open = r.budget.open_loop_v_crit_mps;
+    let crit: Vec<(f64, f64)> = r.linear.iter().map(|l| (l.tau_s, l.v_crit_max_mps)).collect();
+    let fold: Vec<(f64, f64)> = r
+        .fold
+        .iter()
+        .flatten()
+        .filter_map(|f| f.optimum.as_ref().map(|o| (o.tau_s, o.v_fold_max_mps)))
+        .collect();
+    let v_hi = crit.iter().map(|p| p.1).fold(v_open, f64::max);
+    let v_lo = fold
+        .iter()
+        .map(|p| p.1)
+        .chain(r.open_loop_v_fold_mps)
+        .fold(v_open, f64::min);
+    let (y0, y1) = (5.0 * (0.18 * v_lo).floor(), 1.1 * v_hi);
+    let mut p = Panel::new("Best achievable speeds", "delay τ [s]", "speed [m/s]")
+        .x_range(t0, t1)
+        .y_range(y0, y1)
+        .legend(Legend::LowerLeft)
+        .with(Layer::line(crit, Rgb::BLACK, Stroke::Solid, Some("V_crit,max(τ) (linear, best D)")))
+        .with(Layer::line(
+            vec![(t0, v_open), (t1, v_open)],
+            Rgb::GREY,
+            Stroke::Dashed,
+            Some("open loop V_crit (D = 0)"),
+        ))
+        .with(Layer::line(
+            vec![(t0, (1.0 + r.budget.gain_fraction) * v_open), (t1, (1.0 + r.budget.gain_fraction) * v_open)],
+            Rgb::GREY,
+            Stroke::Dotted,
+            Some("open loop V_crit + 10 %"),
+        ));
+    if let Some(vf) = r.open_loop_v_fold_mps {
+        p = p.with(Layer::line(
+            vec![(t0, vf), (t1, vf)],
+            Rgb::BLUE,
+            Stroke::Dashed,
+            Some("open loop V_fold (D = 0)"),
+        ));
+    }
+    if !fold.is_empty() {
+        p = p
+            .with(Layer::line(fold.clone(), Rgb::BLUE, Stroke::Dotted, None))
+            .with(Layer::Markers {
+                points: fold,
+                color: Rgb::BLUE,
+                shape: Shape::Circle,
+                size: 5,
+                label: Some("V_fold,max(τ): no kick triggers sway below".into()),
+            });
+    }
+    if let Some(tb) = r.budget.tau_s {
+        p = p.with(Layer::vline(tb, (y0, y1), Rgb::RED, Stroke::Dashed, Some("delay budget")));
+    }
+    p
+}
+
+/// The gain panel: D\*(τ) with its 1 % band shaded, D_fold\*(τ), range-end optima marked.
+fn gain_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
+    let s = &cfg.search;
+    let dt = if r.delays_s.len() > 1 {
+        (cfg.delays_s.max - cfg.delays_s.min) / (r.delays_s.len() - 1) as f64
+    } else {
+        0.01
+    };
+    let rects: Vec<[f64; 4]> = r
+        .linear
+        .iter()
+        .map(|l| [l.tau_s - 0.5 * dt, l.tau_s + 0.5 * dt, l.band_s[0], l.band_s[1]])
+        .collect();
+    let opt: Vec<(f64, f64)> = r.linear.iter().map(|l| (l.tau_s, l.d_opt_s)).collect();
+    let ends: Vec<(f64, f64)> = r
+        .linear
+        .iter()
+        .filter(|l| l.on_range_end.is_some())
+        .map(|l| (l.tau_s, l.d_opt_s))
+        .collect();
+    let fold: Vec<(f64, f64)> = r
+        .fold
+        .iter()
+        .flatten()
+        .filter_map(|f| f.optimum.as_ref().map(|o| (o.tau_s, o.d_fold_s)))
+        .collect();
+    let pct = percent(s.band_fraction);
+    let mut p = Panel::new("Best gain", "delay τ [s]", "gain D [s]")
+        .x_range(cfg.delays_s.min, cfg.delays_s.max)
+        .y_range(s.d_min_s, s.d_max_s + 0.05 * (s.d_max_s - s.d_min_s))
+        .legend(Legend::UpperRight)
+        .with(Layer::Rects {
+            rects,
+            color: Rgb::BLACK,
+            opacity: 0.15,
+            label: Some(format!("V_crit within {pct} % of the maximum")),
+        })
+        .with(Layer::line(opt, Rgb::BLACK, Stroke::Solid, Some("D*(τ): maximal V_crit")));
+    if !ends.is_empty() {
+        p = p.with(Layer::Markers {
+            points: ends,
+            color: Rgb::RED,
+            shape: Shape::Triangle,
+            size: 6,
+            label: Some("optimum on the end of the gain range".into()),
+        });
+    }
+    if !fold.is_empty() {
+        p = p.with(Layer::markers(fold, Rgb::BLUE, Some("D_fold*(τ): maximal V_fold")));
+    }
+    p
+}
+
+/// gain_design: the most fold-of-cycles points per direction
+/// (`nonlinear.chart.fold_max_points`): 20 000, as `chart_nonlinear`.
+pub const MAX_FOLD_POINTS: usize = 20_000;
+
+/// gain_design: the most critical speeds V_crit(D) of one run (delays × scanned and
+/// refining gains): 10 000 000 (default ≈ 8 000, 1250×; ≈ 3.5 h at
+/// [`SECONDS_PER_CRITICAL_SPEED`] on 2 cores).
+pub const MAX_CRITICAL_SPEEDS: usize = 10_000_000;
+
+/// gain_design: cost of one critical speed V_crit(D) \[s\] (one core): a scan of exact
+/// root counts at ≈ 50 speeds and ≈ 35 bisection steps; 3 ms measured in the dev profile
+/// (the root counts run in the optimised dependencies), ≈ 2.5 ms in release from the
+/// default run (≈ 55 s of CPU: ≈ 7 200 critical speeds and six fold-of-cycles curves of
+/// ≈ 30 s together).
+pub const SECONDS_PER_CRITICAL_SPEED: f64 = 2.5e-3;
+
+/// gain_design: evaluations of V_crit(D) per delay beyond the coarse scan: Brent (≈ 15–30)
+/// and the two band bisections (≈ 2 × 14 at 1e-6 s).
+pub const REFINEMENT_EVALUATIONS: f64 = 60.0;
+
+/// gain_design: cost of the nonlinear part of one delay \[s\] per cycle-mesh interval
+/// (release, one core): the fold-of-cycles curve and its Brent refinement took 0.8 to 9 s
+/// at L = 20 (τ = 0 to 0.4 s); 0.5 s per interval bounds it.
+pub const FOLD_SECONDS_PER_INTERVAL: f64 = 0.5;
+
+impl Prepared for Configured<GainDesignConfig> {
+    fn plan(&self) -> Result<Plan, SwayError> {
+        let c = &self.config;
+        let file = self.file.as_path();
+        let n_tau = c.delays_s.points as f64;
+        let s = &c.search;
+        bound(file, "search.gain_samples", s.gain_samples as f64, crate::limits::MAX_AXIS_POINTS as f64, || {
+            "critical speeds per delay".into()
+        })?;
+        bound(file, "search.speed_samples", s.speed_samples as f64, crate::limits::MAX_AXIS_POINTS as f64, || {
+            "root counts per critical speed".into()
+        })?;
+        let per_speed = SECONDS_PER_CRITICAL_SPEED * (s.speed_samples as f64 / 100.0).max(0.5);
+        let evals = n_tau * (s.gain_samples as f64 + REFINEMENT_EVALUATIONS);
+        let n_nl = (0..c.delays_s.points).filter(|&i| c.is_nonlinear(i)).count() as f64;
+        let nl_s = n_nl * FOLD_SECONDS_PER_INTERVAL * c.nonlinear.chart.cycles.intervals as f64;
+        // the budget bisects τ: log2(spacing / tolerance) linear optima
+        let spacing = (c.delays_s.max - c.delays_s.min) / (n_tau - 1.0).max(1.0);
+        let steps = (spacing / c.budget.tau_tolerance_s).log2().max(1.0).ceil();
+        let budget_s = steps * (s.gain_samples as f64 + REFINEMENT_EVALUATIONS) * per_speed;
+        let time = (evals * per_speed + nl_s) / 2.0 + budget_s;
+        let plan = Plan::new(
+            vec![
+                format!(
+                    "gain_design: {} delays × ({} scanned + ≈ {REFINEMENT_EVALUATIONS} refining) critical speeds",
+                    c.delays_s.points, s.gain_samples
+                ),
+                format!(
+                    "fold-of-cycles optimum at {n_nl} delays (mesh L = {}), delay budget in {steps} bisection steps",
+                    c.nonlinear.chart.cycles.intervals
+                ),
+                format!("estimated time on 2 cores: {}", human_seconds(time)),
+            ],
+            n_tau * 2000.0 + n_nl * c.nonlinear.chart.fold_max_points as f64 * 2.0 * 100_000.0,
+            time,
+        );
+        plan.within(file, "delays_s.points", evals, MAX_CRITICAL_SPEEDS, || {
+            format!("{evals} critical speeds ≈ {}", human_seconds(evals * per_speed / 2.0))
+        })
+    }
+
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+        let cfg = &self.config;
+        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
+        let n_nl = (0..cfg.delays_s.points).filter(|&i| cfg.is_nonlinear(i)).count();
+        ctx.progress.start("gain_design: optimum per delay", (cfg.delays_s.points + n_nl + 1) as u64);
+        let r = compute(&ctx.model, cfg, ctx.progress)?;
+        write_tables(&out, &r)?;
+        Figure::column(vec![speed_panel(&r, cfg), gain_panel(&r, cfg)])
+            .titled("Best gain D of the yaw-rate feedback δ(t) = −D·dψ/dt(t − τ) for each delay τ")
+            .render(&out.path("gain_design"))?;
+        let mut lines: Vec<String> = cfg.headline_delays_s.iter().filter_map(|&t| r.headline(t)).collect();
+        lines.push(match r.budget.tau_s {
+            Some(t) => format!(
+                "delay budget (best gain still ≥ {} % above the open-loop V_crit = {:.3} m/s): τ ≤ {:.4} s{}",
+                percent(r.budget.gain_fraction),
+                r.budget.open_loop_v_crit_mps,
+                t,
+                if r.budget.at_grid_end { " (grid end)" } else { "" }
+            ),
+            None => "delay budget: no delay of the grid reaches the required rise".into(),
+        });
+        let summary = GainDesignSummary {
+            optimal_gain: r.entries(cfg),
+            delay_budget_s: r.budget.tau_s,
+            delay_budget_at_grid_end: r.budget.at_grid_end,
+            budget_rise_fraction: r.budget.gain_fraction,
+            open_loop_v_crit_mps: r.budget.open_loop_v_crit_mps,
+            open_loop_v_fold_mps: r.open_loop_v_fold_mps,
+            nonlinear_delays_s: (0..r.delays_s.len())
+                .filter(|&i| cfg.is_nonlinear(i))
+                .map(|i| r.delays_s[i])
+                .collect(),
+        };
+        ctx.conclude(out, summary, cfg, &self.file, lines)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config_file::parse_toml;
+    use std::path::PathBuf;
+
+    fn shipped() -> (PathBuf, String) {
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/gain_design.toml");
+        let text = std::fs::read_to_string(&file).expect("shipped config");
+        (file, text)
+    }
+
+    #[test]
+    fn shipped_config_is_valid_and_as_the_issue_asks() {
+        // reference: issue 10's defaults (τ = 0 … 0.5 s in 51 values, D in 0 … 0.5 s, 1 %, 10 %)
+        let (file, text) = shipped();
+        let cfg: GainDesignConfig = parse_toml(&text, &file).unwrap();
+        cfg.validate(&file).unwrap();
+        assert_eq!((cfg.delays_s.min, cfg.delays_s.max, cfg.delays_s.points), (0.0, 0.5, 51));
+        assert_eq!((cfg.search.d_min_s, cfg.search.d_max_s), (0.0, 0.5));
+        assert_eq!(cfg.search.band_fraction, 0.01);
+        assert_eq!(cfg.budget.rise_fraction, 0.1);
+        // the nonlinear delays include the headline delays 0.1, 0.2, 0.4 s
+        let d = cfg.delays();
+        for t in [0.1, 0.2, 0.4] {
+            let i = d.iter().position(|x| (x - t).abs() < 1e-12).unwrap();
+            assert!(cfg.is_nonlinear(i), "τ = {t} s");
+        }
+    }
+
+    #[test]
+    fn bad_values_name_the_file_and_their_key() {
+        let (file, text) = shipped();
+        for (from, to, key) in [
+            ("d_max_s = 0.5", "d_max_s = -0.5", "search.d_min_s"),
+            ("band_fraction = 0.01", "band_fraction = 1.5", "search.band_fraction"),
+            ("rise_fraction = 0.1", "rise_fraction = -0.1", "budget.rise_fraction"),
+            ("seed_gains_s = [0.1]", "seed_gains_s = [0.9]", "nonlinear.chart.seed_gains_s"),
+            ("intervals = 20", "intervals = 0", "nonlinear.chart.cycles.intervals"),
+        ] {
+            assert!(text.contains(from), "{from}");
+            let cfg: GainDesignConfig = parse_toml(&text.replace(from, to), &file).unwrap();
+            let e = cfg.validate(&file).unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains("gain_design.toml"), "{key}: {e}");
+        }
+        let e = parse_toml::<GainDesignConfig>(&text.replace("[budget]", "[budget]\nfoo = 1"), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("foo") && e.contains("gain_design.toml"), "{e}");
+        let bad_grid = text.replace("points = 51", "points = 1");
+        let e = parse_toml::<GainDesignConfig>(&bad_grid, &file).unwrap_err().to_string();
+        assert!(e.contains("delays_s") && e.contains("gain_design.toml"), "{e}");
+    }
+}

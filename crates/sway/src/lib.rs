@@ -25,6 +25,7 @@ pub mod config;
 mod error;
 pub mod linear;
 pub mod loading;
+pub mod mitigation;
 pub mod progress;
 pub mod sim;
 

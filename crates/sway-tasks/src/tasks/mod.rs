@@ -40,6 +40,7 @@ registry! {
     fig4c => [TASK],
     chart_nonlinear => [TASK],
     simulate => [TASK],
+    mitigation => [TASK],
     sweep => [TASK, BRAKE_TIMING],
 }
 

@@ -140,10 +140,16 @@ pub fn sway_cycle(
 }
 
 /// The run starts: the state at φ·P − lead-in after the anchor crossing, for N equally
-/// spaced phases φ = k/N.
+/// spaced phases φ_k = span·k/N.
+///
+/// The model is mirror-symmetric: (σ1, σ2, σ3, θ, δ) → −(σ1, σ2, σ3, θ, δ) maps solutions
+/// to solutions (the brush tire is odd, V is unchanged). The sway cycle is its own mirror
+/// image shifted by half a period, so the run from φ + ½ is the mirror image of the run
+/// from φ and has the same settle time and peak. With span = ½ the N runs therefore
+/// sample the whole period at spacing 1/(2N).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PhaseStarts {
-    /// φ ∈ \[0, 1)
+    /// φ ∈ \[0, span)
     pub phases: Vec<f64>,
     /// the state where each run starts (lead-in before the intervention)
     pub states: Vec<State4>,
@@ -152,8 +158,9 @@ pub struct PhaseStarts {
 }
 
 impl PhaseStarts {
-    /// N equally spaced phases with the given lead-in (≥ the feedback delay τ so that the
-    /// controller reads the cycle's past).
+    /// N phases equally spaced over `span` (1: the whole period, ½: half of it, the other
+    /// half by mirror symmetry) with the given lead-in (≥ the feedback delay τ, so that
+    /// the controller reads the cycle's past).
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if the solver fails.
@@ -161,10 +168,11 @@ impl PhaseStarts {
         model: &Model,
         cycle: &SwayCycle,
         n: usize,
+        span: f64,
         lead_in_s: f64,
         solver: &SolverSettings,
     ) -> Result<Self, SwayError> {
-        let phases: Vec<f64> = (0..n).map(|k| k as f64 / n as f64).collect();
+        let phases: Vec<f64> = (0..n).map(|k| span * k as f64 / n as f64).collect();
         let p = cycle.period_s;
         let states = phases
             .iter()
@@ -179,6 +187,19 @@ impl PhaseStarts {
             lead_in_s,
         })
     }
+}
+
+/// The state of the cycle `t_s` seconds after its anchor (an upward zero crossing of θ).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the solver fails.
+pub fn cycle_state(
+    model: &Model,
+    cycle: &SwayCycle,
+    t_s: f64,
+    solver: &SolverSettings,
+) -> Result<State4, SwayError> {
+    open_loop(model, cycle.speed_mps, cycle.anchor, t_s, solver).map(|(x, _)| x)
 }
 
 /// One braking-and-steering intervention (times relative to its start).

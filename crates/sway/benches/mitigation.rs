@@ -38,7 +38,11 @@ fn objective(c: &mut Criterion) {
         cycle.period_s, e.worst_settle_time_s, e.worst_phase
     );
     c.bench_function("objective_16_phases_40s_rtol1e-8", |b| {
-        b.iter(|| evaluate(&model, &setting, &starts, black_box(&combined)).unwrap().cost)
+        b.iter(|| {
+            evaluate(&model, &setting, &starts, black_box(&combined))
+                .unwrap()
+                .cost
+        })
     });
     setting.settings.solver = SolverSettings {
         rtol: 1e-6,
@@ -46,7 +50,11 @@ fn objective(c: &mut Criterion) {
         ..solver
     };
     c.bench_function("objective_16_phases_40s_rtol1e-6", |b| {
-        b.iter(|| evaluate(&model, &setting, &starts, black_box(&combined)).unwrap().cost)
+        b.iter(|| {
+            evaluate(&model, &setting, &starts, black_box(&combined))
+                .unwrap()
+                .cost
+        })
     });
 }
 

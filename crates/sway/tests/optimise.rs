@@ -41,7 +41,11 @@ fn rosenbrock_interior_minimum() {
         bounds: [Bound::new(-2.0, 2.0), Bound::new(-1.0, 3.0)],
     };
     let m = minimise(&p, &[vec![-1.5, 2.0]], &tight()).unwrap();
-    assert!((m.x[0] - 1.0).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4, "{:?}", m.x);
+    assert!(
+        (m.x[0] - 1.0).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4,
+        "{:?}",
+        m.x
+    );
     assert!(m.cost < 1e-8, "{}", m.cost);
 }
 
@@ -53,7 +57,11 @@ fn rosenbrock_minimum_on_a_bound() {
         bounds: [Bound::new(-2.0, 0.5), Bound::new(-1.0, 3.0)],
     };
     let m = minimise(&p, &[vec![-1.5, 2.0]], &tight()).unwrap();
-    assert!((m.x[0] - 0.5).abs() < 1e-4 && (m.x[1] - 0.25).abs() < 1e-4, "{:?}", m.x);
+    assert!(
+        (m.x[0] - 0.5).abs() < 1e-4 && (m.x[1] - 0.25).abs() < 1e-4,
+        "{:?}",
+        m.x
+    );
     assert!((m.cost - 0.25).abs() < 1e-8, "{}", m.cost);
 }
 
@@ -96,7 +104,11 @@ fn bounded_discrete_worst_case_minimum() {
     };
     let m = minimise(&p, &[vec![0.1, 0.1]], &tight()).unwrap();
     assert_eq!(m.choice, 1);
-    assert!((m.x[0] - 0.55).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4, "{:?}", m.x);
+    assert!(
+        (m.x[0] - 0.55).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4,
+        "{:?}",
+        m.x
+    );
     assert!((m.cost - 0.49).abs() < 1e-4, "{}", m.cost);
     // every choice was tried from every start
     assert_eq!(m.runs.len(), 3 * (1 + 3));
@@ -114,7 +126,10 @@ fn results_depend_only_on_the_seed() {
         ..tight()
     };
     let a = minimise(&p, &[], &s).unwrap();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     let b = pool.install(|| minimise(&p, &[], &s).unwrap());
     assert_eq!(a, b);
     let other = OptimiserSettings { seed: 8, ..s };

@@ -654,15 +654,16 @@ fn settle_panel(r: &MitigationResult, cfg: &MitigationConfig) -> Panel {
         .map(|((k, _, e), c)| (format!("paper: {k}"), e, c))
         .collect();
     series.push(("optimum".into(), &r.optimum_eval, Rgb::BLACK));
-    let (mut unsettled, mut lost) = (Vec::new(), Vec::new());
     for (label, e, color) in &series {
         let pts: Vec<(f64, f64)> = (0..phases.len())
             .map(|k| (phases[k], settled(&e.phases[k], &setting).unwrap_or(f64::NAN)))
             .collect();
-        if pts.iter().any(|q| q.1.is_finite()) {
+        let any = pts.iter().any(|q| q.1.is_finite());
+        if any {
             p = p.with(Layer::line(pts.clone(), *color, Stroke::Solid, Some(label)));
             p = p.with(Layer::markers(pts, *color, None));
         }
+        let (mut unsettled, mut lost) = (Vec::new(), Vec::new());
         for k in 0..phases.len() {
             match (e.phases[k].outcome, settled(&e.phases[k], &setting)) {
                 (sway::sim::Outcome::LossOfControl, _) => lost.push((phases[k], h + 1.0)),
@@ -670,19 +671,21 @@ fn settle_panel(r: &MitigationResult, cfg: &MitigationConfig) -> Panel {
                 _ => {}
             }
         }
-    }
-    for (pts, shape, color, label) in [
-        (unsettled, Shape::Circle, Rgb::GREY, "not settled within the horizon"),
-        (lost, Shape::Cross, Rgb::RED, "loss of control"),
-    ] {
-        if !pts.is_empty() {
-            p = p.with(Layer::Markers {
-                points: pts,
-                color,
-                shape,
-                size: 6,
-                label: Some(label.into()),
-            });
+        let unsettled_label = format!("{label}: not settled within {h} s");
+        let lost_label = format!("{label}: loss of control");
+        for (pts, shape, text) in [
+            (unsettled, Shape::Circle, unsettled_label),
+            (lost, Shape::Cross, lost_label),
+        ] {
+            if !pts.is_empty() {
+                p = p.with(Layer::Markers {
+                    points: pts,
+                    color: *color,
+                    shape,
+                    size: 7,
+                    label: Some(text),
+                });
+            }
         }
     }
     p
@@ -869,3 +872,104 @@ impl Prepared for Configured<MitigationConfig> {
     }
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config_file::parse_toml;
+    use std::path::PathBuf;
+    use trailer_model::VehicleParams;
+
+    fn shipped() -> (PathBuf, String) {
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/mitigation.toml");
+        let text = std::fs::read_to_string(&file).expect("shipped config");
+        (file, text)
+    }
+
+    fn config() -> (PathBuf, MitigationConfig) {
+        let (file, text) = shipped();
+        let cfg: MitigationConfig = parse_toml(&text, &file).unwrap();
+        cfg.check(&file).unwrap();
+        (file, cfg)
+    }
+
+    #[test]
+    fn shipped_config_is_valid_and_as_the_issue_asks() {
+        let (_, cfg) = config();
+        assert_eq!((cfg.speed(), cfg.phases, cfg.refinement), (35.0, 16, 4));
+        assert_eq!((cfg.horizon_s.get(), cfg.delay_s), (40.0, 0.2));
+        assert_eq!(cfg.peak_limit_deg.get(), 45.0);
+        assert_eq!(cfg.effective_bounds().speed_change_mps.lo, -10.0);
+        assert_eq!(cfg.actuator, ActuatorLimits::NONE);
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        let (file, text) = shipped();
+        for (from, to, key) in [
+            ("phases = 16", "phases = 1", "phases"),
+            ("gain_s = { lo = 0.0, hi = 0.5 }", "gain_s = { lo = 0.6, hi = 0.5 }", "bounds.gain_s"),
+            ("# max_angle_deg = 2.0", "max_angle_deg = -2.0", "actuator.max_angle_deg"),
+            ("max_iters = 60", "max_iters = 0", "optimiser.max_iters"),
+            ("min_final_speed_mps = 25.0", "min_final_speed_mps = 36.0", "min_final_speed_mps"),
+        ] {
+            assert!(text.contains(from), "{from}");
+            let cfg: MitigationConfig = parse_toml(&text.replace(from, to), &file).unwrap();
+            let e = cfg.check(&file).unwrap_err().to_string();
+            assert!(e.contains(&format!("`{key}`")), "{key}: {e}");
+        }
+        let unknown = text.replace("[paper]", "[paper]\nfoo = 1");
+        let e = parse_toml::<MitigationConfig>(&unknown, &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("foo"), "{e}");
+    }
+
+    /// The committed optimum (results/mitigation/summary.json).
+    fn committed() -> serde_json::Value {
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../results/mitigation/summary.json");
+        serde_json::from_str(&std::fs::read_to_string(file).expect("committed summary")).unwrap()
+    }
+
+    #[test]
+    fn the_worst_case_over_phase_is_a_true_worst_case() {
+        // reference: the committed optimum evaluated at N = 16 and 4N = 64 phases (the
+        // N-grid is a subset of the 4N-grid, so the change is ≥ 0). Bound (see
+        // `refinement_bound`): one jump of the settle time, half the sway period, plus the
+        // largest change between neighbouring N-grid phases. Also checks that the committed
+        // numbers regenerate (to 1e-9 s).
+        let (_, cfg) = config();
+        let model = Model::new(VehicleParams::default()).unwrap();
+        let summary = committed();
+        let iv: Intervention =
+            serde_json::from_value(summary["optimum"]["intervention"].clone()).unwrap();
+        let solver = cfg.settings.solver;
+        let s = &cfg.start;
+        let cycle = sway_cycle(
+            &model,
+            s.speed_mps.get(),
+            s.theta0_rad,
+            s.settle_s.get(),
+            CYCLE_SEARCH_S,
+            &solver,
+        )
+        .unwrap();
+        let setting = cfg.setting(solver);
+        let eval = |n: usize| {
+            let starts =
+                PhaseStarts::new(&model, &cycle, n, cfg.span(), cfg.delay_s, &solver).unwrap();
+            evaluate(&model, &setting, &starts, &iv).unwrap()
+        };
+        let (coarse, fine) = (eval(16), eval(64));
+        let (wc, wf) = (
+            coarse.worst_settle_time_s.unwrap(),
+            fine.worst_settle_time_s.unwrap(),
+        );
+        let committed_wc = summary["optimum"]["worst_case_settle_time_s"].as_f64().unwrap();
+        assert!((wc - committed_wc).abs() < 1e-9, "{wc} vs {committed_wc}");
+        let bound = refinement_bound(&coarse, &setting, cycle.period_s).unwrap();
+        let change = wf - wc;
+        eprintln!("worst case: {wc} s at 16 phases, {wf} s at 64; change {change} s ≤ {bound} s");
+        assert!(change >= 0.0 && change <= bound, "{change} vs {bound}");
+    }
+}

@@ -357,7 +357,11 @@ pub fn evaluate(
     let lead = starts.lead_in_s;
     let (runs, worst) = worst_case(
         &starts.states,
-        |x0| setting.run(model, iv, *x0, lead, Recording::None).map(|r| r.metrics),
+        |x0| {
+            setting
+                .run(model, iv, *x0, lead, Recording::None)
+                .map(|r| r.metrics)
+        },
         |m| phase_cost(m, lead, setting),
     )?;
     let costs: Vec<f64> = runs.iter().map(|m| phase_cost(m, lead, setting)).collect();

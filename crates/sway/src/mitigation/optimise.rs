@@ -164,7 +164,11 @@ pub struct Minimum {
 
 /// The starting points: the caller's, then `random_starts` uniform ones in the box drawn
 /// from ChaCha8 seeded with `seed`.
-pub fn starting_points(bounds: &[Bound], given: &[Vec<f64>], settings: &OptimiserSettings) -> Vec<Vec<f64>> {
+pub fn starting_points(
+    bounds: &[Bound],
+    given: &[Vec<f64>],
+    settings: &OptimiserSettings,
+) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let mut starts: Vec<Vec<f64>> = given.to_vec();
     for _ in 0..settings.random_starts {
@@ -255,7 +259,11 @@ impl<P: MixedProblem> CostFunction for FreeCost<'_, P> {
 }
 
 fn to_bounded(bounds: &[Bound], z: &[f64]) -> Vec<f64> {
-    bounds.iter().zip(z).map(|(b, &z)| b.to_bounded(z)).collect()
+    bounds
+        .iter()
+        .zip(z)
+        .map(|(b, &z)| b.to_bounded(z))
+        .collect()
 }
 
 /// One Nelder–Mead run from `x0`: the initial simplex is z0 and z0 + h·eᵢ (z0 − h·eᵢ where
@@ -273,7 +281,11 @@ fn nelder_mead<P: MixedProblem>(
     for i in 0..z0.len() {
         let mut z = z0.clone();
         let h = settings.initial_step;
-        z[i] += if z[i] + h > std::f64::consts::FRAC_PI_2 { -h } else { h };
+        z[i] += if z[i] + h > std::f64::consts::FRAC_PI_2 {
+            -h
+        } else {
+            h
+        };
         simplex.push(z);
     }
     let (evaluations, error) = (AtomicUsize::new(0), Mutex::new(None));

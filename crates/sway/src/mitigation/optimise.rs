@@ -102,8 +102,8 @@ impl Default for OptimiserSettings {
     fn default() -> Self {
         Self {
             seed: 1,
-            random_starts: 2,
-            max_iters: 60,
+            random_starts: 4,
+            max_iters: 100,
             sd_tolerance: 1e-3,
             initial_step: 0.6,
         }

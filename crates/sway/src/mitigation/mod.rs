@@ -23,7 +23,7 @@
 //! horizon H, so any feasible design beats any infeasible one —
 //! not settled: H + final amplitude \[deg\]; loss of control: 2H + (H − time of the loss);
 //! peak |θ| above the limit (45°): max(cost, H) + (peak − limit) \[deg\]. The final speed
-//! is a bound, δ_max a saturation. [`optimise`] minimises the worst case with the generic
+//! is a bound, δ_max a saturation. [`optimise()`] minimises the worst case with the generic
 //! [`optimise::minimise`] (Nelder–Mead per ramp shape, seeded multi-start).
 
 pub mod optimise;
@@ -468,7 +468,7 @@ impl MixedProblem for MitigationProblem<'_> {
     }
 }
 
-/// The optimum of [`optimise`].
+/// The optimum of [`optimise()`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Optimum {
     /// the best intervention

@@ -31,6 +31,7 @@ fn single_runs(c: &mut Criterion) {
             delay_s: 0.2,
             on_s: 0.0,
             off_s: None,
+            actuator: Default::default(),
         },
         40.0,
         1e-8,

@@ -27,6 +27,7 @@ mod error;
 pub mod gain_design;
 pub mod linear;
 pub mod loading;
+pub mod mitigation;
 pub mod progress;
 pub mod sim;
 

@@ -25,6 +25,7 @@ fn plant_rhs_matches_the_model_rhs7() {
         delay_s: 0.2,
         on_s: 0.5,
         off_s: None,
+        actuator: Default::default(),
     };
     let x = State7::from_column_slice(&[0.3, -0.05, 0.2, 0.15, 0.4, 10.0, -2.0]);
     let xd = State7::from_column_slice(&[0.1, 0.08, -0.1, 0.05, 0.3, 9.0, -1.5]);
@@ -75,6 +76,7 @@ fn open_loop_equals_delay_solver_with_zero_gain() {
         delay_s: 0.2,
         on_s: 0.0,
         off_s: None,
+        actuator: Default::default(),
     };
     let dde_spec = spec(p, ctl, 20.0, 1e-10);
     let rec = Recording::Every { step_s: 0.05 };
@@ -135,6 +137,7 @@ fn closed_loop_tolerance_refinement_converges() {
         delay_s: 0.2,
         on_s: 1.0,
         off_s: None,
+        actuator: Default::default(),
     };
     let errs = refinement_errors(35.0, ctl, 10.0, 10.0);
     eprintln!("closed-loop errors {errs:?}");

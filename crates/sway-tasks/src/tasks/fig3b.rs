@@ -114,6 +114,7 @@ impl Fig3bConfig {
                 change_mps: self.speed_change_mps,
                 start_s: self.brake_start_s,
                 duration_s,
+                shape: Default::default(),
             },
             controller: Controller::None,
             horizon_s: self.horizon_s.get(),

@@ -87,6 +87,7 @@ impl Fig4cConfig {
                     change_mps: self.braking.speed_change_mps,
                     start_s: self.action_s,
                     duration_s: self.braking.duration_s,
+                    shape: Default::default(),
                 }
             } else {
                 SpeedProfile::Constant { speed_mps: v0 }
@@ -97,6 +98,7 @@ impl Fig4cConfig {
                     delay_s: self.steering.delay_s,
                     on_s: self.action_s,
                     off_s: self.steering.off_s,
+                    actuator: Default::default(),
                 }
             } else {
                 Controller::None

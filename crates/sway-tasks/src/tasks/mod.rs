@@ -41,6 +41,7 @@ registry! {
     chart_nonlinear => [TASK],
     gain_design => [TASK],
     simulate => [TASK],
+    mitigation => [TASK],
     sweep => [TASK, BRAKE_TIMING],
 }
 

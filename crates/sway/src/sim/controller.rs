@@ -1,7 +1,124 @@
 //! Steering controllers: none, or the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) of
-//! paper eq. (8), switched on at t_on and optionally off at t_off.
+//! paper eq. (8), switched on at t_on and optionally off at t_off, with optional actuator
+//! limits ([`ActuatorLimits`]): a steering-angle saturation |δ| ≤ δ_max and a rate limit
+//! |δ̇| ≤ δ̇_max.
+//!
+//! The saturation is memoryless: the command becomes
+//! δ_c(t) = clamp(−D·ψ̇(t − τ), −δ_max, δ_max) while the controller is on (0 while it is
+//! off). A rate limit is not a function of the delayed signal (the angle reached depends on
+//! the whole past of the command), so with a rate limit the steering angle is a state of a
+//! first-order actuator:
+//!
+//! δ̇(t) = clamp((δ_c(t) − δ(t)) / t_a, −δ̇_max, δ̇_max),  δ(0) = 0,
+//!
+//! with the actuator time constant t_a (`time_constant_s`, default 0.05 s): a linear servo
+//! of bandwidth 1/t_a whose speed saturates at δ̇_max. For t_a → 0 it tends to the ideal rate
+//! limiter (δ follows δ_c wherever it moves slower than δ̇_max); t_a = 0.05 s lags the
+//! sway mode (≈ 2.3 rad/s) by atan(2.3 · 0.05) ≈ 7°. The extra state exists only when the
+//! rate limit is on ([`ActuatorLimits::has_rate_limit`]); δ stays within ±δ_max because it
+//! relaxes towards a command that does. Without limits (the default) everything is
+//! unchanged, bit for bit.
 
 use serde::{Deserialize, Serialize};
+
+fn default_time_constant() -> f64 {
+    0.05
+}
+
+/// Limits of the steering actuator (the `actuator` table of a yaw-rate controller); every
+/// key is optional and the default is no limit.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActuatorLimits {
+    /// δ_max \[deg\]: saturation |δ| ≤ δ_max (none when absent)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_angle_deg: Option<f64>,
+    /// δ̇_max \[deg/s\]: rate limit |δ̇| ≤ δ̇_max (none when absent); adds the actuator state
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_rate_deg_s: Option<f64>,
+    /// t_a \[s\]: time constant of the first-order actuator used with a rate limit
+    #[serde(default = "default_time_constant")]
+    pub time_constant_s: f64,
+}
+
+impl Default for ActuatorLimits {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
+
+impl ActuatorLimits {
+    /// No limits (the paper's ideal actuator).
+    pub const NONE: Self = Self {
+        max_angle_deg: None,
+        max_rate_deg_s: None,
+        time_constant_s: 0.05,
+    };
+
+    /// Whether these are the defaults (then they are not written out).
+    pub fn is_default(&self) -> bool {
+        *self == Self::NONE
+    }
+
+    /// Whether a rate limit is set (then δ is an extra state of the simulation).
+    pub fn has_rate_limit(&self) -> bool {
+        self.max_rate_deg_s.is_some()
+    }
+
+    /// Checks; `Err((key, problem))` names the key inside the `actuator` table.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if let Some(m) = self.max_angle_deg
+            && !(m.is_finite() && m > 0.0)
+        {
+            return Err((
+                "actuator.max_angle_deg",
+                format!("expected a finite angle > 0 deg, got {m}"),
+            ));
+        }
+        if let Some(r) = self.max_rate_deg_s
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err((
+                "actuator.max_rate_deg_s",
+                format!("expected a finite rate > 0 deg/s, got {r}"),
+            ));
+        }
+        let ta = self.time_constant_s;
+        if !(ta.is_finite() && ta > 0.0) {
+            return Err((
+                "actuator.time_constant_s",
+                format!("expected a time constant > 0 s, got {ta}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The saturated command clamp(δ, −δ_max, δ_max) \[rad\] (δ itself without a limit).
+    #[inline]
+    pub fn saturate(&self, delta: f64) -> f64 {
+        match self.max_angle_deg {
+            Some(m) => {
+                let m = m.to_radians();
+                delta.clamp(-m, m)
+            }
+            None => delta,
+        }
+    }
+
+    /// The actuator's δ̇ = clamp((δ_c − δ)/t_a, −δ̇_max, δ̇_max) \[rad/s\] (δ_c − δ over t_a
+    /// without a rate limit).
+    #[inline]
+    pub fn rate(&self, command: f64, delta: f64) -> f64 {
+        let r = (command - delta) / self.time_constant_s;
+        match self.max_rate_deg_s {
+            Some(m) => {
+                let m = m.to_radians();
+                r.clamp(-m, m)
+            }
+            None => r,
+        }
+    }
+}
 
 /// The steering law.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -22,6 +139,9 @@ pub enum Controller {
         /// t_off \[s\]: switched off (never when absent)
         #[serde(default, skip_serializing_if = "Option::is_none")]
         off_s: Option<f64>,
+        /// steering-angle saturation and rate limit (none when absent)
+        #[serde(default, skip_serializing_if = "ActuatorLimits::is_default")]
+        actuator: ActuatorLimits,
     },
 }
 
@@ -34,7 +154,22 @@ impl Controller {
         }
     }
 
-    /// Steering angle δ(t) \[rad\] given the delayed yaw rate ψ̇(t − τ) \[rad/s\].
+    /// The actuator limits (none for the open loop).
+    pub fn actuator(&self) -> ActuatorLimits {
+        match self {
+            Controller::None => ActuatorLimits::NONE,
+            Controller::YawRateFeedback { actuator, .. } => *actuator,
+        }
+    }
+
+    /// Whether the steering angle is a state of the simulation (a rate limit is set).
+    pub fn has_actuator_state(&self) -> bool {
+        self.actuator().has_rate_limit()
+    }
+
+    /// Steering command δ_c(t) \[rad\] given the delayed yaw rate ψ̇(t − τ) \[rad/s\]:
+    /// −D·ψ̇(t − τ) saturated at ±δ_max while the controller is on, 0 while it is off (eq. 8).
+    /// It is the steering angle itself unless a rate limit is set (see the module docs).
     #[inline]
     pub fn steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
         match self {
@@ -43,10 +178,11 @@ impl Controller {
                 gain_s,
                 on_s,
                 off_s,
+                actuator,
                 ..
             } => {
                 if t >= *on_s && off_s.is_none_or(|off| t < off) {
-                    -gain_s * delayed_yaw_rate
+                    actuator.saturate(-gain_s * delayed_yaw_rate)
                 } else {
                     0.0
                 }
@@ -81,6 +217,7 @@ impl Controller {
             delay_s,
             on_s,
             off_s,
+            actuator,
         } = self
         {
             if !gain_s.is_finite() {
@@ -100,6 +237,7 @@ impl Controller {
                     format!("expected off_s > on_s = {on_s}, got {off}"),
                 ));
             }
+            actuator.validate()?;
         }
         Ok(())
     }
@@ -116,11 +254,73 @@ mod tests {
             delay_s: 0.2,
             on_s: 10.0,
             off_s: Some(20.0),
+            actuator: ActuatorLimits::NONE,
         };
         assert_eq!(c.steering_angle(9.999, 1.0), 0.0);
         assert_eq!(c.steering_angle(10.0, 1.0), -0.1);
         assert_eq!(c.steering_angle(19.999, -2.0), 0.2);
         assert_eq!(c.steering_angle(20.0, 1.0), 0.0);
         assert_eq!(c.breakpoints(), vec![10.0, 20.0]);
+    }
+}
+
+#[cfg(test)]
+mod limit_tests {
+    use super::*;
+
+    fn limited(actuator: ActuatorLimits) -> Controller {
+        Controller::YawRateFeedback {
+            gain_s: 0.1,
+            delay_s: 0.2,
+            on_s: 0.0,
+            off_s: None,
+            actuator,
+        }
+    }
+
+    #[test]
+    fn saturation_clamps_the_command_and_large_limits_change_nothing() {
+        // reference: clamp by hand; 2° = 0.0349 rad, command −0.1·1 = −0.1 rad
+        let c = limited(ActuatorLimits {
+            max_angle_deg: Some(2.0),
+            ..ActuatorLimits::NONE
+        });
+        assert_eq!(c.steering_angle(1.0, 1.0), -(2f64.to_radians()));
+        assert_eq!(c.steering_angle(1.0, 0.1), -0.1 * 0.1);
+        let big = limited(ActuatorLimits {
+            max_angle_deg: Some(1e300),
+            ..ActuatorLimits::NONE
+        });
+        let none = limited(ActuatorLimits::NONE);
+        for r in [-3.0, -1e-9, 0.0, 0.7, 12.5] {
+            assert_eq!(
+                big.steering_angle(1.0, r).to_bits(),
+                none.steering_angle(1.0, r).to_bits()
+            );
+        }
+    }
+
+    #[test]
+    fn actuator_rate_is_clamped() {
+        // reference: (δ_c − δ)/t_a = (0.1 − 0)/0.05 = 2 rad/s, limited to 10 deg/s
+        let a = ActuatorLimits {
+            max_rate_deg_s: Some(10.0),
+            ..ActuatorLimits::NONE
+        };
+        assert_eq!(a.rate(0.1, 0.0), 10f64.to_radians());
+        assert_eq!(a.rate(-0.1, 0.0), -(10f64.to_radians()));
+        assert!((a.rate(0.001, 0.0) - 0.02).abs() < 1e-15);
+    }
+
+    #[test]
+    fn limits_are_optional_in_toml_and_validated_by_key() {
+        let c: Controller =
+            toml::from_str("kind = \"yaw_rate_feedback\"\ngain_s = 0.1\ndelay_s = 0.2\n").unwrap();
+        assert_eq!(c.actuator(), ActuatorLimits::NONE);
+        let c: Controller = toml::from_str(
+            "kind = \"yaw_rate_feedback\"\ngain_s = 0.1\ndelay_s = 0.2\nactuator = { max_rate_deg_s = -1.0 }\n",
+        )
+        .unwrap();
+        assert_eq!(c.validate().unwrap_err().0, "actuator.max_rate_deg_s");
     }
 }

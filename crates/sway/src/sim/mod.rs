@@ -30,9 +30,9 @@ mod run;
 mod scenario;
 pub mod sweep;
 
-pub use controller::Controller;
+pub use controller::{ActuatorLimits, Controller};
 pub use plant::{Plant, reduced};
-pub use profile::SpeedProfile;
+pub use profile::{RampShape, SpeedProfile};
 pub use run::{
     LossOfControl, MetricSettings, Metrics, Outcome, Recording, RunSettings, Sample, SimResult,
     SimSpec, SolverSettings, ValidityGuard, settle, simulate,

@@ -1,5 +1,7 @@
 //! The car–trailer model with a speed profile and a steering controller, as an ODE/DDE
-//! problem for the [`dde`] solver: 4 states \[σ1, σ2, σ3, θ\] or all 7 \[σ1, σ2, σ3, θ, ψ, x_H, y_H\].
+//! problem for the [`dde`] solver: 4 states \[σ1, σ2, σ3, θ\] or all 7 \[σ1, σ2, σ3, θ, ψ, x_H, y_H\],
+//! plus the steering angle δ as a last state (5 or 8 states) when the controller has a
+//! rate-limited actuator (see [`crate::sim::ActuatorLimits`]).
 
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::SVector;
@@ -9,12 +11,17 @@ use super::{Controller, SpeedProfile};
 
 /// The closed (or open) loop: paper eq. (5)–(7) with V(t), V̇(t) from a [`SpeedProfile`] and
 /// δ(t) from a [`Controller`] (eq. 8). Implements [`OdeProblem`] (δ ≡ 0) and
-/// [`DdeProblem`] (δ = −D·ψ̇(t − τ)) for `N = 4` and `N = 7`.
+/// [`DdeProblem`] (δ = −D·ψ̇(t − τ)) for `N = 4` and `N = 7`, and with a rate-limited
+/// actuator (δ the last state) for `N = 5` and `N = 8`.
 #[derive(Debug, Clone)]
 pub struct Plant<'a, const N: usize> {
     model: &'a Model,
     profile: &'a SpeedProfile,
     controller: Controller,
+    /// x\[N − 1\] is the steering angle δ (rate-limited actuator)
+    actuator_state: bool,
+    /// the kinematic states ψ, x_H, y_H are x\[4..7\]
+    kinematics: bool,
     delays: Vec<f64>,
     breakpoints: Vec<f64>,
     /// the constant initial function x(t) = x0 for t ≤ 0
@@ -28,7 +35,9 @@ pub fn reduced<const N: usize>(x: &SVector<f64, N>) -> State4 {
 }
 
 impl<'a, const N: usize> Plant<'a, N> {
-    /// A plant starting from `x0` (also the history for t ≤ 0).
+    /// A plant starting from `x0` (also the history for t ≤ 0). With a rate-limited
+    /// controller ([`Controller::has_actuator_state`]) `N` must be 5 or 8 and `x0[N − 1]` is
+    /// δ(0); otherwise `N` is 4 or 7.
     pub fn new(
         model: &'a Model,
         profile: &'a SpeedProfile,
@@ -40,10 +49,13 @@ impl<'a, const N: usize> Plant<'a, N> {
         breakpoints.retain(|&b| b > 0.0);
         breakpoints.sort_by(f64::total_cmp);
         breakpoints.dedup();
+        let actuator_state = controller.has_actuator_state();
         Self {
             model,
             profile,
             controller,
+            actuator_state,
+            kinematics: N - usize::from(actuator_state) == 7,
             delays: controller.delay().into_iter().collect(),
             breakpoints,
             history: x0,
@@ -65,14 +77,30 @@ impl<'a, const N: usize> Plant<'a, N> {
         self.profile
     }
 
-    /// Inputs at time t given the delayed states (`x_delayed[0] = x(t − τ)`, empty in open loop).
+    /// Whether the steering angle δ is the last state (rate-limited actuator).
+    pub fn has_actuator_state(&self) -> bool {
+        self.actuator_state
+    }
+
+    /// The steering command δ_c(t) \[rad\] given the delayed states (eq. 8 with saturation).
     #[inline]
-    pub fn inputs(&self, t: f64, x_delayed: &[SVector<f64, N>]) -> Inputs {
-        let steering_angle = match x_delayed.first() {
+    fn command(&self, t: f64, x_delayed: &[SVector<f64, N>]) -> f64 {
+        match x_delayed.first() {
             Some(xd) => self
                 .controller
                 .steering_angle(t, self.model.yaw_rate(&reduced(xd))),
             None => 0.0,
+        }
+    }
+
+    /// Inputs at time t given the state x(t) and the delayed states (`x_delayed[0] = x(t − τ)`,
+    /// empty in open loop): δ is the actuator state when there is one, else the command.
+    #[inline]
+    pub fn inputs(&self, t: f64, x: &SVector<f64, N>, x_delayed: &[SVector<f64, N>]) -> Inputs {
+        let steering_angle = if self.actuator_state {
+            x[N - 1]
+        } else {
+            self.command(t, x_delayed)
         };
         Inputs {
             steering_angle,
@@ -89,7 +117,7 @@ impl<'a, const N: usize> Plant<'a, N> {
         x_delayed: &[SVector<f64, N>],
     ) -> SlipAngles {
         self.model
-            .slip_angles(&reduced(x), &self.inputs(t, x_delayed))
+            .slip_angles(&reduced(x), &self.inputs(t, x, x_delayed))
     }
 
     #[inline]
@@ -100,7 +128,7 @@ impl<'a, const N: usize> Plant<'a, N> {
         dx[1] = r[1];
         dx[2] = r[2];
         dx[3] = r[3];
-        if N == 7 {
+        if self.kinematics {
             // ψ̇, ẋ_H = V cos ψ − σ1 sin ψ, ẏ_H = V sin ψ + σ1 cos ψ (eq. 5)
             let (sp, cp) = x[4].sin_cos();
             dx[4] = self.model.yaw_rate(&x4);
@@ -113,8 +141,11 @@ impl<'a, const N: usize> Plant<'a, N> {
 impl<const N: usize> OdeProblem<N> for Plant<'_, N> {
     #[inline]
     fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
-        let u = self.inputs(t, &[]);
+        let u = self.inputs(t, x, &[]);
         self.eval(&u, x, dx);
+        if self.actuator_state {
+            dx[N - 1] = self.controller.actuator().rate(0.0, x[N - 1]);
+        }
     }
     fn breakpoints(&self) -> &[f64] {
         &self.breakpoints
@@ -136,8 +167,12 @@ impl<const N: usize> DdeProblem<N> for Plant<'_, N> {
         x_delayed: &[SVector<f64, N>],
         dx: &mut SVector<f64, N>,
     ) {
-        let u = self.inputs(t, x_delayed);
+        let u = self.inputs(t, x, x_delayed);
         self.eval(&u, x, dx);
+        if self.actuator_state {
+            let command = self.command(t, x_delayed);
+            dx[N - 1] = self.controller.actuator().rate(command, x[N - 1]);
+        }
     }
     fn breakpoints(&self) -> &[f64] {
         &self.breakpoints

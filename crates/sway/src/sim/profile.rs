@@ -3,6 +3,72 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The shape s(u) of a speed ramp, u = (t − t_b)/T ∈ \[0, 1\]: V = V0 + ΔV·s(u), s(0) = 0,
+/// s(1) = 1, monotone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RampShape {
+    /// s = u: constant deceleration ΔV/T (paper Fig. 3b); V̇ jumps at both ends
+    #[default]
+    Linear,
+    /// s = 3u² − 2u³ (smoothstep): V̇ = 6ΔV·u(1 − u)/T rises from 0 and returns to 0, peak
+    /// 1.5·ΔV/T at mid-ramp; V̇ is continuous (the jerk jumps at both ends)
+    SCurve,
+    /// s = (1 − e^(−u/k))/(1 − e^(−1/k)), k = [`RampShape::EXPONENTIAL_RATIO`]: a
+    /// first-order (time constant t_c = k·T) approach truncated and rescaled to end exactly at
+    /// V0 + ΔV at t_b + T; hardest braking at the start (V̇ = ΔV/(k·T·(1 − e^(−1/k))) ≈
+    /// 3.16·ΔV/T), V̇ jumps at both ends
+    Exponential,
+}
+
+impl RampShape {
+    /// All shapes, in the order they are listed in results.
+    pub const ALL: [RampShape; 3] = [RampShape::Linear, RampShape::SCurve, RampShape::Exponential];
+
+    /// k = t_c/T of the exponential shape: the time constant is a third of the ramp.
+    pub const EXPONENTIAL_RATIO: f64 = 1.0 / 3.0;
+
+    /// Whether it is the default (then it is not written out).
+    pub fn is_linear(&self) -> bool {
+        *self == RampShape::Linear
+    }
+
+    /// The snake_case name used in configs and results.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            RampShape::Linear => "linear",
+            RampShape::SCurve => "s_curve",
+            RampShape::Exponential => "exponential",
+        }
+    }
+
+    /// s(u) for u ∈ \[0, 1\].
+    #[inline]
+    pub fn fraction(&self, u: f64) -> f64 {
+        match self {
+            RampShape::Linear => u,
+            RampShape::SCurve => u * u * (3.0 - 2.0 * u),
+            RampShape::Exponential => {
+                let k = Self::EXPONENTIAL_RATIO;
+                (-(-u / k).exp_m1()) / (-(-1.0 / k).exp_m1())
+            }
+        }
+    }
+
+    /// ds/du for u ∈ \[0, 1).
+    #[inline]
+    pub fn slope(&self, u: f64) -> f64 {
+        match self {
+            RampShape::Linear => 1.0,
+            RampShape::SCurve => 6.0 * u * (1.0 - u),
+            RampShape::Exponential => {
+                let k = Self::EXPONENTIAL_RATIO;
+                (-u / k).exp() / (k * -(-1.0 / k).exp_m1())
+            }
+        }
+    }
+}
+
 /// A prescribed speed V(t) \[m/s\]. V̇ is right-continuous: at a corner it takes the value
 /// that holds after it (the solver lands a step on every corner, see [`SpeedProfile::breakpoints`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -13,8 +79,9 @@ pub enum SpeedProfile {
         /// V0 \[m/s\]
         speed_mps: f64,
     },
-    /// Linear ramp: V0 until t_b, then a change of ΔV spread linearly over T, then
-    /// V0 + ΔV (paper Fig. 3b: ΔV = −10 m/s over T ∈ {2, 3, 5, 10} s).
+    /// Ramp: V0 until t_b, then a change of ΔV spread over T with the given shape (linear
+    /// by default), then V0 + ΔV (paper Fig. 3b: linear, ΔV = −10 m/s over
+    /// T ∈ {2, 3, 5, 10} s).
     Ramp {
         /// V0 \[m/s\]
         initial_mps: f64,
@@ -24,6 +91,9 @@ pub enum SpeedProfile {
         start_s: f64,
         /// T \[s\], duration of the ramp
         duration_s: f64,
+        /// s(u): "linear" (default), "s_curve" or "exponential"
+        #[serde(default, skip_serializing_if = "RampShape::is_linear")]
+        shape: RampShape,
     },
     /// Piecewise-linear through (t \[s\], V \[m/s\]) points with increasing t; constant before
     /// the first and after the last point.
@@ -43,9 +113,10 @@ impl SpeedProfile {
                 change_mps,
                 start_s,
                 duration_s,
+                shape,
             } => {
-                let s = ((t - start_s) / duration_s).clamp(0.0, 1.0);
-                initial_mps + change_mps * s
+                let u = ((t - start_s) / duration_s).clamp(0.0, 1.0);
+                initial_mps + change_mps * shape.fraction(u)
             }
             SpeedProfile::Table { points } => {
                 let n = points.len();
@@ -73,10 +144,12 @@ impl SpeedProfile {
                 change_mps,
                 start_s,
                 duration_s,
+                shape,
                 ..
             } => {
                 if t >= *start_s && t < start_s + duration_s {
-                    change_mps / duration_s
+                    let u = ((t - start_s) / duration_s).clamp(0.0, 1.0);
+                    change_mps / duration_s * shape.slope(u)
                 } else {
                     0.0
                 }
@@ -93,7 +166,7 @@ impl SpeedProfile {
         }
     }
 
-    /// Times \[s\] where V̇ jumps.
+    /// Times \[s\] where V̇ jumps (for the S-curve ramp: where V̈ jumps).
     pub fn breakpoints(&self) -> Vec<f64> {
         match self {
             SpeedProfile::Constant { .. } => Vec::new(),
@@ -150,6 +223,7 @@ impl SpeedProfile {
                 change_mps,
                 start_s,
                 duration_s,
+                ..
             } => {
                 if !(initial_mps.is_finite() && *initial_mps > 0.0) {
                     return Err((
@@ -213,6 +287,7 @@ mod tests {
             change_mps: -10.0,
             start_s: 2.0,
             duration_s: 5.0,
+            shape: RampShape::Linear,
         };
         assert_relative_eq!(p.speed(4.5), 30.0, max_relative = 1e-15);
         assert_eq!(p.speed(1.0), 35.0);
@@ -231,6 +306,7 @@ mod tests {
             change_mps: -10.0,
             start_s: 2.0,
             duration_s: 5.0,
+            shape: RampShape::Linear,
         };
         let table = SpeedProfile::Table {
             points: vec![[0.0, 35.0], [2.0, 35.0], [7.0, 25.0]],
@@ -254,7 +330,76 @@ mod tests {
             change_mps: -40.0,
             start_s: 2.0,
             duration_s: 5.0,
+            shape: RampShape::Linear,
         };
         assert_eq!(p.validate().unwrap_err().0, "change_mps");
+    }
+}
+
+#[cfg(test)]
+mod shape_tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn ramp(shape: RampShape) -> SpeedProfile {
+        SpeedProfile::Ramp {
+            initial_mps: 35.0,
+            change_mps: -10.0,
+            start_s: 2.0,
+            duration_s: 5.0,
+            shape,
+        }
+    }
+
+    #[test]
+    fn shapes_end_where_the_linear_ramp_ends() {
+        // reference: s(0) = 0, s(1) = 1 exactly up to round-off (1e-14)
+        for shape in RampShape::ALL {
+            let p = ramp(shape);
+            assert_eq!(p.speed(2.0), 35.0);
+            assert_relative_eq!(p.speed(7.0), 25.0, max_relative = 1e-14);
+            assert_eq!(p.speed(9.0), p.speed(7.0));
+            assert_eq!(p.breakpoints(), vec![2.0, 7.0]);
+            assert_relative_eq!(p.min_speed(40.0), 25.0, max_relative = 1e-14);
+        }
+    }
+
+    #[test]
+    fn acceleration_is_the_derivative_of_the_speed() {
+        // reference: central differences, h = 1e-5 s, truncation error O(h²·V⃛) < 1e-7 m/s²
+        let h = 1e-5;
+        for shape in RampShape::ALL {
+            let p = ramp(shape);
+            for i in 1..50 {
+                let t = 2.0 + 0.1 * i as f64 + 0.003;
+                let fd = (p.speed(t + h) - p.speed(t - h)) / (2.0 * h);
+                assert!(
+                    (p.acceleration(t) - fd).abs() < 1e-7,
+                    "{shape:?} at t = {t}: {} vs {fd}",
+                    p.acceleration(t)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn shape_is_optional_in_toml() {
+        let p: SpeedProfile = toml::from_str(
+            "kind = \"ramp\"\ninitial_mps = 35.0\nchange_mps = -10.0\nstart_s = 2.0\nduration_s = 5.0\n",
+        )
+        .unwrap();
+        assert_eq!(p, ramp(RampShape::Linear));
+        let p: SpeedProfile = toml::from_str(
+            "kind = \"ramp\"\ninitial_mps = 35.0\nchange_mps = -10.0\nstart_s = 2.0\nduration_s = 5.0\nshape = \"s_curve\"\n",
+        )
+        .unwrap();
+        assert_eq!(p, ramp(RampShape::SCurve));
+        // the exponential's initial deceleration, by hand: ΔV/(kT(1 − e^(−3))) with k = 1/3
+        let a0 = -10.0 / (5.0 / 3.0 * (1.0 - (-3f64).exp()));
+        assert_relative_eq!(
+            ramp(RampShape::Exponential).acceleration(2.0),
+            a0,
+            max_relative = 1e-14
+        );
     }
 }

@@ -273,7 +273,7 @@ impl<const N: usize> MetricObserver<'_, '_, N> {
             Some(v) => std::slice::from_ref(v),
             None => &[],
         };
-        let u = self.plant.inputs(t, xd);
+        let u = self.plant.inputs(t, &x, xd);
         Sample {
             t,
             x,
@@ -330,11 +330,61 @@ impl<const N: usize> Observer<N> for MetricObserver<'_, '_, N> {
 
 /// Runs one scenario from the state `x0` at t = 0 (4 states, or 7 to get the path).
 /// Open loop uses the ODE solver; with a controller the DDE solver (history: x ≡ x0 for t ≤ 0).
+/// With a rate-limited actuator the steering angle is an extra state, starting at δ(0) = 0
+/// (see [`crate::sim::ActuatorLimits`]); the result has `N` states all the same, and the
+/// recorded `steering_angle` is that state.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails (step-size underflow, non-finite state,
 /// step budget), with the scenario's time in the message.
 pub fn simulate<const N: usize>(
+    model: &Model,
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    recording: Recording,
+) -> Result<SimResult<N>, SwayError> {
+    if !spec.controller.has_actuator_state() {
+        return simulate_plant::<N>(model, spec, x0, recording);
+    }
+    match N {
+        4 => with_actuator_state::<N, 5>(model, spec, x0, recording),
+        7 => with_actuator_state::<N, 8>(model, spec, x0, recording),
+        _ => Err(SwayError::numerical(
+            format!("simulation with a rate-limited actuator and {N} states"),
+            std::io::Error::other("expected 4 or 7 states"),
+        )),
+    }
+}
+
+/// Runs the `M = N + 1`-state plant (δ last, δ(0) = 0) and drops δ from the states.
+fn with_actuator_state<const N: usize, const M: usize>(
+    model: &Model,
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    recording: Recording,
+) -> Result<SimResult<N>, SwayError> {
+    let x0m = SVector::<f64, M>::from_fn(|i, _| if i < N { x0[i] } else { 0.0 });
+    let r = simulate_plant::<M>(model, spec, x0m, recording)?;
+    let drop = |x: &SVector<f64, M>| SVector::<f64, N>::from_fn(|i, _| x[i]);
+    Ok(SimResult {
+        metrics: r.metrics,
+        trajectory: r
+            .trajectory
+            .iter()
+            .map(|s| Sample {
+                t: s.t,
+                x: drop(&s.x),
+                speed: s.speed,
+                steering_angle: s.steering_angle,
+            })
+            .collect(),
+        t_end: r.t_end,
+        x_end: drop(&r.x_end),
+        stats: r.stats,
+    })
+}
+
+fn simulate_plant<const N: usize>(
     model: &Model,
     spec: &SimSpec,
     x0: SVector<f64, N>,
@@ -368,7 +418,7 @@ pub fn simulate<const N: usize>(
     // (continuous, and zero exactly when the first of them reaches zero) costs one slip-angle
     // evaluation per call instead of five events
     let guard_values = move |t: f64, x: &SVector<f64, N>, xd: &[SVector<f64, N>]| -> [f64; 5] {
-        let u = pl.inputs(t, xd);
+        let u = pl.inputs(t, x, xd);
         let x4 = reduced(x);
         let a = model.slip_angles(&x4, &u);
         let lateral_front = x4[0] + model.yaw_rate(&x4) * f;

@@ -44,5 +44,6 @@ pub fn braking_35_to_25(start_s: f64, duration_s: f64) -> SpeedProfile {
         change_mps: -10.0,
         start_s,
         duration_s,
+        shape: Default::default(),
     }
 }

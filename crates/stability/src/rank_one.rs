@@ -22,8 +22,11 @@
 //! `arg(p(iω)e^{iωτ}/q(iω)) = Σ_j atan((ω−Im z_j)/(−Re z_j)) − Σ_k atan((ω−Im w_k)/(−Re w_k)) + ωτ
 //! (mod π)`; every term is continuous in ω, so this phase φ(ω) is evaluated without unwrapping,
 //! and the crossings are the solutions of φ(ω) = mπ. φ is sampled on a grid refined around
-//! every Im z_j, Im w_k (where the phase turns fast for lightly damped roots) and each level
-//! crossing is solved by safeguarded Newton with the analytic φ'. Only ω up to the bound beyond
+//! every Im z_j, Im w_k (where the phase turns fast for lightly damped roots) and at every
+//! extremum of φ (the real roots of the polynomial φ'(ω)·Π_k Q_k(ω), see
+//! `RankOneFeedback::phase_extrema`), so φ is monotone between samples and no pair of close
+//! crossings (where a boundary curve turns back in D) can be missed; each level crossing is
+//! solved by safeguarded Newton with the analytic φ'. Only ω up to the bound beyond
 //! which `|p(iω)|/|q(iω)| > D_lim` is searched.
 
 use nalgebra::{DMatrix, Dim, Matrix, Storage, U1};
@@ -285,6 +288,50 @@ impl RankOneFeedback {
         (phi, dphi)
     }
 
+    /// The frequencies ω > 0 where φ'(ω) = 0. With a_k = −Re z_k, b_k = Im z_k over the roots
+    /// of p (s_k = +1) and q (s_k = −1), φ'(ω) = τ + Σ s_k a_k / Q_k(ω), Q_k = (ω − b_k)² + a_k²;
+    /// multiplied by Π Q_k this is the polynomial τ Π Q_k + Σ_k s_k a_k Π_{j≠k} Q_j, whose
+    /// real roots (companion-matrix eigenvalues) are returned. Nearly real ones are kept too
+    /// (|Im| ≤ 1e-2·(1 + |Re|): φ' nearly touches 0 there); an extra sample costs nothing.
+    fn phase_extrema(&self, tau: f64) -> Result<Vec<f64>> {
+        let terms: Vec<(f64, f64, f64)> = self
+            .p_roots
+            .iter()
+            .map(|z| (1.0, -z.re, z.im))
+            .chain(self.q_roots.iter().map(|w| (-1.0, -w.re, w.im)))
+            .filter(|&(_, a, _)| a != 0.0)
+            .collect();
+        let quadratic = |a: f64, b: f64| vec![b * b + a * a, -2.0 * b, 1.0];
+        let product = |skip: Option<usize>| {
+            terms
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| Some(k) != skip)
+                .fold(vec![1.0], |acc, (_, &(_, a, b))| {
+                    poly_mul(&acc, &quadratic(a, b))
+                })
+        };
+        let mut numerator: Vec<f64> = product(None).iter().map(|c| tau * c).collect();
+        for (k, &(sign, a, _)) in terms.iter().enumerate() {
+            for (i, c) in product(Some(k)).iter().enumerate() {
+                numerator[i] += sign * a * c;
+            }
+        }
+        while numerator.len() > 1 && numerator.last() == Some(&0.0) {
+            numerator.pop();
+        }
+        let scale = numerator.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        if numerator.len() < 2 || scale == 0.0 {
+            return Ok(Vec::new());
+        }
+        let roots = polynomial_roots(&numerator)?;
+        Ok(roots
+            .iter()
+            .filter(|r| r.re > 0.0 && r.im.abs() <= 1e-2 * (1.0 + r.re.abs()))
+            .map(|r| r.re)
+            .collect())
+    }
+
     /// `D(ω) = −Re(p(iω)e^{iωτ}/q(iω))` (the real part; exact on a boundary).
     fn gain_at(&self, omega: f64, tau: f64) -> f64 {
         let l = Complex64::new(0.0, omega);
@@ -364,6 +411,14 @@ impl RankOneFeedback {
                 }
             }
         }
+        // every extremum of φ is a sample too: between samples φ is then monotone, so no
+        // pair of level crossings (two close crossings where a boundary curve turns back in
+        // D) can hide inside one interval
+        samples.extend(
+            self.phase_extrema(tau)?
+                .into_iter()
+                .filter(|&w| w > 0.0 && w < w_max),
+        );
         samples.sort_by(f64::total_cmp);
         samples.dedup();
         let pi = std::f64::consts::PI;
@@ -492,6 +547,17 @@ impl RankOneFeedback {
         }
         Ok(out)
     }
+}
+
+/// Product of two real polynomials (ascending coefficients).
+fn poly_mul(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
 }
 
 /// Roots of a real polynomial (ascending coefficients, last one nonzero) via the eigenvalues of

@@ -208,3 +208,32 @@ fn model_chart_cells_match_pointwise_roots() {
 fn full_default_chart_matches_pointwise_roots() {
     assert_charts_match_pointwise_roots(300, 200);
 }
+
+#[test]
+fn root_counts_agree_with_the_roots_at_the_tip_of_the_hopf_curve() {
+    // reference: the rightmost characteristic roots (Chebyshev collocation, Newton-polished),
+    // an independent formulation; the count of roots with Re λ > 0 by crossing counting must
+    // match at every point of a grid around the tips of the Hopf curves at τ = 0.4 and
+    // 0.45 s, where a curve turns back in D and two crossings of a speed's D-path lie close
+    // together (points within |Re λ| < 1e-5 of the boundary are skipped: either answer is
+    // right to the roots' accuracy there). Before the phase's extrema were sampled, the pair
+    // was missed, e.g. at V = 40.53 m/s, D = 0.145 s, τ = 0.45 s (count 2, Re λ = −7.5e-4).
+    let m = model();
+    let mut checked = 0;
+    for (tau, v0, d0) in [(0.4, 60.13, 0.1485), (0.45, 40.53, 0.145)] {
+        for i in -3..=3 {
+            for j in -3..=3 {
+                let (v, d) = (v0 + 0.02 * i as f64, d0 + 0.0005 * j as f64);
+                let roots = rightmost_roots(&m, v, d, tau, 8).unwrap();
+                if roots.iter().any(|r| r.re.abs() < 1e-5) {
+                    continue;
+                }
+                let expected = roots.iter().filter(|r| r.re > 0.0).count();
+                let count = unstable_root_count(&m, v, d, tau).unwrap();
+                assert_eq!(count, expected, "V = {v}, D = {d}, τ = {tau}: {roots:?}");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 80, "only {checked} points away from the boundary");
+}

@@ -648,9 +648,13 @@ impl Continuation {
         let w = sys.weights();
         let last = Self::last_point(sys, branch)?.clone();
         sys.accept(&last.u);
-        // sign of det [G_u; (w∘t)ᵀ] at the last point (0: not available, no detection)
-        let mut sign_a =
-            Self::bordered_determinant(sys, &last.u, &last.tangent, &w).map_or(0.0, |d| d.sign);
+        // sign of det [G_u; (w∘t)ᵀ] at the last point (0: not watched or not available)
+        let mut sign_a = match self.needs_determinant(sys) {
+            NeedsDeterminant::Yes => {
+                Self::bordered_determinant(sys, &last.u, &last.tangent, &w).map_or(0.0, |d| d.sign)
+            }
+            NeedsDeterminant::No => 0.0,
+        };
         let o = &self.options;
         let mut added = 0;
         while added < max_points {

@@ -273,16 +273,20 @@ pub fn compute(
     cfg: &ChartNonlinearConfig,
     progress: &dyn sway::progress::Progress,
 ) -> Result<Vec<DelayResult>, SwayError> {
-    let results: Vec<Result<DelayResult, SwayError>> = cfg
-        .delays_s
+    // the longest delays first (their collocation factors fill most, so they cost most):
+    // rayon then starts them on separate threads instead of last; results in config order
+    let mut order: Vec<usize> = (0..cfg.delays_s.len()).collect();
+    order.sort_by(|&a, &b| cfg.delays_s[b].total_cmp(&cfg.delays_s[a]));
+    let mut results: Vec<(usize, Result<DelayResult, SwayError>)> = order
         .par_iter()
-        .map(|&tau| {
-            let r = compute_delay(model, cfg, tau);
+        .map(|&i| {
+            let r = compute_delay(model, cfg, cfg.delays_s[i]);
             progress.advance(1);
-            r
+            (i, r)
         })
         .collect();
-    results.into_iter().collect()
+    results.sort_by_key(|(i, _)| *i);
+    results.into_iter().map(|(_, r)| r).collect()
 }
 
 /// One entry of `"codim2_points"`.

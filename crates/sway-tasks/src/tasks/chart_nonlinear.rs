@@ -621,7 +621,7 @@ pub const HOPF_SECONDS_PER_POINT: f64 = 5e-3;
 /// about 3 Newton steps of the `fold_cycles` bench (22.8 ms at L = 40). The delay widens
 /// the factorisation's band, so a point at τ = 0.4 s costs up to 10× this; the plan
 /// multiplies by the *largest* number of points (the curves stop far earlier), and the
-/// resulting bound (≈ 2 min for the default config) is above the measured 46 s.
+/// resulting bound (≈ 2 min for the default config) is above the measured 20 s.
 pub const FOLD_SECONDS_PER_POINT_INTERVAL: f64 = 2e-3;
 
 impl Prepared for Configured<ChartNonlinearConfig> {

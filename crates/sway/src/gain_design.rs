@@ -148,10 +148,10 @@ pub const CONFIRM_OFFSET_MPS: f64 = 1e-4;
 /// generator, Newton-polished: [`crate::charts::rightmost_roots`], independent of the
 /// crossing count behind [`critical_speed_at_gain`]) confirm that V \[m/s\] is the critical
 /// speed at (τ, D): Re λ < 0 at V − [`CONFIRM_OFFSET_MPS`] and > 0 at V +
-/// [`CONFIRM_OFFSET_MPS`] (only the first when V is the top of the speed range). The
-/// crossing count misses a pair of crossings where a Hopf curve turns back in D (the tip
-/// at τ = 0.4 s, D ≈ 0.148 s), which shows as a plateau of V_crit(D) below the true
-/// maximum; this check flags it.
+/// [`CONFIRM_OFFSET_MPS`] (only the first when V is the top of the speed range). An
+/// independent check of every optimum: it found the crossing count missing a pair of
+/// crossings where a Hopf curve turns back in D (the tip at τ = 0.4 s, D ≈ 0.148 s; fixed
+/// in `stability` since), which showed as a plateau of V_crit(D) below the true maximum.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the roots cannot be confirmed.

@@ -268,23 +268,24 @@ fn fold_optimum_at_tau_0_2_tops_its_curve_and_converges_in_the_mesh() {
 }
 
 #[test]
-fn roots_flag_the_crossing_count_at_the_tip_of_the_hopf_curve() {
+fn crossing_count_and_roots_agree_at_the_tip_of_the_hopf_curve() {
     // reference: bisection on the spectral abscissa (Chebyshev collocation + Newton) at
-    // τ = 0.4 s, D = 0.1484 s: V_crit = 60.148 m/s, while the crossing count of fig4a stops
-    // at 60.128 m/s (it misses the pair of crossings at the tip where the Hopf curve turns
-    // back in D; checked once with the paper's semi-discretisation, 400 steps per delay,
-    // which agrees with the roots to 1e-10). The check must reject the count's value there
-    // (difference > 0.01 m/s, 100× the check's offset) and accept it at D = 0.1479 s, away
-    // from the tip, where both agree.
+    // τ = 0.4 s, D = 0.1484 s, at the tip where the Hopf curve turns back in D (before the
+    // crossing search sampled the extrema of its phase, the count missed the pair of
+    // crossings there and stopped at 60.128 m/s instead of 60.148 m/s). Required: the two
+    // agree to 2e-6 m/s (both bisect to ≤ 1e-6), the roots check accepts the count's value
+    // and rejects one 0.01 m/s too low (100× the check's offset), and the same holds at
+    // D = 0.1479 s, away from the tip.
     let m = model();
     let o = GainSearch::default();
-    let (tau, d) = (0.4, 0.1484);
-    let v_count = critical_speed(&m, tau, d, &o).unwrap();
-    let v_roots = reference_critical_speed(&m, d, tau, 55.0, 0.5);
-    assert!(v_roots - v_count > 0.01, "count {v_count}, roots {v_roots}");
-    assert!(!roots_confirm(&m, tau, d, v_count, &o).unwrap());
-    let d_off = 0.1479;
-    let v_off = critical_speed(&m, tau, d_off, &o).unwrap();
-    assert!((reference_critical_speed(&m, d_off, tau, 55.0, 0.5) - v_off).abs() < 2e-6);
-    assert!(roots_confirm(&m, tau, d_off, v_off, &o).unwrap());
+    for (tau, d) in [(0.4, 0.1484), (0.4, 0.1479)] {
+        let v_count = critical_speed(&m, tau, d, &o).unwrap();
+        let v_roots = reference_critical_speed(&m, d, tau, 55.0, 0.5);
+        assert!(
+            (v_roots - v_count).abs() < 2e-6,
+            "D = {d}: count {v_count}, roots {v_roots}"
+        );
+        assert!(roots_confirm(&m, tau, d, v_count, &o).unwrap());
+        assert!(!roots_confirm(&m, tau, d, v_count - 0.01, &o).unwrap());
+    }
 }

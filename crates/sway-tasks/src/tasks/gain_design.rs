@@ -562,9 +562,9 @@ fn speed_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
         ));
     }
     if !fold.is_empty() {
-        p = p
-            .with(Layer::line(fold.clone(), Rgb::BLUE, Stroke::Dotted, None))
-            .with(Layer::Markers {
+        // markers only: V_fold,max is computed at every few delays, and a line between them
+        // would cross V_crit,max where it falls steeply (V_fold,max ≤ V_crit,max everywhere)
+        p = p.with(Layer::Markers {
                 points: fold,
                 color: Rgb::BLUE,
                 shape: Shape::Circle,

@@ -52,8 +52,6 @@ pub(crate) struct SparseLu {
     row_perm_inv: Vec<usize>,
     col_perm: Vec<usize>,
     col_perm_inv: Vec<usize>,
-    /// the factorised matrix A
-    matrix: SparseColMat<usize, f64>,
     n: usize,
 }
 
@@ -153,19 +151,18 @@ impl SparseLu {
             row_perm_inv: vec![0; n],
             col_perm,
             col_perm_inv,
-            matrix,
             n,
         };
         let done = if supernodes {
-            lu.factorise_supernodal(entries)
+            lu.factorise_supernodal(&matrix)
         } else {
-            lu.factorise_simplicial()
+            lu.factorise_simplicial(&matrix)
         };
         done.ok_or_else(singular)?;
         Ok(lu)
     }
 
-    fn factorise_simplicial(&mut self) -> Option<()> {
+    fn factorise_simplicial(&mut self, a: &SparseColMat<usize, f64>) -> Option<()> {
         let n = self.n;
         let mut numeric = SimplicialLu::new();
         let req = factorize_simplicial_numeric_lu_scratch::<usize, f64>(n, n);
@@ -174,7 +171,7 @@ impl SparseLu {
             &mut self.row_perm,
             &mut self.row_perm_inv,
             &mut numeric,
-            self.matrix.as_ref(),
+            a.as_ref(),
             PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n),
             MemStack::new(&mut mem),
         )
@@ -186,15 +183,11 @@ impl SparseLu {
     /// supernodal factors in the column order: the column elimination tree and column
     /// counts of AᵀA, the supernodal structure, then the numeric factorisation (sequential,
     /// so deterministic)
-    fn factorise_supernodal(&mut self, entries: &[Entry]) -> Option<()> {
+    fn factorise_supernodal(&mut self, a: &SparseColMat<usize, f64>) -> Option<()> {
         let n = self.n;
-        let transposed: Vec<Entry> = entries
-            .iter()
-            .map(|e| Entry::new(e.col, e.row, e.val))
-            .collect();
-        let at = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &transposed).ok()?;
+        let at = a.as_ref().transpose().to_col_major().ok()?;
         let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n);
-        let symbolic = self.supernodal_structure(&at, col_perm)?;
+        let symbolic = self.supernodal_structure(a, &at, col_perm)?;
         let mut numeric = SupernodalLu::new();
         let req =
             factorize_supernodal_numeric_lu_scratch::<usize, f64>(&symbolic, Default::default());
@@ -203,7 +196,7 @@ impl SparseLu {
             &mut self.row_perm,
             &mut self.row_perm_inv,
             &mut numeric,
-            self.matrix.as_ref(),
+            a.as_ref(),
             at.as_ref(),
             col_perm,
             &symbolic,
@@ -218,6 +211,7 @@ impl SparseLu {
 
     fn supernodal_structure(
         &self,
+        a: &SparseColMat<usize, f64>,
         at: &SparseColMat<usize, f64>,
         col_perm: PermRef<'_, usize>,
     ) -> Option<SymbolicSupernodalLu<usize>> {
@@ -228,7 +222,7 @@ impl SparseLu {
         let mut col_counts = vec![0usize; n];
         let mut mem = MemBuffer::try_new(col_etree_scratch::<usize>(n, n)).ok()?;
         let etree = col_etree(
-            self.matrix.symbolic(),
+            a.symbolic(),
             Some(col_perm),
             &mut etree_buf,
             MemStack::new(&mut mem),
@@ -248,7 +242,7 @@ impl SparseLu {
         let mut mem =
             MemBuffer::try_new(factorize_supernodal_symbolic_lu_scratch::<usize>(n, n)).ok()?;
         factorize_supernodal_symbolic_lu(
-            self.matrix.symbolic(),
+            a.symbolic(),
             Some(col_perm),
             &min_col,
             etree,
@@ -260,34 +254,24 @@ impl SparseLu {
     }
 
     fn solve_inplace(&self, b: MatMut<'_, f64>) {
-        let k = b.ncols();
-        let n = self.n;
+        let (k, n) = (b.ncols(), self.n);
         let row_perm = PermRef::new_checked(&self.row_perm, &self.row_perm_inv, n);
         let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n);
-        match &self.factors {
-            Factors::Simplicial(numeric) => {
-                let req = simplicial::solve_in_place_scratch::<usize, f64>(n, k, Par::Seq);
-                let mut mem = MemBuffer::new(req);
-                numeric.solve_in_place_with_conj(
-                    row_perm,
-                    col_perm,
-                    Conj::No,
-                    b,
-                    Par::Seq,
-                    MemStack::new(&mut mem),
-                );
+        let mut mem = MemBuffer::new(match &self.factors {
+            Factors::Simplicial(_) => {
+                simplicial::solve_in_place_scratch::<usize, f64>(n, k, Par::Seq)
             }
-            Factors::Supernodal(numeric) => {
-                let req = supernodal::solve_in_place_scratch::<usize, f64>(n, k, Par::Seq);
-                let mut mem = MemBuffer::new(req);
-                numeric.solve_in_place_with_conj(
-                    row_perm,
-                    col_perm,
-                    Conj::No,
-                    b,
-                    Par::Seq,
-                    MemStack::new(&mut mem),
-                );
+            Factors::Supernodal(_) => {
+                supernodal::solve_in_place_scratch::<usize, f64>(n, k, Par::Seq)
+            }
+        });
+        let stack = MemStack::new(&mut mem);
+        match &self.factors {
+            Factors::Simplicial(f) => {
+                f.solve_in_place_with_conj(row_perm, col_perm, Conj::No, b, Par::Seq, stack)
+            }
+            Factors::Supernodal(f) => {
+                f.solve_in_place_with_conj(row_perm, col_perm, Conj::No, b, Par::Seq, stack)
             }
         }
     }

@@ -395,7 +395,7 @@ pub struct OptimalGainRow {
     /// upper end of the band \[s\]
     pub d_band_hi_s: f64,
     /// `lower` / `upper` / empty
-    pub on_range_end: String,
+    pub on_range_end: Option<RangeEnd>,
     /// 1 if the rightmost roots confirm V_crit(D\*), 0 if not
     pub confirmed_by_roots: u8,
     /// max min(V_fold, V_crit) \[m/s\] (empty: not computed)
@@ -416,14 +416,6 @@ pub struct FoldPointRow {
 /// A fraction as a percentage for names and labels (0.01 → "1", 0.005 → "0.5").
 fn percent(fraction: f64) -> String {
     format!("{}", (fraction * 100.0 * 1e6).round() / 1e6)
-}
-
-fn end_name(e: Option<RangeEnd>) -> String {
-    match e {
-        Some(RangeEnd::Lower) => "lower".into(),
-        Some(RangeEnd::Upper) => "upper".into(),
-        None => String::new(),
-    }
 }
 
 impl GainDesign {
@@ -465,7 +457,7 @@ impl GainDesign {
                     v_crit_mps: l.v_crit_max_mps,
                     d_band_lo_s: l.band_s[0],
                     d_band_hi_s: l.band_s[1],
-                    on_range_end: end_name(l.on_range_end),
+                    on_range_end: l.on_range_end,
                     confirmed_by_roots: u8::from(l.roots_confirm),
                     v_fold_mps: opt.map(|o| o.v_fold_max_mps),
                     d_fold_s: opt.map(|o| o.d_fold_s),

@@ -387,10 +387,12 @@ fn curve_points_at<S: ContinuationSystem>(
     Ok(out)
 }
 
-/// The fold of cycles `u` corrected once more (with parameter `fixed` held) from its
-/// canonical phase (θ largest at s = 0): the same discrete fold whatever phase the cycle
-/// of `u` had relative to the mesh, so independent runs agree to the Newton tolerance.
+/// The fold of cycles `u` corrected once more by `cont` (with parameter `fixed` held) from
+/// its canonical phase (θ largest at s = 0): the same discrete fold whatever phase the
+/// cycle of `u` had relative to the mesh, so independent runs agree to the Newton
+/// tolerance.
 fn corrected_in_canonical_phase(
+    cont: &Continuation,
     sys: &mut FoldSystem<'_>,
     u: &[f64],
     fixed: usize,
@@ -399,11 +401,7 @@ fn corrected_in_canonical_phase(
     sys.accept(&canonical);
     let mut e = vec![0.0; canonical.len()];
     e[fixed] = 1.0;
-    Ok(Continuation::default()
-        .start(sys, &canonical, &e)?
-        .points
-        .remove(0)
-        .u)
+    Ok(cont.start(sys, &canonical, &e)?.points.remove(0).u)
 }
 
 /// The two branches of a curve joined in curve order: the first reversed, then the second
@@ -624,13 +622,13 @@ fn corrected_hopf(
 type FoldSystem<'a> = FoldOfCyclesSystem<'a, ClosedLoop<'a>>;
 
 /// The fold of the cycle branch of `diagram` corrected on the fold-of-cycles system at the
-/// diagram's gain: the system, a branch holding the corrected point and the direction +D.
-/// None if the cycle branch has no fold.
+/// diagram's gain, finally from the cycle's canonical phase: the system, the corrected
+/// point and the direction +D. None if the cycle branch has no fold.
 fn corrected_fold<'a>(
     problem: &'a ClosedLoop<'a>,
     diagram: &Diagram,
     o: &ChartOptions,
-) -> Result<Option<(FoldSystem<'a>, Branch, Vec<f64>)>, SwayError> {
+) -> Result<Option<(FoldSystem<'a>, Vec<f64>, Vec<f64>)>, SwayError> {
     let fb = diagram.feedback;
     let ctx = format!(
         "fold of cycles at D = {} s, τ = {} s",
@@ -647,11 +645,10 @@ fn corrected_fold<'a>(
     let first = cont
         .start(&mut sys, &guess, &dir)
         .map_err(num(ctx.clone()))?;
-    // once more from the canonical phase: the same discrete fold whatever the guess's phase
-    let canonical = sys.canonical(&first.points[0].u, HITCH_ANGLE);
-    sys.accept(&canonical);
-    let first = cont.start(&mut sys, &canonical, &dir).map_err(num(ctx))?;
-    Ok(Some((sys, first, dir)))
+    let (_, id) = fold_indices(&sys);
+    let u =
+        corrected_in_canonical_phase(&cont, &mut sys, &first.points[0].u, id).map_err(num(ctx))?;
+    Ok(Some((sys, u, dir)))
 }
 
 /// The Hopf and fold speeds of a one-parameter diagram read off the two-parameter
@@ -669,8 +666,8 @@ pub fn critical_speeds(
     let d = diagram.feedback.gain_d_s;
     let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
     let fold = match corrected_fold(&problem, diagram, o)? {
-        Some((sys, first, _)) => {
-            Some(fold_curve_point(&sys, &first.points[0].u).map_err(num("fold of cycles".into()))?)
+        Some((sys, u, _)) => {
+            Some(fold_curve_point(&sys, &u).map_err(num("fold of cycles".into()))?)
         }
         None => None,
     };
@@ -701,13 +698,12 @@ fn fold_curve(
         return Ok(None);
     }
     let problem = ClosedLoop::new(model, fb);
-    let Some((mut sys, first, dir)) = corrected_fold(&problem, &diagram, o)? else {
+    let Some((mut sys, u0, dir)) = corrected_fold(&problem, &diagram, o)? else {
         return Ok(None);
     };
     let ctx = format!("fold-of-cycles curve from D = {d} s, τ = {tau} s");
     let cont = o.continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
     let (iv, id) = fold_indices(&sys);
-    let u0 = first.points[0].u.clone();
     let mut branches = Vec::new();
     let mut codim2 = Vec::new();
     for sign in [-1.0, 1.0] {
@@ -967,7 +963,8 @@ impl NonlinearChart {
             let ctx = || format!("fold-of-cycles curve at D = {d} s");
             let pts = curve_points_at(&mut sys, &c.branches, id, d).map_err(num(ctx()))?;
             for u in pts {
-                let u = corrected_in_canonical_phase(&mut sys, &u, id).map_err(num(ctx()))?;
+                let u = corrected_in_canonical_phase(&Continuation::default(), &mut sys, &u, id)
+                    .map_err(num(ctx()))?;
                 let v = u[iv];
                 if v >= o.v_min_mps && v <= o.v_max_mps {
                     best = Some(best.map_or(v, |b: f64| b.min(v)));

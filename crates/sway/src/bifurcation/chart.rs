@@ -621,14 +621,21 @@ fn corrected_hopf(
 
 type FoldSystem<'a> = FoldOfCyclesSystem<'a, ClosedLoop<'a>>;
 
+/// A fold of cycles corrected at fixed D: its system, the point and the direction +D.
+struct CorrectedFold<'a> {
+    sys: FoldSystem<'a>,
+    u: Vec<f64>,
+    direction: Vec<f64>,
+}
+
 /// The fold of the cycle branch of `diagram` corrected on the fold-of-cycles system at the
-/// diagram's gain, finally from the cycle's canonical phase: the system, the corrected
-/// point and the direction +D. None if the cycle branch has no fold.
+/// diagram's gain, finally from the cycle's canonical phase. None if the cycle branch has
+/// no fold.
 fn corrected_fold<'a>(
     problem: &'a ClosedLoop<'a>,
     diagram: &Diagram,
     o: &ChartOptions,
-) -> Result<Option<(FoldSystem<'a>, Vec<f64>, Vec<f64>)>, SwayError> {
+) -> Result<Option<CorrectedFold<'a>>, SwayError> {
     let fb = diagram.feedback;
     let ctx = format!(
         "fold of cycles at D = {} s, τ = {} s",
@@ -648,7 +655,11 @@ fn corrected_fold<'a>(
     let (_, id) = fold_indices(&sys);
     let u =
         corrected_in_canonical_phase(&cont, &mut sys, &first.points[0].u, id).map_err(num(ctx))?;
-    Ok(Some((sys, u, dir)))
+    Ok(Some(CorrectedFold {
+        sys,
+        u,
+        direction: dir,
+    }))
 }
 
 /// The Hopf and fold speeds of a one-parameter diagram read off the two-parameter
@@ -666,9 +677,7 @@ pub fn critical_speeds(
     let d = diagram.feedback.gain_d_s;
     let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
     let fold = match corrected_fold(&problem, diagram, o)? {
-        Some((sys, u, _)) => {
-            Some(fold_curve_point(&sys, &u).map_err(num("fold of cycles".into()))?)
-        }
+        Some(f) => Some(fold_curve_point(&f.sys, &f.u).map_err(num("fold of cycles".into()))?),
         None => None,
     };
     Ok(CriticalSpeeds {
@@ -698,7 +707,12 @@ fn fold_curve(
         return Ok(None);
     }
     let problem = ClosedLoop::new(model, fb);
-    let Some((mut sys, u0, dir)) = corrected_fold(&problem, &diagram, o)? else {
+    let Some(CorrectedFold {
+        mut sys,
+        u: u0,
+        direction: dir,
+    }) = corrected_fold(&problem, &diagram, o)?
+    else {
         return Ok(None);
     };
     let ctx = format!("fold-of-cycles curve from D = {d} s, τ = {tau} s");

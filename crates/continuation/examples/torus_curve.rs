@@ -46,11 +46,22 @@ fn main() -> Result<()> {
     };
     for family in [0, 1] {
         let options = TorusCurveOptions::default();
-        let (mut torus, guess, dir) =
-            TorusCurveSystem::from_double_hopf(&bed, &hh, [0, 1], family, 0.1, colloc.clone(), options)?;
+        let (mut torus, guess, dir) = TorusCurveSystem::from_double_hopf(
+            &bed,
+            &hh,
+            [0, 1],
+            family,
+            0.1,
+            colloc.clone(),
+            options,
+        )?;
         let mut t = cont.start(&mut torus, &guess, &dir)?;
         let stop = torus.extend_curve(&cont, &mut t, 20)?;
-        println!("torus curve T{}: {} points, stop {stop:?}", family + 1, t.points.len());
+        println!(
+            "torus curve T{}: {} points, stop {stop:?}",
+            family + 1,
+            t.points.len()
+        );
         println!("      μ          ν      ν(closed form)  rotation number  amplitude");
         for pt in t.points.iter().step_by(4) {
             let cp = torus.curve_point(&pt.u);

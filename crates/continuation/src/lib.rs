@@ -119,11 +119,11 @@ pub use linalg::Entry;
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
 pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
 pub use roots::{CharacteristicRoots, ChebyshevRoots, Refinement, refine_root};
+pub use stability::{Criticality, Location, SpecialKind, SpecialPoint, SpectrumKind, Stability};
 pub use torus::{
     DoubleHopfEnd, DoubleHopfPoint, Resonance, TorusCurveOptions, TorusCurvePoint, TorusCurveStop,
     TorusCurveSystem, TorusPoint,
 };
-pub use stability::{Criticality, Location, SpecialKind, SpecialPoint, SpectrumKind, Stability};
 
 /// Criticality of a Hopf bifurcation from the computed cycle branch: subcritical if the
 /// cycles emanate to the side of the parameter where the equilibrium is stable.

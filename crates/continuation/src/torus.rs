@@ -241,11 +241,14 @@ impl DoubleHopfPoint {
         curve: &Branch,
         point: &Codim2Point,
     ) -> Result<Self> {
-        let pt = curve.points.get(point.index).ok_or(Error::InvalidInput(format!(
-            "double-Hopf point index {} beyond the curve's {} points",
-            point.index,
-            curve.points.len()
-        )))?;
+        let pt = curve
+            .points
+            .get(point.index)
+            .ok_or(Error::InvalidInput(format!(
+                "double-Hopf point index {} beyond the curve's {} points",
+                point.index,
+                curve.points.len()
+            )))?;
         if point.kind != SpecialKind::DoubleHopf || point.omegas.len() != 2 {
             return Err(Error::InvalidInput(format!(
                 "not a double-Hopf point with two frequencies: {:?} {:?}",
@@ -277,7 +280,12 @@ impl DoubleHopfPoint {
 }
 
 /// null vector of Δ(iω) at the equilibrium x (‖v‖ = 1, largest component real)
-fn null_vector<P: Problem>(problem: &P, p: &[f64], x: &[f64], omega: f64) -> Result<Vec<Complex64>> {
+fn null_vector<P: Problem>(
+    problem: &P,
+    p: &[f64],
+    x: &[f64],
+    omega: f64,
+) -> Result<Vec<Complex64>> {
     let n = problem.dim();
     let k = problem.n_delays();
     let nc = n * (k + 1);
@@ -286,7 +294,11 @@ fn null_vector<P: Problem>(problem: &P, p: &[f64], x: &[f64], omega: f64) -> Res
     problem.jacobian(&args, p, &mut jac);
     let lambda = Complex64::new(0.0, omega);
     let delta = DMatrix::<Complex64>::from_fn(n, n, |r, c| {
-        let mut v = if r == c { lambda } else { Complex64::new(0.0, 0.0) };
+        let mut v = if r == c {
+            lambda
+        } else {
+            Complex64::new(0.0, 0.0)
+        };
         for d in 0..=k {
             let tau = if d == 0 { 0.0 } else { problem.delay(d - 1, p) };
             v -= jac[r * nc + d * n + c] * (-lambda * tau).exp();
@@ -497,8 +509,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
                     .and_then(|s| s.critical(SpecialKind::Torus))
             })
             .ok_or(Error::InvalidInput(
-                "from_torus: the point has no critical multiplier (compute the stability)"
-                    .into(),
+                "from_torus: the point has no critical multiplier (compute the stability)".into(),
             ))?;
         let mut params = po.params.clone();
         params[po.ip] = point.parameter;
@@ -631,9 +642,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         let (r0, c0, size) = (np + 1, np + 3, 2 * np);
         let block: Vec<Entry> = entries
             .into_iter()
-            .filter(|e| {
-                (r0..r0 + size).contains(&e.row) && (c0..c0 + size).contains(&e.col)
-            })
+            .filter(|e| (r0..r0 + size).contains(&e.row) && (c0..c0 + size).contains(&e.col))
             .map(|e| Entry::new(e.row - r0, e.col - c0, e.val))
             .collect();
         let lu = SparseLu::new(size, &block, Factorisation::Fast(None), "torus mode")?;
@@ -644,8 +653,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             if !(norm > 0.0 && norm.is_finite()) {
                 return Err(Error::SingularSystem {
                     size,
-                    what: "torus mode: inverse iteration gave a zero or non-finite vector"
-                        .into(),
+                    what: "torus mode: inverse iteration gave a zero or non-finite vector".into(),
                 });
             }
             z.iter_mut().for_each(|v| *v /= norm);
@@ -805,9 +813,8 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
                 multiplier_angle(self.theta(&w[0].u)),
                 multiplier_angle(self.theta(&w[1].u)),
             );
-            let at = |t: f64| {
-                [1, 2].map(|o| w[0].u[np + o] + t * (w[1].u[np + o] - w[0].u[np + o]))
-            };
+            let at =
+                |t: f64| [1, 2].map(|o| w[0].u[np + o] + t * (w[1].u[np + o] - w[0].u[np + o]));
             for (order, target) in [(3, 2.0 * PI / 3.0), (4, PI / 2.0)] {
                 if (fa - target) * (fb - target) < 0.0 {
                     let t = (target - fa) / (fb - fa);
@@ -902,8 +909,14 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
         let m = self.po.degree();
         let np = self.np();
         let (a_off, b_off) = (np + 3, 2 * np + 3);
-        self.po
-            .fill_args(&u[..np + 2], at.i, at.c, at.period, &self.s.delays, &mut self.s.locs);
+        self.po.fill_args(
+            &u[..np + 2],
+            at.i,
+            at.c,
+            at.period,
+            &self.s.delays,
+            &mut self.s.locs,
+        );
         let po = &self.po;
         let s = &mut self.s;
         po.problem.jacobian(&po.args, &po.params, &mut s.jac);
@@ -1074,7 +1087,16 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
         let (po, s) = (&self.po, &self.s);
         let nc = s.qa.len();
         let (ra, rb) = (np + 1 + at.row0, 2 * np + 1 + at.row0);
-        let cols = [np, np, 3 * np + 3, 3 * np + 3, np + 1, np + 1, np + 2, np + 2];
+        let cols = [
+            np,
+            np,
+            3 * np + 3,
+            3 * np + 3,
+            np + 1,
+            np + 1,
+            np + 2,
+            np + 2,
+        ];
         for (r, b) in border.iter().enumerate() {
             for (i, (&col, &v)) in cols.iter().zip(b).enumerate() {
                 let row = if i % 2 == 0 { ra } else { rb };

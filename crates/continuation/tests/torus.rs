@@ -67,7 +67,10 @@ fn torus_jacobian_equals_central_differences() {
         let fd = fd_jacobian_of(&mut sys, &u);
         let scale = exact.amax();
         let err = (&exact - &fd).amax();
-        assert!(err < 1e-6 * scale, "{free:?}: |J − J_fd| = {err:e}, max |J| = {scale}");
+        assert!(
+            err < 1e-6 * scale,
+            "{free:?}: |J − J_fd| = {err:e}, max |J| = {scale}"
+        );
     }
 }
 
@@ -99,7 +102,11 @@ fn double_hopf_of_delay_coupled_oscillators() {
         assert!((c2.p1 - d).abs() < 1e-8, "ν = {} vs D = {d}", c2.p1);
         assert!(c2.p2.abs() < 1e-8, "μ = {}", c2.p2);
         assert!((hh.omegas[0] - 1.0).abs() < 1e-8, "{:?}", hh.omegas);
-        assert!((hh.omegas[1] - omega).abs() < 1e-8, "{:?} vs Ω = {omega}", hh.omegas);
+        assert!(
+            (hh.omegas[1] - omega).abs() < 1e-8,
+            "{:?} vs Ω = {omega}",
+            hh.omegas
+        );
         // eigenvectors: pair 1 lives in z1, pair 2 in z2
         let [v1, v2] = &hh.eigenvectors;
         assert!(v1[2].norm() + v1[3].norm() < 1e-8 && v2[0].norm() + v2[1].norm() < 1e-8);
@@ -158,10 +165,22 @@ fn torus_point_on_a_cycle_branch_and_torus_curve() {
         let tp = torus.torus_point(&curve.points[0].u);
         let (nu_x, period_x, theta_x) = bed.torus_curve_one(mu_star, tau(&bed));
         assert!((nu_x - nu).abs() < 1e-12);
-        assert!((tp.parameters[0] - mu_star).abs() < 1e-6, "μ* = {}", tp.parameters[0]);
-        assert!((tp.period - period_x).abs() < 1e-6, "T = {} vs {period_x}", tp.period);
+        assert!(
+            (tp.parameters[0] - mu_star).abs() < 1e-6,
+            "μ* = {}",
+            tp.parameters[0]
+        );
+        assert!(
+            (tp.period - period_x).abs() < 1e-6,
+            "T = {} vs {period_x}",
+            tp.period
+        );
         let phi_x = theta_x.min(2.0 * PI - theta_x);
-        assert!((tp.multiplier_angle - phi_x).abs() < 1e-6, "φ = {} vs {phi_x}", tp.multiplier_angle);
+        assert!(
+            (tp.multiplier_angle - phi_x).abs() < 1e-6,
+            "φ = {} vs {phi_x}",
+            tp.multiplier_angle
+        );
         assert!((tp.rotation_number - phi_x / (2.0 * PI)).abs() < 1e-7);
         // the critical pair of the cycle's multipliers sits at e^{±iφ}
         let mu = torus.multipliers(&curve.points[0].u).unwrap();
@@ -171,22 +190,42 @@ fn torus_point_on_a_cycle_branch_and_torus_curve() {
             .min_by(|a, b| (a.norm() - 1.0).abs().total_cmp(&(b.norm() - 1.0).abs()))
             .unwrap();
         assert!((z.norm() - 1.0).abs() < 1e-6, "|μ| = {}", z.norm());
-        assert!((z.arg() - phi_x).abs() < 1e-6, "arg μ = {} vs {phi_x}", z.arg());
+        assert!(
+            (z.arg() - phi_x).abs() < 1e-6,
+            "arg μ = {} vs {phi_x}",
+            z.arg()
+        );
         // the curve in both directions
         torus.extend_curve(&c, &mut curve, 4).unwrap();
         let mut back = c
-            .start(&mut torus, &curve.points[0].u, &vec_neg(&curve.points[0].tangent))
+            .start(
+                &mut torus,
+                &curve.points[0].u,
+                &vec_neg(&curve.points[0].tangent),
+            )
             .unwrap();
         torus.extend_curve(&c, &mut back, 3).unwrap();
-        let mus: Vec<f64> = curve.points.iter().chain(&back.points).map(|p| p.parameter).collect();
-        assert!(mus.iter().any(|&m| m > 0.3) && mus.iter().any(|&m| m < 0.2), "{mus:?}");
+        let mus: Vec<f64> = curve
+            .points
+            .iter()
+            .chain(&back.points)
+            .map(|p| p.parameter)
+            .collect();
+        assert!(
+            mus.iter().any(|&m| m > 0.3) && mus.iter().any(|&m| m < 0.2),
+            "{mus:?}"
+        );
         for pt in curve.points.iter().chain(&back.points) {
             let cp = torus.curve_point(&pt.u);
             let [mu, nu] = cp.parameters;
             let (nu_x, period_x, theta_x) = bed.torus_curve_one(mu, tau(&bed));
             assert!((nu - nu_x).abs() < 1e-6, "μ = {mu}: ν = {nu} vs {nu_x}");
             assert!((cp.period - period_x).abs() < 1e-6);
-            assert!((reduced(cp.theta) - theta_x).abs() < 1e-6, "θ = {} vs {theta_x}", cp.theta);
+            assert!(
+                (reduced(cp.theta) - theta_x).abs() < 1e-6,
+                "θ = {} vs {theta_x}",
+                cp.theta
+            );
             assert!((cp.amplitude - mu.sqrt()).abs() < 1e-6);
         }
     }
@@ -237,14 +276,21 @@ fn torus_curves_start_at_the_double_hopf_point_and_end_there() {
                     let mu_x = -bed.e * (nu - d);
                     assert!((mu - mu_x).abs() < 1e-6, "T2: ν = {nu}, μ = {mu} vs {mu_x}");
                     let theta_x = 2.0 * PI * bed.omega1 / omega;
-                    assert!((cp.theta - theta_x).abs() < 1e-6, "θ = {} vs {theta_x}", cp.theta);
+                    assert!(
+                        (cp.theta - theta_x).abs() < 1e-6,
+                        "θ = {} vs {theta_x}",
+                        cp.theta
+                    );
                 }
             };
             for pt in &out.points {
                 on_curve(&torus.curve_point(&pt.u));
             }
             let grown = torus.amplitude(&out.points.last().unwrap().u);
-            assert!(grown > 0.12, "family {family}: amplitude {grown} after 3 steps");
+            assert!(
+                grown > 0.12,
+                "family {family}: amplitude {grown} after 3 steps"
+            );
             let mut back = c.start(&mut torus, &guess, &vec_neg(&dir)).unwrap();
             let stop = torus.extend_curve(&c, &mut back, 30).unwrap();
             let TorusCurveStop::DoubleHopfEnd(end) = stop else {
@@ -252,7 +298,11 @@ fn torus_curves_start_at_the_double_hopf_point_and_end_there() {
             };
             assert!((end.parameters[0]).abs() < 1e-6, "{end:?}");
             assert!((end.parameters[1] - d).abs() < 1e-6, "{end:?}");
-            let (wi, wj) = if family == 0 { (1.0, omega) } else { (omega, 1.0) };
+            let (wi, wj) = if family == 0 {
+                (1.0, omega)
+            } else {
+                (omega, 1.0)
+            };
             assert!((end.omegas[0] - wi).abs() < 1e-6, "{end:?}");
             assert!((end.omegas[1] - wj).abs() < 1e-6, "{end:?}");
         }

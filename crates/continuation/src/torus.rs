@@ -55,7 +55,9 @@
 //! [`TorusCurveSystem::extend_curve`] stops at a double-Hopf end (amplitude below
 //! [`TorusCurveOptions::min_amplitude`] and decreasing; the end is extrapolated to zero
 //! amplitude linearly in amplitude²) and at the strong resonances 1:1 (φ → 0, the curve
-//! meets a fold-of-cycles curve) and 1:2 (φ → π, it meets a period-doubling curve).
+//! meets a fold-of-cycles curve) and 1:2 (φ → π, it meets a period-doubling curve):
+//! when φ comes within [`TorusCurveOptions::resonance_tolerance`] of 0 or π, or θ passes
+//! a multiple of π in a step.
 //! The weaker resonances 1:3, 1:4 (where Arnold tongues start) are passed and listed by
 //! [`TorusCurveSystem::resonances`].
 
@@ -83,7 +85,7 @@ pub struct TorusCurveOptions {
     /// below this while decreasing: the curve approaches a double-Hopf point [state units]
     pub min_amplitude: f64,
     /// [`TorusCurveSystem::extend_curve`] stops at a strong resonance when the multiplier
-    /// angle φ comes within this of 0 (1:1) or π (1:2) \[rad\]
+    /// angle φ comes within this of 0 (1:1) or π (1:2), or passes 0 or π in a step \[rad\]
     pub resonance_tolerance: f64,
     /// compute the Floquet multipliers of the cycle at every point (stored as the point's
     /// stability; two of them are e^{±iθ} on the unit circle); costs one monodromy
@@ -785,14 +787,14 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             if amplitude < self.options.min_amplitude && shrinking {
                 return Ok(TorusCurveStop::DoubleHopfEnd(self.mark_end(branch)));
             }
-            let angle = multiplier_angle(self.theta(&branch.points[last].u));
-            let tol = self.options.resonance_tolerance;
-            if angle < tol || angle > PI - tol {
-                let order = if angle < tol { 1 } else { 2 };
+            if last > 0
+                && let Some((order, _)) =
+                    self.strong_resonance(&branch.points[last - 1].u, &branch.points[last].u)
+            {
                 return Ok(TorusCurveStop::StrongResonance {
                     index: last,
                     order,
-                    angle,
+                    angle: multiplier_angle(self.theta(&branch.points[last].u)),
                 });
             }
             if stop != Stop::MaxPoints {
@@ -802,11 +804,33 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         Ok(TorusCurveStop::Continuation(Stop::MaxPoints))
     }
 
-    /// The resonances 1:q (q = 3, 4: φ crossed 2π/q) passed along `branch`, and 1:1, 1:2
-    /// where φ came within [`TorusCurveOptions::resonance_tolerance`] of 0 or π.
+    /// A strong resonance between the points `a` and `b` of a curve: 1:1 (q = 1) or 1:2
+    /// (q = 2) when φ at b is within [`TorusCurveOptions::resonance_tolerance`] of 0 or π,
+    /// or when θ passed a multiple kπ between them (q = 1 for even k). Returns q and the
+    /// fraction of the step a → b at the resonance.
+    fn strong_resonance(&self, a: &[f64], b: &[f64]) -> Option<(u32, f64)> {
+        let (ta, tb) = (self.theta(a), self.theta(b));
+        let phi = multiplier_angle(tb);
+        let tol = self.options.resonance_tolerance;
+        if phi < tol {
+            return Some((1, 1.0));
+        }
+        if phi > PI - tol {
+            return Some((2, 1.0));
+        }
+        let k = (ta.min(tb) / PI).ceil();
+        if k * PI < ta.max(tb) {
+            let order = if (k as i64).rem_euclid(2) == 0 { 1 } else { 2 };
+            return Some((order, (k * PI - ta) / (tb - ta)));
+        }
+        None
+    }
+
+    /// The resonances passed along `branch`: 1:3 and 1:4 (the multiplier angle φ crossed
+    /// 2π/3 or π/2; Arnold tongues start there) and the strong resonances 1:1 and 1:2 (see
+    /// [`TorusCurveSystem::extend_curve`]), with (p1, p2) linearly interpolated in φ or θ.
     pub fn resonances(&self, branch: &Branch) -> Vec<Resonance> {
         let np = self.np();
-        let tol = self.options.resonance_tolerance;
         let mut out = Vec::new();
         for (j, w) in branch.points.windows(2).enumerate() {
             let (fa, fb) = (
@@ -817,22 +841,19 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
                 |t: f64| [1, 2].map(|o| w[0].u[np + o] + t * (w[1].u[np + o] - w[0].u[np + o]));
             for (order, target) in [(3, 2.0 * PI / 3.0), (4, PI / 2.0)] {
                 if (fa - target) * (fb - target) < 0.0 {
-                    let t = (target - fa) / (fb - fa);
                     out.push(Resonance {
                         index: j + 1,
                         order,
-                        parameters: at(t),
+                        parameters: at((target - fa) / (fb - fa)),
                     });
                 }
             }
-            for (order, hit) in [(1, fb < tol), (2, fb > PI - tol)] {
-                if hit {
-                    out.push(Resonance {
-                        index: j + 1,
-                        order,
-                        parameters: at(1.0),
-                    });
-                }
+            if let Some((order, t)) = self.strong_resonance(&w[0].u, &w[1].u) {
+                out.push(Resonance {
+                    index: j + 1,
+                    order,
+                    parameters: at(t),
+                });
             }
         }
         out

@@ -308,3 +308,39 @@ fn torus_curves_start_at_the_double_hopf_point_and_end_there() {
         }
     }
 }
+
+#[test]
+fn torus_curve_passes_one_to_four_and_stops_at_one_to_one() {
+    // reference: closed form of the ODE test bed's torus curve T1 (ν = −cμ, D = 0):
+    // θ = 2π·1.3/(1 + 0.2μ) − 2π (the branch's θ0 ∈ (0, π)); the 1:4 resonance θ = π/2 at
+    // μ = 0.2, the 1:1 resonance θ = 0 at μ = 1.5. Linear interpolation between points of
+    // step ≤ 0.05 is exact to ≈ θ''Δμ²/8 ≈ 1e-4: required 1e-3 on μ.
+    let bed = TorusTestBed::ode();
+    let (po, br, i) = cycle_one_to_torus(&bed, -0.075, 10);
+    let c = cont(0.05, 0.05);
+    let options = TorusCurveOptions {
+        multipliers: false,
+        ..Default::default()
+    };
+    let (mut torus, mut curve) =
+        TorusCurveSystem::start_at_torus(&c, &po, &br.points[i], 1, options).unwrap();
+    if curve.points[0].tangent[po.parameter_index()] < 0.0 {
+        let back = vec_neg(&curve.points[0].tangent);
+        curve = c.start(&mut torus, &curve.points[0].u, &back).unwrap();
+    }
+    let stop = torus.extend_curve(&c, &mut curve, 200).unwrap();
+    let TorusCurveStop::StrongResonance { index, order, .. } = stop else {
+        panic!("{stop:?}")
+    };
+    assert_eq!(order, 1);
+    assert_eq!(index, curve.points.len() - 1);
+    let res = torus.resonances(&curve);
+    let four: Vec<_> = res.iter().filter(|r| r.order == 4).collect();
+    assert_eq!(four.len(), 1, "{res:?}");
+    assert!((four[0].parameters[0] - 0.2).abs() < 1e-3, "{res:?}");
+    assert!((four[0].parameters[1] + 0.1).abs() < 1e-3, "{res:?}");
+    let one: Vec<_> = res.iter().filter(|r| r.order == 1).collect();
+    assert_eq!(one.len(), 1, "{res:?}");
+    assert!((one[0].parameters[0] - 1.5).abs() < 1e-3, "{res:?}");
+    assert!(res.iter().all(|r| r.order != 2 && r.order != 3), "{res:?}");
+}

@@ -32,6 +32,13 @@
 //! unreduced θ = 2πω_j/ω_i makes q constant. The reported multiplier angle φ is θ
 //! reduced to \[0, π\] and the rotation number is φ/2π ∈ \[0, ½\].
 //!
+//! For a right-hand side with kinks ([`Problem::n_switching`]) J(s) jumps, and (T1)
+//! converges only like h² unless the mesh has points at the switching times: build the
+//! system with [`TorusCurveSystem::with_mesh`] on such a mesh (see
+//! [`PeriodicOrbitSystem::switching_times`]), or expect the curve to differ from the
+//! torus points detected on cycle branches (whose monodromy puts mesh points there) at
+//! O(h²).
+//!
 //! # Starting
 //!
 //! - At a torus point of a cycle branch ([`TorusCurveSystem::from_torus`]): θ0 = arg μ of

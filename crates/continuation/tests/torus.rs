@@ -344,3 +344,43 @@ fn torus_curve_passes_one_to_four_and_stops_at_one_to_one() {
     assert!((one[0].parameters[0] - 1.5).abs() < 1e-3, "{res:?}");
     assert!(res.iter().all(|r| r.order != 2 && r.order != 3), "{res:?}");
 }
+
+#[test]
+fn torus_curve_in_the_delay() {
+    // reference: closed form of TorusTestBed's T1 with the delay τ as second parameter:
+    // at fixed ν the Neimark–Sacker point of cycle 1 is μ = (D(τ) − ν)/c with θ = Ω(τ)T
+    // mod 2π (Ω, D from the scalar fixed-point equation to 1e-15). Exercises the ∂τ/∂p
+    // terms of the cycle's and the mode's rows along a curve. Mesh L = 12, m = 4 as in the
+    // torus-point test: required 1e-6 on μ and θ.
+    let bed = TorusTestBed::delayed();
+    let (_, d) = bed.second_hopf(TAU);
+    let nu = d - bed.c * 0.25;
+    let (po, br, i) = cycle_one_to_torus(&bed, nu, 12);
+    let c = cont(0.05, 0.05);
+    let options = TorusCurveOptions {
+        multipliers: false,
+        ..Default::default()
+    };
+    let (mut torus, mut curve) =
+        TorusCurveSystem::start_at_torus(&c, &po, &br.points[i], 2, options).unwrap();
+    torus.extend_curve(&c, &mut curve, 5).unwrap();
+    let taus: Vec<f64> = curve
+        .points
+        .iter()
+        .map(|p| p.secondary_parameter.unwrap())
+        .collect();
+    assert!(taus.iter().any(|t| (t - TAU).abs() > 0.05), "{taus:?}");
+    for pt in &curve.points {
+        let cp = torus.curve_point(&pt.u);
+        let [mu, tau] = cp.parameters;
+        let (omega, d) = bed.second_hopf(tau);
+        let mu_x = (d - nu) / bed.c;
+        assert!((mu - mu_x).abs() < 1e-6, "τ = {tau}: μ = {mu} vs {mu_x}");
+        let theta_x = (omega * cp.period).rem_euclid(2.0 * PI);
+        assert!(
+            (reduced(cp.theta) - theta_x).abs() < 1e-6,
+            "θ = {} vs {theta_x}",
+            cp.theta
+        );
+    }
+}

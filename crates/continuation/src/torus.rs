@@ -567,10 +567,11 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     /// Start at a double-Hopf point `hh` on the torus curve of cycle family `family` (0:
     /// the cycles of frequency ω1, which lose stability to the mode of ω2; 1: the other
     /// way round), with `free` = [p1, p2] and the cycle amplitude `amplitude` along the
-    /// eigenvector (see the module documentation). Returns the system on a uniform mesh
-    /// of `collocation.intervals` intervals, the guess and the direction of growing
-    /// amplitude for [`Continuation::start`]; the first point's tangent then points away
-    /// from the double-Hopf point.
+    /// eigenvector (‖v‖ = 1; see the module documentation). Returns the system on a
+    /// uniform mesh of `collocation.intervals` intervals, the guess and the direction of
+    /// growing amplitude for [`Continuation::start`]; the first point's tangent then points
+    /// away from the double-Hopf point. On another mesh: [`TorusCurveSystem::with_mesh`]
+    /// and [`TorusCurveSystem::double_hopf_guess`].
     pub fn from_double_hopf(
         problem: &'a P,
         hh: &DoubleHopfPoint,
@@ -580,18 +581,6 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         collocation: CollocationOptions,
         options: TorusCurveOptions,
     ) -> Result<(Self, Vec<f64>, Vec<f64>)> {
-        if family > 1 {
-            return Err(Error::InvalidInput(format!(
-                "from_double_hopf: cycle family {family} (0 or 1)"
-            )));
-        }
-        let n = problem.dim();
-        if hh.state.len() != n || hh.eigenvectors.iter().any(|v| v.len() != n) {
-            return Err(Error::InvalidInput(format!(
-                "from_double_hopf: point of dimension {} for a system of dimension {n}",
-                hh.state.len()
-            )));
-        }
         let mut sys = Self::new(
             problem,
             hh.parameters.clone(),
@@ -599,21 +588,52 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             collocation,
             options,
         )?;
-        let hopf = hh.hopf_point(family, free[0]);
-        let (orbit, cycle_dir) = sys.po.hopf_guess(&hopf, amplitude);
+        let (guess, direction) = sys.double_hopf_guess(hh, family, amplitude)?;
+        Ok((sys, guess, direction))
+    }
+
+    /// The guess and start direction of [`TorusCurveSystem::from_double_hopf`] for this
+    /// system (its mesh and free parameters; all parameters are set to `hh`'s). Sets the
+    /// references.
+    pub fn double_hopf_guess(
+        &mut self,
+        hh: &DoubleHopfPoint,
+        family: usize,
+        amplitude: f64,
+    ) -> Result<(Vec<f64>, Vec<f64>)> {
+        let n = self.po.dim();
+        if family > 1 {
+            return Err(Error::InvalidInput(format!(
+                "double-Hopf start: cycle family {family} (0 or 1)"
+            )));
+        }
+        if hh.state.len() != n
+            || hh.eigenvectors.iter().any(|v| v.len() != n)
+            || hh.parameters.len() != self.po.params.len()
+        {
+            return Err(Error::InvalidInput(format!(
+                "double-Hopf start: point of dimension {} with {} parameters for a system of dimension {n} with {}",
+                hh.state.len(),
+                hh.parameters.len(),
+                self.po.params.len()
+            )));
+        }
+        self.po.params.clone_from(&hh.parameters);
+        let hopf = hh.hopf_point(family, self.po.ip);
+        let (orbit, cycle_dir) = self.po.hopf_guess(&hopf, amplitude);
         let other = 1 - family;
         let v = &hh.eigenvectors[other];
-        let nodes = sys.po.n_nodes();
+        let nodes = self.po.n_nodes();
         let mut guess = orbit;
-        guess.push(hh.parameters[free[1]]);
+        guess.push(hh.parameters[self.ip2]);
         guess.extend((0..nodes).flat_map(|_| v.iter().map(|z| z.re)));
         guess.extend((0..nodes).flat_map(|_| v.iter().map(|z| z.im)));
         guess.push(2.0 * PI * hh.omegas[other] / hh.omegas[family]);
-        sys.normalise_mode(&mut guess)?;
-        sys.accept(&guess);
+        self.normalise_mode(&mut guess)?;
+        self.accept(&guess);
         let mut direction = cycle_dir;
         direction.resize(guess.len(), 0.0);
-        Ok((sys, guess, direction))
+        Ok((guess, direction))
     }
 
     /// n·L·m: number of profile unknowns

@@ -94,9 +94,12 @@ pub struct TorusCurveOptions {
     /// [`TorusCurveSystem::extend_curve`] stops at a strong resonance when the multiplier
     /// angle φ comes within this of 0 (1:1) or π (1:2), or passes 0 or π in a step \[rad\]
     pub resonance_tolerance: f64,
-    /// compute the Floquet multipliers of the cycle at every point (stored as the point's
-    /// stability; two of them are e^{±iθ} on the unit circle); costs one monodromy
-    /// computation per point
+    /// compute the Floquet multipliers of the cycle at every point, stored as the point's
+    /// stability without the critical pair e^{±iθ} (so `unstable` counts the other
+    /// multipliers outside the unit circle, and a change of that count between two points
+    /// is detected as [`SpecialKind::Fold`] (fold–Neimark–Sacker, a real multiplier
+    /// through 1), [`SpecialKind::PeriodDoubling`] (through −1) or [`SpecialKind::Torus`]
+    /// (a second pair: double Neimark–Sacker)); costs one monodromy computation per point
     pub multipliers: bool,
 }
 
@@ -1342,6 +1345,38 @@ impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
         if !self.options.multipliers {
             return Ok(None);
         }
-        Ok(Some(Stability::from_multipliers(self.multipliers(u)?)))
+        let mut mu = self.multipliers(u)?;
+        let pair = Complex64::from_polar(1.0, self.theta(u));
+        for z in [pair, pair.conj()] {
+            let nearest = mu
+                .iter()
+                .enumerate()
+                .min_by(|a, b| (a.1 - z).norm().total_cmp(&(b.1 - z).norm()))
+                .map(|(i, _)| i);
+            if let Some(i) = nearest {
+                mu.remove(i);
+            }
+        }
+        Ok(Some(Stability::from_multipliers(mu)))
+    }
+
+    /// a change of the number of unstable multipliers (the critical pair removed): the
+    /// multiplier that crossed says which codimension-two point lies between
+    fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
+        if a.unstable == b.unstable {
+            return None;
+        }
+        let outside = if b.unstable > a.unstable { b } else { a };
+        let z = outside
+            .nontrivial()
+            .filter(|z| z.norm() > 1.0)
+            .min_by(|x, y| x.norm().total_cmp(&y.norm()))?;
+        Some(if z.im.abs() > 1e-6 {
+            SpecialKind::Torus
+        } else if z.re < 0.0 {
+            SpecialKind::PeriodDoubling
+        } else {
+            SpecialKind::Fold
+        })
     }
 }

@@ -216,6 +216,16 @@ fn torus_point_on_a_cycle_branch_and_torus_curve() {
             "{mus:?}"
         );
         for pt in curve.points.iter().chain(&back.points) {
+            // the stored stability is without the critical pair: cycle 1 is otherwise
+            // stable (radial multiplier e^{−2μT}), and no multiplier is left at e^{±iθ}
+            let st = pt.stability.as_ref().unwrap();
+            assert!(st.is_stable(), "{st:?}");
+            let pair = num_complex::Complex64::from_polar(1.0, torus.theta(&pt.u));
+            assert!(
+                st.values
+                    .iter()
+                    .all(|z| (z - pair).norm() > 1e-3 && (z - pair.conj()).norm() > 1e-3)
+            );
             let cp = torus.curve_point(&pt.u);
             let [mu, nu] = cp.parameters;
             let (nu_x, period_x, theta_x) = bed.torus_curve_one(mu, tau(&bed));

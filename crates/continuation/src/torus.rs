@@ -67,6 +67,12 @@
 //! a multiple of π in a step.
 //! The weaker resonances 1:3, 1:4 (where Arnold tongues start) are passed and listed by
 //! [`TorusCurveSystem::resonances`].
+//!
+//! With [`TorusCurveOptions::multipliers`] every point stores the cycle's Floquet
+//! multipliers without the critical pair; a change of the number outside the unit circle
+//! is *detected* (not located) as [`SpecialKind::Fold`] (fold–Neimark–Sacker),
+//! [`SpecialKind::PeriodDoubling`] or [`SpecialKind::Torus`] (a second pair). The engine's
+//! turning points of the curve in p1 are *located* and also labelled `Fold`.
 
 use crate::collocation::{MAX_DEGREE, lagrange};
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};

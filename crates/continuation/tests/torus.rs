@@ -394,3 +394,36 @@ fn torus_curve_in_the_delay() {
         );
     }
 }
+
+#[test]
+fn both_cycle_families_from_the_double_hopf_point() {
+    // reference: closed forms of TorusTestBed at the double-Hopf point (μ, ν) = (0, D):
+    // family 0 (free μ) are the cycles |z1|² = μ of period 2π/(ω1 + bμ), family 1 (free ν)
+    // the cycles |z2|² = ν − D of period 2π/Ω. Mesh L = 12, m = 4: required 1e-6 on the
+    // radius (max |x_k| over the period) and the period.
+    let bed = TorusTestBed::delayed();
+    let (omega, d) = bed.second_hopf(TAU);
+    let (hh, _) = double_hopf(&bed);
+    let c = cont(0.05, 0.05);
+    for family in [0, 1] {
+        let mut po =
+            PeriodicOrbitSystem::new(&bed, hh.parameters.clone(), family, colloc(12, 4)).unwrap();
+        let (guess, dir) = po.hopf_guess(&hh.hopf_point(family, family), 0.1);
+        let mut br = c.start(&mut po, &guess, &dir).unwrap();
+        c.extend(&mut po, &mut br, 4).unwrap();
+        for pt in &br.points {
+            let (r2, period, k) = if family == 0 {
+                let mu = pt.parameter;
+                (mu, 2.0 * PI / (bed.omega1 + bed.b * mu), 0)
+            } else {
+                (pt.parameter - d, 2.0 * PI / omega, 2)
+            };
+            assert!(r2 > 0.0, "family {family}: {r2}");
+            assert!(
+                (po.max_abs(&pt.u, k) - r2.sqrt()).abs() < 1e-6,
+                "family {family}"
+            );
+            assert!((po.period(&pt.u) - period).abs() < 1e-6, "family {family}");
+        }
+    }
+}

@@ -33,7 +33,10 @@ mod analysis;
 mod axis;
 pub mod threshold;
 
-pub use analysis::{AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed};
+pub use analysis::{
+    AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed, hopf_fold_speeds, linear_critical_speed,
+    open_loop_critical_speed,
+};
 pub use axis::{Axis, AxisParameter, SweepParameter, VEHICLE_FILE, VehicleField};
 pub use threshold::{CycleReference, Theta0Threshold, ThresholdSearch};
 

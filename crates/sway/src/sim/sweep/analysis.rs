@@ -5,7 +5,7 @@ use std::path::Path;
 
 use continuation::Criticality;
 use serde::{Deserialize, Serialize};
-use trailer_model::{CriticalSpeedOptions, Model, ModelError};
+use trailer_model::{Inputs, Model, State4, sorted_eigenvalues};
 
 use super::PointKind;
 use crate::SwayError;
@@ -145,8 +145,79 @@ fn feedback(controller: &Controller) -> Result<Feedback, String> {
     }
 }
 
+/// The rightmost eigenvalue of Ã(V) (eq. 11, exact Jacobian of the reduced model): its real
+/// part and |imaginary part|.
+fn critical_pair(model: &Model, v: f64) -> (f64, f64) {
+    let (a, _) = model.jacobian4(&State4::zeros(), &Inputs::constant_speed(v));
+    let ev = sorted_eigenvalues(&a);
+    (ev[0].re, ev[0].im.abs())
+}
+
+/// The lowest speed in \[v_min, v_max\] where max Re λ(Ã(V)) changes sign: a scan in
+/// `scan_step_mps`, then the Illinois variant of regula falsi on the bracket down to
+/// `tolerance_mps` (superlinear where the abscissa is smooth, i.e. at a crossing of a
+/// simple pair; the bracket always shrinks). None if stable on the whole range.
+///
+/// # Errors
+/// When straight running is already unstable at v_min, or the abscissa is not finite.
+pub fn open_loop_critical_speed(model: &Model, o: &AnalysisOptions) -> Result<Option<f64>, String> {
+    let f = |v: f64| {
+        let a = critical_pair(model, v).0;
+        if a.is_finite() {
+            Ok(a)
+        } else {
+            Err(format!("the eigenvalues of Ã are not finite at V = {v} m/s"))
+        }
+    };
+    let (mut lo, mut f_lo) = (o.v_min_mps, f(o.v_min_mps)?);
+    if f_lo >= 0.0 {
+        return Err(format!(
+            "straight running is already unstable at v_min = {} m/s",
+            o.v_min_mps
+        ));
+    }
+    let (mut hi, mut f_hi);
+    loop {
+        hi = (lo + o.scan_step_mps).min(o.v_max_mps);
+        f_hi = f(hi)?;
+        if f_hi >= 0.0 {
+            break;
+        }
+        if hi >= o.v_max_mps {
+            return Ok(None);
+        }
+        (lo, f_lo) = (hi, f_hi);
+    }
+    // Illinois: the end that stays is halved in weight, so both ends move
+    let mut side = 0;
+    for _ in 0..200 {
+        if hi - lo <= o.tolerance_mps {
+            break;
+        }
+        let mut m = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+        if !(m > lo && m < hi) {
+            m = 0.5 * (lo + hi);
+        }
+        let fm = f(m)?;
+        if fm < 0.0 {
+            (lo, f_lo) = (m, fm);
+            if side == -1 {
+                f_hi *= 0.5;
+            }
+            side = -1;
+        } else {
+            (hi, f_hi) = (m, fm);
+            if side == 1 {
+                f_lo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    Ok(Some(0.5 * (lo + hi)))
+}
+
 /// V_crit and the Hopf frequency of `model` with `controller`'s feedback: open loop by the
-/// sign change of max Re λ(Ã(V)) ([`Model::critical_speed`]); closed loop by the exact
+/// sign change of max Re λ(Ã(V)) ([`open_loop_critical_speed`]); closed loop by the exact
 /// unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and its rightmost root.
 ///
 /// # Errors
@@ -158,16 +229,9 @@ pub fn linear_critical_speed(
 ) -> Result<LinearCriticalSpeed, String> {
     let fb = feedback(controller)?;
     let (v, omega) = if fb.gain_d_s == 0.0 {
-        let opts = CriticalSpeedOptions {
-            v_min: o.v_min_mps,
-            v_max: o.v_max_mps,
-            scan_step: o.scan_step_mps,
-            tolerance: o.tolerance_mps,
-        };
-        match model.critical_speed(&opts) {
-            Ok(c) => (Some(c.v_crit_mps), Some(c.hopf_omega_rad_s)),
-            Err(ModelError::NoCriticalSpeed { .. }) => (None, None),
-            Err(e) => return Err(e.to_string()),
+        match open_loop_critical_speed(model, o)? {
+            Some(v) => (Some(v), Some(critical_pair(model, v).1)),
+            None => (None, None),
         }
     } else {
         let v = critical_speed_at_gain(

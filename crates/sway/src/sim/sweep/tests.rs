@@ -268,3 +268,33 @@ fn no_sustained_sway_below_the_fold_of_cycles() {
     let top = grid.iter().rev().find(|r| r.values[0] == 35.0).unwrap();
     assert_eq!(top.metrics().unwrap().class, SwayClass::SustainedSway);
 }
+
+#[test]
+fn open_loop_search_agrees_with_the_model_critical_speed() {
+    // reference: trailer_model's scan + bisection to 1e-11 m/s (an independent search on
+    // the 7-state linearisation); ours runs regula falsi on the 4×4 block Ã to 1e-8 m/s.
+    // Vehicles: Table I and h, l at the ends of the uncertainty study's ranges.
+    for (h, l) in [(2.9, 2.8), (2.85, 2.85), (2.95, 2.75)] {
+        let mut v = VehicleParams::default();
+        v.trailer.cog = h;
+        v.trailer.axle = l;
+        let model = Model::new(v).unwrap();
+        let reference = model
+            .critical_speed(&trailer_model::CriticalSpeedOptions::default())
+            .unwrap();
+        let ours =
+            analysis::linear_critical_speed(&model, &Controller::None, &AnalysisOptions::default())
+                .unwrap();
+        let vc = ours.v_crit_mps.unwrap();
+        assert!((vc - reference.v_crit_mps).abs() < 1e-8, "{vc} vs {reference:?}");
+        let w = ours.hopf_omega_rad_s.unwrap();
+        assert!((w - reference.hopf_omega_rad_s).abs() < 1e-7, "{w} vs {reference:?}");
+    }
+    // stable on the whole range: none
+    let o = AnalysisOptions {
+        v_max_mps: 30.0,
+        ..AnalysisOptions::default()
+    };
+    let model = Model::new(VehicleParams::default()).unwrap();
+    assert_eq!(analysis::open_loop_critical_speed(&model, &o), Ok(None));
+}

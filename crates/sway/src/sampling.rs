@@ -195,25 +195,7 @@ impl Sampler {
     /// `(key, problem)` with the key relative to the `[sampling]` table, e.g.
     /// `fields[1].sd`.
     pub fn new(sampling: &Sampling) -> Result<Self, (String, String)> {
-        if sampling.samples == 0 || sampling.samples > MAX_SAMPLES {
-            return Err((
-                "samples".into(),
-                format!(
-                    "expected 1 to {MAX_SAMPLES} samples, got {}",
-                    sampling.samples
-                ),
-            ));
-        }
-        if sampling.fields.is_empty() {
-            return Err((
-                "fields".into(),
-                "expected at least one sampled field".into(),
-            ));
-        }
-        for (i, f) in sampling.fields.iter().enumerate() {
-            f.validate()
-                .map_err(|(k, p)| (format!("fields[{i}].{k}"), p))?;
-        }
+        sampling.validate()?;
         let strata = match sampling.method {
             Method::MonteCarlo => Vec::new(),
             Method::LatinHypercube => (0..sampling.fields.len())
@@ -236,7 +218,40 @@ impl Sampler {
     pub fn len(&self) -> usize {
         self.sampling.samples
     }
+}
 
+impl Sampling {
+    /// Checks the counts and every field (cheap: draws nothing).
+    ///
+    /// # Errors
+    /// `(key, problem)` with the key relative to the `[sampling]` table, e.g.
+    /// `fields[1].sd`.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let sampling = self;
+        if sampling.samples == 0 || sampling.samples > MAX_SAMPLES {
+            return Err((
+                "samples".into(),
+                format!(
+                    "expected 1 to {MAX_SAMPLES} samples, got {}",
+                    sampling.samples
+                ),
+            ));
+        }
+        if sampling.fields.is_empty() {
+            return Err((
+                "fields".into(),
+                "expected at least one sampled field".into(),
+            ));
+        }
+        for (i, f) in sampling.fields.iter().enumerate() {
+            f.validate()
+                .map_err(|(k, p)| (format!("fields[{i}].{k}"), p))?;
+        }
+        Ok(())
+    }
+}
+
+impl Sampler {
     /// True without samples (never: [`Sampler::new`] refuses 0).
     pub fn is_empty(&self) -> bool {
         self.sampling.samples == 0

@@ -20,6 +20,7 @@ use sway::sim::sweep::{
 };
 use sway::sim::{Metrics, Outcome, SwayClass};
 
+use super::fig3a_diagram::validate_options;
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::{Configured, TaskConfig, load_vehicle};
 use crate::io::{Keyed, OutputDir, row_cells};
@@ -67,7 +68,15 @@ pub const FLEET: Task = Task::configured::<SweepConfig>(
 
 impl TaskConfig for SweepConfig {
     fn check(&self, file: &Path) -> Result<(), SwayError> {
-        self.validate(file)
+        self.validate(file)?;
+        // the continuation settings, checked as fig3a checks its own
+        if self.kind == PointKind::HopfFoldSpeeds {
+            validate_options(&self.analysis.diagram, file, "analysis.diagram")?;
+        }
+        if let Some(t) = self.threshold.as_ref().filter(|t| t.compare_cycles) {
+            validate_options(&t.cycles, file, "threshold.cycles")?;
+        }
+        Ok(())
     }
 }
 
@@ -364,8 +373,12 @@ fn summary_line(cfg: &SweepConfig, s: &SweepSummary) -> String {
             )
         }
         None => format!(
-            "{}: {} points of {:?}: {} ok, {} failed",
-            cfg.name, s.points, cfg.kind, s.points_ok, s.points_failed
+            "{}: {} points of {}: {} ok, {} failed",
+            cfg.name,
+            s.points,
+            cfg.kind.as_str(),
+            s.points_ok,
+            s.points_failed
         ),
     }
 }
@@ -393,7 +406,8 @@ impl Prepared for Configured<SweepConfig> {
                 || format!("{} points on this axis alone", a.len()),
             )?;
         }
-        let points = c.grid_len() as f64;
+        let samples = c.sampling.as_ref().map_or(1.0, |s| s.samples as f64);
+        let points = c.axes.iter().map(|a| a.len() as f64).product::<f64>() * samples;
         let settle = settle_s(&c.base.initial);
         bound(file, "base.initial.settle_s", settle, MAX_SIMULATED_S, || {
             format!("{} per simulation", human_seconds(settle * SWEEP_SECONDS_PER_SIM_SECOND))
@@ -402,6 +416,15 @@ impl Prepared for Configured<SweepConfig> {
         bound(file, "base.horizon_s", horizon, MAX_SIMULATED_S, || {
             format!("{} per simulation", human_seconds(horizon * SWEEP_SECONDS_PER_SIM_SECOND))
         })?;
+        if let Some(t) = &c.threshold {
+            let h = t.horizon_s.get() * 2f64.powi(t.max_doublings as i32 + 1);
+            bound(file, "threshold.horizon_s", h, MAX_SIMULATED_S, || {
+                format!(
+                    "× 2^(max_doublings + 1), the longest check: {} per simulation",
+                    human_seconds(h * SWEEP_SECONDS_PER_SIM_SECOND)
+                )
+            })?;
+        }
         let per_point = if c.kind == PointKind::Simulation {
             (horizon + settle) * SWEEP_SECONDS_PER_SIM_SECOND
         } else {
@@ -415,10 +438,10 @@ impl Prepared for Configured<SweepConfig> {
         });
         let plan = Plan::new(
             vec![format!(
-                "{}: {} axes, {points} points of {:?}{}",
+                "{}: {} axes, {points} points of {}{}",
                 c.name,
                 c.axes.len(),
-                c.kind,
+                c.kind.as_str(),
                 if c.threshold.is_some() { " + θ(0) threshold bisection per speed" } else { "" }
             )],
             points * BYTES_PER_ROW,
@@ -437,3 +460,6 @@ impl Prepared for Configured<SweepConfig> {
         write_sweep_outputs(ctx, cfg, &self.file, &results, out)
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -190,7 +190,8 @@ pub struct Windows {
 pub struct Verdict {
     /// the class
     pub class: SwayClass,
-    /// ln(A_previous / A_final) / W \[1/s\]; None if a window has no oscillation amplitude
+    /// ln(A_previous / A_final) / Δt \[1/s\] of a sustained or decaying oscillation (None
+    /// for the other classes)
     pub decay_rate_per_s: Option<f64>,
     /// crossings of θ − mean in the final window
     pub crossings: usize,
@@ -222,9 +223,10 @@ pub fn classify(w: &Windows, settings: &MetricSettings) -> Verdict {
     } else {
         SwayClass::SustainedSway
     };
+    let oscillating = matches!(class, SwayClass::SustainedSway | SwayClass::Decaying);
     Verdict {
         class,
-        decay_rate_per_s,
+        decay_rate_per_s: decay_rate_per_s.filter(|_| oscillating),
         crossings,
     }
 }

@@ -186,8 +186,9 @@ pub struct Metrics {
     /// the class of the run ([`crate::sim::classify`]): "sustained_sway", "decaying",
     /// "offset", "settled" or "loss_of_control"
     pub class: SwayClass,
-    /// ln(A_previous / A_final) / W \[1/s\] of the oscillation amplitudes of the last two
-    /// windows (> 0: shrinking, < 0: growing; null without oscillation or when control was lost)
+    /// ln(A_previous / A_final) / Δt \[1/s\] of the oscillation amplitudes of the last two
+    /// windows (> 0: shrinking, < 0: growing); null unless the class is sustained sway or
+    /// decaying
     pub decay_rate_per_s: Option<f64>,
 }
 

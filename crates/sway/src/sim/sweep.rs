@@ -74,6 +74,15 @@ impl PointKind {
     fn is_simulation(&self) -> bool {
         *self == PointKind::Simulation
     }
+
+    /// The snake_case name used in config files and summaries.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            PointKind::Simulation => "simulation",
+            PointKind::LinearCriticalSpeed => "linear_critical_speed",
+            PointKind::HopfFoldSpeeds => "hopf_fold_speeds",
+        }
+    }
 }
 
 /// A sweep file (see `configs/sweep_threshold.toml`).
@@ -256,8 +265,8 @@ impl SweepConfig {
                     file,
                     format!("{key}.parameter"),
                     format!(
-                        "a {:?} sweep varies only gain_s, delay_s and vehicle fields, not {}",
-                        self.kind,
+                        "a {} sweep varies only gain_s, delay_s and vehicle fields, not {}",
+                        self.kind.as_str(),
                         p.as_str()
                     ),
                 ));
@@ -321,10 +330,14 @@ impl SweepConfig {
         Ok(())
     }
 
-    /// The number of grid points (product of the axis lengths, times the samples).
+    /// The number of grid points (product of the axis lengths, times the samples;
+    /// saturating: a config whose product overflows is refused by the task's plan).
     pub fn grid_len(&self) -> usize {
         let samples = self.sampling.as_ref().map_or(1, |s| s.samples.max(1));
-        self.axes.iter().map(Axis::len).product::<usize>() * samples
+        self.axes
+            .iter()
+            .map(Axis::len)
+            .fold(samples, usize::saturating_mul)
     }
 
     /// The fleet's vehicle files as written in the config (relative to the sweep file's
@@ -465,7 +478,11 @@ impl Sweep {
             .map_or(0, |_| cfg.axes.first().map_or(0, Axis::len));
         let references = usize::from(cfg.threshold.as_ref().is_some_and(|t| t.compare_cycles));
         Ok(Self {
-            per_sample: cfg.axes.iter().map(Axis::len).product(),
+            per_sample: cfg
+                .axes
+                .iter()
+                .map(Axis::len)
+                .fold(1, usize::saturating_mul),
             grid: cfg.grid_len(),
             axis_values: cfg.axes.iter().map(Axis::values).collect(),
             cfg: cfg.clone(),

@@ -90,14 +90,19 @@ impl Serialize for ThresholdPoint {
                 "unstable_cycle_amplitude_deg",
                 &self.unstable_cycle_amplitude_deg,
             )?;
-            let ratio = b
-                .theta0_threshold_deg
+            let ratio = bracketed(b)
                 .zip(self.unstable_cycle_amplitude_deg)
                 .map(|(t, a)| t / a);
             m.serialize_entry("threshold_to_cycle_ratio", &ratio)?;
         }
         m.end()
     }
+}
+
+/// The bisected threshold when it was bracketed from below (not the first grid value,
+/// which is only an upper bound).
+fn bracketed(b: &Theta0Threshold) -> Option<f64> {
+    b.theta0_below_deg.and(b.theta0_threshold_deg)
 }
 
 /// The heat map's part of a sweep summary.
@@ -252,7 +257,7 @@ fn threshold_layers(
             grid_line,
             Rgb::RED,
             Stroke::Solid,
-            Some(&format!("smallest {y_name} ending in sustained sway (grid)")),
+            Some(&format!("smallest {y_name} in sustained sway (grid)")),
         ));
     }
     let bisected: Vec<(f64, f64)> = t
@@ -264,7 +269,7 @@ fn threshold_layers(
             bisected,
             Rgb::BLACK,
             Stroke::Dashed,
-            Some("θ(0) threshold, bisected to the tolerance"),
+            Some("θ(0) threshold (bisection)"),
         ));
     }
     let Some(c) = reference else { return };
@@ -279,7 +284,7 @@ fn threshold_layers(
             cycle,
             Rgb::ORANGE,
             Stroke::Dotted,
-            Some("max |θ| of the unstable cycle (fig3a)"),
+            Some("unstable cycle max |θ| (fig3a)"),
         ));
     }
     if let Some(f) = c.fold_v_mps {
@@ -288,7 +293,7 @@ fn threshold_layers(
             y_range,
             Rgb::GREY,
             Stroke::Dashed,
-            Some(&format!("V_fold = {f:.3} m/s (fig3a)")),
+            Some(&format!("V_fold {f:.2} m/s (fig3a)")),
         ));
     }
 }
@@ -308,9 +313,9 @@ pub struct SeparatrixSummary {
     pub lowest_threshold_speed_mps: Option<f64>,
     /// whether every bisection's outcome stayed the same with a doubled horizon
     pub all_horizons_verified: bool,
-    /// θ(0) threshold / max |θ| of the unstable cycle over the speeds with both: min,
-    /// mean, max (a kick with the other states 0 is not on the cycle: a different section
-    /// of the same separatrix)
+    /// θ(0) threshold / max |θ| of the unstable cycle over the speeds with both (and a
+    /// threshold bracketed from below): min, mean, max (a kick with the other states 0 is
+    /// not on the cycle: a different section of the same separatrix)
     pub threshold_to_cycle_ratio: Option<[f64; 3]>,
     /// speeds with both numbers
     pub speeds_compared: usize,
@@ -337,7 +342,7 @@ pub(super) fn separatrix(
     let ratios: Vec<f64> = bisections
         .iter()
         .zip(&c.speeds)
-        .filter_map(|(b, s)| Some(b.theta0_threshold_deg? / s.unstable_amplitude_deg?))
+        .filter_map(|(b, s)| Some(bracketed(b)? / s.unstable_amplitude_deg?))
         .collect();
     let ratio = (!ratios.is_empty()).then(|| {
         let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
@@ -398,10 +403,11 @@ pub(super) fn distributions(
     if !sampled && cfg.kind == PointKind::Simulation {
         return Ok(None);
     }
+    // with samples, one distribution per grid point; otherwise one over all points
     let per_sample: usize = if sampled {
         cfg.axes.iter().map(|a| a.len()).product()
     } else {
-        grid.len().max(1)
+        1
     };
     let axis_values: Vec<Vec<f64>> = cfg.axes.iter().map(|a| a.values()).collect();
     let at = |g: usize| -> Keyed<f64> {

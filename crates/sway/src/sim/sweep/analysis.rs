@@ -166,7 +166,9 @@ pub fn open_loop_critical_speed(model: &Model, o: &AnalysisOptions) -> Result<Op
         if a.is_finite() {
             Ok(a)
         } else {
-            Err(format!("the eigenvalues of Ã are not finite at V = {v} m/s"))
+            Err(format!(
+                "the eigenvalues of Ã are not finite at V = {v} m/s"
+            ))
         }
     };
     let (mut lo, mut f_lo) = (o.v_min_mps, f(o.v_min_mps)?);

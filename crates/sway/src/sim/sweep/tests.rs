@@ -286,9 +286,15 @@ fn open_loop_search_agrees_with_the_model_critical_speed() {
             analysis::linear_critical_speed(&model, &Controller::None, &AnalysisOptions::default())
                 .unwrap();
         let vc = ours.v_crit_mps.unwrap();
-        assert!((vc - reference.v_crit_mps).abs() < 1e-8, "{vc} vs {reference:?}");
+        assert!(
+            (vc - reference.v_crit_mps).abs() < 1e-8,
+            "{vc} vs {reference:?}"
+        );
         let w = ours.hopf_omega_rad_s.unwrap();
-        assert!((w - reference.hopf_omega_rad_s).abs() < 1e-7, "{w} vs {reference:?}");
+        assert!(
+            (w - reference.hopf_omega_rad_s).abs() < 1e-7,
+            "{w} vs {reference:?}"
+        );
     }
     // stable on the whole range: none
     let o = AnalysisOptions {

@@ -36,6 +36,9 @@ fn default_tolerance() -> Positive {
 fn yes() -> bool {
     true
 }
+fn default_doublings() -> u32 {
+    3
+}
 
 /// The `[threshold]` table of a threshold map.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -47,6 +50,11 @@ pub struct ThresholdSearch {
     /// the bisection stops when the bracket is this narrow \[deg\]
     #[serde(default = "default_tolerance")]
     pub tolerance_deg: Positive,
+    /// when doubling the horizon changes an outcome, the search is redone with the doubled
+    /// horizon, at most this many times (near V_crit the escape from the unstable cycle is
+    /// slow)
+    #[serde(default = "default_doublings")]
+    pub max_doublings: u32,
     /// also compute the cycles of the bifurcation diagram at the speeds of axis 1
     #[serde(default = "yes")]
     pub compare_cycles: bool,
@@ -89,6 +97,12 @@ impl ThresholdSearch {
                 || "the cycle comparison is for the open loop (controller = none)".into(),
             )?;
         }
+        ensure(
+            self.max_doublings <= 10,
+            file,
+            "threshold.max_doublings",
+            || format!("expected at most 10 doublings, got {}", self.max_doublings),
+        )?;
         ensure(
             self.tolerance_deg.get() < 10.0,
             file,
@@ -182,7 +196,7 @@ pub(super) fn run_threshold_point(sweep: &Sweep, i: usize) -> PointResult {
         Ok(s) => s,
         Err(e) => return failed(vec![speed], e),
     };
-    match bisect(&model, &base, &sweep.axis_values[1], &search, speed) {
+    match search_with_doubling(&model, &base, &sweep.axis_values[1], &search, speed) {
         Ok((t, steps)) => PointResult {
             values: vec![speed],
             output: Ok(PointOutput::Theta0Threshold(t)),
@@ -192,15 +206,39 @@ pub(super) fn run_threshold_point(sweep: &Sweep, i: usize) -> PointResult {
     }
 }
 
-/// The scan of the grid column, the bisection and the horizon check.
-fn bisect(
+/// [`bisect`] at the search's horizon, redone with a doubled horizon while the check fails
+/// (at most `max_doublings` times); the simulations and steps of every attempt are counted.
+fn search_with_doubling(
     model: &Model,
     base: &BaseScenario,
     column: &[f64],
     search: &ThresholdSearch,
     speed: f64,
 ) -> Result<(Theta0Threshold, usize), String> {
-    let h = search.horizon_s.get();
+    let mut h = search.horizon_s.get();
+    let (mut sims, mut steps) = (0, 0);
+    for attempt in 0..=search.max_doublings {
+        let (mut t, s) = bisect(model, base, column, search, speed, h)?;
+        sims += t.simulations;
+        steps += s;
+        t.simulations = sims;
+        if t.horizon_verified != Some(false) || attempt == search.max_doublings {
+            return Ok((t, steps));
+        }
+        h *= 2.0;
+    }
+    Err("unreachable: the loop returns on its last attempt".into())
+}
+
+/// The scan of the grid column, the bisection and the horizon check, at horizon `h` \[s\].
+fn bisect(
+    model: &Model,
+    base: &BaseScenario,
+    column: &[f64],
+    search: &ThresholdSearch,
+    speed: f64,
+    h: f64,
+) -> Result<(Theta0Threshold, usize), String> {
     let (mut sims, mut steps) = (0, 0);
     let mut run = |theta0: f64, horizon: f64| -> Result<SwayClass, String> {
         let (c, s) = class_at(model, base, theta0, horizon)?;

@@ -129,7 +129,7 @@ impl Field {
                     return Err(("mean", format!("expected a finite mean, got {mean}")));
                 }
                 let (a, b) = self.normal_cdf_bounds(mean, sd);
-                if !(b - a > 1e-12) {
+                if b - a <= 1e-12 || b.is_nan() || a.is_nan() {
                     return Err((
                         "min",
                         format!(
@@ -308,7 +308,7 @@ pub fn normal_quantile(p: f64) -> f64 {
         -3.969683028665376e1,
         2.209460984245205e2,
         -2.759285104469687e2,
-        1.383577518672690e2,
+        1.383_577_518_672_69e2,
         -3.066479806614716e1,
         2.506628277459239,
     ];

@@ -32,7 +32,8 @@ use crate::limits::{
 mod study;
 
 pub use study::{
-    DistributionEntry, HeatmapSummary, SeparatrixSummary, ThresholdPoint, quantity_names,
+    DistributionEntry, Distributions, HeatmapSummary, SeparatrixSummary, ThresholdPoint,
+    quantity_names,
 };
 
 /// The task (its default config is the bistability threshold map).
@@ -245,7 +246,7 @@ pub struct SweepSummary {
     /// the results' statistics (linear and bifurcation kinds; with `[sampling]` per grid
     /// point): per quantity, quantiles, mean, sd
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub distributions: Option<Keyed<Vec<DistributionEntry>>>,
+    pub distributions: Option<Distributions>,
 }
 
 fn is_sim_ok(r: &PointResult, o: Outcome) -> bool {

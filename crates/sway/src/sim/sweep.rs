@@ -407,6 +407,9 @@ fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(), S
     Ok(())
 }
 
+/// The model (borrowed when no vehicle field varies) and the scenario of one point.
+type PointSetup<'a> = (Cow<'a, Model>, BaseScenario);
+
 /// A sweep ready to run: the config, its vehicles and models, the axis values and the
 /// sampler, built once; [`Sweep::run_point`] then needs nothing else.
 #[derive(Debug)]
@@ -543,7 +546,7 @@ impl Sweep {
     }
 
     /// The model and scenario of grid point `k`, and its input values.
-    fn setup(&self, k: usize) -> (Vec<f64>, Result<(Cow<'_, Model>, BaseScenario), String>) {
+    fn setup(&self, k: usize) -> (Vec<f64>, Result<PointSetup<'_>, String>) {
         let (mut values, s) = self.grid_point(k);
         let mut fleet = 0;
         let mut params: Option<VehicleParams> = None;

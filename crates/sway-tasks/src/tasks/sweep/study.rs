@@ -388,6 +388,9 @@ pub struct DistributionEntry {
     pub statistics: Option<Statistics>,
 }
 
+/// Per quantity, its statistics at each grid point (`summary.json`'s `distributions`).
+pub type Distributions = Keyed<Vec<DistributionEntry>>;
+
 /// Bins of the histogram figure.
 const HISTOGRAM_BINS: usize = 30;
 
@@ -398,7 +401,7 @@ pub(super) fn distributions(
     out: &OutputDir,
     cfg: &SweepConfig,
     grid: &[PointResult],
-) -> Result<Option<(Keyed<Vec<DistributionEntry>>, Vec<String>)>, SwayError> {
+) -> Result<Option<(Distributions, Vec<String>)>, SwayError> {
     let sampled = cfg.sampling.is_some();
     if !sampled && cfg.kind == PointKind::Simulation {
         return Ok(None);

@@ -42,7 +42,7 @@ fn overhead(c: &mut Criterion) {
         action_s: 0.0,
         settings: cfg.base.settings,
     };
-    let x0 = State4::new(0.0, 0.0, 0.0, 0.1);
+    let x0 = State4::new(0.0, 0.0, 0.0, 5.729577951308232_f64.to_radians());
     let direct = simulate::<4>(&model, &spec, x0, Recording::None).unwrap();
     let point = sweep.run_point(0);
     assert_eq!(point.metrics(), Some(&direct.metrics));

@@ -42,7 +42,12 @@ fn shipped_configs_load_and_validate() {
     let f = root.join("sweep_threshold.toml");
     let c: SweepConfig = sway_tasks::config_file::load_toml(&f).unwrap();
     c.validate(&f).unwrap();
-    assert!(c.len() >= 64 * 16);
+    assert!(c.grid_len() >= 64 * 16);
+    for name in ["study_uncertainty.toml", "study_fleet.toml", "sweep_brake_timing.toml"] {
+        let f = root.join(name);
+        let c: SweepConfig = sway_tasks::config_file::load_toml(&f).unwrap();
+        c.validate(&f).unwrap();
+    }
 }
 
 #[test]

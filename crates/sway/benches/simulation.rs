@@ -11,7 +11,7 @@ use common::spec;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::progress::NoProgress;
-use sway::sim::sweep::{SweepConfig, run_sweep};
+use sway::sim::sweep::{Sweep, SweepConfig, run_sweep};
 use sway::sim::{Controller, Recording, SpeedProfile, simulate};
 use trailer_model::State7;
 
@@ -60,8 +60,12 @@ fn sweep(c: &mut Criterion) {
     let model = common::model();
     let file =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/sweep_threshold.toml");
-    let cfg: SweepConfig = toml::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let mut cfg: SweepConfig = toml::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
     cfg.validate(&file).unwrap();
+    // the issue-3 workload: the grid of 60 s simulations only (no threshold bisection)
+    cfg.threshold = None;
+    cfg.base.horizon_s = sway::config::Positive::literal(60.0);
+    let sweep = Sweep::new(model.params(), &[], &cfg).unwrap();
     let mut g = c.benchmark_group("sweep_threshold_64x16");
     g.sample_size(10);
     for threads in [1usize, 2] {
@@ -71,7 +75,7 @@ fn sweep(c: &mut Criterion) {
             .unwrap();
         g.bench_function(format!("{threads}_threads"), |b| {
             b.iter(|| {
-                pool.install(|| run_sweep(&model, black_box(&cfg), &NoProgress))
+                pool.install(|| run_sweep(black_box(&sweep), &NoProgress))
                     .len()
             })
         });

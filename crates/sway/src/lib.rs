@@ -2,7 +2,7 @@
 //! into the numerical crates ([`dde`], [`stability`], [`continuation`]) — simulation
 //! ([`sim`]), bifurcation diagrams ([`bifurcation`]), stability charts ([`charts`]),
 //! linear analysis ([`linear`]), trailer loading ([`loading`]) and the design of the
-//! feedback gain ([`gain_design`]) — with typed configs as
+//! feedback gain ([`gain_design`]), uncertainty sampling ([`sampling`]) — with typed configs as
 //! plain serde data and their validation ([`config`]).
 //!
 //! It computes and returns values: it reads no files, writes no files and does not
@@ -29,6 +29,7 @@ pub mod linear;
 pub mod loading;
 pub mod mitigation;
 pub mod progress;
+pub mod sampling;
 pub mod sim;
 
 pub use error::SwayError;

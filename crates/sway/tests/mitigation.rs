@@ -121,6 +121,12 @@ fn metrics(outcome: Outcome, settle: Option<f64>, final_amp: Option<f64>, peak: 
         outcome,
         loss_of_control_time_s: (outcome == Outcome::LossOfControl).then_some(10.2),
         loss_of_control_condition: None,
+        class: match outcome {
+            Outcome::LossOfControl => sway::sim::SwayClass::LossOfControl,
+            Outcome::Ok if settle.is_some() => sway::sim::SwayClass::Settled,
+            Outcome::Ok => sway::sim::SwayClass::SustainedSway,
+        },
+        decay_rate_per_s: None,
     }
 }
 

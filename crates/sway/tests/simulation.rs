@@ -8,7 +8,9 @@ use dde::{DdeProblem, OdeProblem};
 use nalgebra::SVector;
 use sway::config::Positive;
 use sway::progress::NoProgress;
-use sway::sim::sweep::{Axis, BaseScenario, SweepConfig, SweepParameter, run_point, run_sweep};
+use sway::sim::sweep::{
+    Axis, AxisParameter, BaseScenario, Sweep, SweepConfig, SweepParameter, run_sweep,
+};
 use sway::sim::{
     Controller, InitialCondition, LossOfControl, MetricSettings, Outcome, Plant, Recording,
     RunSettings, SimResult, SimSpec, SolverSettings, SpeedProfile, ValidityGuard, settle, simulate,
@@ -295,19 +297,20 @@ fn guard_stops_hard_braking_exactly_at_axle_saturation() {
 fn small_sweep() -> SweepConfig {
     SweepConfig {
         name: "test".into(),
+        kind: Default::default(),
         axes: vec![
-            Axis {
-                parameter: SweepParameter::SpeedMps,
-                min: 30.0,
-                max: 35.0,
-                points: 3,
-            },
-            Axis {
-                parameter: SweepParameter::Theta0Deg,
-                min: 2.0,
-                max: 10.0,
-                points: 2,
-            },
+            Axis::range(
+                AxisParameter::Scenario(SweepParameter::SpeedMps),
+                30.0,
+                35.0,
+                3,
+            ),
+            Axis::range(
+                AxisParameter::Scenario(SweepParameter::Theta0Deg),
+                2.0,
+                10.0,
+                2,
+            ),
         ],
         base: BaseScenario {
             horizon_s: Positive::new(8.0).unwrap(),
@@ -331,7 +334,15 @@ fn small_sweep() -> SweepConfig {
                 metrics: MetricSettings::default(),
             },
         },
+        sampling: None,
+        threshold: None,
+        analysis: Default::default(),
     }
+}
+
+/// The sweep of `cfg` on the Table I vehicle.
+fn sweep_of(cfg: &SweepConfig) -> Sweep {
+    Sweep::new(&trailer_model::VehicleParams::default(), &[], cfg).unwrap()
 }
 
 #[test]
@@ -344,8 +355,9 @@ fn sweep_is_deterministic_across_thread_counts_and_matches_single_runs() {
             .build()
             .unwrap()
     };
-    let one = pool(1).install(|| run_sweep(&m, &cfg, &NoProgress));
-    let two = pool(2).install(|| run_sweep(&m, &cfg, &NoProgress));
+    let sweep = sweep_of(&cfg);
+    let one = pool(1).install(|| run_sweep(&sweep, &NoProgress));
+    let two = pool(2).install(|| run_sweep(&sweep, &NoProgress));
     assert_eq!(one, two);
     assert_eq!(one.len(), 6);
     // grid order: first axis fastest
@@ -364,7 +376,7 @@ fn sweep_is_deterministic_across_thread_counts_and_matches_single_runs() {
         },
     };
     let r7 = simulate::<7>(&m, &s, x7(10.0), Recording::None).unwrap();
-    let swept = one[5].metrics.as_ref().unwrap();
+    let swept = one[5].metrics().unwrap();
     assert_abs_diff_eq!(
         swept.final_amplitude_deg.unwrap(),
         r7.metrics.final_amplitude_deg.unwrap(),
@@ -374,13 +386,13 @@ fn sweep_is_deterministic_across_thread_counts_and_matches_single_runs() {
 
 #[test]
 fn a_failing_point_is_reported_not_fatal() {
-    let m = model();
     let mut cfg = small_sweep();
     cfg.base.settings.solver.max_steps = 20;
-    let r = run_point(&m, &cfg, 0);
-    let msg = r.metrics.unwrap_err();
+    let sweep = sweep_of(&cfg);
+    let r = sweep.run_point(0);
+    let msg = r.output.unwrap_err();
     assert!(msg.contains("max_steps"), "{msg}");
-    let all = run_sweep(&m, &cfg, &NoProgress);
+    let all = run_sweep(&sweep, &NoProgress);
     assert_eq!(all.len(), 6);
 }
 
@@ -396,18 +408,14 @@ fn brake_timing_sweep_reproduces_fig3b_and_fig4c_points() {
     let mut cfg: SweepConfig =
         toml::from_str(&std::fs::read_to_string(&f).expect("read")).expect("parses");
     cfg.validate(&f).unwrap();
-    cfg.axes[0].min = 2.0;
-    cfg.axes[0].max = 10.0;
-    cfg.axes[0].points = 2;
-    cfg.axes[1].min = 5.0;
-    cfg.axes[1].max = 6.0;
-    cfg.axes[1].points = 2;
-    let m = model();
+    cfg.axes[0] = Axis::range(cfg.axes[0].parameter, 2.0, 10.0, 2);
+    cfg.axes[1] = Axis::range(cfg.axes[1].parameter, 5.0, 6.0, 2);
+    let sweep = sweep_of(&cfg);
     let at = |tb: f64, t: f64| {
-        let k = (0..cfg.len())
-            .find(|&k| cfg.point(k) == vec![tb, t])
+        let k = (0..sweep.len())
+            .find(|&k| sweep.grid_point(k).0 == vec![tb, t])
             .expect("grid point");
-        run_point(&m, &cfg, k).metrics.expect("runs")
+        *sweep.run_point(k).metrics().expect("runs")
     };
     let early = at(2.0, 5.0);
     assert_eq!(early.outcome, Outcome::Ok);

@@ -42,7 +42,7 @@ registry! {
     gain_design => [TASK],
     simulate => [TASK],
     mitigation => [TASK],
-    sweep => [TASK, BRAKE_TIMING],
+    sweep => [TASK, BRAKE_TIMING, UNCERTAINTY, FLEET],
 }
 
 pub mod fig3a_diagram;

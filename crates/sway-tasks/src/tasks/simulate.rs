@@ -1,6 +1,7 @@
 //! `cargo xtask simulate FILE.toml`: one user scenario of the full 7-state model.
 //! Writes `results/<name>/trajectory.csv` (t, σ1, σ2, σ3, θ, ψ, x_H, y_H, V, δ),
-//! `summary.json` and `trajectory.svg/.png` (θ and V versus t, and the path).
+//! `summary.json` (the metrics with the run's `class` and `decay_rate_per_s`) and
+//! `trajectory.svg/.png` (θ and V versus t, and the path).
 
 use std::path::Path;
 
@@ -93,6 +94,16 @@ fn figure(cfg: &ScenarioConfig, action_s: f64, r: &SimResult<7>) -> Figure {
     Figure::column(vec![p1, p2, p3])
 }
 
+/// The run's class (sustained sway, decaying with its decay rate, offset, settled, loss of
+/// control: [`sway::sim::classify`]).
+fn class_line(name: &str, r: &SimResult<7>) -> String {
+    let m = &r.metrics;
+    let rate = m
+        .decay_rate_per_s
+        .map_or(String::new(), |d| format!(", amplitude decay rate {d:.4} 1/s"));
+    format!("{name}: class {}{rate}", m.class.as_str())
+}
+
 impl Prepared for Configured<ScenarioConfig> {
     fn plan(&self) -> Result<Plan, SwayError> {
         let c = &self.config;
@@ -135,7 +146,7 @@ impl Prepared for Configured<ScenarioConfig> {
                 },
             },
         };
-        let lines = vec![line(&cfg.name, &r)];
+        let lines = vec![line(&cfg.name, &r), class_line(&cfg.name, &r)];
         ctx.conclude(out, summary, cfg, &self.file, lines)
     }
 }

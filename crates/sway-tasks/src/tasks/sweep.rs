@@ -1,28 +1,45 @@
-//! `cargo xtask sweep FILE.toml`: a grid of simulations in parallel (rayon) over any of
-//! V, θ(0), D, τ and the braking time T; one CSV row per grid point with the metrics
-//! (a failed point says why in its row), a heat map of the final sway amplitude over the
-//! first two axes, and `summary.json`. Same numbers whatever the thread count.
+//! `cargo xtask sweep FILE.toml`: a study in parallel (rayon): a grid over scenario
+//! quantities (V, θ(0), D, τ, braking), vehicle fields by key path and vehicle files (a
+//! fleet), optionally times uncertainty samples, each point a simulation (classified), the
+//! linear critical speed or the Hopf and fold speeds ([`sway::sim::sweep`]). One CSV row per
+//! grid point (a failed point says why in its row), `summary.json`, a heat map over the first
+//! two axes, and with `[sampling]` the distributions (quantiles, histogram figure); a
+//! threshold map also bisects the θ(0) threshold per speed and compares it with the
+//! unstable cycle of the bifurcation diagram. Same numbers whatever the thread count.
+//!
+//! Everything written comes from the ordered list of point results through
+//! [`write_sweep_outputs`] (only `wall_time_s` differs between two runs), so a study computed
+//! in shards and merged writes the same files as one run.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 use sway::SwayError;
-use sway::sim::sweep::{Axis, PointResult, SweepConfig, run_sweep};
-use sway::sim::{Metrics, Outcome};
+use sway::sim::sweep::{
+    AxisParameter, PointKind, PointOutput, PointResult, Sweep, SweepConfig, run_sweep,
+};
+use sway::sim::{Metrics, Outcome, SwayClass};
 
+use super::fig3a_diagram::validate_options;
 use super::{Prepared, Report, Task, TaskContext};
-use crate::config_file::{Configured, TaskConfig};
-use crate::io::{OutputDir, row_cells};
+use crate::config_file::{Configured, TaskConfig, load_vehicle};
+use crate::io::{Keyed, OutputDir, row_cells};
 use crate::limits::{
     BYTES_PER_ROW, MAX_AXIS_POINTS, MAX_SIMULATED_S, MAX_SIMULATIONS, Plan,
     SWEEP_SECONDS_PER_SIM_SECOND, bound, human_seconds, settle_s,
 };
-use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
+
+mod study;
+
+pub use study::{
+    DistributionEntry, Distributions, HeatmapSummary, SeparatrixSummary, ThresholdPoint,
+    quantity_names,
+};
 
 /// The task (its default config is the bistability threshold map).
 pub const TASK: Task = Task::configured::<SweepConfig>(
     "sweep",
-    "parallel grid of simulations (TOML); default: which perturbations trigger sway",
+    "parallel study (TOML): simulations, V_crit or Hopf/fold speeds over scenario, vehicle and fleet axes and uncertainty samples; default: which perturbations trigger sway",
     "sweep_threshold.toml",
 );
 
@@ -34,245 +51,364 @@ pub const BRAKE_TIMING: Task = Task::configured::<SweepConfig>(
     "sweep_brake_timing.toml",
 );
 
+/// The uncertainty study `configs/study_uncertainty.toml`: the distribution of V_crit when
+/// h and l are known to ±0.05 m (issue 11).
+pub const UNCERTAINTY: Task = Task::configured::<SweepConfig>(
+    "study_uncertainty",
+    "distribution of V_crit when h and l are known to ±0.05 m (Latin hypercube)",
+    "study_uncertainty.toml",
+);
+
+/// The fleet study `configs/study_fleet.toml`: V_crit over trailer mass for the vehicle
+/// files of `configs/fleet/`.
+pub const FLEET: Task = Task::configured::<SweepConfig>(
+    "study_fleet",
+    "V_crit over trailer mass for a fleet of vehicle files (configs/fleet/)",
+    "study_fleet.toml",
+);
+
 impl TaskConfig for SweepConfig {
     fn check(&self, file: &Path) -> Result<(), SwayError> {
-        self.validate(file)
+        self.validate(file)?;
+        // the continuation settings, checked as fig3a checks its own
+        if self.kind == PointKind::HopfFoldSpeeds {
+            validate_options(&self.analysis.diagram, file, "analysis.diagram")?;
+        }
+        if let Some(t) = self.threshold.as_ref().filter(|t| t.compare_cycles) {
+            validate_options(&t.cycles, file, "threshold.cycles")?;
+        }
+        Ok(())
     }
 }
 
-/// One row of `sweep.csv`: the axis values (one column per axis, named by its parameter),
-/// then the metrics (the field names of [`Metrics`]; empty when the point failed, with
-/// `outcome = "error"`), the accepted steps and the error message of a failed point (quoted
-/// and escaped as CSV needs it).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SweepRow<'a> {
-    /// the axis values
-    pub values: &'a [f64],
-    /// the metrics, or the error of a failed point
-    pub metrics: Result<&'a Metrics, &'a str>,
-    /// accepted steps (0 on failure)
-    pub accepted_steps: usize,
+/// The fleet's vehicle files, resolved against the sweep file's directory.
+pub fn fleet_paths(cfg: &SweepConfig, file: &Path) -> Vec<PathBuf> {
+    let dir = file.parent().unwrap_or(Path::new("."));
+    cfg.fleet_files().iter().map(|f| dir.join(f)).collect()
 }
 
-/// The metric column names: the field names of [`Metrics`].
-fn metric_columns() -> Vec<String> {
-    let any = Metrics {
+/// Builds the [`Sweep`] of `cfg` (read from `file`): loads the fleet's vehicle files (errors
+/// name the file and key) and checks every vehicle the axes and samples can build.
+///
+/// # Errors
+/// [`SwayError::Read`] / [`SwayError::Config`].
+pub fn prepare_sweep(
+    ctx: &TaskContext<'_>,
+    cfg: &SweepConfig,
+    file: &Path,
+) -> Result<Sweep, SwayError> {
+    let fleet = fleet_paths(cfg, file)
+        .iter()
+        .map(|p| load_vehicle(p).map(|(v, _)| v))
+        .collect::<Result<Vec<_>, _>>()?;
+    let vehicles = if fleet.is_empty() {
+        vec![ctx.vehicle]
+    } else {
+        fleet.clone()
+    };
+    cfg.validate_vehicles(file, &vehicles)?;
+    Sweep::new(&ctx.vehicle, &fleet, cfg)
+}
+
+/// The kind's result columns (the field names of its output).
+fn kind_columns(kind: PointKind) -> Vec<String> {
+    fn names(v: &impl Serialize) -> Vec<String> {
+        row_cells(v).map(|(n, _)| n).unwrap_or_default()
+    }
+    match kind {
+        PointKind::Simulation => names(&empty_metrics()),
+        PointKind::LinearCriticalSpeed => names(&sway::sim::sweep::LinearCriticalSpeed {
+            v_crit_mps: None,
+            hopf_omega_rad_s: None,
+            hopf_frequency_hz: None,
+        }),
+        PointKind::HopfFoldSpeeds => names(&sway::sim::sweep::HopfFoldSpeeds {
+            hopf_v_mps: 0.0,
+            hopf_omega_rad_s: 0.0,
+            criticality: continuation::Criticality::Subcritical,
+            fold_v_mps: None,
+            fold_amplitude_deg: None,
+        }),
+    }
+}
+
+fn empty_metrics() -> Metrics {
+    Metrics {
         peak_theta_deg_after_action: None,
         final_amplitude_deg: None,
         settle_time_s: None,
         outcome: Outcome::Ok,
         loss_of_control_time_s: None,
         loss_of_control_condition: None,
+        class: SwayClass::Failed,
+        decay_rate_per_s: None,
+    }
+}
+
+/// The header of `sweep.csv`: one column per axis (named by its parameter), the sampled
+/// fields' key paths, the kind's result fields (a simulation: the field names of
+/// [`Metrics`]), `accepted_steps`, `error`.
+pub fn header(cfg: &SweepConfig) -> Vec<String> {
+    let mut h: Vec<String> = cfg
+        .axes
+        .iter()
+        .map(|a| a.parameter.as_str().to_string())
+        .collect();
+    h.extend(cfg.sampling.iter().flat_map(|s| s.fields.iter().map(|f| f.key.clone())));
+    h.extend(kind_columns(cfg.kind));
+    h.extend(["accepted_steps".to_string(), "error".to_string()]);
+    h
+}
+
+/// The cells of one grid point's row, in the order of [`header`]: a fleet axis writes the
+/// vehicle file; a failed point writes `outcome = "error"`, `class = "failed"` (simulations)
+/// and its message.
+fn cells(cfg: &SweepConfig, r: &PointResult) -> Vec<String> {
+    let mut row: Vec<String> = r
+        .values
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| match cfg.axes.get(i) {
+            Some(a) if a.parameter == AxisParameter::VehicleFile => a
+                .files
+                .get(v as usize)
+                .map(|f| f.display().to_string())
+                .unwrap_or_default(),
+            _ => crate::io::fmt_num(v),
+        })
+        .collect();
+    let out = match &r.output {
+        Ok(PointOutput::Simulation(m)) => row_cells(m),
+        Ok(PointOutput::LinearCriticalSpeed(l)) => row_cells(l),
+        Ok(PointOutput::HopfFoldSpeeds(h)) => row_cells(h),
+        Ok(_) | Err(_) => Ok((Vec::new(), Vec::new())),
     };
-    row_cells(&any).map(|(names, _)| names).unwrap_or_default()
-}
-
-impl SweepRow<'_> {
-    /// The header: axis parameters, metric names, `accepted_steps`, `error`.
-    pub fn header(axes: &[Axis]) -> Vec<String> {
-        let mut h: Vec<String> = axes.iter().map(|a| a.parameter.as_str().to_string()).collect();
-        h.extend(metric_columns());
-        h.extend(["accepted_steps".to_string(), "error".to_string()]);
-        h
-    }
-
-    /// The cells, in the order of [`SweepRow::header`].
-    fn cells(&self) -> Vec<String> {
-        let mut row: Vec<String> = self.values.iter().map(|&v| crate::io::fmt_num(v)).collect();
-        match self.metrics {
-            Ok(m) => {
-                row.extend(row_cells(m).map(|(_, c)| c).unwrap_or_default());
-                row.extend([self.accepted_steps.to_string(), String::new()]);
-            }
-            Err(e) => {
-                row.extend(metric_columns().iter().map(|name| {
-                    if name == "outcome" {
-                        "error".to_string()
-                    } else {
-                        String::new()
-                    }
-                }));
-                row.extend(["0".to_string(), e.replace(['\n', '\r'], " ")]);
-            }
+    match (&r.output, out) {
+        (Ok(_), Ok((_, c))) if !c.is_empty() => {
+            row.extend(c);
+            row.extend([r.steps.to_string(), String::new()]);
         }
-        row
+        (output, _) => {
+            row.extend(kind_columns(cfg.kind).iter().map(|name| match name.as_str() {
+                "outcome" => "error".to_string(),
+                "class" => SwayClass::Failed.as_str().to_string(),
+                _ => String::new(),
+            }));
+            let msg = match output {
+                Err(e) => e.replace(['\n', '\r'], " "),
+                Ok(_) => "unexpected point output".into(),
+            };
+            row.extend(["0".to_string(), msg]);
+        }
     }
+    row
 }
 
-impl Serialize for SweepRow<'_> {
+/// One CSV row (its cells as a sequence).
+struct Row(Vec<String>);
+
+impl Serialize for Row {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.cells().serialize(s)
-    }
-}
-
-/// The smallest swept value of axis 2 that ends in sway, per value of axis 1.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ThresholdPoint {
-    /// axis 1's parameter and value
-    pub x: (&'static str, f64),
-    /// `min_<axis 2>_for_sway` and its value (None: no sway on the swept range)
-    pub y: (String, Option<f64>),
-}
-
-impl Serialize for ThresholdPoint {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut m = s.serialize_map(Some(2))?;
-        m.serialize_entry(self.x.0, &self.x.1)?;
-        m.serialize_entry(&self.y.0, &self.y.1)?;
-        m.end()
+        self.0.serialize(s)
     }
 }
 
 /// `summary.json` of a sweep (before the common fields of [`crate::io::Summary`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SweepSummary {
-    /// grid points
+    /// grid points (× samples)
     pub points: usize,
-    /// points that ran to the horizon
+    /// what each point evaluated
+    pub kind: PointKind,
+    /// points that ran to the horizon (simulations) or were computed (other kinds)
     pub points_ok: usize,
     /// points that lost control
     pub points_loss_of_control: usize,
     /// points whose run failed
     pub points_failed: usize,
-    /// points whose final amplitude is at least the settle threshold
+    /// points whose final amplitude (max |θ| over the final window) is at least the settle
+    /// threshold (whatever their class)
     pub points_with_sway: usize,
     /// that threshold \[deg\]
     pub sway_threshold_deg: f64,
+    /// points per class (simulations)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_by_class: Option<Keyed<usize>>,
+    /// with a speed axis: the lowest speed with a point in sustained sway \[m/s\]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lowest_sustained_sway_speed_mps: Option<f64>,
     /// with 2 or more axes: the heat map's axes and the threshold line
     #[serde(flatten)]
     pub heatmap: Option<HeatmapSummary>,
+    /// a threshold map: the bisected threshold against the bifurcation diagram
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub separatrix: Option<SeparatrixSummary>,
+    /// the results' statistics (linear and bifurcation kinds; with `[sampling]` per grid
+    /// point): per quantity, quantiles, mean, sd
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distributions: Option<Distributions>,
 }
 
-/// The heat map's part of a sweep summary.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct HeatmapSummary {
-    /// the parameters of axis 1 and 2
-    pub heatmap_axes: [&'static str; 2],
-    /// per value of axis 1, the smallest value of axis 2 that ends in sway
-    pub threshold: Vec<ThresholdPoint>,
+fn is_sim_ok(r: &PointResult, o: Outcome) -> bool {
+    r.metrics().is_some_and(|m| m.outcome == o)
 }
 
-/// Cell edges of a uniform axis (midpoints, ends extended by half a spacing).
-fn edges(values: &[f64]) -> Vec<f64> {
-    let n = values.len();
-    if n == 1 {
-        return vec![values[0] - 0.5, values[0] + 0.5];
-    }
-    let mut e = Vec::with_capacity(n + 1);
-    e.push(values[0] - 0.5 * (values[1] - values[0]));
-    for w in values.windows(2) {
-        e.push(0.5 * (w[0] + w[1]));
-    }
-    e.push(values[n - 1] + 0.5 * (values[n - 1] - values[n - 2]));
-    e
-}
-
-/// With two or more axes: `heatmap.svg/.png`, the final sway amplitude over the first two
-/// axes (every further axis at its first value) with the threshold line, its summary part
-/// and a printed line.
-fn heatmap(
-    out: &OutputDir,
-    cfg: &SweepConfig,
-    results: &[PointResult],
-    thr: f64,
-) -> Result<Option<(HeatmapSummary, Option<String>)>, SwayError> {
-    if cfg.axes.len() < 2 {
-        return Ok(None);
-    }
-    let (ax, ay) = (cfg.axes[0], cfg.axes[1]);
-    let (xs, ys) = (ax.values(), ay.values());
-    let (nx, ny) = (xs.len(), ys.len());
-    let value = |r: &PointResult| match &r.metrics {
-        Ok(m) => m.final_amplitude_deg.unwrap_or(f64::NAN),
-        Err(_) => f64::NAN,
+/// The counts of the summary.
+fn counts(cfg: &SweepConfig, grid: &[PointResult]) -> SweepSummary {
+    let thr = cfg.base.settings.metrics.settle_threshold_deg.get();
+    let sim = cfg.kind == PointKind::Simulation;
+    let n_ok = if sim {
+        grid.iter().filter(|r| is_sim_ok(r, Outcome::Ok)).count()
+    } else {
+        grid.iter().filter(|r| r.output.is_ok()).count()
     };
-    // the slice with every further axis at its first value
-    let grid: Vec<Vec<f64>> = (0..ny)
-        .map(|j| (0..nx).map(|i| value(&results[i + nx * j])).collect())
-        .collect();
-    let vmax = grid
+    let by_class = sim.then(|| {
+        Keyed(
+            SwayClass::ALL
+                .iter()
+                .map(|c| {
+                    let n = grid
+                        .iter()
+                        .filter(|r| r.metrics().map_or(SwayClass::Failed, |m| m.class) == *c)
+                        .count();
+                    (c.as_str().to_string(), n)
+                })
+                .collect(),
+        )
+    });
+    let speed_axis = cfg
+        .axes
         .iter()
-        .flatten()
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(1.0, f64::max);
-    // smallest swept value of axis 2 that ends in sway, per value of axis 1
-    let threshold: Vec<(f64, Option<f64>)> = (0..nx)
-        .map(|i| (xs[i], (0..ny).find(|&j| grid[j][i] >= thr).map(|j| ys[j])))
-        .collect();
-    let mut p = Panel::new(
-        &format!(
-            "{}: final sway amplitude (max |θ| over the last {} s)",
-            cfg.name,
-            cfg.base.settings.metrics.final_window_s.get()
-        ),
-        ax.parameter.label(),
-        ay.parameter.label(),
-    )
-    .with(Layer::Heatmap {
-        x_edges: edges(&xs),
-        y_edges: edges(&ys),
-        values: grid,
-        range: (0.0, vmax),
-        label: "final amplitude [deg] (grey: loss of control / failed)".into(),
-    })
-    .legend(Legend::UpperRight);
-    let line: Vec<(f64, f64)> = threshold
-        .iter()
-        .filter_map(|&(x, y)| y.map(|y| (x, y)))
-        .collect();
-    if !line.is_empty() {
-        p.layers.push(Layer::line(
-            line,
-            Rgb::RED,
-            Stroke::Solid,
-            Some(&format!(
-                "smallest {} ending in sway (≥ {thr}°)",
-                ay.parameter.as_str()
-            )),
+        .position(|a| a.parameter.as_str() == "speed_mps");
+    let lowest = speed_axis.and_then(|i| {
+        grid.iter()
+            .filter(|r| r.metrics().is_some_and(|m| m.class == SwayClass::SustainedSway))
+            .map(|r| r.values[i])
+            .min_by(f64::total_cmp)
+    });
+    SweepSummary {
+        points: grid.len(),
+        kind: cfg.kind,
+        points_ok: n_ok,
+        points_loss_of_control: grid
+            .iter()
+            .filter(|r| is_sim_ok(r, Outcome::LossOfControl))
+            .count(),
+        points_failed: grid.iter().filter(|r| r.output.is_err()).count(),
+        points_with_sway: grid
+            .iter()
+            .filter(|r| {
+                r.metrics()
+                    .is_some_and(|m| m.final_amplitude_deg.is_some_and(|a| a >= thr))
+            })
+            .count(),
+        sway_threshold_deg: thr,
+        points_by_class: by_class,
+        lowest_sustained_sway_speed_mps: lowest,
+        heatmap: None,
+        separatrix: None,
+        distributions: None,
+    }
+}
+
+/// Writes `sweep.csv`, `summary.json` and the figures of a sweep from the ordered full list
+/// of its point results (`results.len()` = the sweep's number of points: grid points, then
+/// threshold points, then the reference) into `out`, and commits it. Everything written is
+/// derived from `results`, `cfg` and the context's vehicle, except `wall_time_s`; this is
+/// the one writer of a sweep, used by a run and by a merge of shards.
+///
+/// # Errors
+/// [`SwayError::Write`] / [`SwayError::Plot`]; [`SwayError::Config`] if `results` does not
+/// have the sweep's number of points.
+pub fn write_sweep_outputs(
+    ctx: &TaskContext<'_>,
+    cfg: &SweepConfig,
+    file: &Path,
+    results: &[PointResult],
+    out: OutputDir,
+) -> Result<Report, SwayError> {
+    let grid_len = cfg.grid_len();
+    if results.len() < grid_len {
+        return Err(SwayError::config(
+            file,
+            "axes",
+            format!(
+                "{} point results for a sweep of {grid_len} grid points",
+                results.len()
+            ),
         ));
     }
-    Figure::single(p).render(&out.path("heatmap"))?;
-    let y_key = format!("min_{}_for_sway", ay.parameter.as_str());
-    let summary = HeatmapSummary {
-        heatmap_axes: [ax.parameter.as_str(), ay.parameter.as_str()],
-        threshold: threshold
-            .iter()
-            .map(|&(x, y)| ThresholdPoint {
-                x: (ax.parameter.as_str(), x),
-                y: (y_key.clone(), y),
-            })
-            .collect(),
-    };
-    let line = threshold
-        .iter()
-        .find_map(|&(x, y)| y.map(|y| (x, y)))
-        .map(|(x, y)| {
+    let (grid, extra) = results.split_at(grid_len);
+    let rows = grid.iter().map(|r| Row(cells(cfg, r)));
+    out.write_rows("sweep.csv", &header(cfg), rows)?;
+
+    let mut summary = counts(cfg, grid);
+    let mut lines = vec![summary_line(cfg, &summary)];
+    if let Some((heatmap, line)) = study::heatmap(&out, cfg, grid, extra)? {
+        summary.heatmap = Some(heatmap);
+        lines.extend(line);
+    }
+    if let Some((sep, sep_lines)) = study::separatrix(cfg, grid, extra) {
+        summary.separatrix = Some(sep);
+        lines.extend(sep_lines);
+    }
+    if let Some((dist, dist_lines)) = study::distributions(&out, cfg, grid)? {
+        summary.distributions = Some(dist);
+        lines.extend(dist_lines);
+    }
+    if cfg.axes.len() == 1 && cfg.sampling.is_none() && cfg.kind != PointKind::Simulation {
+        study::line_figure(&out, cfg, grid)?;
+    }
+    ctx.conclude(out, summary, cfg, file, lines)
+}
+
+fn summary_line(cfg: &SweepConfig, s: &SweepSummary) -> String {
+    match &s.points_by_class {
+        Some(by) => {
+            let classes: Vec<String> = by.0.iter().map(|(c, n)| format!("{n} {c}")).collect();
             format!(
-                "lowest {} with sway: {x:.3}, from {} = {y:.3}",
-                ax.parameter.as_str(),
-                ay.parameter.as_str()
+                "{}: {} points: {}",
+                cfg.name,
+                s.points,
+                classes.join(", ")
             )
-        });
-    Ok(Some((summary, line)))
+        }
+        None => format!(
+            "{}: {} points of {}: {} ok, {} failed",
+            cfg.name,
+            s.points,
+            cfg.kind.as_str(),
+            s.points_ok,
+            s.points_failed
+        ),
+    }
+}
+
+/// Seconds per point of the non-simulation kinds (release, one core): V_crit by scan and
+/// bisection ≈ 1e-4 s (benches/study.rs), a bifurcation diagram with its corrections ≈ 2 s.
+fn seconds_per_point(kind: PointKind) -> f64 {
+    match kind {
+        PointKind::Simulation => 0.0,
+        PointKind::LinearCriticalSpeed => 2e-4,
+        PointKind::HopfFoldSpeeds => 2.0,
+    }
 }
 
 impl Prepared for Configured<SweepConfig> {
     fn plan(&self) -> Result<Plan, SwayError> {
         let c = &self.config;
         let file = self.file.as_path();
-        let mut sims = 1.0_f64;
         for (i, a) in c.axes.iter().enumerate() {
             bound(
                 file,
                 &format!("axes[{i}].points"),
-                a.points as f64,
+                a.len() as f64,
                 MAX_AXIS_POINTS as f64,
-                || format!("{} simulations on this axis alone", a.points),
+                || format!("{} points on this axis alone", a.len()),
             )?;
-            sims *= a.points as f64;
         }
+        let samples = c.sampling.as_ref().map_or(1.0, |s| s.samples as f64);
+        let points = c.axes.iter().map(|a| a.len() as f64).product::<f64>() * samples;
         let settle = settle_s(&c.base.initial);
         bound(file, "base.initial.settle_s", settle, MAX_SIMULATED_S, || {
             format!("{} per simulation", human_seconds(settle * SWEEP_SECONDS_PER_SIM_SECOND))
@@ -281,69 +417,50 @@ impl Prepared for Configured<SweepConfig> {
         bound(file, "base.horizon_s", horizon, MAX_SIMULATED_S, || {
             format!("{} per simulation", human_seconds(horizon * SWEEP_SECONDS_PER_SIM_SECOND))
         })?;
-        let per_sim = (horizon + settle) * SWEEP_SECONDS_PER_SIM_SECOND;
+        if let Some(t) = &c.threshold {
+            let h = t.horizon_s.get() * 2f64.powi(t.max_doublings as i32 + 1);
+            bound(file, "threshold.horizon_s", h, MAX_SIMULATED_S, || {
+                format!(
+                    "× 2^(max_doublings + 1), the longest check: {} per simulation",
+                    human_seconds(h * SWEEP_SECONDS_PER_SIM_SECOND)
+                )
+            })?;
+        }
+        let per_point = if c.kind == PointKind::Simulation {
+            (horizon + settle) * SWEEP_SECONDS_PER_SIM_SECOND
+        } else {
+            seconds_per_point(c.kind)
+        };
+        // a threshold point: its column and ≈ 12 bisection steps at its horizon, 2 checks at twice it
+        let threshold_s = c.threshold.as_ref().map_or(0.0, |t| {
+            let n_y = c.axes.get(1).map_or(0, |a| a.len()) as f64;
+            let n_x = c.axes.first().map_or(0, |a| a.len()) as f64;
+            n_x * (n_y + 16.0) * t.horizon_s.get() * SWEEP_SECONDS_PER_SIM_SECOND + 5.0
+        });
         let plan = Plan::new(
             vec![format!(
-                "{}: {} axes, {sims} simulations of {horizon} s (+ {settle} s settling)",
+                "{}: {} axes, {points} points of {}{}",
                 c.name,
-                c.axes.len()
+                c.axes.len(),
+                c.kind.as_str(),
+                if c.threshold.is_some() { " + θ(0) threshold bisection per speed" } else { "" }
             )],
-            sims * BYTES_PER_ROW,
-            sims * per_sim / 2.0, // rayon on 2 cores
+            points * BYTES_PER_ROW,
+            (points * per_point + threshold_s) / 2.0, // rayon on 2 cores
         );
-        plan.within(file, "axes", sims, MAX_SIMULATIONS, || {
-            format!("product of the axis points = {sims} simulations")
+        plan.within(file, "axes", points, MAX_SIMULATIONS, || {
+            format!("product of the axis points × samples = {points} points")
         })
     }
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;
-        let results: Vec<PointResult> = run_sweep(&ctx.model, cfg, ctx.progress);
-
-        let header = SweepRow::header(&cfg.axes);
-        let rows = results.iter().map(|r| SweepRow {
-            values: &r.values,
-            metrics: r.metrics.as_ref().map_err(String::as_str),
-            accepted_steps: r.steps,
-        });
-        out.write_rows("sweep.csv", &header, rows)?;
-
-        let n_ok = results
-            .iter()
-            .filter(|r| matches!(&r.metrics, Ok(m) if m.outcome == Outcome::Ok))
-            .count();
-        let n_lost = results
-            .iter()
-            .filter(|r| matches!(&r.metrics, Ok(m) if m.outcome == Outcome::LossOfControl))
-            .count();
-        let n_err = results.iter().filter(|r| r.metrics.is_err()).count();
-        let thr = cfg.base.settings.metrics.settle_threshold_deg.get();
-        let n_sway = results
-            .iter()
-            .filter(
-                |r| matches!(&r.metrics, Ok(m) if m.final_amplitude_deg.is_some_and(|a| a >= thr)),
-            )
-            .count();
-        let mut summary = SweepSummary {
-            points: results.len(),
-            points_ok: n_ok,
-            points_loss_of_control: n_lost,
-            points_failed: n_err,
-            points_with_sway: n_sway,
-            sway_threshold_deg: thr,
-            heatmap: None,
-        };
-        let mut lines = vec![format!(
-            "{}: {} points: {n_ok} ok ({n_sway} end in sway, final amplitude >= {thr}°), {n_lost} loss of control, {n_err} failed",
-            cfg.name,
-            results.len()
-        )];
-
-        if let Some((heatmap, line)) = heatmap(&out, cfg, &results, thr)? {
-            summary.heatmap = Some(heatmap);
-            lines.extend(line);
-        }
-        ctx.conclude(out, summary, cfg, &self.file, lines)
+        let sweep = prepare_sweep(ctx, cfg, &self.file)?;
+        let results = run_sweep(&sweep, ctx.progress);
+        write_sweep_outputs(ctx, cfg, &self.file, &results, out)
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -23,6 +23,7 @@
 //! assert!(r.metrics.final_amplitude_deg.unwrap() < 1.0);
 //! ```
 
+pub mod classify;
 mod controller;
 mod plant;
 mod profile;
@@ -30,6 +31,7 @@ mod run;
 mod scenario;
 pub mod sweep;
 
+pub use classify::SwayClass;
 pub use controller::{ActuatorLimits, Controller};
 pub use plant::{Plant, reduced};
 pub use profile::{RampShape, SpeedProfile};

@@ -9,6 +9,7 @@ use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Model, State4};
 
+use super::classify::{SwayClass, Window, Windows, classify};
 use super::plant::{Plant, reduced};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
@@ -143,8 +144,16 @@ impl Outcome {
 pub struct MetricSettings {
     /// |θ| below this counts as settled \[deg\]
     pub settle_threshold_deg: Positive,
-    /// `final_amplitude_deg` is max |θ| over the last this many seconds \[s\]
+    /// `final_amplitude_deg` is max |θ| over the last this many seconds \[s\]; the
+    /// classification compares this window with the one before it
     pub final_window_s: Positive,
+    /// θ oscillates when θ − mean crosses zero at least this often in the final window
+    /// (classification, see [`crate::sim::classify`])
+    pub min_crossings: usize,
+    /// an oscillation is `decaying` when its amplitude, from the window before the final one
+    /// to the final one, shrinks faster than by this fraction per window length; otherwise
+    /// it is sustained sway
+    pub decay_tolerance: Positive,
 }
 
 impl Default for MetricSettings {
@@ -152,6 +161,8 @@ impl Default for MetricSettings {
         Self {
             settle_threshold_deg: Positive::literal(1.0),
             final_window_s: Positive::literal(5.0),
+            min_crossings: 2,
+            decay_tolerance: Positive::literal(1e-3),
         }
     }
 }
@@ -172,6 +183,13 @@ pub struct Metrics {
     pub loss_of_control_time_s: Option<f64>,
     /// which condition tripped (null when ok)
     pub loss_of_control_condition: Option<LossOfControl>,
+    /// the class of the run ([`crate::sim::classify`]): "sustained_sway", "decaying",
+    /// "offset", "settled" or "loss_of_control"
+    pub class: SwayClass,
+    /// ln(A_previous / A_final) / Δt \[1/s\] of the oscillation amplitudes of the last two
+    /// windows (> 0: shrinking, < 0: growing); null unless the class is sustained sway or
+    /// decaying
+    pub decay_rate_per_s: Option<f64>,
 }
 
 /// The settings every simulation shares: the validity guard, the solver's error control
@@ -243,10 +261,17 @@ pub struct SimResult<const N: usize> {
     pub stats: Stats,
 }
 
+/// Turning points reserved per classification window (the sway mode has ≈ 4 per 5 s, the
+/// fast mode ≈ 15; more only reallocate once).
+const TURNING_POINTS_RESERVED: usize = 64;
+
 struct MetricObserver<'p, 'm, const N: usize> {
     plant: &'p Plant<'m, N>,
     action_s: f64,
     final_from: f64,
+    /// start of the window before the final one
+    previous_from: f64,
+    windows: Windows,
     peak: Option<f64>,
     final_amp: f64,
     last_fall: Option<f64>,
@@ -268,6 +293,18 @@ impl<const N: usize> MetricObserver<'_, '_, N> {
         }
     }
 
+    /// The classification window holding time `t` (None before both).
+    #[inline]
+    fn window(&mut self, t: f64) -> Option<&mut Window> {
+        if t >= self.final_from {
+            Some(&mut self.windows.last)
+        } else if t >= self.previous_from {
+            Some(&mut self.windows.previous)
+        } else {
+            None
+        }
+    }
+
     fn sample(&self, t: f64, x: SVector<f64, N>, delayed: Option<SVector<f64, N>>) -> Sample<N> {
         let xd: &[SVector<f64, N>] = match &delayed {
             Some(v) => std::slice::from_ref(v),
@@ -286,15 +323,25 @@ impl<const N: usize> MetricObserver<'_, '_, N> {
 impl<const N: usize> Observer<N> for MetricObserver<'_, '_, N> {
     fn on_step(&mut self, step: &StepView<'_, N>) -> Flow {
         let (t0, t1) = (step.t_start(), step.t_end());
-        self.update(t1, step.x()[HITCH_ANGLE].abs());
         if let Some(tau) = self.plant.controller().delay() {
             self.delayed_at_end = step.eval_past(t1 - tau);
         }
-        for tm in [self.action_s, self.final_from] {
+        for tm in [self.action_s, self.previous_from, self.final_from] {
             if tm > t0 && tm < t1 {
-                let th = step.eval(tm)[HITCH_ANGLE].abs();
-                self.update(tm, th);
+                let th = step.eval(tm)[HITCH_ANGLE];
+                self.update(tm, th.abs());
+                if tm == self.previous_from {
+                    self.windows.previous.start(th);
+                } else if tm == self.final_from {
+                    self.windows.previous.value(th);
+                    self.windows.last.start(th);
+                }
             }
+        }
+        let th1 = step.x()[HITCH_ANGLE];
+        self.update(t1, th1.abs());
+        if let Some(w) = self.window(t1) {
+            w.value(th1);
         }
         if let Some(dt) = self.rec_step {
             loop {
@@ -319,7 +366,13 @@ impl<const N: usize> Observer<N> for MetricObserver<'_, '_, N> {
 
     fn on_event(&mut self, hit: &EventHit<N>) {
         match hit.index {
-            0 => self.update(hit.t, hit.x[HITCH_ANGLE].abs()),
+            0 => {
+                let th = hit.x[HITCH_ANGLE];
+                self.update(hit.t, th.abs());
+                if let Some(w) = self.window(hit.t) {
+                    w.turning_point(hit.t, th);
+                }
+            }
             1 if hit.direction == Direction::Falling && hit.t >= self.action_s => {
                 self.last_fall = Some(hit.t);
             }
@@ -453,11 +506,17 @@ fn simulate_plant<const N: usize>(
         ));
     }
 
-    let final_from = (spec.horizon_s - spec.settings.metrics.final_window_s.get()).max(0.0);
+    let window_s = spec.settings.metrics.final_window_s.get();
+    let final_from = (spec.horizon_s - window_s).max(0.0);
     let mut obs = MetricObserver {
         plant: &plant,
         action_s: spec.action_s,
         final_from,
+        previous_from: (spec.horizon_s - 2.0 * window_s).max(0.0),
+        windows: Windows {
+            previous: Window::with_capacity(TURNING_POINTS_RESERVED),
+            last: Window::with_capacity(TURNING_POINTS_RESERVED),
+        },
         peak: None,
         final_amp: 0.0,
         last_fall: None,
@@ -470,6 +529,9 @@ fn simulate_plant<const N: usize>(
         delayed_at_end: None,
     };
     obs.update(0.0, x0[HITCH_ANGLE].abs());
+    if let Some(w) = obs.window(0.0) {
+        w.start(x0[HITCH_ANGLE]);
+    }
     if obs.rec_step.is_some() {
         let s = obs.sample(0.0, x0, x0_delayed.first().copied());
         obs.trajectory.push(s);
@@ -516,9 +578,13 @@ fn simulate_plant<const N: usize>(
             outcome: Outcome::LossOfControl,
             loss_of_control_time_s: Some(t),
             loss_of_control_condition: Some(cond),
+            class: SwayClass::LossOfControl,
+            decay_rate_per_s: None,
         },
         None => {
             let settled = x_end[HITCH_ANGLE].abs() < th_s;
+            obs.windows.last.last = Some(x_end[HITCH_ANGLE]);
+            let verdict = classify(&obs.windows, &spec.settings.metrics);
             Metrics {
                 peak_theta_deg_after_action: obs.peak.map(f64::to_degrees),
                 final_amplitude_deg: Some(obs.final_amp.to_degrees()),
@@ -529,6 +595,8 @@ fn simulate_plant<const N: usize>(
                 outcome: Outcome::Ok,
                 loss_of_control_time_s: None,
                 loss_of_control_condition: None,
+                class: verdict.class,
+                decay_rate_per_s: verdict.decay_rate_per_s,
             }
         }
     };
@@ -555,6 +623,8 @@ fn lost_at_start<const N: usize>(
             outcome: Outcome::LossOfControl,
             loss_of_control_time_s: Some(0.0),
             loss_of_control_condition: Some(cond),
+            class: SwayClass::LossOfControl,
+            decay_rate_per_s: None,
         },
         trajectory: Vec::new(),
         t_end: 0.0,

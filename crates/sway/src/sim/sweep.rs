@@ -1,101 +1,44 @@
-//! Parallel sweeps: a grid of simulations over any of V, θ(0), D, τ and the braking time T,
-//! run with rayon. Each point is independent; results are collected in grid order, so the
-//! numbers do not depend on the number of threads. A failing point is reported in its row
-//! and the sweep goes on.
+//! Parallel sweeps (issue 11): a grid over scenario quantities (V, θ(0), D, τ, braking
+//! time and start), vehicle fields by key path and vehicle files (a fleet), optionally times
+//! uncertainty samples of vehicle fields; every point evaluates one [`PointKind`]: a
+//! simulation (classified, see [`crate::sim::classify`]), the linear critical speed, or the
+//! Hopf and fold-of-cycles speeds.
+//!
+//! Every piece of work is a point with an index `k` in `0..len()` and
+//! [`Sweep::run_point`] is a pure function of (vehicles, config, k), so the points can be
+//! computed in any order, on any number of threads or machines, and give the same numbers.
+//! The index space: first the grid points (first axis fastest, the sample index outermost),
+//! then, with a `[threshold]` table, one θ(0)-threshold bisection per value of axis 1
+//! ([`threshold`]), then the reference cycle amplitudes of the bifurcation diagram at
+//! those speeds. A failing point is reported in its result and the sweep goes on.
 
-use std::path::Path;
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use trailer_model::{Model, State4};
+use trailer_model::{Model, State4, VehicleParams};
 
-use super::run::{Metrics, Recording, RunSettings, SimSpec, simulate};
+use super::run::{Metrics, RunSettings, SimSpec, simulate};
 use super::scenario::{
     InitialCondition, default_action_time, ensure_name, validate_parts, with_run_fields,
 };
-use super::{Controller, SpeedProfile};
+use super::{Controller, Recording, SpeedProfile};
 use crate::SwayError;
 use crate::config::{Positive, ensure};
 use crate::progress::Progress;
+use crate::sampling::{Sampler, Sampling};
 
-/// A swept quantity.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SweepParameter {
-    /// V \[m/s\]: the constant speed, the ramp's initial speed, and the settling speed of a
-    /// sway-cycle start
-    SpeedMps,
-    /// θ(0) \[deg\]: the initial hitch angle (a state start) or the perturbation that
-    /// starts the settling (sway-cycle start)
-    Theta0Deg,
-    /// D \[s\]: gain of the yaw-rate feedback
-    GainS,
-    /// τ \[s\]: delay of the yaw-rate feedback
-    DelayS,
-    /// T \[s\]: duration of the braking ramp
-    RampDurationS,
-    /// t_b \[s\]: when the braking ramp starts (with a sway-cycle start: the sway phase at
-    /// which braking begins)
-    BrakeStartS,
-}
+mod analysis;
+mod axis;
+pub mod threshold;
 
-impl SweepParameter {
-    /// The column name.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            SweepParameter::SpeedMps => "speed_mps",
-            SweepParameter::Theta0Deg => "theta0_deg",
-            SweepParameter::GainS => "gain_s",
-            SweepParameter::DelayS => "delay_s",
-            SweepParameter::RampDurationS => "ramp_duration_s",
-            SweepParameter::BrakeStartS => "brake_start_s",
-        }
-    }
-
-    /// Axis label with unit.
-    pub fn label(&self) -> &'static str {
-        match self {
-            SweepParameter::SpeedMps => "V [m/s]",
-            SweepParameter::Theta0Deg => "θ(0) [deg]",
-            SweepParameter::GainS => "D [s]",
-            SweepParameter::DelayS => "τ [s]",
-            SweepParameter::RampDurationS => "braking time T [s]",
-            SweepParameter::BrakeStartS => "braking start t_b [s]",
-        }
-    }
-}
-
-/// One axis of the grid: `points` uniformly spaced values from `min` to `max`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Axis {
-    /// what is swept
-    pub parameter: SweepParameter,
-    /// first value
-    pub min: f64,
-    /// last value
-    pub max: f64,
-    /// number of values (≥ 1; 1 gives `min`)
-    pub points: usize,
-}
-
-impl Axis {
-    /// The values.
-    pub fn values(&self) -> Vec<f64> {
-        if self.points <= 1 {
-            return vec![self.min];
-        }
-        (0..self.points)
-            .map(|i| {
-                if i + 1 == self.points {
-                    self.max
-                } else {
-                    self.min + (self.max - self.min) * i as f64 / (self.points - 1) as f64
-                }
-            })
-            .collect()
-    }
-}
+pub use analysis::{
+    AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed, hopf_fold_speeds, linear_critical_speed,
+    open_loop_critical_speed,
+};
+pub use axis::{Axis, AxisParameter, SweepParameter, VEHICLE_FILE, VehicleField};
+pub use threshold::{CycleReference, Theta0Threshold, ThresholdSearch};
 
 fn default_horizon() -> Positive {
     Positive::literal(60.0)
@@ -112,39 +55,118 @@ with_run_fields! {
     }
 }
 
+/// What a sweep point evaluates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PointKind {
+    /// a simulation of the base scenario: metrics and class
+    #[default]
+    Simulation,
+    /// the linear critical speed and Hopf frequency of straight running (open loop, or the
+    /// base controller's delayed feedback)
+    LinearCriticalSpeed,
+    /// the Hopf and fold-of-cycles speeds (bifurcation diagram corrected on the
+    /// two-parameter defining systems; open loop or the base controller's feedback)
+    HopfFoldSpeeds,
+}
+
+impl PointKind {
+    fn is_simulation(&self) -> bool {
+        *self == PointKind::Simulation
+    }
+
+    /// The snake_case name used in config files and summaries.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            PointKind::Simulation => "simulation",
+            PointKind::LinearCriticalSpeed => "linear_critical_speed",
+            PointKind::HopfFoldSpeeds => "hopf_fold_speeds",
+        }
+    }
+}
+
 /// A sweep file (see `configs/sweep_threshold.toml`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SweepConfig {
     /// results go to `results/<name>/`
     pub name: String,
-    /// the grid axes (1 or more; the first two span the heat map)
+    /// what each point evaluates (default: a simulation)
+    #[serde(default, skip_serializing_if = "is_simulation")]
+    pub kind: PointKind,
+    /// the grid axes (the first two span the heat map); may be empty with `[sampling]`
+    #[serde(default)]
     pub axes: Vec<Axis>,
     /// the scenario that is varied
     pub base: BaseScenario,
+    /// uncertainty samples of vehicle fields (every grid point is evaluated per sample)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<Sampling>,
+    /// the θ(0) threshold per value of axis 1, bisected between its grid cells
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold: Option<ThresholdSearch>,
+    /// settings of the linear and bifurcation kinds
+    #[serde(default, skip_serializing_if = "AnalysisOptions::is_default")]
+    pub analysis: AnalysisOptions,
 }
 
-/// Result of one grid point.
-#[derive(Debug, Clone, PartialEq)]
+fn is_simulation(k: &PointKind) -> bool {
+    k.is_simulation()
+}
+
+/// What one point computed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PointOutput {
+    /// a simulation's metrics (with its class)
+    Simulation(Metrics),
+    /// V_crit and the Hopf frequency
+    LinearCriticalSpeed(LinearCriticalSpeed),
+    /// the Hopf and fold-of-cycles speeds
+    HopfFoldSpeeds(HopfFoldSpeeds),
+    /// the θ(0) threshold at one value of axis 1
+    Theta0Threshold(Theta0Threshold),
+    /// the cycle amplitudes of the bifurcation diagram at the values of axis 1
+    CycleReference(CycleReference),
+}
+
+/// Result of one point (grid point, sampled point, threshold or reference point).
+/// Serialises to JSON and back exactly (every number is a finite f64 or null).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PointResult {
-    /// the axis values of this point, in axis order
+    /// the inputs of this point: the axis values in axis order (a fleet axis: the file
+    /// index), then the sampled field values; a threshold point: its value of axis 1
     pub values: Vec<f64>,
-    /// metrics, or the error message of a failed run
-    pub metrics: Result<Metrics, String>,
-    /// accepted steps of the run (0 on failure)
+    /// what was computed, or the error message of a failed point
+    pub output: Result<PointOutput, String>,
+    /// accepted solver steps (0 when not a simulation or on failure)
     pub steps: usize,
 }
 
+impl PointResult {
+    /// The simulation metrics of a grid point (None for other kinds or a failed point).
+    pub fn metrics(&self) -> Option<&Metrics> {
+        match &self.output {
+            Ok(PointOutput::Simulation(m)) => Some(m),
+            _ => None,
+        }
+    }
+}
+
 impl SweepConfig {
-    /// Checks every key, including that each axis can act on the base scenario.
+    /// Checks every key, including that each axis can act on the base scenario (or, for
+    /// a vehicle field, that both its ends give a valid vehicle with `vehicle`).
     ///
     /// # Errors
     /// [`SwayError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
         ensure_name(file, &self.name, "a name of letters, digits, '_' or '-'")?;
-        ensure(!self.axes.is_empty(), file, "axes", || {
-            "expected at least one axis".into()
-        })?;
+        ensure(
+            !self.axes.is_empty() || self.sampling.is_some(),
+            file,
+            "axes",
+            || "expected at least one axis (or a [sampling] table)".into(),
+        )?;
         let b = &self.base;
         validate_parts(
             file,
@@ -155,32 +177,7 @@ impl SweepConfig {
             &b.settings,
         )?;
         for (i, a) in self.axes.iter().enumerate() {
-            let key = format!("axes[{i}]");
-            ensure(
-                a.min.is_finite() && a.max.is_finite() && a.min <= a.max,
-                file,
-                &key,
-                || format!("expected finite min <= max, got {} and {}", a.min, a.max),
-            )?;
-            ensure(
-                a.points >= 1 && a.points <= 1_000_000,
-                file,
-                &format!("{key}.points"),
-                || format!("expected 1 to 1e6 points, got {}", a.points),
-            )?;
-            if self.axes[..i].iter().any(|o| o.parameter == a.parameter) {
-                return Err(SwayError::config(
-                    file,
-                    format!("{key}.parameter"),
-                    "each parameter may be swept once",
-                ));
-            }
-            // apply both ends to the base and validate the result
-            for v in [a.min, a.max] {
-                let p = apply(b, a.parameter, v)
-                    .map_err(|m| SwayError::config(file, format!("{key}.parameter"), m))?;
-                validate_parts(file, &key, &p.speed, &p.controller, &p.initial, &p.settings)?;
-            }
+            self.validate_axis(file, i, a)?;
         }
         if let Some(a) = b.action_s {
             ensure(
@@ -190,36 +187,178 @@ impl SweepConfig {
                 || format!("expected 0 <= action_s <= horizon_s, got {a}"),
             )?;
         }
+        if let Some(s) = &self.sampling {
+            let sampler = Sampler::new(s)
+                .map_err(|(k, p)| SwayError::config(file, format!("sampling.{k}"), p))?;
+            for (i, f) in sampler.fields().iter().enumerate() {
+                let key = format!("sampling.fields[{i}].key");
+                let field =
+                    VehicleField::from_key(&f.key).map_err(|m| SwayError::config(file, &key, m))?;
+                if self
+                    .axes
+                    .iter()
+                    .any(|a| a.parameter == AxisParameter::Vehicle(field))
+                    || sampler.fields()[..i].iter().any(|g| g.key == f.key)
+                {
+                    return Err(SwayError::config(
+                        file,
+                        key,
+                        "each vehicle field may be varied once",
+                    ));
+                }
+            }
+        }
+        self.analysis.validate(file, self.kind)?;
+        if let Some(t) = &self.threshold {
+            t.validate(file, self)?;
+        }
         Ok(())
     }
 
-    /// The number of grid points.
-    pub fn len(&self) -> usize {
-        self.axes.iter().map(|a| a.points.max(1)).product()
+    fn validate_axis(&self, file: &Path, i: usize, a: &Axis) -> Result<(), SwayError> {
+        let key = format!("axes[{i}]");
+        if self.axes[..i].iter().any(|o| o.parameter == a.parameter) {
+            return Err(SwayError::config(
+                file,
+                format!("{key}.parameter"),
+                "each parameter may be swept once",
+            ));
+        }
+        if a.parameter == AxisParameter::VehicleFile {
+            ensure(
+                !a.files.is_empty() && a.min.is_none() && a.max.is_none() && a.points.is_none(),
+                file,
+                &format!("{key}.files"),
+                || {
+                    "a vehicle_file axis lists its vehicle files in `files` (and has no min, max or points)".into()
+                },
+            )?;
+            return Ok(());
+        }
+        ensure(a.files.is_empty(), file, &format!("{key}.files"), || {
+            format!("only a `{VEHICLE_FILE}` axis lists files")
+        })?;
+        let (Some(min), Some(max), Some(points)) = (a.min, a.max, a.points) else {
+            return Err(SwayError::config(
+                file,
+                &key,
+                "expected `min`, `max` and `points`",
+            ));
+        };
+        ensure(
+            min.is_finite() && max.is_finite() && min <= max,
+            file,
+            &key,
+            || format!("expected finite min <= max, got {min} and {max}"),
+        )?;
+        ensure(
+            (1..=1_000_000).contains(&points),
+            file,
+            &format!("{key}.points"),
+            || format!("expected 1 to 1e6 points, got {points}"),
+        )?;
+        if let AxisParameter::Scenario(p) = a.parameter {
+            if !self.kind.is_simulation()
+                && !matches!(p, SweepParameter::GainS | SweepParameter::DelayS)
+            {
+                return Err(SwayError::config(
+                    file,
+                    format!("{key}.parameter"),
+                    format!(
+                        "a {} sweep varies only gain_s, delay_s and vehicle fields, not {}",
+                        self.kind.as_str(),
+                        p.as_str()
+                    ),
+                ));
+            }
+            // apply both ends to the base and validate the result
+            for v in [min, max] {
+                let s = apply(&self.base, p, v)
+                    .map_err(|m| SwayError::config(file, format!("{key}.parameter"), m))?;
+                validate_parts(file, &key, &s.speed, &s.controller, &s.initial, &s.settings)?;
+            }
+        }
+        Ok(())
     }
 
-    /// True for a grid without points (never after validation).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
+    /// Checks that every vehicle the sweep can build is valid: each of `vehicles` (the
+    /// `--vehicle` file or the fleet) with every vehicle-field axis at both ends and every
+    /// sampled field at both bounds (one at a time); the error names the axis or field and
+    /// the vehicle key that fails.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming `file` and the key.
+    pub fn validate_vehicles(
+        &self,
+        file: &Path,
+        vehicles: &[VehicleParams],
+    ) -> Result<(), SwayError> {
+        let mut ends: Vec<(String, VehicleField, f64)> = Vec::new();
+        for (i, a) in self.axes.iter().enumerate() {
+            if let AxisParameter::Vehicle(f) = a.parameter {
+                for v in [a.min, a.max].into_iter().flatten() {
+                    ends.push((format!("axes[{i}]"), f, v));
+                }
+            }
+        }
+        for (i, f) in self
+            .sampling
+            .iter()
+            .flat_map(|s| s.fields.iter())
+            .enumerate()
+        {
+            if let Ok(field) = VehicleField::from_key(&f.key) {
+                for v in [f.min, f.max] {
+                    ends.push((format!("sampling.fields[{i}]"), field, v));
+                }
+            }
+        }
+        for (j, base) in vehicles.iter().enumerate() {
+            for (key, f, v) in &ends {
+                Model::new(f.set(base, *v)).map_err(|e| {
+                    SwayError::config(
+                        file,
+                        key,
+                        format!(
+                            "{} = {v} gives an invalid vehicle (vehicle {j}): {e}",
+                            f.key()
+                        ),
+                    )
+                })?;
+            }
+        }
+        Ok(())
     }
 
-    /// The axis values of point `k` (first axis fastest).
-    pub fn point(&self, mut k: usize) -> Vec<f64> {
+    /// The number of grid points (product of the axis lengths, times the samples;
+    /// saturating: a config whose product overflows is refused by the task's plan).
+    pub fn grid_len(&self) -> usize {
+        let samples = self.sampling.as_ref().map_or(1, |s| s.samples.max(1));
         self.axes
             .iter()
-            .map(|a| {
-                let n = a.points.max(1);
-                let v = a.values()[k % n];
-                k /= n;
-                v
-            })
-            .collect()
+            .map(Axis::len)
+            .fold(samples, usize::saturating_mul)
+    }
+
+    /// The fleet's vehicle files as written in the config (relative to the sweep file's
+    /// directory), empty without a `vehicle_file` axis.
+    pub fn fleet_files(&self) -> Vec<PathBuf> {
+        self.axes
+            .iter()
+            .find(|a| a.parameter == AxisParameter::VehicleFile)
+            .map(|a| a.files.clone())
+            .unwrap_or_default()
     }
 }
 
-/// The base scenario with one parameter set.
+/// The base scenario with one scenario quantity set.
 fn apply(base: &BaseScenario, p: SweepParameter, v: f64) -> Result<BaseScenario, String> {
     let mut s = base.clone();
+    set_scenario(&mut s, p, v)?;
+    Ok(s)
+}
+
+fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(), String> {
     match p {
         SweepParameter::SpeedMps => {
             match &mut s.speed {
@@ -265,57 +404,261 @@ fn apply(base: &BaseScenario, p: SweepParameter, v: f64) -> Result<BaseScenario,
             _ => return Err("brake_start_s needs a ramp speed profile in [base.speed]".into()),
         },
     }
-    Ok(s)
+    Ok(())
 }
 
-/// Runs one grid point (4-state model: θ and the guard do not depend on ψ, x_H, y_H).
-pub fn run_point(model: &Model, cfg: &SweepConfig, k: usize) -> PointResult {
-    let values = cfg.point(k);
-    let run = || -> Result<(Metrics, usize), String> {
-        let mut s = cfg.base.clone();
-        for (a, &v) in cfg.axes.iter().zip(&values) {
-            s = apply(&s, a.parameter, v)?;
+/// The model (borrowed when no vehicle field varies) and the scenario of one point.
+type PointSetup<'a> = (Cow<'a, Model>, BaseScenario);
+
+/// A sweep ready to run: the config, its vehicles and models, the axis values and the
+/// sampler, built once; [`Sweep::run_point`] then needs nothing else.
+#[derive(Debug)]
+pub struct Sweep {
+    cfg: SweepConfig,
+    /// the vehicle of each fleet entry (or the one vehicle)
+    vehicles: Vec<VehicleParams>,
+    /// their models
+    models: Vec<Model>,
+    /// the values of each axis
+    axis_values: Vec<Vec<f64>>,
+    sampler: Option<Sampler>,
+    /// sampled fields, in the sampler's order
+    sampled_fields: Vec<VehicleField>,
+    /// points of one sample (product of the axis lengths)
+    per_sample: usize,
+    grid: usize,
+    thresholds: usize,
+    references: usize,
+}
+
+impl Sweep {
+    /// Builds the sweep of `cfg` (already validated with [`SweepConfig::validate`]) for
+    /// `vehicle` (the `--vehicle` file) or, with a `vehicle_file` axis, for `fleet` (the
+    /// params of its files, in the order of [`SweepConfig::fleet_files`]).
+    ///
+    /// # Errors
+    /// [`SwayError::Model`] for an invalid vehicle, [`SwayError::Config`] (file `<sweep>`)
+    /// when the fleet does not match the axis or the sampling is invalid.
+    pub fn new(
+        vehicle: &VehicleParams,
+        fleet: &[VehicleParams],
+        cfg: &SweepConfig,
+    ) -> Result<Self, SwayError> {
+        let sweep_file = Path::new("<sweep>");
+        let n_files = cfg.fleet_files().len();
+        if fleet.len() != n_files {
+            return Err(SwayError::config(
+                sweep_file,
+                "axes",
+                format!("{} fleet vehicles given for {n_files} files", fleet.len()),
+            ));
         }
-        let (x0, _psi0) = s
-            .initial
-            .resolve(model, &s.settings.solver)
-            .map_err(|e| e.to_string())?;
-        let spec = SimSpec {
-            action_s: s
-                .action_s
-                .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
-            profile: s.speed,
-            controller: s.controller,
-            horizon_s: s.horizon_s.get(),
-            settings: s.settings,
+        let vehicles: Vec<VehicleParams> = if n_files > 0 {
+            fleet.to_vec()
+        } else {
+            vec![*vehicle]
         };
-        let r = simulate::<4>(model, &spec, State4::from(x0), Recording::None)
-            .map_err(|e| e.to_string())?;
-        Ok((r.metrics, r.stats.accepted))
-    };
-    match run() {
-        Ok((m, steps)) => PointResult {
-            values,
-            metrics: Ok(m),
-            steps,
-        },
-        Err(e) => PointResult {
-            values,
-            metrics: Err(e),
-            steps: 0,
-        },
+        let models = vehicles
+            .iter()
+            .map(|v| Model::new(*v))
+            .collect::<Result<Vec<_>, _>>()?;
+        let sampler = match &cfg.sampling {
+            Some(s) => Some(
+                Sampler::new(s)
+                    .map_err(|(k, p)| SwayError::config(sweep_file, format!("sampling.{k}"), p))?,
+            ),
+            None => None,
+        };
+        let sampled_fields = sampler
+            .iter()
+            .flat_map(|s| s.fields())
+            .map(|f| VehicleField::from_key(&f.key))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|m| SwayError::config(sweep_file, "sampling.fields", m))?;
+        let thresholds = cfg
+            .threshold
+            .as_ref()
+            .map_or(0, |_| cfg.axes.first().map_or(0, Axis::len));
+        let references = usize::from(cfg.threshold.as_ref().is_some_and(|t| t.compare_cycles));
+        Ok(Self {
+            per_sample: cfg
+                .axes
+                .iter()
+                .map(Axis::len)
+                .fold(1, usize::saturating_mul),
+            grid: cfg.grid_len(),
+            axis_values: cfg.axes.iter().map(Axis::values).collect(),
+            cfg: cfg.clone(),
+            vehicles,
+            models,
+            sampler,
+            sampled_fields,
+            thresholds,
+            references,
+        })
+    }
+
+    /// The config.
+    pub fn config(&self) -> &SweepConfig {
+        &self.cfg
+    }
+
+    /// The total number of points: grid (× samples), then thresholds, then references.
+    pub fn len(&self) -> usize {
+        self.grid + self.thresholds + self.references
+    }
+
+    /// True for a sweep without points (never after validation).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The number of grid points (× samples); points from here on are thresholds and
+    /// references.
+    pub fn grid_len(&self) -> usize {
+        self.grid
+    }
+
+    /// The axis values of grid point `k` (first axis fastest) and its sample index.
+    pub fn grid_point(&self, k: usize) -> (Vec<f64>, usize) {
+        let mut r = k % self.per_sample.max(1);
+        let values = self
+            .axis_values
+            .iter()
+            .map(|vals| {
+                let v = vals[r % vals.len()];
+                r /= vals.len();
+                v
+            })
+            .collect();
+        (values, k / self.per_sample.max(1))
+    }
+
+    /// Computes point `k` (in `0..len()`); a pure function of (vehicles, config, k).
+    pub fn run_point(&self, k: usize) -> PointResult {
+        if k < self.grid {
+            self.run_grid_point(k)
+        } else if k < self.grid + self.thresholds {
+            threshold::run_threshold_point(self, k - self.grid)
+        } else {
+            threshold::run_reference_point(self)
+        }
+    }
+
+    /// The model and scenario of grid point `k`, and its input values.
+    fn setup(&self, k: usize) -> (Vec<f64>, Result<PointSetup<'_>, String>) {
+        let (mut values, s) = self.grid_point(k);
+        let mut fleet = 0;
+        let mut params: Option<VehicleParams> = None;
+        let mut scenario = self.cfg.base.clone();
+        let mut err = None;
+        for (a, &v) in self.cfg.axes.iter().zip(&values) {
+            match a.parameter {
+                AxisParameter::VehicleFile => fleet = v as usize,
+                AxisParameter::Vehicle(_) => {}
+                AxisParameter::Scenario(p) => {
+                    if let Err(e) = set_scenario(&mut scenario, p, v) {
+                        err = Some(e);
+                    }
+                }
+            }
+        }
+        for (a, &v) in self.cfg.axes.iter().zip(&values) {
+            if let AxisParameter::Vehicle(f) = a.parameter {
+                let base = params.unwrap_or(self.vehicles[fleet]);
+                params = Some(f.set(&base, v));
+            }
+        }
+        if let Some(sampler) = &self.sampler {
+            let start = values.len();
+            values.resize(start + self.sampled_fields.len(), 0.0);
+            sampler.sample_into(s, &mut values[start..]);
+            let mut p = params.unwrap_or(self.vehicles[fleet]);
+            for (f, &v) in self.sampled_fields.iter().zip(&values[start..]) {
+                p = f.set(&p, v);
+            }
+            params = Some(p);
+        }
+        if let Some(e) = err {
+            return (values, Err(e));
+        }
+        let model = match params {
+            None => Ok(Cow::Borrowed(&self.models[fleet])),
+            Some(p) => Model::new(p)
+                .map(Cow::Owned)
+                .map_err(|e| format!("vehicle: {e}")),
+        };
+        (values, model.map(|m| (m, scenario)))
+    }
+
+    fn run_grid_point(&self, k: usize) -> PointResult {
+        let (values, setup) = self.setup(k);
+        let result = setup.and_then(|(model, s)| match self.cfg.kind {
+            PointKind::Simulation => simulate_point(&model, &s, s.horizon_s.get())
+                .map(|(m, steps)| (PointOutput::Simulation(m), steps)),
+            PointKind::LinearCriticalSpeed => {
+                analysis::linear_critical_speed(&model, &s.controller, &self.cfg.analysis)
+                    .map(|r| (PointOutput::LinearCriticalSpeed(r), 0))
+            }
+            PointKind::HopfFoldSpeeds => {
+                analysis::hopf_fold_speeds(&model, &s.controller, &self.cfg.analysis)
+                    .map(|r| (PointOutput::HopfFoldSpeeds(r), 0))
+            }
+        });
+        match result {
+            Ok((output, steps)) => PointResult {
+                values,
+                output: Ok(output),
+                steps,
+            },
+            Err(e) => PointResult {
+                values,
+                output: Err(e),
+                steps: 0,
+            },
+        }
+    }
+
+    /// The model of the base vehicle (the first of a fleet).
+    pub(crate) fn base_model(&self) -> &Model {
+        &self.models[0]
     }
 }
 
-/// Runs the whole grid in parallel on the current rayon pool; results in grid order
-/// (first axis fastest), identical whatever the number of threads.
-pub fn run_sweep(model: &Model, cfg: &SweepConfig, progress: &dyn Progress) -> Vec<PointResult> {
-    let n = cfg.len();
-    progress.start(&format!("sweep {}", cfg.name), n as u64);
+/// Simulates scenario `s` on the 4-state model (θ and the guard do not depend on ψ, x_H,
+/// y_H) to `horizon_s`: its metrics and accepted steps.
+pub(crate) fn simulate_point(
+    model: &Model,
+    s: &BaseScenario,
+    horizon_s: f64,
+) -> Result<(Metrics, usize), String> {
+    let (x0, _psi0) = s
+        .initial
+        .resolve(model, &s.settings.solver)
+        .map_err(|e| e.to_string())?;
+    let spec = SimSpec {
+        action_s: s
+            .action_s
+            .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
+        profile: s.speed.clone(),
+        controller: s.controller,
+        horizon_s,
+        settings: s.settings,
+    };
+    let r = simulate::<4>(model, &spec, State4::from(x0), Recording::None)
+        .map_err(|e| e.to_string())?;
+    Ok((r.metrics, r.stats.accepted))
+}
+
+/// Runs every point in parallel on the current rayon pool; results in index order,
+/// identical whatever the number of threads.
+pub fn run_sweep(sweep: &Sweep, progress: &dyn Progress) -> Vec<PointResult> {
+    let n = sweep.len();
+    progress.start(&format!("sweep {}", sweep.cfg.name), n as u64);
     let out: Vec<PointResult> = (0..n)
         .into_par_iter()
         .map(|k| {
-            let r = run_point(model, cfg, k);
+            let r = sweep.run_point(k);
             progress.advance(1);
             r
         })
@@ -323,3 +666,6 @@ pub fn run_sweep(model: &Model, cfg: &SweepConfig, progress: &dyn Progress) -> V
     progress.finish();
     out
 }
+
+#[cfg(test)]
+mod tests;

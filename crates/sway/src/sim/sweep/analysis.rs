@@ -1,0 +1,289 @@
+//! The non-simulation point kinds: the linear critical speed with its Hopf frequency, and
+//! the Hopf and fold-of-cycles speeds.
+
+use std::path::Path;
+
+use continuation::Criticality;
+use serde::{Deserialize, Serialize};
+use trailer_model::{Inputs, Model, State4, sorted_eigenvalues};
+
+use super::PointKind;
+use crate::SwayError;
+use crate::bifurcation::chart::{ChartOptions, critical_speeds};
+use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
+use crate::charts::{critical_speed_at_gain, rightmost_roots};
+use crate::config::ensure;
+use crate::sim::Controller;
+
+/// Settings of the linear and bifurcation point kinds (`[analysis]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AnalysisOptions {
+    /// V_crit is searched in \[v_min, v_max\] \[m/s\]
+    pub v_min_mps: f64,
+    /// upper end of the search \[m/s\]
+    pub v_max_mps: f64,
+    /// scan step of the open-loop search for the sign change of max Re λ \[m/s\]
+    pub scan_step_mps: f64,
+    /// bisection ends at this bracket width \[m/s\]
+    pub tolerance_mps: f64,
+    /// closed loop: speeds scanned for the first unstable root count
+    pub closed_loop_samples: usize,
+    /// `hopf_fold_speeds`: the bifurcation diagram's settings (default: fig3a's)
+    pub diagram: DiagramOptions,
+}
+
+impl Default for AnalysisOptions {
+    fn default() -> Self {
+        Self {
+            v_min_mps: 10.0,
+            v_max_mps: 80.0,
+            scan_step_mps: 2.0,
+            tolerance_mps: 1e-8,
+            closed_loop_samples: 71,
+            diagram: DiagramOptions::default(),
+        }
+    }
+}
+
+impl AnalysisOptions {
+    /// Whether these are the defaults (then they are not written out).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// Checks the keys under `analysis`.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the key.
+    pub fn validate(&self, file: &Path, _kind: PointKind) -> Result<(), SwayError> {
+        ensure(
+            self.v_min_mps > 0.0 && self.v_max_mps > self.v_min_mps && self.v_max_mps.is_finite(),
+            file,
+            "analysis.v_min_mps",
+            || {
+                format!(
+                    "expected 0 < v_min_mps < v_max_mps, got {} and {}",
+                    self.v_min_mps, self.v_max_mps
+                )
+            },
+        )?;
+        ensure(
+            self.scan_step_mps > 0.0 && self.scan_step_mps.is_finite(),
+            file,
+            "analysis.scan_step_mps",
+            || format!("expected a step > 0, got {}", self.scan_step_mps),
+        )?;
+        ensure(
+            self.tolerance_mps > 0.0 && self.tolerance_mps.is_finite(),
+            file,
+            "analysis.tolerance_mps",
+            || format!("expected a tolerance > 0, got {}", self.tolerance_mps),
+        )?;
+        ensure(
+            (2..=100_000).contains(&self.closed_loop_samples),
+            file,
+            "analysis.closed_loop_samples",
+            || {
+                format!(
+                    "expected 2 to 1e5 samples, got {}",
+                    self.closed_loop_samples
+                )
+            },
+        )
+    }
+}
+
+/// The linear critical speed of one point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LinearCriticalSpeed {
+    /// V_crit \[m/s\]: the lowest speed of the search range with an unstable root (null:
+    /// stable on the whole range)
+    pub v_crit_mps: Option<f64>,
+    /// ω of the critical pair at V_crit \[rad/s\]
+    pub hopf_omega_rad_s: Option<f64>,
+    /// ω/2π \[Hz\]
+    pub hopf_frequency_hz: Option<f64>,
+}
+
+/// The Hopf and fold-of-cycles speeds of one point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HopfFoldSpeeds {
+    /// the Hopf speed \[m/s\]
+    pub hopf_v_mps: f64,
+    /// the Hopf frequency \[rad/s\]
+    pub hopf_omega_rad_s: f64,
+    /// "Subcritical" or "Supercritical"
+    pub criticality: Criticality,
+    /// the fold-of-cycles speed \[m/s\] (null: the branch does not fold in the range)
+    pub fold_v_mps: Option<f64>,
+    /// max |θ| on the fold's cycle \[deg\]
+    pub fold_amplitude_deg: Option<f64>,
+}
+
+/// The feedback (D, τ) of a controller for the linear and bifurcation analyses (open loop:
+/// D = τ = 0); a rate-limited or saturated actuator is nonlinear and refused.
+fn feedback(controller: &Controller) -> Result<Feedback, String> {
+    match *controller {
+        Controller::None => Ok(Feedback::OPEN_LOOP),
+        Controller::YawRateFeedback {
+            gain_s,
+            delay_s,
+            actuator,
+            ..
+        } => {
+            if !actuator.is_default() {
+                return Err(
+                    "the linear and bifurcation kinds need an actuator without limits".into(),
+                );
+            }
+            Ok(Feedback {
+                gain_d_s: gain_s,
+                delay_s,
+            })
+        }
+    }
+}
+
+/// The rightmost eigenvalue of Ã(V) (eq. 11, exact Jacobian of the reduced model): its real
+/// part and |imaginary part|.
+fn critical_pair(model: &Model, v: f64) -> (f64, f64) {
+    let (a, _) = model.jacobian4(&State4::zeros(), &Inputs::constant_speed(v));
+    let ev = sorted_eigenvalues(&a);
+    (ev[0].re, ev[0].im.abs())
+}
+
+/// The lowest speed in \[v_min, v_max\] where max Re λ(Ã(V)) changes sign: a scan in
+/// `scan_step_mps`, then the Illinois variant of regula falsi on the bracket down to
+/// `tolerance_mps` (superlinear where the abscissa is smooth, i.e. at a crossing of a
+/// simple pair; the bracket always shrinks). None if stable on the whole range.
+///
+/// # Errors
+/// When straight running is already unstable at v_min, or the abscissa is not finite.
+pub fn open_loop_critical_speed(model: &Model, o: &AnalysisOptions) -> Result<Option<f64>, String> {
+    let f = |v: f64| {
+        let a = critical_pair(model, v).0;
+        if a.is_finite() {
+            Ok(a)
+        } else {
+            Err(format!(
+                "the eigenvalues of Ã are not finite at V = {v} m/s"
+            ))
+        }
+    };
+    let (mut lo, mut f_lo) = (o.v_min_mps, f(o.v_min_mps)?);
+    if f_lo >= 0.0 {
+        return Err(format!(
+            "straight running is already unstable at v_min = {} m/s",
+            o.v_min_mps
+        ));
+    }
+    let (mut hi, mut f_hi);
+    loop {
+        hi = (lo + o.scan_step_mps).min(o.v_max_mps);
+        f_hi = f(hi)?;
+        if f_hi >= 0.0 {
+            break;
+        }
+        if hi >= o.v_max_mps {
+            return Ok(None);
+        }
+        (lo, f_lo) = (hi, f_hi);
+    }
+    // Illinois: the end that stays is halved in weight, so both ends move
+    let mut side = 0;
+    for _ in 0..200 {
+        if hi - lo <= o.tolerance_mps {
+            break;
+        }
+        let mut m = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+        if !(m > lo && m < hi) {
+            m = 0.5 * (lo + hi);
+        }
+        let fm = f(m)?;
+        if fm < 0.0 {
+            (lo, f_lo) = (m, fm);
+            if side == -1 {
+                f_hi *= 0.5;
+            }
+            side = -1;
+        } else {
+            (hi, f_hi) = (m, fm);
+            if side == 1 {
+                f_lo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    Ok(Some(0.5 * (lo + hi)))
+}
+
+/// V_crit and the Hopf frequency of `model` with `controller`'s feedback: open loop by the
+/// sign change of max Re λ(Ã(V)) ([`open_loop_critical_speed`]); closed loop by the exact
+/// unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and its rightmost root.
+///
+/// # Errors
+/// A message naming the failing step.
+pub fn linear_critical_speed(
+    model: &Model,
+    controller: &Controller,
+    o: &AnalysisOptions,
+) -> Result<LinearCriticalSpeed, String> {
+    let fb = feedback(controller)?;
+    let (v, omega) = if fb.gain_d_s == 0.0 {
+        match open_loop_critical_speed(model, o)? {
+            Some(v) => (Some(v), Some(critical_pair(model, v).1)),
+            None => (None, None),
+        }
+    } else {
+        let v = critical_speed_at_gain(
+            model,
+            fb.delay_s,
+            fb.gain_d_s,
+            o.v_min_mps,
+            o.v_max_mps,
+            o.closed_loop_samples,
+            o.tolerance_mps,
+        )
+        .map_err(|e| e.to_string())?;
+        let omega = match v {
+            Some(v) => {
+                let roots = rightmost_roots(model, v, fb.gain_d_s, fb.delay_s, 2)
+                    .map_err(|e| e.to_string())?;
+                roots.first().map(|r| r.im.abs())
+            }
+            None => None,
+        };
+        (v, omega)
+    };
+    Ok(LinearCriticalSpeed {
+        v_crit_mps: v,
+        hopf_omega_rad_s: omega,
+        hopf_frequency_hz: omega.map(|w| w / std::f64::consts::TAU),
+    })
+}
+
+/// The Hopf and fold speeds of `model` with `controller`'s feedback: the bifurcation diagram
+/// up to its first fold, corrected on the two-parameter defining systems at fixed D
+/// ([`critical_speeds`], as `fig4b` reports them).
+///
+/// # Errors
+/// A message naming the failing stage.
+pub fn hopf_fold_speeds(
+    model: &Model,
+    controller: &Controller,
+    o: &AnalysisOptions,
+) -> Result<HopfFoldSpeeds, String> {
+    let fb = feedback(controller)?;
+    let d = bifurcation_diagram_until(model, fb, &o.diagram, CycleExtent::FirstFold)
+        .map_err(|e| e.to_string())?;
+    let c = critical_speeds(model, &d, &ChartOptions::correcting(&o.diagram))
+        .map_err(|e| e.to_string())?;
+    Ok(HopfFoldSpeeds {
+        hopf_v_mps: c.hopf_v_mps,
+        hopf_omega_rad_s: c.hopf_omega_rad_s.abs(),
+        criticality: c.criticality,
+        fold_v_mps: c.fold.map(|f| f.v_mps),
+        fold_amplitude_deg: c.fold.map(|f| f.amplitude_deg),
+    })
+}

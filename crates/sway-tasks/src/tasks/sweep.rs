@@ -300,50 +300,66 @@ impl Prepared for Configured<SweepConfig> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;
         let results: Vec<PointResult> = run_sweep(&ctx.model, cfg, ctx.progress);
-
-        let header = SweepRow::header(&cfg.axes);
-        let rows = results.iter().map(|r| SweepRow {
-            values: &r.values,
-            metrics: r.metrics.as_ref().map_err(String::as_str),
-            accepted_steps: r.steps,
-        });
-        out.write_rows("sweep.csv", &header, rows)?;
-
-        let n_ok = results
-            .iter()
-            .filter(|r| matches!(&r.metrics, Ok(m) if m.outcome == Outcome::Ok))
-            .count();
-        let n_lost = results
-            .iter()
-            .filter(|r| matches!(&r.metrics, Ok(m) if m.outcome == Outcome::LossOfControl))
-            .count();
-        let n_err = results.iter().filter(|r| r.metrics.is_err()).count();
-        let thr = cfg.base.settings.metrics.settle_threshold_deg.get();
-        let n_sway = results
-            .iter()
-            .filter(
-                |r| matches!(&r.metrics, Ok(m) if m.final_amplitude_deg.is_some_and(|a| a >= thr)),
-            )
-            .count();
-        let mut summary = SweepSummary {
-            points: results.len(),
-            points_ok: n_ok,
-            points_loss_of_control: n_lost,
-            points_failed: n_err,
-            points_with_sway: n_sway,
-            sway_threshold_deg: thr,
-            heatmap: None,
-        };
-        let mut lines = vec![format!(
-            "{}: {} points: {n_ok} ok ({n_sway} end in sway, final amplitude >= {thr}°), {n_lost} loss of control, {n_err} failed",
-            cfg.name,
-            results.len()
-        )];
-
-        if let Some((heatmap, line)) = heatmap(&out, cfg, &results, thr)? {
-            summary.heatmap = Some(heatmap);
-            lines.extend(line);
-        }
-        ctx.conclude(out, summary, cfg, &self.file, lines)
+        write_sweep_outputs(ctx, cfg, &self.file, &results, out)
     }
+}
+
+/// Writes `sweep.csv`, the heat map and `summary.json` of the sweep `cfg` (from the config
+/// file `file`) from the ordered full list of its point results into `out`, and commits
+/// it: the one writer of an unsharded run and of a merge of shards
+/// ([`crate::shard::merge_dir`]), so both write the same bytes.
+///
+/// # Errors
+/// [`SwayError::Write`] / [`SwayError::Plot`].
+pub fn write_sweep_outputs(
+    ctx: &TaskContext<'_>,
+    cfg: &SweepConfig,
+    file: &Path,
+    results: &[PointResult],
+    out: OutputDir,
+) -> Result<Report, SwayError> {
+    let header = SweepRow::header(&cfg.axes);
+    let rows = results.iter().map(|r| SweepRow {
+        values: &r.values,
+        metrics: r.metrics.as_ref().map_err(String::as_str),
+        accepted_steps: r.steps,
+    });
+    out.write_rows("sweep.csv", &header, rows)?;
+
+    let n_ok = results
+        .iter()
+        .filter(|r| matches!(&r.metrics, Ok(m) if m.outcome == Outcome::Ok))
+        .count();
+    let n_lost = results
+        .iter()
+        .filter(|r| matches!(&r.metrics, Ok(m) if m.outcome == Outcome::LossOfControl))
+        .count();
+    let n_err = results.iter().filter(|r| r.metrics.is_err()).count();
+    let thr = cfg.base.settings.metrics.settle_threshold_deg.get();
+    let n_sway = results
+        .iter()
+        .filter(
+            |r| matches!(&r.metrics, Ok(m) if m.final_amplitude_deg.is_some_and(|a| a >= thr)),
+        )
+        .count();
+    let mut summary = SweepSummary {
+        points: results.len(),
+        points_ok: n_ok,
+        points_loss_of_control: n_lost,
+        points_failed: n_err,
+        points_with_sway: n_sway,
+        sway_threshold_deg: thr,
+        heatmap: None,
+    };
+    let mut lines = vec![format!(
+        "{}: {} points: {n_ok} ok ({n_sway} end in sway, final amplitude >= {thr}°), {n_lost} loss of control, {n_err} failed",
+        cfg.name,
+        results.len()
+    )];
+
+    if let Some((heatmap, line)) = heatmap(&out, cfg, results, thr)? {
+        summary.heatmap = Some(heatmap);
+        lines.extend(line);
+    }
+    ctx.conclude(out, summary, cfg, file, lines)
 }

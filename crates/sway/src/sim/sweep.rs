@@ -124,8 +124,8 @@ pub struct SweepConfig {
     pub base: BaseScenario,
 }
 
-/// Result of one grid point.
-#[derive(Debug, Clone, PartialEq)]
+/// Result of one grid point (serialisable: shards carry it, exactly, through JSON).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PointResult {
     /// the axis values of this point, in axis order
     pub values: Vec<f64>,

@@ -197,7 +197,15 @@ fn run() -> Result<()> {
     }
     if let Some(spec) = opts.shard {
         let (task, config) = single_task(&task_list, &opts, &configs_dir)?;
-        return run_shard(task, &config, spec, opts.shard_dir.as_deref(), &opts, &ctx, &progress);
+        return run_shard(
+            task,
+            &config,
+            spec,
+            opts.shard_dir.as_deref(),
+            &opts,
+            &ctx,
+            &progress,
+        );
     }
     sway_tasks::io::ensure_writable(&results)?;
     if opts.check {

@@ -225,7 +225,10 @@ fn plan(a: SlurmArgs, root: &Path) -> Result<JobPlan> {
             &a.shard_dir
                 .unwrap_or_else(|| results.join(format!("{name}.shards"))),
         )?,
-        job_dir: absolute(&a.job_dir.unwrap_or_else(|| results.join(format!("{name}.slurm"))))?,
+        job_dir: absolute(
+            &a.job_dir
+                .unwrap_or_else(|| results.join(format!("{name}.slurm"))),
+        )?,
         workdir: std::env::current_dir().context("no working directory")?,
         config: absolute(&a.file)?,
         vehicle: absolute(&vehicle)?,
@@ -237,7 +240,10 @@ fn plan(a: SlurmArgs, root: &Path) -> Result<JobPlan> {
         binary,
         results,
     };
-    for (what, dir) in [("the job directory", &p.job_dir), ("the working directory", &p.workdir)] {
+    for (what, dir) in [
+        ("the job directory", &p.job_dir),
+        ("the working directory", &p.workdir),
+    ] {
         plain_word(what, &dir.display().to_string())?;
     }
     Ok(p)
@@ -318,17 +324,20 @@ mod tests {
         let s = scripts(&plan());
         assert!(s.shard.contains("#SBATCH --array=1-4\n"));
         assert!(s.shard.contains("--shard \"${SLURM_ARRAY_TASK_ID}/4\""));
-        assert!(s.shard.contains("RAYON_NUM_THREADS=\"${SLURM_CPUS_PER_TASK:-1}\""));
-        assert!(s.shard.contains("#SBATCH --cpus-per-task=2\n#SBATCH --chdir=/w\n"));
+        assert!(
+            s.shard
+                .contains("RAYON_NUM_THREADS=\"${SLURM_CPUS_PER_TASK:-1}\"")
+        );
+        assert!(
+            s.shard
+                .contains("#SBATCH --cpus-per-task=2\n#SBATCH --chdir=/w\n")
+        );
         assert!(s.shard.contains("#SBATCH --partition=debug\n"));
         assert!(!s.shard.contains("--time"));
         assert!(s.shard.contains("exec '/opt/x/target/release/xtask' sweep"));
         // a quote inside a path survives bash quoting
         assert!(s.shard.contains(r"'/home/a b/it'\''s.toml'"));
-        assert!(
-            s.merge
-                .contains("merge '/r/study.shards' --results '/r'\n")
-        );
+        assert!(s.merge.contains("merge '/r/study.shards' --results '/r'\n"));
         assert!(
             s.submit
                 .contains("--dependency=afterany:\"$array\" merge.sbatch")

@@ -48,10 +48,20 @@ fn shards_merged_on_the_command_line_equal_the_unsharded_run() {
     std::fs::remove_file(shards.join("shard-2-of-4.json")).expect("rm");
     let out = run(&["merge", s(&shards), "--results", s(&merged)]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("missing 2/4"), "{err}");
+    assert!(
+        !out.status.success() && err.contains("missing 2/4"),
+        "{err}"
+    );
 
     // a bad K/N is refused before any work
-    let out = run(&["sweep", s(&cfg), "--shard", "5/4", "--shard-dir", s(&shards)]);
+    let out = run(&[
+        "sweep",
+        s(&cfg),
+        "--shard",
+        "5/4",
+        "--shard-dir",
+        s(&shards),
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("5/4"), "{err}");
 }

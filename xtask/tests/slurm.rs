@@ -124,7 +124,14 @@ fn slurm_sharded_run_equals_a_single_machine_run() {
         tmp.path().join("cluster"),
         tmp.path().join("job"),
     );
-    run_ok(&["sweep", s(&cfg), "--vehicle", s(&veh), "--results", s(&single)]);
+    run_ok(&[
+        "sweep",
+        s(&cfg),
+        "--vehicle",
+        s(&veh),
+        "--results",
+        s(&single),
+    ]);
     run_ok(&[
         "slurm",
         s(&cfg),

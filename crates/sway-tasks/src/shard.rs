@@ -91,8 +91,12 @@ pub enum ShardError {
     },
     /// A shard of another study (config, vehicle, task kind or tool version).
     #[error(
-        "{}: foreign shard {shard}/{shards}: {reason}; this directory's study is config `{expected_name}` with hash {expected_hash} (tool {expected_version}, {expected_count} shard file(s)); move the foreign shard out or use a separate --shard-dir per study",
-        file.display()
+        "{}: foreign shard {shard}/{shards}: {reason}; this directory's study is config `{}` with hash {} (tool {}, {} shard file(s)); move the foreign shard out or use a separate --shard-dir per study",
+        file.display(),
+        expected.name,
+        expected.config_hash,
+        expected.tool_version,
+        expected.shard_files
     )]
     Foreign {
         /// the foreign file
@@ -103,14 +107,8 @@ pub enum ShardError {
         shards: usize,
         /// how it differs
         reason: String,
-        /// the config name of the study the directory holds
-        expected_name: String,
-        /// that study's config hash
-        expected_hash: String,
-        /// that study's tool version
-        expected_version: String,
-        /// how many shard files belong to it
-        expected_count: usize,
+        /// the study the directory holds
+        expected: Box<Study>,
     },
     /// Shards of the same study cut into different counts N.
     #[error(
@@ -124,7 +122,10 @@ pub enum ShardError {
         counts: Vec<usize>,
     },
     /// Two files hold the same shard.
-    #[error("shard {shard}/{shards} is duplicated: {}; keep one of them", list_paths(files))]
+    #[error(
+        "shard {shard}/{shards} is duplicated: {}; keep one of them",
+        list_paths(files)
+    )]
     Duplicated {
         /// the shard index K
         shard: usize,
@@ -178,6 +179,19 @@ fn describe_incomplete(missing: &[usize], failed: &[(usize, String)], n: usize) 
         parts.push(format!("failed {k}/{n} ({e})"));
     }
     parts.join("; ")
+}
+
+/// A study as a shard directory names it: the one with the most shard files.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Study {
+    /// its config name
+    pub name: String,
+    /// its config hash
+    pub config_hash: String,
+    /// the tool version that wrote it
+    pub tool_version: String,
+    /// how many shard files belong to it
+    pub shard_files: usize,
 }
 
 /// One slice `K/N` of the points: K from 1 to N.
@@ -247,8 +261,14 @@ impl std::str::FromStr for ShardSpec {
             problem: problem.to_string(),
         };
         let (k, n) = s.split_once('/').ok_or_else(|| bad("expected K/N"))?;
-        let k = k.trim().parse().map_err(|_| bad("K is not a whole number"))?;
-        let n = n.trim().parse().map_err(|_| bad("N is not a whole number"))?;
+        let k = k
+            .trim()
+            .parse()
+            .map_err(|_| bad("K is not a whole number"))?;
+        let n = n
+            .trim()
+            .parse()
+            .map_err(|_| bad("N is not a whole number"))?;
         Self::new(k, n)
     }
 }
@@ -784,7 +804,11 @@ fn expected_study(scan: &Scan) -> Result<Provenance, ShardError> {
         .shards
         .iter()
         .map(|(f, p)| (f, Some(p)))
-        .chain(scan.failures.iter().map(|(f, r)| (f, r.provenance.as_ref())))
+        .chain(
+            scan.failures
+                .iter()
+                .map(|(f, r)| (f, r.provenance.as_ref())),
+        )
         .find_map(|(f, p)| p.and_then(|p| foreign_reason(p, &expected).map(|r| (f, p, r))));
     if let Some((file, p, reason)) = foreign {
         return Err(ShardError::Foreign {
@@ -792,10 +816,12 @@ fn expected_study(scan: &Scan) -> Result<Provenance, ShardError> {
             shard: p.shard,
             shards: p.shards,
             reason,
-            expected_name: expected.name.clone(),
-            expected_hash: expected.config_hash.clone(),
-            expected_version: expected.tool_version.clone(),
-            expected_count: best,
+            expected: Box::new(Study {
+                name: expected.name.clone(),
+                config_hash: expected.config_hash.clone(),
+                tool_version: expected.tool_version.clone(),
+                shard_files: best,
+            }),
         });
     }
     Ok(expected)

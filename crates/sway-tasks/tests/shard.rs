@@ -167,13 +167,15 @@ fn merge_names_missing_failed_duplicated_and_foreign_shards() {
     assert!(e.to_string().contains("missing 3/4"), "{e}");
 
     // failed: shard 3 recorded a failure
-    shard::record_failure(&dir, ShardSpec::new(3, 4).expect("valid"), None, "out of time")
-        .expect("records");
+    shard::record_failure(
+        &dir,
+        ShardSpec::new(3, 4).expect("valid"),
+        None,
+        "out of time",
+    )
+    .expect("records");
     let e = merge();
-    assert!(
-        e.to_string().contains("failed 3/4 (out of time)"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("failed 3/4 (out of time)"), "{e}");
     std::fs::write(file(3), &kept).expect("restore");
 
     // duplicated: a copy of shard 2 under another name
@@ -189,8 +191,14 @@ fn merge_names_missing_failed_duplicated_and_foreign_shards() {
     // foreign: shard 1 of another config replaces ours
     let ctx = ctx(&dir);
     std::fs::remove_file(file(1)).expect("rm");
-    shard::run_task_shard("sweep", &ctx, &other, ShardSpec::new(1, 4).expect("valid"), &dir)
-        .expect("runs");
+    shard::run_task_shard(
+        "sweep",
+        &ctx,
+        &other,
+        ShardSpec::new(1, 4).expect("valid"),
+        &dir,
+    )
+    .expect("runs");
     let e = merge();
     let first = file(1);
     assert!(
@@ -228,5 +236,9 @@ fn f64_round_trips_exactly_through_shard_json() {
     xs.extend([f64::MIN_POSITIVE, 5e-324, f64::MAX, -0.0, 0.1, 1.0 / 3.0]);
     let text = serde_json::to_string(&xs).expect("writes");
     let back: Vec<f64> = serde_json::from_str(&text).expect("reads");
-    assert!(xs.iter().zip(&back).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(
+        xs.iter()
+            .zip(&back)
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+    );
 }

@@ -95,7 +95,12 @@ pub fn assert_same_outputs(want: &Path, have: &Path) {
     assert_eq!(names(&a), names(&b), "the same files");
     assert!(a.len() >= 4, "csv, summary and figures: {:?}", names(&a));
     for ((name, x), (_, y)) in a.iter().zip(&b) {
-        assert!(x == y, "{name} differs between {} and {}", want.display(), have.display());
+        assert!(
+            x == y,
+            "{name} differs between {} and {}",
+            want.display(),
+            have.display()
+        );
     }
 }
 

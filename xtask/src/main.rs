@@ -76,7 +76,7 @@ struct TaskArgs {
     /// compute only the K-th of N slices of the points (K from 1) and write a shard file
     #[arg(long, value_name = "K/N")]
     shard: Option<ShardSpec>,
-    /// where shard files go (default: RESULTS/<name>.shards/)
+    /// where shard files go (default: RESULTS/NAME.shards/)
     #[arg(long, value_name = "DIR")]
     shard_dir: Option<PathBuf>,
 }
@@ -277,13 +277,13 @@ fn run_shard(
 struct MergeArgs {
     /// the directory of shard files (shard-K-of-N.json)
     dir: PathBuf,
-    /// where results/<name>/ goes
+    /// where results/NAME/ goes
     #[arg(long)]
     results: Option<PathBuf>,
 }
 
 /// `cargo xtask merge DIR`: checks the shards of DIR (one study, complete, none
-/// duplicated) and writes the same results/<name>/ as an unsharded run.
+/// duplicated) and writes the same `results/<name>/` as an unsharded run.
 fn merge(args: &[String]) -> Result<()> {
     let a = MergeArgs::try_parse_from(args).map_err(|e| anyhow::anyhow!("{e}"))?;
     let results = a.results.unwrap_or_else(|| repo_root().join("results"));

@@ -45,13 +45,13 @@ pub struct SlurmArgs {
     /// vehicle parameters (the form of configs/vehicle.toml)
     #[arg(long)]
     vehicle: Option<PathBuf>,
-    /// where the merged results/<name>/ goes
+    /// where the merged results/NAME/ goes
     #[arg(long)]
     results: Option<PathBuf>,
-    /// where the shard files go (default: RESULTS/<name>.shards/)
+    /// where the shard files go (default: RESULTS/NAME.shards/)
     #[arg(long)]
     shard_dir: Option<PathBuf>,
-    /// where the scripts and logs go (default: RESULTS/<name>.slurm/)
+    /// where the scripts and logs go (default: RESULTS/NAME.slurm/)
     #[arg(long)]
     job_dir: Option<PathBuf>,
     /// the xtask binary the jobs run (default: this one; build it with --release)

@@ -7,7 +7,15 @@
 //! cargo xtask fig3 | fig4 | all          # groups of tasks
 //! cargo xtask roots --speed V --gain D --delay TAU [--count N]   # rightmost characteristic roots
 //! cargo xtask <task|group> --check       # validate configs, print the plan, run nothing
+//! cargo xtask sweep FILE --shard K/N [--shard-dir DIR]   # the K-th of N slices (K from 1)
+//! cargo xtask merge DIR [--results DIR]  # the shards of DIR → results/<name>/
+//! cargo xtask slurm FILE --shards N [--partition P] [--time T]   # sbatch scripts
 //! ```
+//!
+//! A sweep runs sharded as N independent processes ([`sway_tasks::shard`]): each writes
+//! `shard-K-of-N.json` into the shard directory (default `results/<name>.shards/`), and
+//! `merge` writes the same `results/<name>/` as one unsharded run. `slurm` writes a job
+//! array of the shards and a dependent merge job ([`slurm`]).
 //!
 //! `--check` loads and validates the vehicle and task configs through the same path as a
 //! real run ([`tasks::prepare_checked`]), prints what would run with estimates of memory
@@ -29,11 +37,14 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+mod slurm;
+
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use sway::progress::Progress;
 use sway_tasks::config_file;
+use sway_tasks::shard::{self, ShardSpec};
 use sway_tasks::tasks::{self, Task, TaskContext};
 
 /// The repository root (this crate lives in `<root>/xtask`).
@@ -62,6 +73,12 @@ struct TaskArgs {
     /// validate the configs and print what would run (with estimates), then exit
     #[arg(long)]
     check: bool,
+    /// compute only the K-th of N slices of the points (K from 1) and write a shard file
+    #[arg(long, value_name = "K/N")]
+    shard: Option<ShardSpec>,
+    /// where shard files go (default: RESULTS/NAME.shards/)
+    #[arg(long, value_name = "DIR")]
+    shard_dir: Option<PathBuf>,
 }
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).
@@ -93,6 +110,14 @@ fn usage() -> String {
         "  {:<10} {}\n",
         "roots", "rightmost characteristic roots of eq. (13) at one point: --speed V --gain D --delay TAU [--count N]"
     ));
+    s.push_str(&format!(
+        "  {:<10} {}\n  {:<10} {}\n",
+        "merge",
+        "merge the shard files of DIR into results/<name>/: cargo xtask merge DIR [--results DIR]",
+        "slurm",
+        "SLURM job array of a sharded sweep: cargo xtask slurm FILE --shards N [--partition P] [--time T]"
+    ));
+    s.push_str("sharding: cargo xtask sweep FILE --shard K/N [--shard-dir DIR]\n");
     s.push_str("groups:\n");
     for (g, members) in tasks::groups() {
         if !members.is_empty() {
@@ -119,8 +144,11 @@ fn run() -> Result<()> {
         print!("{}", usage());
         return Ok(());
     }
-    if name == "roots" {
-        return roots(&args[1..]);
+    match name.as_str() {
+        "roots" => return roots(&args[1..]),
+        "merge" => return merge(&args[1..]),
+        "slurm" => return slurm::run(&args[1..], &repo_root()),
+        _ => {}
     }
     let mut opts = TaskArgs::try_parse_from(&args[1..]).map_err(|e| anyhow::anyhow!("{e}"))?;
     if let Some(file) = opts.file.take() {
@@ -167,21 +195,132 @@ fn run() -> Result<()> {
         }
         prepared.push((task, p));
     }
+    if let Some(spec) = opts.shard {
+        let (task, config) = single_task(&task_list, &opts, &configs_dir)?;
+        return run_shard(
+            task,
+            &config,
+            spec,
+            opts.shard_dir.as_deref(),
+            &opts,
+            &ctx,
+            &progress,
+        );
+    }
     sway_tasks::io::ensure_writable(&results)?;
     if opts.check {
         println!("results would go to {}", results.display());
         return Ok(());
     }
-    stop_cleanly_on_signals(&results, &progress.0)?;
+    stop_cleanly_on_signals(&results, &progress.0, None)?;
     run_prepared(prepared, &ctx, &progress)
 }
 
+/// The one task and its config file of a sharded run.
+fn single_task<'t>(
+    task_list: &'t [Task],
+    opts: &TaskArgs,
+    configs_dir: &Path,
+) -> Result<(&'t Task, PathBuf)> {
+    let [task] = task_list else {
+        bail!("--shard applies to a single task, not to a group");
+    };
+    let config = opts
+        .config
+        .clone()
+        .unwrap_or_else(|| configs_dir.join(task.config));
+    Ok((task, config))
+}
+
+/// `cargo xtask sweep FILE --shard K/N`: computes one slice of the points and writes
+/// `shard-K-of-N.json` into the shard directory; a failure is recorded beside it
+/// (`shard-K-of-N.failed.json`) so that the merge names it.
+fn run_shard(
+    task: &Task,
+    config: &Path,
+    spec: ShardSpec,
+    shard_dir: Option<&Path>,
+    opts: &TaskArgs,
+    ctx: &TaskContext<'_>,
+    progress: &Bar,
+) -> Result<()> {
+    let name = shard::study_name(task.name, config)?;
+    let dir = shard_dir
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| ctx.results_dir.join(format!("{name}.shards")));
+    if opts.check {
+        println!("shard {spec} would go to {}", dir.display());
+        return Ok(());
+    }
+    sway_tasks::io::ensure_writable(&dir)?;
+    stop_cleanly_on_signals(&ctx.results_dir, &progress.0, Some((dir.clone(), spec)))?;
+    let t0 = Instant::now();
+    let r = shard::run_task_shard(task.name, ctx, config, spec, &dir);
+    progress.0.finish_and_clear();
+    let r = r.with_context(|| format!("shard {spec} of `{}` failed", task.name))?;
+    println!(
+        "[{}] shard {spec}: points {}..{} of {} in {:.2} s ({} failed) → {}",
+        task.name,
+        r.range.start,
+        r.range.end,
+        r.points_total,
+        t0.elapsed().as_secs_f64(),
+        r.points_failed,
+        r.file.display()
+    );
+    Ok(())
+}
+
+/// `cargo xtask merge DIR`.
+#[derive(Debug, Parser)]
+#[command(no_binary_name = true)]
+struct MergeArgs {
+    /// the directory of shard files (shard-K-of-N.json)
+    dir: PathBuf,
+    /// where results/NAME/ goes
+    #[arg(long)]
+    results: Option<PathBuf>,
+}
+
+/// `cargo xtask merge DIR`: checks the shards of DIR (one study, complete, none
+/// duplicated) and writes the same `results/<name>/` as an unsharded run.
+fn merge(args: &[String]) -> Result<()> {
+    let a = MergeArgs::try_parse_from(args).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let results = a.results.unwrap_or_else(|| repo_root().join("results"));
+    sway_tasks::io::ensure_writable(&results)?;
+    let progress = sway::progress::NoProgress;
+    stop_cleanly_on_signals(&results, &ProgressBar::hidden(), None)?;
+    let t0 = Instant::now();
+    let report = shard::merge_dir(&a.dir, &results, &progress)?;
+    println!(
+        "[{}] merged {} in {:.2} s → {}",
+        report.task,
+        a.dir.display(),
+        t0.elapsed().as_secs_f64(),
+        report.output_dir.display()
+    );
+    for line in &report.lines {
+        println!("{line}");
+    }
+    Ok(())
+}
+
 /// On SIGINT or SIGTERM: stop writing, remove this run's staging directories (results/
-/// stays as it was) and exit with status 130 after one line on stderr.
-fn stop_cleanly_on_signals(results: &Path, bar: &ProgressBar) -> Result<()> {
+/// stays as it was) and exit with status 130 after one line on stderr. A shard run first
+/// records the interruption beside its shard file (SLURM sends SIGTERM at the time limit
+/// and on scancel), so that the merge names the shard as failed.
+fn stop_cleanly_on_signals(
+    results: &Path,
+    bar: &ProgressBar,
+    shard: Option<(PathBuf, ShardSpec)>,
+) -> Result<()> {
     let results = results.to_path_buf();
     let bar = bar.clone();
     ctrlc::set_handler(move || {
+        if let Some((dir, spec)) = &shard {
+            let why = "interrupted by SIGINT/SIGTERM (under SLURM: the time limit or scancel)";
+            let _ = shard::record_failure(dir, *spec, None, why);
+        }
         let (_guard, removed) = sway_tasks::io::interrupt(&results);
         bar.finish_and_clear();
         eprintln!(

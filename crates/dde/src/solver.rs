@@ -265,7 +265,8 @@ struct Core<const N: usize> {
     k1_valid: bool,
     /// proposed next step (0: not chosen yet)
     h: f64,
-    err_old: f64,
+    /// ln of the previous accepted step's error (at least 1e-4), for the PI controller
+    ln_err_old: f64,
     rejected_last: bool,
     stats: Stats,
     breakpoints: Vec<f64>,
@@ -315,7 +316,7 @@ impl<const N: usize> Core<N> {
             k1: SV::<N>::zeros(),
             k1_valid: false,
             h: 0.0,
-            err_old: 1e-4,
+            ln_err_old: 1e-4_f64.ln(),
             rejected_last: false,
             stats: Stats::default(),
             breakpoints,
@@ -555,8 +556,9 @@ impl<const N: usize> Core<N> {
         let h_next = if ctl.fixed.is_some() {
             p.h_prop
         } else {
-            let fac11 = err.powf(ctl.expo1);
-            let fac = (fac11 / self.err_old.powf(ctl.beta) / ctl.safety)
+            // err^α / err_old^β as one exp of logs (err = 0 gives 0, as the powers do)
+            let ln_err = err.ln();
+            let fac = ((ctl.expo1 * ln_err - ctl.beta * self.ln_err_old).exp() / ctl.safety)
                 .clamp(1.0 / ctl.fac_max, 1.0 / ctl.fac_min);
             let mut hn = p.h / fac;
             if self.rejected_last {
@@ -566,7 +568,7 @@ impl<const N: usize> Core<N> {
                 // a step cut short to land does not say the next one must be short
                 hn = hn.max(p.h_prop.min(hn * ctl.fac_max));
             }
-            self.err_old = err.max(1e-4);
+            self.ln_err_old = ln_err.max(1e-4_f64.ln());
             hn
         };
         self.rejected_last = false;

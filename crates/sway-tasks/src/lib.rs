@@ -1,7 +1,7 @@
 //! The task layer of trailer-sway: everything `cargo xtask` does around the scenario
 //! library [`sway`] — the task registry ([`tasks`]), reading config files with errors that
 //! name the file and key path ([`config_file`]), staged result directories and the CSV and
-//! JSON writers ([`io`]), the time-series helpers shared by the simulation tasks
+//! JSON writers ([`io`]), sharding a study over machines and merging it exactly ([`shard`]), the time-series helpers shared by the simulation tasks
 //! ([`report`]) and figures rendered to SVG and PNG ([`plot`]).
 //!
 //! The library [`sway`] computes and never writes a file or links the plotting stack;
@@ -13,4 +13,5 @@ pub mod io;
 pub mod limits;
 pub mod plot;
 pub mod report;
+pub mod shard;
 pub mod tasks;

@@ -115,6 +115,14 @@ struct Kinematics<D> {
     hitch_angle_rate: D,
 }
 
+/// Whether `x` is a plain number (no derivative parts) equal to ±0: then tan x = ±0 and
+/// cos x = 1 exactly, and the hot loop skips the calls. (A dual number's `is_zero` looks at
+/// its real part only, so duals always take the calls.)
+#[inline]
+fn is_plain_zero<D: DualNum<Primitive = f64> + Copy>(x: D) -> bool {
+    D::NDERIV == 0 && x.re() == 0.0
+}
+
 impl Model {
     /// Builds the model: validates the parameters, computes the static axle loads and
     /// the brush tires (eq. 15) and the constants of eq. (7).
@@ -268,14 +276,15 @@ impl Model {
     ) -> SlipAngles<D> {
         let t = self.slip_tangents(x, u, &self.kinematics(x));
         SlipAngles {
-            front: t.front,
+            front: u.steering_angle - t.front.atan(),
             rear: t.rear.atan(),
             trailer: t.trailer.atan(),
         }
     }
 
-    /// α_F itself, and tan α_R, tan α_T: the ratios of eq. (2) in body-frame form.
-    /// The brush model is a polynomial in tan α, so the forces need no atan/tan pair.
+    /// The ratios of eq. (2) in body-frame form: r_F = (σ1 + f ψ̇)/V with α_F = δ − atan r_F,
+    /// and tan α_R, tan α_T. The brush model is a polynomial in tan α, so the forces need
+    /// no atan/tan pair ([`Self::front_force`] for the front axle).
     fn slip_tangents<D: DualNum<Primitive = f64> + Copy>(
         &self,
         x: &State4<D>,
@@ -286,7 +295,7 @@ impl Model {
         let s1 = x[0];
         let (sn, cs) = (k.sin_theta, k.cos_theta);
         SlipAngles {
-            front: u.steering_angle - ((s1 + k.yaw_rate * self.f) / v).atan(),
+            front: (s1 + k.yaw_rate * self.f) / v,
             rear: -(s1 + k.yaw_rate * self.c) / v,
             trailer: -(-v * sn + s1 * cs - (k.yaw_rate + k.hitch_angle_rate) * self.l)
                 / (v * cs + s1 * sn),
@@ -299,18 +308,41 @@ impl Model {
         x: &State4<D>,
         u: &Inputs<D>,
     ) -> SlipAngles<D> {
-        self.tire_forces_at(self.slip_tangents(x, u, &self.kinematics(x)))
+        self.tire_forces_at(
+            self.slip_tangents(x, u, &self.kinematics(x)),
+            u.steering_angle,
+        )
     }
 
-    /// the forces at the slip ratios `t` of [`Self::slip_tangents`]
+    /// the forces at the slip ratios `t` of [`Self::slip_tangents`] and the steering angle δ
     fn tire_forces_at<D: DualNum<Primitive = f64> + Copy>(
         &self,
         t: SlipAngles<D>,
+        steering_angle: D,
     ) -> SlipAngles<D> {
         SlipAngles {
-            front: self.front_tire.lateral_force(t.front),
+            front: self.front_force(steering_angle, t.front),
             rear: self.rear_tire.lateral_force_from_tan(t.rear),
             trailer: self.trailer_tire.lateral_force_from_tan(t.trailer),
+        }
+    }
+
+    /// F_F at α_F = δ − atan r_F, from tan α_F = (tan δ − r_F)/(1 + r_F tan δ) (the tangent
+    /// of a difference): one tan instead of an atan/tan pair. Where 1 + r_F tan δ ≤ 0
+    /// (|α_F| ≥ π/2, far beyond sliding) the angle form is used.
+    #[inline]
+    fn front_force<D: DualNum<Primitive = f64> + Copy>(&self, steering_angle: D, r: D) -> D {
+        if is_plain_zero(steering_angle) {
+            // δ = 0 (open loop): tan α_F = −r_F, exactly what the formula gives
+            return self.front_tire.lateral_force_from_tan(-r);
+        }
+        let tan_delta = steering_angle.tan();
+        let den = D::from(1.0) + r * tan_delta;
+        if den.re() > 0.0 {
+            self.front_tire
+                .lateral_force_from_tan((tan_delta - r) / den)
+        } else {
+            self.front_tire.lateral_force(steering_angle - r.atan())
         }
     }
 
@@ -331,9 +363,14 @@ impl Model {
         let (v, v_dot) = (u.speed, u.acceleration);
         let kin = self.kinematics(x);
         let (sn, cs) = (kin.sin_theta, kin.cos_theta);
-        let forces = self.tire_forces_at(self.slip_tangents(x, u, &kin));
+        let forces = self.tire_forces_at(self.slip_tangents(x, u, &kin), u.steering_angle);
         let (f_f, f_r, f_t) = (forces.front, forces.rear, forces.trailer);
-        let f_f_cos_delta = f_f * u.steering_angle.cos();
+        // δ = 0 (open loop): cos δ = 1 exactly, without the call
+        let f_f_cos_delta = if is_plain_zero(u.steering_angle) {
+            f_f
+        } else {
+            f_f * u.steering_angle.cos()
+        };
 
         let sn2 = sn * sn;
         let sc = sn * cs;

@@ -290,3 +290,44 @@ fn bad_parameters_are_rejected_with_their_key() {
     p.friction.mu_dynamic = 1.0;
     assert!(Model::new(p).is_err());
 }
+
+#[test]
+fn front_force_from_the_tangent_of_a_difference_equals_the_angle_form() {
+    // Reference: the brush force at the slip angle itself, F(α_F) with α_F = δ − atan r_F
+    // (`slip_angles`), against `tire_forces`, which evaluates tan α_F as
+    // (tan δ − r_F)/(1 + r_F tan δ). Exact identity; tolerance 1e-12 relative to the
+    // sliding force: a few ulps of tan α_F times the polynomial's slope. 5000 random points
+    // (tires adhering and sliding), plus δ = 0 and slip angles beyond ±π/2 (angle form).
+    use tires::TireModel;
+    let model = table_i();
+    let front = model.tires()[0];
+    let scale = front.sliding_force();
+    let mut worst: f64 = 0.0;
+    let mut compare = |x: &State4, u: &Inputs| {
+        let a = model.slip_angles(x, u).front;
+        // points within 1e-9 rad of the sliding limit may take either branch
+        if (a.abs() - front.critical_slip_angle().unwrap_or(f64::INFINITY)).abs() < 1e-9 {
+            return;
+        }
+        let want = front.lateral_force(a);
+        let have = model.tire_forces(x, u).front;
+        worst = worst.max((want - have).abs() / scale);
+    };
+    for (x, mut u, _) in random_points(7, 5000) {
+        compare(&x, &u);
+        u.steering_angle = 0.0;
+        compare(&x, &u);
+    }
+    // σ1 + f ψ̇ against the speed so large that |α_F| > π/2 − δ
+    let x = State4::new(-40.0, 0.0, 0.0, 0.0);
+    let u = Inputs {
+        steering_angle: 1.2,
+        speed: 1.0,
+        acceleration: 0.0,
+    };
+    compare(&x, &u);
+    assert!(
+        worst < 1e-12,
+        "worst difference {worst:e} of the sliding force"
+    );
+}

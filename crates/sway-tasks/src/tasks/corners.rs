@@ -180,6 +180,8 @@ pub struct SimulationRow {
     pub tau_s: f64,
     /// index of the double-Hopf point of this delay
     pub corner: usize,
+    /// where the probe lies: `sector <k>`, `outside torus`, `inside torus`
+    pub probe: String,
     /// gain D \[s\]
     pub d_s: f64,
     /// speed V \[m/s\]
@@ -216,9 +218,27 @@ pub struct SimulationRow {
     pub loss_of_control_time_s: Option<f64>,
 }
 
+/// One entry of `"observed_torus_boundary"`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ObservedTorusEntry {
+    /// delay τ \[s\]
+    pub tau_s: f64,
+    /// initial hitch angle of the scan \[deg\]
+    pub kick_deg: f64,
+    /// speed V \[m/s\]
+    pub v_mps: f64,
+    /// the largest gain seen periodic \[s\]
+    pub d_periodic_s: f64,
+    /// the smallest gain seen quasi-periodic \[s\]
+    pub d_quasi_periodic_s: f64,
+}
+
 /// `summary.json` of corners (before the common fields).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CornersSummary {
+    /// where simulations turn quasi-periodic (the torus bifurcation of the large sway
+    /// cycles, bisected in D at fixed V)
+    pub observed_torus_boundary: Vec<ObservedTorusEntry>,
     /// every double-Hopf point inside the chart's range
     pub double_hopf: Vec<DoubleHopfEntry>,
     /// double-Hopf points beyond the chart's gain range
@@ -271,6 +291,7 @@ fn row(tau: f64, k: usize, probe: &sway::bifurcation::corners::Probe, r: &ProbeR
     SimulationRow {
         tau_s: tau,
         corner: k,
+        probe: probe.label.clone(),
         d_s: probe.d_s,
         v_mps: probe.v_mps,
         region: probe.region(),
@@ -294,6 +315,7 @@ fn row(tau: f64, k: usize, probe: &sway::bifurcation::corners::Probe, r: &ProbeR
 /// The summary of all delays.
 pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
     let mut s = CornersSummary {
+        observed_torus_boundary: Vec::new(),
         double_hopf: Vec::new(),
         double_hopf_beyond_range: Vec::new(),
         torus_curves: studies.iter().map(torus_extent).collect(),
@@ -312,6 +334,14 @@ pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
         s.notes
             .extend(st.notes.iter().map(|n| format!("τ = {} s: {n}", st.tau_s)));
         for (k, c) in st.corners.iter().enumerate() {
+            s.observed_torus_boundary
+                .extend(c.observed_torus_boundary.iter().map(|b| ObservedTorusEntry {
+                    tau_s: st.tau_s,
+                    kick_deg: b.kick_deg,
+                    v_mps: b.v_mps,
+                    d_periodic_s: b.d_periodic_s,
+                    d_quasi_periodic_s: b.d_quasi_periodic_s,
+                }));
             for p in &c.probes {
                 for r in &p.runs {
                     s.simulations.push(row(st.tau_s, k, p, r));
@@ -443,6 +473,20 @@ fn corner_panel(c: &Corner) -> Panel {
             Stroke::Solid,
             Some("torus (Neimark–Sacker)"),
         ));
+    }
+    let observed: Vec<(f64, f64)> = c
+        .observed_torus_boundary
+        .iter()
+        .map(|b| (b.v_mps, 0.5 * (b.d_periodic_s + b.d_quasi_periodic_s)))
+        .collect();
+    if !observed.is_empty() {
+        panel = panel.with(Layer::Markers {
+            points: observed,
+            color: Rgb::palette(4),
+            shape: Shape::Triangle,
+            size: 8,
+            label: Some("torus boundary observed in simulations".into()),
+        });
     }
     panel = panel.with(Layer::Markers {
         points: vec![(p.v_mps, p.d_s)],

@@ -94,6 +94,44 @@ pub struct CornerOptions {
     pub simulation: ProbeSimulation,
     /// the classifier's thresholds
     pub motion: MotionOptions,
+    /// the search for attracting quasi-periodic motion by simulation
+    pub torus_scan: TorusScan,
+}
+
+/// The search for attracting tori by simulation: at each speed V_HH + offset and for each
+/// kick, D is scanned upwards from near the double-Hopf gain and the first change
+/// periodic → quasi-periodic is bisected in D (the small kick finds the torus born from the
+/// small fast-mode cycles near the double-Hopf point, the large kick the torus bifurcation
+/// of the large sway cycles). Independent of the torus-curve continuation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TorusScan {
+    /// speeds V_HH + offset \[m/s\] (empty: no scan)
+    pub speed_offsets_mps: Vec<f64>,
+    /// the scan in D starts at D_HH + this \[s\]
+    pub d_start_offset_s: f64,
+    /// and ends at D_HH + this \[s\]
+    pub d_end_offset_s: f64,
+    /// gains of the coarse scan (evenly spaced, ends included)
+    pub d_samples: usize,
+    /// bisection down to this width in D \[s\]
+    pub tolerance_s: f64,
+    /// the flanking probes lie this far below and above the bisected boundary \[s\]
+    /// (close to the boundary the motion settles slowly)
+    pub flank_s: f64,
+}
+
+impl Default for TorusScan {
+    fn default() -> Self {
+        Self {
+            speed_offsets_mps: vec![-6.0, -3.0, 0.0, 3.0],
+            d_start_offset_s: -0.02,
+            d_end_offset_s: 0.1,
+            d_samples: 13,
+            tolerance_s: 1e-3,
+            flank_s: 4e-3,
+        }
+    }
 }
 
 impl Default for CornerOptions {
@@ -102,12 +140,13 @@ impl Default for CornerOptions {
             v_samples: 131,
             beyond_gain_s: 0.5,
             zoom_half_width_v_mps: 8.0,
-            zoom_half_width_d_s: 0.04,
+            zoom_half_width_d_s: 0.07,
             zoom_curve_samples: 161,
             zoom_cells: 48,
             probe_radii: vec![0.15, 0.5],
             simulation: ProbeSimulation::default(),
             motion: MotionOptions::default(),
+            torus_scan: TorusScan::default(),
         }
     }
 }
@@ -349,7 +388,7 @@ fn checked_point(
 }
 
 /// A point of a Hopf curve traced on the D-subdivision.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct ModePoint {
     /// speed V \[m/s\]
     pub v_mps: f64,
@@ -412,6 +451,9 @@ pub struct ProbeRun {
 /// A probe point near a double-Hopf point and its simulations.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Probe {
+    /// where it lies: `sector <k>` (bisector of a sector between the Hopf curves), or
+    /// `outside torus` / `inside torus` (flanking the observed torus boundary)
+    pub label: String,
     /// speed V \[m/s\]
     pub v_mps: f64,
     /// gain D \[s\]
@@ -438,6 +480,19 @@ impl Probe {
     }
 }
 
+/// A point of the torus boundary observed by simulation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ObservedTorusPoint {
+    /// the initial hitch angle of the scan \[deg\]
+    pub kick_deg: f64,
+    /// speed V \[m/s\]
+    pub v_mps: f64,
+    /// the largest gain seen periodic \[s\]
+    pub d_periodic_s: f64,
+    /// the smallest gain seen quasi-periodic \[s\]
+    pub d_quasi_periodic_s: f64,
+}
+
 /// Everything near one double-Hopf point.
 #[derive(Debug, Clone)]
 pub struct Corner {
@@ -453,8 +508,12 @@ pub struct Corner {
     pub torus_curves: Vec<TorusCurve>,
     /// the linear chart on the window (regions: 0, 2, 4 unstable roots)
     pub regions: StabilityChart,
-    /// the probes
+    /// the probes: the sector bisectors, then the pairs flanking the observed torus
+    /// boundary
     pub probes: Vec<Probe>,
+    /// the torus boundary observed by simulation ([`TorusScan`]): (V, D) where the large
+    /// sway cycle turns quasi-periodic, to within the scan's tolerance in D
+    pub observed_torus_boundary: Vec<ObservedTorusPoint>,
     /// distance in V \[m/s\] to the double-Hopf point the continuation of the nonlinear
     /// chart located on its Hopf curves (an independent computation), if it found one
     pub continuation_offset_mps: Option<f64>,
@@ -566,10 +625,27 @@ fn corner(
         .map(|&w| mode_curve(model, nl, p, w, window, o.zoom_curve_samples))
         .collect::<Result<Vec<_>, _>>()?;
     let regions = window_chart(model, p.tau_s, window, o.zoom_cells)?;
-    let probes = probe_points(p, o)
+    let mut probes = probe_points(p, o)
         .par_iter()
-        .map(|&(v, d)| probe(model, p.tau_s, v, d, o))
+        .enumerate()
+        .map(|(k, &(v, d))| probe(model, p.tau_s, v, d, format!("sector {k}"), o))
         .collect::<Result<Vec<_>, _>>()?;
+    let lines: Vec<(f64, f64)> = o
+        .simulation
+        .kicks_deg
+        .iter()
+        .flat_map(|&k| o.torus_scan.speed_offsets_mps.iter().map(move |dv| (k, dv)))
+        .map(|(k, dv)| (k, p.v_mps + dv))
+        .collect();
+    let scans = lines
+        .par_iter()
+        .map(|&(k, v)| torus_boundary_at(model, p, v, k, o))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut observed_torus_boundary = Vec::new();
+    for (point, flank) in scans.into_iter().flatten() {
+        observed_torus_boundary.push(point);
+        probes.extend(flank);
+    }
     Ok(Corner {
         point: *p,
         window,
@@ -578,6 +654,7 @@ fn corner(
         torus_curves: torus(model, nl, p)?,
         regions,
         probes,
+        observed_torus_boundary,
         continuation_offset_mps: continuation_offset(nl, p),
     })
 }
@@ -748,7 +825,14 @@ fn unstable_modes(model: &Model, tau: f64, v: f64, d: f64) -> Result<Vec<f64>, S
 }
 
 /// The simulations at one probe point.
-fn probe(model: &Model, tau: f64, v: f64, d: f64, o: &CornerOptions) -> Result<Probe, SwayError> {
+fn probe(
+    model: &Model,
+    tau: f64,
+    v: f64,
+    d: f64,
+    label: String,
+    o: &CornerOptions,
+) -> Result<Probe, SwayError> {
     let runs = o
         .simulation
         .kicks_deg
@@ -756,6 +840,7 @@ fn probe(model: &Model, tau: f64, v: f64, d: f64, o: &CornerOptions) -> Result<P
         .map(|&k| run_at(model, tau, v, d, k, o))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(Probe {
+        label,
         v_mps: v,
         d_s: d,
         unstable_modes_rad_s: unstable_modes(model, tau, v, d)?,
@@ -763,8 +848,93 @@ fn probe(model: &Model, tau: f64, v: f64, d: f64, o: &CornerOptions) -> Result<P
     })
 }
 
-/// One closed-loop simulation at (V, D, τ) from θ(t ≤ 0) = kick, classified.
+/// The class of the run at (V, D) from the kick \[deg\].
+fn class_at(
+    model: &Model,
+    p: &DoubleHopfPoint,
+    (v, d): (f64, f64),
+    kick: f64,
+    o: &CornerOptions,
+) -> Result<MotionClass, SwayError> {
+    Ok(run_at(model, p.tau_s, v, d, kick, o)?.evidence.class)
+}
+
+/// The torus boundary at speed V: the first periodic → quasi-periodic change of the
+/// coarse scan in D, bisected; with the probes flanking it (periodic below, quasi-periodic
+/// above). None if the scan shows no such change.
+fn torus_boundary_at(
+    model: &Model,
+    p: &DoubleHopfPoint,
+    v: f64,
+    kick: f64,
+    o: &CornerOptions,
+) -> Result<Option<(ObservedTorusPoint, [Probe; 2])>, SwayError> {
+    let s = &o.torus_scan;
+    let n = s.d_samples.max(2);
+    let ds: Vec<f64> = (0..n)
+        .map(|i| {
+            p.d_s
+                + s.d_start_offset_s
+                + (s.d_end_offset_s - s.d_start_offset_s) * i as f64 / (n - 1) as f64
+        })
+        .collect();
+    let classes = ds
+        .iter()
+        .map(|&d| class_at(model, p, (v, d), kick, o))
+        .collect::<Result<Vec<_>, _>>()?;
+    let Some(j) = (0..n - 1).find(|&j| {
+        classes[j] == MotionClass::Periodic && classes[j + 1] == MotionClass::QuasiPeriodic
+    }) else {
+        return Ok(None);
+    };
+    let (mut lo, mut hi) = (ds[j], ds[j + 1]);
+    while hi - lo > s.tolerance_s {
+        let mid = 0.5 * (lo + hi);
+        match class_at(model, p, (v, mid), kick, o)? {
+            MotionClass::Periodic => lo = mid,
+            MotionClass::QuasiPeriodic => hi = mid,
+            _ => break,
+        }
+    }
+    let flank = |d: f64, label: &str| {
+        let mut one = o.clone();
+        one.simulation.kicks_deg = vec![kick];
+        probe(model, p.tau_s, v, d, label.into(), &one)
+    };
+    let below = flank(lo - s.flank_s, "outside torus")?;
+    let above = flank(hi + s.flank_s, "inside torus")?;
+    let point = ObservedTorusPoint {
+        kick_deg: kick,
+        v_mps: v,
+        d_periodic_s: lo,
+        d_quasi_periodic_s: hi,
+    };
+    Ok(Some((point, [below, above])))
+}
+
+/// One closed-loop simulation at (V, D, τ) from θ(t ≤ 0) = kick, classified; a run still
+/// growing at the end of the window (without loss of control) is repeated with a
+/// transient three times as long, so that the class is that of where the motion settles.
 pub fn run_at(
+    model: &Model,
+    tau: f64,
+    v: f64,
+    d: f64,
+    kick_deg: f64,
+    o: &CornerOptions,
+) -> Result<ProbeRun, SwayError> {
+    let first = run_once(model, tau, v, d, kick_deg, o)?;
+    let growing = first.evidence.class == MotionClass::LossOfControl
+        && first.loss_of_control_time_s.is_none();
+    if !growing {
+        return Ok(first);
+    }
+    let mut longer = o.clone();
+    longer.simulation.transient_s *= 3.0;
+    run_once(model, tau, v, d, kick_deg, &longer)
+}
+
+fn run_once(
     model: &Model,
     tau: f64,
     v: f64,

@@ -12,8 +12,9 @@
 //! gain range), `"torus_curves"` (per τ: count and D–V extent), `"quasi_periodic_examples"`
 //! (τ, D, V and the two frequencies of every run classified quasi-periodic),
 //! `"simulations"` (every run with its class and evidence) and `"notes"`.
-//! `simulations.csv` holds the same rows; `hopf_near_corner_tau_<τ>_<k>_<mode>.csv` the
-//! traced Hopf curves.
+//! `simulations.csv` holds the same rows; `hopf_near_corner_tau_<τ in ms>ms_<k>_omega_<100ω>.csv`
+//! the traced Hopf curves; figures `corner_tau_<τ in ms>ms_<k>` (the zoom) and
+//! `evidence_tau_<τ in ms>ms_<k>` (spectra and sections).
 
 use std::path::Path;
 
@@ -212,6 +213,8 @@ pub struct SimulationRow {
     pub section_points: usize,
     /// distinct section values
     pub section_clusters: usize,
+    /// the section repeats after this many returns (empty: it does not, a closed curve)
+    pub section_period: Option<usize>,
     /// rotation number of the section
     pub rotation_number: Option<f64>,
     /// when control was lost \[s\]
@@ -307,6 +310,7 @@ fn row(tau: f64, k: usize, probe: &sway::bifurcation::corners::Probe, r: &ProbeR
         frequency_ratio: e.frequency_ratio,
         section_points: e.section_points,
         section_clusters: e.section_clusters,
+        section_period: e.section_period,
         rotation_number: e.section_rotation_number,
         loss_of_control_time_s: r.loss_of_control_time_s,
     }
@@ -413,6 +417,20 @@ fn criticality_name(c: Option<continuation::Criticality>) -> &'static str {
     }
 }
 
+/// `line` with the points outside the window `w` = \[V0, V1, D0, D1\] replaced by breaks
+/// (plotters would draw them on the frame).
+fn inside_window(line: Vec<(f64, f64)>, w: [f64; 4]) -> Vec<(f64, f64)> {
+    line.into_iter()
+        .map(|(v, d)| {
+            if v >= w[0] && v <= w[1] && d >= w[2] && d <= w[3] {
+                (v, d)
+            } else {
+                (f64::NAN, f64::NAN)
+            }
+        })
+        .collect()
+}
+
 /// The zoomed figure near one corner.
 fn corner_panel(c: &Corner) -> Panel {
     let p = &c.point;
@@ -451,6 +469,7 @@ fn corner_panel(c: &Corner) -> Panel {
             m.omega_at_corner_rad_s,
             criticality_name(m.criticality)
         );
+        let pts = inside_window(pts, w);
         panel = panel.with(Layer::line(pts, Rgb::palette(i), stroke, Some(&label)));
     }
     let mut fold = Vec::new();
@@ -458,7 +477,8 @@ fn corner_panel(c: &Corner) -> Panel {
         fold.push((f64::NAN, f64::NAN));
         fold.extend(f.iter().copied());
     }
-    if !fold.is_empty() {
+    let fold = inside_window(fold, w);
+    if fold.iter().any(|p| p.0.is_finite()) {
         panel = panel.with(Layer::line(fold, Rgb::BLUE, Stroke::Dotted, Some("fold of cycles")));
     }
     let mut torus = Vec::new();
@@ -466,7 +486,8 @@ fn corner_panel(c: &Corner) -> Panel {
         torus.push((f64::NAN, f64::NAN));
         torus.extend(t.points.iter().map(|q| (q.v_mps, q.d_s)));
     }
-    if !torus.is_empty() {
+    let torus = inside_window(torus, w);
+    if torus.iter().any(|p| p.0.is_finite()) {
         panel = panel.with(Layer::line(
             torus,
             Rgb::palette(4),
@@ -573,10 +594,15 @@ fn section_panel(r: &ProbeRun) -> Panel {
         .evidence
         .section_rotation_number
         .map_or("–".into(), |x| format!("{x:.4}"));
+    let shape = match r.evidence.section_period {
+        Some(1) => "a point".to_string(),
+        Some(k) => format!("a set of {k} points"),
+        None => format!("no repetition, ρ = {rho}"),
+    };
     Panel::new(
         &format!(
-            "section ψ̇ = 0↑: {} points, {} distinct, ρ = {rho}",
-            r.evidence.section_points, r.evidence.section_clusters
+            "section ψ̇ = 0↑ ({} returns): {shape}",
+            r.evidence.section_points
         ),
         "θ [deg]",
         "dθ/dt [deg/s]",
@@ -616,12 +642,18 @@ fn shown_runs(c: &Corner, max: usize) -> Vec<(&sway::bifurcation::corners::Probe
     out
 }
 
+/// File-name stem of delay τ: `tau_200ms` (no dot, which would read as an extension).
+fn tau_stem(tau: f64) -> String {
+    format!("tau_{}ms", (tau * 1000.0).round())
+}
+
 fn render(out: &OutputDir, st: &CornerStudy) -> Result<(), SwayError> {
     let tau = st.tau_s;
+    let stem = tau_stem(tau);
     for (k, c) in st.corners.iter().enumerate() {
         Figure::single(corner_panel(c))
             .titled("Near the corner: Hopf, fold-of-cycles and torus curves, simulated motion")
-            .render(&out.path(&format!("corner_tau_{tau}_{k}")))?;
+            .render(&out.path(&format!("corner_{stem}_{k}")))?;
         let runs = shown_runs(c, 5);
         let panels: Vec<Panel> = runs
             .iter()
@@ -631,11 +663,14 @@ fn render(out: &OutputDir, st: &CornerStudy) -> Result<(), SwayError> {
             let rows = runs.len();
             Figure::grid(panels, rows, 2, (1300, 330 * rows as u32))
                 .titled("Hitch-angle spectra and Poincaré sections (θ, dθ/dt at upward zero crossings of ψ̇)")
-                .render(&out.path(&format!("evidence_tau_{tau}_{k}")))?;
+                .render(&out.path(&format!("evidence_{stem}_{k}")))?;
         }
         for m in &c.mode_curves {
             out.write_table(
-                &format!("hopf_near_corner_tau_{tau}_{k}_{:.2}.csv", m.omega_at_corner_rad_s),
+                &format!(
+                    "hopf_near_corner_{stem}_{k}_omega_{:.0}.csv",
+                    100.0 * m.omega_at_corner_rad_s
+                ),
                 m.points.iter().copied(),
             )?;
         }

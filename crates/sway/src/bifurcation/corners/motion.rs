@@ -248,6 +248,18 @@ pub fn section_rotation_number(s: &[f64]) -> Option<f64> {
     Some((mean_turn / tau).abs())
 }
 
+/// The period of a section sequence: the smallest k ≤ `max_k` with |s_{i+k} − s_i| ≤ `tol`
+/// for every i of the second half (a fixed point: 1, a finite set of k points: k); None if
+/// the sequence does not repeat (a closed curve or a cloud) or has fewer than 2·`max_k` + 2
+/// values.
+pub fn section_period(s: &[f64], max_k: usize, tol: f64) -> Option<usize> {
+    if s.len() < 2 * max_k + 2 {
+        return None;
+    }
+    let tail = &s[s.len() / 2..];
+    (1..=max_k).find(|&k| tail.windows(k + 1).all(|w| (w[k] - w[0]).abs() <= tol))
+}
+
 /// Number of clusters of `values`: sorted, a gap larger than `tol` starts a new one.
 pub fn cluster_count(values: &[f64], tol: f64) -> usize {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
@@ -279,6 +291,9 @@ pub struct MotionEvidence {
     pub section_points: usize,
     /// number of distinct section values (clusters at `section_tolerance` × amplitude)
     pub section_clusters: usize,
+    /// the section repeats after this many returns (a finite set; `section_tolerance` ×
+    /// amplitude, up to 2·`max_subharmonic`); None: it does not repeat (a curve)
+    pub section_period: Option<usize>,
     /// rotation number of the section, folded to [0, ½]
     pub section_rotation_number: Option<f64>,
 }
@@ -313,6 +328,11 @@ pub fn classify(signal: &[f64], dt: f64, section: &[f64], o: &MotionOptions) -> 
         frequency_ratio: None,
         section_points: section.len(),
         section_clusters: cluster_count(section, o.section_tolerance * a2.max(o.rest_amplitude)),
+        section_period: section_period(
+            section,
+            2 * o.max_subharmonic,
+            o.section_tolerance * a2.max(o.rest_amplitude),
+        ),
         section_rotation_number: section_rotation_number(section),
     };
     ev.class = if !finite || (a1 > 0.0 && a2 > o.growth_ratio * a1) {
@@ -320,9 +340,23 @@ pub fn classify(signal: &[f64], dt: f64, section: &[f64], o: &MotionOptions) -> 
     } else if a2 < o.rest_amplitude || a2 < o.decay_ratio * a1 {
         MotionClass::Equilibrium
     } else if let Some((w0, k)) = periodic_fundamental(&peaks, spec.resolution_rad_s, o) {
-        ev.base_frequencies_rad_s = vec![w0];
-        ev.frequency_ratio = Some(k as f64);
-        MotionClass::Periodic
+        // the section must agree: a periodic motion returns to a finite set; if it does
+        // not, a weak second frequency below the threshold modulates it
+        let weak = spectral_peaks(&spec, 1e-2 * o.peak_threshold);
+        let repeats = ev.section_period.is_some() || section.len() < 4 * o.max_subharmonic + 2;
+        match torus_frequencies(&weak, spec.resolution_rad_s, o) {
+            Some((w1, w2)) if !repeats => {
+                ev.base_frequencies_rad_s = vec![w1, w2];
+                ev.frequency_ratio = Some(w2 / w1);
+                peaks = weak;
+                MotionClass::QuasiPeriodic
+            }
+            _ => {
+                ev.base_frequencies_rad_s = vec![w0];
+                ev.frequency_ratio = Some(k as f64);
+                MotionClass::Periodic
+            }
+        }
     } else if let Some((w1, w2)) = torus_frequencies(&peaks, spec.resolution_rad_s, o) {
         ev.base_frequencies_rad_s = vec![w1, w2];
         ev.frequency_ratio = Some(w2 / w1);
@@ -425,8 +459,9 @@ mod tests {
         let ev = classify(&x, DT, &section_of(&x, w), &MotionOptions::default());
         assert_eq!(ev.class, MotionClass::Periodic, "{ev:?}");
         assert!((ev.base_frequencies_rad_s[0] - w).abs() < 0.01, "{ev:?}");
-        // the section is one point (one cluster)
+        // the section is one point (one cluster, period 1)
         assert_eq!(ev.section_clusters, 1, "{ev:?}");
+        assert_eq!(ev.section_period, Some(1), "{ev:?}");
     }
 
     #[test]
@@ -460,6 +495,7 @@ mod tests {
         // the section fills a closed curve: almost every return is a new value (a few of
         // the 124 land within the cluster tolerance 1e-3·amplitude of an earlier one)
         assert!(ev.section_clusters > 8 * s.len() / 10, "{ev:?}");
+        assert_eq!(ev.section_period, None, "{ev:?}");
     }
 
     #[test]
@@ -470,6 +506,24 @@ mod tests {
         let ev = classify(&x, DT, &section_of(&x, w1), &MotionOptions::default());
         assert_eq!(ev.class, MotionClass::Periodic, "{ev:?}");
         assert_eq!(ev.section_clusters, 2, "{ev:?}");
+        assert_eq!(ev.section_period, Some(2), "{ev:?}");
+    }
+
+    #[test]
+    fn a_weak_second_frequency_seen_in_the_section_is_quasi_periodic() {
+        // reference: a second, incommensurate sine at 3e-4 of the first (below the 1e-3
+        // peak threshold, above 1e-2 of it): the spectrum alone says periodic, the section
+        // does not repeat (at a section tolerance of 1e-5 of the amplitude, below the
+        // modulation 3e-4), so the weak peaks decide: quasi-periodic with ω2 to 0.01 rad/s
+        let (w1, w2) = (3.9, 3.9 * 0.5 * (1.0 + 5f64.sqrt()));
+        let x = sampled(|t| (w1 * t).sin() + 3e-4 * (w2 * t).sin());
+        let o = MotionOptions {
+            section_tolerance: 1e-5,
+            ..MotionOptions::default()
+        };
+        let ev = classify(&x, DT, &section_of(&x, w1), &o);
+        assert_eq!(ev.class, MotionClass::QuasiPeriodic, "{ev:?}");
+        assert!((ev.base_frequencies_rad_s[1] - w2).abs() < 0.01, "{ev:?}");
     }
 
     #[test]

@@ -135,7 +135,7 @@ pub struct SpectralPeak {
 /// The Hann-windowed amplitude spectrum of `signal` sampled every `dt` (mean removed).
 pub fn spectrum(signal: &[f64], dt: f64) -> Spectrum {
     let n = signal.len();
-    if n < 4 || !(dt > 0.0) {
+    if n < 4 || dt.is_nan() || dt <= 0.0 {
         return Spectrum {
             resolution_rad_s: f64::NAN,
             amplitude: Vec::new(),
@@ -163,7 +163,7 @@ pub fn spectrum(signal: &[f64], dt: f64) -> Spectrum {
 pub fn spectral_peaks(s: &Spectrum, threshold: f64) -> Vec<SpectralPeak> {
     let a = &s.amplitude;
     let top = a.iter().skip(2).copied().fold(0.0, f64::max);
-    if a.len() < 5 || !(top > 0.0) {
+    if a.len() < 5 || top.is_nan() || top <= 0.0 {
         return Vec::new();
     }
     let mut peaks: Vec<SpectralPeak> = (2..a.len() - 2)
@@ -226,7 +226,7 @@ pub fn section_rotation_number(s: &[f64]) -> Option<f64> {
     let l11 = cxx.sqrt();
     let l21 = cxy / l11;
     let l22_sq = cyy - l21 * l21;
-    if !(l11 > 0.0) || !(l22_sq > 1e-12 * (cxx + cyy)) {
+    if l11.is_nan() || l11 <= 0.0 || l22_sq.is_nan() || l22_sq <= 1e-12 * (cxx + cyy) {
         return None;
     }
     let l22 = l22_sq.sqrt();

@@ -28,6 +28,11 @@
 //! - [`FoldOfCyclesSystem`]: folds of periodic orbits continued in two parameters (extended
 //!   system with the null vector, exact second derivatives, sparse), with cusps of cycles and
 //!   the end at a generalised Hopf point.
+//! - [`torus`]: torus (Neimark–Sacker) points of cycles located on cycle branches and
+//!   continued in two parameters ([`TorusCurveSystem`]: extended system with the periodic
+//!   Floquet mode, exact second derivatives, sparse), with the multiplier angle and
+//!   rotation number, strong resonances, and the start at a double-Hopf point
+//!   ([`DoubleHopfPoint`]) onto both cycle families and both torus curves.
 //!
 //! - [`textbook`]: problems with closed-form answers (normal forms, delayed oscillators) with
 //!   exact derivatives, to test a setup against a known answer.
@@ -96,6 +101,7 @@ mod problem;
 mod roots;
 mod stability;
 pub mod textbook;
+pub mod torus;
 
 pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
@@ -114,6 +120,10 @@ pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
 pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
 pub use roots::{CharacteristicRoots, ChebyshevRoots, Refinement, refine_root};
 pub use stability::{Criticality, Location, SpecialKind, SpecialPoint, SpectrumKind, Stability};
+pub use torus::{
+    DoubleHopfEnd, DoubleHopfPoint, Resonance, TorusCurveOptions, TorusCurvePoint, TorusCurveStop,
+    TorusCurveSystem, TorusPoint,
+};
 
 /// Criticality of a Hopf bifurcation from the computed cycle branch: subcritical if the
 /// cycles emanate to the side of the parameter where the equilibrium is stable.

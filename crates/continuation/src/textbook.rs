@@ -741,3 +741,208 @@ textbook_problem! { DelayedOscillators, delay = p[1], free;
         Ok(())
     }
 }
+
+/// Two oscillators with a delayed coupling, built so that the double-Hopf point, both cycle
+/// families and the torus (Neimark–Sacker) curves of one of them are known in closed form
+/// (z1 = x0 + i x1, z2 = x2 + i x3, p = [μ, ν, τ]):
+///
+/// z1' = (μ + i(ω1 + b|z1|²) − |z1|² + e|z2|²) z1,
+/// z2' = (ν + iω2 + c|z1(t−τ)|² − |z2|²) z2 + κ (z2(t−τ) − z2(t)).
+///
+/// With `delayed = false` the system is the ODE with τ = 0 (|z1(t)|² in the z2 equation, no
+/// κ term). Let Ω solve Ω = ω2 − κ sin Ωτ (unique for κτ < 1; ODE: Ω = ω2) and
+/// D = κ(1 − cos Ωτ) (ODE: 0). Then
+/// - the equilibrium 0 has Hopf points on μ = 0 (frequency ω1) and on ν = D (frequency Ω),
+///   a double-Hopf point at (μ, ν) = (0, D);
+/// - cycle 1: |z1|² = μ, z2 = 0, period T = 2π/(ω1 + bμ); along it the z2-block is
+///   time-invariant, so its Neimark–Sacker curve is ν = −cμ + D (μ > 0) with the multiplier
+///   e^{iθ}, θ = ΩT mod 2π ([`TorusTestBed::torus_curve_one`]);
+/// - cycle 2: z1 = 0, |z2|² = ν − D, frequency Ω; its Neimark–Sacker curve is
+///   μ = −e(ν − D) (ν > D), θ = 2πω1/Ω mod 2π.
+#[derive(Debug, Clone, Copy)]
+pub struct TorusTestBed {
+    /// frequency ω1 of oscillator 1 at zero amplitude \[rad / time unit\]
+    pub omega1: f64,
+    /// frequency shift b of oscillator 1 per |z1|²
+    pub b: f64,
+    /// effect c of the (delayed) |z1|² on the growth rate of oscillator 2
+    pub c: f64,
+    /// effect e of |z2|² on the growth rate of oscillator 1
+    pub e: f64,
+    /// frequency ω2 of oscillator 2 \[rad / time unit\]
+    pub omega2: f64,
+    /// delayed self-coupling κ of oscillator 2 (ignored without delay)
+    pub kappa: f64,
+    /// whether the delay τ = p\[2\] is present (false: the ODE)
+    pub delayed: bool,
+}
+
+impl TorusTestBed {
+    /// The example of the torus research note: ω1 = 1, b = 0.2, c = 0.5, e = 0.3, ω2 = 1.3,
+    /// κ = 0.3 (use τ = 2.5 = p\[2\], so that τ/T ≈ 0.4 and the delayed points wrap).
+    pub fn delayed() -> Self {
+        Self {
+            omega1: 1.0,
+            b: 0.2,
+            c: 0.5,
+            e: 0.3,
+            omega2: 1.3,
+            kappa: 0.3,
+            delayed: true,
+        }
+    }
+
+    /// The same oscillators without delay (κ = 0, τ unused): an ODE.
+    pub fn ode() -> Self {
+        Self {
+            kappa: 0.0,
+            delayed: false,
+            ..Self::delayed()
+        }
+    }
+
+    /// (Ω, D) for the delay τ: Ω = ω2 − κ sin Ωτ (fixed-point iteration, a contraction for
+    /// κτ < 1) and D = κ(1 − cos Ωτ); the second Hopf curve is ν = D with frequency Ω.
+    pub fn second_hopf(&self, tau: f64) -> (f64, f64) {
+        if !self.delayed {
+            return (self.omega2, 0.0);
+        }
+        let mut w = self.omega2;
+        for _ in 0..500 {
+            w = self.omega2 - self.kappa * (w * tau).sin();
+        }
+        (w, self.kappa * (1.0 - (w * tau).cos()))
+    }
+
+    /// The Neimark–Sacker curve of cycle 1 at μ > 0 for the delay τ: (ν, T, θ) with
+    /// ν = −cμ + D, the period T = 2π/(ω1 + bμ) and the angle θ = ΩT reduced to \[0, 2π).
+    pub fn torus_curve_one(&self, mu: f64, tau: f64) -> (f64, f64, f64) {
+        let (w, d) = self.second_hopf(tau);
+        let period = 2.0 * std::f64::consts::PI / (self.omega1 + self.b * mu);
+        let theta = (w * period).rem_euclid(2.0 * std::f64::consts::PI);
+        (-self.c * mu + d, period, theta)
+    }
+
+    /// Jacobian with respect to [x, y] (4 × 8, row-major), y = x(t − τ) (y = x without delay)
+    fn jacobian8(&self, x: &[f64], y: &[f64], p: &[f64], j: &mut [f64; 32]) {
+        let (r1, r2) = (dot2(&x[..2], &x[..2]), dot2(&x[2..], &x[2..]));
+        let s = dot2(&y[..2], &y[..2]);
+        let (g1, w1) = (p[0] - r1 + self.e * r2, self.omega1 + self.b * r1);
+        let kappa = if self.delayed { self.kappa } else { 0.0 };
+        let g2 = p[1] - kappa + self.c * s - r2;
+        let (b, e, c) = (self.b, self.e, self.c);
+        *j = [0.0; 32];
+        // f0 = g1 x0 − w1 x1, f1 = w1 x0 + g1 x1
+        j[0] = g1 - 2.0 * x[0] * x[0] - 2.0 * b * x[0] * x[1];
+        j[1] = -2.0 * x[0] * x[1] - w1 - 2.0 * b * x[1] * x[1];
+        j[2] = 2.0 * e * x[0] * x[2];
+        j[3] = 2.0 * e * x[0] * x[3];
+        j[8] = w1 + 2.0 * b * x[0] * x[0] - 2.0 * x[0] * x[1];
+        j[9] = 2.0 * b * x[0] * x[1] + g1 - 2.0 * x[1] * x[1];
+        j[10] = 2.0 * e * x[1] * x[2];
+        j[11] = 2.0 * e * x[1] * x[3];
+        // f2 = g2 x2 − ω2 x3 + κ y2, f3 = ω2 x2 + g2 x3 + κ y3
+        j[18] = g2 - 2.0 * x[2] * x[2];
+        j[19] = -2.0 * x[2] * x[3] - self.omega2;
+        j[20] = 2.0 * c * y[0] * x[2];
+        j[21] = 2.0 * c * y[1] * x[2];
+        j[22] = kappa;
+        j[26] = self.omega2 - 2.0 * x[2] * x[3];
+        j[27] = g2 - 2.0 * x[3] * x[3];
+        j[28] = 2.0 * c * y[0] * x[3];
+        j[29] = 2.0 * c * y[1] * x[3];
+        j[31] = kappa;
+    }
+
+    /// the stacked arguments' current and delayed parts (the same without delay)
+    fn split<'a>(&self, args: &'a [f64]) -> (&'a [f64], &'a [f64]) {
+        if self.delayed {
+            (&args[..4], &args[4..8])
+        } else {
+            (&args[..4], &args[..4])
+        }
+    }
+
+    /// J·v of the arguments' Jacobian (4 × 8) applied to the stacked direction v, with the
+    /// delayed columns folded onto the current ones without delay
+    fn apply8(&self, j: &[f64; 32], v: &[f64], out: &mut [f64]) {
+        let (vx, vy) = self.split(v);
+        for (r, o) in out.iter_mut().enumerate().take(4) {
+            *o = (0..4)
+                .map(|k| j[r * 8 + k] * vx[k] + j[r * 8 + 4 + k] * vy[k])
+                .sum();
+        }
+    }
+}
+
+textbook_problem! { TorusTestBed;
+    fn dim(self) { 4 }
+    fn n_delays(self) { usize::from(self.delayed) }
+    fn delay(self, _j, p) { p[2] }
+    fn delay_dp(self, _j, _p, ip) { if ip == 2 { 1.0 } else { 0.0 } }
+    fn rhs(self, args, p, f) {
+        let (x, y) = self.split(args);
+        let (r1, r2) = (dot2(&x[..2], &x[..2]), dot2(&x[2..], &x[2..]));
+        let s = dot2(&y[..2], &y[..2]);
+        let (g1, w1) = (p[0] - r1 + self.e * r2, self.omega1 + self.b * r1);
+        let kappa = if self.delayed { self.kappa } else { 0.0 };
+        let g2 = p[1] - kappa + self.c * s - r2;
+        f[0] = g1 * x[0] - w1 * x[1];
+        f[1] = w1 * x[0] + g1 * x[1];
+        f[2] = g2 * x[2] - self.omega2 * x[3] + kappa * y[2];
+        f[3] = self.omega2 * x[2] + g2 * x[3] + kappa * y[3];
+    }
+    fn jacobian(self, args, p, j) {
+        let (x, y) = self.split(args);
+        let mut j8 = [0.0; 32];
+        self.jacobian8(x, y, p, &mut j8);
+        for r in 0..4 {
+            for k in 0..4 {
+                if self.delayed {
+                    j[r * 8 + k] = j8[r * 8 + k];
+                    j[r * 8 + 4 + k] = j8[r * 8 + 4 + k];
+                } else {
+                    j[r * 4 + k] = j8[r * 8 + k] + j8[r * 8 + 4 + k];
+                }
+            }
+        }
+    }
+    fn dfdp(self, args, _p, ip, out) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        match ip {
+            0 => out[..2].copy_from_slice(&args[..2]),
+            1 => out[2..4].copy_from_slice(&args[2..4]),
+            _ => {}
+        }
+    }
+    // The Jacobian is a quadratic polynomial of the arguments X, so
+    // (J(X + a) − J(X − a))·b / 2 = f_XX[a, b] exactly (up to rounding).
+    fn second_derivative(self, args, p, a, b, out) {
+        let na = args.len();
+        let (mut plus, mut minus) = ([0.0; 8], [0.0; 8]);
+        for i in 0..na {
+            plus[i] = args[i] + a[i];
+            minus[i] = args[i] - a[i];
+        }
+        let (mut jp, mut jm) = ([0.0; 32], [0.0; 32]);
+        let ((xp, yp), (xm, ym)) = (self.split(&plus[..na]), self.split(&minus[..na]));
+        self.jacobian8(xp, yp, p, &mut jp);
+        self.jacobian8(xm, ym, p, &mut jm);
+        let (mut op, mut om) = ([0.0; 4], [0.0; 4]);
+        self.apply8(&jp, b, &mut op);
+        self.apply8(&jm, b, &mut om);
+        for r in 0..4 {
+            out[r] = 0.5 * (op[r] - om[r]);
+        }
+        Ok(())
+    }
+    fn jacobian_dp(self, _args, _p, ip, a, out) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        match ip {
+            0 => out[..2].copy_from_slice(&a[..2]),
+            1 => out[2..4].copy_from_slice(&a[2..4]),
+            _ => {}
+        }
+        Ok(())
+    }
+}

@@ -24,8 +24,7 @@ use sway::SwayError;
 use sway::bifurcation::chart::ChartOptions;
 use sway::bifurcation::corners::motion::MotionClass;
 use sway::bifurcation::corners::{
-    Corner, CornerOptions, CornerStudy, ProbeRun, TorusCurveSource, corner_study,
-    no_torus_curves,
+    Corner, CornerOptions, CornerStudy, ProbeRun, corner_study,
 };
 use sway::config::{ensure, ensure_positive};
 use trailer_model::Model;
@@ -372,14 +371,10 @@ pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
 ///
 /// # Errors
 /// The first failing delay's error.
-pub fn compute(
-    model: &Model,
-    cfg: &CornersConfig,
-    torus: TorusCurveSource<'_>,
-) -> Result<Vec<CornerStudy>, SwayError> {
+pub fn compute(model: &Model, cfg: &CornersConfig) -> Result<Vec<CornerStudy>, SwayError> {
     cfg.delays_s
         .par_iter()
-        .map(|&tau| corner_study(model, tau, &cfg.chart, &cfg.corners, torus))
+        .map(|&tau| corner_study(model, tau, &cfg.chart, &cfg.corners))
         .collect()
 }
 
@@ -738,7 +733,7 @@ impl Prepared for Configured<CornersConfig> {
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress
             .start("corners: double-Hopf points, curves, simulations", cfg.delays_s.len() as u64);
-        let studies = compute(&ctx.model, cfg, &no_torus_curves)?;
+        let studies = compute(&ctx.model, cfg)?;
         ctx.progress.advance(cfg.delays_s.len() as u64);
         for st in &studies {
             render(&out, st)?;

@@ -96,6 +96,8 @@ pub struct CornerOptions {
     pub motion: MotionOptions,
     /// the search for attracting quasi-periodic motion by simulation
     pub torus_scan: TorusScan,
+    /// the torus-curve continuation from each double-Hopf point (`max_points = 0`: none)
+    pub torus_curves: TorusContinuation,
 }
 
 /// The search for attracting tori by simulation: at each speed V_HH + offset and for each
@@ -147,6 +149,7 @@ impl Default for CornerOptions {
             simulation: ProbeSimulation::default(),
             motion: MotionOptions::default(),
             torus_scan: TorusScan::default(),
+            torus_curves: TorusContinuation::default(),
         }
     }
 }
@@ -514,6 +517,8 @@ pub struct Corner {
     /// the torus boundary observed by simulation ([`TorusScan`]): (V, D) where the large
     /// sway cycle turns quasi-periodic, to within the scan's tolerance in D
     pub observed_torus_boundary: Vec<ObservedTorusPoint>,
+    /// what the analysis noticed (torus curves that could not be started)
+    pub notes: Vec<String>,
     /// distance in V \[m/s\] to the double-Hopf point the continuation of the nonlinear
     /// chart located on its Hopf curves (an independent computation), if it found one
     pub continuation_offset_mps: Option<f64>,
@@ -534,25 +539,144 @@ pub struct CornerStudy {
     pub notes: Vec<String>,
 }
 
-/// A source of torus curves near a double-Hopf point: given the model, the nonlinear chart
-/// of the delay and the point, the torus curves (empty when none is known). The pipeline
-/// calls it once per point.
-pub type TorusCurveSource<'a> = &'a (
-        dyn Fn(&Model, &NonlinearChart, &DoubleHopfPoint) -> Result<Vec<TorusCurve>, SwayError>
-            + Sync
-    );
+/// Settings of the torus-curve continuation from a double-Hopf point
+/// ([`continued_torus_curves`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TorusContinuation {
+    /// amplitude of the first cycle along the critical eigenvector (unit norm in
+    /// \[σ1 m/s, σ2 1/s, σ3 1/s, θ rad\])
+    pub amplitude: f64,
+    /// mesh intervals L of the cycles (degree 4)
+    pub intervals: usize,
+    /// first continuation step (weighted arclength)
+    pub initial_step: f64,
+    /// largest step
+    pub max_step: f64,
+    /// at most this many points per torus curve (0: no torus curves)
+    pub max_points: usize,
+    /// the curve ends at a double-Hopf point when the cycle amplitude falls below this
+    pub min_amplitude: f64,
+}
 
-/// No torus curves (the torus-curve continuation is not wired in).
-pub fn no_torus_curves(
-    _: &Model,
-    _: &NonlinearChart,
-    _: &DoubleHopfPoint,
-) -> Result<Vec<TorusCurve>, SwayError> {
-    Ok(Vec::new())
+impl Default for TorusContinuation {
+    fn default() -> Self {
+        Self {
+            amplitude: 0.02,
+            intervals: 30,
+            initial_step: 0.05,
+            max_step: 0.5,
+            max_points: 80,
+            min_amplitude: 5e-3,
+        }
+    }
+}
+
+/// The torus curves T1, T2 that emanate from the double-Hopf point `p` (cycle family i of
+/// frequency ω_i losing stability to the other mode), continued in (V, D) with the
+/// `continuation` crate's [`continuation::TorusCurveSystem`] from the point itself
+/// (branch switching without normal-form coefficients), each until it leaves the zoom
+/// `window`, reaches a strong resonance or `max_points`. A family whose continuation fails
+/// is reported in the notes (second value) instead of failing the analysis.
+pub fn continued_torus_curves(
+    model: &Model,
+    p: &DoubleHopfPoint,
+    window: [f64; 4],
+    o: &TorusContinuation,
+) -> (Vec<TorusCurve>, Vec<String>) {
+    let fb = super::Feedback {
+        gain_d_s: p.d_s,
+        delay_s: p.tau_s,
+    };
+    let problem = super::ClosedLoop::new(model, fb);
+    let mut curves = Vec::new();
+    let mut notes = Vec::new();
+    for family in [0, 1] {
+        match torus_curve(&problem, p, family, window, o) {
+            Ok(c) => curves.push(c),
+            Err(e) => notes.push(format!(
+                "torus curve of the ω = {:.3} rad/s cycles from the double Hopf at V = {:.3} m/s: {e}",
+                [p.omega1_rad_s, p.omega2_rad_s][family],
+                p.v_mps
+            )),
+        }
+    }
+    (curves, notes)
+}
+
+/// One torus curve from the double-Hopf point (family 0: the ω1 cycles, 1: the ω2 cycles).
+fn torus_curve(
+    problem: &super::ClosedLoop<'_>,
+    p: &DoubleHopfPoint,
+    family: usize,
+    w: [f64; 4],
+    o: &TorusContinuation,
+) -> Result<TorusCurve, continuation::Error> {
+    use continuation::{
+        CollocationOptions, Continuation, ContinuationOptions, TorusCurveOptions, TorusCurveStop,
+        TorusCurveSystem,
+    };
+    let hh = continuation::DoubleHopfPoint::new(
+        problem,
+        problem.parameters(p.v_mps),
+        vec![0.0; 4],
+        [p.omega1_rad_s, p.omega2_rad_s],
+    )?;
+    let colloc = CollocationOptions {
+        intervals: o.intervals,
+        ..CollocationOptions::default()
+    };
+    let options = TorusCurveOptions {
+        min_amplitude: o.min_amplitude,
+        multipliers: false,
+        ..TorusCurveOptions::default()
+    };
+    let free = [super::SPEED, super::GAIN];
+    let (mut sys, guess, dir) = TorusCurveSystem::from_double_hopf(
+        problem,
+        &hh,
+        free,
+        family,
+        o.amplitude,
+        colloc,
+        options,
+    )?;
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (w[0], w[1]),
+        ..Default::default()
+    });
+    let mut b = cont.start(&mut sys, &guess, &dir)?;
+    let running = TorusCurveStop::Continuation(continuation::Stop::MaxPoints);
+    while b.points.len() < o.max_points {
+        let stop = sys.extend_curve(&cont, &mut b, 4)?;
+        let d = sys.curve_point(&b.points[b.points.len() - 1].u).parameters[1];
+        if d < w[2] || d > w[3] || stop != running {
+            break;
+        }
+    }
+    let points = b
+        .points
+        .iter()
+        .map(|pt| {
+            let c = sys.curve_point(&pt.u);
+            TorusPoint {
+                v_mps: c.parameters[0],
+                d_s: c.parameters[1],
+                period_s: c.period,
+                rotation_number: c.rotation_number,
+            }
+        })
+        .collect();
+    Ok(TorusCurve {
+        family_omega_rad_s: [p.omega1_rad_s, p.omega2_rad_s][family],
+        points,
+    })
 }
 
 /// The corner analysis of delay τ \[s\] (module documentation), with the nonlinear chart's
-/// options `chart` (its box is the range searched) and the torus curves from `torus`.
+/// options `chart` (its box is the range searched).
 ///
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage.
@@ -561,7 +685,6 @@ pub fn corner_study(
     tau: f64,
     chart: &ChartOptions,
     o: &CornerOptions,
-    torus: TorusCurveSource<'_>,
 ) -> Result<CornerStudy, SwayError> {
     let (v_range, d_range) = (
         (chart.v_min_mps, chart.v_max_mps),
@@ -575,9 +698,10 @@ pub fn corner_study(
     let beyond_range = beyond(model, tau, v_range, d_range, o)?;
     let corners = double_hopf
         .iter()
-        .map(|p| corner(model, &nl, p, o, torus))
+        .map(|p| corner(model, &nl, p, o))
         .collect::<Result<Vec<_>, _>>()?;
     let mut notes = nl.notes.clone();
+    notes.extend(corners.iter().flat_map(|c| c.notes.iter().cloned()));
     if double_hopf.is_empty() {
         notes.push(format!(
             "no double-Hopf point for V in [{}, {}] m/s, D in [{}, {}] s",
@@ -616,7 +740,6 @@ fn corner(
     nl: &NonlinearChart,
     p: &DoubleHopfPoint,
     o: &CornerOptions,
-    torus: TorusCurveSource<'_>,
 ) -> Result<Corner, SwayError> {
     let (hv, hd) = (o.zoom_half_width_v_mps, o.zoom_half_width_d_s);
     let window = [p.v_mps - hv, p.v_mps + hv, p.d_s - hd, p.d_s + hd];
@@ -625,6 +748,11 @@ fn corner(
         .map(|&w| mode_curve(model, nl, p, w, window, o.zoom_curve_samples))
         .collect::<Result<Vec<_>, _>>()?;
     let regions = window_chart(model, p.tau_s, window, o.zoom_cells)?;
+    let (torus_curves, notes) = if o.torus_curves.max_points > 0 {
+        continued_torus_curves(model, p, window, &o.torus_curves)
+    } else {
+        (Vec::new(), Vec::new())
+    };
     let mut probes = probe_points(p, o)
         .par_iter()
         .enumerate()
@@ -651,7 +779,8 @@ fn corner(
         window,
         mode_curves,
         fold_curves: fold_curves_in(nl, window),
-        torus_curves: torus(model, nl, p)?,
+        torus_curves,
+        notes,
         regions,
         probes,
         observed_torus_boundary,

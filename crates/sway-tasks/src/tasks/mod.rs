@@ -39,6 +39,7 @@ registry! {
     fig4b => [TASK],
     fig4c => [TASK],
     chart_nonlinear => [TASK],
+    corners => [TASK],
     gain_design => [TASK],
     simulate => [TASK],
     mitigation => [TASK],

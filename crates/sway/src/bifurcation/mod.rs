@@ -29,6 +29,7 @@ use crate::SwayError;
 
 pub mod chart;
 mod closed_loop;
+pub mod corners;
 pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, SPEED};
 
 /// Options of the bifurcation diagram of one feedback setting.

@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 use sway::SwayError;
 use sway::progress::Progress;
 use sway::sim::sweep::{PointResult, Sweep, SweepConfig};
-use trailer_model::VehicleParams;
+use trailer_model::{Model, VehicleParams};
 
 use crate::config_file::{TaskConfig, load_toml};
 use crate::io::OutputDir;
@@ -1127,7 +1127,7 @@ mod tests {
         let h = hash(&cfg, &v, &[]);
         assert_eq!(h, hash(&cfg, &v, &[]));
         let mut c2 = cfg.clone();
-        c2.axes[0].points = 4;
+        c2.axes[0].points = Some(4);
         assert_ne!(h, hash(&c2, &v, &[]));
         let mut v2 = v;
         v2.trailer.mass *= 1.0 + f64::EPSILON;

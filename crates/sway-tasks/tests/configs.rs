@@ -43,7 +43,11 @@ fn shipped_configs_load_and_validate() {
     let c: SweepConfig = sway_tasks::config_file::load_toml(&f).unwrap();
     c.validate(&f).unwrap();
     assert!(c.grid_len() >= 64 * 16);
-    for name in ["study_uncertainty.toml", "study_fleet.toml", "sweep_brake_timing.toml"] {
+    for name in [
+        "study_uncertainty.toml",
+        "study_fleet.toml",
+        "sweep_brake_timing.toml",
+    ] {
         let f = root.join(name);
         let c: SweepConfig = sway_tasks::config_file::load_toml(&f).unwrap();
         c.validate(&f).unwrap();

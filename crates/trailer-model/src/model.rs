@@ -266,6 +266,52 @@ impl Model {
         speed * c + x[0] * s
     }
 
+    /// |tan α_F| and |tan α_R| of the tractor's axles (eq. 2), without inverse
+    /// trigonometry: comparing them with tan α_cr is comparing |α| with α_cr, since tan is
+    /// increasing on [0, π/2). Where |α_F| ≥ π/2 (1 + r_F tan δ ≤ 0, far beyond sliding) the
+    /// front value is +∞. At δ = 0 no trigonometric function is called (the open loop's
+    /// validity check, once per solver step).
+    pub fn axle_slip_tangents(&self, x: &State4, u: &Inputs) -> (f64, f64) {
+        let t = self.slip_tangents(x, u, &self.kinematics_without_angle(x));
+        let front = if u.steering_angle == 0.0 {
+            t.front.abs()
+        } else {
+            let tan_delta = u.steering_angle.tan();
+            let den = 1.0 + t.front * tan_delta;
+            if den > 0.0 {
+                ((tan_delta - t.front) / den).abs()
+            } else {
+                f64::INFINITY
+            }
+        };
+        (front, t.rear.abs())
+    }
+
+    /// tan α_cr of the front and rear tires (+∞ for a tire without a sliding limit or with
+    /// α_cr ≥ π/2), for comparison with [`Self::axle_slip_tangents`].
+    pub fn critical_slip_tangents(&self) -> (f64, f64) {
+        let a = self.critical_slip_angles();
+        let tan = |a: f64| {
+            if a < std::f64::consts::FRAC_PI_2 {
+                a.tan()
+            } else {
+                f64::INFINITY
+            }
+        };
+        (tan(a.front), tan(a.rear))
+    }
+
+    /// The yaw rate and the slip ratios of the tractor's axles do not depend on θ: the
+    /// kinematics with the θ-dependent parts left NaN (they are not read).
+    fn kinematics_without_angle(&self, x: &State4) -> Kinematics<f64> {
+        Kinematics {
+            sin_theta: f64::NAN,
+            cos_theta: f64::NAN,
+            yaw_rate: self.yaw_rate(x),
+            hitch_angle_rate: f64::NAN,
+        }
+    }
+
     /// Slip angles in the body-frame form (equivalent to eq. 2, valid for any heading ψ):
     /// α_F = δ − atan((σ1 + f ψ̇)/V), α_R = −atan((σ1 + c ψ̇)/V),
     /// α_T = −atan((−V sin θ + σ1 cos θ − l (ψ̇ + θ̇)) / (V cos θ + σ1 sin θ)).

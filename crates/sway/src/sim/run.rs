@@ -444,7 +444,7 @@ fn simulate_plant<const N: usize>(
     recording: Recording,
 ) -> Result<SimResult<N>, SwayError> {
     let plant = Plant::<N>::new(model, &spec.profile, spec.controller, x0);
-    let acr = model.critical_slip_angles();
+    let (tan_cr_front, tan_cr_rear) = model.critical_slip_tangents();
     let th_s = spec
         .settings
         .metrics
@@ -468,18 +468,26 @@ fn simulate_plant<const N: usize>(
         ),
     ];
     // the five validity conditions, each "tripped when > 0"; one event on their maximum
-    // (continuous, and zero exactly when the first of them reaches zero) costs one slip-angle
-    // evaluation per call instead of five events
+    // (continuous, and zero exactly when the first of them reaches zero) costs one slip
+    // evaluation per call instead of five events. The sliding conditions |α| > α_cr are
+    // checked as |tan α| > tan α_cr (the same zero set, without inverse trigonometry), and
+    // at δ = 0 the front wheel's speed is V without calls: the check runs once per step.
     let guard_values = move |t: f64, x: &SVector<f64, N>, xd: &[SVector<f64, N>]| -> [f64; 5] {
         let u = pl.inputs(t, x, xd);
         let x4 = reduced(x);
-        let a = model.slip_angles(&x4, &u);
-        let lateral_front = x4[0] + model.yaw_rate(&x4) * f;
+        let (tan_front, tan_rear) = model.axle_slip_tangents(&x4, &u);
+        let front_wheel_speed = if u.steering_angle == 0.0 {
+            u.speed
+        } else {
+            let lateral_front = x4[0] + model.yaw_rate(&x4) * f;
+            let (sd, cd) = u.steering_angle.sin_cos();
+            u.speed * cd + lateral_front * sd
+        };
         [
-            a.front.abs() - acr.front,
-            a.rear.abs() - acr.rear,
+            tan_front - tan_cr_front,
+            tan_rear - tan_cr_rear,
             // longitudinal speed of the front wheel: V cos δ + (σ1 + f ψ̇) sin δ
-            -(u.speed * u.steering_angle.cos() + lateral_front * u.steering_angle.sin()),
+            -front_wheel_speed,
             -u.speed,
             -model.trailer_wheel_speed(&x4, u.speed),
         ]

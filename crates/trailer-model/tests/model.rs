@@ -331,3 +331,32 @@ fn front_force_from_the_tangent_of_a_difference_equals_the_angle_form() {
         "worst difference {worst:e} of the sliding force"
     );
 }
+
+#[test]
+fn axle_slip_tangents_are_the_tangents_of_the_slip_angles() {
+    // Reference: tan |α| of `slip_angles` (the angle form, with atan). Exact identity up to
+    // round-off: tolerance 1e-12 relative (a few ulps of the ratio, amplified by the tangent
+    // of a difference at most 1/(1 + r tan δ), bounded here by keeping |α_F| < 1.4 rad).
+    // 5000 random points with their δ and again with δ = 0; |α_F| ≥ π/2 gives +∞.
+    let model = table_i();
+    let mut checked = 0;
+    for (x, mut u, _) in random_points(11, 5000) {
+        for delta in [u.steering_angle, 0.0] {
+            u.steering_angle = delta;
+            let a = model.slip_angles(&x, &u);
+            let (front, rear) = model.axle_slip_tangents(&x, &u);
+            let close = |want: f64, have: f64| (want - have).abs() <= 1e-12 * want.max(1.0);
+            assert!(close(a.rear.abs().tan(), rear), "{} vs {rear}", a.rear.abs().tan());
+            if a.front.abs() < 1.4 {
+                assert!(close(a.front.abs().tan(), front), "{a:?}: {front}");
+                checked += 1;
+            } else if a.front.abs() >= std::f64::consts::FRAC_PI_2 {
+                assert_eq!(front, f64::INFINITY);
+            }
+        }
+    }
+    assert!(checked > 9000, "{checked}");
+    let (tf, tr) = model.critical_slip_tangents();
+    let acr = model.critical_slip_angles();
+    assert!((tf - acr.front.tan()).abs() < 1e-15 && (tr - acr.rear.tan()).abs() < 1e-15);
+}

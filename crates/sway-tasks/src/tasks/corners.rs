@@ -772,7 +772,7 @@ fn render(out: &OutputDir, st: &CornerStudy) -> Result<(), SwayError> {
             .flatten()
             .any(|&(v, d)| v >= w[0] && v <= w[1] && d >= w[2] && d <= w[3]);
         let title = if !fold_inside {
-            "Near the corner: Hopf and torus curves, simulated motion (no fold-of-cycles curve in the window)"
+            "Near the corner (no fold-of-cycles curve in this window)"
         } else {
             "Near the corner: Hopf, fold-of-cycles and torus curves, simulated motion"
         };

@@ -24,7 +24,8 @@ use sway::SwayError;
 use sway::bifurcation::chart::ChartOptions;
 use sway::bifurcation::corners::motion::MotionClass;
 use sway::bifurcation::corners::{
-    Corner, CornerOptions, CornerStudy, ProbeRun, corner_study,
+    Corner, CornerOptions, CornerStudy, ProbeRun, TorusComparison, TorusCurve, TorusPoint,
+    corner_study,
 };
 use sway::config::{ensure, ensure_positive};
 use trailer_model::Model;
@@ -152,6 +153,57 @@ pub struct TorusExtent {
     pub d_range_s: Option<[f64; 2]>,
     /// their V range \[m/s\] (null without curves)
     pub v_range_mps: Option<[f64; 2]>,
+    /// every curve
+    pub curves: Vec<TorusCurveEntry>,
+}
+
+/// One torus curve in `"torus_curves"`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TorusCurveEntry {
+    /// index of the double-Hopf point of this delay
+    pub corner: usize,
+    /// frequency of the cycle family at the double-Hopf point \[rad/s\]
+    pub family_omega_rad_s: f64,
+    /// frequency of the other mode \[rad/s\]
+    pub other_omega_rad_s: f64,
+    /// points computed
+    pub points: usize,
+    /// D range \[s\]
+    pub d_range_s: Option<[f64; 2]>,
+    /// V range \[m/s\]
+    pub v_range_mps: Option<[f64; 2]>,
+    /// expected multiplier angle at the double-Hopf point, 2π·ω_other/ω_family reduced
+    /// to \[0, π\] \[rad\]
+    pub angle_at_double_hopf_rad: f64,
+    /// multiplier angle at the first point (amplitude `amplitude`) \[rad\]
+    pub first_angle_rad: Option<f64>,
+    /// multiplier angle at the last point \[rad\]
+    pub last_angle_rad: Option<f64>,
+    /// rotation numbers (φ/2π) at the first and last point
+    pub rotation_number_range: Option<[f64; 2]>,
+    /// the curve continued backwards: distance of its extrapolated end to the
+    /// double-Hopf point in V \[m/s\] and D \[s\], and its frequencies (cycle, mode)
+    /// \[rad/s\]; null if it did not get there
+    pub end_offset_v_mps: Option<f64>,
+    /// see `end_offset_v_mps` \[s\]
+    pub end_offset_d_s: Option<f64>,
+    /// see `end_offset_v_mps` \[rad/s\]
+    pub end_omegas_rad_s: Option<[f64; 2]>,
+    /// Floquet multipliers outside the unit circle besides the critical pair, smallest
+    /// and largest over the curve (0: attracting cycles)
+    pub other_unstable_multipliers: Option<[usize; 2]>,
+    /// why the continuation stopped
+    pub stop: String,
+}
+
+/// One entry of `"torus_curve_vs_observed"`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TorusComparisonEntry {
+    /// delay τ \[s\]
+    pub tau_s: f64,
+    /// the comparison
+    #[serde(flatten)]
+    pub comparison: TorusComparison,
 }
 
 /// One entry of `"quasi_periodic_examples"`.
@@ -233,6 +285,9 @@ pub struct ObservedTorusEntry {
     pub d_periodic_s: f64,
     /// the smallest gain seen quasi-periodic \[s\]
     pub d_quasi_periodic_s: f64,
+    /// base frequency of the periodic motion just below (which cycle the kick reached)
+    /// \[rad/s\]
+    pub omega_periodic_rad_s: Option<f64>,
 }
 
 /// `summary.json` of corners (before the common fields).
@@ -241,6 +296,8 @@ pub struct CornersSummary {
     /// where simulations turn quasi-periodic (the torus bifurcation of the large sway
     /// cycles, bisected in D at fixed V)
     pub observed_torus_boundary: Vec<ObservedTorusEntry>,
+    /// the continued torus curves (attracting stretches) at the observed speeds
+    pub torus_curve_vs_observed: Vec<TorusComparisonEntry>,
     /// every double-Hopf point inside the chart's range
     pub double_hopf: Vec<DoubleHopfEntry>,
     /// double-Hopf points beyond the chart's gain range
@@ -268,23 +325,64 @@ fn entry(p: &sway::bifurcation::corners::DoubleHopfPoint, offset: Option<f64>) -
     }
 }
 
+/// [min, max] of `f` over `pts` (None when empty).
+fn range_of(pts: &[TorusPoint], f: fn(&TorusPoint) -> f64) -> Option<[f64; 2]> {
+    let lo = pts.iter().map(f).fold(f64::INFINITY, f64::min);
+    let hi = pts.iter().map(f).fold(f64::NEG_INFINITY, f64::max);
+    (lo <= hi).then_some([lo, hi])
+}
+
+fn curve_entry(k: usize, c: &Corner, t: &TorusCurve) -> TorusCurveEntry {
+    let counts: Vec<usize> = t
+        .points
+        .iter()
+        .filter_map(|p| p.other_unstable_multipliers)
+        .collect();
+    TorusCurveEntry {
+        corner: k,
+        family_omega_rad_s: t.family_omega_rad_s,
+        other_omega_rad_s: t.other_omega_rad_s,
+        points: t.points.len(),
+        d_range_s: range_of(&t.points, |p| p.d_s),
+        v_range_mps: range_of(&t.points, |p| p.v_mps),
+        angle_at_double_hopf_rad: t.angle_at_double_hopf(),
+        first_angle_rad: t.points.first().map(|p| p.multiplier_angle_rad),
+        last_angle_rad: t.points.last().map(|p| p.multiplier_angle_rad),
+        rotation_number_range: t
+            .points
+            .first()
+            .zip(t.points.last())
+            .map(|(a, b)| [a.rotation_number, b.rotation_number]),
+        end_offset_v_mps: t.end.map(|e| e.v_mps - c.point.v_mps),
+        end_offset_d_s: t.end.map(|e| e.d_s - c.point.d_s),
+        end_omegas_rad_s: t.end.map(|e| [e.omega_cycle_rad_s, e.omega_mode_rad_s]),
+        other_unstable_multipliers: counts
+            .iter()
+            .min()
+            .zip(counts.iter().max())
+            .map(|(a, b)| [*a, *b]),
+        stop: t.stop.clone(),
+    }
+}
+
 fn torus_extent(s: &CornerStudy) -> TorusExtent {
-    let pts: Vec<(f64, f64)> = s
+    let pts: Vec<TorusPoint> = s
         .corners
         .iter()
         .flat_map(|c| c.torus_curves.iter())
-        .flat_map(|t| t.points.iter().map(|p| (p.d_s, p.v_mps)))
+        .flat_map(|t| t.points.iter().copied())
         .collect();
-    let range = |f: fn(&(f64, f64)) -> f64| {
-        let lo = pts.iter().map(f).fold(f64::INFINITY, f64::min);
-        let hi = pts.iter().map(f).fold(f64::NEG_INFINITY, f64::max);
-        (lo <= hi).then_some([lo, hi])
-    };
     TorusExtent {
         tau_s: s.tau_s,
         count: s.corners.iter().map(|c| c.torus_curves.len()).sum(),
-        d_range_s: range(|p| p.0),
-        v_range_mps: range(|p| p.1),
+        d_range_s: range_of(&pts, |p| p.d_s),
+        v_range_mps: range_of(&pts, |p| p.v_mps),
+        curves: s
+            .corners
+            .iter()
+            .enumerate()
+            .flat_map(|(k, c)| c.torus_curves.iter().map(move |t| curve_entry(k, c, t)))
+            .collect(),
     }
 }
 
@@ -319,6 +417,7 @@ fn row(tau: f64, k: usize, probe: &sway::bifurcation::corners::Probe, r: &ProbeR
 pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
     let mut s = CornersSummary {
         observed_torus_boundary: Vec::new(),
+        torus_curve_vs_observed: Vec::new(),
         double_hopf: Vec::new(),
         double_hopf_beyond_range: Vec::new(),
         torus_curves: studies.iter().map(torus_extent).collect(),
@@ -344,6 +443,12 @@ pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
                     v_mps: b.v_mps,
                     d_periodic_s: b.d_periodic_s,
                     d_quasi_periodic_s: b.d_quasi_periodic_s,
+                    omega_periodic_rad_s: b.omega_periodic_rad_s,
+                }));
+            s.torus_curve_vs_observed
+                .extend(c.torus_comparison.iter().map(|&comparison| TorusComparisonEntry {
+                    tau_s: st.tau_s,
+                    comparison,
                 }));
             for p in &c.probes {
                 for r in &p.runs {
@@ -432,8 +537,8 @@ fn corner_panel(c: &Corner) -> Panel {
     let w = c.window;
     let mut panel = Panel::new(
         &format!(
-            "τ = {} s: double Hopf at V = {:.3} m/s, D = {:.4} s (ω = {:.3}, {:.3} rad/s)",
-            p.tau_s, p.v_mps, p.d_s, p.omega1_rad_s, p.omega2_rad_s
+            "τ = {} s: double Hopf at V = {:.2} m/s, D = {:.4} s",
+            p.tau_s, p.v_mps, p.d_s
         ),
         "V [m/s]",
         "D [s]",
@@ -476,19 +581,32 @@ fn corner_panel(c: &Corner) -> Panel {
     if fold.iter().any(|p| p.0.is_finite()) {
         panel = panel.with(Layer::line(fold, Rgb::BLUE, Stroke::Dotted, Some("fold of cycles")));
     }
-    let mut torus = Vec::new();
-    for t in &c.torus_curves {
-        torus.push((f64::NAN, f64::NAN));
-        torus.extend(t.points.iter().map(|q| (q.v_mps, q.d_s)));
-    }
-    let torus = inside_window(torus, w);
-    if torus.iter().any(|p| p.0.is_finite()) {
-        panel = panel.with(Layer::line(
-            torus,
-            Rgb::palette(4),
-            Stroke::Solid,
-            Some("torus (Neimark–Sacker)"),
-        ));
+    for (i, t) in c.torus_curves.iter().enumerate() {
+        // solid where the cycles are attracting apart from the critical pair (an
+        // attracting torus can be born), dashed where they are not
+        let color = [Rgb::palette(4), Rgb::palette(5)][i % 2];
+        for attracting in [true, false] {
+            let stretch = |q: &TorusPoint| (q.other_unstable_multipliers == Some(0)) == attracting;
+            let mut pts = Vec::new();
+            for pair in t.points.windows(2) {
+                if stretch(&pair[0]) && stretch(&pair[1]) {
+                    pts.push((pair[0].v_mps, pair[0].d_s));
+                    pts.push((pair[1].v_mps, pair[1].d_s));
+                } else {
+                    pts.push((f64::NAN, f64::NAN));
+                }
+            }
+            let pts = inside_window(pts, w);
+            if pts.iter().any(|p| p.0.is_finite()) {
+                let label = format!(
+                    "torus curve of the ω = {:.2} rad/s cycles ({})",
+                    t.family_omega_rad_s,
+                    if attracting { "cycles attracting" } else { "cycles unstable" }
+                );
+                let stroke = if attracting { Stroke::Solid } else { Stroke::Dashed };
+                panel = panel.with(Layer::line(pts, color, stroke, Some(&label)));
+            }
+        }
     }
     let observed: Vec<(f64, f64)> = c
         .observed_torus_boundary
@@ -646,8 +764,20 @@ fn render(out: &OutputDir, st: &CornerStudy) -> Result<(), SwayError> {
     let tau = st.tau_s;
     let stem = tau_stem(tau);
     for (k, c) in st.corners.iter().enumerate() {
-        Figure::single(corner_panel(c))
-            .titled("Near the corner: Hopf, fold-of-cycles and torus curves, simulated motion")
+        let panel = corner_panel(c);
+        let w = c.window;
+        let fold_inside = c
+            .fold_curves
+            .iter()
+            .flatten()
+            .any(|&(v, d)| v >= w[0] && v <= w[1] && d >= w[2] && d <= w[3]);
+        let title = if !fold_inside {
+            "Near the corner (no fold-of-cycles curve in this window)"
+        } else {
+            "Near the corner: Hopf, fold-of-cycles and torus curves, simulated motion"
+        };
+        Figure::single(panel)
+            .titled(title)
             .render(&out.path(&format!("corner_{stem}_{k}")))?;
         let runs = shown_runs(c, 5);
         let panels: Vec<Panel> = runs
@@ -659,6 +789,15 @@ fn render(out: &OutputDir, st: &CornerStudy) -> Result<(), SwayError> {
             Figure::grid(panels, rows, 2, (1300, 330 * rows as u32))
                 .titled("Hitch-angle spectra and Poincaré sections (θ, dθ/dt at upward zero crossings of ψ̇)")
                 .render(&out.path(&format!("evidence_{stem}_{k}")))?;
+        }
+        for t in &c.torus_curves {
+            out.write_table(
+                &format!(
+                    "torus_curve_{stem}_{k}_omega_{:.0}.csv",
+                    100.0 * t.family_omega_rad_s
+                ),
+                t.points.iter().copied(),
+            )?;
         }
         for m in &c.mode_curves {
             out.write_table(

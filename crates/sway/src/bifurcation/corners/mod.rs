@@ -414,7 +414,7 @@ pub struct ModeCurve {
 }
 
 /// A point of a torus (Neimark–Sacker) curve.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct TorusPoint {
     /// gain D \[s\]
     pub d_s: f64,
@@ -422,8 +422,37 @@ pub struct TorusPoint {
     pub v_mps: f64,
     /// period of the cycle that loses stability there \[s\]
     pub period_s: f64,
+    /// angle φ ∈ \[0, π\] of the critical Floquet multipliers e^{±iφ} \[rad\]
+    pub multiplier_angle_rad: f64,
     /// rotation number φ/2π of the critical Floquet multipliers e^{±iφ}
     pub rotation_number: f64,
+    /// amplitude of the cycle (half peak-to-peak, largest state component: σ1 \[m/s\],
+    /// σ2, σ3 \[1/s\], θ \[rad\])
+    pub amplitude: f64,
+    /// Floquet multipliers of the cycle outside the unit circle besides the critical pair
+    /// (0: the cycle is attracting on the side of the curve where the pair is inside, so
+    /// an attracting torus can be born there); None when not computed
+    pub other_unstable_multipliers: Option<usize>,
+    /// the cycle's state at its first mesh node \[σ1 m/s, σ2 1/s, σ3 1/s, θ rad\] (a
+    /// start on the cycle for simulations; not written to files)
+    #[serde(skip)]
+    pub cycle_state: [f64; 4],
+}
+
+/// Where the torus curve, continued back towards amplitude 0, meets the double-Hopf point
+/// (a check of the start: the branch switching should lead back to the point).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TorusCurveEnd {
+    /// speed V of the extrapolated end \[m/s\]
+    pub v_mps: f64,
+    /// gain D of the extrapolated end \[s\]
+    pub d_s: f64,
+    /// frequency of the vanishing cycle 2π/T \[rad/s\]
+    pub omega_cycle_rad_s: f64,
+    /// frequency of the critical mode θ/T \[rad/s\]
+    pub omega_mode_rad_s: f64,
+    /// cycle amplitude at the last point computed before the end
+    pub amplitude: f64,
 }
 
 /// A torus curve: cycles of one family with a pair of Floquet multipliers on the unit
@@ -432,8 +461,83 @@ pub struct TorusPoint {
 pub struct TorusCurve {
     /// frequency of the cycle family at the double-Hopf point \[rad/s\]
     pub family_omega_rad_s: f64,
-    /// the points in curve order
+    /// frequency of the other mode there (the critical multipliers' source) \[rad/s\]
+    pub other_omega_rad_s: f64,
+    /// the points in curve order (the first one next to the double-Hopf point)
     pub points: Vec<TorusPoint>,
+    /// why the continuation stopped
+    pub stop: String,
+    /// the curve continued backwards to the double-Hopf point, if it got there
+    pub end: Option<TorusCurveEnd>,
+}
+
+impl TorusCurve {
+    /// The multiplier angle the curve starts with at the double-Hopf point:
+    /// φ = 2π·ω_other/ω_own reduced to \[0, π\] \[rad\].
+    pub fn angle_at_double_hopf(&self) -> f64 {
+        continuation::torus::multiplier_angle(
+            2.0 * std::f64::consts::PI * self.other_omega_rad_s / self.family_omega_rad_s,
+        )
+    }
+
+    /// Whether the cycles along the curve are attracting apart from the critical pair
+    /// (no other multiplier outside the unit circle at every point with multipliers);
+    /// None if no multipliers were computed.
+    pub fn cycles_attracting(&self) -> Option<bool> {
+        let counts: Vec<usize> = self
+            .points
+            .iter()
+            .filter_map(|p| p.other_unstable_multipliers)
+            .collect();
+        (!counts.is_empty()).then(|| counts.iter().all(|&n| n == 0))
+    }
+
+    /// The gain D \[s\] where the curve passes speed V \[m/s\], linearly interpolated
+    /// between its points, on stretches whose cycles are attracting apart from the
+    /// critical pair when `attracting_only` (the first such passage in curve order); None
+    /// if it does not pass V there.
+    pub fn gain_at_speed(&self, v: f64, attracting_only: bool) -> Option<f64> {
+        self.at_speed(v, attracting_only).map(|(d, _)| d)
+    }
+
+    /// (D \[s\], period \[s\]) where the curve passes V (see [`TorusCurve::gain_at_speed`]).
+    pub fn at_speed(&self, v: f64, attracting_only: bool) -> Option<(f64, f64)> {
+        let ok = |p: &TorusPoint| !attracting_only || p.other_unstable_multipliers == Some(0);
+        self.points.windows(2).find_map(|w| {
+            let (a, b) = (&w[0], &w[1]);
+            let inside = (a.v_mps - v) * (b.v_mps - v) <= 0.0 && a.v_mps != b.v_mps;
+            let t = (v - a.v_mps) / (b.v_mps - a.v_mps);
+            (inside && ok(a) && ok(b)).then_some((
+                a.d_s + (b.d_s - a.d_s) * t,
+                a.period_s + (b.period_s - a.period_s) * t,
+            ))
+        })
+    }
+}
+
+/// The computed torus curve against the torus boundary observed by simulation at one
+/// speed and kick.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TorusComparison {
+    /// the initial hitch angle of the scan \[deg\]
+    pub kick_deg: f64,
+    /// speed V \[m/s\]
+    pub v_mps: f64,
+    /// frequency of the curve's cycle family at the double-Hopf point \[rad/s\]
+    pub family_omega_rad_s: f64,
+    /// midpoint of the observed bracket \[s\]
+    pub d_observed_s: f64,
+    /// half width of the observed bracket \[s\]
+    pub d_observed_half_width_s: f64,
+    /// the curve's gain at V on its attracting stretch \[s\]
+    pub d_curve_s: f64,
+    /// frequency 2π/T of the curve's cycle at V \[rad/s\]
+    pub omega_curve_cycle_rad_s: f64,
+    /// base frequency of the periodic motion the scan saw just below its boundary
+    /// \[rad/s\]: the comparison holds where it is the curve's cycle (the kick reached it)
+    pub omega_observed_cycle_rad_s: Option<f64>,
+    /// observed − curve \[s\]
+    pub difference_s: f64,
 }
 
 /// One simulation at a probe point.
@@ -494,6 +598,9 @@ pub struct ObservedTorusPoint {
     pub d_periodic_s: f64,
     /// the smallest gain seen quasi-periodic \[s\]
     pub d_quasi_periodic_s: f64,
+    /// base frequency of the periodic motion just below the boundary (which cycle the
+    /// kick reached) \[rad/s\]
+    pub omega_periodic_rad_s: Option<f64>,
 }
 
 /// Everything near one double-Hopf point.
@@ -517,6 +624,9 @@ pub struct Corner {
     /// the torus boundary observed by simulation ([`TorusScan`]): (V, D) where the large
     /// sway cycle turns quasi-periodic, to within the scan's tolerance in D
     pub observed_torus_boundary: Vec<ObservedTorusPoint>,
+    /// the torus curves against the observed boundary: every observed speed that a curve
+    /// passes on a stretch of attracting cycles
+    pub torus_comparison: Vec<TorusComparison>,
     /// what the analysis noticed (torus curves that could not be started)
     pub notes: Vec<String>,
     /// distance in V \[m/s\] to the double-Hopf point the continuation of the nonlinear
@@ -557,6 +667,12 @@ pub struct TorusContinuation {
     pub max_points: usize,
     /// the curve ends at a double-Hopf point when the cycle amplitude falls below this
     pub min_amplitude: f64,
+    /// Floquet multipliers of the cycle at every point (which stretches have attracting
+    /// cycles; one monodromy matrix per point)
+    pub multipliers: bool,
+    /// the check of the start: at most this many points continued backwards to the
+    /// double-Hopf point (0: no check)
+    pub back_points: usize,
 }
 
 impl Default for TorusContinuation {
@@ -568,6 +684,8 @@ impl Default for TorusContinuation {
             max_step: 0.5,
             max_points: 80,
             min_amplitude: 5e-3,
+            multipliers: true,
+            back_points: 12,
         }
     }
 }
@@ -576,8 +694,9 @@ impl Default for TorusContinuation {
 /// frequency ω_i losing stability to the other mode), continued in (V, D) with the
 /// `continuation` crate's [`continuation::TorusCurveSystem`] from the point itself
 /// (branch switching without normal-form coefficients), each until it leaves the zoom
-/// `window`, reaches a strong resonance or `max_points`. A family whose continuation fails
-/// is reported in the notes (second value) instead of failing the analysis.
+/// `window`, reaches a strong resonance or `max_points`; each also continued backwards to
+/// its end at the double-Hopf point ([`TorusCurve::end`]). A family whose continuation
+/// fails is reported in the notes (second value) instead of failing the analysis.
 pub fn continued_torus_curves(
     model: &Model,
     p: &DoubleHopfPoint,
@@ -589,10 +708,14 @@ pub fn continued_torus_curves(
         delay_s: p.tau_s,
     };
     let problem = super::ClosedLoop::new(model, fb);
+    let results: Vec<_> = [0, 1]
+        .par_iter()
+        .map(|&family| (family, torus_curve(&problem, p, family, window, o)))
+        .collect();
     let mut curves = Vec::new();
     let mut notes = Vec::new();
-    for family in [0, 1] {
-        match torus_curve(&problem, p, family, window, o) {
+    for (family, r) in results {
+        match r {
             Ok(c) => curves.push(c),
             Err(e) => notes.push(format!(
                 "torus curve of the ω = {:.3} rad/s cycles from the double Hopf at V = {:.3} m/s: {e}",
@@ -628,31 +751,57 @@ fn torus_curve(
     };
     let options = TorusCurveOptions {
         min_amplitude: o.min_amplitude,
-        multipliers: false,
+        multipliers: o.multipliers,
         ..TorusCurveOptions::default()
     };
     let free = [super::SPEED, super::GAIN];
-    let (mut sys, guess, dir) = TorusCurveSystem::from_double_hopf(
-        problem,
-        &hh,
-        free,
-        family,
-        o.amplitude,
-        colloc,
-        options,
-    )?;
+    let start = || {
+        TorusCurveSystem::from_double_hopf(
+            problem,
+            &hh,
+            free,
+            family,
+            o.amplitude,
+            colloc.clone(),
+            options.clone(),
+        )
+    };
     let cont = Continuation::new(ContinuationOptions {
         initial_step: o.initial_step,
         max_step: o.max_step,
         parameter_range: (w[0], w[1]),
         ..Default::default()
     });
+    // backwards first (a system of its own: the references follow the branch)
+    let end = if o.back_points > 0 {
+        let (mut sys, guess, dir) = start()?;
+        let back: Vec<f64> = dir.iter().map(|x| -x).collect();
+        let mut b = cont.start(&mut sys, &guess, &back)?;
+        match sys.extend_curve(&cont, &mut b, o.back_points)? {
+            TorusCurveStop::DoubleHopfEnd(e) => Some(TorusCurveEnd {
+                v_mps: e.parameters[0],
+                d_s: e.parameters[1],
+                omega_cycle_rad_s: e.omegas[0],
+                omega_mode_rad_s: e.omegas[1],
+                amplitude: e.amplitude,
+            }),
+            _ => None,
+        }
+    } else {
+        None
+    };
+    let (mut sys, guess, dir) = start()?;
     let mut b = cont.start(&mut sys, &guess, &dir)?;
     let running = TorusCurveStop::Continuation(continuation::Stop::MaxPoints);
+    let mut stop = running.clone();
     while b.points.len() < o.max_points {
-        let stop = sys.extend_curve(&cont, &mut b, 4)?;
+        stop = sys.extend_curve(&cont, &mut b, 4)?;
         let d = sys.curve_point(&b.points[b.points.len() - 1].u).parameters[1];
-        if d < w[2] || d > w[3] || stop != running {
+        if d < w[2] || d > w[3] {
+            stop = TorusCurveStop::Continuation(continuation::Stop::ParameterRange);
+            break;
+        }
+        if stop != running {
             break;
         }
     }
@@ -665,14 +814,65 @@ fn torus_curve(
                 v_mps: c.parameters[0],
                 d_s: c.parameters[1],
                 period_s: c.period,
+                multiplier_angle_rad: c.multiplier_angle,
                 rotation_number: c.rotation_number,
+                amplitude: c.amplitude,
+                other_unstable_multipliers: pt.stability.as_ref().map(|s| s.unstable),
+                cycle_state: std::array::from_fn(|k| pt.u[k]),
             }
         })
         .collect();
+    let stop = match stop {
+        TorusCurveStop::Continuation(continuation::Stop::ParameterRange) => {
+            "left the zoom window".to_string()
+        }
+        TorusCurveStop::Continuation(continuation::Stop::MaxPoints) => {
+            format!("{} points (max_points)", b.points.len())
+        }
+        TorusCurveStop::Continuation(s) => format!("continuation stopped: {s:?}"),
+        TorusCurveStop::DoubleHopfEnd(e) => format!(
+            "ended at a double-Hopf point near V = {:.3} m/s, D = {:.4} s",
+            e.parameters[0], e.parameters[1]
+        ),
+        TorusCurveStop::StrongResonance { order, angle, .. } => {
+            format!("strong resonance 1:{order} (φ = {angle:.4} rad)")
+        }
+    };
     Ok(TorusCurve {
         family_omega_rad_s: [p.omega1_rad_s, p.omega2_rad_s][family],
+        other_omega_rad_s: [p.omega2_rad_s, p.omega1_rad_s][family],
         points,
+        stop,
+        end,
     })
+}
+
+/// The torus curves at the speeds of the observed boundary: every (observed point, curve)
+/// pair where the curve passes the observed speed on a stretch of attracting cycles.
+pub fn compare_torus(
+    curves: &[TorusCurve],
+    observed: &[ObservedTorusPoint],
+) -> Vec<TorusComparison> {
+    let mut out = Vec::new();
+    for b in observed {
+        for c in curves {
+            if let Some((d, period)) = c.at_speed(b.v_mps, true) {
+                let mid = 0.5 * (b.d_periodic_s + b.d_quasi_periodic_s);
+                out.push(TorusComparison {
+                    kick_deg: b.kick_deg,
+                    v_mps: b.v_mps,
+                    family_omega_rad_s: c.family_omega_rad_s,
+                    d_observed_s: mid,
+                    d_observed_half_width_s: 0.5 * (b.d_quasi_periodic_s - b.d_periodic_s),
+                    d_curve_s: d,
+                    omega_curve_cycle_rad_s: 2.0 * std::f64::consts::PI / period,
+                    omega_observed_cycle_rad_s: b.omega_periodic_rad_s,
+                    difference_s: mid - d,
+                });
+            }
+        }
+    }
+    out
 }
 
 /// The corner analysis of delay τ \[s\] (module documentation), with the nonlinear chart's
@@ -748,16 +948,6 @@ fn corner(
         .map(|&w| mode_curve(model, nl, p, w, window, o.zoom_curve_samples))
         .collect::<Result<Vec<_>, _>>()?;
     let regions = window_chart(model, p.tau_s, window, o.zoom_cells)?;
-    let (torus_curves, notes) = if o.torus_curves.max_points > 0 {
-        continued_torus_curves(model, p, window, &o.torus_curves)
-    } else {
-        (Vec::new(), Vec::new())
-    };
-    let mut probes = probe_points(p, o)
-        .par_iter()
-        .enumerate()
-        .map(|(k, &(v, d))| probe(model, p.tau_s, v, d, format!("sector {k}"), o))
-        .collect::<Result<Vec<_>, _>>()?;
     let lines: Vec<(f64, f64)> = o
         .simulation
         .kicks_deg
@@ -765,15 +955,35 @@ fn corner(
         .flat_map(|&k| o.torus_scan.speed_offsets_mps.iter().map(move |dv| (k, dv)))
         .map(|(k, dv)| (k, p.v_mps + dv))
         .collect();
-    let scans = lines
-        .par_iter()
-        .map(|&(k, v)| torus_boundary_at(model, p, v, k, o))
-        .collect::<Result<Vec<_>, _>>()?;
+    // the continuation (two curves) and the simulations side by side
+    let ((torus_curves, notes), simulated) = rayon::join(
+        || {
+            if o.torus_curves.max_points > 0 {
+                continued_torus_curves(model, p, window, &o.torus_curves)
+            } else {
+                (Vec::new(), Vec::new())
+            }
+        },
+        || {
+            let probes = probe_points(p, o)
+                .par_iter()
+                .enumerate()
+                .map(|(k, &(v, d))| probe(model, p.tau_s, v, d, format!("sector {k}"), o))
+                .collect::<Result<Vec<_>, _>>()?;
+            let scans = lines
+                .par_iter()
+                .map(|&(k, v)| torus_boundary_at(model, p, v, k, o))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok::<_, SwayError>((probes, scans))
+        },
+    );
+    let (mut probes, scans) = simulated?;
     let mut observed_torus_boundary = Vec::new();
     for (point, flank) in scans.into_iter().flatten() {
         observed_torus_boundary.push(point);
         probes.extend(flank);
     }
+    let torus_comparison = compare_torus(&torus_curves, &observed_torus_boundary);
     Ok(Corner {
         point: *p,
         window,
@@ -784,6 +994,7 @@ fn corner(
         regions,
         probes,
         observed_torus_boundary,
+        torus_comparison,
         continuation_offset_mps: continuation_offset(nl, p),
     })
 }
@@ -1037,6 +1248,11 @@ fn torus_boundary_at(
         v_mps: v,
         d_periodic_s: lo,
         d_quasi_periodic_s: hi,
+        omega_periodic_rad_s: below
+            .runs
+            .first()
+            .filter(|r| r.evidence.class == MotionClass::Periodic)
+            .and_then(|r| r.evidence.base_frequencies_rad_s.first().copied()),
     };
     Ok(Some((point, [below, above])))
 }
@@ -1052,7 +1268,23 @@ pub fn run_at(
     kick_deg: f64,
     o: &CornerOptions,
 ) -> Result<ProbeRun, SwayError> {
-    let first = run_once(model, tau, v, d, kick_deg, o)?;
+    let x0 = [0.0, 0.0, 0.0, kick_deg.to_radians()];
+    let mut r = run_from(model, tau, v, d, x0, o)?;
+    r.kick_deg = kick_deg;
+    Ok(r)
+}
+
+/// As [`run_at`], from the constant history x(t ≤ 0) = `x0` \[σ1 m/s, σ2 1/s, σ3 1/s,
+/// θ rad\] (e.g. a state of a cycle; the run's `kick_deg` is θ0 in degrees).
+pub fn run_from(
+    model: &Model,
+    tau: f64,
+    v: f64,
+    d: f64,
+    x0: [f64; 4],
+    o: &CornerOptions,
+) -> Result<ProbeRun, SwayError> {
+    let first = run_once(model, tau, v, d, x0, o)?;
     let growing = first.evidence.class == MotionClass::LossOfControl
         && first.loss_of_control_time_s.is_none();
     if !growing {
@@ -1060,7 +1292,7 @@ pub fn run_at(
     }
     let mut longer = o.clone();
     longer.simulation.transient_s *= 3.0;
-    run_once(model, tau, v, d, kick_deg, &longer)
+    run_once(model, tau, v, d, x0, &longer)
 }
 
 fn run_once(
@@ -1068,9 +1300,10 @@ fn run_once(
     tau: f64,
     v: f64,
     d: f64,
-    kick_deg: f64,
+    x: [f64; 4],
     o: &CornerOptions,
 ) -> Result<ProbeRun, SwayError> {
+    let kick_deg = x[3].to_degrees();
     let s = &o.simulation;
     let spec = SimSpec {
         profile: SpeedProfile::Constant { speed_mps: v },
@@ -1085,7 +1318,7 @@ fn run_once(
         action_s: 0.0,
         settings: s.settings,
     };
-    let x0 = State4::new(0.0, 0.0, 0.0, kick_deg.to_radians());
+    let x0 = State4::new(x[0], x[1], x[2], x[3]);
     let rec = Recording::Every {
         step_s: s.sample_step_s,
     };

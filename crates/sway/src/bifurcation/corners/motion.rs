@@ -19,6 +19,13 @@
 //!    rational ω2/ω1 = p/k with k ≤ `max_subharmonic` was caught by step 3);
 //! 5. otherwise **irregular** (a broad spectrum: chaotic or not yet settled).
 //!
+//! A second frequency that dies out is a transient, not a torus: when steps 3–4 find two
+//! base frequencies, the amplitude of ω2 in the second half of the window over that in the
+//! first half ([`MotionEvidence::second_frequency_trend`], Hann-windowed Fourier sums at ω2)
+//! below [`MotionOptions::decay_ratio`] makes the motion **periodic** (settling onto the
+//! cycle of ω1: near a torus bifurcation the transverse mode decays slowly, at a rate
+//! proportional to the distance, and would otherwise be taken for a torus).
+//!
 //! A frequency "matches" a combination when they differ by less than
 //! [`MotionOptions::frequency_tolerance_bins`] bins of the spectrum (2π/T_window) plus
 //! 1e-3 relative; peak frequencies are refined by a parabola through the log magnitudes of
@@ -296,6 +303,28 @@ pub struct MotionEvidence {
     pub section_period: Option<usize>,
     /// rotation number of the section, folded to [0, ½]
     pub section_rotation_number: Option<f64>,
+    /// amplitude of the second base frequency in the second half of the window over that
+    /// in the first half (< `decay_ratio`: a decaying transient, classified periodic);
+    /// None without a second frequency
+    pub second_frequency_trend: Option<f64>,
+}
+
+/// Amplitude of the component of frequency ω \[rad/s\] in `x` (sampled every `dt`):
+/// Hann-windowed Fourier sum, mean removed (a sine of amplitude A at ω gives ≈ A).
+pub fn component_amplitude(x: &[f64], dt: f64, omega: f64) -> f64 {
+    let n = x.len();
+    if n < 4 {
+        return 0.0;
+    }
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let (mut re, mut im) = (0.0, 0.0);
+    for (i, v) in x.iter().enumerate() {
+        let h = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos();
+        let (s, c) = (omega * i as f64 * dt).sin_cos();
+        re += (v - mean) * h * c;
+        im += (v - mean) * h * s;
+    }
+    4.0 * (re * re + im * im).sqrt() / n as f64
 }
 
 /// Half peak-to-peak range.
@@ -334,6 +363,7 @@ pub fn classify(signal: &[f64], dt: f64, section: &[f64], o: &MotionOptions) -> 
             o.section_tolerance * a2.max(o.rest_amplitude),
         ),
         section_rotation_number: section_rotation_number(section),
+        second_frequency_trend: None,
     };
     ev.class = if !finite || (a1 > 0.0 && a2 > o.growth_ratio * a1) {
         MotionClass::LossOfControl
@@ -364,6 +394,18 @@ pub fn classify(signal: &[f64], dt: f64, section: &[f64], o: &MotionOptions) -> 
     } else {
         MotionClass::Irregular
     };
+    if ev.class == MotionClass::QuasiPeriodic {
+        let (w1, w2) = (ev.base_frequencies_rad_s[0], ev.base_frequencies_rad_s[1]);
+        let first = component_amplitude(&signal[..half], dt, w2);
+        let second = component_amplitude(&signal[half..], dt, w2);
+        let trend = second / first;
+        ev.second_frequency_trend = Some(trend);
+        if trend < o.decay_ratio {
+            ev.class = MotionClass::Periodic;
+            ev.base_frequencies_rad_s = vec![w1];
+            ev.frequency_ratio = Some(1.0);
+        }
+    }
     peaks.truncate(12);
     ev.peaks = peaks;
     ev
@@ -524,6 +566,23 @@ mod tests {
         let ev = classify(&x, DT, &section_of(&x, w1), &o);
         assert_eq!(ev.class, MotionClass::QuasiPeriodic, "{ev:?}");
         assert!((ev.base_frequencies_rad_s[1] - w2).abs() < 0.01, "{ev:?}");
+    }
+
+    #[test]
+    fn a_decaying_second_frequency_is_periodic() {
+        // reference: the constructed signal, a cycle of 3.7 rad/s with a transverse mode of
+        // 9.1 rad/s decaying as e^{−0.01 t}: between the window halves (100 s apart) its
+        // amplitude falls to e^{−1} = 0.37 (tolerance 0.05: Hann leakage of the cycle at
+        // 9.1 rad/s), below decay_ratio = 0.8, so the motion settles onto the cycle
+        let x = sampled(|t| (3.7 * t).sin() + 0.05 * (-0.01 * t).exp() * (9.1 * t + 0.4).sin());
+        let ev = classify(&x, DT, &section_of(&x, 3.7), &MotionOptions::default());
+        assert_eq!(ev.class, MotionClass::Periodic, "{ev:?}");
+        let trend = ev.second_frequency_trend.expect("two frequencies seen");
+        assert!((trend - (-1.0f64).exp()).abs() < 0.05, "{trend}");
+        // the same mode growing: a torus being approached, not a cycle
+        let y = sampled(|t| (3.7 * t).sin() + 0.05 * (0.002 * t).exp() * (9.1 * t + 0.4).sin());
+        let ev = classify(&y, DT, &section_of(&y, 3.7), &MotionOptions::default());
+        assert_eq!(ev.class, MotionClass::QuasiPeriodic, "{ev:?}");
     }
 
     #[test]

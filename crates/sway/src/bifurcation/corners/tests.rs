@@ -103,3 +103,59 @@ fn probe_points_lie_one_in_each_region() {
     counts.sort_unstable();
     assert_eq!(counts, vec![0, 1, 1, 2], "{probes:?}");
 }
+
+#[test]
+fn quasi_periodic_classification_agrees_with_the_torus_curve() {
+    // reference: the torus curve T2 of the ω2 ≈ 9.27 rad/s cycles continued from the
+    // double-Hopf point at τ = 0.2 s (continuation::TorusCurveSystem; L = 30 and L = 60
+    // meshes agree to 1.1e-5 s in D over the zoom window, here L = 16 for speed), taken
+    // ≈ 6 m/s below V_HH where the band between the ω2 Hopf curve and T2 is wide. Below
+    // T2 the cycle is attracting (no multiplier outside the unit circle besides the
+    // critical pair, checked), above it the ω1 ≈ 3.8 rad/s mode grows on it.
+    // δ: the classifier sees a transverse mode decay or grow only if its amplitude
+    // changes by the factor decay_ratio = 0.8 / growth_ratio = 1.25 between the window
+    // halves (100 s apart): |σ| > ln(1.25)/100 s = 2.2e-3 1/s; the rate measured in long
+    // simulations at V = 57.46 m/s is |σ| ≈ 1.06 1/s² · |D − D_T2| (0.0453° → 0.0048° in
+    // 400 s at 0.0053 s below T2), so |D − D_T2| > 2.1e-3 s is needed; δ = 4e-3 s is twice
+    // that and ≫ the curve's mesh error (≤ 1e-4 s at L = 16). Tolerance: the class itself.
+    let p = points(0.2)[0];
+    let fb = super::super::Feedback {
+        gain_d_s: p.d_s,
+        delay_s: p.tau_s,
+    };
+    let problem = super::super::ClosedLoop::new(model(), fb);
+    let o = TorusContinuation {
+        intervals: 16,
+        max_step: 2.0,
+        max_points: 40,
+        back_points: 0,
+        ..TorusContinuation::default()
+    };
+    let window = [p.v_mps - 6.0, p.v_mps + 1.0, p.d_s - 0.1, p.d_s + 0.1];
+    let t2 = torus_curve(&problem, &p, 1, window, &o).expect("T2 continued");
+    let q = *t2.points.last().expect("points");
+    assert!(q.v_mps < p.v_mps - 5.0, "{:?}", t2.stop);
+    assert_eq!(q.other_unstable_multipliers, Some(0), "{q:?}");
+    let delta = 4e-3;
+    let opts = CornerOptions::default();
+    let class = |d: f64| {
+        let mut o = opts.clone();
+        o.simulation.kicks_deg = vec![0.0];
+        let r = run_from(model(), p.tau_s, q.v_mps, d, q.cycle_state, &o).expect("simulation");
+        (r.evidence.class, r.evidence)
+    };
+    let (outside, e_out) = class(q.d_s - delta);
+    let (inside, e_in) = class(q.d_s + delta);
+    assert_eq!(
+        outside,
+        MotionClass::Periodic,
+        "D = {} s: {e_out:?}",
+        q.d_s - delta
+    );
+    assert_eq!(
+        inside,
+        MotionClass::QuasiPeriodic,
+        "D = {} s: {e_in:?}",
+        q.d_s + delta
+    );
+}

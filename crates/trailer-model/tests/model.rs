@@ -346,7 +346,11 @@ fn axle_slip_tangents_are_the_tangents_of_the_slip_angles() {
             let a = model.slip_angles(&x, &u);
             let (front, rear) = model.axle_slip_tangents(&x, &u);
             let close = |want: f64, have: f64| (want - have).abs() <= 1e-12 * want.max(1.0);
-            assert!(close(a.rear.abs().tan(), rear), "{} vs {rear}", a.rear.abs().tan());
+            assert!(
+                close(a.rear.abs().tan(), rear),
+                "{} vs {rear}",
+                a.rear.abs().tan()
+            );
             if a.front.abs() < 1.4 {
                 assert!(close(a.front.abs().tan(), front), "{a:?}: {front}");
                 checked += 1;

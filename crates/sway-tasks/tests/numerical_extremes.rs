@@ -30,6 +30,8 @@ const NULLABLE: &[&str] = &[
     "settle_time_s",
     "loss_of_control_time_s",
     "loss_of_control_condition",
+    // a run that does not oscillate has no decay rate
+    "decay_rate_per_s",
     "action_s",
     "max_steps",
     "initial_step",

@@ -208,8 +208,9 @@ pub fn classify(w: &Windows, settings: &MetricSettings) -> Verdict {
             (w.last.half_range(), window),
         ),
     };
-    let decay_rate_per_s =
-        (a_prev > 0.0 && a_last > 0.0).then(|| (a_prev / a_last).ln() / (t_last - t_prev));
+    let decay_rate_per_s = (a_prev > 0.0 && a_last > 0.0 && t_last > t_prev)
+        .then(|| (a_prev / a_last).ln() / (t_last - t_prev))
+        .filter(|r| r.is_finite());
     let crossings = w.last.crossings();
     let max_abs = w.last.max.abs().max(w.last.min.abs());
     let class = if w.last.is_empty() || max_abs < thr {

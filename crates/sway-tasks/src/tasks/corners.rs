@@ -696,13 +696,16 @@ fn spectrum_panel(tau: f64, q: &sway::bifurcation::corners::Probe, r: &ProbeRun)
     })
 }
 
-/// The Poincaré-section panel of one run.
+/// The Poincaré-section panel of one run: the returns of the window's first half in grey
+/// (they may still carry the transient), those of the second half — the ones the section's
+/// period is read from — in the class colour.
 fn section_panel(r: &ProbeRun) -> Panel {
     let pts: Vec<(f64, f64)> = r
         .section
         .iter()
         .map(|(a, b)| (a.to_degrees(), b.to_degrees()))
         .collect();
+    let (first, second) = pts.split_at(pts.len() / 2);
     let rho = r
         .evidence
         .section_rotation_number
@@ -720,13 +723,19 @@ fn section_panel(r: &ProbeRun) -> Panel {
         "θ [deg]",
         "dθ/dt [deg/s]",
     )
-    .legend(Legend::None)
     .with(Layer::Markers {
-        points: pts,
+        points: first.to_vec(),
+        color: Rgb::GREY,
+        shape: Shape::Circle,
+        size: 2,
+        label: Some("first half".into()),
+    })
+    .with(Layer::Markers {
+        points: second.to_vec(),
         color: class_color(r.evidence.class),
         shape: Shape::Circle,
         size: 3,
-        label: None,
+        label: Some("second half".into()),
     })
 }
 

@@ -398,34 +398,14 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
     /// amplitude of the fold's cycle: half the peak-to-peak range of the node values,
     /// largest over the components [state units]
     pub fn amplitude(&self, u: &[f64]) -> f64 {
-        let n = self.po.dim();
-        let np = self.np();
-        (0..n)
-            .map(|k| {
-                let (lo, hi) = u[k..np]
-                    .iter()
-                    .step_by(n)
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                        (a.min(x), b.max(x))
-                    });
-                0.5 * (hi - lo)
-            })
-            .fold(0.0, f64::max)
+        self.po.amplitude(u)
     }
 
     /// The periodic-orbit system of the fold's cycle at the parameters of u (free parameter
     /// p1, same mesh, phase reference set to the cycle): continue the cycle branch through
     /// the fold from here, or evaluate the cycle with [`PeriodicOrbitSystem::eval`].
     pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
-        let mut po = PeriodicOrbitSystem::with_mesh(
-            self.po.problem,
-            self.parameters(u),
-            self.po.ip,
-            self.po.mesh.clone(),
-            self.po.options.clone(),
-        )?;
-        po.set_reference(self.orbit(u));
-        Ok(po)
+        self.po.at(self.parameters(u), self.orbit(u))
     }
 
     /// Floquet multipliers of the fold's cycle (sorted by decreasing modulus; the trivial

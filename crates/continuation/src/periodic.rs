@@ -203,6 +203,23 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     pub fn period(&self, u: &[f64]) -> f64 {
         u[self.period_index()]
     }
+    /// amplitude of the profile of u: half the peak-to-peak range of the node values,
+    /// largest over the components [state units]
+    pub fn amplitude(&self, u: &[f64]) -> f64 {
+        let n = self.dim();
+        let np = self.period_index();
+        (0..n)
+            .map(|k| {
+                let (lo, hi) = u[k..np]
+                    .iter()
+                    .step_by(n)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                        (a.min(x), b.max(x))
+                    });
+                0.5 * (hi - lo)
+            })
+            .fold(0.0, f64::max)
+    }
     /// node positions s of the profile (length L·m)
     pub fn node_times(&self) -> Vec<f64> {
         let m = self.degree();
@@ -338,6 +355,21 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
             .collect();
         out.extend_from_slice(&u[np..]);
         out
+    }
+
+    /// The same system (problem, free parameter, mesh and options) at `params`, with its
+    /// phase reference set to the profile `orbit`: the cycle of a two-parameter curve's
+    /// point as a one-parameter cycle system.
+    pub fn at(&self, params: Vec<f64>, orbit: &[f64]) -> Result<Self> {
+        let mut po = Self::with_mesh(
+            self.problem,
+            params,
+            self.ip,
+            self.mesh.clone(),
+            self.options.clone(),
+        )?;
+        po.set_reference(orbit);
+        Ok(po)
     }
 
     /// Set the phase-condition reference to the profile of `u`.
@@ -839,23 +871,7 @@ impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
     }
 
     fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
-        if a.unstable == b.unstable {
-            return None;
-        }
-        // the multiplier that crossed: the smallest one outside the unit circle on the
-        // unstable side of the crossing
-        let outside = if b.unstable > a.unstable { b } else { a };
-        let z = outside
-            .nontrivial()
-            .filter(|z| z.norm() > 1.0)
-            .min_by(|x, y| x.norm().total_cmp(&y.norm()))?;
-        Some(if z.im.abs() > 1e-6 {
-            SpecialKind::Torus
-        } else if z.re < 0.0 {
-            SpecialKind::PeriodDoubling
-        } else {
-            SpecialKind::Fold
-        })
+        Stability::multiplier_crossing(a, b)
     }
 
     fn test_function(&mut self, kind: SpecialKind, u: &[f64]) -> Result<Option<f64>> {

@@ -60,6 +60,29 @@ impl Stability {
         }
     }
 
+    /// The bifurcation of a cycle between the multiplier spectra `a` and `b` with different
+    /// numbers of unstable multipliers, from the multiplier that crossed (the smallest one
+    /// outside the unit circle on the unstable side): a complex pair is a torus
+    /// (Neimark–Sacker) point, a real negative one a period doubling, a real positive one a
+    /// fold. `None` when the counts agree.
+    pub fn multiplier_crossing(a: &Stability, b: &Stability) -> Option<SpecialKind> {
+        if a.unstable == b.unstable {
+            return None;
+        }
+        let outside = if b.unstable > a.unstable { b } else { a };
+        let z = outside
+            .nontrivial()
+            .filter(|z| z.norm() > 1.0)
+            .min_by(|x, y| x.norm().total_cmp(&y.norm()))?;
+        Some(if z.im.abs() > 1e-6 {
+            SpecialKind::Torus
+        } else if z.re < 0.0 {
+            SpecialKind::PeriodDoubling
+        } else {
+            SpecialKind::Fold
+        })
+    }
+
     /// linearly stable (no nontrivial value in the unstable region)
     pub fn is_stable(&self) -> bool {
         self.unstable == 0

@@ -746,19 +746,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     /// amplitude of the cycle: half the peak-to-peak range of the node values, largest
     /// over the components [state units]
     pub fn amplitude(&self, u: &[f64]) -> f64 {
-        let n = self.po.dim();
-        let np = self.np();
-        (0..n)
-            .map(|k| {
-                let (lo, hi) = u[k..np]
-                    .iter()
-                    .step_by(n)
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                        (a.min(x), b.max(x))
-                    });
-                0.5 * (hi - lo)
-            })
-            .fold(0.0, f64::max)
+        self.po.amplitude(u)
     }
 
     /// The torus point at u: the cycle, its period, all parameters, the multiplier angle
@@ -791,15 +779,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     /// The periodic-orbit system of the cycle at the parameters of u (free parameter p1,
     /// same mesh, phase reference set to the cycle).
     pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
-        let mut po = PeriodicOrbitSystem::with_mesh(
-            self.po.problem,
-            self.parameters(u),
-            self.po.ip,
-            self.po.mesh.clone(),
-            self.po.options.clone(),
-        )?;
-        po.set_reference(self.orbit(u));
-        Ok(po)
+        self.po.at(self.parameters(u), self.orbit(u))
     }
 
     /// Floquet multipliers of the cycle at u (sorted by decreasing modulus; two of them are
@@ -1369,20 +1349,6 @@ impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
     /// a change of the number of unstable multipliers (the critical pair removed): the
     /// multiplier that crossed says which codimension-two point lies between
     fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
-        if a.unstable == b.unstable {
-            return None;
-        }
-        let outside = if b.unstable > a.unstable { b } else { a };
-        let z = outside
-            .nontrivial()
-            .filter(|z| z.norm() > 1.0)
-            .min_by(|x, y| x.norm().total_cmp(&y.norm()))?;
-        Some(if z.im.abs() > 1e-6 {
-            SpecialKind::Torus
-        } else if z.re < 0.0 {
-            SpecialKind::PeriodDoubling
-        } else {
-            SpecialKind::Fold
-        })
+        Stability::multiplier_crossing(a, b)
     }
 }

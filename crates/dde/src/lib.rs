@@ -59,13 +59,13 @@ mod error;
 mod events;
 mod options;
 mod problem;
+mod scheme;
 mod solver;
-mod tableau;
 
 pub use dense::{Segment, Solution};
 pub use error::Error;
 pub use events::{Direction, Event, EventAction, EventHit};
-pub use options::{DenseOutput, Options, StepController};
+pub use options::{DenseOutput, KinkLanding, Method, Options, StepController};
 pub use problem::{DdeProblem, OdeProblem};
 pub use solver::{
     DdeSolver, Flow, NoObserver, Observer, OdeSolver, Stats, Status, StepView, solve_dde, solve_ode,

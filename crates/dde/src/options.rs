@@ -6,7 +6,8 @@ use crate::Error;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum StepController {
     /// Proportional-integral control (Hairer–Nørsett–Wanner, *Solving ODEs I*, §IV.2 and the
-    /// DOPRI5 code): `h_new = h · safety · err^(−α) · err_prev^β` with `α = 1/5 − 0.75 β`.
+    /// DOPRI5 and DOP853 codes): `h_new = h · safety · err^(−α) · err_prev^β` with
+    /// `α = 1/5 − 0.75 β` (Dormand–Prince 5(4)) or `α = 1/8 − 0.2 β` (DOP853).
     /// `beta = 0.04` is the value recommended for DOPRI5; `beta = 0` gives the standard
     /// (integral-only) controller.
     Pi {
@@ -27,6 +28,51 @@ impl Default for StepController {
     }
 }
 
+/// The Runge–Kutta pair.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Dormand–Prince 5(4) (the DOPRI5 code): six right-hand sides per step, a continuous
+    /// extension of order 4 for free. The economical choice at moderate tolerances
+    /// (rtol ≳ 1e-7).
+    #[default]
+    Dopri5,
+    /// Dormand–Prince 8(5,3) (the DOP853 code): twelve right-hand sides per step, far fewer
+    /// steps at tight tolerances (rtol ≲ 1e-7), and a continuous extension of order 7 that
+    /// costs three more right-hand sides — spent only on the steps that need it: every step
+    /// of a DDE (its past) or with [`DenseOutput::Keep`], and otherwise only the steps where
+    /// an event fires or an observer interpolates.
+    Dop853,
+}
+
+impl Method {
+    /// Order of the method's propagated solution (5 or 8).
+    pub fn order(self) -> usize {
+        match self {
+            Method::Dopri5 => 5,
+            Method::Dop853 => 8,
+        }
+    }
+}
+
+/// How a step lands on a kink: a root of a switching function
+/// ([`crate::OdeProblem::switching`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KinkLanding {
+    /// On the root, to [`Options::event_tol`]: the root is located on the previous step's
+    /// continuous extension carried over the step that crossed it, and located again on the
+    /// landing step's own extension wherever the landing overshoots it (the landing is
+    /// repeated) or falls short of it (a short step follows). One to three extra attempts
+    /// per kink; the global error stays at tolerance level even where the kinks dominate it.
+    #[default]
+    Exact,
+    /// Once, on the root located on the continuous extension of the step that crossed it;
+    /// the small remainder that this misses (the kink spoils that extension) is straddled by
+    /// the neighbouring step and left to its error test (Hairer–Nørsett–Wanner, *Solving
+    /// ODEs I*, §II.6). One extra attempt per kink; the cheaper choice where the kinks are
+    /// mild against the tolerance.
+    Once,
+}
+
 /// What the solver keeps of the trajectory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum DenseOutput {
@@ -39,9 +85,11 @@ pub enum DenseOutput {
     Keep,
 }
 
-/// Options of the Dormand–Prince integrator. All fields have sensible defaults.
+/// Options of the Runge–Kutta integrator. All fields have sensible defaults.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Options {
+    /// the Runge–Kutta pair
+    pub method: Method,
     /// relative tolerance (per component)
     pub rtol: f64,
     /// absolute tolerance (per component)
@@ -61,10 +109,21 @@ pub struct Options {
     /// largest factor by which a step may grow (default 10)
     pub fac_max: f64,
     /// DDE only: the initial discontinuity at t0 and every user breakpoint b are propagated
-    /// to `b + k1·τ1 + … + km·τm` for `k1 + … + km ≤ breakpoint_order`. The default 5 is the
-    /// order of the method: beyond it, a jump in a higher derivative no longer spoils the
-    /// local error.
-    pub breakpoint_order: usize,
+    /// to `b + k1·τ1 + … + km·τm` for `k1 + … + km ≤ breakpoint_order`. `None` (the
+    /// default) takes the order of the method (5 or 8, [`Method::order`]): beyond it, a jump
+    /// in a higher derivative no longer spoils the local error.
+    pub breakpoint_order: Option<usize>,
+    /// DDE only: a kink landed on (a root of a switching function, [`crate::DdeProblem::switching`])
+    /// at `t*` is carried along the delays to `t* + k₁τ₁ + … + kₘτₘ` for
+    /// `1 ≤ k₁ + … + kₘ ≤ kink_propagation`, and steps land there too. Where `f` reads the
+    /// kink back through a delayed argument the solution is one derivative smoother each
+    /// time, but a jump in a derivative below the method's order still spoils the local
+    /// error, and the error estimate then misjudges the step. `None` (the default) takes the
+    /// method's order − 2 (3 or 6): a switch where `f` stays continuous makes the solution's
+    /// second derivative jump.
+    pub kink_propagation: Option<usize>,
+    /// how steps land on the kinks of switching functions
+    pub kink_landing: KinkLanding,
     /// absolute tolerance of event location in t
     pub event_tol: f64,
     /// what to keep of the trajectory
@@ -74,6 +133,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
+            method: Method::default(),
             rtol: 1e-6,
             atol: 1e-9,
             h_initial: None,
@@ -83,7 +143,9 @@ impl Default for Options {
             safety: 0.9,
             fac_min: 0.2,
             fac_max: 10.0,
-            breakpoint_order: 5,
+            breakpoint_order: None,
+            kink_propagation: None,
+            kink_landing: KinkLanding::default(),
             event_tol: 1e-12,
             dense_output: DenseOutput::Discard,
         }
@@ -98,6 +160,23 @@ impl Options {
             atol,
             ..Options::default()
         }
+    }
+
+    /// Builder-style: the Runge–Kutta pair.
+    pub fn with_method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// The order up to which DDE breakpoints are tracked (see [`Options::breakpoint_order`]).
+    pub fn breakpoint_order(&self) -> usize {
+        self.breakpoint_order.unwrap_or(self.method.order())
+    }
+
+    /// How far DDE kinks are carried along the delays (see [`Options::kink_propagation`]).
+    pub fn kink_propagation(&self) -> usize {
+        self.kink_propagation
+            .unwrap_or(self.method.order().saturating_sub(2))
     }
 
     /// Builder-style: keep the dense output of every step.

@@ -15,6 +15,21 @@ pub trait OdeProblem<const N: usize> {
     fn breakpoints(&self) -> &[f64] {
         &[]
     }
+
+    /// Number of switching functions ([`OdeProblem::switching`]); 0 by default.
+    fn switching_count(&self) -> usize {
+        0
+    }
+
+    /// Writes the switching functions `g₀(t, x) … g_{m−1}(t, x)` into `g` (length
+    /// [`OdeProblem::switching_count`]). Declare them where `f` is continuous but not smooth:
+    /// `f` may lose smoothness where a `gⱼ` changes sign (a kink such as `s·|s|` in a tyre
+    /// law, a saturation, a change of formula) and must be smooth wherever none does. The
+    /// solver locates each sign change on the continuous extension and lands a step on it
+    /// instead of stepping across: a step across a kink loses the method's order, and the
+    /// step-size controller then rejects step after step (for an 8th-order pair, many).
+    /// Jumps of `f` itself at known times are [`OdeProblem::breakpoints`].
+    fn switching(&self, _t: f64, _x: &SVector<f64, N>, _g: &mut [f64]) {}
 }
 
 /// A delay differential equation with constant delays τ₁ … τₘ ≥ 0:
@@ -40,5 +55,23 @@ pub trait DdeProblem<const N: usize> {
     /// the delays like the initial discontinuity.
     fn breakpoints(&self) -> &[f64] {
         &[]
+    }
+
+    /// Number of switching functions ([`DdeProblem::switching`]); 0 by default.
+    fn switching_count(&self) -> usize {
+        0
+    }
+
+    /// Writes the switching functions `gⱼ(t, x, x(t − τ₁), …)` into `g`, as
+    /// [`OdeProblem::switching`] (`x_delayed` as in [`DdeProblem::rhs`]). A landed switch is
+    /// carried along the delays like a breakpoint (see [`crate::Options::kink_propagation`]):
+    /// `f` reads the kink back through its delayed arguments.
+    fn switching(
+        &self,
+        _t: f64,
+        _x: &SVector<f64, N>,
+        _x_delayed: &[SVector<f64, N>],
+        _g: &mut [f64],
+    ) {
     }
 }

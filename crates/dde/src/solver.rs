@@ -1,5 +1,7 @@
-//! The Dormand–Prince 5(4) stepping loop shared by the ODE and the DDE solver.
+//! The Runge–Kutta stepping loop shared by the ODE and the DDE solver and by both pairs
+//! ([`crate::Method`]): attempt, judge, accept, record, detect events, advance, report.
 
+use std::cell::{Cell, OnceCell, RefCell};
 use std::collections::VecDeque;
 
 use nalgebra::SVector;
@@ -7,9 +9,9 @@ use nalgebra::SVector;
 use crate::Error;
 use crate::dense::{Segment, Solution};
 use crate::events::{Event, EventAction, EventHit, locate_root};
-use crate::options::{DenseOutput, Options, StepController};
+use crate::options::{DenseOutput, KinkLanding, Method, Options, StepController};
 use crate::problem::{DdeProblem, OdeProblem};
-use crate::tableau::*;
+use crate::scheme::{Dop853, Dopri5, Scheme, Tolerances};
 
 type SV<const N: usize> = SVector<f64, N>;
 
@@ -42,19 +44,26 @@ pub struct Stats {
     pub rejected: usize,
     /// right-hand side evaluations
     pub rhs_evals: usize,
+    /// steps landed on a root of a switching function (a kink of `f`)
+    pub switches: usize,
 }
 
-/// What an observer sees of an accepted step.
+/// What an observer sees of an accepted step. The continuous extension is built when first
+/// asked for (with DOP853 on an ODE that costs three right-hand sides; an observer that
+/// only reads [`StepView::x`] costs nothing).
 pub struct StepView<'a, const N: usize> {
-    segment: &'a Segment<N>,
+    t_start: f64,
+    t_end: f64,
     x: &'a SV<N>,
-    past: &'a dyn PastEval<N>,
+    source: &'a dyn StepSource<N>,
 }
 
 impl<const N: usize> std::fmt::Debug for StepView<'_, N> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("StepView")
-            .field("segment", self.segment)
+            .field("t_start", &self.t_start)
+            .field("t_end", &self.t_end)
+            .field("x", self.x)
             .finish_non_exhaustive()
     }
 }
@@ -62,11 +71,11 @@ impl<const N: usize> std::fmt::Debug for StepView<'_, N> {
 impl<const N: usize> StepView<'_, N> {
     /// start of the step
     pub fn t_start(&self) -> f64 {
-        self.segment.t_start
+        self.t_start
     }
     /// end of the step
     pub fn t_end(&self) -> f64 {
-        self.segment.t_end
+        self.t_end
     }
     /// state at the end of the step
     pub fn x(&self) -> &SV<N> {
@@ -74,23 +83,30 @@ impl<const N: usize> StepView<'_, N> {
     }
     /// the continuous extension of this step
     pub fn segment(&self) -> &Segment<N> {
-        self.segment
+        self.source.segment()
     }
     /// the solution at `t` in `[t_start, t_end]` from the continuous extension
     pub fn eval(&self, t: f64) -> SV<N> {
-        self.segment.eval(t)
+        self.segment().eval(t)
     }
     /// DDE: the solution at an earlier time `t ≥ t_start − max delay` (history for `t ≤ t0`);
     /// ODE: only within this step. `None` outside what is stored.
     pub fn eval_past(&self, t: f64) -> Option<SV<N>> {
-        if t >= self.segment.t_start && t <= self.segment.t_end {
-            Some(self.segment.eval(t))
-        } else if t < self.segment.t_start {
-            self.past.eval_past(t)
+        if t >= self.t_start && t <= self.t_end {
+            Some(self.eval(t))
+        } else if t < self.t_start {
+            self.source.eval_past(t)
         } else {
             None
         }
     }
+}
+
+/// What a [`StepView`] reads: the step's continuous extension (built on demand) and the
+/// stored past.
+trait StepSource<const N: usize> {
+    fn segment(&self) -> &Segment<N>;
+    fn eval_past(&self, t: f64) -> Option<SV<N>>;
 }
 
 /// Receives every accepted step and every event. Closures `FnMut(&StepView) -> Flow` are
@@ -122,8 +138,10 @@ pub(crate) trait PastEval<const N: usize> {
 }
 
 /// The right-hand side as the stepping loop sees it.
-trait Rhs<const N: usize>: PastEval<N> {
-    fn eval(&mut self, t: f64, x: &SV<N>, dx: &mut SV<N>);
+pub(crate) trait Rhs<const N: usize>: PastEval<N> {
+    fn eval(&self, t: f64, x: &SV<N>, dx: &mut SV<N>);
+    /// whether every step's continuous extension must be stored (a DDE's past)
+    fn keeps_past(&self) -> bool;
     fn push(&mut self, seg: &Segment<N>);
     fn truncate(&mut self, t_end: f64);
     /// largest step that keeps every delayed argument in the computed past
@@ -132,6 +150,8 @@ trait Rhs<const N: usize>: PastEval<N> {
     fn n_delays(&self) -> usize;
     /// `out[j] = x(t − τⱼ)` from the stored past (the current step included)
     fn delayed_states(&self, t: f64, x: &SV<N>, out: &mut [SV<N>]);
+    /// the switching functions at `(t, x)` (DDE: with the delayed states from the past)
+    fn switching(&self, t: f64, x: &SV<N>, g: &mut [f64]);
 }
 
 struct OdeRhs<'a, P>(&'a P);
@@ -144,8 +164,11 @@ impl<const N: usize, P: OdeProblem<N>> PastEval<N> for OdeRhs<'_, P> {
 
 impl<const N: usize, P: OdeProblem<N>> Rhs<N> for OdeRhs<'_, P> {
     #[inline]
-    fn eval(&mut self, t: f64, x: &SV<N>, dx: &mut SV<N>) {
+    fn eval(&self, t: f64, x: &SV<N>, dx: &mut SV<N>) {
         self.0.rhs(t, x, dx);
+    }
+    fn keeps_past(&self) -> bool {
+        false
     }
     #[inline]
     fn push(&mut self, _seg: &Segment<N>) {}
@@ -157,6 +180,9 @@ impl<const N: usize, P: OdeProblem<N>> Rhs<N> for OdeRhs<'_, P> {
         0
     }
     fn delayed_states(&self, _t: f64, _x: &SV<N>, _out: &mut [SV<N>]) {}
+    fn switching(&self, t: f64, x: &SV<N>, g: &mut [f64]) {
+        self.0.switching(t, x, g);
+    }
 }
 
 /// The computed past of a DDE, pruned to the longest delay.
@@ -191,7 +217,8 @@ struct DdeRhs<'a, const N: usize, P> {
     p: &'a P,
     t0: f64,
     past: &'a mut Past<N>,
-    delayed: &'a mut Vec<SV<N>>,
+    /// scratch for `x(t − τⱼ)` (a cell: evaluation goes through a shared reference)
+    delayed: &'a RefCell<Vec<SV<N>>>,
     h_cap: f64,
 }
 
@@ -225,13 +252,17 @@ impl<const N: usize, P: DdeProblem<N>> PastEval<N> for DdeRhs<'_, N, P> {
 
 impl<const N: usize, P: DdeProblem<N>> Rhs<N> for DdeRhs<'_, N, P> {
     #[inline]
-    fn eval(&mut self, t: f64, x: &SV<N>, dx: &mut SV<N>) {
+    fn eval(&self, t: f64, x: &SV<N>, dx: &mut SV<N>) {
         let delays = self.p.delays();
+        let mut delayed = self.delayed.borrow_mut();
         for (j, &tau) in delays.iter().enumerate() {
             let v = if tau == 0.0 { *x } else { self.at(t - tau) };
-            self.delayed[j] = v;
+            delayed[j] = v;
         }
-        self.p.rhs(t, x, &self.delayed[..delays.len()], dx);
+        self.p.rhs(t, x, &delayed[..delays.len()], dx);
+    }
+    fn keeps_past(&self) -> bool {
+        true
     }
     fn push(&mut self, seg: &Segment<N>) {
         self.past.push(seg);
@@ -252,6 +283,12 @@ impl<const N: usize, P: DdeProblem<N>> Rhs<N> for DdeRhs<'_, N, P> {
             *o = if tau == 0.0 { *x } else { self.at(t - tau) };
         }
     }
+    fn switching(&self, t: f64, x: &SV<N>, g: &mut [f64]) {
+        let mut delayed = self.delayed.borrow_mut();
+        let n = self.p.delays().len();
+        self.delayed_states(t, x, &mut delayed[..n]);
+        self.p.switching(t, x, &delayed[..n], g);
+    }
 }
 
 /// Integration state shared by both solvers (cloneable: save and restore it freely).
@@ -271,6 +308,7 @@ struct Core<const N: usize> {
     stats: Stats,
     breakpoints: Vec<f64>,
     bp_next: usize,
+    switches: Switches,
     solution: Option<Solution<N>>,
 }
 
@@ -280,7 +318,13 @@ fn is_finite<const N: usize>(v: &SV<N>) -> bool {
 }
 
 impl<const N: usize> Core<N> {
-    fn new(t0: f64, x0: SV<N>, opts: Options, mut breakpoints: Vec<f64>) -> Result<Self, Error> {
+    fn new(
+        t0: f64,
+        x0: SV<N>,
+        opts: Options,
+        mut breakpoints: Vec<f64>,
+        switching_count: usize,
+    ) -> Result<Self, Error> {
         opts.validate()?;
         if !t0.is_finite() {
             return Err(Error::InvalidProblem {
@@ -305,6 +349,7 @@ impl<const N: usize> Core<N> {
         breakpoints.sort_by(f64::total_cmp);
         // merge breakpoints closer than a few ulps (e.g. 2τ₁ vs τ₂ = 2τ₁ up to rounding)
         breakpoints.dedup_by(|b, a| (*b - *a).abs() <= 64.0 * f64::EPSILON * a.abs().max(1.0));
+        let switches = Switches::new(switching_count, opts.kink_landing);
         let solution = match opts.dense_output {
             DenseOutput::Keep => Some(Solution::default()),
             DenseOutput::Discard => None,
@@ -321,23 +366,13 @@ impl<const N: usize> Core<N> {
             stats: Stats::default(),
             breakpoints,
             bp_next: 0,
+            switches,
             solution,
         })
     }
 
-    fn err_norm(&self, x: &SV<N>, x_new: &SV<N>, e: &SV<N>) -> f64 {
-        let (rtol, atol) = (self.opts.rtol, self.opts.atol);
-        let mut s = 0.0;
-        for i in 0..N {
-            let sk = atol + rtol * x[i].abs().max(x_new[i].abs());
-            let q = e[i] / sk;
-            s += q * q;
-        }
-        (s / N as f64).sqrt()
-    }
-
-    /// Hairer's starting step (*Solving ODEs I*, §II.4).
-    fn initial_step<R: Rhs<N>>(&mut self, rhs: &mut R, h_cap: f64, t_end: f64) -> f64 {
+    /// Hairer's starting step (*Solving ODEs I*, §II.4) for a method of order `order`.
+    fn initial_step<R: Rhs<N>>(&mut self, rhs: &R, h_cap: f64, t_end: f64, order: usize) -> f64 {
         let (rtol, atol) = (self.opts.rtol, self.opts.atol);
         let norm = |v: &SV<N>, x: &SV<N>| {
             let mut s = 0.0;
@@ -364,14 +399,28 @@ impl<const N: usize> Core<N> {
         let h1 = if dm <= 1e-15 || !dm.is_finite() {
             (h0 * 1e-3).max(1e-6)
         } else {
-            (0.01 / dm).powf(0.2)
+            (0.01 / dm).powf(1.0 / order as f64)
         };
         (100.0 * h0).min(h1).min(h_cap)
     }
 
-    /// Integrates to `t_end`: attempt, judge, accept, record, detect events, advance and
-    /// report, one Dormand–Prince step after the other.
+    /// Integrates to `t_end` with the pair of the options.
     fn run<R: Rhs<N>, O: Observer<N>>(
+        &mut self,
+        rhs: &mut R,
+        t_end: f64,
+        events: &[Event<'_, N>],
+        obs: &mut O,
+    ) -> Result<Status<N>, Error> {
+        match self.opts.method {
+            Method::Dopri5 => self.run_with::<Dopri5<N>, R, O>(rhs, t_end, events, obs),
+            Method::Dop853 => self.run_with::<Dop853<N>, R, O>(rhs, t_end, events, obs),
+        }
+    }
+
+    /// Integrates to `t_end`: attempt, judge, accept, record, detect events, advance and
+    /// report, one step of the pair `S` after the other.
+    fn run_with<S: Scheme<N>, R: Rhs<N>, O: Observer<N>>(
         &mut self,
         rhs: &mut R,
         t_end: f64,
@@ -385,9 +434,10 @@ impl<const N: usize> Core<N> {
             return Ok(Status::Reached);
         }
         self.ensure_fsal(rhs)?;
-        let ctl = self.control(rhs, t_end);
+        let ctl = self.control::<S, R>(rhs, t_end);
         let mut scratch = EventScratch::new(&*rhs, events, self.t, &self.x);
         let mut attempts = 0usize;
+        let mut previous: Option<(Plan<N>, S)> = None;
         loop {
             self.pass_reached_breakpoints();
             if self.t >= t_end {
@@ -402,29 +452,44 @@ impl<const N: usize> Core<N> {
             attempts += 1;
 
             let plan = self.plan_step(&ctl, t_end)?;
-            let stages = Stages::compute(rhs, &plan);
-            self.stats.rhs_evals += 6;
+            let stages = S::attempt(&*rhs, &plan);
+            self.stats.rhs_evals += S::EVALS;
+            let before = previous.as_ref().map(|(p, s)| (p, s));
+            if self.switches.crossing(
+                &*rhs,
+                &plan,
+                &stages,
+                before,
+                self.opts.event_tol,
+                &mut self.stats,
+            ) {
+                // a kink of f inside the step: land on it instead
+                continue;
+            }
             let Some(err) = self.judge(&ctl, &plan, &stages)? else {
                 continue;
             };
             let h_next = self.accept(&ctl, &plan, err);
-            let seg = self.record(rhs, &plan, &stages);
-            let stop_at = scratch.detect(&*rhs, events, &seg, &plan, &stages, self.opts.event_tol);
-            let seg_obs = match stop_at {
-                Some(k) => self.stop_at_event(rhs, &seg, scratch.hits[k], h_next),
-                None => {
-                    self.advance(rhs, &plan, &stages, h_next)?;
-                    seg
-                }
-            };
-            if let Some(status) = self.report(rhs, obs, &seg_obs, &scratch.hits, stop_at) {
+            self.switches.accepted(&plan, &mut self.stats);
+            let mut dense = StepDense::new(&plan, &stages);
+            self.record(rhs, &dense);
+            let stop_at = scratch.detect(&*rhs, events, &dense, self.opts.event_tol);
+            match stop_at {
+                Some(k) => self.stop_at_event(rhs, &mut dense, scratch.hits[k], h_next),
+                None => self.advance(rhs, &plan, &stages, h_next)?,
+            }
+            let status = self.report(&*rhs, obs, &dense, &scratch.hits, stop_at);
+            self.stats.rhs_evals += dense.extra_evals.get();
+            if let Some(status) = status {
                 return Ok(status);
             }
+            // kept for locating the next kink (a breakpoint or an event breaks the chain)
+            previous = (!plan.at_bp && stop_at.is_none()).then_some((plan, stages));
         }
     }
 
     /// Makes `k1 = f(t, x)` valid (after construction, a breakpoint or a terminal event).
-    fn ensure_fsal<R: Rhs<N>>(&mut self, rhs: &mut R) -> Result<(), Error> {
+    fn ensure_fsal<R: Rhs<N>>(&mut self, rhs: &R) -> Result<(), Error> {
         if !self.k1_valid {
             self.evaluate_k1(rhs)?;
             self.k1_valid = true;
@@ -433,7 +498,7 @@ impl<const N: usize> Core<N> {
     }
 
     /// `k1 = f(t, x)` evaluated afresh at the current point (counted, checked finite).
-    fn evaluate_k1<R: Rhs<N>>(&mut self, rhs: &mut R) -> Result<(), Error> {
+    fn evaluate_k1<R: Rhs<N>>(&mut self, rhs: &R) -> Result<(), Error> {
         let mut k1 = SV::<N>::zeros();
         rhs.eval(self.t, &self.x, &mut k1);
         self.stats.rhs_evals += 1;
@@ -445,7 +510,7 @@ impl<const N: usize> Core<N> {
     }
 
     /// Reads the step-size settings of this call and picks the first step if none is set.
-    fn control<R: Rhs<N>>(&mut self, rhs: &mut R, t_end: f64) -> Control {
+    fn control<S: Scheme<N>, R: Rhs<N>>(&mut self, rhs: &R, t_end: f64) -> Control {
         let h_cap = self.opts.h_max.min(rhs.h_cap());
         let fixed = match self.opts.controller {
             StepController::Fixed { h } => Some(h),
@@ -458,14 +523,14 @@ impl<const N: usize> Core<N> {
         if self.h == 0.0 {
             self.h = match (fixed, self.opts.h_initial) {
                 (Some(h), _) | (None, Some(h)) => h,
-                (None, None) => self.initial_step(rhs, h_cap, t_end),
+                (None, None) => self.initial_step(rhs, h_cap, t_end, S::ORDER),
             };
         }
         Control {
             h_cap,
             fixed,
             beta,
-            expo1: 0.2 - 0.75 * beta,
+            expo1: S::EXPONENT - S::BETA_WEIGHT * beta,
             safety: self.opts.safety,
             fac_min: self.opts.fac_min,
             fac_max: self.opts.fac_max,
@@ -485,10 +550,20 @@ impl<const N: usize> Core<N> {
     /// `t_end` (and stretched by up to 1 % to land instead of leaving a sliver).
     fn plan_step(&self, ctl: &Control, t_end: f64) -> Result<Plan<N>, Error> {
         let t = self.t;
-        let (target, at_bp) = match self.breakpoints.get(self.bp_next) {
+        let (mut target, mut at_bp) = match self.breakpoints.get(self.bp_next) {
             Some(&b) if b < t_end => (b, true),
             _ => (t_end, false),
         };
+        if let Some(kink) = self.switches.kink
+            && kink.t < target
+        {
+            (target, at_bp) = (kink.t, false);
+        }
+        if let Some(&echo) = self.switches.echoes.front()
+            && echo < target
+        {
+            (target, at_bp) = (echo, false);
+        }
         let h_prop = ctl.fixed.unwrap_or(self.h).min(ctl.h_cap);
         let dist = target - t;
         let (h, land) = if h_prop >= dist || (dist <= 1.01 * h_prop && dist <= ctl.h_cap) {
@@ -518,17 +593,25 @@ impl<const N: usize> Core<N> {
 
     /// The scaled error of the step (0 with fixed steps), or `None` after a rejection (the
     /// step size is then reduced); an error once the step cannot shrink any further.
-    fn judge(&mut self, ctl: &Control, p: &Plan<N>, s: &Stages<N>) -> Result<Option<f64>, Error> {
+    fn judge<S: Scheme<N>>(
+        &mut self,
+        ctl: &Control,
+        p: &Plan<N>,
+        s: &S,
+    ) -> Result<Option<f64>, Error> {
+        let finite = is_finite(s.x_new()) && is_finite(s.f_new());
         let err = if ctl.fixed.is_some() {
-            if is_finite(&s.x_new) && is_finite(&s.k[6]) {
-                0.0
-            } else {
-                f64::NAN
-            }
+            if finite { 0.0 } else { f64::NAN }
         } else {
-            self.err_norm(&p.x, &s.x_new, &s.error_estimate(p.h))
+            s.error(
+                p,
+                Tolerances {
+                    rtol: self.opts.rtol,
+                    atol: self.opts.atol,
+                },
+            )
         };
-        if !err.is_finite() || !is_finite(&s.x_new) || !is_finite(&s.k[6]) {
+        if !err.is_finite() || !finite {
             // try again with a much smaller step; give up once it cannot shrink further
             self.stats.rejected += 1;
             self.rejected_last = true;
@@ -565,8 +648,9 @@ impl<const N: usize> Core<N> {
                 hn = hn.min(p.h);
             }
             if p.land {
-                // a step cut short to land does not say the next one must be short
-                hn = hn.max(p.h_prop.min(hn * ctl.fac_max));
+                // a step cut short to land (on a breakpoint, a kink, the end) says nothing
+                // about the next one: the controller's proposal before the cut stands
+                hn = hn.max(p.h_prop);
             }
             self.ln_err_old = ln_err.max(1e-4_f64.ln());
             hn
@@ -575,28 +659,29 @@ impl<const N: usize> Core<N> {
         h_next
     }
 
-    /// The continuous extension of the accepted step, stored in the past (DDE) and in the
-    /// kept dense output.
-    fn record<R: Rhs<N>>(&mut self, rhs: &mut R, p: &Plan<N>, s: &Stages<N>) -> Segment<N> {
-        let seg = s.segment(p);
+    /// Stores the continuous extension of the accepted step where it must be kept: in the
+    /// past (DDE) and in the kept dense output. (Otherwise it is built only if asked for.)
+    fn record<R: Rhs<N>, S: Scheme<N>>(&mut self, rhs: &mut R, dense: &StepDense<'_, N, S>) {
+        if !rhs.keeps_past() && self.solution.is_none() {
+            return;
+        }
+        let seg = *dense.get(&*rhs);
         rhs.push(&seg);
         if let Some(sol) = self.solution.as_mut() {
             sol.push(seg);
         }
-        seg
     }
 
     /// Ends the step at a terminal event: the past, the dense output and the state are cut
-    /// at its time, and `k1` is invalid. Returns the step as the observer sees it.
-    fn stop_at_event<R: Rhs<N>>(
+    /// at its time, and `k1` is invalid.
+    fn stop_at_event<R: Rhs<N>, S: Scheme<N>>(
         &mut self,
         rhs: &mut R,
-        seg: &Segment<N>,
+        dense: &mut StepDense<'_, N, S>,
         hit: EventHit<N>,
         h_next: f64,
-    ) -> Segment<N> {
-        let mut seg_obs = *seg;
-        seg_obs.t_end = hit.t;
+    ) {
+        dense.cut(hit.t);
         rhs.truncate(hit.t);
         if let Some(sol) = self.solution.as_mut() {
             sol.truncate_last(hit.t);
@@ -605,44 +690,47 @@ impl<const N: usize> Core<N> {
         self.x = hit.x;
         self.k1_valid = false;
         self.h = h_next;
-        seg_obs
+        self.switches.restart();
     }
 
     /// Moves to the end of the step; at a breakpoint `k1` becomes the right limit of `f`.
-    fn advance<R: Rhs<N>>(
+    fn advance<R: Rhs<N>, S: Scheme<N>>(
         &mut self,
-        rhs: &mut R,
+        rhs: &R,
         p: &Plan<N>,
-        s: &Stages<N>,
+        s: &S,
         h_next: f64,
     ) -> Result<(), Error> {
         self.t = p.t_new;
-        self.x = s.x_new;
+        self.x = *s.x_new();
         self.h = h_next;
         if p.at_bp {
             self.bp_next += 1;
-            // right limit of f after the jump
+            // right limit of f after the jump (and of the switching functions)
             self.evaluate_k1(rhs)?;
+            self.switches.restart();
         } else {
-            self.k1 = s.k[6];
+            self.k1 = *s.f_new();
         }
         Ok(())
     }
 
     /// Shows the step and its events to the observer; the final status if the integration
     /// ends here (a terminal event, or the observer's stop).
-    fn report<R: Rhs<N>, O: Observer<N>>(
+    fn report<R: Rhs<N>, S: Scheme<N>, O: Observer<N>>(
         &mut self,
-        rhs: &mut R,
+        rhs: &R,
         obs: &mut O,
-        seg_obs: &Segment<N>,
+        dense: &StepDense<'_, N, S>,
         hits: &[EventHit<N>],
         stop_at: Option<usize>,
     ) -> Option<Status<N>> {
+        let source = Shown { rhs, dense };
         let view = StepView {
-            segment: seg_obs,
+            t_start: dense.plan.t,
+            t_end: dense.t_end,
             x: &self.x,
-            past: &*rhs,
+            source: &source,
         };
         let flow = obs.on_step(&view);
         for hit in hits {
@@ -680,12 +768,12 @@ struct Control {
 
 /// The step about to be attempted from `(t, x)` with `k1 = f(t, x)`.
 #[derive(Debug, Clone, Copy)]
-struct Plan<const N: usize> {
-    t: f64,
-    x: SV<N>,
-    k1: SV<N>,
+pub(crate) struct Plan<const N: usize> {
+    pub(crate) t: f64,
+    pub(crate) x: SV<N>,
+    pub(crate) k1: SV<N>,
     /// the step size
-    h: f64,
+    pub(crate) h: f64,
     /// the size the controller proposed (before landing)
     h_prop: f64,
     /// whether the step lands on a breakpoint or on `t_end`
@@ -693,86 +781,301 @@ struct Plan<const N: usize> {
     /// whether it lands on a breakpoint
     at_bp: bool,
     /// end of the step
-    t_new: f64,
-    /// where the last stages are evaluated: the left limit at a breakpoint
-    t_last: f64,
+    pub(crate) t_new: f64,
+    /// where `f` at the new point is evaluated: the left limit at a breakpoint
+    pub(crate) t_last: f64,
 }
 
-/// The seven stages `k[0] = k1 … k[6] = k7` of one Dormand–Prince step and its result.
-#[derive(Debug, Clone, Copy)]
-struct Stages<const N: usize> {
-    k: [SV<N>; 7],
-    x_new: SV<N>,
+impl<const N: usize> Plan<N> {
+    /// Where a stage with node `c = 1` is evaluated: `t + h`, or the left limit at a
+    /// breakpoint.
+    #[inline]
+    pub(crate) fn t_end_stage(&self) -> f64 {
+        if self.at_bp {
+            self.t_last
+        } else {
+            self.t + self.h
+        }
+    }
 }
 
-impl<const N: usize> Stages<N> {
-    /// One Dormand–Prince 5(4) step (six new right-hand side evaluations, FSAL).
-    fn compute<R: Rhs<N>>(rhs: &mut R, p: &Plan<N>) -> Self {
-        let (t, x, k1, h) = (p.t, p.x, p.k1, p.h);
-        let mut k2 = SV::<N>::zeros();
-        let mut k3 = SV::<N>::zeros();
-        let mut k4 = SV::<N>::zeros();
-        let mut k5 = SV::<N>::zeros();
-        let mut k6 = SV::<N>::zeros();
-        let mut k7 = SV::<N>::zeros();
-        rhs.eval(t + C2 * h, &(x + k1 * (h * A21)), &mut k2);
-        rhs.eval(t + C3 * h, &(x + (k1 * A31 + k2 * A32) * h), &mut k3);
-        rhs.eval(
-            t + C4 * h,
-            &(x + (k1 * A41 + k2 * A42 + k3 * A43) * h),
-            &mut k4,
-        );
-        rhs.eval(
-            t + C5 * h,
-            &(x + (k1 * A51 + k2 * A52 + k3 * A53 + k4 * A54) * h),
-            &mut k5,
-        );
-        let t6 = if p.at_bp { p.t_last } else { t + h };
-        rhs.eval(
-            t6,
-            &(x + (k1 * A61 + k2 * A62 + k3 * A63 + k4 * A64 + k5 * A65) * h),
-            &mut k6,
-        );
-        let x_new = x + (k1 * A71 + k3 * A73 + k4 * A74 + k5 * A75 + k6 * A76) * h;
-        rhs.eval(p.t_last, &x_new, &mut k7);
-        Stages {
-            k: [k1, k2, k3, k4, k5, k6, k7],
-            x_new,
+/// The continuous extension of an accepted step, built at most once and only when
+/// something needs it (the DDE past, the kept output, an event that fires, an observer);
+/// counts the extra right-hand sides that took.
+struct StepDense<'s, const N: usize, S> {
+    plan: &'s Plan<N>,
+    stages: &'s S,
+    /// end of the step as reported (cut at a terminal event)
+    t_end: f64,
+    segment: OnceCell<Segment<N>>,
+    extra_evals: Cell<usize>,
+}
+
+impl<'s, const N: usize, S: Scheme<N>> StepDense<'s, N, S> {
+    fn new(plan: &'s Plan<N>, stages: &'s S) -> Self {
+        StepDense {
+            plan,
+            stages,
+            t_end: plan.t_new,
+            segment: OnceCell::new(),
+            extra_evals: Cell::new(0),
         }
     }
 
-    /// The embedded error estimate (5th minus 4th order solution).
-    fn error_estimate(&self, h: f64) -> SV<N> {
-        let [k1, _, k3, k4, k5, k6, k7] = self.k;
-        (k1 * E1 + k3 * E3 + k4 * E4 + k5 * E5 + k6 * E6 + k7 * E7) * h
+    fn get<R: Rhs<N>>(&self, rhs: &R) -> &Segment<N> {
+        self.segment.get_or_init(|| {
+            let (mut seg, evals) = self.stages.dense(rhs, self.plan);
+            seg.t_end = self.t_end;
+            self.extra_evals.set(self.extra_evals.get() + evals);
+            seg
+        })
     }
 
-    /// The continuous extension of order 4 on `[t, t_new]` (Hairer's DOPRI5 coefficients).
-    fn segment(&self, p: &Plan<N>) -> Segment<N> {
-        let [k1, _, k3, k4, k5, k6, k7] = self.k;
-        let (x, h) = (p.x, p.h);
-        let ydiff = self.x_new - x;
-        let bspl = k1 * h - ydiff;
-        Segment {
-            t_start: p.t,
-            t_end: p.t_new,
-            h,
-            r: [
-                x,
-                ydiff,
-                bspl,
-                ydiff - k7 * h - bspl,
-                (k1 * D1 + k3 * D3 + k4 * D4 + k5 * D5 + k6 * D6 + k7 * D7) * h,
-            ],
+    /// Ends the step at `t` (a terminal event).
+    fn cut(&mut self, t: f64) {
+        self.t_end = t;
+        if let Some(seg) = self.segment.get_mut() {
+            seg.t_end = t;
+        }
+    }
+}
+
+/// The step as an observer's [`StepView`] reads it.
+struct Shown<'a, 's, const N: usize, R, S> {
+    rhs: &'a R,
+    dense: &'a StepDense<'s, N, S>,
+}
+
+impl<const N: usize, R: Rhs<N>, S: Scheme<N>> StepSource<N> for Shown<'_, '_, N, R, S> {
+    fn segment(&self) -> &Segment<N> {
+        self.dense.get(self.rhs)
+    }
+    fn eval_past(&self, t: f64) -> Option<SV<N>> {
+        self.rhs.eval_past(t)
+    }
+}
+
+/// The switching functions of the problem ([`OdeProblem::switching`]): their values at the
+/// current point and at the end of the attempted step, and the located kink ahead.
+#[derive(Debug, Clone)]
+struct Switches {
+    /// gⱼ at the current point; exactly 0 for a switch whose root the step just landed on
+    /// (either sign then counts as its far side)
+    at_t: Vec<f64>,
+    /// whether `at_t` belongs to the current point
+    at_t_valid: bool,
+    /// gⱼ at the end of the attempted step
+    at_new: Vec<f64>,
+    /// scratch for evaluating all gⱼ during root location
+    scratch: Vec<f64>,
+    /// the earliest located root ahead
+    kink: Option<Kink>,
+    /// how steps land on kinks
+    landing: KinkLanding,
+    /// the last landing
+    last_landing: Option<Kink>,
+    /// DDE: landed kinks carried along the delays, where steps land too (sorted)
+    echoes: VecDeque<f64>,
+    /// DDE: the distinct positive delays
+    echo_delays: Vec<f64>,
+    /// DDE: how many delays a kink is carried along ([`Options::kink_propagation`])
+    echo_depth: usize,
+}
+
+/// A located root of a switching function.
+#[derive(Debug, Clone, Copy)]
+struct Kink {
+    t: f64,
+    index: usize,
+}
+
+impl Switches {
+    fn new(count: usize, landing: KinkLanding) -> Self {
+        Switches {
+            landing,
+            at_t: vec![0.0; count],
+            at_t_valid: false,
+            at_new: vec![0.0; count],
+            scratch: vec![0.0; count],
+            kink: None,
+            last_landing: None,
+            echoes: VecDeque::new(),
+            echo_delays: Vec::new(),
+            echo_depth: 0,
+        }
+    }
+
+    /// DDE: carry every landed kink along the positive `delays` up to `depth` of them.
+    fn with_echoes(mut self, delays: &[f64], depth: usize) -> Self {
+        if !self.at_t.is_empty() && !delays.is_empty() && depth > 0 {
+            self.echo_delays = delays.to_vec();
+            self.echo_depth = depth;
+            self.echoes.reserve(64);
+        }
+        self
+    }
+
+    /// The state was set anew (a terminal event, a breakpoint's right limit): the values at
+    /// the current point are recomputed before the next step, and a kink ahead is located
+    /// again if it is still there.
+    fn restart(&mut self) {
+        self.at_t_valid = false;
+        self.kink = None;
+    }
+
+    /// Whether the attempted step crosses a switch that it does not end on. Then the
+    /// earliest crossing is located and becomes the target of the next attempt. Where the
+    /// roots are sought: on the previous step's continuous extension carried over this step
+    /// (smooth up to the kink: extrapolated over one step it places the root far more
+    /// accurately than the attempt's own extension, which the kink spoils), or, for the
+    /// attempt that lands on a kink but overshoots it, on its own extension (spoiled only
+    /// over the overshoot). Extra right-hand sides are counted.
+    fn crossing<const N: usize, R: Rhs<N>, S: Scheme<N>>(
+        &mut self,
+        rhs: &R,
+        p: &Plan<N>,
+        s: &S,
+        previous: Option<(&Plan<N>, &S)>,
+        tol: f64,
+        stats: &mut Stats,
+    ) -> bool {
+        if self.at_t.is_empty() {
+            return false;
+        }
+        if !self.at_t_valid {
+            rhs.switching(p.t, &p.x, &mut self.at_t);
+            self.at_t_valid = true;
+        }
+        rhs.switching(p.t_last, s.x_new(), &mut self.at_new);
+        let crosses = |g0: f64, g1: f64| g0 != 0.0 && g1 != 0.0 && (g0 < 0.0) != (g1 < 0.0);
+        if !self
+            .at_t
+            .iter()
+            .zip(&self.at_new)
+            .any(|(&g0, &g1)| crosses(g0, g1))
+        {
+            return false;
+        }
+        let landing = self.kink.filter(|k| k.t == p.t_new);
+        if self.landing == KinkLanding::Once
+            && let Some(k) = landing
+        {
+            // landing once: the step ends on its kink, whatever the sign there says
+            self.at_new[k.index] = 0.0;
+        }
+        let exact = self.landing == KinkLanding::Exact;
+        let carried = match previous {
+            Some((pp, ps)) if exact && landing.is_none() && pp.t_new == p.t => {
+                let (seg, extra) = ps.dense(rhs, pp);
+                stats.rhs_evals += extra;
+                Some(seg)
+            }
+            _ => None,
+        };
+        let own = OnceCell::new();
+        let mut first: Option<Kink> = None;
+        for j in 0..self.at_t.len() {
+            let (g0, g1) = (self.at_t[j], self.at_new[j]);
+            if !crosses(g0, g1) {
+                continue;
+            }
+            let scratch = &mut self.scratch;
+            let mut g_on = |seg: &Segment<N>, t: f64| {
+                rhs.switching(t, &seg.eval(t), scratch);
+                scratch[j]
+            };
+            // the carried extension if it brackets the root, else the attempt's own
+            let bracket = carried
+                .as_ref()
+                .map(|seg| (seg, g_on(seg, p.t_new)))
+                .filter(|&(_, g1c)| crosses(g0, g1c));
+            let t_root = match bracket {
+                Some((seg, g1c)) => locate_root(|t| g_on(seg, t), p.t, g0, p.t_new, g1c, tol),
+                None => {
+                    let seg = own.get_or_init(|| {
+                        let (seg, extra) = s.dense(rhs, p);
+                        stats.rhs_evals += extra;
+                        seg
+                    });
+                    locate_root(|t| g_on(seg, t), p.t, g0, p.t_new, g1, tol)
+                }
+            };
+            if first.is_none_or(|k| t_root < k.t) {
+                first = Some(Kink {
+                    t: t_root,
+                    index: j,
+                });
+            }
+        }
+        let Some(kink) = first else {
+            return false;
+        };
+        let resolution = tol.max(16.0 * f64::EPSILON * p.t_new.abs());
+        if kink.t - p.t <= resolution {
+            // the switch flipped at the step's start (within the location tolerance): the
+            // step lies on its far side already
+            self.at_t[kink.index] = 0.0;
+            return self.crossing(rhs, p, s, previous, tol, stats);
+        }
+        if p.t_new - kink.t <= resolution {
+            // the step ends on the root: it lands on the kink
+            self.kink = Some(Kink { t: p.t_new, ..kink });
+            return false;
+        }
+        // a root inside: land on it instead
+        self.kink = Some(kink);
+        true
+    }
+
+    /// The attempted step was accepted: its end values become the current ones; on landing
+    /// on the kink, that switch counts as crossed.
+    fn accepted<const N: usize>(&mut self, p: &Plan<N>, stats: &mut Stats) {
+        if self.at_t.is_empty() {
+            return;
+        }
+        std::mem::swap(&mut self.at_t, &mut self.at_new);
+        while self.echoes.front().is_some_and(|&e| e <= p.t_new) {
+            self.echoes.pop_front();
+        }
+        if let Some(k) = self.kink
+            && k.t == p.t_new
+        {
+            if self.landing == KinkLanding::Once {
+                // either side of the landing point counts as the far side
+                self.at_t[k.index] = 0.0;
+            }
+            self.kink = None;
+            stats.switches += 1;
+            let echoes = &mut self.echoes;
+            if let Some(last) = self.last_landing
+                && last.index == k.index
+                && last.t == p.t
+            {
+                // a second landing on the same kink (the first fell short of its root):
+                // its echoes replace the first one's
+                propagate(last.t, 1, &self.echo_delays, self.echo_depth, &mut |e| {
+                    let i = echoes.partition_point(|&x| x < e);
+                    if echoes.get(i) == Some(&e) {
+                        echoes.remove(i);
+                    }
+                });
+            }
+            propagate(k.t, 1, &self.echo_delays, self.echo_depth, &mut |e| {
+                let i = echoes.partition_point(|&x| x < e);
+                echoes.insert(i, e);
+            });
+            self.last_landing = Some(k);
         }
     }
 }
 
 /// Event bookkeeping of one `integrate` call (allocated per call, only when there are
-/// events): the delayed states for `g`, the last value of each `g`, the hits of a step.
+/// events): the delayed states for `g`, the values of each `g` at the last and the new step
+/// end, the hits of a step.
 struct EventScratch<const N: usize> {
     xd: Vec<SV<N>>,
     g_prev: Vec<f64>,
+    g_new: Vec<f64>,
     hits: Vec<EventHit<N>>,
 }
 
@@ -787,36 +1090,43 @@ impl<const N: usize> EventScratch<N> {
         let g_prev: Vec<f64> = events.iter().map(|e| e.g(t, x, &xd)).collect();
         EventScratch {
             xd,
+            g_new: g_prev.clone(),
             g_prev,
             hits: Vec::with_capacity(events.len()),
         }
     }
 
-    /// Finds the events of the accepted step `seg`, sorted in time; the index (into
-    /// `self.hits`) of the first terminal one, where the hits are cut off.
-    fn detect<R: Rhs<N>>(
+    /// Finds the events of the accepted step, sorted in time; the index (into `self.hits`)
+    /// of the first terminal one, where the hits are cut off. The sign of every `g` is read
+    /// at the step's end first; the continuous extension is needed (and built) only if one
+    /// changed.
+    fn detect<R: Rhs<N>, S: Scheme<N>>(
         &mut self,
         rhs: &R,
         events: &[Event<'_, N>],
-        seg: &Segment<N>,
-        p: &Plan<N>,
-        s: &Stages<N>,
+        dense: &StepDense<'_, N, S>,
         event_tol: f64,
     ) -> Option<usize> {
-        let (t, t_new, x_new) = (p.t, p.t_new, s.x_new);
         self.hits.clear();
+        if events.is_empty() {
+            return None;
+        }
+        let (t, t_new, x_new) = (dense.plan.t, dense.plan.t_new, dense.stages.x_new());
+        rhs.delayed_states(t_new, x_new, &mut self.xd);
+        for (g1, ev) in self.g_new.iter_mut().zip(events) {
+            *g1 = ev.g(t_new, x_new, &self.xd);
+        }
         for (i, ev) in events.iter().enumerate() {
-            rhs.delayed_states(t_new, &x_new, &mut self.xd);
-            let g1 = ev.g(t_new, &x_new, &self.xd);
-            // (recomputed per event: the root search below overwrites the buffer)
-            if let Some(dir) = ev.triggers(self.g_prev[i], g1) {
+            let (g0, g1) = (self.g_prev[i], self.g_new[i]);
+            if let Some(dir) = ev.triggers(g0, g1) {
+                let seg = dense.get(rhs);
                 let xd_buf = &mut self.xd;
                 let g = |s: f64| {
                     let xs = seg.eval(s);
                     rhs.delayed_states(s, &xs, xd_buf);
                     ev.g(s, &xs, xd_buf)
                 };
-                let ts = locate_root(g, t, self.g_prev[i], t_new, g1, event_tol);
+                let ts = locate_root(g, t, g0, t_new, g1, event_tol);
                 self.hits.push(EventHit {
                     index: i,
                     t: ts,
@@ -824,8 +1134,8 @@ impl<const N: usize> EventScratch<N> {
                     direction: dir,
                 });
             }
-            self.g_prev[i] = g1;
         }
+        std::mem::swap(&mut self.g_prev, &mut self.g_new);
         if self.hits.is_empty() {
             return None;
         }
@@ -853,8 +1163,9 @@ fn check_delays(delays: &[f64]) -> Result<(), Error> {
     Ok(())
 }
 
-/// `b + k₁τ₁ + … + kₘτₘ` for `k_min ≤ Σk ≤ order` (positive delays only).
-fn propagate(base: f64, k_min: usize, delays: &[f64], order: usize, out: &mut Vec<f64>) {
+/// `b + k₁τ₁ + … + kₘτₘ` for `k_min ≤ Σk ≤ order` (positive delays only), each passed to
+/// `out`.
+fn propagate(base: f64, k_min: usize, delays: &[f64], order: usize, out: &mut impl FnMut(f64)) {
     fn rec(
         t: f64,
         used: usize,
@@ -862,10 +1173,10 @@ fn propagate(base: f64, k_min: usize, delays: &[f64], order: usize, out: &mut Ve
         start: usize,
         d: &[f64],
         order: usize,
-        out: &mut Vec<f64>,
+        out: &mut impl FnMut(f64),
     ) {
         if used >= k_min {
-            out.push(t);
+            out(t);
         }
         if used == order {
             return;
@@ -917,7 +1228,7 @@ impl<const N: usize> OdeSolver<N> {
     /// Starts at `(t0, x0)`; the problem's breakpoints are read here.
     pub fn new<P: OdeProblem<N>>(p: &P, t0: f64, x0: SV<N>, opts: Options) -> Result<Self, Error> {
         Ok(OdeSolver {
-            core: Core::new(t0, x0, opts, p.breakpoints().to_vec())?,
+            core: Core::new(t0, x0, opts, p.breakpoints().to_vec(), p.switching_count())?,
         })
     }
 
@@ -944,7 +1255,7 @@ pub struct DdeSolver<const N: usize> {
     t0: f64,
     delays: Vec<f64>,
     past: Past<N>,
-    delayed: Vec<SV<N>>,
+    delayed: RefCell<Vec<SV<N>>>,
 }
 
 impl<const N: usize> DdeSolver<N> {
@@ -957,14 +1268,16 @@ impl<const N: usize> DdeSolver<N> {
         let mut pos: Vec<f64> = delays.iter().copied().filter(|&d| d > 0.0).collect();
         pos.sort_by(f64::total_cmp);
         pos.dedup();
-        let order = opts.breakpoint_order;
+        let order = opts.breakpoint_order();
         let mut bps = Vec::new();
-        propagate(t0, 1, &pos, order, &mut bps);
+        propagate(t0, 1, &pos, order, &mut |b| bps.push(b));
         for &b in p.breakpoints() {
-            propagate(b, 0, &pos, order, &mut bps);
+            propagate(b, 0, &pos, order, &mut |b| bps.push(b));
         }
         let x0 = p.history(t0);
-        let core = Core::new(t0, x0, opts, bps)?;
+        let depth = opts.kink_propagation();
+        let mut core = Core::new(t0, x0, opts, bps, p.switching_count())?;
+        core.switches = core.switches.with_echoes(&pos, depth);
         let span = pos.last().copied().unwrap_or(0.0);
         Ok(DdeSolver {
             core,
@@ -973,7 +1286,7 @@ impl<const N: usize> DdeSolver<N> {
                 segs: VecDeque::with_capacity(64),
                 span,
             },
-            delayed: vec![SV::<N>::zeros(); delays.len()],
+            delayed: RefCell::new(vec![SV::<N>::zeros(); delays.len()]),
             delays,
         })
     }
@@ -1004,7 +1317,7 @@ impl<const N: usize> DdeSolver<N> {
             p,
             t0: self.t0,
             past: &mut self.past,
-            delayed: &mut self.delayed,
+            delayed: &self.delayed,
             h_cap,
         };
         self.core.run(&mut rhs, t_end, events, observer)

@@ -88,7 +88,7 @@ fn breakpoint_schedule_propagates_initial_discontinuity() {
         f: |_, xd: &[V1]| -xd[0][0] + 0.5 * xd[1][0],
     };
     let opts = Options {
-        breakpoint_order: 2,
+        breakpoint_order: Some(2),
         ..Options::default()
     };
     let s = DdeSolver::new(&two_delays, 0.0, opts).unwrap();
@@ -255,4 +255,118 @@ fn observer_reads_the_past_one_delay_back() {
     s.integrate(&NegFeedback, 4.0, &[], &mut obs).unwrap();
     // at least one step per delay interval (steps are capped at τ and land on 1, 2, 3)
     assert!(checked >= 4, "{checked} steps");
+}
+
+// ---- DOP853 ---------------------------------------------------------------------------
+
+#[test]
+fn dop853_dde_observed_order_is_eight_with_fixed_steps() {
+    // as for Dormand–Prince 5(4) above: order min(p, q + 1) = min(8, 7 + 1) = 8 for DOP853
+    // with its order-7 extension (Bellen–Zennaro, §4), breakpoints tracked to order 8
+    let ms = [1usize, 2, 3, 4]; // (beyond h = 1/4 the error reaches round-off, 1e-15)
+    let mut hs = Vec::new();
+    let mut errs = Vec::new();
+    for &m in &ms {
+        let h = 1.0 / m as f64;
+        let opts = Options {
+            controller: StepController::Fixed { h },
+            ..Options::default().with_method(dde::Method::Dop853)
+        };
+        let mut s = DdeSolver::new(&ExpHistory, 0.0, opts).unwrap();
+        s.integrate(&ExpHistory, 3.0, &[], &mut NoObserver).unwrap();
+        hs.push(h);
+        errs.push((s.state()[0] - exp_history_exact(3.0)).abs());
+    }
+    let p = slope(&hs, &errs);
+    eprintln!("DOP853 DDE order {p:.3}, errors {errs:?}");
+    assert!(
+        (p - 8.0).abs() < 0.5,
+        "observed DDE order {p}, errors {errs:?}"
+    );
+}
+
+#[test]
+fn dop853_dde_matches_exact_solutions_and_tracks_breakpoints_to_order_eight() {
+    let opts = Options::with_tolerances(1e-10, 1e-12).with_method(dde::Method::Dop853);
+    // reference: the exact piecewise polynomial of x' = −x(t − 1), x ≡ 1 (tolerance as for
+    // Dormand–Prince 5(4): 1e-8 at rtol 1e-10)
+    let sol = solve_dde(&NegFeedback, 0.0, 5.0, opts.clone()).unwrap();
+    for i in 0..=1000 {
+        let t = 5.0 * i as f64 / 1000.0;
+        assert_abs_diff_eq!(
+            sol.eval(t).unwrap()[0],
+            neg_feedback_exact(t),
+            epsilon = 1e-8
+        );
+    }
+    // the default breakpoint order is the method's: t0 + k for k = 1 … 8
+    let s = DdeSolver::new(&NegFeedback, 0.0, opts.clone()).unwrap();
+    let want: Vec<f64> = (1..=8).map(f64::from).collect();
+    assert_eq!(s.breakpoints(), want.as_slice());
+    // the exponential history with its kinks at 0, 1, 2
+    let sol = solve_dde(&ExpHistory, 0.0, 3.0, opts).unwrap();
+    for i in 0..=300 {
+        let t = 3.0 * i as f64 / 300.0;
+        assert_abs_diff_eq!(
+            sol.eval(t).unwrap()[0],
+            exp_history_exact(t),
+            epsilon = 1e-9
+        );
+    }
+}
+
+/// x'(t) = −x(t − 1) − ½|x(t)|, x ≡ 1 for t ≤ 0: a delayed oscillator whose right-hand side
+/// has a kink wherever x crosses 0 (switching function g = x), read back one delay later.
+struct KinkedFeedback;
+impl DdeProblem<1> for KinkedFeedback {
+    fn delays(&self) -> &[f64] {
+        &[1.0]
+    }
+    fn history(&self, _t: f64) -> V1 {
+        V1::from([1.0])
+    }
+    fn rhs(&self, _t: f64, x: &V1, xd: &[V1], dx: &mut V1) {
+        dx[0] = -xd[0][0] - 0.5 * x[0].abs();
+    }
+    fn switching_count(&self) -> usize {
+        1
+    }
+    fn switching(&self, _t: f64, x: &V1, _xd: &[V1], g: &mut [f64]) {
+        g[0] = x[0];
+    }
+}
+
+#[test]
+fn kinks_are_carried_along_the_delay() {
+    // reference: the same problem at rtol 1e-13 (a converged higher-resolution result,
+    // DOP853, kinks landed exactly and carried along the delay); error at t = 20 (five
+    // oscillations, a dozen kinks). Carrying the landed kinks along the delay (the default
+    // depth: order − 2) keeps the error at tolerance level; without it, the steps across the
+    // echoes cost rejected steps and, for the 8th-order pair, accuracy (measured below)
+    let t_end = 20.0;
+    let run = |method, rtol: f64, depth: Option<usize>| {
+        let opts = Options {
+            kink_propagation: depth,
+            ..Options::with_tolerances(rtol, rtol * 1e-2).with_method(method)
+        };
+        let mut s = DdeSolver::new(&KinkedFeedback, 0.0, opts).unwrap();
+        s.integrate(&KinkedFeedback, t_end, &[], &mut NoObserver)
+            .unwrap();
+        (s.state()[0], s.stats())
+    };
+    let (reference, st) = run(dde::Method::Dop853, 1e-13, None);
+    assert!(st.switches >= 8, "{st:?}");
+    for method in [dde::Method::Dopri5, dde::Method::Dop853] {
+        let (x, st) = run(method, 1e-9, None);
+        let (x0, st0) = run(method, 1e-9, Some(0));
+        let (err, err0) = ((x - reference).abs(), (x0 - reference).abs());
+        eprintln!("{method:?}: carried {err:e} {st:?}; not carried {err0:e} {st0:?}");
+        // measured: Dormand–Prince 5(4) 3.3e-11 carried vs 4.2e-11 not (16 vs 30 rejected
+        // steps); DOP853 1.4e-14 vs 2.3e-9 (4 vs 48 rejected steps)
+        assert!(err < 1e-9, "{method:?}: error {err:e}");
+        assert!(st0.rejected > st.rejected + 10, "{method:?}");
+        if method == dde::Method::Dop853 {
+            assert!(err0 > 100.0 * err, "{method:?}: {err0:e} vs {err:e}");
+        }
+    }
 }

@@ -5,8 +5,8 @@ mod common;
 use approx::{assert_abs_diff_eq, assert_relative_eq};
 use common::slope;
 use dde::{
-    Direction, Error, Event, EventAction, EventHit, Flow, NoObserver, Observer, OdeProblem,
-    OdeSolver, Options, Status, StepController, StepView, solve_ode,
+    Direction, Error, Event, EventAction, EventHit, Flow, KinkLanding, NoObserver, Observer,
+    OdeProblem, OdeSolver, Options, Status, StepController, StepView, solve_ode,
 };
 use nalgebra::SVector;
 use std::f64::consts::PI;
@@ -364,4 +364,275 @@ fn typed_errors_say_where() {
     )
     .unwrap();
     assert!(matches!(sol.eval(1.5), Err(Error::OutOfRange { .. })));
+}
+
+// ---- DOP853 ---------------------------------------------------------------------------
+
+fn dop853(rtol: f64, atol: f64) -> Options {
+    Options::with_tolerances(rtol, atol).with_method(dde::Method::Dop853)
+}
+
+#[test]
+fn dop853_observed_order_is_eight_and_dense_output_order_seven() {
+    // fixed steps h = 4/n on [0, 4] against exp(sin t), as for Dormand–Prince 5(4) above:
+    // the error at the mesh points t = 1 … 4 (order 8) and over 400 points of the continuous
+    // extension (order 7: local interpolation error O(h⁸), global O(h⁷) at most)
+    let mut hs = Vec::new();
+    let mut end_errs = Vec::new();
+    let mut dense_errs = Vec::new();
+    for n in [8usize, 12, 16, 24, 32] {
+        let h = 4.0 / n as f64;
+        let opts = Options {
+            controller: StepController::Fixed { h },
+            ..dop853(1e-6, 1e-9)
+        };
+        let sol = solve_ode(&ExpSin, 0.0, V1::from([1.0]), 4.0, opts).unwrap();
+        assert!(sol.segments().iter().all(|s| s.order() == 7));
+        hs.push(h);
+        let emax = [1.0f64, 2.0, 3.0, 4.0]
+            .iter()
+            .map(|&t| (sol.eval(t).unwrap()[0] - t.sin().exp()).abs())
+            .fold(0.0, f64::max);
+        end_errs.push(emax);
+        let dmax = (0..=400)
+            .map(|i| {
+                let t = 4.0 * i as f64 / 400.0;
+                (sol.eval(t).unwrap()[0] - t.sin().exp()).abs()
+            })
+            .fold(0.0, f64::max);
+        dense_errs.push(dmax);
+    }
+    let p = slope(&hs, &end_errs);
+    let q = slope(&hs, &dense_errs);
+    eprintln!("DOP853 order {p:.3} (errors {end_errs:?}), dense {q:.3} ({dense_errs:?})");
+    assert!(
+        (p - 8.0).abs() < 0.4,
+        "observed order {p}, errors {end_errs:?}"
+    );
+    assert!(q > 6.7, "dense-output order {q}, errors {dense_errs:?}");
+}
+
+#[test]
+fn dop853_error_is_proportional_to_tolerance() {
+    // reference: exp(sin 4); the global error stays within 20·tol and shrinks with it
+    let mut tols = Vec::new();
+    let mut errs = Vec::new();
+    for k in 5..=11 {
+        let tol = 10f64.powi(-k);
+        let sol = solve_ode(&ExpSin, 0.0, V1::from([1.0]), 4.0, dop853(tol, tol)).unwrap();
+        let e = (sol.eval(4.0).unwrap()[0] - 4.0f64.sin().exp()).abs();
+        assert!(e < 20.0 * tol, "tol {tol}: error {e}");
+        tols.push(tol);
+        errs.push(e);
+    }
+    let p = slope(&tols, &errs);
+    eprintln!("DOP853 error vs tol slope {p:.3}, errors {errs:?}");
+    assert!(
+        (0.7..=1.2).contains(&p),
+        "error vs tolerance slope {p}, errs {errs:?}"
+    );
+}
+
+#[test]
+fn dop853_needs_far_fewer_evaluations_than_dopri5_at_tight_tolerance() {
+    // the harmonic oscillator over 10 periods at rtol 1e-10, both against cos t: DOP853 is
+    // at least as accurate with fewer than half the right-hand sides (Hairer–Nørsett–Wanner,
+    // Solving ODEs I, §II.10: the 8th-order pair wins below tolerances of about 1e-7)
+    let t_end = 20.0 * PI;
+    let run = |method| {
+        let opts = Options::with_tolerances(1e-10, 1e-12).with_method(method);
+        let mut s = OdeSolver::new(&Harmonic, 0.0, V2::from([1.0, 0.0]), opts).unwrap();
+        s.integrate(&Harmonic, t_end, &[], &mut NoObserver).unwrap();
+        ((s.state()[0] - t_end.cos()).abs(), s.stats())
+    };
+    let (e5, s5) = run(dde::Method::Dopri5);
+    let (e8, s8) = run(dde::Method::Dop853);
+    eprintln!("dopri5 {e5:e} {s5:?}; dop853 {e8:e} {s8:?}");
+    assert!(e8 < 2.0 * e5.max(1e-12), "DOP853 error {e8:e} vs {e5:e}");
+    assert!(
+        2 * s8.rhs_evals < s5.rhs_evals,
+        "{} vs {} evaluations",
+        s8.rhs_evals,
+        s5.rhs_evals
+    );
+    // with nothing to interpolate, no step builds its continuous extension: twelve
+    // evaluations per attempt, plus k1 and the starting-step probe
+    assert_eq!(s8.rhs_evals, 12 * (s8.accepted + s8.rejected) + 2);
+}
+
+#[test]
+fn dop853_events_and_observers_build_the_extension_only_where_needed() {
+    // events on cos t located to 1e-10 (exact zeros π/2 + kπ); the extension (three more
+    // evaluations) is built on the steps where an event fires and nowhere else
+    let opts = dop853(1e-11, 1e-13);
+    let events = [Event::new(
+        |_t, x: &V2| x[0],
+        Direction::Either,
+        EventAction::Continue,
+    )];
+    let mut s = OdeSolver::new(&Harmonic, 0.0, V2::from([1.0, 0.0]), opts.clone()).unwrap();
+    let mut log = LogN::default();
+    s.integrate(&Harmonic, 20.0, &events, &mut log).unwrap();
+    assert_eq!(log.hits.len(), 6);
+    for (k, hit) in log.hits.iter().enumerate() {
+        assert_abs_diff_eq!(hit.t, PI / 2.0 + PI * k as f64, epsilon = 1e-10);
+    }
+    let st = s.stats();
+    assert_eq!(st.rhs_evals, 12 * (st.accepted + st.rejected) + 2 + 3 * 6);
+    // an observer that interpolates inside every step gets the order-7 extension
+    let mut n = 0;
+    let mut obs = |v: &StepView<'_, 2>| {
+        let tm = 0.5 * (v.t_start() + v.t_end());
+        assert_abs_diff_eq!(v.eval(tm)[0], tm.cos(), epsilon = 1e-10);
+        assert_eq!(v.segment().order(), 7);
+        n += 1;
+        Flow::Continue
+    };
+    let mut s = OdeSolver::new(&Harmonic, 0.0, V2::from([1.0, 0.0]), opts).unwrap();
+    s.integrate(&Harmonic, 20.0, &[], &mut obs).unwrap();
+    let st = s.stats();
+    assert_eq!(n, st.accepted);
+    assert_eq!(
+        st.rhs_evals,
+        12 * (st.accepted + st.rejected) + 2 + 3 * st.accepted
+    );
+}
+
+#[test]
+fn dop853_terminal_event_and_declared_breakpoint() {
+    // the first rising zero of cos t is 3π/2 (reference as for Dormand–Prince 5(4))
+    let events = [Event::new(
+        |_t, x: &V2| x[0],
+        Direction::Rising,
+        EventAction::Stop,
+    )];
+    let mut s = OdeSolver::new(&Harmonic, 0.0, V2::from([1.0, 0.0]), dop853(1e-11, 1e-13)).unwrap();
+    let st = s
+        .integrate(&Harmonic, 20.0, &events, &mut NoObserver)
+        .unwrap();
+    let Status::Event(hit) = st else {
+        panic!("expected a terminal event, got {st:?}")
+    };
+    assert_abs_diff_eq!(hit.t, 1.5 * PI, epsilon = 1e-10);
+    assert_abs_diff_eq!(s.state()[1], 1.0, epsilon = 1e-10);
+    // the kink of the Jump problem at a declared breakpoint: exact e^{-1} at t = 3
+    let p = Jump { declare: true };
+    let mut s = OdeSolver::new(&p, 0.0, V1::from([1.0]), dop853(1e-8, 1e-12)).unwrap();
+    s.integrate(&p, 3.0, &[], &mut NoObserver).unwrap();
+    let rel = (s.state()[0] - (-1.0f64).exp()).abs() / (-1.0f64).exp();
+    assert!(rel < 5e-8, "error {rel:e}");
+}
+
+#[derive(Default)]
+struct LogN {
+    hits: Vec<EventHit<2>>,
+}
+impl Observer<2> for LogN {
+    fn on_event(&mut self, hit: &EventHit<2>) {
+        self.hits.push(*hit);
+    }
+}
+
+// ---- switching functions (kinks of f) ---------------------------------------------------
+
+/// The bilinear oscillator x'' = −x for x ≥ 0 and −4x for x < 0 (stiffness 1 and 4): `f` is
+/// continuous with a kink at x = 0. From x = 0, x' = 1: x = sin t on [0, π], then
+/// −½ sin 2(t − π) on [π, 3π/2]; period 3π/2, the zero crossings at multiples of π/2·(…).
+struct Bilinear {
+    declare: bool,
+}
+impl OdeProblem<2> for Bilinear {
+    fn rhs(&self, _t: f64, x: &V2, dx: &mut V2) {
+        dx[0] = x[1];
+        dx[1] = if x[0] >= 0.0 { -x[0] } else { -4.0 * x[0] };
+    }
+    fn switching_count(&self) -> usize {
+        usize::from(self.declare)
+    }
+    fn switching(&self, _t: f64, x: &V2, g: &mut [f64]) {
+        g[0] = x[0];
+    }
+}
+
+/// The exact solution of [`Bilinear`] from (0, 1).
+fn bilinear_exact(t: f64) -> f64 {
+    let period = 1.5 * PI;
+    let s = t.rem_euclid(period);
+    if s <= PI {
+        s.sin()
+    } else {
+        -0.5 * (2.0 * (s - PI)).sin()
+    }
+}
+
+#[test]
+fn declared_kinks_are_landed_on_and_restore_the_accuracy() {
+    // reference: the exact piecewise solution; 8 periods, 16 kinks at π + 3π/2·k and
+    // 3π/2·(k + 1); rtol 1e-10
+    let t_end = 12.0 * PI;
+    let run = |method, landing, declare: bool| {
+        let p = Bilinear { declare };
+        let opts = Options {
+            kink_landing: landing,
+            ..Options::with_tolerances(1e-10, 1e-12)
+                .with_method(method)
+                .keep_dense_output()
+        };
+        let mut s = OdeSolver::new(&p, 0.0, V2::from([0.0, 1.0]), opts).unwrap();
+        s.integrate(&p, t_end, &[], &mut NoObserver).unwrap();
+        let sol = s.solution().unwrap().clone();
+        let err = (0..=2000)
+            .map(|i| {
+                let t = t_end * i as f64 / 2000.0;
+                (sol.eval(t).unwrap()[0] - bilinear_exact(t)).abs()
+            })
+            .fold(0.0, f64::max);
+        (err, s.stats(), sol)
+    };
+    for method in [dde::Method::Dopri5, dde::Method::Dop853] {
+        let (err_exact, st_exact, sol) = run(method, KinkLanding::Exact, true);
+        let (err_once, st_once, _) = run(method, KinkLanding::Once, true);
+        let (err_without, st_without, _) = run(method, KinkLanding::Exact, false);
+        eprintln!(
+            "{method:?}: exact {err_exact:e} {st_exact:?}; once {err_once:e} {st_once:?}; \
+             undeclared {err_without:e} {st_without:?}"
+        );
+        // exact landing: every crossing of x = 0 is a mesh point to 1e-9 (the location
+        // tolerance is 1e-12 on an extension accurate to ~1e-10), one or two landings per
+        // kink, and the global error at tolerance level (measured 4.1e-10 and 1.2e-10)
+        assert!(
+            (16..=32).contains(&st_exact.switches),
+            "{method:?}: {st_exact:?}"
+        );
+        let mesh: Vec<f64> = sol.mesh().collect();
+        for k in 0..8 {
+            for kink in [PI + 1.5 * PI * k as f64, 1.5 * PI * (k + 1) as f64] {
+                let nearest = mesh
+                    .iter()
+                    .map(|m| (m - kink).abs())
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    nearest < 1e-9,
+                    "{method:?}: kink {kink} misses the mesh by {nearest:e}"
+                );
+            }
+        }
+        assert!(err_exact < 1e-9, "{method:?}: error {err_exact:e}");
+        // stepping across the kinks costs accuracy (measured 1.6e-8 and 3.5e-9) and
+        // rejected steps; landing once lies in between
+        assert!(
+            err_without > 3.0 * err_exact,
+            "{method:?}: {err_without:e} vs {err_exact:e}"
+        );
+        assert!(
+            err_once < err_without,
+            "{method:?}: {err_once:e} vs {err_without:e}"
+        );
+        assert!(st_without.rejected > st_exact.rejected + 10, "{method:?}");
+        // (the 16th kink is t_end itself, where every run lands anyway)
+        assert!(
+            (15..=16).contains(&st_once.switches),
+            "{method:?}: {st_once:?}"
+        );
+    }
 }

@@ -273,18 +273,39 @@ impl Model {
     /// validity check, once per solver step).
     pub fn axle_slip_tangents(&self, x: &State4, u: &Inputs) -> (f64, f64) {
         let t = self.slip_tangents(x, u, &self.kinematics_without_angle(x));
-        let front = if u.steering_angle == 0.0 {
-            t.front.abs()
-        } else {
-            let tan_delta = u.steering_angle.tan();
-            let den = 1.0 + t.front * tan_delta;
-            if den > 0.0 {
-                ((tan_delta - t.front) / den).abs()
-            } else {
-                f64::INFINITY
-            }
+        let front = match Self::front_slip_tangent(u.steering_angle, t.front) {
+            Some(tan) => tan.abs(),
+            None => f64::INFINITY,
         };
         (front, t.rear.abs())
+    }
+
+    /// tan α of the three axles with their signs (eq. 2; α_F from the tangent of a
+    /// difference, α_R and α_T as in [`Self::slip_angles`]). The brush law (eq. 14) is
+    /// smooth in tan α except at 0 (through tan α·|tan α|) and at the sliding limit
+    /// |tan α| = tan α_cr: these are the kinks of the model's right-hand side. Where
+    /// |α_F| ≥ π/2 (far beyond sliding) the front value is α_F itself, which has the sign
+    /// of α_F and exceeds any tan α_cr < π/2.
+    pub fn slip_angle_tangents(&self, x: &State4, u: &Inputs) -> SlipAngles<f64> {
+        let t = self.slip_tangents(x, u, &self.kinematics(x));
+        SlipAngles {
+            front: Self::front_slip_tangent(u.steering_angle, t.front)
+                .unwrap_or_else(|| u.steering_angle - t.front.atan()),
+            rear: t.rear,
+            trailer: t.trailer,
+        }
+    }
+
+    /// tan α_F = (tan δ − r_F)/(1 + r_F tan δ) for α_F = δ − atan r_F; `None` where
+    /// 1 + r_F tan δ ≤ 0 (|α_F| ≥ π/2). At δ = 0 no trigonometric function is called.
+    #[inline]
+    fn front_slip_tangent(steering_angle: f64, r: f64) -> Option<f64> {
+        if steering_angle == 0.0 {
+            return Some(-r);
+        }
+        let tan_delta = steering_angle.tan();
+        let den = 1.0 + r * tan_delta;
+        (den > 0.0).then(|| (tan_delta - r) / den)
     }
 
     /// tan α_cr of the front and rear tires (+∞ for a tire without a sliding limit or with

@@ -105,6 +105,30 @@ impl ActuatorLimits {
         }
     }
 
+    /// Switching function of the saturation (its sign changes where the clamp engages or
+    /// lets go): δ_raw² − δ_max² for the unsaturated command δ_raw \[rad\]; −1 (never)
+    /// without a limit.
+    #[inline]
+    pub fn saturation_switch(&self, raw_command: f64) -> f64 {
+        match self.max_angle_deg {
+            Some(m) => raw_command * raw_command - m.to_radians().powi(2),
+            None => -1.0,
+        }
+    }
+
+    /// Switching function of the rate limit: r² − δ̇_max² with r = (δ_c − δ)/t_a; −1 (never)
+    /// without a limit.
+    #[inline]
+    pub fn rate_switch(&self, command: f64, delta: f64) -> f64 {
+        match self.max_rate_deg_s {
+            Some(m) => {
+                let r = (command - delta) / self.time_constant_s;
+                r * r - m.to_radians().powi(2)
+            }
+            None => -1.0,
+        }
+    }
+
     /// The actuator's δ̇ = clamp((δ_c − δ)/t_a, −δ̇_max, δ̇_max) \[rad/s\] (δ_c − δ over t_a
     /// without a rate limit).
     #[inline]
@@ -172,17 +196,24 @@ impl Controller {
     /// It is the steering angle itself unless a rate limit is set (see the module docs).
     #[inline]
     pub fn steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
+        self.actuator()
+            .saturate(self.raw_steering_angle(t, delayed_yaw_rate))
+    }
+
+    /// The command before saturation \[rad\]: −D·ψ̇(t − τ) while the controller is on, 0
+    /// while it is off.
+    #[inline]
+    pub fn raw_steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
         match self {
             Controller::None => 0.0,
             Controller::YawRateFeedback {
                 gain_s,
                 on_s,
                 off_s,
-                actuator,
                 ..
             } => {
                 if t >= *on_s && off_s.is_none_or(|off| t < off) {
-                    actuator.saturate(-gain_s * delayed_yaw_rate)
+                    -gain_s * delayed_yaw_rate
                 } else {
                     0.0
                 }

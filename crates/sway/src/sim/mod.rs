@@ -36,7 +36,7 @@ pub use controller::{ActuatorLimits, Controller};
 pub use plant::{Plant, reduced};
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{
-    LossOfControl, MetricSettings, Metrics, Outcome, Recording, RunSettings, Sample, SimResult,
-    SimSpec, SolverSettings, ValidityGuard, settle, simulate,
+    IntegrationMethod, KinkLandingMode, LossOfControl, MetricSettings, Metrics, Outcome, Recording,
+    RunSettings, Sample, SimResult, SimSpec, SolverSettings, ValidityGuard, settle, simulate,
 };
 pub use scenario::{InitialCondition, ScenarioConfig, default_action_time, validate_parts};

@@ -26,7 +26,12 @@ pub struct Plant<'a, const N: usize> {
     breakpoints: Vec<f64>,
     /// the constant initial function x(t) = x0 for t ≤ 0
     history: SVector<f64, N>,
+    /// tan α_cr of the front, rear and trailer tyres (+∞ without a sliding limit)
+    tan_critical: [f64; 3],
 }
+
+/// Number of switching functions of a [`Plant`] (see [`Plant::switching_functions`]).
+pub const SWITCHING_FUNCTIONS: usize = 8;
 
 /// The reduced state \[σ1, σ2, σ3, θ\] of a 4- or 7-state vector.
 #[inline]
@@ -59,6 +64,16 @@ impl<'a, const N: usize> Plant<'a, N> {
             delays: controller.delay().into_iter().collect(),
             breakpoints,
             history: x0,
+            tan_critical: {
+                let a = model.critical_slip_angles();
+                [a.front, a.rear, a.trailer].map(|a| {
+                    if a < std::f64::consts::FRAC_PI_2 {
+                        a.tan()
+                    } else {
+                        f64::INFINITY
+                    }
+                })
+            },
         }
     }
 
@@ -120,6 +135,50 @@ impl<'a, const N: usize> Plant<'a, N> {
             .slip_angles(&reduced(x), &self.inputs(t, x, x_delayed))
     }
 
+    /// The places where the right-hand side is continuous but not smooth, as the sign
+    /// changes of eight functions: tan α of each axle (the brush law's tan α·|tan α|, eq. 14),
+    /// tan²α − tan²α_cr of each axle (the onset of full sliding), and with actuator limits
+    /// δ_raw² − δ_max² (saturation) and r² − δ̇_max² (rate limit). A function that cannot
+    /// change sign (no sliding limit, no actuator limit) is −1.
+    pub fn switching_functions(
+        &self,
+        t: f64,
+        x: &SVector<f64, N>,
+        x_delayed: &[SVector<f64, N>],
+    ) -> [f64; SWITCHING_FUNCTIONS] {
+        let u = self.inputs(t, x, x_delayed);
+        let tan = self.model.slip_angle_tangents(&reduced(x), &u);
+        let tans = [tan.front, tan.rear, tan.trailer];
+        let sliding = |k: usize| {
+            let cr = self.tan_critical[k];
+            if cr.is_finite() {
+                tans[k] * tans[k] - cr * cr
+            } else {
+                -1.0
+            }
+        };
+        let actuator = self.controller.actuator();
+        let delayed_yaw_rate = x_delayed
+            .first()
+            .map_or(0.0, |xd| self.model.yaw_rate(&reduced(xd)));
+        let raw = self.controller.raw_steering_angle(t, delayed_yaw_rate);
+        let rate = if self.actuator_state {
+            actuator.rate_switch(self.command(t, x_delayed), x[N - 1])
+        } else {
+            -1.0
+        };
+        [
+            tans[0],
+            tans[1],
+            tans[2],
+            sliding(0),
+            sliding(1),
+            sliding(2),
+            actuator.saturation_switch(raw),
+            rate,
+        ]
+    }
+
     #[inline]
     fn eval(&self, u: &Inputs, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
         let x4 = reduced(x);
@@ -150,6 +209,12 @@ impl<const N: usize> OdeProblem<N> for Plant<'_, N> {
     fn breakpoints(&self) -> &[f64] {
         &self.breakpoints
     }
+    fn switching_count(&self) -> usize {
+        SWITCHING_FUNCTIONS
+    }
+    fn switching(&self, t: f64, x: &SVector<f64, N>, g: &mut [f64]) {
+        g.copy_from_slice(&self.switching_functions(t, x, &[]));
+    }
 }
 
 impl<const N: usize> DdeProblem<N> for Plant<'_, N> {
@@ -176,5 +241,11 @@ impl<const N: usize> DdeProblem<N> for Plant<'_, N> {
     }
     fn breakpoints(&self) -> &[f64] {
         &self.breakpoints
+    }
+    fn switching_count(&self) -> usize {
+        SWITCHING_FUNCTIONS
+    }
+    fn switching(&self, t: f64, x: &SVector<f64, N>, x_delayed: &[SVector<f64, N>], g: &mut [f64]) {
+        g.copy_from_slice(&self.switching_functions(t, x, x_delayed));
     }
 }

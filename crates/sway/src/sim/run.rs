@@ -2,8 +2,8 @@
 //! validity guard), metrics computed on the fly, an optional sampled trajectory.
 
 use dde::{
-    DdeSolver, Direction, Event, EventAction, EventHit, Flow, NoObserver, Observer, OdeSolver,
-    Options, Stats, Status, StepView,
+    DdeSolver, Direction, Event, EventAction, EventHit, Flow, Method, NoObserver, Observer,
+    OdeSolver, Options, Stats, Status, StepView,
 };
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
@@ -15,6 +15,62 @@ use super::{Controller, SpeedProfile};
 use crate::SwayError;
 use crate::config::Positive;
 
+/// The Runge–Kutta pair of the simulations (`method = "auto"`, `"dop853"` or `"dopri5"` in
+/// a `[solver]` table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IntegrationMethod {
+    /// DOP853 for the open loop (an ODE) and Dormand–Prince 5(4) for the delayed closed
+    /// loop. Measured at rtol 1e-8 (60 s at 33 m/s open loop, 40 s at 35 m/s closed loop with
+    /// τ = 0.2 s): in open loop DOP853 needs 20 % fewer right-hand sides and is 20× more
+    /// accurate; in closed loop every tyre kink echoes along the delay and the 8th-order
+    /// pair must land on six echoes per kink instead of three, which costs more steps than
+    /// its order saves.
+    #[default]
+    Auto,
+    /// Dormand–Prince 8(5,3) ([`dde::Method::Dop853`])
+    Dop853,
+    /// Dormand–Prince 5(4) ([`dde::Method::Dopri5`])
+    Dopri5,
+}
+
+impl IntegrationMethod {
+    /// The integrator's method for an ODE (`delayed == false`) or a DDE.
+    pub fn dde_method(self, delayed: bool) -> Method {
+        match self {
+            IntegrationMethod::Auto if delayed => Method::Dopri5,
+            IntegrationMethod::Auto | IntegrationMethod::Dop853 => Method::Dop853,
+            IntegrationMethod::Dopri5 => Method::Dopri5,
+        }
+    }
+}
+
+/// How steps land on the kinks of the tyre law, the saturation and the rate limit
+/// (`kink_landing = "once"` or `"exact"` in a `[solver]` table; see
+/// [`crate::sim::Plant::switching_functions`] and [`dde::KinkLanding`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KinkLandingMode {
+    /// Once per kink, on the root located on the crossing step's extension. Measured
+    /// against DOP853 at rtol 1e-13 (60 s open loop at 33 m/s, 40 s closed loop): the same
+    /// global error as `exact` (1.6e-7 and 1.0e-9 at rtol 1e-8), 27 % fewer right-hand sides
+    /// in open loop.
+    #[default]
+    Once,
+    /// On the root to the event tolerance ([`dde::KinkLanding::Exact`]).
+    Exact,
+}
+
+impl KinkLandingMode {
+    /// The integrator's landing rule.
+    pub fn dde_landing(self) -> dde::KinkLanding {
+        match self {
+            KinkLandingMode::Once => dde::KinkLanding::Once,
+            KinkLandingMode::Exact => dde::KinkLanding::Exact,
+        }
+    }
+}
+
 /// Error control of the simulations.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -25,6 +81,10 @@ pub struct SolverSettings {
     pub atol: f64,
     /// step budget per run
     pub max_steps: usize,
+    /// the Runge–Kutta pair
+    pub method: IntegrationMethod,
+    /// how steps land on the kinks of the right-hand side
+    pub kink_landing: KinkLandingMode,
 }
 
 impl Default for SolverSettings {
@@ -33,16 +93,20 @@ impl Default for SolverSettings {
             rtol: 1e-8,
             atol: 1e-10,
             max_steps: 2_000_000,
+            method: IntegrationMethod::default(),
+            kink_landing: KinkLandingMode::default(),
         }
     }
 }
 
 impl SolverSettings {
-    /// The [`dde::Options`] for these settings.
-    pub fn options(&self) -> Options {
+    /// The [`dde::Options`] for these settings, for an ODE (`delayed == false`) or a DDE.
+    pub fn options(&self, delayed: bool) -> Options {
         Options {
             max_steps: self.max_steps,
+            kink_landing: self.kink_landing.dde_landing(),
             ..Options::with_tolerances(self.rtol, self.atol)
+                .with_method(self.method.dde_method(delayed))
         }
     }
 
@@ -57,7 +121,7 @@ impl SolverSettings {
 
     /// Checks the tolerances (names the key on failure).
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        self.options().validate().map_err(|e| match e {
+        self.options(false).validate().map_err(|e| match e {
             dde::Error::InvalidOptions { field: "atol", .. } => ("atol", e.to_string()),
             dde::Error::InvalidOptions {
                 field: "max_steps", ..
@@ -544,7 +608,10 @@ fn simulate_plant<const N: usize>(
         let s = obs.sample(0.0, x0, x0_delayed.first().copied());
         obs.trajectory.push(s);
     }
-    let opts = spec.settings.solver.options();
+    let opts = spec
+        .settings
+        .solver
+        .options(spec.controller.delay().is_some());
     let context = || {
         format!(
             "simulation (profile {:?}, controller {:?}, horizon {} s)",
@@ -658,7 +725,7 @@ pub fn settle(
     let x0 = State4::new(0.0, 0.0, 0.0, theta0_rad);
     let plant = Plant::<4>::new(model, &profile, Controller::None, x0);
     let context = || format!("settling on the sway cycle at V = {speed_mps} m/s for {settle_s} s");
-    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options())
+    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options(false))
         .map_err(|e| SwayError::numerical(context(), e))?;
     s.integrate(&plant, settle_s, &[], &mut NoObserver)
         .map_err(|e| SwayError::numerical(context(), e))?;

@@ -1,0 +1,69 @@
+//! The explicit Runge–Kutta pairs the stepping loop runs ([`crate::Method`]): the attempt of
+//! one step, its error estimate and its continuous extension. The loop itself (step-size
+//! control, breakpoints, events, observers) lives in `solver` and is shared.
+
+mod dop853;
+mod dopri5;
+
+pub(crate) use dop853::Dop853;
+pub(crate) use dopri5::Dopri5;
+
+use nalgebra::SVector;
+
+use crate::dense::Segment;
+use crate::solver::{Plan, Rhs};
+
+type SV<const N: usize> = SVector<f64, N>;
+
+/// One embedded Runge–Kutta pair: the stages of an attempted step and what is read off them.
+pub(crate) trait Scheme<const N: usize>: Sized {
+    /// Order of the propagated solution: the first step size is chosen for it and, by
+    /// default, DDE breakpoints are tracked up to it.
+    const ORDER: usize;
+    /// Right-hand side evaluations of one attempt (the first stage is the previous step's
+    /// last, FSAL).
+    const EVALS: usize;
+    /// The controller's exponent `α = EXPONENT − BETA_WEIGHT · β` of the current error
+    /// (Hairer–Nørsett–Wanner, *Solving ODEs I*, §IV.2; the DOPRI5 and DOP853 codes).
+    const EXPONENT: f64;
+    /// See [`Scheme::EXPONENT`].
+    const BETA_WEIGHT: f64;
+
+    /// Evaluates the stages of the step `p` (all of them, `f` at the new point included).
+    fn attempt<R: Rhs<N>>(rhs: &R, p: &Plan<N>) -> Self;
+
+    /// The solution at the end of the step.
+    fn x_new(&self) -> &SV<N>;
+
+    /// `f` at the end of the step (the next step's first stage; at a breakpoint its left
+    /// limit).
+    fn f_new(&self) -> &SV<N>;
+
+    /// The scaled error of the step: ≤ 1 accepts it.
+    fn error(&self, p: &Plan<N>, tol: Tolerances) -> f64;
+
+    /// The continuous extension on `[p.t, p.t_new]` and the number of extra right-hand side
+    /// evaluations it took.
+    fn dense<R: Rhs<N>>(&self, rhs: &R, p: &Plan<N>) -> (Segment<N>, usize);
+}
+
+/// The mixed error weights `atol + rtol · max(|xᵢ|, |x_newᵢ|)` of the error norms.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tolerances {
+    pub rtol: f64,
+    pub atol: f64,
+}
+
+impl Tolerances {
+    /// `Σᵢ (eᵢ / skᵢ)²` with `skᵢ = atol + rtol · max(|xᵢ|, |x_newᵢ|)`.
+    #[inline]
+    pub fn scaled_square_sum<const N: usize>(self, e: &SV<N>, x: &SV<N>, x_new: &SV<N>) -> f64 {
+        let mut s = 0.0;
+        for i in 0..N {
+            let sk = self.atol + self.rtol * x[i].abs().max(x_new[i].abs());
+            let q = e[i] / sk;
+            s += q * q;
+        }
+        s
+    }
+}

@@ -4,6 +4,10 @@
 //! that blends the embedded 5th- and 3rd-order differences, and a continuous extension of
 //! order 7 that costs three more stages — computed only for the steps that need it.
 
+// the coefficients are kept digit for digit as published, so that they can be checked
+// against the source; f64 rounds them
+#![allow(clippy::excessive_precision)]
+
 use nalgebra::SVector;
 
 use super::{Scheme, Tolerances};

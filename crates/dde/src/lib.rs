@@ -1,9 +1,12 @@
 //! Adaptive explicit Runge–Kutta integration of ODEs and of delay differential equations
 //! with constant delays — general purpose, it knows nothing about any application.
 //!
-//! * Method: Dormand–Prince 5(4) with FSAL, embedded error estimate, mixed `rtol`/`atol`
-//!   RMS error norm and PI step-size control (Hairer–Nørsett–Wanner, *Solving ODEs I*,
-//!   §II.4–II.6, the DOPRI5 code), continuous extension of order 4.
+//! * Methods ([`Method`]): Dormand–Prince 5(4) with FSAL, embedded error estimate and a
+//!   free continuous extension of order 4 (Hairer–Nørsett–Wanner, *Solving ODEs I*,
+//!   §II.4–II.6, the DOPRI5 code), the default; and Dormand–Prince 8(5,3) (the DOP853 code,
+//!   ibid. §II.10): twelve stages, far fewer steps at tight tolerances, an extension of
+//!   order 7 that costs three more stages and is built only for the steps that need it.
+//!   Mixed `rtol`/`atol` error norm, PI step-size control.
 //! * DDEs: several constant delays, a history function for `t ≤ t0`, the method of steps
 //!   reading the past off the continuous extension (steps are capped at the smallest
 //!   positive delay, so no delayed argument is ever extrapolated), breakpoint tracking
@@ -14,6 +17,11 @@
 //!   with bisection safeguard, to [`Options::event_tol`] = 1e-12 in t) with a direction
 //!   filter and a continue/stop action. Only sign changes between step ends are seen: two
 //!   crossings inside one step cancel.
+//! * Kinks: a problem may declare switching functions ([`OdeProblem::switching`]) whose sign
+//!   changes mark where `f` loses smoothness (`|s|`, saturations); steps land on their roots
+//!   instead of stepping across ([`KinkLanding`]), and DDEs carry a landed kink along the
+//!   delays ([`Options::kink_propagation`]). A high-order pair stepping across a kink loses
+//!   its order there and its controller rejects step after step.
 //! * Fixed-size states (`nalgebra::SVector<f64, N>`), no heap allocation per step: the ODE
 //!   path stores nothing unless asked ([`DenseOutput::Keep`]); the DDE path keeps only the
 //!   steps the longest delay reaches back to.

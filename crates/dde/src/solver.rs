@@ -443,6 +443,11 @@ impl<const N: usize> Core<N> {
             if self.t >= t_end {
                 return Ok(Status::Reached);
             }
+            if let Some((pp, ps)) = previous.as_ref() {
+                let h = ctl.fixed.unwrap_or(self.h).min(ctl.h_cap);
+                self.switches
+                    .look_ahead(&*rhs, (pp, ps), h, self.opts.event_tol, &mut self.stats);
+            }
             if attempts >= self.opts.max_steps {
                 return Err(Error::TooManySteps {
                     t: self.t,
@@ -868,6 +873,8 @@ struct Switches {
     at_new: Vec<f64>,
     /// scratch for evaluating all gⱼ during root location
     scratch: Vec<f64>,
+    /// gⱼ at the start of the last accepted step (for the look-ahead)
+    at_previous: Vec<f64>,
     /// the earliest located root ahead
     kink: Option<Kink>,
     /// how steps land on kinks
@@ -897,6 +904,7 @@ impl Switches {
             at_t_valid: false,
             at_new: vec![0.0; count],
             scratch: vec![0.0; count],
+            at_previous: vec![0.0; count],
             kink: None,
             last_landing: None,
             echoes: VecDeque::new(),
@@ -1027,12 +1035,74 @@ impl Switches {
         true
     }
 
+    /// Looks ahead before the next step of size `h` from the end of the accepted step `pp`:
+    /// where the straight line through gⱼ at that step's ends crosses zero within 1.5 h, the
+    /// step's continuous extension carried over the next step (smooth up to the kink, and
+    /// far more accurate there than the extension of a step that crossed it) locates the
+    /// root, and the next step lands on it — instead of crossing it first and being repeated.
+    /// A missed or misplaced prediction is caught by [`Switches::crossing`] as before.
+    fn look_ahead<const N: usize, R: Rhs<N>, S: Scheme<N>>(
+        &mut self,
+        rhs: &R,
+        (pp, ps): (&Plan<N>, &S),
+        h: f64,
+        tol: f64,
+        stats: &mut Stats,
+    ) {
+        if self.at_t.is_empty() || self.kink.is_some() || !self.at_t_valid {
+            return;
+        }
+        let (t0, t1) = (pp.t, pp.t_new);
+        let soon = |g0: f64, g1: f64| {
+            let g_ahead = g1 + (g1 - g0) / (t1 - t0) * 1.5 * h;
+            g0 != 0.0 && g1 != 0.0 && (g1 < 0.0) != (g_ahead < 0.0)
+        };
+        if !self
+            .at_previous
+            .iter()
+            .zip(&self.at_t)
+            .any(|(&g0, &g1)| soon(g0, g1))
+        {
+            return;
+        }
+        let (seg, extra) = ps.dense(rhs, pp);
+        stats.rhs_evals += extra;
+        let t_ahead = t1 + h;
+        let mut first: Option<Kink> = None;
+        for j in 0..self.at_t.len() {
+            let g1 = self.at_t[j];
+            if !soon(self.at_previous[j], g1) {
+                continue;
+            }
+            let scratch = &mut self.scratch;
+            let mut g = |t: f64| {
+                rhs.switching(t, &seg.eval(t), scratch);
+                scratch[j]
+            };
+            let g_ahead = g(t_ahead);
+            if g_ahead == 0.0 || (g1 < 0.0) == (g_ahead < 0.0) {
+                continue;
+            }
+            let t_root = locate_root(g, t1, g1, t_ahead, g_ahead, tol);
+            if t_root - t1 > tol.max(16.0 * f64::EPSILON * t1.abs())
+                && first.is_none_or(|k| t_root < k.t)
+            {
+                first = Some(Kink {
+                    t: t_root,
+                    index: j,
+                });
+            }
+        }
+        self.kink = first;
+    }
+
     /// The attempted step was accepted: its end values become the current ones; on landing
     /// on the kink, that switch counts as crossed.
     fn accepted<const N: usize>(&mut self, p: &Plan<N>, stats: &mut Stats) {
         if self.at_t.is_empty() {
             return;
         }
+        self.at_previous.copy_from_slice(&self.at_t);
         std::mem::swap(&mut self.at_t, &mut self.at_new);
         while self.echoes.front().is_some_and(|&e| e <= p.t_new) {
             self.echoes.pop_front();

@@ -95,7 +95,7 @@ fn open_loop(
         Direction::Rising,
         EventAction::Continue,
     )];
-    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options(false))
+    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options(&Controller::None))
         .map_err(|e| SwayError::numerical(context(), e))?;
     if duration_s > 0.0 {
         s.integrate(&plant, duration_s, &events, &mut obs)

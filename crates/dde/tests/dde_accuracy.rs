@@ -146,20 +146,17 @@ fn exp_history_exact_solution_checked_at_tight_tolerance() {
     }
 }
 
-#[test]
-fn dde_observed_order_is_five_with_fixed_steps() {
-    // fixed steps h = 1/m (so every breakpoint 1, 2 is a mesh point); error at t = 3 against
-    // the exact solution above; slope of log(err) vs log(h) by least squares.
-    // DDE theory (Bellen–Zennaro, Numerical Methods for DDEs, §4): order min(p, q+1) = 5
-    // for p = 5 and a continuous extension of order q = 4.
-    let ms = [4usize, 6, 8, 12, 16];
+/// Fixed steps h = 1/m (so every breakpoint 1, 2 is a mesh point); the error at t = 3
+/// against the exact solution of [`ExpHistory`]; the observed order as the least-squares
+/// slope of log(err) against log(h).
+fn observed_dde_order(method: dde::Method, ms: &[usize]) -> f64 {
     let mut hs = Vec::new();
     let mut errs = Vec::new();
-    for &m in &ms {
+    for &m in ms {
         let h = 1.0 / m as f64;
         let opts = Options {
             controller: StepController::Fixed { h },
-            ..Options::default()
+            ..Options::default().with_method(method)
         };
         let mut s = DdeSolver::new(&ExpHistory, 0.0, opts).unwrap();
         s.integrate(&ExpHistory, 3.0, &[], &mut NoObserver).unwrap();
@@ -167,11 +164,16 @@ fn dde_observed_order_is_five_with_fixed_steps() {
         errs.push((s.state()[0] - exp_history_exact(3.0)).abs());
     }
     let p = slope(&hs, &errs);
-    eprintln!("DDE order {p:.3}, errors {errs:?}");
-    assert!(
-        (p - 5.0).abs() < 0.35,
-        "observed DDE order {p}, errors {errs:?}"
-    );
+    eprintln!("{method:?}: DDE order {p:.3}, errors {errs:?}");
+    p
+}
+
+#[test]
+fn dde_observed_order_is_five_with_fixed_steps() {
+    // DDE theory (Bellen–Zennaro, Numerical Methods for DDEs, §4): order min(p, q+1) = 5
+    // for p = 5 and a continuous extension of order q = 4.
+    let p = observed_dde_order(dde::Method::Dopri5, &[4, 6, 8, 12, 16]);
+    assert!((p - 5.0).abs() < 0.35, "observed DDE order {p}");
 }
 
 #[test]
@@ -263,26 +265,9 @@ fn observer_reads_the_past_one_delay_back() {
 fn dop853_dde_observed_order_is_eight_with_fixed_steps() {
     // as for Dormand–Prince 5(4) above: order min(p, q + 1) = min(8, 7 + 1) = 8 for DOP853
     // with its order-7 extension (Bellen–Zennaro, §4), breakpoints tracked to order 8
-    let ms = [1usize, 2, 3, 4]; // (beyond h = 1/4 the error reaches round-off, 1e-15)
-    let mut hs = Vec::new();
-    let mut errs = Vec::new();
-    for &m in &ms {
-        let h = 1.0 / m as f64;
-        let opts = Options {
-            controller: StepController::Fixed { h },
-            ..Options::default().with_method(dde::Method::Dop853)
-        };
-        let mut s = DdeSolver::new(&ExpHistory, 0.0, opts).unwrap();
-        s.integrate(&ExpHistory, 3.0, &[], &mut NoObserver).unwrap();
-        hs.push(h);
-        errs.push((s.state()[0] - exp_history_exact(3.0)).abs());
-    }
-    let p = slope(&hs, &errs);
-    eprintln!("DOP853 DDE order {p:.3}, errors {errs:?}");
-    assert!(
-        (p - 8.0).abs() < 0.5,
-        "observed DDE order {p}, errors {errs:?}"
-    );
+    // (beyond h = 1/4 the error reaches round-off, 1e-15)
+    let p = observed_dde_order(dde::Method::Dop853, &[1, 2, 3, 4]);
+    assert!((p - 8.0).abs() < 0.5, "observed DDE order {p}");
 }
 
 #[test]

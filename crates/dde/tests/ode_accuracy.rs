@@ -31,20 +31,18 @@ impl OdeProblem<2> for Harmonic {
     }
 }
 
-#[test]
-fn ode_observed_order_is_five_and_dense_output_order_at_least_four() {
-    // fixed steps h = 4/n on [0, 4]; errors against exp(sin t): the maximum over the mesh
-    // points t = 1, 2, 3, 4 (order 5 of the method) and the maximum over 400 points of the continuous extension (order-4
-    // interpolant: local error O(h^5), so the global interpolation error is O(h^5) too, but
-    // we only claim >= 4)
+/// Fixed steps h = 4/n on [0, 4] for each n, errors against exp(sin t): the observed order
+/// at the mesh points t = 1 … 4 and over 400 points of the continuous extension (slopes of
+/// log error against log h).
+fn observed_orders(method: dde::Method, ns: &[usize]) -> (f64, f64) {
     let mut hs = Vec::new();
     let mut end_errs = Vec::new();
     let mut dense_errs = Vec::new();
-    for n in [20usize, 28, 40, 56, 80] {
+    for &n in ns {
         let h = 4.0 / n as f64;
         let opts = Options {
             controller: StepController::Fixed { h },
-            ..Options::default()
+            ..Options::default().with_method(method)
         };
         let sol = solve_ode(&ExpSin, 0.0, V1::from([1.0]), 4.0, opts).unwrap();
         hs.push(h);
@@ -61,17 +59,18 @@ fn ode_observed_order_is_five_and_dense_output_order_at_least_four() {
             .fold(0.0, f64::max);
         dense_errs.push(dmax);
     }
-    let p = slope(&hs, &end_errs);
-    eprintln!(
-        "ODE order {p:.3} (errors {end_errs:?}), dense {:.3}",
-        slope(&hs, &dense_errs)
-    );
-    assert!(
-        (p - 5.0).abs() < 0.3,
-        "observed order {p}, errors {end_errs:?}"
-    );
-    let q = slope(&hs, &dense_errs);
-    assert!(q > 3.8, "dense-output order {q}, errors {dense_errs:?}");
+    let (p, q) = (slope(&hs, &end_errs), slope(&hs, &dense_errs));
+    eprintln!("{method:?}: order {p:.3} ({end_errs:?}), dense {q:.3} ({dense_errs:?})");
+    (p, q)
+}
+
+#[test]
+fn ode_observed_order_is_five_and_dense_output_order_at_least_four() {
+    // order 5 of the method at the mesh points; the order-4 interpolant has local error
+    // O(h^5), so the global interpolation error is O(h^5) too, but we only claim >= 4
+    let (p, q) = observed_orders(dde::Method::Dopri5, &[20, 28, 40, 56, 80]);
+    assert!((p - 5.0).abs() < 0.3, "observed order {p}");
+    assert!(q > 3.8, "dense-output order {q}");
 }
 
 #[test]
@@ -374,42 +373,11 @@ fn dop853(rtol: f64, atol: f64) -> Options {
 
 #[test]
 fn dop853_observed_order_is_eight_and_dense_output_order_seven() {
-    // fixed steps h = 4/n on [0, 4] against exp(sin t), as for Dormand–Prince 5(4) above:
-    // the error at the mesh points t = 1 … 4 (order 8) and over 400 points of the continuous
-    // extension (order 7: local interpolation error O(h⁸), global O(h⁷) at most)
-    let mut hs = Vec::new();
-    let mut end_errs = Vec::new();
-    let mut dense_errs = Vec::new();
-    for n in [8usize, 12, 16, 24, 32] {
-        let h = 4.0 / n as f64;
-        let opts = Options {
-            controller: StepController::Fixed { h },
-            ..dop853(1e-6, 1e-9)
-        };
-        let sol = solve_ode(&ExpSin, 0.0, V1::from([1.0]), 4.0, opts).unwrap();
-        assert!(sol.segments().iter().all(|s| s.order() == 7));
-        hs.push(h);
-        let emax = [1.0f64, 2.0, 3.0, 4.0]
-            .iter()
-            .map(|&t| (sol.eval(t).unwrap()[0] - t.sin().exp()).abs())
-            .fold(0.0, f64::max);
-        end_errs.push(emax);
-        let dmax = (0..=400)
-            .map(|i| {
-                let t = 4.0 * i as f64 / 400.0;
-                (sol.eval(t).unwrap()[0] - t.sin().exp()).abs()
-            })
-            .fold(0.0, f64::max);
-        dense_errs.push(dmax);
-    }
-    let p = slope(&hs, &end_errs);
-    let q = slope(&hs, &dense_errs);
-    eprintln!("DOP853 order {p:.3} (errors {end_errs:?}), dense {q:.3} ({dense_errs:?})");
-    assert!(
-        (p - 8.0).abs() < 0.4,
-        "observed order {p}, errors {end_errs:?}"
-    );
-    assert!(q > 6.7, "dense-output order {q}, errors {dense_errs:?}");
+    // as for Dormand–Prince 5(4) above: order 8 at the mesh points, and the order-7
+    // extension (local interpolation error O(h⁸), global O(h⁷) at most)
+    let (p, q) = observed_orders(dde::Method::Dop853, &[8, 12, 16, 24, 32]);
+    assert!((p - 8.0).abs() < 0.4, "observed order {p}");
+    assert!(q > 6.7, "dense-output order {q}");
 }
 
 #[test]

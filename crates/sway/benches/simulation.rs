@@ -1,5 +1,6 @@
-//! Issue 3 performance targets (release, medians):
-//! - S1: open loop, V = 33 m/s, θ(0) = 0.1 rad, 60 s, rtol 1e-8 / atol 1e-10 (target ≤ 2 ms);
+//! Issue 3 performance targets (release, medians), S1 tightened by issue 11:
+//! - S1: open loop, V = 33 m/s, θ(0) = 0.1 rad, 60 s, rtol 1e-8 / atol 1e-10, 7 states
+//!   (target ≤ 1.1 ms on the machine where it took 1.58 ms with Dormand–Prince 5(4));
 //! - S3: closed loop, V = 35 m/s, D = 0.1 s, τ = 0.2 s, 40 s, same tolerances (≤ 5 ms);
 //! - the threshold sweep of `configs/sweep_threshold.toml` (64 × 16 points, 60 s each) on
 //!   1 and 2 threads (≤ 3 s on 2 cores, ≥ 1.8× faster on 2 threads).

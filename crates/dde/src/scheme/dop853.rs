@@ -10,7 +10,7 @@
 
 use nalgebra::SVector;
 
-use super::{Scheme, Tolerances};
+use super::{Scheme, Tolerances, hermite_part};
 use crate::dense::Segment;
 use crate::solver::{Plan, Rhs};
 
@@ -353,13 +353,12 @@ impl<const N: usize> Scheme<N> for Dop853<N> {
             }
             s * h
         };
-        let ydiff = self.x_new - x;
-        let bspl = k1 * h - ydiff;
+        let [r0, r1, r2, r3] = hermite_part(&x, &self.x_new, &k1, &k13, h);
         let r = [
-            x,
-            ydiff,
-            bspl,
-            ydiff - k13 * h - bspl,
+            r0,
+            r1,
+            r2,
+            r3,
             combine(&D4),
             combine(&D5),
             combine(&D6),

@@ -5,7 +5,7 @@
 
 use nalgebra::SVector;
 
-use super::{Scheme, Tolerances};
+use super::{Scheme, Tolerances, hermite_part};
 use crate::dense::Segment;
 use crate::solver::{Plan, Rhs};
 
@@ -118,16 +118,10 @@ impl<const N: usize> Scheme<N> for Dopri5<N> {
     /// The continuous extension of order 4 (no extra evaluations).
     fn dense<R: Rhs<N>>(&self, _rhs: &R, p: &Plan<N>) -> (Segment<N>, usize) {
         let [k1, _, k3, k4, k5, k6, k7] = self.k;
-        let (x, h) = (p.x, p.h);
-        let ydiff = self.x_new - x;
-        let bspl = k1 * h - ydiff;
-        let r = [
-            x,
-            ydiff,
-            bspl,
-            ydiff - k7 * h - bspl,
-            (k1 * D1 + k3 * D3 + k4 * D4 + k5 * D5 + k6 * D6 + k7 * D7) * h,
-        ];
+        let h = p.h;
+        let [r0, r1, r2, r3] = hermite_part(&p.x, &self.x_new, &k1, &k7, h);
+        let r4 = (k1 * D1 + k3 * D3 + k4 * D4 + k5 * D5 + k6 * D6 + k7 * D7) * h;
+        let r = [r0, r1, r2, r3, r4];
         (Segment::order4(p.t, p.t_new, h, r), 0)
     }
 }

@@ -47,6 +47,22 @@ pub(crate) trait Scheme<const N: usize>: Sized {
     fn dense<R: Rhs<N>>(&self, rhs: &R, p: &Plan<N>) -> (Segment<N>, usize);
 }
 
+/// The first four coefficients of Hairer's nested continuous extension, shared by both
+/// pairs: `r₀ = x`, `r₁ = x_new − x`, `r₂ = h f − r₁`, `r₃ = r₁ − h f_new − r₂` — the cubic
+/// Hermite interpolant of the step's ends (*Solving ODEs I*, §II.6).
+#[inline]
+pub(crate) fn hermite_part<const N: usize>(
+    x: &SV<N>,
+    x_new: &SV<N>,
+    f: &SV<N>,
+    f_new: &SV<N>,
+    h: f64,
+) -> [SV<N>; 4] {
+    let ydiff = x_new - x;
+    let bspl = f * h - ydiff;
+    [*x, ydiff, bspl, ydiff - f_new * h - bspl]
+}
+
 /// The mixed error weights `atol + rtol · max(|xᵢ|, |x_newᵢ|)` of the error norms.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Tolerances {

@@ -4,8 +4,8 @@
 mod common;
 
 use sway::sim::{
-    ActuatorLimits, Controller, Recording, SimResult, SolverSettings, SpeedProfile, settle,
-    simulate,
+    ActuatorLimits, Controller, KinkLandingMode, Recording, SimResult, SolverSettings,
+    SpeedProfile, settle, simulate,
 };
 use trailer_model::State4;
 
@@ -25,12 +25,15 @@ fn run(actuator: ActuatorLimits, horizon_s: f64) -> SimResult<4> {
         off_s: None,
         actuator,
     };
-    let spec = common::spec(
+    let mut spec = common::spec(
         SpeedProfile::Constant { speed_mps: 35.0 },
         controller,
         horizon_s,
         1e-8,
     );
+    // one landing rule for all runs (`auto` picks `exact` as soon as a limit is set), so
+    // that the runs differ in the limits alone
+    spec.settings.solver.kink_landing = KinkLandingMode::Exact;
     simulate::<4>(
         &model,
         &spec,

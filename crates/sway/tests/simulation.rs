@@ -124,10 +124,16 @@ fn refinement_errors(
 #[test]
 fn tolerance_refinement_converges() {
     // θ(20 s) at V = 33 m/s from θ(0) = 8° (growing sway, which amplifies errors) for
-    // rtol = 1e-5 … 1e-9 against rtol = 1e-12: the error falls with the tolerance and is
-    // below 1e-6 rad at 1e-9 (measured: 1.1e-4, 2.3e-5, 1.8e-7 rad)
+    // rtol = 1e-5, 1e-7, 1e-9 against rtol = 1e-12: the error stays below 100·rtol, falls
+    // from the loosest to the tightest tolerance and is below 1e-6 rad at 1e-9 (measured
+    // with DOP853 landing on the tyre kinks: 8.9e-9, 2.5e-8, 6.8e-10 rad — at this level the
+    // error no longer falls strictly with every decade; with Dormand–Prince 5(4) stepping
+    // across the kinks it was 1.1e-4, 2.3e-5, 1.8e-7 rad)
     let errs = refinement_errors(33.0, Controller::None, 20.0, 8.0);
-    assert!(errs[0] > errs[1] && errs[1] > errs[2], "{errs:?}");
+    for (e, rtol) in errs.iter().zip([1e-5, 1e-7, 1e-9]) {
+        assert!(*e < 100.0 * rtol, "{errs:?}");
+    }
+    assert!(errs[0] > errs[2], "{errs:?}");
     assert!(errs[2] < 1e-6, "{errs:?}");
 }
 
@@ -400,9 +406,10 @@ fn a_failing_point_is_reported_not_fatal() {
 fn brake_timing_sweep_reproduces_fig3b_and_fig4c_points() {
     // Reference: the committed fig3b / fig4c results (7-state simulations through
     // `simulate`, summary.json): braking 10 m/s over T = 5 s from the sway cycle at 35 m/s
-    // is ok when it starts at t_b = 2 s (peak 70.831°) and ends in loss of control when it
+    // is ok when it starts at t_b = 2 s (peak 70.8325°) and ends in loss of control when it
     // starts at t_b = 10 s (at 14.695 s). The sweep runs the 4-state model: agreement to
-    // tolerance level (1e-3° in angle, 1e-3 s in time).
+    // tolerance level (1e-4° in angle, 1e-3 s in time; measured 1e-7°. Before the kinks of
+    // the tyre law were landed on, the peak was 70.8315°, off by 1e-3°).
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
     let f = root.join("sweep_brake_timing.toml");
     let mut cfg: SweepConfig =
@@ -421,8 +428,8 @@ fn brake_timing_sweep_reproduces_fig3b_and_fig4c_points() {
     assert_eq!(early.outcome, Outcome::Ok);
     assert_abs_diff_eq!(
         early.peak_theta_deg_after_action.unwrap(),
-        70.831,
-        epsilon = 1e-3
+        70.8325,
+        epsilon = 1e-4
     );
     let late = at(10.0, 5.0);
     assert_eq!(late.outcome, Outcome::LossOfControl);

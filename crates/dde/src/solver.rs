@@ -437,16 +437,11 @@ impl<const N: usize> Core<N> {
         let ctl = self.control::<S, R>(rhs, t_end);
         let mut scratch = EventScratch::new(&*rhs, events, self.t, &self.x);
         let mut attempts = 0usize;
-        let mut previous: Option<(Plan<N>, S)> = None;
+        let mut previous: Option<Previous<N, S>> = None;
         loop {
             self.pass_reached_breakpoints();
             if self.t >= t_end {
                 return Ok(Status::Reached);
-            }
-            if let Some((pp, ps)) = previous.as_ref() {
-                let h = ctl.fixed.unwrap_or(self.h).min(ctl.h_cap);
-                self.switches
-                    .look_ahead(&*rhs, (pp, ps), h, self.opts.event_tol, &mut self.stats);
             }
             if attempts >= self.opts.max_steps {
                 return Err(Error::TooManySteps {
@@ -459,12 +454,11 @@ impl<const N: usize> Core<N> {
             let plan = self.plan_step(&ctl, t_end)?;
             let stages = S::attempt(&*rhs, &plan);
             self.stats.rhs_evals += S::EVALS;
-            let before = previous.as_ref().map(|(p, s)| (p, s));
             if self.switches.crossing(
                 &*rhs,
                 &plan,
                 &stages,
-                before,
+                previous.as_ref(),
                 self.opts.event_tol,
                 &mut self.stats,
             ) {
@@ -484,12 +478,26 @@ impl<const N: usize> Core<N> {
                 None => self.advance(rhs, &plan, &stages, h_next)?,
             }
             let status = self.report(&*rhs, obs, &dense, &scratch.hits, stop_at);
+            // the extension stays valid past the step's end unless f jumps there (a
+            // breakpoint) or the state was reset (a terminal event)
+            let carries = !plan.at_bp && stop_at.is_none();
+            if status.is_none() && carries {
+                let h = ctl.fixed.unwrap_or(self.h).min(ctl.h_cap);
+                self.switches
+                    .look_ahead(&*rhs, &dense, h, self.opts.event_tol);
+            }
             self.stats.rhs_evals += dense.extra_evals.get();
             if let Some(status) = status {
                 return Ok(status);
             }
-            // kept for locating the next kink (a breakpoint or an event breaks the chain)
-            previous = (!plan.at_bp && stop_at.is_none()).then_some((plan, stages));
+            // exact landing relocates a crossed kink on this extension: keep the step (with
+            // its extension if it was built)
+            let built = dense.segment.get().copied();
+            previous = (carries && self.switches.landing == KinkLanding::Exact).then(|| Previous {
+                plan,
+                stages,
+                segment: built.map_or_else(OnceCell::new, OnceCell::from),
+            });
         }
     }
 
@@ -845,6 +853,25 @@ impl<'s, const N: usize, S: Scheme<N>> StepDense<'s, N, S> {
     }
 }
 
+/// The last accepted step, kept for locating the next kink on its continuous extension
+/// (built at most once: reused if the step already built it).
+struct Previous<const N: usize, S> {
+    plan: Plan<N>,
+    stages: S,
+    segment: OnceCell<Segment<N>>,
+}
+
+impl<const N: usize, S: Scheme<N>> Previous<N, S> {
+    /// The step's continuous extension; extra right-hand sides counted in `stats`.
+    fn extension<R: Rhs<N>>(&self, rhs: &R, stats: &mut Stats) -> &Segment<N> {
+        self.segment.get_or_init(|| {
+            let (seg, extra) = self.stages.dense(rhs, &self.plan);
+            stats.rhs_evals += extra;
+            seg
+        })
+    }
+}
+
 /// The step as an observer's [`StepView`] reads it.
 struct Shown<'a, 's, const N: usize, R, S> {
     rhs: &'a R,
@@ -943,7 +970,7 @@ impl Switches {
         rhs: &R,
         p: &Plan<N>,
         s: &S,
-        previous: Option<(&Plan<N>, &S)>,
+        previous: Option<&Previous<N, S>>,
         tol: f64,
         stats: &mut Stats,
     ) -> bool {
@@ -973,10 +1000,8 @@ impl Switches {
         }
         let exact = self.landing == KinkLanding::Exact;
         let carried = match previous {
-            Some((pp, ps)) if exact && landing.is_none() && pp.t_new == p.t => {
-                let (seg, extra) = ps.dense(rhs, pp);
-                stats.rhs_evals += extra;
-                Some(seg)
+            Some(prev) if exact && landing.is_none() && prev.plan.t_new == p.t => {
+                Some(*prev.extension(rhs, stats))
             }
             _ => None,
         };
@@ -1035,7 +1060,7 @@ impl Switches {
         true
     }
 
-    /// Looks ahead before the next step of size `h` from the end of the accepted step `pp`:
+    /// Looks ahead before the next step of size `h` from the end of the accepted `step`:
     /// where the straight line through gⱼ at that step's ends crosses zero within 1.5 h, the
     /// step's continuous extension carried over the next step (smooth up to the kink, and
     /// far more accurate there than the extension of a step that crossed it) locates the
@@ -1044,15 +1069,14 @@ impl Switches {
     fn look_ahead<const N: usize, R: Rhs<N>, S: Scheme<N>>(
         &mut self,
         rhs: &R,
-        (pp, ps): (&Plan<N>, &S),
+        step: &StepDense<'_, N, S>,
         h: f64,
         tol: f64,
-        stats: &mut Stats,
     ) {
         if self.at_t.is_empty() || self.kink.is_some() || !self.at_t_valid {
             return;
         }
-        let (t0, t1) = (pp.t, pp.t_new);
+        let (t0, t1) = (step.plan.t, step.plan.t_new);
         let soon = |g0: f64, g1: f64| {
             let g_ahead = g1 + (g1 - g0) / (t1 - t0) * 1.5 * h;
             g0 != 0.0 && g1 != 0.0 && (g1 < 0.0) != (g_ahead < 0.0)
@@ -1065,8 +1089,7 @@ impl Switches {
         {
             return;
         }
-        let (seg, extra) = ps.dense(rhs, pp);
-        stats.rhs_evals += extra;
+        let seg = step.get(rhs);
         let t_ahead = t1 + h;
         let mut first: Option<Kink> = None;
         for j in 0..self.at_t.len() {

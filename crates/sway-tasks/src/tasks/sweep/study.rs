@@ -139,10 +139,17 @@ fn threshold_parts(extra: &[PointResult]) -> (Vec<Theta0Threshold>, Option<Cycle
         match &r.output {
             Ok(PointOutput::Theta0Threshold(x)) => t.push(*x),
             Ok(PointOutput::CycleReference(c)) => reference = Some(c.clone()),
+            Err(e) => eprintln!("threshold point at {:?} failed: {e}", r.values),
             _ => {}
         }
     }
     (t, reference)
+}
+
+/// The bisection at speed `x` (matched by value: a failed bisection leaves its speed empty
+/// instead of shifting the others).
+fn bisection_at(bisections: &[Theta0Threshold], x: f64) -> Option<Theta0Threshold> {
+    bisections.iter().find(|b| b.speed_mps == x).copied()
 }
 
 fn heat_value(kind: PointKind, r: &PointResult) -> f64 {
@@ -216,7 +223,7 @@ pub(super) fn heatmap(
             .map(|i| ThresholdPoint {
                 x: (ax.parameter.as_str(), xs[i]),
                 y: (format!("min_{}_for_sway", ay.parameter.as_str()), first[i]),
-                bisection: bisections.get(i).copied(),
+                bisection: bisection_at(&bisections, xs[i]),
                 unstable_cycle_amplitude_deg: reference
                     .as_ref()
                     .and_then(|c| c.speeds.get(i))

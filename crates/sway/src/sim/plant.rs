@@ -30,6 +30,10 @@ pub struct Plant<'a, const N: usize> {
     tan_critical: [f64; 3],
 }
 
+/// |tan α| below which a slip counts as zero for the switching functions (a kink of that size
+/// changes the brush force by φ₂·tan²α ≈ 1e-18 of its scale).
+pub const SLIP_TANGENT_FLOOR: f64 = 1e-9;
+
 /// Number of switching functions of a [`Plant`] (see [`Plant::switching_functions`]).
 pub const SWITCHING_FUNCTIONS: usize = 8;
 
@@ -148,6 +152,15 @@ impl<'a, const N: usize> Plant<'a, N> {
     ) -> [f64; SWITCHING_FUNCTIONS] {
         let u = self.inputs(t, x, x_delayed);
         let tan = self.model.slip_angle_tangents(&reduced(x), &u);
+        // below the floor a slip has no sign: near straight running all three hover at
+        // round-off level, where sign flips are noise and landing on them would never end
+        let signed = |t: f64| {
+            if t.abs() <= SLIP_TANGENT_FLOOR {
+                0.0
+            } else {
+                t
+            }
+        };
         let tans = [tan.front, tan.rear, tan.trailer];
         let sliding = |k: usize| {
             let cr = self.tan_critical[k];
@@ -168,9 +181,9 @@ impl<'a, const N: usize> Plant<'a, N> {
             -1.0
         };
         [
-            tans[0],
-            tans[1],
-            tans[2],
+            signed(tans[0]),
+            signed(tans[1]),
+            signed(tans[2]),
             sliding(0),
             sliding(1),
             sliding(2),

@@ -346,10 +346,13 @@ pub(super) fn separatrix(
         .filter(|b| b.theta0_threshold_deg.is_some())
         .map(|b| b.speed_mps)
         .min_by(f64::total_cmp);
-    let ratios: Vec<f64> = bisections
+    let ratios: Vec<f64> = c
+        .speeds
         .iter()
-        .zip(&c.speeds)
-        .filter_map(|(b, s)| Some(bracketed(b)? / s.unstable_amplitude_deg?))
+        .filter_map(|s| {
+            let b = bisection_at(&bisections, s.speed_mps)?;
+            Some(bracketed(&b)? / s.unstable_amplitude_deg?)
+        })
         .collect();
     let ratio = (!ratios.is_empty()).then(|| {
         let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;

@@ -79,6 +79,10 @@ struct TaskArgs {
     /// where shard files go (default: RESULTS/NAME.shards/)
     #[arg(long, value_name = "DIR")]
     shard_dir: Option<PathBuf>,
+    /// the highest speed of every range derived from the vehicle [m/s]: straight running
+    /// stable up to here is reported as "stable up to" it
+    #[arg(long, value_name = "MPS", default_value_t = sway::ranging::SpeedLimits::default().max_speed_mps)]
+    max_speed: f64,
 }
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).
@@ -176,7 +180,17 @@ fn run() -> Result<()> {
             .progress_chars("=> "),
     );
     let progress = Bar(bar);
-    let ctx = TaskContext::new(&vehicle, &configs_dir, &results, &progress)?;
+    if !(opts.max_speed.is_finite() && opts.max_speed > 1.0) {
+        bail!(
+            "--max-speed {}: expected a finite speed above 1 m/s (the lowest speed of the critical-speed scan)",
+            opts.max_speed
+        );
+    }
+    let limits = sway::ranging::SpeedLimits {
+        max_speed_mps: opts.max_speed,
+        ..Default::default()
+    };
+    let ctx = TaskContext::new(&vehicle, &configs_dir, &results, &progress)?.with_limits(limits);
 
     // Load and validate every config (and its resource plan) before any work: a bad
     // config stops the run here.

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+use crate::TaskError;
 use crate::limits::{self, MAX_ARRAY_LEN, MAX_STRING_LEN};
 use crate::tasks::{Prepared, Task, TaskContext};
-use sway::SwayError;
 use sway::config::ensure;
 use sway::sim::RunSettings;
 use trailer_model::{Model, ModelError, VehicleParams};
@@ -15,17 +15,17 @@ use trailer_model::{Model, ModelError, VehicleParams};
 /// Reads and deserialises a TOML file into `T`.
 ///
 /// # Errors
-/// [`SwayError::Read`] if the file cannot be read; [`SwayError::Config`] with the key path
+/// [`TaskError::Read`] if the file cannot be read; [`TaskError::Config`] with the key path
 /// (e.g. `tractor.mass`) and line for syntax errors, unknown keys and wrong types.
-pub fn load_toml<T: DeserializeOwned>(file: &Path) -> Result<T, SwayError> {
-    let bytes = std::fs::read(file).map_err(|source| SwayError::Read {
+pub fn load_toml<T: DeserializeOwned>(file: &Path) -> Result<T, TaskError> {
+    let bytes = std::fs::read(file).map_err(|source| TaskError::Read {
         file: file.to_path_buf(),
         source,
     })?;
     let text = String::from_utf8(bytes).map_err(|e| {
         let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
         let line = good.iter().filter(|b| **b == b'\n').count() + 1;
-        SwayError::config(
+        TaskError::config(
             file,
             "<syntax>",
             format!("invalid UTF-8 (line {line}); config files are UTF-8 text"),
@@ -36,7 +36,7 @@ pub fn load_toml<T: DeserializeOwned>(file: &Path) -> Result<T, SwayError> {
 
 /// Refuses arrays longer than [`MAX_ARRAY_LEN`] and strings longer than
 /// [`MAX_STRING_LEN`] anywhere in the document, naming the key path.
-fn check_sizes(value: &toml::Value, key: &str, file: &Path) -> Result<(), SwayError> {
+fn check_sizes(value: &toml::Value, key: &str, file: &Path) -> Result<(), TaskError> {
     let sub = |k: &str| {
         if key.is_empty() {
             k.to_string()
@@ -84,8 +84,8 @@ fn check_sizes(value: &toml::Value, key: &str, file: &Path) -> Result<(), SwayEr
 /// Deserialises TOML text; `file` is only used in error messages.
 ///
 /// # Errors
-/// [`SwayError::Config`] naming the key path, the line and the problem.
-pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, SwayError> {
+/// [`TaskError::Config`] naming the key path, the line and the problem.
+pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, TaskError> {
     let located = |message: &str, span: Option<std::ops::Range<usize>>| match span {
         Some(span) => {
             let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
@@ -94,7 +94,7 @@ pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, Swa
         None => message.trim().to_string(),
     };
     let syntax =
-        |e: toml::de::Error| SwayError::config(file, "<syntax>", located(e.message(), e.span()));
+        |e: toml::de::Error| TaskError::config(file, "<syntax>", located(e.message(), e.span()));
     let document: toml::Table = toml::from_str(text).map_err(syntax)?;
     check_sizes(&toml::Value::Table(document), "", file)?;
     let de = toml::de::Deserializer::parse(text).map_err(syntax)?;
@@ -104,14 +104,14 @@ pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, Swa
         if let Some((inside, problem)) = run_settings_error(text)
             && (key == "." || inside.starts_with(&format!("{key}.")))
         {
-            return SwayError::config(file, inside, problem);
+            return TaskError::config(file, inside, problem);
         }
         let key = if key == "." {
             "<root>".to_string()
         } else {
             key
         };
-        SwayError::config(file, key, located(inner.message(), inner.span()))
+        TaskError::config(file, key, located(inner.message(), inner.span()))
     })
 }
 
@@ -148,21 +148,21 @@ fn run_settings_error(text: &str) -> Option<(String, String)> {
 /// Loads a vehicle file (the form of `configs/vehicle.toml`, Table I) and builds the model.
 ///
 /// # Errors
-/// As [`load_toml`], plus [`SwayError::Config`] naming the parameter when a physical
+/// As [`load_toml`], plus [`TaskError::Config`] naming the parameter when a physical
 /// check fails (positive masses, 0 < c < f, 0 < d < f, 0 < μ ≤ μ0, …).
-pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), SwayError> {
+pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), TaskError> {
     let params: VehicleParams = load_toml(file)?;
     let model = Model::new(params).map_err(|e| match e {
         ModelError::InvalidParameter {
             key,
             value,
             expected,
-        } => SwayError::config(
+        } => TaskError::config(
             file,
             key,
             format!("{value} is invalid: expected {expected}"),
         ),
-        other => SwayError::config(file, "<root>", other.to_string()),
+        other => TaskError::config(file, "<root>", other.to_string()),
     })?;
     Ok((params, model))
 }
@@ -173,15 +173,15 @@ pub trait TaskConfig: DeserializeOwned + Send + 'static {
     /// Checks the loaded config of `file`.
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the key.
-    fn check(&self, file: &Path) -> Result<(), SwayError>;
+    /// [`TaskError::Config`] naming the key.
+    fn check(&self, file: &Path) -> Result<(), TaskError>;
 }
 
 /// Checks a list of delays τ \[s\] under `key`: at least one, each finite and ≥ 0.
 ///
 /// # Errors
-/// [`SwayError::Config`] naming `key` or the failing entry `key[i]`.
-pub fn check_delays(file: &Path, key: &str, delays_s: &[f64]) -> Result<(), SwayError> {
+/// [`TaskError::Config`] naming `key` or the failing entry `key[i]`.
+pub fn check_delays(file: &Path, key: &str, delays_s: &[f64]) -> Result<(), TaskError> {
     ensure(!delays_s.is_empty(), file, key, || {
         "expected at least one delay".into()
     })?;
@@ -214,7 +214,7 @@ pub struct Configured<C> {
 pub fn prepare_config<C: TaskConfig>(
     _ctx: &TaskContext<'_>,
     file: &Path,
-) -> Result<Box<dyn Prepared>, SwayError>
+) -> Result<Box<dyn Prepared>, TaskError>
 where
     Configured<C>: Prepared,
 {

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use sway::SwayError;
+use crate::TaskError;
 
 /// Formats a number for CSV: shortest round-trip form, exponent for very large/small
 /// magnitudes, empty for NaN (a missing value).
@@ -39,9 +39,9 @@ pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::SeqCst)
 }
 
-fn refuse_if_interrupted(path: &Path) -> Result<(), SwayError> {
+fn refuse_if_interrupted(path: &Path) -> Result<(), TaskError> {
     if interrupted() {
-        Err(SwayError::Write {
+        Err(TaskError::Write {
             path: path.to_path_buf(),
             source: std::io::Error::new(std::io::ErrorKind::Interrupted, "interrupted"),
         })
@@ -91,9 +91,9 @@ pub fn interrupt(results_root: &Path) -> (MutexGuard<'static, ()>, Vec<PathBuf>)
 /// any work.
 ///
 /// # Errors
-/// [`SwayError::Write`] naming the directory.
-pub fn ensure_writable(results_root: &Path) -> Result<(), SwayError> {
-    let err = |source| SwayError::Write {
+/// [`TaskError::Write`] naming the directory.
+pub fn ensure_writable(results_root: &Path) -> Result<(), TaskError> {
+    let err = |source| TaskError::Write {
         path: results_root.to_path_buf(),
         source,
     };
@@ -106,9 +106,9 @@ pub fn ensure_writable(results_root: &Path) -> Result<(), SwayError> {
 /// Writes `bytes` to `path` through a temporary file and a rename.
 ///
 /// # Errors
-/// [`SwayError::Write`] naming the path.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SwayError> {
-    let err = |source| SwayError::Write {
+/// [`TaskError::Write`] naming the path.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), TaskError> {
+    let err = |source| TaskError::Write {
         path: path.to_path_buf(),
         source,
     };
@@ -216,11 +216,11 @@ impl OutputDir {
     /// Starts a run of task `name` whose results go to `results_root/name/`.
     ///
     /// # Errors
-    /// [`SwayError::Write`] if the staging directory cannot be created.
-    pub fn create(results_root: &Path, name: &str) -> Result<Self, SwayError> {
+    /// [`TaskError::Write`] if the staging directory cannot be created.
+    pub fn create(results_root: &Path, name: &str) -> Result<Self, TaskError> {
         let final_dir = results_root.join(name);
         let staging = results_root.join(format!(".{name}.staging-{}", std::process::id()));
-        let err = |source| SwayError::Write {
+        let err = |source| TaskError::Write {
             path: staging.clone(),
             source,
         };
@@ -262,13 +262,13 @@ impl OutputDir {
     /// Writes a CSV of numbers with a header row.
     ///
     /// # Errors
-    /// [`SwayError::Write`].
+    /// [`TaskError::Write`].
     pub fn write_csv<R: AsRef<[f64]>>(
         &self,
         file: &str,
         header: &[&str],
         rows: impl IntoIterator<Item = R>,
-    ) -> Result<(), SwayError> {
+    ) -> Result<(), TaskError> {
         let rows = rows
             .into_iter()
             .map(|r| r.as_ref().iter().copied().map(Num).collect::<Vec<_>>());
@@ -278,12 +278,12 @@ impl OutputDir {
     /// Writes a CSV of typed rows whose header is the row type's field names ([`columns`]).
     ///
     /// # Errors
-    /// [`SwayError::Write`].
+    /// [`TaskError::Write`].
     pub fn write_table<R: Serialize + Default>(
         &self,
         file: &str,
         rows: impl IntoIterator<Item = R>,
-    ) -> Result<(), SwayError> {
+    ) -> Result<(), TaskError> {
         let header = columns::<R>().map_err(|e| self.write_error(file, e))?;
         self.write_rows(file, &header, rows)
     }
@@ -291,13 +291,13 @@ impl OutputDir {
     /// Writes a CSV of `Serialize` rows ([`csv_text`]) under `header`.
     ///
     /// # Errors
-    /// [`SwayError::Write`].
+    /// [`TaskError::Write`].
     pub fn write_rows<H: AsRef<str>, R: Serialize>(
         &self,
         file: &str,
         header: &[H],
         rows: impl IntoIterator<Item = R>,
-    ) -> Result<(), SwayError> {
+    ) -> Result<(), TaskError> {
         let text = csv_text(header, rows).map_err(|e| self.write_error(file, e))?;
         write_atomic(&self.path(file), text.as_bytes())
     }
@@ -306,8 +306,8 @@ impl OutputDir {
         &self,
         file: &str,
         e: impl Into<Box<dyn std::error::Error + Send + Sync>>,
-    ) -> SwayError {
-        SwayError::Write {
+    ) -> TaskError {
+        TaskError::Write {
             path: self.path(file),
             source: std::io::Error::other(e),
         }
@@ -316,8 +316,8 @@ impl OutputDir {
     /// Writes any serialisable value as pretty JSON.
     ///
     /// # Errors
-    /// [`SwayError::Write`].
-    pub fn write_json(&self, file: &str, value: &impl Serialize) -> Result<(), SwayError> {
+    /// [`TaskError::Write`].
+    pub fn write_json(&self, file: &str, value: &impl Serialize) -> Result<(), TaskError> {
         let text = serde_json::to_string_pretty(value).map_err(|e| self.write_error(file, e))?;
         write_atomic(&self.path(file), text.as_bytes())
     }
@@ -326,13 +326,13 @@ impl OutputDir {
     /// of the run and its wall time.
     ///
     /// # Errors
-    /// [`SwayError::Write`].
+    /// [`TaskError::Write`].
     pub fn write_summary<H: Serialize, C: Serialize>(
         &self,
         headline: H,
         config: &C,
         run: &RunInfo<'_>,
-    ) -> Result<(), SwayError> {
+    ) -> Result<(), TaskError> {
         let summary = Summary {
             headline,
             task: &self.name,
@@ -348,11 +348,11 @@ impl OutputDir {
     /// Replaces `results/<name>/` by the staged directory.
     ///
     /// # Errors
-    /// [`SwayError::Write`] if a rename fails (the previous results are then kept).
-    pub fn commit(self) -> Result<PathBuf, SwayError> {
+    /// [`TaskError::Write`] if a rename fails (the previous results are then kept).
+    pub fn commit(self) -> Result<PathBuf, TaskError> {
         let err = |path: &Path| {
             let path = path.to_path_buf();
-            move |source| SwayError::Write { path, source }
+            move |source| TaskError::Write { path, source }
         };
         let old =
             self.final_dir
@@ -364,7 +364,7 @@ impl OutputDir {
         }
         if let Err(source) = std::fs::rename(&self.staging, &self.final_dir) {
             let _ = std::fs::rename(&old, &self.final_dir);
-            return Err(SwayError::Write {
+            return Err(TaskError::Write {
                 path: self.final_dir.clone(),
                 source,
             });
@@ -407,8 +407,8 @@ fn process_alive(pid: u32) -> bool {
 /// staging directory is kept. Returns the removed directories.
 ///
 /// # Errors
-/// [`SwayError::Write`] if a stale directory cannot be removed.
-pub fn remove_stale_staging(results_root: &Path) -> Result<Vec<PathBuf>, SwayError> {
+/// [`TaskError::Write`] if a stale directory cannot be removed.
+pub fn remove_stale_staging(results_root: &Path) -> Result<Vec<PathBuf>, TaskError> {
     let Ok(entries) = std::fs::read_dir(results_root) else {
         return Ok(Vec::new()); // no results directory yet: nothing is stale
     };
@@ -422,7 +422,7 @@ pub fn remove_stale_staging(results_root: &Path) -> Result<Vec<PathBuf>, SwayErr
             continue;
         }
         let path = entry.path();
-        std::fs::remove_dir_all(&path).map_err(|source| SwayError::Write {
+        std::fs::remove_dir_all(&path).map_err(|source| TaskError::Write {
             path: path.clone(),
             source,
         })?;

@@ -8,6 +8,7 @@
 //! this crate writes `results/<task>/`.
 
 pub mod config_file;
+mod error;
 pub mod figures;
 pub mod io;
 pub mod limits;
@@ -15,3 +16,5 @@ pub mod plot;
 pub mod report;
 pub mod shard;
 pub mod tasks;
+
+pub use error::TaskError;

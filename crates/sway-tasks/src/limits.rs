@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use sway::SwayError;
+use crate::TaskError;
 
 /// Memory budget of one task \[bytes\]: 4 GiB. A config whose estimated peak memory is
 /// above it is refused (the largest default run, `fig4a`, needs well under 100 MB).
@@ -116,7 +116,7 @@ impl Plan {
         Self::new(vec![work.into()], 0.0, 0.0)
     }
 
-    /// The plan, or [`SwayError::Config`] under `key` when its `count` of units (cells,
+    /// The plan, or [`TaskError::Config`] under `key` when its `count` of units (cells,
     /// simulations) exceeds `limit`: the message `what()` followed by the plan's memory
     /// and time, `…, ≈ 1.3 GB and 60.00 s`.
     ///
@@ -129,7 +129,7 @@ impl Plan {
         count: f64,
         limit: usize,
         what: impl FnOnce() -> String,
-    ) -> Result<Self, SwayError> {
+    ) -> Result<Self, TaskError> {
         bound(file, key, count, limit as f64, || {
             let (memory, time) = (human_bytes(self.memory_bytes), human_seconds(self.time_s));
             format!("{}, ≈ {memory} and {time}", what())
@@ -177,18 +177,18 @@ fn scaled(v: f64, units: [(f64, f64, &str); 2], small: impl Fn(f64) -> String) -
 /// time) and is only evaluated on failure.
 ///
 /// # Errors
-/// [`SwayError::Config`] naming the key, the value, the limit and the cost.
+/// [`TaskError::Config`] naming the key, the value, the limit and the cost.
 pub fn bound(
     file: &Path,
     key: &str,
     value: f64,
     limit: f64,
     cost: impl FnOnce() -> String,
-) -> Result<(), SwayError> {
+) -> Result<(), TaskError> {
     if value.is_finite() && value <= limit {
         Ok(())
     } else {
-        Err(SwayError::config(
+        Err(TaskError::config(
             file,
             key,
             format!("{value} exceeds the limit {limit} ({}); reduce it", cost()),
@@ -200,8 +200,8 @@ pub fn bound(
 /// setting that drives it.
 ///
 /// # Errors
-/// [`SwayError::Config`].
-pub fn check_memory(file: &Path, key: &str, plan: &Plan) -> Result<(), SwayError> {
+/// [`TaskError::Config`].
+pub fn check_memory(file: &Path, key: &str, plan: &Plan) -> Result<(), TaskError> {
     bound(file, key, plan.memory_bytes, MEMORY_BUDGET_BYTES, || {
         "estimated peak memory in bytes above the 4 GiB budget".into()
     })
@@ -226,14 +226,14 @@ pub fn series_cost(samples: f64, simulated_s: f64) -> (f64, f64) {
 /// samples `horizon / step × runs` below [`MAX_SAMPLES`]; returns the samples.
 ///
 /// # Errors
-/// [`SwayError::Config`] naming `<prefix>horizon_s` or `<prefix>output_step_s`.
+/// [`TaskError::Config`] naming `<prefix>horizon_s` or `<prefix>output_step_s`.
 pub fn check_series(
     file: &Path,
     prefix: &str,
     horizon_s: f64,
     output_step_s: f64,
     runs: usize,
-) -> Result<f64, SwayError> {
+) -> Result<f64, TaskError> {
     bound(
         file,
         &format!("{prefix}horizon_s"),
@@ -275,7 +275,7 @@ pub fn settle_s(initial: &sway::sim::InitialCondition) -> f64 {
 /// settling time (key `<settle_key>`).
 ///
 /// # Errors
-/// [`SwayError::Config`] naming the key over its limit.
+/// [`TaskError::Config`] naming the key over its limit.
 pub fn series_plan(
     file: &Path,
     prefix: &str,
@@ -283,7 +283,7 @@ pub fn series_plan(
     runs: usize,
     (settle_key, settle): (&str, f64),
     what: &str,
-) -> Result<Plan, SwayError> {
+) -> Result<Plan, TaskError> {
     bound(file, settle_key, settle, MAX_SIMULATED_S, || {
         format!(
             "≈ {} of integration",

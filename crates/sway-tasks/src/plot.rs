@@ -20,7 +20,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use resvg::usvg;
 
-use sway::SwayError;
+use crate::TaskError;
 
 /// An RGB colour.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -424,15 +424,15 @@ impl Figure {
     /// two show exactly the same.
     ///
     /// # Errors
-    /// [`SwayError::Plot`] naming the file; [`SwayError::Write`] if it cannot be written.
-    pub fn render(&self, stem: &Path) -> Result<(), SwayError> {
+    /// [`TaskError::Plot`] naming the file; [`TaskError::Write`] if it cannot be written.
+    pub fn render(&self, stem: &Path) -> Result<(), TaskError> {
         let svg_path = stem.with_extension("svg");
         let png_path = stem.with_extension("png");
-        let svg = self.svg().map_err(|message| SwayError::Plot {
+        let svg = self.svg().map_err(|message| TaskError::Plot {
             path: svg_path.clone(),
             message,
         })?;
-        let png = rasterise(&svg).map_err(|message| SwayError::Plot {
+        let png = rasterise(&svg).map_err(|message| TaskError::Plot {
             path: png_path.clone(),
             message,
         })?;

@@ -28,10 +28,10 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+use crate::TaskError;
 use rayon::prelude::*;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
 use sway::progress::Progress;
 use sway::sim::sweep::{PointResult, Sweep, SweepConfig};
 use trailer_model::{Model, VehicleParams};
@@ -161,7 +161,7 @@ pub enum ShardError {
     },
     /// The task itself failed (config, vehicle, computation or writing).
     #[error(transparent)]
-    Task(#[from] SwayError),
+    Task(#[from] TaskError),
 }
 
 fn list_paths(files: &[PathBuf]) -> String {
@@ -289,7 +289,7 @@ pub trait PointwiseTask {
     ///
     /// # Errors
     /// Read and config errors naming the key.
-    fn load(file: &Path) -> Result<Self::Config, SwayError>;
+    fn load(file: &Path) -> Result<Self::Config, TaskError>;
     /// The study's name (its results directory).
     fn name(config: &Self::Config) -> &str;
     /// Further vehicles the study reads besides `ctx`'s (a fleet), in a fixed order: they
@@ -301,7 +301,7 @@ pub trait PointwiseTask {
         ctx: &TaskContext<'_>,
         config: &Self::Config,
         config_file: &Path,
-    ) -> Result<Vec<VehicleParams>, SwayError>;
+    ) -> Result<Vec<VehicleParams>, TaskError>;
     /// Builds what the points need.
     ///
     /// # Errors
@@ -310,7 +310,7 @@ pub trait PointwiseTask {
         ctx: &TaskContext<'_>,
         config: &Self::Config,
         config_file: &Path,
-    ) -> Result<Self::Points, SwayError>;
+    ) -> Result<Self::Points, TaskError>;
     /// The number of points.
     fn len(points: &Self::Points) -> usize;
     /// Point `k`: a pure function of the inputs and `k`.
@@ -326,7 +326,7 @@ pub trait PointwiseTask {
         config_file: &Path,
         config: &Self::Config,
         points: &[Self::Point],
-    ) -> Result<Report, SwayError>;
+    ) -> Result<Report, TaskError>;
 }
 
 /// The sweep (`cargo xtask sweep`, `brake_timing`, the studies): one evaluation per point
@@ -340,7 +340,7 @@ impl PointwiseTask for SweepPoints {
     type Point = PointResult;
     type Points = Sweep;
 
-    fn load(file: &Path) -> Result<SweepConfig, SwayError> {
+    fn load(file: &Path) -> Result<SweepConfig, TaskError> {
         let config: SweepConfig = load_toml(file)?;
         config.check(file)?;
         Ok(config)
@@ -352,7 +352,7 @@ impl PointwiseTask for SweepPoints {
         _ctx: &TaskContext<'_>,
         config: &SweepConfig,
         file: &Path,
-    ) -> Result<Vec<VehicleParams>, SwayError> {
+    ) -> Result<Vec<VehicleParams>, TaskError> {
         crate::tasks::sweep::fleet_paths(config, file)
             .iter()
             .map(|p| crate::config_file::load_vehicle(p).map(|(v, _)| v))
@@ -362,7 +362,7 @@ impl PointwiseTask for SweepPoints {
         ctx: &TaskContext<'_>,
         config: &SweepConfig,
         file: &Path,
-    ) -> Result<Sweep, SwayError> {
+    ) -> Result<Sweep, TaskError> {
         crate::tasks::sweep::prepare_sweep(ctx, config, file)
     }
     fn len(points: &Sweep) -> usize {
@@ -377,7 +377,7 @@ impl PointwiseTask for SweepPoints {
         config_file: &Path,
         config: &SweepConfig,
         points: &[PointResult],
-    ) -> Result<Report, SwayError> {
+    ) -> Result<Report, TaskError> {
         crate::tasks::sweep::write_sweep_outputs(ctx, config, config_file, points, out)
     }
 }
@@ -480,10 +480,7 @@ pub fn config_hash<T: PointwiseTask>(
 }
 
 fn numerical(context: &str, e: impl std::error::Error + Send + Sync + 'static) -> ShardError {
-    ShardError::Task(SwayError::Numerical {
-        context: context.to_string(),
-        cause: Box::new(e),
-    })
+    ShardError::Task(TaskError::numerical(context, e))
 }
 
 /// An absolute form of `path` (joined to the working directory when relative).
@@ -628,7 +625,7 @@ fn remove_failure(dir: &Path, spec: ShardSpec) -> Result<(), ShardError> {
     let path = dir.join(spec.failure_name());
     match std::fs::remove_file(&path) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-            Err(ShardError::Task(SwayError::Write { path, source: e }))
+            Err(ShardError::Task(TaskError::Write { path, source: e }))
         }
         _ => Ok(()),
     }
@@ -721,7 +718,7 @@ fn unreadable(file: &Path, problem: impl std::fmt::Display) -> ShardError {
 /// ignored.
 fn scan(dir: &Path) -> Result<Scan, ShardError> {
     let read_err = |source| {
-        ShardError::Task(SwayError::Read {
+        ShardError::Task(TaskError::Read {
             file: dir.to_path_buf(),
             source,
         })
@@ -740,7 +737,7 @@ fn scan(dir: &Path) -> Result<Scan, ShardError> {
     let mut out = Scan::default();
     for file in files {
         let bytes = std::fs::read(&file).map_err(|source| {
-            ShardError::Task(SwayError::Read {
+            ShardError::Task(TaskError::Read {
                 file: file.clone(),
                 source,
             })
@@ -938,7 +935,7 @@ fn load<T: PointwiseTask>(files: &[PathBuf]) -> Result<Merged<T>, ShardError> {
     let mut merged: Option<Merged<T>> = None;
     for file in files {
         let bytes = std::fs::read(file).map_err(|source| {
-            ShardError::Task(SwayError::Read {
+            ShardError::Task(TaskError::Read {
                 file: file.clone(),
                 source,
             })
@@ -1050,10 +1047,11 @@ fn merge_as<T: PointwiseTask>(
     let ctx = TaskContext {
         vehicle_file: m.provenance.vehicle_file.clone(),
         vehicle: m.vehicle,
-        model: Model::new(m.vehicle).map_err(SwayError::from)?,
+        model: Model::new(m.vehicle).map_err(TaskError::from)?,
         configs_dir: PathBuf::new(),
         results_dir: results_root.to_path_buf(),
         progress,
+        limits: sway::ranging::SpeedLimits::default(),
     };
     Ok(T::write_outputs(
         &ctx,

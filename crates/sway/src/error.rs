@@ -1,19 +1,11 @@
-//! The error type of the app crate: every message names the file, the key and the problem.
+//! The error type of the scenario library: configs (file, key, problem), the model and
+//! numerical failures with their context.
 
 use std::path::PathBuf;
 
-/// Errors of scenario loading, pipelines and result writing.
+/// Errors of config validation, the model and the pipelines.
 #[derive(Debug, thiserror::Error)]
 pub enum SwayError {
-    /// A file could not be read.
-    #[error("{}: cannot read: {source}", file.display())]
-    Read {
-        /// the file
-        file: PathBuf,
-        /// the I/O error
-        #[source]
-        source: std::io::Error,
-    },
     /// A config is not valid TOML, has an unknown key, a wrong type or a bad value.
     #[error("{}: `{key}`: {problem}", file.display())]
     Config {
@@ -23,23 +15,6 @@ pub enum SwayError {
         key: String,
         /// what is wrong and what was expected
         problem: String,
-    },
-    /// A result could not be written.
-    #[error("{}: cannot write: {source}", path.display())]
-    Write {
-        /// the file or directory
-        path: PathBuf,
-        /// the I/O error
-        #[source]
-        source: std::io::Error,
-    },
-    /// A figure could not be drawn.
-    #[error("{}: cannot draw figure: {message}", path.display())]
-    Plot {
-        /// the figure file
-        path: PathBuf,
-        /// what the plotting backend said
-        message: String,
     },
     /// The vehicle model rejected its parameters or failed.
     #[error(transparent)]
@@ -51,14 +26,6 @@ pub enum SwayError {
         context: String,
         /// the solver's error (shown in the message, so not also chained as a source)
         cause: Box<dyn std::error::Error + Send + Sync>,
-    },
-    /// An unknown task name.
-    #[error("unknown task `{name}`; known tasks: {known}")]
-    UnknownTask {
-        /// the name given
-        name: String,
-        /// the known names, comma separated
-        known: String,
     },
 }
 

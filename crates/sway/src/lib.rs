@@ -29,6 +29,7 @@ pub mod linear;
 pub mod loading;
 pub mod mitigation;
 pub mod progress;
+pub mod ranging;
 pub mod sampling;
 pub mod sim;
 

@@ -147,6 +147,24 @@ impl Model {
     /// [`ModelError::NoCriticalSpeed`] if straight running is stable (or unstable)
     /// on the whole scanned range.
     pub fn critical_speed(&self, opts: &CriticalSpeedOptions) -> Result<CriticalSpeed, ModelError> {
+        self.critical_speed_search(opts)?
+            .ok_or(ModelError::NoCriticalSpeed {
+                v_min: opts.v_min,
+                v_max: opts.v_max,
+                detail: "straight running stays stable up to v_max",
+            })
+    }
+
+    /// [`critical_speed`](Self::critical_speed) with "stable on the whole range" as an
+    /// answer: `Ok(None)` when the spectral abscissa stays negative up to `v_max`.
+    ///
+    /// # Errors
+    /// [`ModelError::NoCriticalSpeed`] if straight running is already unstable at `v_min`,
+    /// the eigenvalues are not finite, or the scan cannot advance.
+    pub fn critical_speed_search(
+        &self,
+        opts: &CriticalSpeedOptions,
+    ) -> Result<Option<CriticalSpeed>, ModelError> {
         let no_crossing = |detail| ModelError::NoCriticalSpeed {
             v_min: opts.v_min,
             v_max: opts.v_max,
@@ -180,7 +198,7 @@ impl Model {
                 break;
             }
             if hi >= opts.v_max {
-                return Err(no_crossing("straight running stays stable up to v_max"));
+                return Ok(None);
             }
             lo = hi;
         }
@@ -201,12 +219,12 @@ impl Model {
         let ev = self.open_loop_eigenvalues(v);
         let dv = 1e-4;
         let slope = (self.spectral_abscissa(v + dv) - self.spectral_abscissa(v - dv)) / (2.0 * dv);
-        Ok(CriticalSpeed {
+        Ok(Some(CriticalSpeed {
             v_crit_mps: v,
             hopf_omega_rad_s: ev[0].im.abs(),
             hopf_frequency_hz: ev[0].im.abs() / (2.0 * std::f64::consts::PI),
             crossing_speed: slope,
-        })
+        }))
     }
 }
 

@@ -16,7 +16,7 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
-use sway::SwayError;
+use crate::TaskError;
 use sway::bifurcation::chart::{
     ChartOptions, Codim2Kind, NonlinearChart, Region, nonlinear_chart,
 };
@@ -89,8 +89,8 @@ impl ChartNonlinearConfig {
     /// Checks the keys.
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+    /// [`TaskError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
         check_delays(file, "delays_s", &self.delays_s)?;
         let c = &self.chart;
         ensure(
@@ -153,7 +153,7 @@ impl ChartNonlinearConfig {
 }
 
 impl TaskConfig for ChartNonlinearConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         self.validate(file)
     }
 }
@@ -198,7 +198,7 @@ fn grid_axes(cfg: &ChartNonlinearConfig) -> (Axis, Axis) {
     )
 }
 
-fn speeds_at(model: &Model, chart: &NonlinearChart, d: f64) -> Result<CurvesAtGain, SwayError> {
+fn speeds_at(model: &Model, chart: &NonlinearChart, d: f64) -> Result<CurvesAtGain, TaskError> {
     Ok(CurvesAtGain {
         d_s: d,
         v_hopf_mps: chart.hopf_speed_at(model, d)?,
@@ -209,12 +209,12 @@ fn speeds_at(model: &Model, chart: &NonlinearChart, d: f64) -> Result<CurvesAtGa
 /// The whole computation of one delay (no I/O).
 ///
 /// # Errors
-/// [`SwayError::Numerical`].
+/// [`sway::SwayError::Numerical`].
 pub fn compute_delay(
     model: &Model,
     cfg: &ChartNonlinearConfig,
     tau: f64,
-) -> Result<DelayResult, SwayError> {
+) -> Result<DelayResult, TaskError> {
     // the curves and the linear chart side by side, then the speeds at every summary gain
     // and at the bistable gain (the last entry) in parallel; each piece is deterministic
     let (chart, linear) = rayon::join(
@@ -229,7 +229,7 @@ pub fn compute_delay(
         .map(|&d| speeds_at(model, &chart, d))
         .collect::<Result<Vec<_>, _>>()?;
     let at = curves.pop().ok_or_else(|| {
-        SwayError::numerical(
+        TaskError::numerical(
             format!("speeds at D = {} s, τ = {tau} s", cfg.bistable_gain_s),
             continuation::Error::InvalidInput("no speeds returned".into()),
         )
@@ -251,13 +251,13 @@ fn linear_chart(
     model: &Model,
     cfg: &ChartNonlinearConfig,
     tau: f64,
-) -> Result<stability::StabilityChart, SwayError> {
+) -> Result<stability::StabilityChart, TaskError> {
     let (sa, ga) = grid_axes(cfg);
     fig4a_charts(model, &[tau], sa, ga, &stability::ChartOptions::default())?
         .into_iter()
         .next()
         .ok_or_else(|| {
-            SwayError::numerical(
+            TaskError::numerical(
                 format!("linear chart τ = {tau} s"),
                 continuation::Error::InvalidInput("no chart returned".into()),
             )
@@ -272,12 +272,12 @@ pub fn compute(
     model: &Model,
     cfg: &ChartNonlinearConfig,
     progress: &dyn sway::progress::Progress,
-) -> Result<Vec<DelayResult>, SwayError> {
+) -> Result<Vec<DelayResult>, TaskError> {
     // the longest delays first (their collocation factors fill most, so they cost most):
     // rayon then starts them on separate threads instead of last; results in config order
     let mut order: Vec<usize> = (0..cfg.delays_s.len()).collect();
     order.sort_by(|&a, &b| cfg.delays_s[b].total_cmp(&cfg.delays_s[a]));
-    let mut results: Vec<(usize, Result<DelayResult, SwayError>)> = order
+    let mut results: Vec<(usize, Result<DelayResult, TaskError>)> = order
         .par_iter()
         .map(|&i| {
             let r = compute_delay(model, cfg, cfg.delays_s[i]);
@@ -373,7 +373,7 @@ pub struct FoldRow {
     pub max_abs_theta_deg: f64,
 }
 
-fn write_curves(out: &OutputDir, r: &DelayResult) -> Result<(), SwayError> {
+fn write_curves(out: &OutputDir, r: &DelayResult) -> Result<(), TaskError> {
     let tau = r.chart.tau_s;
     for (k, h) in r.chart.hopf_curves.iter().enumerate() {
         let rows = h.points.iter().enumerate().map(|(i, p)| HopfRow {
@@ -625,7 +625,7 @@ pub const HOPF_SECONDS_PER_POINT: f64 = 5e-3;
 pub const FOLD_SECONDS_PER_POINT_INTERVAL: f64 = 2e-3;
 
 impl Prepared for Configured<ChartNonlinearConfig> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let file = self.file.as_path();
         let n_tau = c.delays_s.len();
@@ -680,7 +680,7 @@ impl Prepared for Configured<ChartNonlinearConfig> {
         ))
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress.start(

@@ -20,7 +20,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::bifurcation::chart::ChartOptions;
 use sway::bifurcation::corners::motion::MotionClass;
 use sway::bifurcation::corners::{
@@ -66,8 +66,8 @@ impl CornersConfig {
     /// Checks the keys.
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+    /// [`TaskError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
         check_delays(file, "delays_s", &self.delays_s)?;
         let c = &self.chart;
         ensure(
@@ -111,12 +111,12 @@ impl CornersConfig {
             "corners.simulation.kicks_deg",
             || "kicks are hitch angles in (−90°, 90°)".into(),
         )?;
-        s.settings.solver.validate_at(file, "corners.simulation.settings.solver")
+        Ok(s.settings.solver.validate_at(file, "corners.simulation.settings.solver")?)
     }
 }
 
 impl TaskConfig for CornersConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         self.validate(file)
     }
 }
@@ -476,11 +476,12 @@ pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
 ///
 /// # Errors
 /// The first failing delay's error.
-pub fn compute(model: &Model, cfg: &CornersConfig) -> Result<Vec<CornerStudy>, SwayError> {
+pub fn compute(model: &Model, cfg: &CornersConfig) -> Result<Vec<CornerStudy>, TaskError> {
     cfg.delays_s
         .par_iter()
         .map(|&tau| corner_study(model, tau, &cfg.chart, &cfg.corners))
-        .collect()
+        .collect::<Result<Vec<_>, sway::SwayError>>()
+        .map_err(TaskError::from)
 }
 
 fn class_color(c: MotionClass) -> Rgb {
@@ -769,7 +770,7 @@ fn tau_stem(tau: f64) -> String {
     format!("tau_{}ms", (tau * 1000.0).round())
 }
 
-fn render(out: &OutputDir, st: &CornerStudy) -> Result<(), SwayError> {
+fn render(out: &OutputDir, st: &CornerStudy) -> Result<(), TaskError> {
     let tau = st.tau_s;
     let stem = tau_stem(tau);
     for (k, c) in st.corners.iter().enumerate() {
@@ -836,7 +837,7 @@ pub const CHART_SECONDS_PER_DELAY: f64 = 20.0;
 pub const ASSUMED_CORNERS_PER_DELAY: f64 = 2.0;
 
 impl Prepared for Configured<CornersConfig> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let o = &c.corners;
         let file = self.file.as_path();
@@ -876,7 +877,7 @@ impl Prepared for Configured<CornersConfig> {
         ))
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress

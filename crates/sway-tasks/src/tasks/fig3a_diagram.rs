@@ -10,8 +10,8 @@
 
 use std::path::Path;
 
+use crate::TaskError;
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
 use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
 use sway::config::ensure;
 
@@ -68,8 +68,8 @@ pub fn cycle_branch_bytes(o: &DiagramOptions) -> f64 {
 /// Checks continuation settings shared by fig3a and fig4b (`prefix` is the key path).
 ///
 /// # Errors
-/// [`SwayError::Config`] naming the file and key.
-pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result<(), SwayError> {
+/// [`TaskError::Config`] naming the file and key.
+pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result<(), TaskError> {
     let key = |k: &str| {
         if prefix.is_empty() {
             k.to_string()
@@ -148,15 +148,15 @@ pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result
             )
         },
     )?;
-    within("root_degree", o.root_degree, 4..=200)
+    Ok(within("root_degree", o.root_degree, 4..=200)?)
 }
 
 impl DiagramConfig {
     /// Checks the keys (`prefix` is the section's key path).
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
+    /// [`TaskError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
         validate_options(&self.options, file, &format!("{prefix}.continuation"))?;
         let o = &self.options;
         for (k, list) in [
@@ -277,7 +277,7 @@ pub fn run_diagram(
     ctx: &TaskContext<'_>,
     cfg: &DiagramConfig,
     out: &OutputDir,
-) -> Result<DiagramParts, SwayError> {
+) -> Result<DiagramParts, TaskError> {
     let d = bifurcation_diagram(&ctx.model, Feedback::OPEN_LOOP, &cfg.options)?;
     let eq_rows: Vec<[f64; 3]> = d
         .equilibria

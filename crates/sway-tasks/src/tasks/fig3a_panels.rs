@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::config::{Positive, ensure};
 use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
 
@@ -71,8 +71,8 @@ impl PanelsConfig {
     /// path).
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
+    /// [`TaskError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
         ensure(
             !self.theta0_deg.is_empty()
                 && self
@@ -99,9 +99,9 @@ impl PanelsConfig {
                 )
             },
         )?;
-        self.settings
+        Ok(self.settings
             .solver
-            .validate_at(file, &format!("{prefix}.solver"))
+            .validate_at(file, &format!("{prefix}.solver"))?)
     }
 
     /// The run at constant speed (every panel; they differ in θ(0)).
@@ -210,7 +210,7 @@ pub fn run_panels(
     ctx: &TaskContext<'_>,
     cfg: &PanelsConfig,
     out: &OutputDir,
-) -> Result<(TimePanels, Vec<Panel>, Vec<String>), SwayError> {
+) -> Result<(TimePanels, Vec<Panel>, Vec<String>), TaskError> {
     let spec = cfg.spec();
     let speed = cfg.speed_mps.get();
     let mut entries = TimePanels::default();
@@ -256,7 +256,7 @@ struct Fig3aTask {
     config: Fig3aConfig,
 }
 
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
     let config: Fig3aConfig = load_toml(file)?;
     config.panels.validate(file, "panels")?;
     config.diagram.validate(file, "diagram")?;
@@ -267,7 +267,7 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Swa
 }
 
 impl Prepared for Fig3aTask {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let p = &self.config.panels;
         let o = &self.config.diagram.options;
         let mut plan = series_plan(
@@ -288,7 +288,7 @@ impl Prepared for Fig3aTask {
         Ok(plan)
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress
             .start("fig3a: bifurcation diagram and time panels", 2);

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::config::{NonNegative, Positive, ensure};
 use sway::sim::{Controller, InitialCondition, RunSettings, SimSpec, SpeedProfile};
 
@@ -47,14 +47,14 @@ impl SwayStart {
     /// Checks the keys under `prefix` that do not validate themselves.
     ///
     /// # Errors
-    /// [`SwayError::Config`].
-    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
-        ensure(
+    /// [`TaskError::Config`].
+    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
+        Ok(ensure(
             self.theta0_rad.is_finite() && self.theta0_rad.abs() < 1.5,
             file,
             &format!("{prefix}.theta0_rad"),
             || format!("expected |θ(0)| < 1.5 rad, got {}", self.theta0_rad),
-        )
+        )?)
     }
 
     /// Checks a run that starts here (fig3b and fig4c): the start under `start`, an output
@@ -62,7 +62,7 @@ impl SwayStart {
     /// `action_key`) in [0, horizon).
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the key.
+    /// [`TaskError::Config`] naming the key.
     pub fn validate_run(
         &self,
         file: &Path,
@@ -70,17 +70,17 @@ impl SwayStart {
         output_step: f64,
         action_key: &str,
         action_s: f64,
-    ) -> Result<(), SwayError> {
+    ) -> Result<(), TaskError> {
         self.validate(file, "start")?;
         ensure(output_step <= horizon, file, "output_step_s", || {
             format!("expected 0 < output_step_s <= horizon_s, got {output_step}")
         })?;
-        ensure(
+        Ok(ensure(
             action_s.is_finite() && (0.0..horizon).contains(&action_s),
             file,
             action_key,
             || format!("expected 0 <= {action_key} < horizon_s, got {action_s}"),
-        )
+        )?)
     }
 }
 
@@ -142,7 +142,7 @@ pub struct BrakeRun {
 pub type Fig3bSummary = Keyed<RunEntry<BrakeRun>>;
 
 impl TaskConfig for Fig3bConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         let start_speed = self.start.speed_mps.get();
         self.start.validate_run(
             file,
@@ -168,7 +168,7 @@ impl TaskConfig for Fig3bConfig {
             "brake_durations_s",
             || "expected a list of durations > 0 s, got none".into(),
         )?;
-        self.settings.solver.validate_at(file, "solver")
+        Ok(self.settings.solver.validate_at(file, "solver")?)
     }
 }
 

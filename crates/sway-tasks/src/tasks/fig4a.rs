@@ -5,7 +5,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use stability::{Axis, ChartOptions, StabilityChart};
-use sway::SwayError;
+use crate::TaskError;
 use sway::charts::{critical_speed_at_gain, fig4a_charts, stable_gain_intervals};
 use sway::config::ensure;
 use trailer_model::CriticalSpeedOptions;
@@ -119,13 +119,13 @@ fn check_axis(
     (min, max, cells): (f64, f64, usize),
     range_ok: bool,
     expected: &str,
-) -> Result<(), SwayError> {
+) -> Result<(), TaskError> {
     ensure(range_ok, file, key, || {
         format!("expected {expected}, got {min} and {max}")
     })?;
-    ensure(cells >= 2, file, &format!("{key}.cells"), || {
+    Ok(ensure(cells >= 2, file, &format!("{key}.cells"), || {
         format!("expected ≥ 2, got {cells}")
-    })
+    })?)
 }
 
 impl Fig4aConfig {
@@ -157,8 +157,8 @@ impl Fig4aConfig {
     /// Checks the config; errors name the key.
     ///
     /// # Errors
-    /// [`SwayError::Config`].
-    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+    /// [`TaskError::Config`].
+    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
         let s = &self.speed;
         let speed_ok = s.min_mps >= 0.0 && s.max_mps > s.min_mps && s.max_mps.is_finite();
         let speed = (s.min_mps, s.max_mps, s.cells);
@@ -208,7 +208,7 @@ impl Fig4aConfig {
 }
 
 impl TaskConfig for Fig4aConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         self.validate(file)
     }
 }
@@ -228,11 +228,11 @@ pub struct ChartSummary {
 /// also used by the benchmark.
 ///
 /// # Errors
-/// [`SwayError::Numerical`].
+/// [`sway::SwayError::Numerical`].
 pub fn compute(
     model: &trailer_model::Model,
     cfg: &Fig4aConfig,
-) -> Result<(Vec<StabilityChart>, Vec<ChartSummary>), SwayError> {
+) -> Result<(Vec<StabilityChart>, Vec<ChartSummary>), TaskError> {
     let charts = fig4a_charts(
         model,
         &cfg.delays_s,
@@ -321,7 +321,7 @@ pub struct Fig4aSummary {
 }
 
 /// The CSV tables of one chart: the grid, the dynamic and the static boundaries.
-fn write_chart(out: &OutputDir, ch: &StabilityChart) -> Result<(), SwayError> {
+fn write_chart(out: &OutputDir, ch: &StabilityChart) -> Result<(), TaskError> {
     let rows: Vec<[f64; 4]> =
         ch.v.iter()
             .enumerate()
@@ -357,7 +357,7 @@ fn write_chart(out: &OutputDir, ch: &StabilityChart) -> Result<(), SwayError> {
 }
 
 /// The figure: one panel per τ, the τ = 0 dynamic boundary dotted on the others.
-fn draw(out: &OutputDir, cfg: &Fig4aConfig, charts: &[StabilityChart]) -> Result<(), SwayError> {
+fn draw(out: &OutputDir, cfg: &Fig4aConfig, charts: &[StabilityChart]) -> Result<(), TaskError> {
     let reference = charts.iter().find(|c| c.tau == 0.0);
     let (sa, ga) = (cfg.speed_axis(), cfg.gain_axis());
     let panels: Vec<_> = charts
@@ -413,7 +413,7 @@ fn delay_entries(
 }
 
 impl Prepared for Configured<Fig4aConfig> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let file = self.file.as_path();
         let axis_cost = |n: usize| {
@@ -437,7 +437,7 @@ impl Prepared for Configured<Fig4aConfig> {
         })
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress.start("fig4a: charts", 3);

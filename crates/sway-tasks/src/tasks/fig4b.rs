@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
 use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
 use sway::config::ensure;
@@ -90,8 +90,8 @@ impl Fig4bConfig {
     /// Checks the keys.
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+    /// [`TaskError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
         ensure(!self.pairs.is_empty(), file, "pairs", || {
             "expected at least one (delay_s, gain_s) pair".into()
         })?;
@@ -130,7 +130,7 @@ struct Fig4bTask {
     config: Fig4bConfig,
 }
 
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
     let config: Fig4bConfig = load_toml(file)?;
     config.validate(file)?;
     Ok(Box::new(Fig4bTask {
@@ -228,9 +228,9 @@ pub fn diagrams(
     model: &trailer_model::Model,
     cfg: &Fig4bConfig,
     progress: &dyn sway::progress::Progress,
-) -> Result<Vec<(Diagram, CriticalSpeeds)>, SwayError> {
+) -> Result<Vec<(Diagram, CriticalSpeeds)>, TaskError> {
     let co = ChartOptions::correcting(&cfg.continuation);
-    let results: Vec<Result<(Diagram, CriticalSpeeds), SwayError>> = cfg
+    let results: Vec<Result<(Diagram, CriticalSpeeds), sway::SwayError>> = cfg
         .pairs
         .par_iter()
         .map(|p| {
@@ -244,11 +244,11 @@ pub fn diagrams(
             r
         })
         .collect();
-    results.into_iter().collect()
+    Ok(results.into_iter().collect::<Result<_, _>>()?)
 }
 
 impl Prepared for Fig4bTask {
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::config::Positive;
 use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
 
@@ -125,7 +125,7 @@ pub struct Strategy {
 pub type Fig4cSummary = Keyed<RunEntry<Strategy>>;
 
 impl TaskConfig for Fig4cConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         let (horizon, step) = (self.horizon_s.get(), self.output_step_s.get());
         self.start
             .validate_run(file, horizon, step, "action_s", self.action_s)?;
@@ -133,11 +133,11 @@ impl TaskConfig for Fig4cConfig {
         let spec = self.spec(true, true);
         spec.profile
             .validate()
-            .map_err(|(k, p)| SwayError::config(file, format!("braking ({k})"), p))?;
+            .map_err(|(k, p)| TaskError::config(file, format!("braking ({k})"), p))?;
         spec.controller
             .validate()
-            .map_err(|(k, p)| SwayError::config(file, format!("steering.{k}"), p))?;
-        self.settings.solver.validate_at(file, "solver")
+            .map_err(|(k, p)| TaskError::config(file, format!("steering.{k}"), p))?;
+        Ok(self.settings.solver.validate_at(file, "solver")?)
     }
 }
 

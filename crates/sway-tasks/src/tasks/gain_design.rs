@@ -19,7 +19,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::bifurcation::DiagramOptions;
 use sway::bifurcation::chart::ChartOptions;
 use sway::config::{Grid, ensure, ensure_positive};
@@ -136,8 +136,8 @@ impl GainDesignConfig {
     /// Checks the keys.
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path) -> Result<(), SwayError> {
+    /// [`TaskError::Config`] naming the file and key.
+    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
         ensure(self.delays_s.min >= 0.0, file, "delays_s.min", || {
             format!("expected a delay ≥ 0 s, got {}", self.delays_s.min)
         })?;
@@ -164,7 +164,7 @@ impl GainDesignConfig {
     }
 }
 
-fn validate_search(s: &GainSearch, file: &Path) -> Result<(), SwayError> {
+fn validate_search(s: &GainSearch, file: &Path) -> Result<(), TaskError> {
     ensure(
         s.d_min_s.is_finite() && s.d_max_s.is_finite() && s.d_min_s < s.d_max_s,
         file,
@@ -194,15 +194,15 @@ fn validate_search(s: &GainSearch, file: &Path) -> Result<(), SwayError> {
         "search.gain_tolerance_s",
         || format!("expected 0 < tolerance < 1 % of the gain range, got {}", s.gain_tolerance_s),
     )?;
-    ensure(
+    Ok(ensure(
         s.band_fraction > 0.0 && s.band_fraction < 1.0,
         file,
         "search.band_fraction",
         || format!("expected 0 < fraction < 1, got {}", s.band_fraction),
-    )
+    )?)
 }
 
-fn validate_chart(c: &ChartOptions, s: &GainSearch, file: &Path) -> Result<(), SwayError> {
+fn validate_chart(c: &ChartOptions, s: &GainSearch, file: &Path) -> Result<(), TaskError> {
     ensure(
         c.v_min_mps.is_finite() && c.v_min_mps > 0.0 && c.v_max_mps.is_finite() && c.v_min_mps < c.v_max_mps,
         file,
@@ -241,7 +241,7 @@ fn validate_chart(c: &ChartOptions, s: &GainSearch, file: &Path) -> Result<(), S
 }
 
 impl TaskConfig for GainDesignConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         self.validate(file)
     }
 }
@@ -266,19 +266,19 @@ pub struct GainDesign {
 /// in grid order), then the delay budget.
 ///
 /// # Errors
-/// [`SwayError::Numerical`].
+/// [`sway::SwayError::Numerical`].
 pub fn compute(
     model: &Model,
     cfg: &GainDesignConfig,
     progress: &dyn sway::progress::Progress,
-) -> Result<GainDesign, SwayError> {
+) -> Result<GainDesign, TaskError> {
     let delays = cfg.delays();
     let o = &cfg.search;
     let chart = &cfg.nonlinear.chart;
     let nonlinear: Vec<usize> = (0..delays.len()).filter(|&i| cfg.is_nonlinear(i)).collect();
     let (linear, (fold, v_fold_open)) = rayon::join(
         || {
-            let r: Vec<Result<LinearOptimum, SwayError>> = delays
+            let r: Vec<Result<LinearOptimum, sway::SwayError>> = delays
                 .par_iter()
                 .map(|&tau| {
                     let r = linear_optimum(model, tau, o);
@@ -289,7 +289,7 @@ pub fn compute(
             r.into_iter().collect::<Result<Vec<_>, _>>()
         },
         || {
-            let r: Vec<Result<FoldResult, SwayError>> = nonlinear
+            let r: Vec<Result<FoldResult, sway::SwayError>> = nonlinear
                 .par_iter()
                 .map(|&i| {
                     let r = fold_optimum(model, delays[i], o, chart);
@@ -496,7 +496,7 @@ impl GainDesign {
     }
 }
 
-fn write_tables(out: &OutputDir, r: &GainDesign) -> Result<(), SwayError> {
+fn write_tables(out: &OutputDir, r: &GainDesign) -> Result<(), TaskError> {
     out.write_table("optimal_gain.csv", r.rows())?;
     for f in r.fold.iter().flatten() {
         if let (Some(o), false) = (&f.optimum, f.curve.is_empty()) {
@@ -649,7 +649,7 @@ pub const REFINEMENT_EVALUATIONS: f64 = 60.0;
 pub const FOLD_SECONDS_PER_INTERVAL: f64 = 0.5;
 
 impl Prepared for Configured<GainDesignConfig> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let file = self.file.as_path();
         let n_tau = c.delays_s.points as f64;
@@ -689,7 +689,7 @@ impl Prepared for Configured<GainDesignConfig> {
         })
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         let n_nl = (0..cfg.delays_s.points).filter(|&i| cfg.is_nonlinear(i)).count();

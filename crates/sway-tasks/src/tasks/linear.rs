@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::config::{Grid, ensure};
 use sway::linear::{
     EigenTable, Sensitivity, SensitivityOptions, eigen_table, parameter_index, sensitivities,
@@ -150,7 +150,7 @@ struct LinearTask {
     config: LinearConfig,
 }
 
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
     let config: LinearConfig = load_toml(file)?;
     ensure(config.speed_grid.min > 0.0, file, "speed_grid.min", || {
         format!(
@@ -220,7 +220,7 @@ impl SearchConfig {
 }
 
 /// Step 1: the eigenvalues along the speed grid, `eigenvalues.csv`.
-fn write_eigenvalues(out: &OutputDir, table: &EigenTable) -> Result<(), SwayError> {
+fn write_eigenvalues(out: &OutputDir, table: &EigenTable) -> Result<(), TaskError> {
     let rows: Vec<Vec<f64>> = table
         .speeds
         .iter()
@@ -249,7 +249,7 @@ fn rounding_study(
     v_crit: f64,
     rounding_m: f64,
     out: &OutputDir,
-) -> Result<RoundingStudy, SwayError> {
+) -> Result<RoundingStudy, TaskError> {
     let (ih, il) = (
         parameter_index("h").unwrap_or(9),
         parameter_index("l").unwrap_or(10),
@@ -313,7 +313,7 @@ fn draw_eigenvalues(
     table: &EigenTable,
     grid: &Grid,
     vc: &CriticalSpeed,
-) -> Result<(), SwayError> {
+) -> Result<(), TaskError> {
     let v_range = (grid.min, grid.max);
     let clip = 8.0;
     let mut p1 = Panel::new(
@@ -365,7 +365,7 @@ fn draw_rounding(
     study: &RoundingStudy,
     cfg: &LinearConfig,
     v_crit: f64,
-) -> Result<(), SwayError> {
+) -> Result<(), TaskError> {
     let r = cfg.length_rounding_m;
     let paper = cfg.paper_v_crit_mps;
     let p3 = Panel::new(
@@ -447,7 +447,7 @@ fn headline_lines(vc: &CriticalSpeed, cfg: &LinearConfig, study: &RoundingStudy)
 }
 
 impl Prepared for LinearTask {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let n = self.config.speed_grid.points as f64;
         Ok(Plan::new(
             vec![format!(
@@ -458,7 +458,7 @@ impl Prepared for LinearTask {
         ))
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress.start("linear: eigenvalues", 3);

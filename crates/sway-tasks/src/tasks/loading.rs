@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::config::{Grid, ensure};
 use sway::loading::{InertiaScaling, loaded, tongue_load_fraction, v_crit_map, v_crit_of};
 use trailer_model::{CriticalSpeedOptions, VehicleParams};
@@ -80,7 +80,7 @@ struct LoadingTask {
     config: LoadingConfig,
 }
 
-fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, SwayError> {
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
     let config: LoadingConfig = load_toml(file)?;
     ensure(
         config.trailer_mass_kg.min > 0.0,
@@ -167,7 +167,7 @@ fn compute(ctx: &TaskContext<'_>, cfg: &LoadingConfig, opts: &CriticalSpeedOptio
 }
 
 /// Step 2: `v_crit_map.csv` and `v_crit_vs_tongue_load.csv`.
-fn write_tables(out: &OutputDir, m: &LoadingMap, axle_m: f64) -> Result<(), SwayError> {
+fn write_tables(out: &OutputDir, m: &LoadingMap, axle_m: f64) -> Result<(), TaskError> {
     let mut rows = Vec::with_capacity(m.masses.len() * m.cogs.len());
     for (j, &h) in m.cogs.iter().enumerate() {
         for (i, &m2) in m.masses.iter().enumerate() {
@@ -210,7 +210,7 @@ fn draw(
     base: &VehicleParams,
     m: &LoadingMap,
     opts: &CriticalSpeedOptions,
-) -> Result<(), SwayError> {
+) -> Result<(), TaskError> {
     let (lo, hi) = m.range;
     let (masses, cogs, map, cut) = (&m.masses, &m.cogs, &m.map, &m.cut);
     let l = base.trailer.axle;
@@ -270,7 +270,7 @@ fn draw(
 }
 
 impl Prepared for LoadingTask {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let cells = c.trailer_mass_kg.points as f64 * c.trailer_cog_m.points as f64;
         let plan = Plan::new(
@@ -291,7 +291,7 @@ impl Prepared for LoadingTask {
         Ok(plan)
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         let opts = CriticalSpeedOptions {

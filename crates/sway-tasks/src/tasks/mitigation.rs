@@ -20,7 +20,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use sway::SwayError;
+use crate::TaskError;
 use sway::config::{Positive, ensure};
 use sway::mitigation::optimise::OptimiserSettings;
 use sway::mitigation::{
@@ -192,7 +192,7 @@ impl MitigationConfig {
         .collect()
     }
 
-    fn check_bounds(&self, file: &Path) -> Result<(), SwayError> {
+    fn check_bounds(&self, file: &Path) -> Result<(), TaskError> {
         let b = &self.bounds;
         for (key, bd, lo_min, hi_max) in [
             ("bounds.speed_change_mps", b.speed_change_mps, f64::NEG_INFINITY, 0.0),
@@ -209,18 +209,18 @@ impl MitigationConfig {
             )?;
         }
         let e = self.effective_bounds().speed_change_mps;
-        ensure(e.lo <= e.hi, file, "min_final_speed_mps", || {
+        Ok(ensure(e.lo <= e.hi, file, "min_final_speed_mps", || {
             format!(
                 "V0 + ΔV ≥ {} m/s leaves no braking range in bounds.speed_change_mps {:?}",
                 self.min_final_speed_mps.get(),
                 self.bounds.speed_change_mps
             )
-        })
+        })?)
     }
 }
 
 impl TaskConfig for MitigationConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         self.start.validate(file, "start")?;
         ensure(self.phases >= 2, file, "phases", || {
             format!("expected at least 2 phases, got {}", self.phases)
@@ -243,7 +243,7 @@ impl TaskConfig for MitigationConfig {
         self.check_bounds(file)?;
         self.actuator
             .validate()
-            .map_err(|(k, p)| SwayError::config(file, k, p))?;
+            .map_err(|(k, p)| TaskError::config(file, k, p))?;
         let p = &self.paper;
         ensure(
             p.speed_change_mps <= 0.0 && self.speed() + p.speed_change_mps > 0.0,
@@ -262,9 +262,9 @@ impl TaskConfig for MitigationConfig {
         })?;
         self.optimiser
             .validate()
-            .map_err(|(k, p)| SwayError::config(file, format!("optimiser.{k}"), p))?;
+            .map_err(|(k, p)| TaskError::config(file, format!("optimiser.{k}"), p))?;
         self.search_solver.validate_at(file, "search_solver")?;
-        self.settings.solver.validate_at(file, "solver")
+        Ok(self.settings.solver.validate_at(file, "solver")?)
     }
 }
 
@@ -443,12 +443,12 @@ pub struct MitigationResult {
 /// The whole computation.
 ///
 /// # Errors
-/// [`SwayError::Numerical`] if a solver or the optimiser fails.
+/// [`sway::SwayError::Numerical`] if a solver or the optimiser fails.
 pub fn compute(
     model: &Model,
     cfg: &MitigationConfig,
     progress: &dyn sway::progress::Progress,
-) -> Result<MitigationResult, SwayError> {
+) -> Result<MitigationResult, TaskError> {
     let solver = cfg.settings.solver;
     let s = &cfg.start;
     let cycle = sway_cycle(
@@ -612,7 +612,7 @@ fn theta_at_phase(
     starts: &PhaseStarts,
     iv: &Intervention,
     k: usize,
-) -> Result<Vec<(f64, f64)>, SwayError> {
+) -> Result<Vec<(f64, f64)>, TaskError> {
     let setting = cfg.setting(cfg.settings.solver);
     let step = cfg.output_step_s.get();
     let r = setting.run(
@@ -744,7 +744,7 @@ fn write_figures(
     model: &Model,
     r: &MitigationResult,
     cfg: &MitigationConfig,
-) -> Result<(), SwayError> {
+) -> Result<(), TaskError> {
     let opt = theta_at_phase(
         model,
         cfg,
@@ -799,7 +799,7 @@ fn headline(s: &MitigationSummary) -> Vec<String> {
 }
 
 impl Prepared for Configured<MitigationConfig> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let file = self.file.as_path();
         bound(file, "phases", c.phases as f64, MAX_PHASES as f64, || {
@@ -859,7 +859,7 @@ impl Prepared for Configured<MitigationConfig> {
         )
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         ctx.progress

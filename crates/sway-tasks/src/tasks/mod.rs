@@ -10,11 +10,12 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use trailer_model::{Model, VehicleParams};
 
+use crate::TaskError;
 use crate::config_file;
 use crate::io::OutputDir;
 use crate::limits::Plan;
-use sway::SwayError;
 use sway::progress::Progress;
+use sway::ranging::SpeedLimits;
 
 /// The registry in one place: each line declares a task module and the tasks it
 /// defines, in the order `cargo xtask all` runs them. Adding a task is one file (the
@@ -65,6 +66,9 @@ pub struct TaskContext<'a> {
     pub results_dir: PathBuf,
     /// progress observer
     pub progress: &'a dyn Progress,
+    /// the vehicle-independent limits of every range derived from the vehicle
+    /// (`--max-speed`; default 100 m/s)
+    pub limits: SpeedLimits,
 }
 
 impl std::fmt::Debug for TaskContext<'_> {
@@ -73,6 +77,7 @@ impl std::fmt::Debug for TaskContext<'_> {
             .field("vehicle_file", &self.vehicle_file)
             .field("configs_dir", &self.configs_dir)
             .field("results_dir", &self.results_dir)
+            .field("limits", &self.limits)
             .finish_non_exhaustive()
     }
 }
@@ -81,13 +86,13 @@ impl<'a> TaskContext<'a> {
     /// Loads and validates the vehicle file.
     ///
     /// # Errors
-    /// [`SwayError::Read`] / [`SwayError::Config`] naming the file and key.
+    /// [`TaskError::Read`] / [`TaskError::Config`] naming the file and key.
     pub fn new(
         vehicle_file: &Path,
         configs_dir: &Path,
         results_dir: &Path,
         progress: &'a dyn Progress,
-    ) -> Result<Self, SwayError> {
+    ) -> Result<Self, TaskError> {
         let (vehicle, model) = config_file::load_vehicle(vehicle_file)?;
         Ok(Self {
             vehicle_file: vehicle_file.to_path_buf(),
@@ -96,7 +101,38 @@ impl<'a> TaskContext<'a> {
             configs_dir: configs_dir.to_path_buf(),
             results_dir: results_dir.to_path_buf(),
             progress,
+            limits: SpeedLimits::default(),
         })
+    }
+
+    /// The same context with other [`SpeedLimits`] (`--max-speed`).
+    #[must_use]
+    pub fn with_limits(self, limits: SpeedLimits) -> Self {
+        Self { limits, ..self }
+    }
+
+    /// The skeleton of every task run: creates the staged `results/<name>/`
+    /// ([`OutputDir::create`]), starts the progress stage `stage` of `steps` steps, runs
+    /// `body` (which computes, writes its files into the staged directory, advances the
+    /// progress and returns the summary's headline and the report lines), then
+    /// [`conclude`](Self::conclude)s. If `body` fails nothing is committed: the previous
+    /// results stay.
+    ///
+    /// # Errors
+    /// The body's error, or [`TaskError::Write`].
+    pub fn run_staged<H: Serialize, C: Serialize>(
+        &self,
+        name: &str,
+        stage: &str,
+        steps: u64,
+        config: &C,
+        config_file: &Path,
+        body: impl FnOnce(&OutputDir) -> Result<(H, Vec<String>), TaskError>,
+    ) -> Result<Report, TaskError> {
+        let out = OutputDir::create(&self.results_dir, name)?;
+        self.progress.start(stage, steps);
+        let (headline, lines) = body(&out)?;
+        self.conclude(out, headline, config, config_file, lines)
     }
 
     /// The last step of every task: writes `summary.json` (`headline`, then the inputs of
@@ -104,7 +140,7 @@ impl<'a> TaskContext<'a> {
     /// directory and reports `lines`.
     ///
     /// # Errors
-    /// [`SwayError::Write`].
+    /// [`TaskError::Write`].
     pub fn conclude<H: Serialize, C: Serialize>(
         &self,
         out: OutputDir,
@@ -112,7 +148,7 @@ impl<'a> TaskContext<'a> {
         config: &C,
         config_file: &Path,
         lines: Vec<String>,
-    ) -> Result<Report, SwayError> {
+    ) -> Result<Report, TaskError> {
         out.write_summary(headline, config, &self.run_info(config_file))?;
         self.progress.finish();
         let task = out.name().to_string();
@@ -151,15 +187,15 @@ pub trait Prepared: Send {
     ///
     /// # Errors
     /// Numerical failures with context, or write errors.
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError>;
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError>;
 
     /// What [`run`](Self::run) would compute, with estimates of memory and time; refuses
     /// work beyond the limits of [`crate::limits`] naming the key. The default describes a
     /// task without a cost model of its own (its counts are bounded by its validation).
     ///
     /// # Errors
-    /// [`SwayError::Config`] naming the key whose value exceeds a limit.
-    fn plan(&self) -> Result<Plan, SwayError> {
+    /// [`TaskError::Config`] naming the key whose value exceeds a limit.
+    fn plan(&self) -> Result<Plan, TaskError> {
         Ok(Plan::described(
             "(no cost model: counts bounded by validation)",
         ))
@@ -170,19 +206,19 @@ pub trait Prepared: Send {
 /// resource limits: the one validation path of both `--check` and a real run.
 ///
 /// # Errors
-/// [`SwayError::Read`] / [`SwayError::Config`] naming the file and the key.
+/// [`TaskError::Read`] / [`TaskError::Config`] naming the file and the key.
 pub fn prepare_checked(
     task: &Task,
     ctx: &TaskContext<'_>,
     file: &Path,
-) -> Result<(Box<dyn Prepared>, Plan), SwayError> {
+) -> Result<(Box<dyn Prepared>, Plan), TaskError> {
     let prepared = (task.prepare)(ctx, file)?;
     let plan = prepared.plan()?;
     Ok((prepared, plan))
 }
 
 /// Loads and validates a task's config.
-pub type PrepareFn = fn(&TaskContext<'_>, &Path) -> Result<Box<dyn Prepared>, SwayError>;
+pub type PrepareFn = fn(&TaskContext<'_>, &Path) -> Result<Box<dyn Prepared>, TaskError>;
 
 /// A named task.
 #[derive(Debug, Clone, Copy)]
@@ -218,8 +254,8 @@ pub fn groups() -> Vec<(&'static str, Vec<&'static str>)> {
 /// Resolves a task or group name to tasks.
 ///
 /// # Errors
-/// [`SwayError::UnknownTask`] listing the known names.
-pub fn resolve(name: &str) -> Result<Vec<Task>, SwayError> {
+/// [`TaskError::UnknownTask`] listing the known names.
+pub fn resolve(name: &str) -> Result<Vec<Task>, TaskError> {
     let reg = registry();
     if let Some(t) = reg.iter().find(|t| t.name == name) {
         return Ok(vec![*t]);
@@ -240,7 +276,7 @@ pub fn resolve(name: &str) -> Result<Vec<Task>, SwayError> {
             .filter(|(_, m)| !m.is_empty())
             .map(|(g, _)| *g),
     );
-    Err(SwayError::UnknownTask {
+    Err(TaskError::UnknownTask {
         name: name.to_string(),
         known: known.join(", "),
     })

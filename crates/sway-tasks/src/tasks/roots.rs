@@ -7,7 +7,7 @@
 use stability::Complex64;
 use trailer_model::Model;
 
-use sway::SwayError;
+use crate::TaskError;
 
 /// Default number of roots printed.
 pub const DEFAULT_COUNT: usize = 6;
@@ -19,14 +19,14 @@ pub const MAX_COUNT: usize = 200;
 /// The roots at speed V \[m/s\], gain D \[s\], delay τ \[s\].
 ///
 /// # Errors
-/// As [`validate_args`], and [`SwayError::Numerical`] if the roots cannot be confirmed.
+/// As [`validate_args`], and [`sway::SwayError::Numerical`] if the roots cannot be confirmed.
 pub fn roots(
     model: &Model,
     speed: f64,
     gain: f64,
     delay: f64,
     count: usize,
-) -> Result<Vec<Complex64>, SwayError> {
+) -> Result<Vec<Complex64>, TaskError> {
     validate_args(speed, gain, delay, count)?;
     // one more root than asked, so that a conjugate pair is never split: if the N-th
     // root is complex, its conjugate is listed too (N + 1 lines)
@@ -42,10 +42,10 @@ pub fn roots(
 /// Checks the command-line arguments of `roots` (what `--check` validates).
 ///
 /// # Errors
-/// [`SwayError::Config`] for a non-positive speed, a non-finite gain, a negative delay, a
+/// [`TaskError::Config`] for a non-positive speed, a non-finite gain, a negative delay, a
 /// zero count or one above [`MAX_COUNT`] (naming the command-line option).
-pub fn validate_args(speed: f64, gain: f64, delay: f64, count: usize) -> Result<(), SwayError> {
-    let arg = |key: &str, problem: String| SwayError::config("command line", key, problem);
+pub fn validate_args(speed: f64, gain: f64, delay: f64, count: usize) -> Result<(), TaskError> {
+    let arg = |key: &str, problem: String| TaskError::config("command line", key, problem);
     if !(speed.is_finite() && speed > 0.0) {
         return Err(arg(
             "--speed",

@@ -4,8 +4,8 @@
 //! several runs from the sway cycle drawn over each other (`fig3b`, `fig4c`) share all of
 //! their [`Prepared`] through [`SwayRuns`].
 
+use crate::TaskError;
 use serde::Serialize;
-use sway::SwayError;
 use sway::sim::{Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, simulate};
 use trailer_model::State7;
 
@@ -41,7 +41,7 @@ pub fn run_and_write<R>(
     x0: State7,
     output_step_s: f64,
     file: &str,
-) -> Result<SimResult<7>, SwayError>
+) -> Result<SimResult<7>, TaskError>
 where
     R: Serialize + Default + for<'s> From<&'s Sample<7>>,
 {
@@ -152,7 +152,7 @@ pub trait SwayRuns: TaskConfig + Serialize {
 }
 
 impl<C: SwayRuns> Prepared for Configured<C> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let (start, sampling, _) = self.config.setup();
         series_plan(
             &self.file,
@@ -164,7 +164,7 @@ impl<C: SwayRuns> Prepared for Configured<C> {
         )
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let c = &self.config;
         let (start, (horizon_s, output_step_s), settings) = c.setup();
         let (mut figure, runs) = c.runs();

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use serde::Serialize;
-use sway::SwayError;
+use crate::TaskError;
 use sway::sim::{ScenarioConfig, SimResult};
 
 use super::series::{RunEntry, line, run_and_write};
@@ -49,8 +49,8 @@ pub struct ScenarioSummary {
 }
 
 impl TaskConfig for ScenarioConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
-        self.validate(file)
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
+        Ok(self.validate(file)?)
     }
 }
 
@@ -105,7 +105,7 @@ fn class_line(name: &str, r: &SimResult<7>) -> String {
 }
 
 impl Prepared for Configured<ScenarioConfig> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         series_plan(
             &self.file,
@@ -117,7 +117,7 @@ impl Prepared for Configured<ScenarioConfig> {
         )
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;
         ctx.progress.start(&format!("simulate {}", cfg.name), 2);

@@ -14,7 +14,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
-use sway::SwayError;
+use crate::TaskError;
 use sway::sim::sweep::{
     AxisParameter, PointKind, PointOutput, PointResult, Sweep, SweepConfig, run_sweep,
 };
@@ -68,7 +68,7 @@ pub const FLEET: Task = Task::configured::<SweepConfig>(
 );
 
 impl TaskConfig for SweepConfig {
-    fn check(&self, file: &Path) -> Result<(), SwayError> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
         self.validate(file)?;
         // the continuation settings, checked as fig3a checks its own
         if self.kind == PointKind::HopfFoldSpeeds {
@@ -91,12 +91,12 @@ pub fn fleet_paths(cfg: &SweepConfig, file: &Path) -> Vec<PathBuf> {
 /// name the file and key) and checks every vehicle the axes and samples can build.
 ///
 /// # Errors
-/// [`SwayError::Read`] / [`SwayError::Config`].
+/// [`TaskError::Read`] / [`TaskError::Config`].
 pub fn prepare_sweep(
     ctx: &TaskContext<'_>,
     cfg: &SweepConfig,
     file: &Path,
-) -> Result<Sweep, SwayError> {
+) -> Result<Sweep, TaskError> {
     let fleet = fleet_paths(cfg, file)
         .iter()
         .map(|p| load_vehicle(p).map(|(v, _)| v))
@@ -107,7 +107,7 @@ pub fn prepare_sweep(
         fleet.clone()
     };
     cfg.validate_vehicles(file, &vehicles)?;
-    Sweep::new(&ctx.vehicle, &fleet, cfg)
+    Ok(Sweep::new(&ctx.vehicle, &fleet, cfg)?)
 }
 
 /// The kind's result columns (the field names of its output).
@@ -318,7 +318,7 @@ fn counts(cfg: &SweepConfig, grid: &[PointResult]) -> SweepSummary {
 /// the one writer of a sweep, used by a run and by a merge of shards.
 ///
 /// # Errors
-/// [`SwayError::Write`] / [`SwayError::Plot`]; [`SwayError::Config`] if `results` does not
+/// [`TaskError::Write`] / [`TaskError::Plot`]; [`TaskError::Config`] if `results` does not
 /// have the sweep's number of points.
 pub fn write_sweep_outputs(
     ctx: &TaskContext<'_>,
@@ -326,10 +326,10 @@ pub fn write_sweep_outputs(
     file: &Path,
     results: &[PointResult],
     out: OutputDir,
-) -> Result<Report, SwayError> {
+) -> Result<Report, TaskError> {
     let grid_len = cfg.grid_len();
     if results.len() < grid_len {
-        return Err(SwayError::config(
+        return Err(TaskError::config(
             file,
             "axes",
             format!(
@@ -395,7 +395,7 @@ fn seconds_per_point(kind: PointKind) -> f64 {
 }
 
 impl Prepared for Configured<SweepConfig> {
-    fn plan(&self) -> Result<Plan, SwayError> {
+    fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let file = self.file.as_path();
         for (i, a) in c.axes.iter().enumerate() {
@@ -453,7 +453,7 @@ impl Prepared for Configured<SweepConfig> {
         })
     }
 
-    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, SwayError> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;
         let sweep = prepare_sweep(ctx, cfg, &self.file)?;

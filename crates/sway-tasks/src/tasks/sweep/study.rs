@@ -3,7 +3,7 @@
 //! sampled studies (all computed from the ordered point results only).
 
 use serde::Serialize;
-use sway::SwayError;
+use crate::TaskError;
 use sway::sampling::{Statistics, histogram};
 use sway::sim::SwayClass;
 use sway::sim::sweep::{
@@ -170,7 +170,7 @@ pub(super) fn heatmap(
     cfg: &SweepConfig,
     grid: &[PointResult],
     extra: &[PointResult],
-) -> Result<Option<(HeatmapSummary, Option<String>)>, SwayError> {
+) -> Result<Option<(HeatmapSummary, Option<String>)>, TaskError> {
     if cfg.axes.len() < 2 || cfg.sampling.is_some() {
         return Ok(None);
     }
@@ -411,7 +411,7 @@ pub(super) fn distributions(
     out: &OutputDir,
     cfg: &SweepConfig,
     grid: &[PointResult],
-) -> Result<Option<(Distributions, Vec<String>)>, SwayError> {
+) -> Result<Option<(Distributions, Vec<String>)>, TaskError> {
     let sampled = cfg.sampling.is_some();
     if !sampled && cfg.kind == PointKind::Simulation {
         return Ok(None);
@@ -539,7 +539,7 @@ pub(super) fn line_figure(
     out: &OutputDir,
     cfg: &SweepConfig,
     grid: &[PointResult],
-) -> Result<(), SwayError> {
+) -> Result<(), TaskError> {
     let ax = &cfg.axes[0];
     let panels: Vec<Panel> = quantities(cfg.kind)
         .iter()

@@ -1,0 +1,99 @@
+//! The error type of the task layer: files, configs, figures, task names — and everything
+//! the library ([`sway::SwayError`]) reports, passed through.
+
+use std::path::PathBuf;
+
+use sway::SwayError;
+
+/// Errors of reading config files, writing results and drawing figures, plus the
+/// library's errors.
+#[derive(Debug, thiserror::Error)]
+pub enum TaskError {
+    /// A file could not be read.
+    #[error("{}: cannot read: {source}", file.display())]
+    Read {
+        /// the file
+        file: PathBuf,
+        /// the I/O error
+        #[source]
+        source: std::io::Error,
+    },
+    /// A config is not valid TOML, has an unknown key, a wrong type or a bad value.
+    #[error("{}: `{key}`: {problem}", file.display())]
+    Config {
+        /// the config file
+        file: PathBuf,
+        /// key path inside the file, e.g. `tractor.rear_axle` (`<root>` for the document)
+        key: String,
+        /// what is wrong and what was expected
+        problem: String,
+    },
+    /// A result could not be written.
+    #[error("{}: cannot write: {source}", path.display())]
+    Write {
+        /// the file or directory
+        path: PathBuf,
+        /// the I/O error
+        #[source]
+        source: std::io::Error,
+    },
+    /// A figure could not be drawn.
+    #[error("{}: cannot draw figure: {message}", path.display())]
+    Plot {
+        /// the figure file
+        path: PathBuf,
+        /// what the plotting backend said
+        message: String,
+    },
+    /// An unknown task name.
+    #[error("unknown task `{name}`; known tasks: {known}")]
+    UnknownTask {
+        /// the name given
+        name: String,
+        /// the known names, comma separated
+        known: String,
+    },
+    /// The library's errors (model, numerics, config validation of library types).
+    #[error(transparent)]
+    Sway(#[from] SwayError),
+}
+
+impl From<trailer_model::ModelError> for TaskError {
+    fn from(e: trailer_model::ModelError) -> Self {
+        Self::Sway(SwayError::Model(e))
+    }
+}
+
+impl TaskError {
+    /// A config error for `key` in `file`.
+    pub fn config(
+        file: impl Into<PathBuf>,
+        key: impl Into<String>,
+        problem: impl Into<String>,
+    ) -> Self {
+        Self::Config {
+            file: file.into(),
+            key: key.into(),
+            problem: problem.into(),
+        }
+    }
+
+    /// Wraps a solver error with what was being computed.
+    pub fn numerical(
+        context: impl Into<String>,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        Self::Sway(SwayError::numerical(context, source))
+    }
+
+    /// The file, key and problem of a config error, whichever layer found it.
+    pub fn as_config(&self) -> Option<(&std::path::Path, &str, &str)> {
+        match self {
+            Self::Config { file, key, problem }
+            | Self::Sway(SwayError::Config { file, key, problem }) => {
+                Some((file.as_path(), key.as_str(), problem.as_str()))
+            }
+            _ => None,
+        }
+    }
+}

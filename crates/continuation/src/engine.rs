@@ -851,22 +851,22 @@ impl Continuation {
         }
     }
 
-    /// corrector at step `s` along a's tangent, for the location; at a branch point the
-    /// bordered Jacobian is singular, so an exactly singular system there is retried a
-    /// hair (1e-10 of the step) further on and reported as converged (`true`)
+    /// corrector at step `s` along a's tangent, for the location. At a branch point the
+    /// bordered Jacobian is singular, and so it is at a codimension-two point of a curve
+    /// where another branch crosses (e.g. a zero-Hopf point of a symmetric system, where a
+    /// Hopf curve of the nontrivial equilibria meets the trivial one): an exactly singular
+    /// system there is retried a hair (1e-10 of the step) further on and reported as
+    /// converged (`true`): the zero of the test function is where the system is singular.
     fn correct_at<S: ContinuationSystem>(
         &self,
         sys: &mut S,
-        test: TestFunction,
         bracket: &Bracket<'_>,
         s: f64,
         w: &[f64],
     ) -> Result<(Corrected, bool)> {
         let a = bracket.a;
         match self.correct(sys, &along(&a.u, &a.tangent, s), &a.tangent, w) {
-            Err(Error::SingularSystem { .. })
-                if matches!(test, TestFunction::BranchPoint { .. }) =>
-            {
+            Err(Error::SingularSystem { .. }) => {
                 let nudged = along(&a.u, &a.tangent, s + 1e-10 * bracket.ds);
                 Ok((self.correct(sys, &nudged, &a.tangent, w)?, true))
             }
@@ -896,9 +896,22 @@ impl Continuation {
         let mut side = 0i8;
         let mut p_prev = f64::NAN;
         let mut best: Option<Corrected> = None;
+        let mut was_singular = false;
         for it in 0..self.options.max_location_iterations {
             let s = s1 - g1 * (s1 - s0) / (g1 - g0);
-            let (c, singular) = self.correct_at(sys, test, bracket, s, w)?;
+            let (c, singular) = match self.correct_at(sys, bracket, s, w) {
+                Ok(r) => r,
+                // singular at the special point and, where the curve turns there (a
+                // Bogdanov–Takens point of a symmetric system: ω → 0 where x = 0 has a
+                // zero root for every parameter), again after the nudge: the last iterate,
+                // converged within rounding of it, is the located point
+                Err(Error::SingularSystem { .. }) if best.is_some() => {
+                    was_singular = true;
+                    break;
+                }
+                Err(e) => return Err(e),
+            };
+            was_singular |= singular;
             let g = test.value(sys, &c)?.ok_or_else(|| failed(c.u[ip], it))?;
             let p = c.u[ip];
             let done = singular
@@ -925,7 +938,7 @@ impl Continuation {
             }
         }
         let mut c = best.ok_or_else(|| failed(a.parameter, 0))?;
-        if kind == SpecialKind::BranchPoint {
+        if kind == SpecialKind::BranchPoint || was_singular {
             // the tangent solve is singular at a branch point: keep the branch's direction
             c.tangent = a.tangent.clone();
         }

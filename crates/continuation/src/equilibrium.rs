@@ -163,6 +163,15 @@ impl<'a, P: Problem, R: CharacteristicRoots> EquilibriumSystem<'a, P, R> {
         self.roots.rightmost_roots(&a, &delays)
     }
 
+    /// The normal form (first Lyapunov coefficient) at a Hopf point of this branch
+    /// (needs [`Problem::third_derivative`]; [`crate::Error::NotSmooth`] for problems only
+    /// C¹ there).
+    pub fn hopf_normal_form(&self, hopf: &HopfPoint) -> Result<crate::HopfNormalForm> {
+        let mut p = self.params.clone();
+        p[self.ip] = hopf.parameter;
+        crate::HopfNormalForm::compute(self.problem, &hopf.state, &p, hopf.omega)
+    }
+
     /// Hopf point data at a located Hopf point `u` (critical pair from the spectrum,
     /// eigenvector as the null vector of Δ(iω))
     pub fn hopf_point(&mut self, u: &[f64], transversality: f64) -> Result<HopfPoint> {

@@ -74,6 +74,16 @@ pub enum Error {
         /// the missing `Problem` method
         what: &'static str,
     },
+    /// A normal form was asked of a problem that is not smooth enough there.
+    #[error(
+        "{what} needs third derivatives, but the problem is only C¹ at its kinks \
+         (`Problem::smoothness`); no normal-form coefficient is defined there: decide \
+         criticality from the computed cycles (`continuation::criticality`)"
+    )]
+    NotSmooth {
+        /// the quantity that was asked for
+        what: &'static str,
+    },
     /// A branch has no points to continue from.
     #[error("the branch is empty: start it with `Continuation::start` before extending it")]
     EmptyBranch,

@@ -23,7 +23,16 @@
 //! - [`SpecialKind::BogdanovTakens`]: ω passes through 0 (test: ω). The curve turns back in
 //!   the parameter plane there (it continues as the same curve with −ω), so the engine
 //!   records it as a [`SpecialKind::Fold`] of p1; [`HopfCurveSystem::codim2_points`]
-//!   reports such a turning point with a sign change of ω as a Bogdanov–Takens point.
+//!   reports such a turning point with a sign change of ω as a Bogdanov–Takens point;
+//! - [`SpecialKind::CriticalityChange`]: the first Lyapunov coefficient l1
+//!   ([`crate::HopfNormalForm`]) changes sign, a generalised-Hopf (Bautin) point (test: l1).
+//!   Watched only for problems with [`Problem::third_derivative`] that are
+//!   [`crate::Smoothness::Smooth`]; a sign change through a pole of l1 (where Δ(0) or the
+//!   eigenvector normalisation is singular) is not reported by
+//!   [`HopfCurveSystem::codim2_points`].
+//!
+//! [`HopfCurveSystem::normal_form`] gives l1 at any point of the curve,
+//! [`HopfCurveSystem::double_hopf_normal_form`] the coefficients of a double-Hopf point.
 //!
 //! # Example: x' = −γx + b·x(t−τ), Hopf curve in (τ, b)
 //!
@@ -84,6 +93,7 @@ use crate::engine::{Branch, ContinuationSystem};
 use crate::equilibrium::HopfPoint;
 use crate::error::{Error, Result};
 use crate::linalg::Entry;
+use crate::normal_form::{DoubleHopfNormalForm, HopfNormalForm};
 use crate::problem::Problem;
 use crate::roots::CharacteristicRoots;
 use crate::stability::{SpecialKind, Stability};
@@ -107,8 +117,19 @@ pub struct HopfCurveSystem<'a, P: Problem, R: CharacteristicRoots> {
     scale: Vec<f64>,
     buf: Vec<f64>,
     buf2: Vec<f64>,
-    /// ω at the last accepted point and at the last stability evaluation
-    tests: TestPair<f64>,
+    /// ω and l1 at the last accepted point and at the last stability evaluation
+    tests: TestPair<HopfTests>,
+    /// whether l1 is watched (None: not yet tried; false: the problem has no third
+    /// derivative or is not smooth)
+    watch_l1: Option<bool>,
+}
+
+/// test functions of a Hopf point besides the spectrum
+#[derive(Debug, Clone, Copy)]
+struct HopfTests {
+    omega: f64,
+    /// first Lyapunov coefficient (None: not watched or not computable here)
+    l1: Option<f64>,
 }
 
 impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
@@ -127,6 +148,7 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
             buf2: vec![0.0; n],
             base,
             tests: TestPair::default(),
+            watch_l1: None,
         })
     }
 
@@ -234,6 +256,9 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
                     k @ (SpecialKind::DoubleHopf
                     | SpecialKind::ZeroHopf
                     | SpecialKind::BogdanovTakens) => k,
+                    SpecialKind::CriticalityChange if self.l1_vanishes(curve, i) => {
+                        SpecialKind::CriticalityChange
+                    }
                     _ => return Ok(None),
                 };
                 let omegas = match kind {
@@ -241,7 +266,7 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
                         let w2 = sp.critical.map(|z| z.im.abs()).unwrap_or(f64::NAN);
                         vec![w, w2]
                     }
-                    SpecialKind::ZeroHopf => vec![w],
+                    SpecialKind::ZeroHopf | SpecialKind::CriticalityChange => vec![w],
                     _ => vec![],
                 };
                 Ok(Some((kind, omegas)))
@@ -249,6 +274,61 @@ impl<'a, P: Problem, R: CharacteristicRoots> HopfCurveSystem<'a, P, R> {
         );
         let Ok(points) = points;
         points
+    }
+
+    /// The normal form (first Lyapunov coefficient l1) of the Hopf point u of the curve.
+    pub fn normal_form(&self, u: &[f64]) -> Result<HopfNormalForm> {
+        HopfNormalForm::compute(
+            self.base.problem,
+            self.state(u),
+            &self.parameters_at(u),
+            self.omega(u),
+        )
+    }
+
+    /// The double-Hopf normal form at the point u of the curve with the second critical
+    /// frequency `omega2` (e.g. `Codim2Point::omegas[1]`); pair 1 is the curve's pair.
+    pub fn double_hopf_normal_form(&self, u: &[f64], omega2: f64) -> Result<DoubleHopfNormalForm> {
+        DoubleHopfNormalForm::compute(
+            self.base.problem,
+            self.state(u),
+            &self.parameters_at(u),
+            [self.omega(u), omega2],
+        )
+    }
+
+    /// l1 at u if it is watched (see the module docs)
+    fn watched_l1(&mut self, u: &[f64]) -> Option<f64> {
+        if self.watch_l1 == Some(false) {
+            return None;
+        }
+        match self.normal_form(u) {
+            Ok(nf) => {
+                self.watch_l1 = Some(true);
+                Some(nf.l1)
+            }
+            Err(Error::MissingDerivative { .. } | Error::NotSmooth { .. }) => {
+                self.watch_l1 = Some(false);
+                None
+            }
+            Err(_) => None,
+        }
+    }
+
+    /// whether |l1| at point i is below its neighbours' (a zero, not a pole, of l1)
+    fn l1_vanishes(&self, curve: &Branch, i: usize) -> bool {
+        let l1 = |j: usize| {
+            curve
+                .points
+                .get(j)
+                .and_then(|p| self.normal_form(&p.u).ok())
+                .map(|nf| nf.l1.abs())
+        };
+        match (i.checked_sub(1).and_then(l1), l1(i), l1(i + 1)) {
+            (Some(a), Some(m), Some(b)) => m <= a && m <= b,
+            (_, Some(m), _) => m.is_finite(),
+            _ => false,
+        }
     }
 
     fn omega_changes_sign(&self, curve: &Branch, i: usize) -> bool {
@@ -393,10 +473,12 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for HopfCurveSystem<
     }
     fn accept(&mut self, u: &[f64]) {
         self.set_reference(u);
-        self.tests.accepted = Some(self.omega(u));
+        let (omega, l1) = (self.omega(u), self.watched_l1(u));
+        self.tests.accepted = Some(HopfTests { omega, l1 });
     }
     fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
-        self.tests.current = Some(self.omega(u));
+        let (omega, l1) = (self.omega(u), self.watched_l1(u));
+        self.tests.current = Some(HopfTests { omega, l1 });
         Ok(Some(Stability::from_eigenvalues(
             self.remaining_spectrum(u)?,
         )))
@@ -404,14 +486,22 @@ impl<P: Problem, R: CharacteristicRoots> ContinuationSystem for HopfCurveSystem<
     fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
         let (complex, real) = crossings(a, b);
         first_kind([
-            (self.tests.sign_change(|w| *w), SpecialKind::BogdanovTakens),
+            (
+                self.tests.sign_change(|t| t.omega),
+                SpecialKind::BogdanovTakens,
+            ),
             (complex, SpecialKind::DoubleHopf),
             (real, SpecialKind::ZeroHopf),
+            (
+                self.tests.sign_change(|t| t.l1.unwrap_or(f64::NAN)),
+                SpecialKind::CriticalityChange,
+            ),
         ])
     }
     fn test_function(&mut self, kind: SpecialKind, u: &[f64]) -> Result<Option<f64>> {
         Ok(match kind {
             SpecialKind::BogdanovTakens => Some(self.omega(u)),
+            SpecialKind::CriticalityChange => self.watched_l1(u),
             SpecialKind::DoubleHopf | SpecialKind::ZeroHopf => {
                 let s = Stability::from_eigenvalues(self.remaining_spectrum(u)?);
                 nearest_axis(&s, kind == SpecialKind::DoubleHopf)

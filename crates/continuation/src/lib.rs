@@ -34,6 +34,13 @@
 //!   rotation number, strong resonances, and the start at a double-Hopf point
 //!   ([`DoubleHopfPoint`]) onto both cycle families and both torus curves.
 //!
+//! - [`HopfNormalForm`], [`DoubleHopfNormalForm`]: normal-form coefficients of Hopf points
+//!   (first Lyapunov coefficient l1) and double-Hopf points (Kuznetsov's θ, δ and unfolding
+//!   type) of smooth ODEs and DDEs from exact third derivatives
+//!   ([`Problem::third_derivative`]); generalised-Hopf (Bautin) points located on Hopf
+//!   curves where l1 changes sign. Problems only C¹ at kinks ([`Smoothness::C1AtKinks`])
+//!   get [`Error::NotSmooth`] instead of a number.
+//!
 //! - [`textbook`]: problems with closed-form answers (normal forms, delayed oscillators) with
 //!   exact derivatives, to test a setup against a known answer.
 //!
@@ -96,6 +103,7 @@ mod fold_curve;
 mod fold_cycles;
 mod hopf_curve;
 mod linalg;
+mod normal_form;
 mod periodic;
 mod problem;
 mod roots;
@@ -116,8 +124,12 @@ pub use fold_curve::FoldCurveSystem;
 pub use fold_cycles::{FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfEnd};
 pub use hopf_curve::HopfCurveSystem;
 pub use linalg::Entry;
+pub use normal_form::{DoubleHopfCase, DoubleHopfNormalForm, HopfNormalForm};
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
-pub use problem::{Problem, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
+pub use problem::{
+    Problem, Smoothness, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative,
+    fd_third_derivative,
+};
 pub use roots::{CharacteristicRoots, ChebyshevRoots, Refinement, refine_root};
 pub use stability::{Criticality, Location, SpecialKind, SpecialPoint, SpectrumKind, Stability};
 pub use torus::{

@@ -76,6 +76,36 @@ pub trait Problem {
             what: "jacobian_dp",
         })
     }
+    /// Third derivative of f along three directions of the stacked arguments:
+    /// `out = Σ_jkl ∂³f/∂args_j∂args_k∂args_l · a_j · b_k · c_l` (length n; `a`, `b`, `c`
+    /// of length n·(k+1)).
+    ///
+    /// Needed by the normal forms ([`crate::HopfNormalForm`], [`crate::DoubleHopfNormalForm`]:
+    /// the cubic coefficients of the reduced equations). Exact values are expected (e.g.
+    /// nested dual numbers, `num_dual::HyperHyperDual64`); [`fd_third_derivative`] is the
+    /// explicit finite-difference fallback. The default reports
+    /// [`crate::Error::MissingDerivative`].
+    fn third_derivative(
+        &self,
+        _args: &[f64],
+        _p: &[f64],
+        _a: &[f64],
+        _b: &[f64],
+        _c: &[f64],
+        _out: &mut [f64],
+    ) -> crate::Result<()> {
+        Err(crate::Error::MissingDerivative {
+            what: "third_derivative",
+        })
+    }
+    /// How smooth f is where the normal forms would be computed. The normal forms need f
+    /// to be C³ at the equilibrium; a problem that is only C¹ there (e.g. a brush tyre at
+    /// zero slip) answers [`Smoothness::C1AtKinks`], and the normal-form functions then
+    /// report [`crate::Error::NotSmooth`] instead of a number (decide criticality from the
+    /// cycles, [`crate::criticality`]). Default: [`Smoothness::Smooth`].
+    fn smoothness(&self) -> Smoothness {
+        Smoothness::Smooth
+    }
     /// number of switching functions (0 for a smooth f)
     fn n_switching(&self) -> usize {
         0
@@ -84,6 +114,18 @@ pub trait Problem {
     /// f is less smooth (e.g. a C¹ kink of a tire curve at zero slip). The Floquet computation
     /// puts mesh points there, which restores the collocation's order of convergence.
     fn switching(&self, _args: &[f64], _p: &[f64], _g: &mut [f64]) {}
+}
+
+/// How smooth the right-hand side is at the equilibria of interest
+/// ([`Problem::smoothness`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Smoothness {
+    /// f is (at least) C³: normal-form coefficients are defined
+    Smooth,
+    /// f is only C¹ where switching functions vanish (kinks of the second derivative, e.g.
+    /// the brush tyre at zero slip, which is where a straight-running equilibrium sits):
+    /// no normal form; criticality comes from the computed cycles
+    C1AtKinks,
 }
 
 /// Central-difference Jacobian (an explicit fallback for problems without exact derivatives;
@@ -189,6 +231,39 @@ pub fn fd_jacobian_dp<P: Problem + ?Sized>(
         for i in 0..n {
             let row: f64 = (0..na).map(|j| jac[i * na + j] * a[j]).sum();
             out[i] += sign * row / (2.0 * h);
+        }
+    }
+    Ok(())
+}
+
+/// Central-difference third derivative along `a`, `b`, `c` from the exact second
+/// derivative (explicit fallback for [`Problem::third_derivative`]): the derivative of
+/// f_xx(args)\[a, b\] in direction `c`; error O(h²) for smooth f.
+pub fn fd_third_derivative<P: Problem + ?Sized>(
+    problem: &P,
+    args: &[f64],
+    p: &[f64],
+    abc: [&[f64]; 3],
+    out: &mut [f64],
+) -> crate::Result<()> {
+    let [a, b, c] = abc;
+    let n = problem.dim();
+    let scale = c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    out[..n].iter_mut().for_each(|o| *o = 0.0);
+    if scale == 0.0 {
+        return Ok(());
+    }
+    let args_norm = args.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let h = 1e-4 * (1.0 + args_norm) / scale;
+    let mut shifted = args.to_vec();
+    let mut buf = vec![0.0; n];
+    for sign in [1.0, -1.0] {
+        for (s, (x, d)) in shifted.iter_mut().zip(args.iter().zip(c)) {
+            *s = x + sign * h * d;
+        }
+        problem.second_derivative(&shifted, p, a, b, &mut buf)?;
+        for i in 0..n {
+            out[i] += sign * buf[i] / (2.0 * h);
         }
     }
     Ok(())

@@ -8,6 +8,7 @@
 //! `p` and the closed forms it is checked against.
 
 use crate::{Problem, Result};
+use num_dual::{Dual64, DualNum, HyperDual64, HyperHyperDual64};
 
 /// Writes `impl Problem for $ty` from compact method headers, so that each problem states
 /// only its equations. `fn name(self, a, b, …) { … }` becomes the [`Problem`] method of that
@@ -63,6 +64,17 @@ macro_rules! textbook_problem {
             $p: &[f64],
             $a: &[f64],
             $b: &[f64],
+            $out: &mut [f64],
+        ) -> Result<()> $body
+    };
+    (@fn third_derivative($s:ident, $x:pat, $p:pat, $a:pat, $b:pat, $c:pat, $out:pat) $body:block) => {
+        fn third_derivative(
+            &$s,
+            $x: &[f64],
+            $p: &[f64],
+            $a: &[f64],
+            $b: &[f64],
+            $c: &[f64],
             $out: &mut [f64],
         ) -> Result<()> $body
     };
@@ -144,6 +156,32 @@ textbook_problem! { NormalForm;
     fn dfdp(self, x, _p, _ip, out) {
         out[0] = x[0];
         out[1] = x[1];
+    }
+    fn second_derivative(self, x, p, a, b, out) {
+        ad_second(|x, f| self.rhs_g(x, p, f), x, a, b, out);
+        Ok(())
+    }
+    fn third_derivative(self, x, p, a, b, c, out) {
+        ad_third(|x, f| self.rhs_g(x, p, f), x, [a, b, c], out);
+        Ok(())
+    }
+}
+
+impl NormalForm {
+    /// the right-hand side for any dual number type (exact higher derivatives)
+    fn rhs_g<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], p: &[f64], f: &mut [D]) {
+        let r2 = x[0] * x[0] + x[1] * x[1];
+        let q = if self.quartic { 1.0 } else { 0.0 };
+        let g = r2 * self.a - r2 * r2 * q + p[0];
+        let w = r2 * self.b + self.omega;
+        f[0] = g * x[0] - w * x[1];
+        f[1] = w * x[0] + g * x[1];
+    }
+
+    /// Closed form of the Hopf normal form at μ = 0 (‖q‖ = 1): in w with
+    /// x = w q + w̄ q̄, z = x0 + i x1 = √2 w, so c1 = 2(a + i b) and l1 = 2a/ω.
+    pub fn hopf_c1(&self) -> (f64, f64) {
+        (2.0 * self.a, 2.0 * self.b)
     }
 }
 
@@ -498,6 +536,16 @@ impl Radial {
     }
 }
 
+impl Radial {
+    /// the right-hand side for any dual number type (exact higher derivatives)
+    fn rhs_g<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], p: &[f64], f: &mut [D]) {
+        let r = x[0] * x[0] + x[1] * x[1];
+        let g = r * p[1] + r * r * self.c2 + r * r * r * self.c3 + p[0];
+        f[0] = g * x[0] - x[1] + x[0] * x[0] * self.eps;
+        f[1] = x[0] + g * x[1];
+    }
+}
+
 /// a₀b₀ + a₁b₁
 fn dot2(a: &[f64], b: &[f64]) -> f64 {
     a[0] * b[0] + a[1] * b[1]
@@ -533,6 +581,10 @@ textbook_problem! { Radial;
             out[i] = 2.0 * dg * (xa * b[i] + xb * a[i] + ab * x[i]) + 4.0 * ddg * xa * xb * x[i];
         }
         out[0] += 2.0 * self.eps * a[0] * b[0];
+        Ok(())
+    }
+    fn third_derivative(self, x, p, a, b, c, out) {
+        ad_third(|x, f| self.rhs_g(x, p, f), x, [a, b, c], out);
         Ok(())
     }
     fn jacobian_dp(self, x, _p, ip, a, out) {
@@ -648,6 +700,10 @@ textbook_problem! { DelayedBautin, delay = p[2], free;
         }
         Ok(())
     }
+    fn third_derivative(self, args, p, a, b, c, out) {
+        ad_third(|x, f| self.rhs_g(x, p, f), args, [a, b, c], out);
+        Ok(())
+    }
     fn jacobian_dp(self, args, _p, ip, a, out) {
         for o in 0..self.oscillators() {
             let ((_, y), (ax, ay)) = (self.split(args, o), self.split(a, o));
@@ -661,6 +717,33 @@ textbook_problem! { DelayedBautin, delay = p[2], free;
             }
         }
         Ok(())
+    }
+}
+
+impl DelayedBautin {
+    /// the right-hand side for any dual number type (exact higher derivatives)
+    fn rhs_g<D: DualNum<Primitive = f64> + Copy>(&self, a: &[D], p: &[f64], f: &mut [D]) {
+        let n = self.dim();
+        for o in 0..self.oscillators() {
+            let (x, y) = (&a[2 * o..2 * o + 2], &a[n + 2 * o..n + 2 * o + 2]);
+            let r = x[0] * x[0] + x[1] * x[1];
+            let s = y[0] * y[0] + y[1] * y[1];
+            for i in 0..2 {
+                f[2 * o + i] = x[i] * p[0] - r * r * x[i] + s * y[i] * p[1];
+                if let Some(eps) = self.coupling {
+                    f[2 * o + i] += (a[2 - 2 * o + i] - x[i]) * eps;
+                }
+            }
+            f[2 * o] -= x[1];
+            f[2 * o + 1] += x[0];
+        }
+    }
+
+    /// Closed form of the Hopf normal form of one oscillator at μ1 = 0 (‖q‖ = 1): the
+    /// cubic term μ2|z(t−τ)|²z(t−τ) seen through φ(θ) = q e^{iθ} gives c1 = 2μ2 e^{−iτ},
+    /// l1 = 2μ2 cos τ (ω = 1).
+    pub fn hopf_c1(mu2: f64, tau: f64) -> (f64, f64) {
+        (2.0 * mu2 * tau.cos(), -2.0 * mu2 * tau.sin())
     }
 }
 
@@ -680,6 +763,32 @@ textbook_problem! { SaddleNode;
     }
     fn dfdp(self, _x, _p, _ip, out) {
         out[0] = 1.0;
+    }
+}
+
+/// x' = μx − x³, p = [μ]: supercritical pitchfork at (x, μ) = (0, 0), a branch point of
+/// the trivial branch x = 0 (the system is odd in x); the crossing branches are x = ±√μ.
+#[derive(Debug)]
+pub struct Pitchfork;
+
+textbook_problem! { Pitchfork;
+    fn dim(self) { 1 }
+    fn rhs(self, x, p, f) {
+        f[0] = p[0] * x[0] - x[0].powi(3);
+    }
+    fn jacobian(self, x, p, j) {
+        j[0] = p[0] - 3.0 * x[0] * x[0];
+    }
+    fn dfdp(self, x, _p, _ip, out) {
+        out[0] = x[0];
+    }
+    fn second_derivative(self, x, _p, a, b, out) {
+        out[0] = -6.0 * x[0] * a[0] * b[0];
+        Ok(())
+    }
+    fn jacobian_dp(self, _x, _p, _ip, a, out) {
+        out[0] = a[0];
+        Ok(())
     }
 }
 
@@ -936,6 +1045,22 @@ textbook_problem! { TorusTestBed;
         }
         Ok(())
     }
+    // f is a cubic polynomial, so f_XX(X)[a, b] is linear in X and
+    // f_XX(X + c)[a, b] − f_XX(X)[a, b] = f_XXX[a, b, c] exactly (up to rounding).
+    fn third_derivative(self, args, p, a, b, c, out) {
+        let na = args.len();
+        let mut shifted = [0.0; 8];
+        for i in 0..na {
+            shifted[i] = args[i] + c[i];
+        }
+        let (mut hi, mut lo) = ([0.0; 4], [0.0; 4]);
+        self.second_derivative(&shifted[..na], p, a, b, &mut hi)?;
+        self.second_derivative(args, p, a, b, &mut lo)?;
+        for r in 0..4 {
+            out[r] = hi[r] - lo[r];
+        }
+        Ok(())
+    }
     fn jacobian_dp(self, _args, _p, ip, a, out) {
         out.iter_mut().for_each(|v| *v = 0.0);
         match ip {
@@ -946,3 +1071,232 @@ textbook_problem! { TorusTestBed;
         Ok(())
     }
 }
+
+impl TorusTestBed {
+    /// Closed form of the double-Hopf normal form at (μ, ν) = (0, D) for the delay τ
+    /// (pair 1: ω1, pair 2: Ω; ‖q‖ = 1, so z_o = √2 w_o): with s = 1 + κτ e^{−iΩτ}
+    /// (= Δ'(iΩ) of the z2 block; 1 without delay), g2100 = 2(−1 + i b), g1011 = 2e,
+    /// g1110 = 2c/s, g0021 = −2/s. Returns [g2100, g1011, g1110, g0021].
+    pub fn double_hopf_coefficients(&self, tau: f64) -> [num_complex::Complex64; 4] {
+        use num_complex::Complex64 as C;
+        let (w, _) = self.second_hopf(tau);
+        let s = if self.delayed {
+            C::new(1.0, 0.0) + self.kappa * tau * C::new(0.0, -w * tau).exp()
+        } else {
+            C::new(1.0, 0.0)
+        };
+        [
+            C::new(-2.0, 2.0 * self.b),
+            C::new(2.0 * self.e, 0.0),
+            C::new(2.0 * self.c, 0.0) / s,
+            C::new(-2.0, 0.0) / s,
+        ]
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Exact derivatives by nested dual numbers, for right-hand sides written once for any
+// dual number type: `eval(x, f)` with the stacked arguments x.
+
+/// f_x(x)\[a, b\] = ∂²f/∂ε1∂ε2 f(x + ε1 a + ε2 b)
+fn ad_second(
+    eval: impl Fn(&[HyperDual64], &mut [HyperDual64]),
+    x: &[f64],
+    a: &[f64],
+    b: &[f64],
+    out: &mut [f64],
+) {
+    let xs: Vec<HyperDual64> = (0..x.len())
+        .map(|i| HyperDual64::new(x[i], a[i], b[i], 0.0))
+        .collect();
+    let mut f = vec![HyperDual64::from(0.0); out.len()];
+    eval(&xs, &mut f);
+    for (o, v) in out.iter_mut().zip(&f) {
+        *o = v.eps1eps2;
+    }
+}
+
+/// f_xxx(x)\[a, b, c\] = ∂³/∂ε1∂ε2∂ε3 f(x + ε1 a + ε2 b + ε3 c)
+fn ad_third(
+    eval: impl Fn(&[HyperHyperDual64], &mut [HyperHyperDual64]),
+    x: &[f64],
+    [a, b, c]: [&[f64]; 3],
+    out: &mut [f64],
+) {
+    let xs: Vec<HyperHyperDual64> = (0..x.len())
+        .map(|i| HyperHyperDual64::new(x[i], a[i], b[i], c[i], 0.0, 0.0, 0.0, 0.0))
+        .collect();
+    let mut f = vec![HyperHyperDual64::from(0.0); out.len()];
+    eval(&xs, &mut f);
+    for (o, v) in out.iter_mut().zip(&f) {
+        *o = v.eps1eps2eps3;
+    }
+}
+
+/// A right-hand side written once for any dual number type, in its arguments and its
+/// parameters: every derivative of [`Problem`] follows exactly.
+trait DualRhs {
+    fn eval<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], p: &[D], f: &mut [D]);
+}
+
+/// the parameters as constants of a dual type
+fn constants<D: DualNum<Primitive = f64> + Copy>(p: &[f64]) -> Vec<D> {
+    p.iter().map(|&v| D::from(v)).collect()
+}
+
+fn dual_rhs<R: DualRhs>(r: &R, x: &[f64], p: &[f64], f: &mut [f64]) {
+    r.eval(x, p, f);
+}
+
+fn dual_jacobian<R: DualRhs>(r: &R, n: usize, x: &[f64], p: &[f64], jac: &mut [f64]) {
+    let na = x.len();
+    let pd: Vec<Dual64> = constants(p);
+    let mut f = vec![Dual64::from(0.0); n];
+    let mut xs: Vec<Dual64> = x.iter().map(|&v| Dual64::from(v)).collect();
+    for j in 0..na {
+        xs[j].eps = 1.0;
+        r.eval(&xs, &pd, &mut f);
+        xs[j].eps = 0.0;
+        for i in 0..n {
+            jac[i * na + j] = f[i].eps;
+        }
+    }
+}
+
+fn dual_dfdp<R: DualRhs>(r: &R, x: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
+    let xs: Vec<Dual64> = x.iter().map(|&v| Dual64::from(v)).collect();
+    let mut pd: Vec<Dual64> = constants(p);
+    pd[ip].eps = 1.0;
+    let mut f = vec![Dual64::from(0.0); out.len()];
+    r.eval(&xs, &pd, &mut f);
+    for (o, v) in out.iter_mut().zip(&f) {
+        *o = v.eps;
+    }
+}
+
+fn dual_jacobian_dp<R: DualRhs>(
+    r: &R,
+    x: &[f64],
+    p: &[f64],
+    ip: usize,
+    a: &[f64],
+    out: &mut [f64],
+) {
+    let xs: Vec<HyperDual64> = (0..x.len())
+        .map(|i| HyperDual64::new(x[i], a[i], 0.0, 0.0))
+        .collect();
+    let mut pd: Vec<HyperDual64> = constants(p);
+    pd[ip].eps2 = 1.0;
+    let mut f = vec![HyperDual64::from(0.0); out.len()];
+    r.eval(&xs, &pd, &mut f);
+    for (o, v) in out.iter_mut().zip(&f) {
+        *o = v.eps1eps2;
+    }
+}
+
+/// `impl Problem` for a [`DualRhs`] type: dimension, delays (`delay(self, j, p)` and
+/// `delay_dp(self, j, p, ip)` bodies) and every derivative by dual numbers.
+macro_rules! dual_problem {
+    ($ty:ty, dim = $n:expr, delays = $k:expr,
+     delay($s1:ident, $j:ident, $p:ident) $dbody:block,
+     delay_dp($s2:ident, $j2:ident, $p2:ident, $ip:ident) $dpbody:block) => {
+        impl Problem for $ty {
+            fn dim(&self) -> usize {
+                $n
+            }
+            fn n_delays(&self) -> usize {
+                $k
+            }
+            fn delay(&$s1, $j: usize, $p: &[f64]) -> f64 $dbody
+            fn delay_dp(&$s2, $j2: usize, $p2: &[f64], $ip: usize) -> f64 $dpbody
+            fn rhs(&self, x: &[f64], p: &[f64], f: &mut [f64]) {
+                dual_rhs(self, x, p, f);
+            }
+            fn jacobian(&self, x: &[f64], p: &[f64], jac: &mut [f64]) {
+                dual_jacobian(self, $n, x, p, jac);
+            }
+            fn dfdp(&self, x: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
+                dual_dfdp(self, x, p, ip, out);
+            }
+            fn second_derivative(
+                &self,
+                x: &[f64],
+                p: &[f64],
+                a: &[f64],
+                b: &[f64],
+                out: &mut [f64],
+            ) -> Result<()> {
+                let pc: Vec<HyperDual64> = constants(p);
+                ad_second(|x, f| self.eval(x, &pc, f), x, a, b, out);
+                Ok(())
+            }
+            fn third_derivative(
+                &self,
+                x: &[f64],
+                p: &[f64],
+                a: &[f64],
+                b: &[f64],
+                c: &[f64],
+                out: &mut [f64],
+            ) -> Result<()> {
+                let pc: Vec<HyperHyperDual64> = constants(p);
+                ad_third(|x, f| self.eval(x, &pc, f), x, [a, b, c], out);
+                Ok(())
+            }
+            fn jacobian_dp(
+                &self,
+                x: &[f64],
+                p: &[f64],
+                ip: usize,
+                a: &[f64],
+                out: &mut [f64],
+            ) -> Result<()> {
+                dual_jacobian_dp(self, x, p, ip, a, out);
+                Ok(())
+            }
+        }
+    };
+}
+
+/// The Mackey–Glass equation x' = β x(t−τ)/(1 + x(t−τ)ⁿ) − γ x, p = [β, n, τ] (DDE-Biftool's
+/// demo `Mackey-Glass`, γ = 1 there). Nontrivial equilibrium x* = (β/γ − 1)^{1/n}.
+/// For β = 2, n = 10, γ = 1: x* = 1, A0 = −1, A1 = −4, so the first Hopf point in τ has
+/// ω = √15, τ = arccos(−1/4)/√15 (from iω = −1 − 4e^{−iωτ}).
+#[derive(Debug, Clone, Copy)]
+pub struct MackeyGlass {
+    /// decay rate γ \[1 / time unit\]
+    pub gamma: f64,
+}
+
+impl DualRhs for MackeyGlass {
+    fn eval<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], p: &[D], f: &mut [D]) {
+        let y = x[1];
+        let yn = (y.ln() * p[1]).exp();
+        f[0] = p[0] * y / (yn + 1.0) - x[0] * self.gamma;
+    }
+}
+
+dual_problem!(MackeyGlass, dim = 1, delays = 1,
+    delay(self, _j, p) { p[2] },
+    delay_dp(self, _j, _p, ip) { if ip == 2 { 1.0 } else { 0.0 } });
+
+/// DDE-Biftool's neuron demo (Shayer & Campbell 2000), p = [κ, β, a12, a21, τ1, τ2, τs]
+/// (DDE-Biftool's order):
+/// x1' = −κ x1 + β tanh x1(t−τs) + a12 tanh x2(t−τ2),
+/// x2' = −κ x2 + β tanh x2(t−τs) + a21 tanh x1(t−τ1).
+/// Delays in the order τ1, τ2, τs (stacked arguments [x, x(t−τ1), x(t−τ2), x(t−τs)]).
+/// x = 0 is an equilibrium for all parameters; the system is odd (x ↦ −x).
+#[derive(Debug, Clone, Copy)]
+pub struct Neuron;
+
+impl DualRhs for Neuron {
+    fn eval<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], p: &[D], f: &mut [D]) {
+        let (kappa, beta, a12, a21) = (p[0], p[1], p[2], p[3]);
+        f[0] = -kappa * x[0] + beta * x[6].tanh() + a12 * x[5].tanh();
+        f[1] = -kappa * x[1] + beta * x[7].tanh() + a21 * x[2].tanh();
+    }
+}
+
+dual_problem!(Neuron, dim = 2, delays = 3,
+    delay(self, j, p) { p[4 + j] },
+    delay_dp(self, j, _p, ip) { if ip == 4 + j { 1.0 } else { 0.0 } });

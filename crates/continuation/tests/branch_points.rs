@@ -1,5 +1,7 @@
-//! Branch points (pitchfork, transcritical) on equilibrium branches, branch switching, and
+//! Branch points (pitchfork, transcritical) on equilibrium branches, branch switching,
+//! singular points met on Hopf curves (zero-Hopf points of symmetric systems), and
 //! observers of the continuation.
+use continuation::textbook::{Neuron, Pitchfork};
 use continuation::*;
 
 /// The delayed pair of issue 8:
@@ -284,4 +286,127 @@ fn options_saved_before_branch_points_existed_still_load() {
     let o: ContinuationOptions = serde_json::from_value(json).expect("deserialise");
     assert!(o.branch_points);
     assert_eq!(o, options);
+}
+
+#[test]
+fn pitchfork_of_the_symmetric_cubic_is_named_and_switched_onto_both_halves() {
+    // reference: x' = μx − x³ (textbook::Pitchfork): the trivial branch x = 0 has a branch
+    // point at μ = 0 exactly (the system is odd in x) and the crossing branches are
+    // x = ±√μ. Location tolerance 1e-10 (required 1e-8); Newton tolerance 1e-10 (required
+    // 1e-9 on the closed form).
+    let c = cont(0.1, 0.2, (-0.5, 0.5));
+    let (mut eq, mut br) = started(&c, &Pitchfork, &[0.0, -0.5]);
+    let stop = c
+        .extend(&mut eq, &mut br, 30)
+        .expect("the branch passes the pitchfork");
+    assert_eq!(stop, Stop::ParameterRange);
+    let (i, bp) = br
+        .first(SpecialKind::BranchPoint)
+        .expect("branch point named");
+    assert_eq!(bp.location, Location::Located);
+    assert!(
+        bp.parameter.abs() < 1e-8,
+        "branch point at μ = {}",
+        bp.parameter
+    );
+    assert_eq!(br.points[i - 1].is_stable(), Some(true));
+    assert_eq!(br.points[i + 1].is_stable(), Some(false));
+    assert!(
+        br.points.iter().all(|p| p.u[0] == 0.0),
+        "the trivial branch stays x = 0"
+    );
+    for side in [1.0, -1.0] {
+        let mut half = c
+            .switch_branch(&mut eq, &br.points[i], side * 0.05)
+            .expect("switch");
+        c.extend(&mut eq, &mut half, 15).expect("extend");
+        assert!(half.points.last().expect("points").parameter > 0.2);
+        for p in &half.points {
+            assert!(p.u[0] * side > 0.0, "on the side chosen");
+            assert!(
+                (p.u[0].abs() - p.parameter.sqrt()).abs() < 1e-9,
+                "x = {} at μ = {}",
+                p.u[0],
+                p.parameter
+            );
+            // the nontrivial equilibria are stable (eigenvalue μ − 3x² = −2μ)
+            assert_eq!(p.is_stable(), Some(true));
+        }
+    }
+}
+
+#[test]
+fn neuron_hopf_curve_stops_at_the_bogdanov_takens_point_on_a21_9_over_4() {
+    // Issue 23, item 4: DDE-Biftool's neuron demo, p = [κ, β, a12, a21, τ1, τ2, τs] =
+    // [0.5, −1, 1, ·, 0.2, 0.2, ·], the Hopf curve of x = 0 in (a21, τs) from a21 = 0.807,
+    // τs = 1.5 towards larger a21. At x = 0, Δ(0) = [[κ − β, −a12], [−a21, κ − β]], so
+    // det Δ(0) = 9/4 − a21: a zero root at a21 = 2.25 for every τs (a pitchfork line of the
+    // symmetric system, ∂f/∂p = 0 at x = 0). The Hopf curve meets that line where its
+    // frequency ω reaches 0: a (symmetric, Hopf-pitchfork) Bogdanov–Takens point, at which
+    // the curve's defining system is exactly singular. The curve used to stop there with
+    // `SingularSystem`; now the point is located and named (tolerance 1e-8 on a21: the
+    // location stops within 1e-10, the last regular iterate before the singular point) and
+    // the curve goes on as the same curve with −ω (it turns back at a BT point).
+    let p0 = vec![0.5, -1.0, 1.0, 0.5, 0.2, 0.2, 1.5];
+    let mut eq =
+        EquilibriumSystem::new(&Neuron, p0.clone(), 3, ChebyshevRoots::default()).expect("system");
+    let c = cont(0.05, 0.1, (0.0, 3.0));
+    let dir = eq.parameter_direction();
+    let mut br = c.start(&mut eq, &[0.0, 0.0, 0.5], &dir).expect("start");
+    c.extend_observed(&mut eq, &mut br, 30, &mut |b: &Branch| {
+        if b.first(SpecialKind::Hopf).is_some() {
+            Decision::Stop
+        } else {
+            Decision::Continue
+        }
+    })
+    .expect("equilibria");
+    let (i, sp) = br.first(SpecialKind::Hopf).expect("Hopf point");
+    let hopf = eq
+        .hopf_point(&br.points[i].u, sp.transversality.expect("located"))
+        .expect("Hopf data");
+    assert!(
+        (hopf.parameter - 0.807).abs() < 1e-3,
+        "a21 = {}",
+        hopf.parameter
+    );
+    let mut p = p0;
+    p[3] = hopf.parameter;
+    let mut hc =
+        HopfCurveSystem::new(&Neuron, p, [3, 6], ChebyshevRoots::default()).expect("curve system");
+    let (guess, _) = hc.start_at_hopf(&hopf, 3).expect("start data");
+    // towards larger a21: the direction of a21 (unknown 3n + 1 = 7)
+    let mut dir = vec![0.0; guess.len()];
+    dir[7] = 1.0;
+    let cc = cont(0.1, 0.5, (0.0, 3.0));
+    let mut curve = cc.start(&mut hc, &guess, &dir).expect("start the curve");
+    cc.extend(&mut hc, &mut curve, 40)
+        .expect("no error at a21 = 2.25");
+    let bt = single_codim2(hc.codim2_points(&curve), SpecialKind::BogdanovTakens);
+    assert!((bt.p1 - 2.25).abs() < 1e-8, "{bt:?}");
+    let k = bt.index;
+    assert!(
+        hc.omega(&curve.points[k].u).abs() < 1e-4,
+        "ω at the BT point"
+    );
+    // the curve goes on past it (retracing with −ω), x = 0 throughout
+    assert!(curve.points.len() > k + 5);
+    assert!(
+        curve.points[k + 1..]
+            .iter()
+            .all(|p| hc.omega(&p.u) < 0.0 && p.parameter <= 2.25)
+    );
+    assert!(
+        curve
+            .points
+            .iter()
+            .all(|p| hc.state(&p.u).iter().all(|x| x.abs() < 1e-12))
+    );
+}
+
+/// the one codimension-two point of kind `kind` among `points`
+fn single_codim2(points: Vec<Codim2Point>, kind: SpecialKind) -> Codim2Point {
+    let mut of_kind: Vec<_> = points.into_iter().filter(|c| c.kind == kind).collect();
+    assert_eq!(of_kind.len(), 1, "{of_kind:?}");
+    of_kind.remove(0)
 }

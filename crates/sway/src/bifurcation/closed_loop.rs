@@ -251,6 +251,11 @@ impl Problem for ClosedLoop<'_> {
         }
         Ok(())
     }
+    /// the brush tire is only C¹ at zero slip, where the straight-running equilibrium sits:
+    /// no normal form there (criticality comes from the cycles)
+    fn smoothness(&self) -> continuation::Smoothness {
+        continuation::Smoothness::C1AtKinks
+    }
     fn n_switching(&self) -> usize {
         6
     }

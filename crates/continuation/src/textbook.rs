@@ -766,7 +766,7 @@ textbook_problem! { SaddleNode;
     }
 }
 
-/// x' = μx − x³, p = [μ]: supercritical pitchfork at (x, μ) = (0, 0), a branch point of
+/// x' = μx − x³, p = \[μ\]: supercritical pitchfork at (x, μ) = (0, 0), a branch point of
 /// the trivial branch x = 0 (the system is odd in x); the crossing branches are x = ±√μ.
 #[derive(Debug)]
 pub struct Pitchfork;

@@ -119,6 +119,13 @@ pub const PARAMETERS: [(&str, &str, &str); 15] = [
 ];
 
 impl VehicleParams {
+    /// True for the paper's vehicle, Table I (with the appendix's friction and g = 9.81 m/s²),
+    /// exactly as [`Default`] gives it: the only vehicle whose results may be compared with
+    /// the paper's published numbers (34.1 m/s and the like).
+    pub fn is_table_i(&self) -> bool {
+        *self == Self::default()
+    }
+
     fn slot(&mut self, index: usize) -> &mut f64 {
         match index {
             0 => &mut self.tractor.mass,

@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use trailer_model::{CriticalSpeedOptions, Model, PARAMETERS, VehicleParams};
 
 use crate::SwayError;
+use crate::config::Grid;
 
 /// Eigenvalues of Ã along a speed grid, each column following one eigenvalue
 /// continuously (matched to the previous speed by nearest distance).
@@ -176,4 +177,29 @@ pub fn v_crit_curve(
 /// Index of a parameter of [`PARAMETERS`] by its paper symbol.
 pub fn parameter_index(symbol: &str) -> Option<usize> {
     PARAMETERS.iter().position(|&(_, s, _)| s == symbol)
+}
+
+/// Spacing of the derived speed grid of the eigenvalue table \[m/s\].
+pub const DERIVED_GRID_STEP_MPS: f64 = 0.1;
+
+/// The speed grid of the eigenvalue table derived from the vehicle: from the lowest speed
+/// of `limits` to 1.5·V_crit rounded up to a multiple of 10 m/s (at most the maximum speed,
+/// but at least 1.1·V_crit), or to the maximum speed when straight running is stable
+/// there (`v_crit` None); spacing [`DERIVED_GRID_STEP_MPS`]. For Table I (V_crit =
+/// 34.75 m/s): 1–60 m/s, 591 points.
+pub fn derived_speed_grid(v_crit: Option<f64>, limits: &crate::ranging::SpeedLimits) -> Grid {
+    let min = limits.min_speed_mps;
+    let max = match v_crit {
+        Some(v) => ((1.5 * v / 10.0).ceil() * 10.0)
+            .min(limits.max_speed_mps)
+            .max(1.1 * v),
+        None => limits.max_speed_mps,
+    }
+    .max(min + 10.0 * DERIVED_GRID_STEP_MPS);
+    let points = ((max - min) / DERIVED_GRID_STEP_MPS).round() as usize + 1;
+    Grid {
+        min,
+        max,
+        points: points.min(crate::config::MAX_GRID_POINTS),
+    }
 }

@@ -12,6 +12,8 @@ use num_dual::{Dual64, DualNum, DualSVec64, HyperDual64, jacobian};
 use serde::{Deserialize, Serialize};
 use trailer_model::{Inputs, Model, State4};
 
+use crate::sim::LossOfControl;
+
 /// index of the speed V \[m/s\] in the parameter vector
 pub const SPEED: usize = 0;
 /// index of the feedback gain D \[s\] in the parameter vector
@@ -125,6 +127,37 @@ impl<'a> ClosedLoop<'a> {
             steering_angle: -p[GAIN] * self.fed_back_yaw(args),
             speed: p[SPEED],
             acceleration: 0.0,
+        }
+    }
+
+    /// The simulations' validity guard ([`crate::sim::ValidityGuard`]) at one point of a
+    /// solution: `args` the stacked arguments (x(t), and x(t − τ) if delayed), `p` = [V, D, τ].
+    /// The first tripped condition (in [`LossOfControl`]'s order), None while the model is
+    /// valid: a tractor axle sliding fully (|α| > α_cr, eq. 15) or a wheel's longitudinal
+    /// velocity at or below 0.
+    pub fn loss_of_control(&self, args: &[f64], p: &[f64]) -> Option<LossOfControl> {
+        let u = self.inputs(args, p);
+        let x = Self::state(args);
+        let (tan_front, tan_rear) = self.model.axle_slip_tangents(&x, &u);
+        let (cr_front, cr_rear) = self.model.critical_slip_tangents();
+        let front_wheel_speed = {
+            let lateral_front =
+                x[0] + self.model.yaw_rate(&x) * self.model.params().tractor.front_axle;
+            let (sd, cd) = u.steering_angle.sin_cos();
+            u.speed * cd + lateral_front * sd
+        };
+        if tan_front > cr_front {
+            Some(LossOfControl::FrontAxleSliding)
+        } else if tan_rear > cr_rear {
+            Some(LossOfControl::RearAxleSliding)
+        } else if front_wheel_speed <= 0.0 {
+            Some(LossOfControl::FrontWheelStopped)
+        } else if u.speed <= 0.0 {
+            Some(LossOfControl::RearWheelStopped)
+        } else if self.model.trailer_wheel_speed(&x, u.speed) <= 0.0 {
+            Some(LossOfControl::TrailerWheelStopped)
+        } else {
+            None
         }
     }
 

@@ -29,8 +29,17 @@ use crate::SwayError;
 
 pub mod chart;
 mod closed_loop;
+pub mod closed_loop_diagrams;
 pub mod corners;
+mod ranged;
 pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, SPEED};
+pub use closed_loop_diagrams::{
+    PairDiagram, PairSummary, closed_loop_diagram, closed_loop_diagrams, common_range,
+};
+pub use ranged::{
+    BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, MARGIN_BELOW, NoHopf,
+    cycle_loss_of_control, vehicle_diagram,
+};
 
 /// Options of the bifurcation diagram of one feedback setting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -129,6 +138,26 @@ pub struct CycleSummary {
     pub max_multiplier: f64,
 }
 
+/// Which cycle [`Diagram::cycle_at`] picks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CycleKind {
+    /// the stable cycle of largest amplitude (sway)
+    Stable,
+    /// the unstable cycle of smallest amplitude (the threshold of perturbations)
+    Unstable,
+}
+
+/// The cycle of a kind at one speed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CycleAt {
+    /// the speed \[m/s\]
+    pub speed_mps: f64,
+    /// the cycle (None: none of that kind at this speed)
+    pub cycle: Option<CycleSummary>,
+    /// why there is none
+    pub reason: Option<String>,
+}
+
 /// A computed bifurcation diagram of one feedback setting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Diagram {
@@ -148,6 +177,11 @@ pub struct Diagram {
     pub criticality: Criticality,
     /// the (first) fold of the cycle branch
     pub fold: Option<FoldPoint>,
+    /// the speeds searched \[m/s\]: straight running from the first, the cycle branch
+    /// within both
+    pub searched_mps: [f64; 2],
+    /// why the cycle branch ended
+    pub cycle_branch_end: BranchEnd,
 }
 
 fn num(context: String) -> impl FnOnce(continuation::Error) -> SwayError {
@@ -191,6 +225,50 @@ impl Diagram {
             .collect())
     }
 
+    /// The cycle of `kind` at speed V \[m/s\]: of the crossings of the branch with V, the
+    /// stable one of largest amplitude (the sway) or the unstable one of smallest amplitude
+    /// (the perturbation threshold); None (with the reason) if the branch has none there.
+    ///
+    /// # Errors
+    /// Numerical failures of the correction at fixed V.
+    pub fn cycle_at(
+        &self,
+        model: &Model,
+        speed: f64,
+        kind: CycleKind,
+    ) -> Result<CycleAt, SwayError> {
+        let cycles = self.cycles_at(model, speed)?;
+        let pick = match kind {
+            CycleKind::Stable => cycles
+                .iter()
+                .filter(|c| c.stable)
+                .max_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg)),
+            CycleKind::Unstable => cycles
+                .iter()
+                .filter(|c| !c.stable)
+                .min_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg)),
+        };
+        let (lo, hi) = self
+            .cycle_summary
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
+                (a.min(c.speed_mps), b.max(c.speed_mps))
+            });
+        Ok(CycleAt {
+            speed_mps: speed,
+            cycle: pick.copied(),
+            reason: pick.is_none().then(|| {
+                format!(
+                    "no {} cycle at {speed:.3} m/s on the computed cycle branch ({lo:.3}–{hi:.3} m/s)",
+                    match kind {
+                        CycleKind::Stable => "stable",
+                        CycleKind::Unstable => "unstable",
+                    }
+                )
+            }),
+        })
+    }
+
     /// The speed ranges: (stable below, bistable, unstable above) as
     /// (fold V, Hopf V) for a subcritical Hopf with a fold; None otherwise.
     pub fn bistable_range(&self) -> Option<(f64, f64)> {
@@ -218,6 +296,27 @@ fn summarise(
     }
 }
 
+/// the characteristic-root finder of straight running
+fn root_finder(degree: usize) -> ChebyshevRoots {
+    ChebyshevRoots {
+        degree,
+        count: 8,
+        refinement: Refinement::Newton,
+    }
+}
+
+/// the first fold of a cycle branch, in the paper's quantities
+fn fold_of(cycles: &Branch, summary: &[CycleSummary]) -> Option<FoldPoint> {
+    cycles.first(SpecialKind::Fold).map(|(i, _)| {
+        let c = summary[i];
+        FoldPoint {
+            speed_mps: c.speed_mps,
+            amplitude_deg: c.amplitude_deg,
+            period_s: c.period_s,
+        }
+    })
+}
+
 /// Straight running x = 0 of `problem` continued in V from `v_min` to `v_max` (steps of
 /// 0.5 m/s) at the gain and delay of `params` = [V, D, τ], and its first Hopf point (located
 /// by the engine, with its critical eigenvector and transversality).
@@ -242,12 +341,8 @@ pub fn straight_running(
     });
     let mut p = params.to_vec();
     p[SPEED] = v_min;
-    let roots = ChebyshevRoots {
-        degree: root_degree,
-        count: 8,
-        refinement: Refinement::Newton,
-    };
-    let mut eq = EquilibriumSystem::new(problem, p, SPEED, roots).map_err(num(ctx.clone()))?;
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
+        .map_err(num(ctx.clone()))?;
     let dir = eq.parameter_direction();
     let mut equilibria = cont_eq
         .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, v_min], &dir)
@@ -401,14 +496,26 @@ pub fn bifurcation_diagram_until(
         .iter()
         .map(|p| summarise(&po, &p.u, p.stability.as_ref()))
         .collect();
-    let fold = cycles.first(SpecialKind::Fold).map(|(i, _)| {
-        let c = cycle_summary[i];
-        FoldPoint {
-            speed_mps: c.speed_mps,
-            amplitude_deg: c.amplitude_deg,
-            period_s: c.period_s,
+    let fold = fold_of(&cycles, &cycle_summary);
+    let last_v = cycle_summary.last().map_or(hopf.parameter, |c| c.speed_mps);
+    let cycle_branch_end = if last_v < o.v_min_mps || last_v > o.v_max_mps {
+        BranchEnd::SpeedRange {
+            speed_mps: last_v,
+            limit_mps: if last_v < o.v_min_mps {
+                o.v_min_mps
+            } else {
+                o.v_max_mps
+            },
         }
-    });
+    } else if extent == CycleExtent::FirstFold && fold.is_some() {
+        BranchEnd::FirstFold
+    } else if cycle_summary.len() >= o.max_cycle_points {
+        BranchEnd::PointBudget {
+            points: cycle_summary.len(),
+        }
+    } else {
+        BranchEnd::StepUnderflow { speed_mps: last_v }
+    };
     Ok(Diagram {
         feedback,
         options: o.clone(),
@@ -418,6 +525,8 @@ pub fn bifurcation_diagram_until(
         cycle_summary,
         criticality: crit,
         fold,
+        searched_mps: [o.v_min_mps, o.v_max_mps],
+        cycle_branch_end,
     })
 }
 

@@ -388,3 +388,173 @@ fn delayed_cycle_agrees_with_simulation() {
         stable.period_s
     );
 }
+
+// ---- diagrams on the speed range derived from the vehicle (issue 20) ----
+
+/// a number of a committed results/<task>/summary.json (the main branch's Table I run)
+fn committed(task: &str, path: &[&str]) -> f64 {
+    let file = format!(
+        "{}/../../results/{task}/summary.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(&file).expect("committed summary");
+    let mut v: serde_json::Value = serde_json::from_str(&text).expect("json");
+    for k in path {
+        v = match (v.is_array(), k.parse::<usize>()) {
+            (true, Ok(i)) => v[i].take(),
+            _ => v[*k].take(),
+        };
+    }
+    v.as_f64()
+        .unwrap_or_else(|| panic!("{file}: {path:?} is not a number"))
+}
+
+/// small settings of the derived-range tests: mesh L = 20, m = 4
+fn small() -> DiagramSettings {
+    DiagramSettings {
+        intervals: 20,
+        max_step: 0.5,
+        ..DiagramSettings::default()
+    }
+}
+
+fn derived(params: VehicleParams, settings: &DiagramSettings) -> (Model, DiagramOutcome) {
+    let m = Model::new(params).expect("valid vehicle");
+    let out = vehicle_diagram(
+        &m,
+        Feedback::OPEN_LOOP,
+        settings,
+        &crate::ranging::SpeedLimits::default(),
+        CycleExtent::WholeRange,
+    )
+    .expect("diagram");
+    (m, out)
+}
+
+#[test]
+fn derived_range_reproduces_table_i_fig3a() {
+    // reference: results/fig3a/summary.json of main (explicit range 25–45 m/s, L = 60):
+    // Hopf and fold to 1e-9 relative, the amplitudes at Table I's speeds to 1e-7
+    let (m, out) = derived(VehicleParams::default(), &DiagramSettings::default());
+    let d = out.diagram().expect("a Hopf point");
+    let close = |a: f64, b: f64, tol: f64| {
+        assert!((a - b).abs() <= tol * b.abs(), "{a} vs {b} (rel. {tol})");
+    };
+    close(d.hopf.parameter, committed("fig3a", &["hopf_v_mps"]), 1e-9);
+    let fold = d.fold.expect("fold");
+    close(fold.speed_mps, committed("fig3a", &["fold_v_mps"]), 1e-9);
+    close(
+        fold.amplitude_deg,
+        committed("fig3a", &["fold_amplitude_deg"]),
+        1e-7,
+    );
+    for v in ["35", "36", "38"] {
+        let c = d
+            .cycle_at(&m, v.parse().unwrap(), CycleKind::Stable)
+            .unwrap();
+        let amp = committed("fig3a", &["stable_amplitude_deg", v]);
+        close(c.cycle.expect("stable cycle").amplitude_deg, amp, 1e-7);
+    }
+    let c = d.cycle_at(&m, 33.0, CycleKind::Unstable).unwrap();
+    let amp = committed("fig3a", &["unstable_amplitude_deg", "33"]);
+    close(c.cycle.expect("unstable cycle").amplitude_deg, amp, 1e-7);
+    // the branch folded, turned and passed 1.3·V_Hopf; the figure range holds it all
+    assert!(
+        matches!(d.cycle_branch_end, BranchEnd::Complete { speed_mps } if speed_mps >= 1.3 * d.hopf.parameter)
+    );
+    assert!(d.options.v_min_mps < fold.speed_mps && d.options.v_max_mps >= 1.3 * d.hopf.parameter);
+}
+
+#[test]
+fn derived_range_reproduces_table_i_fig4b_open_loop_pair() {
+    // reference: results/fig4b/summary.json of main, pair 0 (open loop, L = 40, corrected
+    // on the defining systems): Hopf and fold to 1e-9 relative
+    let m = model();
+    let p = closed_loop_diagram(
+        m,
+        Feedback::OPEN_LOOP,
+        &DiagramSettings::closed_loop(),
+        &crate::ranging::SpeedLimits::default(),
+        CycleExtent::WholeRange,
+    )
+    .unwrap();
+    let s = p.summary(Feedback::OPEN_LOOP);
+    let hopf = committed("fig4b", &["pairs", "0", "hopf_v_mps"]);
+    let fold = committed("fig4b", &["pairs", "0", "fold_v_mps"]);
+    assert!((s.hopf_v_mps.unwrap() - hopf).abs() <= 1e-9 * hopf, "{s:?}");
+    assert!((s.fold_v_mps.unwrap() - fold).abs() <= 1e-9 * fold, "{s:?}");
+    assert!(s.reason.is_none());
+}
+
+/// Table I with the trailer's centre of gravity at `h` \[m\] behind the hitch
+fn with_cog(h: f64) -> VehicleParams {
+    let mut p = VehicleParams::default();
+    p.trailer.cog = h;
+    p
+}
+
+/// checks a derived diagram against the linear V_crit (model crate, bisection to 1e-11 m/s,
+/// independent of the continuation): Hopf to 1e-8 relative; the figure range holds the
+/// Hopf point and the fold
+fn check_against_linear(m: &Model, d: &Diagram) {
+    let vc = m
+        .critical_speed(&CriticalSpeedOptions::default())
+        .unwrap()
+        .v_crit_mps;
+    assert!(
+        (d.hopf.parameter - vc).abs() <= 1e-8 * vc,
+        "Hopf {} vs V_crit {vc}",
+        d.hopf.parameter
+    );
+    assert!(d.options.v_min_mps < vc && d.options.v_max_mps > vc);
+    if let Some(f) = d.fold {
+        assert!(d.options.v_min_mps < f.speed_mps && f.speed_mps < vc);
+    } else {
+        assert!(d.fold_reason().is_some());
+    }
+}
+
+#[test]
+fn nose_heavy_trailer_diagram_follows_its_higher_critical_speed() {
+    // h = 2.5 m < l = 2.8 m: positive tongue load, V_crit well above Table I's 34.7 m/s
+    // (outside fig3a's former 25–45 m/s range)
+    let (m, out) = derived(with_cog(2.5), &small());
+    let d = out.diagram().expect("a Hopf point below 100 m/s");
+    assert!(d.hopf.parameter > 45.0, "V_crit = {}", d.hopf.parameter);
+    check_against_linear(&m, d);
+}
+
+#[test]
+fn low_critical_speed_diagram_is_found_below_15_mps() {
+    // a heavy tail-heavy trailer behind a car with half Table I's cornering stiffnesses:
+    // V_crit ≈ 12.6 m/s (far below fig3a's former 25–45 m/s range)
+    let mut p = with_cog(3.6);
+    p.trailer.mass = 1800.0;
+    p.trailer.yaw_inertia *= 1800.0 / 985.0;
+    p.tractor.front_cornering_stiffness = 68.5e3;
+    p.tractor.rear_cornering_stiffness = 128e3;
+    let (m, out) = derived(p, &small());
+    let d = out.diagram().expect("a Hopf point");
+    assert!(d.hopf.parameter < 15.0, "V_crit = {}", d.hopf.parameter);
+    check_against_linear(&m, d);
+}
+
+#[test]
+fn vehicle_stable_up_to_the_maximum_speed_has_no_hopf_point_as_an_outcome() {
+    // reference: the model crate's scan finds no sign change of max Re λ up to 100 m/s
+    let p = with_cog(2.0);
+    let m = Model::new(p).unwrap();
+    assert!(m.critical_speed(&CriticalSpeedOptions::default()).is_err());
+    let (_, out) = derived(p, &small());
+    match out {
+        DiagramOutcome::NoHopf(n) => {
+            assert_eq!(n.stable_up_to_mps, Some(100.0));
+            assert!(
+                n.reason.contains("stable at every speed up to 100"),
+                "{}",
+                n.reason
+            );
+        }
+        DiagramOutcome::Computed(d) => panic!("unexpected Hopf point at {}", d.hopf.parameter),
+    }
+}

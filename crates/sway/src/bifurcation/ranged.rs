@@ -1,0 +1,557 @@
+//! Bifurcation diagrams whose speed range is derived from the vehicle (issue 20).
+//!
+//! With the speed range omitted ([`DiagramSettings`] without `v_min_mps` / `v_max_mps`),
+//! straight running is continued from the lowest speed of the [`SpeedLimits`] until its
+//! first Hopf point (V_crit), and the cycle branch born there is continued through its fold
+//! until it has turned and passed (1 + `beyond_hopf`)·V_Hopf, or until a stated limit ends
+//! it: the lowest or the maximum speed of the limits, the simulations' validity guard (loss
+//! of control, checked on every cycle), or the point budget `max_cycle_points`. Whatever the
+//! vehicle's V_crit, the work is bounded by the limits and the budget. Numbers in the
+//! settings still win: with both given, [`vehicle_diagram`] is exactly
+//! [`super::bifurcation_diagram_until`] on that range.
+//!
+//! The outcomes that are physics, not errors, are values here: no Hopf point below the
+//! maximum speed ([`NoHopf`]), a supercritical Hopf point, a fold outside the searched
+//! range, a branch ended by the guard ([`BranchEnd`] and [`Diagram::fold_reason`]).
+
+use continuation::{
+    Branch, Continuation, ContinuationOptions, Criticality, Decision, EquilibriumSystem, HopfPoint,
+    PeriodicOrbitSystem, SpecialKind, Stop, criticality,
+};
+use serde::{Deserialize, Serialize};
+use trailer_model::Model;
+
+use super::{
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, SPEED,
+    collocation, fold_of, num, root_finder, summarise,
+};
+use crate::SwayError;
+use crate::ranging::SpeedLimits;
+use crate::sim::LossOfControl;
+
+/// Default of [`DiagramSettings::beyond_hopf`]: the cycle branch is followed to 1.3·V_Hopf.
+pub const BEYOND_HOPF: f64 = 0.3;
+
+/// Width of the straight-running margin below the lowest speed of the cycle branch in the
+/// derived figure range, as a fraction of V_Hopf.
+pub const MARGIN_BELOW: f64 = 0.2;
+
+/// The diagram settings as a config gives them (`[continuation]` of `fig3a.toml`'s
+/// `[diagram]`, of `fig4b.toml`): [`DiagramOptions`] with the speed range optional.
+///
+/// `v_min_mps` omitted: derived from the vehicle: straight running starts at the lowest
+/// speed of the limits; the figure starts 0.2·V_Hopf below the lowest speed of the cycle
+/// branch. `v_max_mps` omitted: derived from the vehicle: the cycle branch ends once it has
+/// passed (1 + `beyond_hopf`)·V_Hopf (or at the maximum speed, the guard, the budget).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DiagramSettings {
+    /// lowest speed of the diagram \[m/s\] (omitted: derived from the vehicle)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_min_mps: Option<f64>,
+    /// highest speed of the diagram \[m/s\] (omitted: derived from the vehicle)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_max_mps: Option<f64>,
+    /// with `v_max_mps` omitted, the cycle branch is followed until V ≥ (1 + this)·V_Hopf \[-\]
+    pub beyond_hopf: f64,
+    /// mesh intervals L of the periodic orbits
+    pub intervals: usize,
+    /// collocation degree m
+    pub degree: usize,
+    /// amplitude of the first cycle along the critical eigenvector
+    pub hopf_amplitude: f64,
+    /// first continuation step (weighted arclength)
+    pub initial_step: f64,
+    /// largest continuation step
+    pub max_step: f64,
+    /// at most this many cycle points (the point budget)
+    pub max_cycle_points: usize,
+    /// degree of the Chebyshev collocation for characteristic roots (delayed case)
+    pub root_degree: usize,
+    /// "watch" or "ignore" branch points of cycles
+    pub cycle_branch_points: BranchPointTest,
+}
+
+impl Default for DiagramSettings {
+    /// fig3a's settings ([`DiagramOptions::default`]) with the range derived
+    fn default() -> Self {
+        Self::from_options(&DiagramOptions::default(), None)
+    }
+}
+
+impl From<&DiagramOptions> for DiagramSettings {
+    /// the same settings with the options' explicit range
+    fn from(o: &DiagramOptions) -> Self {
+        Self::from_options(o, Some((o.v_min_mps, o.v_max_mps)))
+    }
+}
+
+impl From<&DiagramSettings> for DiagramSettings {
+    fn from(o: &DiagramSettings) -> Self {
+        o.clone()
+    }
+}
+
+impl DiagramSettings {
+    /// The closed-loop diagrams' settings (`fig4b`): mesh L = 40, largest step 0.5, range
+    /// derived.
+    pub fn closed_loop() -> Self {
+        Self::from_options(&DiagramOptions::closed_loop(), None)
+    }
+
+    fn from_options(o: &DiagramOptions, range: Option<(f64, f64)>) -> Self {
+        Self {
+            v_min_mps: range.map(|r| r.0),
+            v_max_mps: range.map(|r| r.1),
+            beyond_hopf: BEYOND_HOPF,
+            intervals: o.intervals,
+            degree: o.degree,
+            hopf_amplitude: o.hopf_amplitude,
+            initial_step: o.initial_step,
+            max_step: o.max_step,
+            max_cycle_points: o.max_cycle_points,
+            root_degree: o.root_degree,
+            cycle_branch_points: o.cycle_branch_points,
+        }
+    }
+
+    /// These settings on the speed range [v_min, v_max] \[m/s\].
+    pub fn options(&self, v_min_mps: f64, v_max_mps: f64) -> DiagramOptions {
+        DiagramOptions {
+            v_min_mps,
+            v_max_mps,
+            intervals: self.intervals,
+            degree: self.degree,
+            hopf_amplitude: self.hopf_amplitude,
+            initial_step: self.initial_step,
+            max_step: self.max_step,
+            max_cycle_points: self.max_cycle_points,
+            root_degree: self.root_degree,
+            cycle_branch_points: self.cycle_branch_points,
+        }
+    }
+
+    /// The speeds searched \[m/s\]: the config's numbers, else the limits'.
+    pub fn searched(&self, limits: &SpeedLimits) -> (f64, f64) {
+        (
+            self.v_min_mps.unwrap_or(limits.min_speed_mps),
+            self.v_max_mps.unwrap_or(limits.max_speed_mps),
+        )
+    }
+}
+
+/// Why a cycle branch ended.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "end", rename_all = "snake_case")]
+pub enum BranchEnd {
+    /// it passed the speed where the diagram ends, (1 + beyond_hopf)·V_Hopf
+    Complete {
+        /// speed of its last point \[m/s\]
+        speed_mps: f64,
+    },
+    /// it left the searched speed range
+    SpeedRange {
+        /// speed of its last point \[m/s\]
+        speed_mps: f64,
+        /// the end of the range it left \[m/s\]
+        limit_mps: f64,
+    },
+    /// it was continued only to its first fold ([`CycleExtent::FirstFold`])
+    FirstFold,
+    /// the validity guard stopped it: the model is not physical on this cycle
+    Guard {
+        /// the tripped condition
+        condition: LossOfControl,
+        /// speed of the cycle \[m/s\]
+        speed_mps: f64,
+        /// max |θ| on the cycle \[deg\]
+        amplitude_deg: f64,
+    },
+    /// it used its point budget (`max_cycle_points`)
+    PointBudget {
+        /// points computed
+        points: usize,
+    },
+    /// the continuation step fell below its minimum
+    StepUnderflow {
+        /// speed of its last point \[m/s\]
+        speed_mps: f64,
+    },
+}
+
+impl BranchEnd {
+    /// One sentence for the summary and the console.
+    pub fn reason(&self) -> String {
+        match *self {
+            BranchEnd::Complete { speed_mps } => {
+                format!("the cycle branch was followed to {speed_mps:.3} m/s")
+            }
+            BranchEnd::SpeedRange {
+                speed_mps,
+                limit_mps,
+            } => format!(
+                "the cycle branch left the searched speed range at {speed_mps:.3} m/s (limit {limit_mps} m/s)"
+            ),
+            BranchEnd::FirstFold => "the cycle branch was followed to its first fold".into(),
+            BranchEnd::Guard {
+                condition,
+                speed_mps,
+                amplitude_deg,
+            } => format!(
+                "the cycle branch ends where the validity guard stops it (loss of control: {}) at {speed_mps:.3} m/s, max |θ| = {amplitude_deg:.2}°",
+                condition.as_str()
+            ),
+            BranchEnd::PointBudget { points } => format!(
+                "the cycle branch used its point budget ({points} points, max_cycle_points)"
+            ),
+            BranchEnd::StepUnderflow { speed_mps } => format!(
+                "the cycle branch could not be continued beyond {speed_mps:.3} m/s (step below its minimum)"
+            ),
+        }
+    }
+}
+
+impl Diagram {
+    /// Why the diagram has no fold of cycles (None if it has one): a supercritical Hopf
+    /// point, or the cycle branch ended before it folded ([`BranchEnd::reason`]).
+    pub fn fold_reason(&self) -> Option<String> {
+        if self.fold.is_some() {
+            return None;
+        }
+        Some(match self.criticality {
+            Criticality::Supercritical => format!(
+                "supercritical Hopf point: stable sway cycles grow from V_crit = {:.4} m/s; no fold of cycles and no bistable range",
+                self.hopf.parameter
+            ),
+            _ => format!(
+                "no fold of cycles in the searched range: {} before it folded",
+                self.cycle_branch_end.reason()
+            ),
+        })
+    }
+}
+
+/// A diagram without a Hopf point: what straight running does instead.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NoHopf {
+    /// straight running is stable on the whole searched range up to this speed \[m/s\]
+    /// (None: it is unstable already at the lowest speed)
+    pub stable_up_to_mps: Option<f64>,
+    /// the lowest speed searched \[m/s\]
+    pub searched_from_mps: f64,
+    /// why there is no diagram
+    pub reason: String,
+}
+
+/// The result of [`vehicle_diagram`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum DiagramOutcome {
+    /// the diagram (its fold may still be missing: [`Diagram::fold_reason`])
+    Computed(Box<Diagram>),
+    /// no Hopf point of straight running in the searched range
+    NoHopf(NoHopf),
+}
+
+impl DiagramOutcome {
+    /// The diagram, if there is one.
+    pub fn diagram(&self) -> Option<&Diagram> {
+        match self {
+            DiagramOutcome::Computed(d) => Some(d),
+            DiagramOutcome::NoHopf(_) => None,
+        }
+    }
+}
+
+/// Straight running continued from `v_lo` until just past its first Hopf point (or to
+/// `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch and the Hopf
+/// point (None: no Hopf point on [v_lo, v_hi]).
+fn straight_running_to_hopf(
+    problem: &ClosedLoop<'_>,
+    params: &[f64],
+    (v_lo, v_hi): (f64, f64),
+    root_degree: usize,
+) -> Result<(Branch, Option<HopfPoint>), SwayError> {
+    let ctx = format!(
+        "straight running (D = {} s, τ = {} s)",
+        params[super::GAIN],
+        params[super::DELAY]
+    );
+    let cont = equilibrium_continuation(v_lo, v_hi);
+    let mut p = params.to_vec();
+    p[SPEED] = v_lo;
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
+        .map_err(num(ctx.clone()))?;
+    let dir = eq.parameter_direction();
+    let mut branch = cont
+        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, v_lo], &dir)
+        .map_err(num(format!("{ctx} at V = {v_lo} m/s")))?;
+    let n = ((v_hi - v_lo) / 0.5).ceil() as usize + 8;
+    // stop at the first regular point after the first Hopf point
+    let mut past_hopf = |b: &Branch| match b.first(SpecialKind::Hopf) {
+        Some((i, _)) if b.points.len() > i + 1 => Decision::Stop,
+        _ => Decision::Continue,
+    };
+    let stop = cont
+        .extend_observed(&mut eq, &mut branch, n, &mut past_hopf)
+        .map_err(num(ctx.clone()))?;
+    if let Stop::StepSizeUnderflow { .. } = stop {
+        let v = branch.points.last().map_or(v_lo, |p| p.parameter);
+        return Err(SwayError::numerical(
+            ctx,
+            continuation::Error::InvalidInput(format!(
+                "straight running could not be continued beyond {v} m/s"
+            )),
+        ));
+    }
+    let hopf = match branch.first(SpecialKind::Hopf) {
+        Some((ih, sp)) => Some(
+            eq.hopf_point(&branch.points[ih].u, sp.transversality.unwrap_or(1.0))
+                .map_err(num(format!("{ctx}: Hopf point")))?,
+        ),
+        None => None,
+    };
+    Ok((branch, hopf))
+}
+
+fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
+    Continuation::new(ContinuationOptions {
+        initial_step: 0.5,
+        max_step: 0.5,
+        parameter_range: (v_lo, v_hi),
+        ..Default::default()
+    })
+}
+
+/// The first tripped validity condition on the cycle `u` of `sys` (checked at the
+/// collocation nodes, with the delayed state read off the periodic profile).
+pub fn cycle_loss_of_control(
+    sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_>>,
+    problem: &ClosedLoop<'_>,
+    u: &[f64],
+) -> Option<LossOfControl> {
+    let fb = problem.feedback();
+    let speed = u[u.len() - 1];
+    let p = [speed, fb.gain_d_s, fb.delay_s];
+    let period = sys.period(u);
+    let times = sys.node_times();
+    let mut args = [0.0; 8];
+    let mut dx = [0.0; 4];
+    for (g, &s) in times.iter().enumerate() {
+        args[..4].copy_from_slice(&u[4 * g..4 * g + 4]);
+        if fb.is_delayed() {
+            sys.eval(u, s - fb.delay_s / period, &mut args[4..], &mut dx);
+        }
+        if let Some(c) = problem.loss_of_control(&args, &p) {
+            return Some(c);
+        }
+    }
+    None
+}
+
+/// The cycle branch from `hopf`, continued on `o`'s speed range for at most `max_points`
+/// points, stopped by the first of: V ≥ `v_stop`, the first fold (`extent`), the validity
+/// guard. Returns the system, the branch, its criticality and why it ended.
+fn cycles_with_stop_rules<'a>(
+    problem: &'a ClosedLoop<'a>,
+    params: &[f64],
+    hopf: &HopfPoint,
+    o: &DiagramOptions,
+    v_stop: Option<f64>,
+    extent: CycleExtent,
+) -> Result<
+    (
+        PeriodicOrbitSystem<'a, ClosedLoop<'a>>,
+        Branch,
+        Criticality,
+        BranchEnd,
+    ),
+    SwayError,
+> {
+    let ctx = format!(
+        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
+        hopf.parameter,
+        params[super::GAIN],
+        params[super::DELAY]
+    );
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = hopf.parameter;
+    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
+        .map_err(num(ctx.clone()))?;
+    // a second system on the same (fixed) mesh evaluates the profiles for the guard
+    let guard_sys =
+        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
+    let (guess, dir) = po.hopf_guess(hopf, o.hopf_amplitude);
+    let mut cycles = cont
+        .start(&mut po, &guess, &dir)
+        .map_err(num(format!("{ctx}: first cycle")))?;
+    let mut end = None;
+    let mut rules = |b: &Branch| {
+        let Some(last) = b.points.last() else {
+            return Decision::Continue;
+        };
+        if let Some(condition) = cycle_loss_of_control(&guard_sys, problem, &last.u) {
+            end = Some(BranchEnd::Guard {
+                condition,
+                speed_mps: last.parameter,
+                amplitude_deg: guard_sys
+                    .max_abs(&last.u, trailer_model::HITCH_ANGLE)
+                    .to_degrees(),
+            });
+            return Decision::Stop;
+        }
+        if extent == CycleExtent::FirstFold && b.first(SpecialKind::Fold).is_some() {
+            end = Some(BranchEnd::FirstFold);
+            return Decision::Stop;
+        }
+        if v_stop.is_some_and(|v| last.parameter >= v) {
+            end = Some(BranchEnd::Complete {
+                speed_mps: last.parameter,
+            });
+            return Decision::Stop;
+        }
+        Decision::Continue
+    };
+    let stop = cont
+        .extend_observed(&mut po, &mut cycles, o.max_cycle_points, &mut rules)
+        .map_err(num(format!("{ctx}: cycle branch")))?;
+    let last_v = cycles.points.last().map_or(hopf.parameter, |p| p.parameter);
+    let end = match stop {
+        Stop::Observer => end.unwrap_or(BranchEnd::Complete { speed_mps: last_v }),
+        Stop::MaxPoints => BranchEnd::PointBudget {
+            points: cycles.points.len(),
+        },
+        Stop::ParameterRange => BranchEnd::SpeedRange {
+            speed_mps: last_v,
+            limit_mps: if last_v < o.v_min_mps {
+                o.v_min_mps
+            } else {
+                o.v_max_mps
+            },
+        },
+        Stop::StepSizeUnderflow { .. } => BranchEnd::StepUnderflow { speed_mps: last_v },
+    };
+    let crit = criticality(hopf, &cycles).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(
+                "the cycle branch does not leave the Hopf point".into(),
+            ),
+        )
+    })?;
+    Ok((po, cycles, crit, end))
+}
+
+/// The bifurcation diagram of `model` with `feedback`, on the speed range of `settings`
+/// or, where it omits one, on the range derived from the vehicle (module docs); bounded by
+/// `limits` (lowest and maximum speed) and the point budget.
+///
+/// With both ends given this is [`super::bifurcation_diagram_until`] on them (no Hopf point
+/// in a given range stays an error: the user's range is to be widened). With an end
+/// derived, no Hopf point below the maximum speed is the outcome [`DiagramOutcome::NoHopf`].
+///
+/// # Errors
+/// [`SwayError::Numerical`] saying which stage failed.
+pub fn vehicle_diagram(
+    model: &Model,
+    feedback: Feedback,
+    settings: &DiagramSettings,
+    limits: &SpeedLimits,
+    extent: CycleExtent,
+) -> Result<DiagramOutcome, SwayError> {
+    if let (Some(lo), Some(hi)) = (settings.v_min_mps, settings.v_max_mps) {
+        let d =
+            super::bifurcation_diagram_until(model, feedback, &settings.options(lo, hi), extent)?;
+        return Ok(DiagramOutcome::Computed(Box::new(d)));
+    }
+    let (lo, hi) = settings.searched(limits);
+    let problem = ClosedLoop::new(model, feedback);
+    let params = problem.parameters(lo);
+    let (mut equilibria, hopf) =
+        straight_running_to_hopf(&problem, &params, (lo, hi), settings.root_degree)?;
+    let start_unstable = equilibria.points.first().and_then(|p| p.is_stable()) == Some(false);
+    let Some(hopf) = hopf.filter(|_| !start_unstable) else {
+        let which = if settings.v_max_mps.is_some() {
+            "v_max_mps"
+        } else {
+            "the maximum speed, --max-speed"
+        };
+        let ctl = if feedback.gain_d_s == 0.0 {
+            String::new()
+        } else {
+            format!(
+                " with D = {} s, τ = {} s",
+                feedback.gain_d_s, feedback.delay_s
+            )
+        };
+        return Ok(DiagramOutcome::NoHopf(if start_unstable {
+            NoHopf {
+                stable_up_to_mps: None,
+                searched_from_mps: lo,
+                reason: format!(
+                    "straight running{ctl} is unstable already at {lo} m/s (the lowest speed searched): no Hopf point to start the sway cycles from"
+                ),
+            }
+        } else {
+            NoHopf {
+                stable_up_to_mps: Some(hi),
+                searched_from_mps: lo,
+                reason: format!(
+                    "straight running{ctl} is stable at every speed up to {hi} m/s ({which}): no Hopf point, no sway cycles"
+                ),
+            }
+        }));
+    };
+    let vh = hopf.parameter;
+    let v_stop = match settings.v_max_mps {
+        Some(_) => None,
+        None => Some((1.0 + settings.beyond_hopf) * vh),
+    };
+    let search = settings.options(lo, hi);
+    let (po, cycles, crit, end) =
+        cycles_with_stop_rules(&problem, &params, &hopf, &search, v_stop, extent)?;
+    let cycle_summary: Vec<_> = cycles
+        .points
+        .iter()
+        .map(|p| summarise(&po, &p.u, p.stability.as_ref()))
+        .collect();
+    let (v_low, v_high) = cycle_summary.iter().fold((vh, vh), |(a, b), c| {
+        (a.min(c.speed_mps), b.max(c.speed_mps))
+    });
+    let plot_lo = settings
+        .v_min_mps
+        .unwrap_or_else(|| (v_low - MARGIN_BELOW * vh).max(lo));
+    let plot_hi = settings
+        .v_max_mps
+        .unwrap_or_else(|| v_high.max(1.1 * vh).min(hi));
+    // straight running on to the figure's end (equilibria.csv)
+    if plot_hi > vh {
+        let cont = equilibrium_continuation(lo, plot_hi);
+        let mut p = params.clone();
+        p[SPEED] = vh;
+        let mut eq = EquilibriumSystem::new(&problem, p, SPEED, root_finder(settings.root_degree))
+            .map_err(num("straight running beyond the Hopf point".into()))?;
+        let n = ((plot_hi - vh) / 0.5).ceil() as usize + 4;
+        cont.extend(&mut eq, &mut equilibria, n)
+            .map_err(num("straight running beyond the Hopf point".into()))?;
+    }
+    let fold = fold_of(&cycles, &cycle_summary);
+    Ok(DiagramOutcome::Computed(Box::new(Diagram {
+        feedback,
+        options: settings.options(plot_lo, plot_hi),
+        equilibria,
+        hopf,
+        cycles,
+        cycle_summary,
+        criticality: crit,
+        fold,
+        searched_mps: [lo, hi],
+        cycle_branch_end: end,
+    })))
+}

@@ -23,7 +23,24 @@ fn bench(c: &mut Criterion) {
     let cfg: Fig4bConfig =
         toml::from_str(include_str!("../../../configs/fig4b.toml")).expect("configs/fig4b.toml");
     g.bench_function("fig4b_all_pairs", |b| {
-        b.iter(|| black_box(diagrams(&model, &cfg, &NoProgress).expect("diagrams")))
+        let limits = sway::ranging::SpeedLimits::default();
+        b.iter(|| black_box(diagrams(&model, &cfg, &limits, &NoProgress).expect("diagrams")))
+    });
+    // the same diagram on the range derived from the vehicle (issue 20: ≤ 10 % dearer)
+    g.bench_function("fig3a_diagram_derived_range", |b| {
+        let limits = sway::ranging::SpeedLimits::default();
+        b.iter(|| {
+            black_box(
+                sway::bifurcation::vehicle_diagram(
+                    &model,
+                    Feedback::OPEN_LOOP,
+                    &sway::bifurcation::DiagramSettings::default(),
+                    &limits,
+                    sway::bifurcation::CycleExtent::WholeRange,
+                )
+                .expect("diagram"),
+            )
+        })
     });
     g.finish();
 }

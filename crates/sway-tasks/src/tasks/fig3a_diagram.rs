@@ -12,40 +12,53 @@ use std::path::Path;
 
 use crate::TaskError;
 use serde::{Deserialize, Serialize};
-use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
+use sway::bifurcation::{
+    CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, Feedback,
+    vehicle_diagram,
+};
 use sway::config::ensure;
+use sway::ranging::{RelativeSpeed, SpeedReferences, SpeedSpec};
 
 use super::TaskContext;
 use crate::io::{Keyed, OutputDir};
 use crate::plot::{Layer, Legend, Panel, Rgb, Shape, Stroke};
 use crate::report::CycleRow;
 
-fn default_stable() -> Vec<f64> {
-    vec![35.0, 36.0, 38.0]
+/// Table I's 35, 36 and 38 m/s as fractions of its V_crit (34.74792336267873 m/s).
+fn default_stable() -> Vec<SpeedSpec> {
+    [1.00725443747214, 1.0360331356856298, 1.0935905321126091]
+        .map(|f| SpeedSpec::Relative(RelativeSpeed::OfVCrit(f)))
+        .to_vec()
 }
-fn default_unstable() -> Vec<f64> {
-    vec![33.0]
+/// Table I's 33 m/s as a fraction of its bistable range (fold 31.52274092031792 m/s to
+/// V_crit), as this diagram locates them.
+fn default_unstable() -> Vec<SpeedSpec> {
+    vec![SpeedSpec::Relative(RelativeSpeed::InBistable(
+        0.45803891906367206,
+    ))]
 }
 
 /// The `[diagram]` section of `configs/fig3a.toml`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DiagramConfig {
-    /// continuation and discretisation settings (`[diagram.continuation]`)
+    /// continuation and discretisation settings (`[diagram.continuation]`); the speed
+    /// range omitted: derived from the vehicle ([`sway::bifurcation::ranged`])
     #[serde(default, rename = "continuation")]
-    pub options: DiagramOptions,
-    /// speeds \[m/s\] at which the stable cycle's amplitude is reported (`stable_amplitude_deg`)
+    pub options: DiagramSettings,
+    /// speeds at which the stable cycle's amplitude is reported (`stable_amplitude_deg`):
+    /// numbers \[m/s\] or relative ([`SpeedSpec`], resolved with this diagram's V_crit and fold)
     #[serde(default = "default_stable")]
-    pub stable_speeds_mps: Vec<f64>,
-    /// speeds \[m/s\] at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
+    pub stable_speeds_mps: Vec<SpeedSpec>,
+    /// speeds at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
     #[serde(default = "default_unstable")]
-    pub unstable_speeds_mps: Vec<f64>,
+    pub unstable_speeds_mps: Vec<SpeedSpec>,
 }
 
 impl Default for DiagramConfig {
     fn default() -> Self {
         Self {
-            options: DiagramOptions::default(),
+            options: DiagramSettings::default(),
             stable_speeds_mps: default_stable(),
             unstable_speeds_mps: default_unstable(),
         }
@@ -60,12 +73,44 @@ pub const MAX_CYCLE_POINTS: usize = 100_000;
 /// Estimated memory of a cycle branch \[bytes\]: each point stores the profile
 /// ((L·m + 1) mesh values of the 4 reduced states, 8 bytes each) about four times over
 /// (the point, its tangent, Floquet data and the written rows), an upper estimate.
-pub fn cycle_branch_bytes(o: &DiagramOptions) -> f64 {
+pub fn cycle_branch_bytes(o: &DiagramSettings) -> f64 {
     let profile = (o.intervals as f64 * o.degree as f64 + 1.0) * 4.0 * 8.0;
     o.max_cycle_points as f64 * profile * 4.0
 }
 
-/// Checks continuation settings shared by fig3a and fig4b (`prefix` is the key path).
+/// Checks diagram settings whose speed range may be derived (fig3a, fig4b; `prefix` is the
+/// key path): the range if given, then the rest as [`validate_options`].
+///
+/// # Errors
+/// [`TaskError::Config`] naming the file and key.
+pub fn validate_settings(o: &DiagramSettings, file: &Path, prefix: &str) -> Result<(), TaskError> {
+    let key = |k: &str| {
+        if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
+        }
+    };
+    for (name, v) in [("v_min_mps", o.v_min_mps), ("v_max_mps", o.v_max_mps)] {
+        ensure(
+            v.is_none_or(|v| v.is_finite() && v > 0.0),
+            file,
+            &key(name),
+            || format!("expected a positive speed (or the key omitted: derived from the vehicle), got {v:?}"),
+        )?;
+    }
+    ensure(
+        o.beyond_hopf.is_finite() && o.beyond_hopf > 0.0 && o.beyond_hopf <= 2.0,
+        file,
+        &key("beyond_hopf"),
+        || format!("expected 0 < beyond_hopf ≤ 2, got {}", o.beyond_hopf),
+    )?;
+    let lo = o.v_min_mps.unwrap_or(f64::MIN_POSITIVE);
+    let hi = o.v_max_mps.unwrap_or(f64::MAX);
+    validate_options(&o.options(lo, hi), file, prefix)
+}
+
+/// Checks continuation settings with a given speed range (`prefix` is the key path).
 ///
 /// # Errors
 /// [`TaskError::Config`] naming the file and key.
@@ -128,7 +173,7 @@ pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result
         &key("max_cycle_points"),
         || format!("expected at least 2, got {}", o.max_cycle_points),
     )?;
-    let bytes = cycle_branch_bytes(o);
+    let bytes = cycle_branch_bytes(&DiagramSettings::from(o));
     crate::limits::bound(
         file,
         &key("max_cycle_points"),
@@ -157,22 +202,23 @@ impl DiagramConfig {
     /// # Errors
     /// [`TaskError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
-        validate_options(&self.options, file, &format!("{prefix}.continuation"))?;
+        validate_settings(&self.options, file, &format!("{prefix}.continuation"))?;
         let o = &self.options;
+        let lo = o.v_min_mps.unwrap_or(0.0);
+        let hi = o.v_max_mps.unwrap_or(f64::INFINITY);
         for (k, list) in [
             ("stable_speeds_mps", &self.stable_speeds_mps),
             ("unstable_speeds_mps", &self.unstable_speeds_mps),
         ] {
+            let absolute = list.iter().filter_map(|v| match v {
+                SpeedSpec::Absolute(v) => Some(*v),
+                SpeedSpec::Relative(_) => None,
+            });
             ensure(
-                list.iter().all(|v| *v > o.v_min_mps && *v < o.v_max_mps),
+                absolute.clone().all(|v| v > lo && v < hi),
                 file,
                 &format!("{prefix}.{k}"),
-                || {
-                    format!(
-                        "expected speeds inside ({}, {}) m/s, got {list:?}",
-                        o.v_min_mps, o.v_max_mps
-                    )
-                },
+                || format!("expected speeds inside ({lo}, {hi}) m/s, got {list:?}"),
             )?;
         }
         Ok(())
@@ -192,25 +238,39 @@ pub struct Mesh {
 }
 
 /// The diagram's fields of fig3a's `summary.json` (speed keys as [`speed_key`] writes
-/// them; null where a quantity does not exist, e.g. no fold).
+/// them). A quantity that does not exist for the vehicle (no Hopf point below the maximum
+/// speed, no fold) is null, with the reason in the `*_reason` field next to it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DiagramSummary {
-    /// V at the Hopf point (V_crit) \[m/s\]
-    pub hopf_v_mps: f64,
+    /// V at the Hopf point (V_crit) \[m/s\]; null: no Hopf point in the searched range
+    pub hopf_v_mps: Option<f64>,
+    /// why there is no Hopf point (only when `hopf_v_mps` is null)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hopf_reason: Option<String>,
+    /// straight running is stable up to this speed \[m/s\] (only without a Hopf point)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stable_up_to_mps: Option<f64>,
     /// V at the fold of cycles \[m/s\]
     pub fold_v_mps: Option<f64>,
+    /// why there is no fold (only when `fold_v_mps` is null)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fold_reason: Option<String>,
     /// max |θ| at the fold \[deg\]
     pub fold_amplitude_deg: Option<f64>,
     /// max |θ| of the stable cycle at the configured speeds \[deg\]
     pub stable_amplitude_deg: Keyed<Option<f64>>,
     /// max |θ| of the unstable cycle at the configured speeds \[deg\]
     pub unstable_amplitude_deg: Keyed<Option<f64>>,
+    /// why a configured speed has no amplitude (relative speed without its reference, or
+    /// no cycle of that stability there), by speed key or spec
+    #[serde(skip_serializing_if = "Keyed::is_empty")]
+    pub amplitude_reasons: Keyed<String>,
     /// "subcritical" or "supercritical"
-    pub criticality: String,
+    pub criticality: Option<String>,
     /// ω at the Hopf point \[rad/s\]
-    pub hopf_omega_rad_s: f64,
+    pub hopf_omega_rad_s: Option<f64>,
     /// 2π/ω \[s\]
-    pub hopf_period_s: f64,
+    pub hopf_period_s: Option<f64>,
     /// period of the cycle at the fold \[s\]
     pub fold_period_s: Option<f64>,
     /// period of the stable cycle at the configured speeds \[s\]
@@ -219,6 +279,13 @@ pub struct DiagramSummary {
     pub bistable_range_mps: Option<[f64; 2]>,
     /// points on the cycle branch
     pub cycle_points: usize,
+    /// why the cycle branch ended ([`sway::bifurcation::BranchEnd::reason`])
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cycle_branch_end: Option<String>,
+    /// the speeds searched for the Hopf point and the cycle branch \[m/s\]
+    pub searched_mps: [f64; 2],
+    /// the speed range of the figure \[m/s\] (derived from the vehicle unless configured)
+    pub diagram_range_mps: [f64; 2],
     /// the collocation mesh
     pub mesh: Mesh,
 }
@@ -226,9 +293,10 @@ pub struct DiagramSummary {
 /// What [`run_diagram`] returns: summary fields, the figure panel, printed lines.
 pub type DiagramParts = (DiagramSummary, Panel, Vec<String>);
 
-/// Summary key of a speed: `35` for 35.0, `35.5` for 35.5.
+/// Summary key of a speed: `35` for 35.0, `35.5` for 35.5; a resolved relative speed is
+/// rounded to 1e-9 m/s first (Table I's `{ of_v_crit = 1.00725443747214 }` is `35`).
 pub fn speed_key(v: f64) -> String {
-    format!("{v}")
+    format!("{}", (v * 1e9).round() / 1e9)
 }
 
 /// Lines of a cycle branch split into stable and unstable parts (NaN breaks), in the
@@ -267,9 +335,12 @@ fn straight_running(d: &Diagram) -> (Polyline, Polyline) {
     )
 }
 
-/// Computes the open-loop diagram, writes `equilibria.csv` and `cycles.csv`, and returns the
-/// summary fields (`hopf_v_mps`, `fold_v_mps`, `fold_amplitude_deg`, `stable_amplitude_deg`,
-/// `unstable_amplitude_deg`, `criticality`, …), the figure panel and printed lines.
+/// Computes the open-loop diagram on the configured or derived speed range, writes
+/// `equilibria.csv` and `cycles.csv`, and returns the summary fields (`hopf_v_mps`,
+/// `fold_v_mps`, `fold_amplitude_deg`, `stable_amplitude_deg`, `unstable_amplitude_deg`,
+/// `criticality`, …), the figure panel and printed lines. Straight running stable up to the
+/// maximum speed is an outcome: `hopf_v_mps` null with `hopf_reason`, a figure of the
+/// stable straight running.
 ///
 /// # Errors
 /// Numerical failures with context, or write errors.
@@ -278,7 +349,101 @@ pub fn run_diagram(
     cfg: &DiagramConfig,
     out: &OutputDir,
 ) -> Result<DiagramParts, TaskError> {
-    let d = bifurcation_diagram(&ctx.model, Feedback::OPEN_LOOP, &cfg.options)?;
+    let outcome = vehicle_diagram(
+        &ctx.model,
+        Feedback::OPEN_LOOP,
+        &cfg.options,
+        &ctx.limits,
+        CycleExtent::WholeRange,
+    )?;
+    let d = match outcome {
+        DiagramOutcome::Computed(d) => d,
+        DiagramOutcome::NoHopf(n) => return no_hopf_diagram(cfg, &n, out),
+    };
+    write_branches(&d, out)?;
+    let refs = SpeedReferences {
+        v_crit_mps: Some(d.hopf.parameter),
+        v_fold_mps: d.fold.map(|f| f.speed_mps),
+        reason: d.fold_reason(),
+    };
+    let mut reasons = Keyed::default();
+    let mut stable_amp = Keyed::default();
+    let mut stable_period = Keyed::default();
+    for spec in &cfg.stable_speeds_mps {
+        let Some((key, v)) = resolve_or_note(spec, &refs, &mut reasons) else {
+            continue;
+        };
+        let c = d.cycles_at(&ctx.model, v)?;
+        let s = c
+            .iter()
+            .filter(|c| c.stable)
+            .max_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
+        if s.is_none() {
+            reasons.0.push((key.clone(), format!("no stable cycle at {key} m/s")));
+        }
+        stable_amp.0.push((key.clone(), s.map(|c| c.amplitude_deg)));
+        stable_period.0.push((key, s.map(|c| c.period_s)));
+    }
+    let mut unstable_amp = Keyed::default();
+    for spec in &cfg.unstable_speeds_mps {
+        let Some((key, v)) = resolve_or_note(spec, &refs, &mut reasons) else {
+            continue;
+        };
+        let c = d.cycles_at(&ctx.model, v)?;
+        let s = c
+            .iter()
+            .filter(|c| !c.stable)
+            .min_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
+        if s.is_none() {
+            reasons.0.push((key.clone(), format!("no unstable cycle at {key} m/s")));
+        }
+        unstable_amp.0.push((key, s.map(|c| c.amplitude_deg)));
+    }
+    let fold = d.fold;
+    let summary = DiagramSummary {
+        hopf_v_mps: Some(d.hopf.parameter),
+        hopf_reason: None,
+        stable_up_to_mps: None,
+        fold_v_mps: fold.map(|f| f.speed_mps),
+        fold_reason: d.fold_reason(),
+        fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
+        stable_amplitude_deg: stable_amp,
+        unstable_amplitude_deg: unstable_amp,
+        amplitude_reasons: reasons,
+        criticality: Some(d.criticality.to_string()),
+        hopf_omega_rad_s: Some(d.hopf.omega),
+        hopf_period_s: Some(2.0 * std::f64::consts::PI / d.hopf.omega),
+        fold_period_s: fold.map(|f| f.period_s),
+        stable_period_s: stable_period,
+        bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
+        cycle_points: d.cycle_summary.len(),
+        cycle_branch_end: Some(d.cycle_branch_end.reason()),
+        searched_mps: d.searched_mps,
+        diagram_range_mps: [d.options.v_min_mps, d.options.v_max_mps],
+        mesh: Mesh {
+            intervals: d.options.intervals,
+            degree: d.options.degree,
+        },
+    };
+
+    let panel = diagram_panel(&d);
+    let mut lines = vec![format!(
+        "fig3a diagram: Hopf (V_crit) at {:.6} m/s ({}), ω = {:.4} rad/s",
+        d.hopf.parameter, d.criticality, d.hopf.omega
+    )];
+    match (fold, &summary.fold_reason) {
+        (Some(f), _) => lines.push(format!(
+            "fig3a diagram: fold of cycles at {:.6} m/s, max |θ| = {:.4}°; bistable {:.3}–{:.3} m/s",
+            f.speed_mps, f.amplitude_deg, f.speed_mps, d.hopf.parameter
+        )),
+        (None, Some(r)) => lines.push(format!("fig3a diagram: no fold of cycles: {r}")),
+        (None, None) => {}
+    }
+    Ok((summary, panel, lines))
+}
+
+/// `equilibria.csv` and `cycles.csv` of a diagram.
+fn write_branches(d: &Diagram, out: &OutputDir) -> Result<(), TaskError> {
     let eq_rows: Vec<[f64; 3]> = d
         .equilibria
         .points
@@ -298,62 +463,91 @@ pub fn run_diagram(
         &eq_rows,
     )?;
     out.write_table("cycles.csv", d.cycle_summary.iter().map(CycleRow::from))?;
+    Ok(())
+}
 
-    let mut stable_amp = Keyed::default();
-    let mut stable_period = Keyed::default();
-    for &v in &cfg.stable_speeds_mps {
-        let c = d.cycles_at(&ctx.model, v)?;
-        let s = c
-            .iter()
-            .filter(|c| c.stable)
-            .max_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
-        stable_amp
-            .0
-            .push((speed_key(v), s.map(|c| c.amplitude_deg)));
-        stable_period.0.push((speed_key(v), s.map(|c| c.period_s)));
+/// A configured speed resolved to (summary key, speed \[m/s\]); None (with the reason
+/// recorded under the spec) when its reference does not exist.
+fn resolve_or_note(
+    spec: &SpeedSpec,
+    refs: &SpeedReferences,
+    reasons: &mut Keyed<String>,
+) -> Option<(String, f64)> {
+    match spec.resolve(refs) {
+        Ok(v) => Some((speed_key(v), v)),
+        Err(e) => {
+            let key = serde_json::to_string(spec).unwrap_or_else(|_| format!("{spec:?}"));
+            reasons.0.push((key, e.reason));
+            None
+        }
     }
-    let mut unstable_amp = Keyed::default();
-    for &v in &cfg.unstable_speeds_mps {
-        let c = d.cycles_at(&ctx.model, v)?;
-        let s = c
-            .iter()
-            .filter(|c| !c.stable)
-            .min_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
-        unstable_amp
-            .0
-            .push((speed_key(v), s.map(|c| c.amplitude_deg)));
+}
+
+/// The outcome without a Hopf point: straight running only, said in the summary, the
+/// console and the figure.
+fn no_hopf_diagram(
+    cfg: &DiagramConfig,
+    n: &sway::bifurcation::NoHopf,
+    out: &OutputDir,
+) -> Result<DiagramParts, TaskError> {
+    let hi = n.stable_up_to_mps.unwrap_or(n.searched_from_mps);
+    out.write_csv(
+        "equilibria.csv",
+        &["v_mps", "stable", "max_re_lambda_per_s"],
+        &Vec::<[f64; 3]>::new(),
+    )?;
+    out.write_table("cycles.csv", std::iter::empty::<CycleRow>())?;
+    let mut reasons = Keyed::default();
+    for spec in cfg.stable_speeds_mps.iter().chain(&cfg.unstable_speeds_mps) {
+        let key = serde_json::to_string(spec).unwrap_or_else(|_| format!("{spec:?}"));
+        reasons.0.push((key, n.reason.clone()));
     }
-    let fold = d.fold;
     let summary = DiagramSummary {
-        hopf_v_mps: d.hopf.parameter,
-        fold_v_mps: fold.map(|f| f.speed_mps),
-        fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
-        stable_amplitude_deg: stable_amp,
-        unstable_amplitude_deg: unstable_amp,
-        criticality: d.criticality.to_string(),
-        hopf_omega_rad_s: d.hopf.omega,
-        hopf_period_s: 2.0 * std::f64::consts::PI / d.hopf.omega,
-        fold_period_s: fold.map(|f| f.period_s),
-        stable_period_s: stable_period,
-        bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
-        cycle_points: d.cycle_summary.len(),
+        hopf_v_mps: None,
+        hopf_reason: Some(n.reason.clone()),
+        stable_up_to_mps: n.stable_up_to_mps,
+        fold_v_mps: None,
+        fold_reason: Some(n.reason.clone()),
+        fold_amplitude_deg: None,
+        stable_amplitude_deg: Keyed::default(),
+        unstable_amplitude_deg: Keyed::default(),
+        amplitude_reasons: reasons,
+        criticality: None,
+        hopf_omega_rad_s: None,
+        hopf_period_s: None,
+        fold_period_s: None,
+        stable_period_s: Keyed::default(),
+        bistable_range_mps: None,
+        cycle_points: 0,
+        cycle_branch_end: None,
+        searched_mps: [n.searched_from_mps, hi],
+        diagram_range_mps: [n.searched_from_mps, hi],
         mesh: Mesh {
-            intervals: d.options.intervals,
-            degree: d.options.degree,
+            intervals: cfg.options.intervals,
+            degree: cfg.options.degree,
         },
     };
-
-    let panel = diagram_panel(&d);
-    let mut lines = vec![format!(
-        "fig3a diagram: Hopf (V_crit) at {:.6} m/s ({}), ω = {:.4} rad/s",
-        d.hopf.parameter, d.criticality, d.hopf.omega
-    )];
-    if let Some(f) = fold {
-        lines.push(format!(
-            "fig3a diagram: fold of cycles at {:.6} m/s, max |θ| = {:.4}°; bistable {:.3}–{:.3} m/s",
-            f.speed_mps, f.amplitude_deg, f.speed_mps, d.hopf.parameter
-        ));
-    }
+    let mut panel = Panel::new(
+        "Open loop: straight running (no Hopf point in the searched range)",
+        "V [m/s]",
+        "max |θ| [deg]",
+    )
+    .x_range(n.searched_from_mps, hi)
+    .y_range(-0.5, 10.0)
+    .legend(Legend::UpperLeft);
+    let (color, label) = if n.stable_up_to_mps.is_some() {
+        (Rgb::GREEN, "straight running, stable")
+    } else {
+        (Rgb::RED, "straight running, unstable")
+    };
+    panel.layers.push(Layer::band(n.searched_from_mps, hi, color, Some(label)));
+    panel.layers.push(Layer::line(
+        vec![(n.searched_from_mps, 0.0), (hi, 0.0)],
+        color,
+        Stroke::Solid,
+        None,
+    ));
+    let lines = vec![format!("fig3a diagram: {}", n.reason)];
     Ok((summary, panel, lines))
 }
 

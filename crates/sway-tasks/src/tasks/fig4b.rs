@@ -14,14 +14,16 @@
 
 use std::path::{Path, PathBuf};
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use crate::TaskError;
-use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
-use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram};
+use sway::bifurcation::chart::CriticalSpeeds;
+use sway::bifurcation::{
+    Diagram, DiagramSettings, Feedback, PairDiagram, PairSummary, closed_loop_diagrams,
+    common_range,
+};
 use sway::config::ensure;
 
-use super::fig3a_diagram::{split_by_stability, validate_options};
+use super::fig3a_diagram::{split_by_stability, validate_settings};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::OutputDir;
@@ -70,8 +72,8 @@ fn default_pairs() -> Vec<Pair> {
     ]
 }
 
-fn default_options() -> DiagramOptions {
-    DiagramOptions::closed_loop()
+fn default_options() -> DiagramSettings {
+    DiagramSettings::closed_loop()
 }
 
 /// `configs/fig4b.toml`.
@@ -81,9 +83,10 @@ pub struct Fig4bConfig {
     /// the (τ, D) pairs
     #[serde(default = "default_pairs")]
     pub pairs: Vec<Pair>,
-    /// continuation and discretisation settings, shared by all pairs
+    /// continuation and discretisation settings, shared by all pairs; the speed range
+    /// omitted: derived from the vehicle per pair ([`sway::bifurcation::ranged`])
     #[serde(default = "default_options")]
-    pub continuation: DiagramOptions,
+    pub continuation: DiagramSettings,
 }
 
 impl Fig4bConfig {
@@ -109,7 +112,7 @@ impl Fig4bConfig {
                 || format!("expected a finite gain |D| ≤ 5 s, got {}", p.gain_s),
             )?;
         }
-        validate_options(&self.continuation, file, "continuation")
+        validate_settings(&self.continuation, file, "continuation")
     }
 }
 
@@ -137,54 +140,6 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Tas
         file: file.to_path_buf(),
         config,
     }))
-}
-
-/// One (τ, D) pair's entry of `"pairs"` in `summary.json`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct PairEntry {
-    /// the delay τ \[s\]
-    pub tau_s: f64,
-    /// the gain D \[s\]
-    pub d_s: f64,
-    /// V at the Hopf point \[m/s\]
-    pub hopf_v_mps: f64,
-    /// V at the fold of cycles \[m/s\] (null: no fold)
-    pub fold_v_mps: Option<f64>,
-    /// "subcritical" or "supercritical"
-    pub criticality: String,
-    /// max |θ| at the fold \[deg\]
-    pub fold_amplitude_deg: Option<f64>,
-    /// period of the cycle at the fold \[s\]
-    pub fold_period_s: Option<f64>,
-    /// ω at the Hopf point \[rad/s\]
-    pub hopf_omega_rad_s: f64,
-    /// from the fold to the Hopf point \[m/s\]
-    pub bistable_range_mps: Option<[f64; 2]>,
-    /// points on the cycle branch
-    pub cycle_points: usize,
-}
-
-impl PairEntry {
-    /// The entry of pair `p` with diagram `d` and its corrected critical speeds `cs`.
-    fn new(p: &Pair, d: &Diagram, cs: &CriticalSpeeds) -> Self {
-        let fold = cs.fold;
-        let bistable_range_mps = match (cs.criticality, fold) {
-            (continuation::Criticality::Subcritical, Some(f)) => Some([f.v_mps, cs.hopf_v_mps]),
-            _ => None,
-        };
-        Self {
-            tau_s: p.delay_s,
-            d_s: p.gain_s,
-            hopf_v_mps: cs.hopf_v_mps,
-            fold_v_mps: fold.map(|f| f.v_mps),
-            criticality: cs.criticality.to_string(),
-            fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
-            fold_period_s: fold.map(|f| f.period_s),
-            hopf_omega_rad_s: cs.hopf_omega_rad_s,
-            bistable_range_mps,
-            cycle_points: d.cycle_summary.len(),
-        }
-    }
 }
 
 /// One pair's layers: stable cycles solid (labelled), unstable dashed, the Hopf point and
@@ -215,80 +170,128 @@ fn add_pair(panel: &mut Panel, d: &Diagram, cs: &CriticalSpeeds, color: Rgb, lab
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Fig4bSummary {
     /// one entry per pair, in the config's order
-    pub pairs: Vec<PairEntry>,
+    pub pairs: Vec<PairSummary>,
+}
+
+/// The feedback of a pair.
+fn feedback(p: &Pair) -> Feedback {
+    Feedback {
+        gain_d_s: p.gain_s,
+        delay_s: p.delay_s,
+    }
 }
 
 /// All diagrams of the config with their corrected Hopf and fold speeds, in config order
-/// (parallel over pairs; each is deterministic, so the result does not depend on the
-/// thread count).
+/// ([`closed_loop_diagrams`]: parallel over pairs, deterministic).
 ///
 /// # Errors
 /// The first failing pair's error (in config order).
 pub fn diagrams(
     model: &trailer_model::Model,
     cfg: &Fig4bConfig,
+    limits: &sway::ranging::SpeedLimits,
     progress: &dyn sway::progress::Progress,
-) -> Result<Vec<(Diagram, CriticalSpeeds)>, TaskError> {
-    let co = ChartOptions::correcting(&cfg.continuation);
-    let results: Vec<Result<(Diagram, CriticalSpeeds), sway::SwayError>> = cfg
-        .pairs
-        .par_iter()
-        .map(|p| {
-            let fb = Feedback {
-                gain_d_s: p.gain_s,
-                delay_s: p.delay_s,
-            };
-            let r = bifurcation_diagram(model, fb, &cfg.continuation)
-                .and_then(|d| critical_speeds(model, &d, &co).map(|c| (d, c)));
-            progress.advance(1);
-            r
-        })
-        .collect();
-    Ok(results.into_iter().collect::<Result<_, _>>()?)
+) -> Result<Vec<PairDiagram>, TaskError> {
+    let feedbacks: Vec<Feedback> = cfg.pairs.iter().map(feedback).collect();
+    Ok(closed_loop_diagrams(
+        model,
+        &feedbacks,
+        &cfg.continuation,
+        limits,
+        progress,
+    )?)
+}
+
+/// The console line of a pair.
+fn pair_line(p: &Pair, d: &PairDiagram, entry: &PairSummary) -> String {
+    match d.computed() {
+        Some((_, cs)) => format!(
+            "fig4b {}: Hopf at {:.4} m/s ({}), fold at {}",
+            label(p),
+            cs.hopf_v_mps,
+            cs.criticality,
+            cs.fold.map_or_else(
+                || format!("none ({})", entry.reason.as_deref().unwrap_or("no fold")),
+                |f| format!("{:.4} m/s, {:.2}°", f.v_mps, f.amplitude_deg)
+            )
+        ),
+        None => format!(
+            "fig4b {}: {}",
+            label(p),
+            entry.reason.as_deref().unwrap_or("no Hopf point")
+        ),
+    }
 }
 
 impl Prepared for Fig4bTask {
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress
-            .start("fig4b: bifurcation diagrams", cfg.pairs.len() as u64);
-        let ds = diagrams(&ctx.model, cfg, ctx.progress)?;
-        let o = &cfg.continuation;
-        let mut entries = Vec::new();
-        let mut lines = Vec::new();
-        let y_max = ds
-            .iter()
-            .flat_map(|(d, _)| d.cycle_summary.iter().map(|c| c.amplitude_deg))
-            .fold(0.0, f64::max)
-            * 1.08;
-        let mut panel = Panel::new(
-            "Closed loop δ(t) = −D·dψ/dt(t − τ): cycles (max |θ|) vs speed; solid stable (sway), dashed unstable",
-            "V [m/s]",
-            "max |θ| [deg]",
-        )
-        .x_range(o.v_min_mps, o.v_max_mps)
-        .y_range(-0.03 * y_max, 1.25 * y_max)
-        .legend(Legend::UpperLeft);
-        for (i, (p, (d, cs))) in cfg.pairs.iter().zip(&ds).enumerate() {
+        let steps = cfg.pairs.len() as u64;
+        ctx.run_staged(TASK.name, "fig4b: bifurcation diagrams", steps, cfg, &self.file, |out| {
+            let ds = diagrams(&ctx.model, cfg, &ctx.limits, ctx.progress)?;
+            let (lines, entries) = write_pairs(cfg, &ds, out)?;
+            diagrams_figure(cfg, &ds).render(&out.path("diagrams"))?;
+            Ok((Fig4bSummary { pairs: entries }, lines))
+        })
+    }
+}
+
+/// The cycles CSV of every computed pair; the console lines and summary entries.
+fn write_pairs(
+    cfg: &Fig4bConfig,
+    ds: &[PairDiagram],
+    out: &OutputDir,
+) -> Result<(Vec<String>, Vec<PairSummary>), TaskError> {
+    let mut lines = Vec::new();
+    let mut entries = Vec::new();
+    for (p, pd) in cfg.pairs.iter().zip(ds) {
+        if let Some((d, _)) = pd.computed() {
             out.write_table(
                 &format!("{}.csv", file_stem(p)),
                 d.cycle_summary.iter().map(CycleRow::from),
             )?;
-            let fold = cs.fold;
-            entries.push(PairEntry::new(p, d, cs));
-            lines.push(format!(
-                "fig4b {}: Hopf at {:.4} m/s ({}), fold at {}",
-                label(p),
-                cs.hopf_v_mps,
-                cs.criticality,
-                fold.map_or("none".into(), |f| format!(
-                    "{:.4} m/s, {:.2}°",
-                    f.v_mps, f.amplitude_deg
-                ))
-            ));
-            add_pair(&mut panel, d, cs, Rgb::palette(i), &label(p));
         }
+        let entry = pd.summary(feedback(p));
+        lines.push(pair_line(p, pd, &entry));
+        entries.push(entry);
+    }
+    Ok((lines, entries))
+}
+
+/// The overlaid diagrams (paper Fig. 4b) on the range covering every computed pair.
+fn diagrams_figure(cfg: &Fig4bConfig, ds: &[PairDiagram]) -> Figure {
+    let (v_lo, v_hi) = common_range(ds).unwrap_or_else(|| {
+        cfg.continuation
+            .v_min_mps
+            .zip(cfg.continuation.v_max_mps)
+            .unwrap_or((0.0, 100.0))
+    });
+    let y_max = ds
+        .iter()
+        .filter_map(PairDiagram::computed)
+        .flat_map(|(d, _)| d.cycle_summary.iter().map(|c| c.amplitude_deg))
+        .fold(0.0, f64::max)
+        .max(1.0)
+        * 1.08;
+    let mut panel = Panel::new(
+        "Closed loop δ(t) = −D·dψ/dt(t − τ): cycles (max |θ|) vs speed; solid stable (sway), dashed unstable",
+        "V [m/s]",
+        "max |θ| [deg]",
+    )
+    .x_range(v_lo, v_hi)
+    .y_range(-0.03 * y_max, 1.25 * y_max)
+    .legend(Legend::UpperLeft);
+    for (i, (p, pd)) in cfg.pairs.iter().zip(ds).enumerate() {
+        match pd.computed() {
+            Some((d, cs)) => add_pair(&mut panel, d, cs, Rgb::palette(i), &label(p)),
+            None => panel.layers.push(Layer::line(
+                vec![(f64::NAN, f64::NAN)],
+                Rgb::palette(i),
+                Stroke::Solid,
+                Some(&format!("{}: no Hopf point", label(p))),
+            )),
+        }
+    }
         // legend entries only (no points): what the coloured markers mean
         for (shape, size, label) in [
             (
@@ -306,9 +309,5 @@ impl Prepared for Fig4bTask {
                 label: Some(label.into()),
             });
         }
-        Figure::single(panel)
-            .titled("Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback")
-            .render(&out.path("diagrams"))?;
-        ctx.conclude(out, Fig4bSummary { pairs: entries }, cfg, &self.file, lines)
-    }
+    Figure::single(panel).titled("Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback")
 }

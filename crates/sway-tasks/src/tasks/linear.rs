@@ -29,15 +29,18 @@ pub const TASK: Task = Task {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LinearConfig {
-    /// speed grid of the eigenvalue table \[m/s\]
-    pub speed_grid: Grid,
-    /// V_crit search
-    #[serde(default)]
-    pub critical_speed: SearchConfig,
+    /// speed grid of the eigenvalue table \[m/s\] (omitted: derived from the vehicle,
+    /// [`sway::linear::derived_speed_grid`]: 1 m/s to 1.5·V_crit rounded up to 10 m/s)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_grid: Option<Grid>,
+    /// V_crit search (omitted: the one search of every task, over the `--max-speed` limits,
+    /// [`sway::ranging::open_loop_critical_speed`])
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub critical_speed: Option<SearchConfig>,
     /// sensitivity differences
     #[serde(default)]
     pub sensitivity: SensitivityOptions,
-    /// the paper's value, for comparison \[m/s\]
+    /// the paper's value, for comparison \[m/s\] (reported only for Table I)
     #[serde(default = "paper_v_crit")]
     pub paper_v_crit_mps: f64,
     /// half a unit of the last printed digit of Table I's lengths h and l \[m\]
@@ -108,24 +111,34 @@ impl From<&Sensitivity> for SensitivityEntry {
 /// `summary.json` of `linear` (before the common fields of [`crate::io::Summary`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LinearSummary {
-    /// V_crit \[m/s\]: the speed where straight running loses stability (Hopf)
-    pub v_crit_mps: f64,
+    /// V_crit \[m/s\]: the speed where straight running loses stability (Hopf); null when
+    /// straight running is stable up to the maximum speed (`stable_up_to_mps`, `reason`)
+    pub v_crit_mps: Option<f64>,
+    /// straight running is stable at every speed up to this one \[m/s\] (when no V_crit)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stable_up_to_mps: Option<f64>,
+    /// why `v_crit_mps` and the quantities at V_crit are null
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
     /// the Hopf frequency \[Hz\]
-    pub hopf_frequency_hz: f64,
+    pub hopf_frequency_hz: Option<f64>,
     /// the Hopf angular frequency ω \[rad/s\]
-    pub hopf_omega_rad_s: f64,
+    pub hopf_omega_rad_s: Option<f64>,
     /// d(max Re λ)/dV at V_crit \[1/m\] (the transversality of the crossing)
-    pub spectral_abscissa_slope_per_m: f64,
-    /// the paper's V_crit \[m/s\]
-    pub paper_v_crit_mps: f64,
-    /// ours minus the paper's \[m/s\]
-    pub v_crit_minus_paper_mps: f64,
+    pub spectral_abscissa_slope_per_m: Option<f64>,
+    /// the paper's V_crit \[m/s\] (only for the paper's vehicle, Table I)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_v_crit_mps: Option<f64>,
+    /// ours minus the paper's \[m/s\] (only for Table I)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_crit_minus_paper_mps: Option<f64>,
     /// dV_crit/dh (m/s per m)
-    pub dv_crit_dh_mps_per_m: f64,
+    pub dv_crit_dh_mps_per_m: Option<f64>,
     /// dV_crit/dl (m/s per m)
-    pub dv_crit_dl_mps_per_m: f64,
-    /// V_crit ± the first-order effect of Table I's rounding of h and l \[m/s\]
-    pub v_crit_rounding_band_mps: [f64; 2],
+    pub dv_crit_dl_mps_per_m: Option<f64>,
+    /// V_crit ± the first-order effect of rounding h and l to 0.1 m (as Table I prints
+    /// them) \[m/s\]
+    pub v_crit_rounding_band_mps: Option<[f64; 2]>,
     /// dV_crit/dp of every parameter, keyed by its symbol
     pub sensitivities: Keyed<SensitivityEntry>,
 }
@@ -152,13 +165,29 @@ struct LinearTask {
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
     let config: LinearConfig = load_toml(file)?;
-    ensure(config.speed_grid.min > 0.0, file, "speed_grid.min", || {
-        format!(
-            "speeds must be positive (slip angles divide by V), got {}",
-            config.speed_grid.min
-        )
-    })?;
-    let s = &config.critical_speed;
+    if let Some(g) = &config.speed_grid {
+        ensure(g.min > 0.0, file, "speed_grid.min", || {
+            format!("speeds must be positive (slip angles divide by V), got {}", g.min)
+        })?;
+    }
+    if let Some(s) = &config.critical_speed {
+        validate_search(s, file)?;
+    }
+    let r = config.sensitivity.relative_step;
+    ensure(
+        r > 1e-9 && r < 1e-2,
+        file,
+        "sensitivity.relative_step",
+        || format!("expected a value in (1e-9, 1e-2), got {r}"),
+    )?;
+    Ok(Box::new(LinearTask {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+/// Checks an explicit `[critical_speed]` section.
+fn validate_search(s: &SearchConfig, file: &Path) -> Result<(), TaskError> {
     ensure(
         s.v_min_mps > 0.0 && s.v_max_mps > s.v_min_mps,
         file,
@@ -194,17 +223,7 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Tas
         "critical_speed.tolerance_mps",
         || format!("expected 0 < tolerance < 1e-3 m/s, got {}", s.tolerance_mps),
     )?;
-    let r = config.sensitivity.relative_step;
-    ensure(
-        r > 1e-9 && r < 1e-2,
-        file,
-        "sensitivity.relative_step",
-        || format!("expected a value in (1e-9, 1e-2), got {r}"),
-    )?;
-    Ok(Box::new(LinearTask {
-        file: file.to_path_buf(),
-        config,
-    }))
+    Ok(())
 }
 
 impl SearchConfig {
@@ -312,7 +331,7 @@ fn draw_eigenvalues(
     out: &OutputDir,
     table: &EigenTable,
     grid: &Grid,
-    vc: &CriticalSpeed,
+    vc: Option<&CriticalSpeed>,
 ) -> Result<(), TaskError> {
     let v_range = (grid.min, grid.max);
     let clip = 8.0;
@@ -324,12 +343,14 @@ fn draw_eigenvalues(
     .x_range(v_range.0, v_range.1)
     .y_range(-clip, 2.0)
     .legend(Legend::LowerLeft);
-    p1.layers.push(Layer::band(
-        vc.v_crit_mps,
-        v_range.1,
-        Rgb::RED,
-        Some("unstable straight running"),
-    ));
+    if let Some(vc) = vc {
+        p1.layers.push(Layer::band(
+            vc.v_crit_mps,
+            v_range.1,
+            Rgb::RED,
+            Some("unstable straight running"),
+        ));
+    }
     p1.layers.push(Layer::line(
         vec![(v_range.0, 0.0), (v_range.1, 0.0)],
         Rgb::GREY,
@@ -337,25 +358,29 @@ fn draw_eigenvalues(
         None,
     ));
     p1.layers.extend(eigenvalue_layers(table, |l| l.re));
-    p1.layers.push(Layer::markers(
-        vec![(vc.v_crit_mps, 0.0)],
-        Rgb::BLACK,
-        Some(&format!("V_crit = {:.3} m/s", vc.v_crit_mps)),
-    ));
+    if let Some(vc) = vc {
+        p1.layers.push(Layer::markers(
+            vec![(vc.v_crit_mps, 0.0)],
+            Rgb::BLACK,
+            Some(&format!("V_crit = {:.3} m/s", vc.v_crit_mps)),
+        ));
+    }
     let mut p2 = Panel::new("Frequencies Im λ / 2π", "V [m/s]", "Im λ / 2π [Hz]")
         .x_range(v_range.0, v_range.1)
         .legend(Legend::UpperRight);
     p2.layers.extend(eigenvalue_layers(table, |l| {
         l.im / (2.0 * std::f64::consts::PI)
     }));
-    p2.layers.push(Layer::markers(
-        vec![
-            (vc.v_crit_mps, vc.hopf_frequency_hz),
-            (vc.v_crit_mps, -vc.hopf_frequency_hz),
-        ],
-        Rgb::BLACK,
-        Some(&format!("Hopf: {:.3} Hz", vc.hopf_frequency_hz)),
-    ));
+    if let Some(vc) = vc {
+        p2.layers.push(Layer::markers(
+            vec![
+                (vc.v_crit_mps, vc.hopf_frequency_hz),
+                (vc.v_crit_mps, -vc.hopf_frequency_hz),
+            ],
+            Rgb::BLACK,
+            Some(&format!("Hopf: {:.3} Hz", vc.hopf_frequency_hz)),
+        ));
+    }
     Figure::column(vec![p1, p2]).render(&out.path("eigenvalues"))
 }
 
@@ -365,19 +390,20 @@ fn draw_rounding(
     study: &RoundingStudy,
     cfg: &LinearConfig,
     v_crit: f64,
+    paper: Option<f64>,
 ) -> Result<(), TaskError> {
     let r = cfg.length_rounding_m;
-    let paper = cfg.paper_v_crit_mps;
-    let p3 = Panel::new(
-        "V_crit vs trailer geometry (Table I prints h, l to 0.1 m)",
-        "change of the length from Table I [m]",
+    let who = if paper.is_some() { "Table I" } else { "the vehicle" };
+    let mut p3 = Panel::new(
+        "V_crit vs trailer geometry (h, l printed to 0.1 m as in Table I)",
+        &format!("change of the length from {who} [m]"),
         "V_crit [m/s]",
     )
     .with(Layer::band(
         -r,
         r,
         Rgb::GREY,
-        Some("rounding of Table I (±0.05 m)"),
+        Some(&format!("rounding to 0.1 m (±{r} m)")),
     ))
     .with(Layer::line(
         study.by_h.iter().map(|&(p, v)| (p - study.h0, v)).collect(),
@@ -391,38 +417,42 @@ fn draw_rounding(
         Stroke::Solid,
         Some("vary l (trailer axle)"),
     ))
-    .with(Layer::line(
-        vec![(-0.1, paper), (0.1, paper)],
-        Rgb::RED,
-        Stroke::Dashed,
-        Some(&format!("paper: {paper} m/s")),
-    ))
     .with(Layer::markers(
         vec![(0.0, v_crit)],
         Rgb::BLACK,
-        Some(&format!("Table I: {v_crit:.3} m/s")),
+        Some(&format!("{who}: {v_crit:.3} m/s")),
     ))
     .legend(Legend::UpperRight);
+    if let Some(paper) = paper {
+        p3.layers.push(Layer::line(
+            vec![(-0.1, paper), (0.1, paper)],
+            Rgb::RED,
+            Stroke::Dashed,
+            Some(&format!("paper: {paper} m/s")),
+        ));
+    }
     Figure::single(p3).render(&out.path("sensitivity"))
 }
 
-/// Step 5: the headline numbers.
+/// Step 5: the headline numbers (`paper`: the paper's V_crit, Table I only).
 fn summary(
     vc: &CriticalSpeed,
-    cfg: &LinearConfig,
+    paper: Option<f64>,
     study: &RoundingStudy,
     sens: &[Sensitivity],
 ) -> LinearSummary {
     LinearSummary {
-        v_crit_mps: vc.v_crit_mps,
-        hopf_frequency_hz: vc.hopf_frequency_hz,
-        hopf_omega_rad_s: vc.hopf_omega_rad_s,
-        spectral_abscissa_slope_per_m: vc.crossing_speed,
-        paper_v_crit_mps: cfg.paper_v_crit_mps,
-        v_crit_minus_paper_mps: vc.v_crit_mps - cfg.paper_v_crit_mps,
-        dv_crit_dh_mps_per_m: study.dh,
-        dv_crit_dl_mps_per_m: study.dl,
-        v_crit_rounding_band_mps: [vc.v_crit_mps - study.band, vc.v_crit_mps + study.band],
+        v_crit_mps: Some(vc.v_crit_mps),
+        stable_up_to_mps: None,
+        reason: None,
+        hopf_frequency_hz: Some(vc.hopf_frequency_hz),
+        hopf_omega_rad_s: Some(vc.hopf_omega_rad_s),
+        spectral_abscissa_slope_per_m: Some(vc.crossing_speed),
+        paper_v_crit_mps: paper,
+        v_crit_minus_paper_mps: paper.map(|p| vc.v_crit_mps - p),
+        dv_crit_dh_mps_per_m: Some(study.dh),
+        dv_crit_dl_mps_per_m: Some(study.dl),
+        v_crit_rounding_band_mps: Some([vc.v_crit_mps - study.band, vc.v_crit_mps + study.band]),
         sensitivities: sens
             .iter()
             .map(|x| (x.symbol.to_string(), SensitivityEntry::from(x)))
@@ -430,9 +460,33 @@ fn summary(
     }
 }
 
+/// The summary of a vehicle stable up to the maximum speed `v_max` \[m/s\].
+fn stable_summary(v_max: f64, reason: String) -> LinearSummary {
+    LinearSummary {
+        v_crit_mps: None,
+        stable_up_to_mps: Some(v_max),
+        reason: Some(reason),
+        hopf_frequency_hz: None,
+        hopf_omega_rad_s: None,
+        spectral_abscissa_slope_per_m: None,
+        paper_v_crit_mps: None,
+        v_crit_minus_paper_mps: None,
+        dv_crit_dh_mps_per_m: None,
+        dv_crit_dl_mps_per_m: None,
+        v_crit_rounding_band_mps: None,
+        sensitivities: Keyed::default(),
+    }
+}
+
 /// The printed headline lines.
-fn headline_lines(vc: &CriticalSpeed, cfg: &LinearConfig, study: &RoundingStudy) -> Vec<String> {
+fn headline_lines(
+    vc: &CriticalSpeed,
+    cfg: &LinearConfig,
+    study: &RoundingStudy,
+    paper: Option<f64>,
+) -> Vec<String> {
     let (dh, dl, band, r) = (study.dh, study.dl, study.band, cfg.length_rounding_m);
+    let paper = paper.map_or_else(String::new, |p| format!(" (paper: {p} m/s)"));
     vec![
         format!("V_crit = {:.9} m/s", vc.v_crit_mps),
         format!(
@@ -440,15 +494,15 @@ fn headline_lines(vc: &CriticalSpeed, cfg: &LinearConfig, study: &RoundingStudy)
             vc.hopf_frequency_hz, vc.hopf_omega_rad_s
         ),
         format!(
-            "dV_crit/dh = {dh:.3} m/s per m, dV_crit/dl = {dl:.3} m/s per m; ±{r} m rounding of h and l moves V_crit by up to ±{band:.2} m/s (paper: {} m/s)",
-            cfg.paper_v_crit_mps
+            "dV_crit/dh = {dh:.3} m/s per m, dV_crit/dl = {dl:.3} m/s per m; ±{r} m rounding of h and l moves V_crit by up to ±{band:.2} m/s{paper}"
         ),
     ]
 }
 
 impl Prepared for LinearTask {
     fn plan(&self) -> Result<Plan, TaskError> {
-        let n = self.config.speed_grid.points as f64;
+        // the derived grid of Table I has 591 points; a vehicle's at most (100 − 1)/0.1 + 1
+        let n = self.config.speed_grid.as_ref().map_or(591, |g| g.points) as f64;
         Ok(Plan::new(
             vec![format!(
                 "linear: eigenvalues at {n} speeds, V_crit, sensitivities of every parameter"
@@ -460,27 +514,42 @@ impl Prepared for LinearTask {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress.start("linear: eigenvalues", 3);
-        let table = eigen_table(&ctx.model, &cfg.speed_grid.values());
-        write_eigenvalues(&out, &table)?;
-        ctx.progress.advance(1);
-        let vc = ctx.model.critical_speed(&cfg.critical_speed.options())?;
-        ctx.progress.advance(1);
-        let tolerance = cfg.critical_speed.tolerance_mps;
-        let sens = sensitivities(&ctx.vehicle, vc.v_crit_mps, &cfg.sensitivity, tolerance)?;
-        out.write_table("sensitivity.csv", sens.iter().cloned())?;
-        let study = rounding_study(
-            &ctx.vehicle,
-            &sens,
-            vc.v_crit_mps,
-            cfg.length_rounding_m,
-            &out,
-        )?;
-        ctx.progress.advance(1);
-        draw_eigenvalues(&out, &table, &cfg.speed_grid, &vc)?;
-        draw_rounding(&out, &study, cfg, vc.v_crit_mps)?;
-        let lines = headline_lines(&vc, cfg, &study);
-        ctx.conclude(out, summary(&vc, cfg, &study, &sens), cfg, &self.file, lines)
+        ctx.run_staged(TASK.name, "linear: eigenvalues", 3, cfg, &self.file, |out| {
+            let search = cfg
+                .critical_speed
+                .as_ref()
+                .map_or_else(|| ctx.limits.critical_speed_options(), SearchConfig::options);
+            let vc = ctx.model.critical_speed_search(&search)?;
+            ctx.progress.advance(1);
+            let grid = cfg.speed_grid.clone().unwrap_or_else(|| {
+                sway::linear::derived_speed_grid(vc.as_ref().map(|c| c.v_crit_mps), &ctx.limits)
+            });
+            let table = eigen_table(&ctx.model, &grid.values());
+            write_eigenvalues(out, &table)?;
+            ctx.progress.advance(1);
+            draw_eigenvalues(out, &table, &grid, vc.as_ref())?;
+            let Some(vc) = vc else {
+                let reason = format!(
+                    "straight running is stable at every speed up to {} m/s (the maximum speed{})",
+                    search.v_max,
+                    if cfg.critical_speed.is_some() {
+                        ", critical_speed.v_max_mps"
+                    } else {
+                        ", --max-speed"
+                    }
+                );
+                ctx.progress.advance(1);
+                let lines = vec![format!("no V_crit: {reason}")];
+                return Ok((stable_summary(search.v_max, reason), lines));
+            };
+            let sens = sensitivities(&ctx.vehicle, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?;
+            out.write_table("sensitivity.csv", sens.iter().cloned())?;
+            let study = rounding_study(&ctx.vehicle, &sens, vc.v_crit_mps, cfg.length_rounding_m, out)?;
+            ctx.progress.advance(1);
+            let paper = ctx.vehicle.is_table_i().then_some(cfg.paper_v_crit_mps);
+            draw_rounding(out, &study, cfg, vc.v_crit_mps, paper)?;
+            let lines = headline_lines(&vc, cfg, &study, paper);
+            Ok((summary(&vc, paper, &study, &sens), lines))
+        })
     }
 }

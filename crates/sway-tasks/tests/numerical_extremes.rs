@@ -44,6 +44,18 @@ const NULLABLE: &[&str] = &[
     "stable_period_s",
     "unstable_period_s",
     "bistable_range_mps",
+    // linear and fig3a (issue 20): straight running stable up to the maximum speed is an
+    // outcome, the quantities at V_crit are null (with `stable_up_to_mps` and a reason)
+    "v_crit_mps",
+    "hopf_frequency_hz",
+    "hopf_omega_rad_s",
+    "spectral_abscissa_slope_per_m",
+    "dv_crit_dh_mps_per_m",
+    "dv_crit_dl_mps_per_m",
+    "v_crit_rounding_band_mps",
+    "hopf_v_mps",
+    "hopf_period_s",
+    "criticality",
 ];
 
 fn configs_dir() -> PathBuf {

@@ -153,23 +153,27 @@ pub fn sensitivities(
         .collect()
 }
 
-/// V_crit as parameter `index` of [`PARAMETERS`] takes each of `values`.
+/// V_crit as parameter `index` of [`PARAMETERS`] takes each of `values`; None where the
+/// changed vehicle has no critical speed within ±0.9·`around` (it became stable there, or
+/// its V_crit moved far: a vehicle near the edge of stability).
 ///
 /// # Errors
-/// If a vehicle is invalid or has no critical speed near `around`.
+/// If a changed vehicle is invalid, or its eigenvalues are not finite.
 pub fn v_crit_curve(
     params: &VehicleParams,
     index: usize,
     values: &[f64],
     around: f64,
-) -> Result<Vec<(f64, f64)>, SwayError> {
+) -> Result<Vec<(f64, Option<f64>)>, SwayError> {
     values
         .iter()
         .map(|&p| {
-            Ok((
-                p,
-                v_crit_near(&params.with(index, p), around, 0.9 * around, 1e-9)?,
-            ))
+            let v = match v_crit_near(&params.with(index, p), around, 0.9 * around, 1e-9) {
+                Ok(v) => Some(v),
+                Err(SwayError::Model(trailer_model::ModelError::NoCriticalSpeed { .. })) => None,
+                Err(e) => return Err(e),
+            };
+            Ok((p, v))
         })
         .collect()
 }

@@ -96,7 +96,11 @@ pub fn validate_settings(o: &DiagramSettings, file: &Path, prefix: &str) -> Resu
             v.is_none_or(|v| v.is_finite() && v > 0.0),
             file,
             &key(name),
-            || format!("expected a positive speed (or the key omitted: derived from the vehicle), got {v:?}"),
+            || {
+                format!(
+                    "expected a positive speed (or the key omitted: derived from the vehicle), got {v:?}"
+                )
+            },
         )?;
     }
     ensure(
@@ -379,7 +383,9 @@ pub fn run_diagram(
             .filter(|c| c.stable)
             .max_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
         if s.is_none() {
-            reasons.0.push((key.clone(), format!("no stable cycle at {key} m/s")));
+            reasons
+                .0
+                .push((key.clone(), format!("no stable cycle at {key} m/s")));
         }
         stable_amp.0.push((key.clone(), s.map(|c| c.amplitude_deg)));
         stable_period.0.push((key, s.map(|c| c.period_s)));
@@ -395,7 +401,9 @@ pub fn run_diagram(
             .filter(|c| !c.stable)
             .min_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
         if s.is_none() {
-            reasons.0.push((key.clone(), format!("no unstable cycle at {key} m/s")));
+            reasons
+                .0
+                .push((key.clone(), format!("no unstable cycle at {key} m/s")));
         }
         unstable_amp.0.push((key, s.map(|c| c.amplitude_deg)));
     }
@@ -540,7 +548,9 @@ fn no_hopf_diagram(
     } else {
         (Rgb::RED, "straight running, unstable")
     };
-    panel.layers.push(Layer::band(n.searched_from_mps, hi, color, Some(label)));
+    panel
+        .layers
+        .push(Layer::band(n.searched_from_mps, hi, color, Some(label)));
     panel.layers.push(Layer::line(
         vec![(n.searched_from_mps, 0.0), (hi, 0.0)],
         color,

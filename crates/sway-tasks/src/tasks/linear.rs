@@ -143,7 +143,15 @@ pub struct LinearSummary {
     pub sensitivities: Keyed<SensitivityEntry>,
 }
 
-/// The rounding study: V_crit along h and l around Table I.
+/// A row of `v_crit_vs_h_l.csv` (an empty cell: no V_crit near the vehicle's there).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+struct RoundingRow {
+    offset_m: f64,
+    v_crit_varying_h_mps: Option<f64>,
+    v_crit_varying_l_mps: Option<f64>,
+}
+
+/// The rounding study: V_crit along h and l around the vehicle's values.
 struct RoundingStudy {
     /// dV_crit/dh, dV_crit/dl
     dh: f64,
@@ -151,9 +159,9 @@ struct RoundingStudy {
     /// h and l of Table I \[m\]
     h0: f64,
     l0: f64,
-    /// (h, V_crit) and (l, V_crit)
-    by_h: Vec<(f64, f64)>,
-    by_l: Vec<(f64, f64)>,
+    /// (h, V_crit) and (l, V_crit); None where the changed vehicle has no V_crit nearby
+    by_h: Vec<(f64, Option<f64>)>,
+    by_l: Vec<(f64, Option<f64>)>,
     /// first-order V_crit change of the rounding \[m/s\]
     band: f64,
 }
@@ -281,16 +289,15 @@ fn rounding_study(
         v_crit_curve(vehicle, i, &values, v_crit)
     };
     let (by_h, by_l) = (along(ih, h0)?, along(il, l0)?);
-    let rows: Vec<[f64; 3]> = offsets
+    let rows = offsets
         .iter()
         .zip(by_h.iter().zip(&by_l))
-        .map(|(&o, (a, b))| [o, a.1, b.1])
-        .collect();
-    out.write_csv(
-        "v_crit_vs_h_l.csv",
-        &["offset_m", "v_crit_varying_h_mps", "v_crit_varying_l_mps"],
-        &rows,
-    )?;
+        .map(|(&o, (a, b))| RoundingRow {
+            offset_m: o,
+            v_crit_varying_h_mps: a.1,
+            v_crit_varying_l_mps: b.1,
+        });
+    out.write_table("v_crit_vs_h_l.csv", rows)?;
     Ok(RoundingStudy {
         dh,
         dl,
@@ -406,13 +413,13 @@ fn draw_rounding(
         Some(&format!("rounding to 0.1 m (±{r} m)")),
     ))
     .with(Layer::line(
-        study.by_h.iter().map(|&(p, v)| (p - study.h0, v)).collect(),
+        study.by_h.iter().filter_map(|&(p, v)| Some((p - study.h0, v?))).collect(),
         Rgb::BLUE,
         Stroke::Solid,
         Some("vary h (trailer CG)"),
     ))
     .with(Layer::line(
-        study.by_l.iter().map(|&(p, v)| (p - study.l0, v)).collect(),
+        study.by_l.iter().filter_map(|&(p, v)| Some((p - study.l0, v?))).collect(),
         Rgb::ORANGE,
         Stroke::Solid,
         Some("vary l (trailer axle)"),

@@ -131,7 +131,7 @@ fn rel(a: f64, b: f64) -> f64 {
 
 #[test]
 fn linear_fig3a_fig4b_agree_on_every_generated_vehicle() {
-    let fleet = vehicles::fleet(2026_12_02, 8);
+    let fleet = vehicles::fleet(20_261_202, 8);
     assert!(fleet.len() >= 12);
     let results: Vec<Result<Speeds, String>> =
         fleet.par_iter().map(|(n, p)| speeds(n, p)).collect();

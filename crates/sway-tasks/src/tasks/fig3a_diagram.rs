@@ -502,7 +502,7 @@ fn no_hopf_diagram(
     out.write_csv(
         "equilibria.csv",
         &["v_mps", "stable", "max_re_lambda_per_s"],
-        &Vec::<[f64; 3]>::new(),
+        Vec::<[f64; 3]>::new(),
     )?;
     out.write_table("cycles.csv", std::iter::empty::<CycleRow>())?;
     let mut reasons = Keyed::default();

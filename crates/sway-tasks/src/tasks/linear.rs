@@ -528,7 +528,7 @@ impl Prepared for LinearTask {
                 .map_or_else(|| ctx.limits.critical_speed_options(), SearchConfig::options);
             let vc = ctx.model.critical_speed_search(&search)?;
             ctx.progress.advance(1);
-            let grid = cfg.speed_grid.clone().unwrap_or_else(|| {
+            let grid = cfg.speed_grid.unwrap_or_else(|| {
                 sway::linear::derived_speed_grid(vc.as_ref().map(|c| c.v_crit_mps), &ctx.limits)
             });
             let table = eigen_table(&ctx.model, &grid.values());

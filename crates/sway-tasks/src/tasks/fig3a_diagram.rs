@@ -43,7 +43,7 @@ fn default_unstable() -> Vec<SpeedSpec> {
 #[serde(deny_unknown_fields)]
 pub struct DiagramConfig {
     /// continuation and discretisation settings (`[diagram.continuation]`); the speed
-    /// range omitted: derived from the vehicle ([`sway::bifurcation::ranged`])
+    /// range omitted: derived from the vehicle ([`sway::bifurcation::vehicle_diagram`])
     #[serde(default, rename = "continuation")]
     pub options: DiagramSettings,
     /// speeds at which the stable cycle's amplitude is reported (`stable_amplitude_deg`):

@@ -84,7 +84,7 @@ pub struct Fig4bConfig {
     #[serde(default = "default_pairs")]
     pub pairs: Vec<Pair>,
     /// continuation and discretisation settings, shared by all pairs; the speed range
-    /// omitted: derived from the vehicle per pair ([`sway::bifurcation::ranged`])
+    /// omitted: derived from the vehicle per pair ([`sway::bifurcation::vehicle_diagram`])
     #[serde(default = "default_options")]
     pub continuation: DiagramSettings,
 }
@@ -182,7 +182,7 @@ fn feedback(p: &Pair) -> Feedback {
 }
 
 /// All diagrams of the config with their corrected Hopf and fold speeds, in config order
-/// ([`closed_loop_diagrams`]: parallel over pairs, deterministic).
+/// ([`closed_loop_diagrams()`]: parallel over pairs, deterministic).
 ///
 /// # Errors
 /// The first failing pair's error (in config order).

@@ -16,12 +16,9 @@
 //!   different computations of one number;
 //! - a vehicle stable up to the maximum speed says so in every task (`v_crit_mps` /
 //!   `hopf_v_mps` null with `stable_up_to_mps` and a reason), with exit status 0 (Ok);
-//! - the fold of cycles of `fig3a` (located on the branch) and of `fig4b` (corrected on the
-//!   fold-of-cycles system) agree to 5e-4 relative at L = 20, and both tasks agree on
-//!   whether there is a fold. NOT the target of 1e-6: today `fig3a` reports the
-//!   fold located on the branch, without the correction, and at L = 20 the two differ by up
-//!   to 2.2e-4 over this fleet (2.6e-6 for Table I at the default meshes). The bound only
-//!   guards against a wrong fold until fig3a reports the corrected one.
+//! - the fold of cycles agrees between `fig3a` and `fig4b`'s open-loop pair to 1e-6
+//!   relative (both corrected on the fold-of-cycles defining system, on the same mesh
+//!   here), and both tasks agree on whether there is a fold.
 
 #[path = "common/vehicles.rs"]
 mod vehicles;
@@ -162,8 +159,8 @@ fn linear_fig3a_fig4b_agree_on_every_generated_vehicle() {
                     )),
                 }
                 match (s.fig3a_fold, s.fig4b_fold) {
-                    (Some(a), Some(b)) if rel(a, b) > 5e-4 => failures.push(format!(
-                        "{}: fold fig3a {a}, fig4b {b} (tolerance 5e-4 rel.)",
+                    (Some(a), Some(b)) if rel(a, b) > 1e-6 => failures.push(format!(
+                        "{}: fold fig3a {a}, fig4b {b} (tolerance 1e-6 rel.)",
                         s.name
                     )),
                     (Some(_), None) | (None, Some(_)) => failures.push(format!(

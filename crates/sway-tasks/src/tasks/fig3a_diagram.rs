@@ -12,6 +12,7 @@ use std::path::Path;
 
 use crate::TaskError;
 use serde::{Deserialize, Serialize};
+use sway::bifurcation::chart::{ChartOptions, critical_speeds};
 use sway::bifurcation::{
     CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, Feedback,
     vehicle_diagram,
@@ -30,11 +31,11 @@ fn default_stable() -> Vec<SpeedSpec> {
         .map(|f| SpeedSpec::Relative(RelativeSpeed::OfVCrit(f)))
         .to_vec()
 }
-/// Table I's 33 m/s as a fraction of its bistable range (fold 31.52274092031792 m/s to
+/// Table I's 33 m/s as a fraction of its bistable range (fold 31.52277210492321 m/s to
 /// V_crit), as this diagram locates them.
 fn default_unstable() -> Vec<SpeedSpec> {
     vec![SpeedSpec::Relative(RelativeSpeed::InBistable(
-        0.45803891906367206,
+        0.45803367873817763,
     ))]
 }
 
@@ -254,8 +255,12 @@ pub struct DiagramSummary {
     /// straight running is stable up to this speed \[m/s\] (only without a Hopf point)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stable_up_to_mps: Option<f64>,
-    /// V at the fold of cycles \[m/s\]
+    /// V at the fold of cycles \[m/s\], corrected on the fold-of-cycles defining system
+    /// (as `fig4b` and `chart_nonlinear` report it)
     pub fold_v_mps: Option<f64>,
+    /// V at the fold as located on the cycle branch, before the correction \[m/s\]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fold_located_v_mps: Option<f64>,
     /// why there is no fold (only when `fold_v_mps` is null)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fold_reason: Option<String>,
@@ -365,9 +370,12 @@ pub fn run_diagram(
         DiagramOutcome::NoHopf(n) => return no_hopf_diagram(cfg, &n, out),
     };
     write_branches(&d, out)?;
+    // the Hopf point and the fold corrected on their defining systems, as fig4b and the
+    // nonlinear chart report them (one number per vehicle across the tasks)
+    let cs = critical_speeds(&ctx.model, &d, &ChartOptions::correcting(&d.options))?;
     let refs = SpeedReferences {
-        v_crit_mps: Some(d.hopf.parameter),
-        v_fold_mps: d.fold.map(|f| f.speed_mps),
+        v_crit_mps: Some(cs.hopf_v_mps),
+        v_fold_mps: cs.fold.map(|f| f.v_mps),
         reason: d.fold_reason(),
     };
     let mut reasons = Keyed::default();
@@ -407,23 +415,35 @@ pub fn run_diagram(
         }
         unstable_amp.0.push((key, s.map(|c| c.amplitude_deg)));
     }
-    let fold = d.fold;
+    let fold = cs.fold;
+    let fold_reason = match (fold, d.fold_reason()) {
+        (None, None) => Some(
+            "the fold of the cycle branch could not be corrected on the fold-of-cycles system"
+                .into(),
+        ),
+        (None, r) => r,
+        (Some(_), _) => None,
+    };
     let summary = DiagramSummary {
-        hopf_v_mps: Some(d.hopf.parameter),
+        hopf_v_mps: Some(cs.hopf_v_mps),
         hopf_reason: None,
         stable_up_to_mps: None,
-        fold_v_mps: fold.map(|f| f.speed_mps),
-        fold_reason: d.fold_reason(),
+        fold_v_mps: fold.map(|f| f.v_mps),
+        fold_located_v_mps: d.fold.map(|f| f.speed_mps),
+        fold_reason,
         fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
         stable_amplitude_deg: stable_amp,
         unstable_amplitude_deg: unstable_amp,
         amplitude_reasons: reasons,
-        criticality: Some(d.criticality.to_string()),
-        hopf_omega_rad_s: Some(d.hopf.omega),
-        hopf_period_s: Some(2.0 * std::f64::consts::PI / d.hopf.omega),
+        criticality: Some(cs.criticality.to_string()),
+        hopf_omega_rad_s: Some(cs.hopf_omega_rad_s),
+        hopf_period_s: Some(2.0 * std::f64::consts::PI / cs.hopf_omega_rad_s),
         fold_period_s: fold.map(|f| f.period_s),
         stable_period_s: stable_period,
-        bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
+        bistable_range_mps: match (cs.criticality, fold) {
+            (continuation::Criticality::Subcritical, Some(f)) => Some([f.v_mps, cs.hopf_v_mps]),
+            _ => None,
+        },
         cycle_points: d.cycle_summary.len(),
         cycle_branch_end: Some(d.cycle_branch_end.reason()),
         searched_mps: d.searched_mps,
@@ -437,12 +457,12 @@ pub fn run_diagram(
     let panel = diagram_panel(&d);
     let mut lines = vec![format!(
         "fig3a diagram: Hopf (V_crit) at {:.6} m/s ({}), ω = {:.4} rad/s",
-        d.hopf.parameter, d.criticality, d.hopf.omega
+        cs.hopf_v_mps, cs.criticality, cs.hopf_omega_rad_s
     )];
     match (fold, &summary.fold_reason) {
         (Some(f), _) => lines.push(format!(
             "fig3a diagram: fold of cycles at {:.6} m/s, max |θ| = {:.4}°; bistable {:.3}–{:.3} m/s",
-            f.speed_mps, f.amplitude_deg, f.speed_mps, d.hopf.parameter
+            f.v_mps, f.amplitude_deg, f.v_mps, cs.hopf_v_mps
         )),
         (None, Some(r)) => lines.push(format!("fig3a diagram: no fold of cycles: {r}")),
         (None, None) => {}
@@ -515,6 +535,7 @@ fn no_hopf_diagram(
         hopf_reason: Some(n.reason.clone()),
         stable_up_to_mps: n.stable_up_to_mps,
         fold_v_mps: None,
+        fold_located_v_mps: None,
         fold_reason: Some(n.reason.clone()),
         fold_amplitude_deg: None,
         stable_amplitude_deg: Keyed::default(),

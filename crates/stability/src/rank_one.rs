@@ -170,6 +170,61 @@ impl RankOneFeedback {
         })
     }
 
+    /// From the coefficients of the quasi-polynomial `p(λ) + D·e^{−λτ}·q(λ)` themselves
+    /// (ascending; p monic of degree n ≥ 1, q of degree < n), for loops that are not given as
+    /// (A, B, C) — a predictor's characteristic function cleared of its denominators, say.
+    /// The state-space form (for [`RankOneFeedback::closed_loop`] and the root seeds) is the
+    /// controllable canonical realisation: A the companion matrix of p, B = e_n,
+    /// C = (q_0, …, q_{n−1}), for which C·adj(λI − A)·B = q(λ) exactly.
+    ///
+    /// # Errors
+    /// [`StabilityError::NonFinite`] for non-finite coefficients, a p that is not monic or
+    /// has no degree, or a q of degree ≥ n (a neutral equation).
+    pub fn from_polynomials(p: &[f64], q: &[f64]) -> Result<Self> {
+        if !p.iter().chain(q).all(|x| x.is_finite()) {
+            return Err(StabilityError::NonFinite {
+                what: "quasi-polynomial coefficients",
+            });
+        }
+        let n = p.len().saturating_sub(1);
+        if n == 0 || p[n] != 1.0 {
+            return Err(StabilityError::NonFinite {
+                what: "p: expected a monic polynomial of degree ≥ 1",
+            });
+        }
+        let mut q = q.to_vec();
+        while q.last() == Some(&0.0) {
+            q.pop();
+        }
+        if q.len() > n {
+            return Err(StabilityError::NonFinite {
+                what: "q: expected degree below p's (a retarded equation)",
+            });
+        }
+        let a = DMatrix::from_fn(n, n, |i, j| {
+            if i + 1 == j {
+                1.0
+            } else if i + 1 == n {
+                -p[j]
+            } else {
+                0.0
+            }
+        });
+        let b = DMatrix::from_fn(n, 1, |i, _| if i + 1 == n { 1.0 } else { 0.0 });
+        let c = DMatrix::from_fn(1, n, |_, j| q.get(j).copied().unwrap_or(0.0));
+        let p_roots = polynomial_roots(p)?;
+        let q_roots = polynomial_roots(&q)?;
+        Ok(Self {
+            a,
+            b,
+            c,
+            p: p.to_vec(),
+            q,
+            p_roots,
+            q_roots,
+        })
+    }
+
     /// Dynamic dimension n.
     pub fn dim(&self) -> usize {
         self.a.nrows()

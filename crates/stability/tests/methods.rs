@@ -332,3 +332,35 @@ fn stable_intervals_end_on_crossings() {
         }
     }
 }
+
+#[test]
+fn quasi_polynomial_from_coefficients_equals_the_state_space_loop() {
+    // reference: the same loop built from (A, B, C) (Faddeev–LeVerrier); the canonical
+    // realisation of its p and q must give the same crossings, counts and rightmost roots
+    // (to 1e-9 relative: the companion matrix's eigenvalues carry its conditioning)
+    for &(v, d, tau) in &[(2.0, 0.3, 0.2), (6.0, -0.4, 0.5), (10.0, 1.2, 0.1)] {
+        let (a, b, c) = test_loop(v);
+        let direct = RankOneFeedback::from_state_space(&a, &b, &c).unwrap();
+        let canonical = RankOneFeedback::from_polynomials(direct.p(), direct.q()).unwrap();
+        assert_eq!(direct.p(), canonical.p());
+        assert_eq!(direct.q(), canonical.q());
+        assert_eq!(
+            direct.unstable_root_count(d, tau).unwrap(),
+            canonical.unstable_root_count(d, tau).unwrap()
+        );
+        let (r1, r2) = (
+            direct
+                .rightmost_roots(d, tau, 4, &RootOptions::default())
+                .unwrap(),
+            canonical
+                .rightmost_roots(d, tau, 4, &RootOptions::default())
+                .unwrap(),
+        );
+        for (x, y) in r1.iter().zip(&r2) {
+            assert!((x - y).norm() <= 1e-9 * x.norm().max(1.0), "{x} vs {y}");
+        }
+    }
+    // a q of p's degree is a neutral equation: refused
+    assert!(RankOneFeedback::from_polynomials(&[1.0, 1.0], &[0.0, 1.0]).is_err());
+    assert!(RankOneFeedback::from_polynomials(&[1.0, 2.0], &[0.5]).is_err()); // not monic
+}

@@ -255,7 +255,7 @@ pub fn maximise(
 
 /// The end of the set {g ≥ thr} between `inside` (g ≥ thr) and `outside` (g < thr), by
 /// bisection to `tol`: the last point known inside. Returns (point, evaluations).
-fn band_end(
+pub(crate) fn band_end(
     g: &impl Fn(f64) -> Result<f64, SwayError>,
     mut inside: f64,
     mut outside: f64,
@@ -279,7 +279,7 @@ fn band_end(
 /// by [`maximise`] between its neighbours, and the band {f ≥ (1 − fraction)·max} around it
 /// with both ends bisected (a range end if the band reaches it). Returns (argmax, max,
 /// band, evaluations).
-fn refine_sampled(
+pub(crate) fn refine_sampled(
     f: &impl Fn(f64) -> Result<f64, SwayError>,
     xs: &[f64],
     ys: &[f64],

@@ -23,6 +23,7 @@
 pub mod bifurcation;
 pub mod charts;
 pub mod config;
+pub mod control;
 mod error;
 pub mod gain_design;
 pub mod linear;

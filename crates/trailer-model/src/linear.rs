@@ -24,6 +24,11 @@ pub struct Linearization {
     pub b4: Vector4<f64>,
     /// C̃: first 4 entries of C
     pub c4: RowVector4<f64>,
+    /// B_M (7×1): the input column of a yaw moment M_z \[N m\] on the tractor
+    /// ([`Model::rhs4_with_yaw_moment`], differential braking)
+    pub b_yaw_moment: SVector<f64, 7>,
+    /// B̃_M: first 4 entries of B_M
+    pub b4_yaw_moment: Vector4<f64>,
 }
 
 impl Model {
@@ -53,21 +58,22 @@ impl Model {
     /// Linearisation (eq. 9–11) about straight running at constant speed V:
     /// all states zero except x_H = V t, δ = 0, V̇ = 0. Exact derivatives.
     pub fn linearize(&self, speed: f64) -> Linearization {
-        let z = SVector::<f64, 8>::zeros();
+        let z = SVector::<f64, 9>::zeros();
         let (_, j) = jacobian(
-            |z: SVector<DualSVec64<8>, 8>| {
+            |z: SVector<DualSVec64<9>, 9>| {
                 let xd = State7::from_fn(|i, _| z[i]);
                 let ud = Inputs {
                     steering_angle: z[7],
                     speed: DualVec::from(speed),
                     acceleration: DualVec::from(0.0),
                 };
-                self.rhs7(&xd, &ud)
+                self.rhs7_with_yaw_moment(&xd, &ud, z[8])
             },
             &z,
         );
         let a: SMatrix<f64, 7, 7> = j.fixed_view::<7, 7>(0, 0).into_owned();
         let b: SVector<f64, 7> = j.column(7).into_owned();
+        let b_yaw_moment: SVector<f64, 7> = j.column(8).into_owned();
         let mut c = RowSVector::<f64, 7>::zeros();
         c[0] = -self.params().tractor.mass * self.params().tractor.cog / self.i1();
         c[1] = 1.0;
@@ -76,6 +82,8 @@ impl Model {
             a4: a.fixed_view::<4, 4>(0, 0).into_owned(),
             b4: b.fixed_rows::<4>(0).into_owned(),
             c4: c.fixed_columns::<4>(0).into_owned(),
+            b4_yaw_moment: b_yaw_moment.fixed_rows::<4>(0).into_owned(),
+            b_yaw_moment,
             a,
             b,
             c,

@@ -424,6 +424,31 @@ impl Model {
         x: &State4<D>,
         u: &Inputs<D>,
     ) -> State4<D> {
+        self.rhs4_actuated(x, u, None)
+    }
+
+    /// [`rhs4`](Self::rhs4) with an external yaw moment M_z \[N m\] on the tractor
+    /// (positive in the sense of ψ), as differential braking of the tow vehicle applies it
+    /// (ESC-based trailer-sway mitigation). A pure moment is a couple of lateral forces
+    /// ±M_z/(f − c) at the front and rear axles: it enters eq. (6) exactly where the axle
+    /// forces do, so σ̇2 gains M_z/I1 and σ̇1 gains (p10 − p8)·M_z/((f − c)·D(θ)).
+    /// The longitudinal braking force it costs is taken up by the prescribed speed V(t)
+    /// (constraint eq. 3).
+    pub fn rhs4_with_yaw_moment<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+        yaw_moment: D,
+    ) -> State4<D> {
+        self.rhs4_actuated(x, u, Some(yaw_moment))
+    }
+
+    fn rhs4_actuated<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+        u: &Inputs<D>,
+        yaw_moment: Option<D>,
+    ) -> State4<D> {
         let p = &self.p;
         let k = &self.k;
         let (s1, s2, s3) = (x[0], x[1], x[2]);
@@ -437,6 +462,14 @@ impl Model {
             f_f
         } else {
             f_f * u.steering_angle.cos()
+        };
+        // the yaw moment as the couple ±M_z/(f − c) at the front and rear axles
+        let (f_f_cos_delta, f_r) = match yaw_moment {
+            Some(m) => {
+                let couple = m / (self.f - self.c);
+                (f_f_cos_delta + couple, f_r - couple)
+            }
+            None => (f_f_cos_delta, f_r),
         };
 
         let sn2 = sn * sn;
@@ -467,8 +500,28 @@ impl Model {
         x: &State7<D>,
         u: &Inputs<D>,
     ) -> State7<D> {
+        self.rhs7_actuated(x, u, None)
+    }
+
+    /// [`rhs7`](Self::rhs7) with a yaw moment M_z \[N m\] on the tractor
+    /// ([`rhs4_with_yaw_moment`](Self::rhs4_with_yaw_moment)).
+    pub fn rhs7_with_yaw_moment<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State7<D>,
+        u: &Inputs<D>,
+        yaw_moment: D,
+    ) -> State7<D> {
+        self.rhs7_actuated(x, u, Some(yaw_moment))
+    }
+
+    fn rhs7_actuated<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State7<D>,
+        u: &Inputs<D>,
+        yaw_moment: Option<D>,
+    ) -> State7<D> {
         let x4: State4<D> = x.fixed_rows::<4>(0).into_owned();
-        let r = self.rhs4(&x4, u);
+        let r = self.rhs4_actuated(&x4, u, yaw_moment);
         let (sp, cp) = x[YAW_ANGLE].sin_cos();
         let s1 = x[0];
         State7::from_column_slice(&[

@@ -80,6 +80,39 @@ fn equations_of_motion_match_newton_euler() {
 }
 
 #[test]
+fn yaw_moment_matches_newton_euler() {
+    // Reference: the Newton–Euler oracle with the moment as a free torque on the tractor
+    // (tests/common/mod.rs), against the Appellian form, where it enters as a couple of
+    // axle forces. 2000 random states with |M_z| ≤ 8 kN m (what braking one side of a
+    // 2 t car can give); tolerance 1e-10 relative, as for the equations without it.
+    let model = table_i();
+    let mut rng = ChaCha8Rng::seed_from_u64(77);
+    let mut worst: f64 = 0.0;
+    for (x, u, psi) in random_points(2025, 2000) {
+        let m = rng.random_range(-8000.0..8000.0);
+        let a = model.rhs4_with_yaw_moment(&x, &u, m);
+        let b = common::newton_euler_with_yaw_moment(&model, &x, &u, psi, m);
+        for i in 0..4 {
+            let rel = (a[i] - b[i]).abs() / a[i].abs().max(b[i].abs()).max(1.0);
+            worst = worst.max(rel);
+        }
+    }
+    assert!(worst < 1e-10, "worst relative difference {worst:e}");
+    // the linearisation's yaw-moment column: σ̇2 = … + M_z/I1 exactly (eq. 6), θ̇ unaffected
+    let lin = model.linearize(30.0);
+    assert_relative_eq!(lin.b_yaw_moment[1], 1.0 / model.i1(), max_relative = 1e-14);
+    assert_eq!(lin.b_yaw_moment[3], 0.0);
+    // and it equals the difference quotient of the exact right-hand side (linear in M_z)
+    let x0 = State4::zeros();
+    let u0 = Inputs::constant_speed(30.0);
+    let dm = 1000.0;
+    let fd = (model.rhs4_with_yaw_moment(&x0, &u0, dm) - model.rhs4(&x0, &u0)) / dm;
+    for i in 0..4 {
+        assert!((fd[i] - lin.b4_yaw_moment[i]).abs() <= 1e-12 * fd.norm(), "{i}");
+    }
+}
+
+#[test]
 fn printed_sigma3_prefactor_is_dimensionally_inconsistent() {
     // Reference: dimensional analysis. Rescale length by L, mass by M, time by T:
     // σ1, V → L/T; σ2, σ3 → 1/T; θ, δ unchanged; V̇ → L/T²; masses M; inertias M L²;

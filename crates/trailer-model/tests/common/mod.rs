@@ -13,6 +13,18 @@ use trailer_model::{Inputs, Model, State4};
 /// longitudinal constraint force λ along the tractor axis (it enforces V(t), eq. 3, and
 /// produces no moment about C1 since it acts along the axis through C1).
 pub fn newton_euler(model: &Model, x: &State4, u: &Inputs, psi: f64) -> State4 {
+    newton_euler_with_yaw_moment(model, x, u, psi, 0.0)
+}
+
+/// [`newton_euler`] with an external yaw moment `yaw_moment` \[N m\] on the tractor (a free
+/// moment: it enters the tractor's rotation about C1 and nothing else).
+pub fn newton_euler_with_yaw_moment(
+    model: &Model,
+    x: &State4,
+    u: &Inputs,
+    psi: f64,
+    yaw_moment: f64,
+) -> State4 {
     let p = model.params();
     let (m1, j1, f, d, c) = (
         p.tractor.mass,
@@ -79,7 +91,7 @@ pub fn newton_euler(model: &Model, x: &State4, u: &Inputs, psi: f64) -> State4 {
     m[(2, 1)] = j1;
     m[(2, 3)] = -d * e1.y; // −(−d e1) × P, x-part: (−d e1)×P = −d(e1x Py − e1y Px)
     m[(2, 4)] = d * e1.x;
-    rhs[2] = (f - d) * f_f * cross(&e1, &n_f) + (c - d) * f_r;
+    rhs[2] = (f - d) * f_f * cross(&e1, &n_f) + (c - d) * f_r + yaw_moment;
     // trailer translation: m2 (a_c2_0 + σ̇1 e2 − h ψ̈2 E2) = F_T E2 − P
     for k in 0..2 {
         m[(3 + k, 0)] = m2 * e2[k];

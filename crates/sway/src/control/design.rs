@@ -1,0 +1,579 @@
+//! Design on the roots: the gains of a controller structure that maximise the linear
+//! critical speed at a delay τ, the band of near-optimal gains, whether the optimum sits on
+//! a double-Hopf corner, the delay budget and the critical speed a design guarantees under
+//! vehicle uncertainty.
+//!
+//! The objective V_crit(gains) — the lowest speed at which straight running is unstable,
+//! from exact unstable-root counts ([`super::critical_speed`]) — is continuous but not
+//! smooth: it has kinks where two Hopf curves cross (double-Hopf points) and plateaus where
+//! a design is stable up to the top of the speed range. So
+//!
+//! - a structure with one gain (`yaw_rate`, `predictor`) is optimised as `gain_design`
+//!   does: a coarse scan of the gain range, Brent's method in the bracket of the best sample
+//!   (golden sections where the parabola fails, as at a kink), the band within 1 % by
+//!   bisection — for `yaw_rate` with steering this is `gain_design`'s computation;
+//! - a structure with several gains (`yaw_rate_hitch`) by Nelder–Mead, a derivative-free
+//!   method that copes with kinks, with restarts: from the best one-gain design (D\*, 0, 0),
+//!   from the optimum of the previous delay of a τ grid, and from seeded random points of
+//!   the gain box ([`crate::mitigation::optimise::minimise`]); the bands are bisected along
+//!   each gain with the others at the optimum.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use trailer_model::{Model, PARAMETERS, VehicleParams};
+
+use super::{Actuator, Controller, GainName, Gains, LinearLoop, SpeedSearch, Structure};
+use crate::SwayError;
+use crate::gain_design::{GainSearch, band_end, refine_sampled};
+use crate::mitigation::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
+use crate::sampling::{Sampler, Sampling, Statistics};
+
+/// Bounds of the gains, in steering units (D, D_θ in s, K_θ in rad/rad); for differential
+/// braking they are multiplied by [`Actuator::scale`] (N m per rad of equivalent steering).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GainBounds {
+    /// D on the yaw rate \[s\]
+    pub yaw_rate: Bound,
+    /// K_θ on the hitch angle \[rad/rad\]
+    pub hitch_angle: Bound,
+    /// D_θ on the hitch-angle rate \[s\]
+    pub hitch_rate: Bound,
+}
+
+impl Default for GainBounds {
+    fn default() -> Self {
+        Self {
+            yaw_rate: Bound::new(0.0, 0.5),
+            hitch_angle: Bound::new(-1.0, 1.0),
+            hitch_rate: Bound::new(-0.5, 0.5),
+        }
+    }
+}
+
+impl GainBounds {
+    /// The bound of one gain, in the actuator's units (`scale` from [`Actuator::scale`]).
+    pub fn get(&self, name: GainName, scale: f64) -> Bound {
+        let b = match name {
+            GainName::YawRate => self.yaw_rate,
+            GainName::HitchAngle => self.hitch_angle,
+            GainName::HitchRate => self.hitch_rate,
+        };
+        Bound::new(b.lo * scale, b.hi * scale)
+    }
+}
+
+/// Settings of the design search.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DesignSearch {
+    /// the critical-speed search (range, scan, final tolerance)
+    pub speed: SpeedSearch,
+    /// bisection tolerance of the critical speeds inside the Nelder–Mead runs \[m/s\] (the
+    /// optimum is re-evaluated at `speed.tolerance_mps`)
+    pub search_tolerance_mps: f64,
+    /// the gain ranges (steering units)
+    pub bounds: GainBounds,
+    /// gains of the coarse scan of one-gain structures (≥ 3)
+    pub gain_samples: usize,
+    /// tolerance of an optimal gain and of the band ends (steering units: s)
+    pub gain_tolerance: f64,
+    /// the band: gains whose critical speed is within this fraction of the maximum
+    pub band_fraction: f64,
+    /// most Brent iterations of a one-gain refinement
+    pub max_iterations: u64,
+    /// the Nelder–Mead runs of several-gain structures
+    pub optimiser: OptimiserSettings,
+    /// |Re λ| \[1/s\] below which a second root pair at the optimum's critical speed counts
+    /// as critical too: the optimum sits on a double-Hopf corner
+    pub double_hopf_tolerance_per_s: f64,
+}
+
+impl Default for DesignSearch {
+    fn default() -> Self {
+        Self {
+            speed: SpeedSearch::default(),
+            search_tolerance_mps: 1e-6,
+            bounds: GainBounds::default(),
+            gain_samples: 101,
+            gain_tolerance: 1e-6,
+            band_fraction: 0.01,
+            max_iterations: 200,
+            optimiser: OptimiserSettings {
+                seed: 22,
+                random_starts: 2,
+                max_iters: 150,
+                sd_tolerance: 1e-6,
+                initial_step: 0.3,
+            },
+            double_hopf_tolerance_per_s: 1e-3,
+        }
+    }
+}
+
+/// The gains within `band_fraction` of the optimum along one gain, the others at the
+/// optimum (an end equal to a bound where the band reaches it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GainBand {
+    /// which gain
+    pub gain: GainName,
+    /// lower end (actuator units)
+    pub lo: f64,
+    /// upper end
+    pub hi: f64,
+}
+
+/// The best gains of one structure and actuator at one delay.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Design {
+    /// the controller structure
+    pub structure: Structure,
+    /// the actuator
+    pub actuator: Actuator,
+    /// the loop delay τ \[s\]
+    pub tau_s: f64,
+    /// the optimal gains (actuator units)
+    pub gains: Gains,
+    /// the maximal linear critical speed \[m/s\] (the top of the speed range if capped)
+    pub v_crit_mps: f64,
+    /// stable up to the top of the speed range: the true critical speed is higher
+    pub speed_capped: bool,
+    /// the near-optimal band of each gain of the structure
+    pub bands: Vec<GainBand>,
+    /// a second root pair of another frequency is critical at the optimum too (within
+    /// `double_hopf_tolerance_per_s`): the optimum is a double-Hopf corner
+    pub at_double_hopf: bool,
+    /// the real part \[1/s\] and frequency \[rad/s\] of the rightmost root pair other than the
+    /// critical one at V_crit (None where capped or no other pair was found)
+    pub second_pair: Option<[f64; 2]>,
+    /// critical speeds evaluated
+    pub evaluations: usize,
+}
+
+/// The controller with `gains` of `structure` and `actuator`.
+fn controller(structure: Structure, actuator: Actuator, gains: Gains) -> Controller {
+    Controller {
+        structure,
+        actuator,
+        gains,
+    }
+}
+
+/// The critical speed of a controller, the top of the range where stable on all of it.
+fn v_crit(
+    model: &Model,
+    c: &Controller,
+    tau: f64,
+    prediction: Option<&Model>,
+    search: &SpeedSearch,
+) -> Result<f64, SwayError> {
+    Ok(super::critical_speed(model, c, tau, prediction, search)?.unwrap_or(search.v_max_mps))
+}
+
+/// The best gains of `structure` with `actuator` at delay τ \[s\] (see the module docs);
+/// `warm` is a previous optimum to start from (several-gain structures).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a critical speed cannot be computed.
+pub fn design(
+    model: &Model,
+    structure: Structure,
+    actuator: Actuator,
+    tau: f64,
+    prediction: Option<&Model>,
+    warm: Option<&Gains>,
+    o: &DesignSearch,
+) -> Result<Design, SwayError> {
+    let scale = actuator.scale(model);
+    let (gains, v, bands, evaluations) = match structure {
+        Structure::YawRate | Structure::Predictor => {
+            one_gain(model, structure, actuator, tau, prediction, scale, o)?
+        }
+        Structure::YawRateHitch => {
+            let start = one_gain(model, Structure::YawRate, actuator, tau, None, scale, o)?;
+            let (g, v, b, n) =
+                several_gains(model, structure, actuator, tau, prediction, &start.0, warm, o)?;
+            (g, v, b, n + start.3)
+        }
+    };
+    let c = controller(structure, actuator, gains);
+    let speed_capped = v >= o.speed.v_max_mps;
+    let second_pair = if speed_capped {
+        None
+    } else {
+        second_pair(model, &c, tau, prediction, v)?
+    };
+    Ok(Design {
+        structure,
+        actuator,
+        tau_s: tau,
+        gains,
+        v_crit_mps: v,
+        speed_capped,
+        bands,
+        at_double_hopf: second_pair.is_some_and(|[re, _]| re.abs() <= o.double_hopf_tolerance_per_s),
+        second_pair,
+        evaluations,
+    })
+}
+
+type Found = (Gains, f64, Vec<GainBand>, usize);
+
+/// One gain (D): `gain_design`'s scan, Brent refinement and band, on this structure's loop.
+fn one_gain(
+    model: &Model,
+    structure: Structure,
+    actuator: Actuator,
+    tau: f64,
+    prediction: Option<&Model>,
+    scale: f64,
+    o: &DesignSearch,
+) -> Result<Found, SwayError> {
+    let bound = o.bounds.get(GainName::YawRate, scale);
+    let g = GainSearch {
+        d_min_s: bound.lo,
+        d_max_s: bound.hi,
+        gain_samples: o.gain_samples,
+        v_min_mps: o.speed.v_min_mps,
+        v_max_mps: o.speed.v_max_mps,
+        speed_samples: o.speed.samples,
+        speed_tolerance_mps: o.speed.tolerance_mps,
+        gain_tolerance_s: o.gain_tolerance * scale,
+        band_fraction: o.band_fraction,
+        max_iterations: o.max_iterations,
+    };
+    let f = |d: f64| {
+        let c = controller(structure, actuator, Gains::yaw_rate(d));
+        v_crit(model, &c, tau, prediction, &o.speed)
+    };
+    let gains = g.gains();
+    let speeds = gains.iter().map(|&d| f(d)).collect::<Result<Vec<_>, _>>()?;
+    let (d, v, band, n) = refine_sampled(&f, &gains, &speeds, &g)?;
+    let band = GainBand {
+        gain: GainName::YawRate,
+        lo: band[0],
+        hi: band[1],
+    };
+    Ok((Gains::yaw_rate(d), v, vec![band], gains.len() + n))
+}
+
+/// Several gains: −V_crit minimised by Nelder–Mead from the given starts.
+struct CriticalSpeedProblem<'a> {
+    model: &'a Model,
+    structure: Structure,
+    actuator: Actuator,
+    tau: f64,
+    prediction: Option<&'a Model>,
+    names: &'static [GainName],
+    bounds: Vec<Bound>,
+    search: SpeedSearch,
+}
+
+impl CriticalSpeedProblem<'_> {
+    fn gains(&self, x: &[f64]) -> Gains {
+        self.names
+            .iter()
+            .zip(x)
+            .fold(Gains::default(), |g, (&n, &v)| g.with(n, v))
+    }
+}
+
+impl MixedProblem for CriticalSpeedProblem<'_> {
+    fn bounds(&self) -> &[Bound] {
+        &self.bounds
+    }
+
+    fn choices(&self) -> usize {
+        1
+    }
+
+    fn cost(&self, _choice: usize, x: &[f64]) -> Result<f64, SwayError> {
+        let c = controller(self.structure, self.actuator, self.gains(x));
+        Ok(-v_crit(self.model, &c, self.tau, self.prediction, &self.search)?)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn several_gains(
+    model: &Model,
+    structure: Structure,
+    actuator: Actuator,
+    tau: f64,
+    prediction: Option<&Model>,
+    one_gain_optimum: &Gains,
+    warm: Option<&Gains>,
+    o: &DesignSearch,
+) -> Result<Found, SwayError> {
+    let scale = actuator.scale(model);
+    let names = structure.gain_names();
+    let problem = CriticalSpeedProblem {
+        model,
+        structure,
+        actuator,
+        tau,
+        prediction,
+        names,
+        bounds: names.iter().map(|&n| o.bounds.get(n, scale)).collect(),
+        search: SpeedSearch {
+            tolerance_mps: o.search_tolerance_mps,
+            ..o.speed
+        },
+    };
+    let as_point = |g: &Gains| names.iter().map(|&n| g.get(n)).collect::<Vec<f64>>();
+    let mut starts = vec![as_point(one_gain_optimum)];
+    if let Some(w) = warm {
+        starts.push(as_point(w));
+    }
+    let best = minimise(&problem, &starts, &o.optimiser)?;
+    let gains = problem.gains(&best.x);
+    let c = controller(structure, actuator, gains);
+    let v = v_crit(model, &c, tau, prediction, &o.speed)?;
+    let mut n = best.evaluations + 1;
+    let mut bands = Vec::with_capacity(names.len());
+    for (i, &name) in names.iter().enumerate() {
+        let b = problem.bounds[i];
+        let along = |x: f64| {
+            let c = controller(structure, actuator, gains.with(name, x));
+            v_crit(model, &c, tau, prediction, &o.speed)
+        };
+        let thr = (1.0 - o.band_fraction) * v;
+        let tol = o.gain_tolerance * scale.max(1.0);
+        let at = gains.get(name);
+        let mut end = |toward: f64| -> Result<f64, SwayError> {
+            n += 1;
+            if along(toward)? >= thr {
+                return Ok(toward);
+            }
+            let (e, m) = band_end(&along, at, toward, thr, tol)?;
+            n += m;
+            Ok(e)
+        };
+        let (lo, hi) = (end(b.lo)?, end(b.hi)?);
+        bands.push(GainBand { gain: name, lo, hi });
+    }
+    Ok((gains, v, bands, n))
+}
+
+/// The rightmost root pair at V \[m/s\] whose frequency differs from the critical pair's
+/// (by more than 1 %): its real part and frequency, or None if there is none among the
+/// six rightmost roots.
+fn second_pair(
+    model: &Model,
+    c: &Controller,
+    tau: f64,
+    prediction: Option<&Model>,
+    v: f64,
+) -> Result<Option<[f64; 2]>, SwayError> {
+    let l = LinearLoop::new(model, c, v, tau, prediction)?;
+    let roots = l.rightmost_roots(6).map_err(|e| {
+        SwayError::numerical(format!("rightmost roots at V = {v} m/s, τ = {tau} s"), e)
+    })?;
+    let Some(first) = roots.first() else {
+        return Ok(None);
+    };
+    let w1 = first.im.abs();
+    Ok(roots
+        .iter()
+        .find(|z| (z.im.abs() - w1).abs() > 0.01 * w1.max(1e-3))
+        .map(|z| [z.re, z.im.abs()]))
+}
+
+/// [`design`] at every delay of an increasing grid, each warm-started from the previous
+/// delay's optimum (sequential: the result depends only on the inputs).
+///
+/// # Errors
+/// The first failing delay's error.
+pub fn designs_over_delays(
+    model: &Model,
+    structure: Structure,
+    actuator: Actuator,
+    taus: &[f64],
+    prediction: Option<&Model>,
+    o: &DesignSearch,
+) -> Result<Vec<Design>, SwayError> {
+    let mut out: Vec<Design> = Vec::with_capacity(taus.len());
+    for &tau in taus {
+        let warm = out.last().map(|d| d.gains);
+        out.push(design(
+            model,
+            structure,
+            actuator,
+            tau,
+            prediction,
+            warm.as_ref(),
+            o,
+        )?);
+    }
+    Ok(out)
+}
+
+/// The delay budget of one structure and actuator.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DelayBudget {
+    /// the largest delay at which the best gains still raise the critical speed by
+    /// `gain_fraction` over the open loop \[s\] (None: not even at the first delay)
+    pub tau_s: Option<f64>,
+    /// the required rise: V_crit,max ≥ (1 + fraction)·V_crit,open
+    pub gain_fraction: f64,
+    /// the open-loop critical speed \[m/s\]
+    pub open_loop_v_crit_mps: f64,
+    /// the budget is the last delay of the grid (the true budget may be larger)
+    pub at_grid_end: bool,
+}
+
+/// The delay budget from the designs of an increasing τ grid: the last grid delay whose
+/// optimum reaches (1 + `fraction`)·`v_open`, refined by bisection in τ (a [`design`] per
+/// step, warm-started from that grid delay's gains) to `tau_tolerance` \[s\].
+///
+/// # Errors
+/// [`SwayError::Numerical`] from a [`design`].
+pub fn delay_budget(
+    model: &Model,
+    designs: &[Design],
+    v_open: f64,
+    fraction: f64,
+    tau_tolerance: f64,
+    prediction: Option<&Model>,
+    o: &DesignSearch,
+) -> Result<DelayBudget, SwayError> {
+    let thr = (1.0 + fraction) * v_open;
+    let mut budget = DelayBudget {
+        tau_s: None,
+        gain_fraction: fraction,
+        open_loop_v_crit_mps: v_open,
+        at_grid_end: false,
+    };
+    let Some(j) = designs.iter().rposition(|d| d.v_crit_mps >= thr) else {
+        return Ok(budget);
+    };
+    if j + 1 == designs.len() {
+        budget.tau_s = Some(designs[j].tau_s);
+        budget.at_grid_end = true;
+        return Ok(budget);
+    }
+    let base = &designs[j];
+    let g = |tau: f64| {
+        design(
+            model,
+            base.structure,
+            base.actuator,
+            tau,
+            prediction,
+            Some(&base.gains),
+            o,
+        )
+        .map(|d| d.v_crit_mps)
+    };
+    let (tau, _) = band_end(&g, base.tau_s, designs[j + 1].tau_s, thr, tau_tolerance)?;
+    budget.tau_s = Some(tau);
+    Ok(budget)
+}
+
+/// The vehicle uncertainty a design is judged under: the vehicle's fields sampled as in
+/// `study_uncertainty` (absolute values by key path), and for the predictor its model's
+/// fields off by sampled relative errors (`prediction_model`: fields are factors, e.g.
+/// 0.9 … 1.1 on `trailer.mass`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleUncertainty {
+    /// the vehicle's sampled fields (absolute values)
+    pub vehicle: Sampling,
+    /// the predictor model's sampled relative errors (factors on the nominal values);
+    /// sample s of it goes with sample s of `vehicle` (so its `samples` must be equal)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction_model: Option<Sampling>,
+}
+
+/// The critical speeds of a design over the uncertainty samples.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Robustness {
+    /// statistics of the critical speed over the samples (finite ones)
+    pub v_crit: Option<Statistics>,
+    /// the 5 % quantile of the critical speed \[m/s\]: what the design guarantees
+    pub v_crit_p05_mps: Option<f64>,
+    /// samples whose vehicle was not valid or whose critical speed failed
+    pub failed_samples: usize,
+}
+
+/// The index of a vehicle field by key path, e.g. `trailer.cog`.
+fn field_index(key: &str) -> Result<usize, SwayError> {
+    PARAMETERS
+        .iter()
+        .position(|(k, _, _)| *k == key)
+        .ok_or_else(|| {
+            SwayError::numerical(
+                format!("uncertainty field `{key}`"),
+                std::io::Error::other("not a vehicle field (see trailer_model::PARAMETERS)"),
+            )
+        })
+}
+
+fn sampler(s: &Sampling) -> Result<(Sampler, Vec<usize>), SwayError> {
+    let sampler = Sampler::new(s).map_err(|(key, problem)| {
+        SwayError::numerical(
+            format!("uncertainty sampling `{key}`"),
+            std::io::Error::other(problem),
+        )
+    })?;
+    let idx = s
+        .fields
+        .iter()
+        .map(|f| field_index(&f.key))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((sampler, idx))
+}
+
+/// The critical speed of `controller` at delay τ over the samples of `uncertainty`
+/// (in parallel, reduced in sample order: the same on any number of threads). The
+/// predictor predicts with `nominal` (perturbed by `prediction_model` where given); a
+/// sample whose vehicle is invalid or whose search fails is counted, not fatal.
+///
+/// # Errors
+/// [`SwayError::Numerical`] for an invalid sampling or an unknown field.
+pub fn robust_critical_speed(
+    nominal: &VehicleParams,
+    controller: &Controller,
+    tau: f64,
+    uncertainty: &VehicleUncertainty,
+    search: &SpeedSearch,
+) -> Result<Robustness, SwayError> {
+    let (vehicle, vehicle_idx) = sampler(&uncertainty.vehicle)?;
+    let model_errors = match (&uncertainty.prediction_model, controller.structure) {
+        (Some(s), Structure::Predictor) => Some(sampler(s)?),
+        _ => None,
+    };
+    let nominal_model = Model::new(*nominal)
+        .map_err(|e| SwayError::numerical("the nominal vehicle of the uncertainty study", e))?;
+    let one = |s: usize| -> Option<f64> {
+        let params = vehicle
+            .sample(s)
+            .iter()
+            .zip(&vehicle_idx)
+            .fold(*nominal, |p, (&v, &i)| p.with(i, v));
+        let model = Model::new(params).ok()?;
+        let prediction = match &model_errors {
+            Some((errors, idx)) => {
+                let p = errors
+                    .sample(s % errors.len())
+                    .iter()
+                    .zip(idx)
+                    .fold(*nominal, |p, (&f, &i)| p.with(i, nominal.get(i) * f));
+                Some(Model::new(p).ok()?)
+            }
+            None => None,
+        };
+        let prediction = match controller.structure {
+            Structure::Predictor => Some(prediction.as_ref().unwrap_or(&nominal_model)),
+            _ => None,
+        };
+        v_crit(&model, controller, tau, prediction, search).ok()
+    };
+    let values: Vec<Option<f64>> = (0..vehicle.len()).into_par_iter().map(one).collect();
+    let failed_samples = values.iter().filter(|v| v.is_none()).count();
+    let stats = Statistics::of(values.into_iter().flatten());
+    Ok(Robustness {
+        v_crit_p05_mps: stats.as_ref().map(|s| s.quantiles.q05),
+        v_crit: stats,
+        failed_samples,
+    })
+}

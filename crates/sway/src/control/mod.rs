@@ -1,0 +1,424 @@
+//! Sway control beyond the paper's controller (issue 22): which controller structure and
+//! which actuator keep straight running stable for which loop delay τ.
+//!
+//! The paper closes the loop with δ(t) = −D·ψ̇(t − τ) (eq. 8) and ends with the remark
+//! that "at large delay values the system becomes more unstable". This module gives the
+//! linear closed loop of three **structures** ([`Structure`]) driving either of two
+//! **actuators** ([`Actuator`]) as one quasi-polynomial each, so that every tool built on
+//! [`stability::RankOneFeedback`] (exact unstable-root counts by D-subdivision, rightmost
+//! roots, critical speeds) applies to all of them:
+//!
+//! - `yaw_rate`: u(t) = −D·ψ̇(t − τ) (the paper's);
+//! - `yaw_rate_hitch`: u(t) = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ), a hitch-angle sensor
+//!   (rear camera) beside the yaw-rate sensor;
+//! - `predictor`: u(t) = −D·ψ̇_p(t), the yaw rate predicted τ ahead ([`predictor`]).
+//!
+//! The actuator is the tractor's front-wheel steering u = δ \[rad\] (the paper's) or
+//! differential braking of the tow vehicle, u = M_z \[N m\], a yaw moment on the tractor
+//! ([`trailer_model::Model::rhs4_with_yaw_moment`]). With the linearisation
+//! x' = Ã x + B̃_u u of eq. (9)–(11) (B̃_u = B̃ or B̃_M) and the measured output row K (the
+//! gains times the sensed quantities), the loop of the two output-feedback structures is
+//! x' = Ã x − B̃_u K x(t − τ): rank one, with characteristic function
+//! p(λ) + e^{−λτ} q_K(λ), p = det(λI − Ã), q_K = K adj(λI − Ã) B̃_u (eq. 13 with D folded
+//! into K). For `yaw_rate` K = D·C̃ exactly as in [`crate::charts`], so its critical speeds
+//! equal those of `fig4a` and `gain_design`.
+//!
+//! Gains carry the actuator's units: for steering D and D_θ in s, K_θ in rad/rad; for
+//! braking D and D_θ in N m s/rad, K_θ in N m/rad.
+
+mod design;
+pub mod predictor;
+#[cfg(test)]
+mod tests;
+
+pub use design::{
+    DelayBudget, Design, DesignSearch, GainBand, Robustness, VehicleUncertainty, delay_budget,
+    design, designs_over_delays, robust_critical_speed,
+};
+
+use nalgebra::{RowVector4, Vector4};
+use serde::{Deserialize, Serialize};
+use stability::{Complex64, RankOneFeedback, RootOptions, StabilityError};
+use trailer_model::{HITCH_ANGLE, Linearization, Model};
+
+use crate::SwayError;
+
+/// The controller structure: what is measured and how it is turned into the command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Structure {
+    /// u(t) = −D·ψ̇(t − τ): the paper's yaw-rate feedback (eq. 8)
+    YawRate,
+    /// u(t) = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ): yaw rate plus a hitch-angle sensor
+    YawRateHitch,
+    /// u(t) = −D·ψ̇_p(t): the yaw rate predicted τ ahead from the state measured at t − τ
+    /// and the commands of \[t − τ, t\] through a linear model ([`predictor`])
+    Predictor,
+}
+
+impl Structure {
+    /// Every structure, in the order of the tables.
+    pub const ALL: [Self; 3] = [Self::YawRate, Self::YawRateHitch, Self::Predictor];
+
+    /// The name used in configs and summaries.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::YawRate => "yaw_rate",
+            Self::YawRateHitch => "yaw_rate_hitch",
+            Self::Predictor => "predictor",
+        }
+    }
+
+    /// The gains this structure uses (the others stay 0).
+    pub fn gain_names(&self) -> &'static [GainName] {
+        match self {
+            Self::YawRate | Self::Predictor => &[GainName::YawRate],
+            Self::YawRateHitch => &[
+                GainName::YawRate,
+                GainName::HitchAngle,
+                GainName::HitchRate,
+            ],
+        }
+    }
+}
+
+/// What the controller moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Actuator {
+    /// front-wheel steering angle δ \[rad\] (the paper's)
+    Steering,
+    /// differential braking of the tow vehicle: a yaw moment M_z \[N m\] on the tractor
+    /// (as ESC-based trailer-sway mitigation applies it)
+    DifferentialBraking,
+}
+
+impl Actuator {
+    /// Both actuators, in the order of the tables.
+    pub const ALL: [Self; 2] = [Self::Steering, Self::DifferentialBraking];
+
+    /// The name used in configs and summaries.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::Steering => "steering",
+            Self::DifferentialBraking => "differential_braking",
+        }
+    }
+
+    /// The input column B̃_u of the linearisation \[1/s per unit of the command\].
+    pub fn input_column(&self, lin: &Linearization) -> Vector4<f64> {
+        match self {
+            Self::Steering => lin.b4,
+            Self::DifferentialBraking => lin.b4_yaw_moment,
+        }
+    }
+
+    /// The command per radian of equivalent steering: 1 for steering; for braking the yaw
+    /// moment C_F·(f − c) \[N m/rad\] that a steering angle of 1 rad would put on the tractor
+    /// through the front axle's linear force, about the rear axle. Sizes the default gain
+    /// ranges of braking from those of steering, per vehicle.
+    pub fn scale(&self, model: &Model) -> f64 {
+        match self {
+            Self::Steering => 1.0,
+            Self::DifferentialBraking => {
+                let t = &model.params().tractor;
+                t.front_cornering_stiffness * (t.front_axle - t.rear_axle)
+            }
+        }
+    }
+
+    /// The largest command the actuator can give: for steering none (`None`); for braking
+    /// the yaw moment of braking the wheels of one side of the tractor to the friction
+    /// limit, μ0·(F_zF + F_zR)/2 at half the track width w:
+    /// M_max = μ0·(F_zF + F_zR)·w/4 \[N m\] (the lateral forces the tyres need at the same
+    /// time are not subtracted: an upper bound).
+    pub fn limit(&self, model: &Model, track_width_m: f64) -> Option<f64> {
+        match self {
+            Self::Steering => None,
+            Self::DifferentialBraking => {
+                let l = model.axle_loads();
+                Some(model.params().friction.mu_static * (l.front + l.rear) * track_width_m / 4.0)
+            }
+        }
+    }
+}
+
+/// One gain of a structure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GainName {
+    /// D: on the yaw rate ψ̇
+    YawRate,
+    /// K_θ: on the hitch angle θ
+    HitchAngle,
+    /// D_θ: on the hitch-angle rate θ̇
+    HitchRate,
+}
+
+impl GainName {
+    /// The name used in summaries.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::YawRate => "yaw_rate",
+            Self::HitchAngle => "hitch_angle",
+            Self::HitchRate => "hitch_rate",
+        }
+    }
+}
+
+/// The gains of a controller; units depend on the actuator (see the module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Gains {
+    /// D, on the yaw rate ψ̇ (steering: s; braking: N m s/rad)
+    pub yaw_rate: f64,
+    /// K_θ, on the hitch angle θ (steering: rad/rad; braking: N m/rad)
+    pub hitch_angle: f64,
+    /// D_θ, on the hitch-angle rate θ̇ (steering: s; braking: N m s/rad)
+    pub hitch_rate: f64,
+}
+
+impl Gains {
+    /// The paper's D alone.
+    pub fn yaw_rate(d: f64) -> Self {
+        Self {
+            yaw_rate: d,
+            ..Self::default()
+        }
+    }
+
+    /// The value of one gain.
+    pub fn get(&self, name: GainName) -> f64 {
+        match name {
+            GainName::YawRate => self.yaw_rate,
+            GainName::HitchAngle => self.hitch_angle,
+            GainName::HitchRate => self.hitch_rate,
+        }
+    }
+
+    /// A copy with one gain set.
+    pub fn with(mut self, name: GainName, value: f64) -> Self {
+        match name {
+            GainName::YawRate => self.yaw_rate = value,
+            GainName::HitchAngle => self.hitch_angle = value,
+            GainName::HitchRate => self.hitch_rate = value,
+        }
+        self
+    }
+}
+
+/// A controller: structure, actuator and gains. The predictor's model of the vehicle is
+/// given where its loop is built ([`LinearLoop::new`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Controller {
+    /// what is measured and how
+    pub structure: Structure,
+    /// what is moved
+    pub actuator: Actuator,
+    /// the gains (only those of the structure are read)
+    pub gains: Gains,
+}
+
+impl Controller {
+    /// The paper's controller δ = −D·ψ̇(t − τ).
+    pub fn paper(d: f64) -> Self {
+        Self {
+            structure: Structure::YawRate,
+            actuator: Actuator::Steering,
+            gains: Gains::yaw_rate(d),
+        }
+    }
+}
+
+/// The measured output row K of the output-feedback structures: u = −K x(t − τ) on the
+/// reduced state (σ1, σ2, σ3, θ), with ψ̇ = C̃ x (eq. 10) and θ̇ = Ã_θ x (the θ row of Ã:
+/// the hitch-angle rate is kinematic, eq. 5, and no input enters it).
+pub fn output_row(lin: &Linearization, structure: Structure, gains: &Gains) -> RowVector4<f64> {
+    let mut k = lin.c4 * gains.yaw_rate;
+    if structure == Structure::YawRateHitch {
+        k[HITCH_ANGLE] += gains.hitch_angle;
+        k += lin.a4.row(HITCH_ANGLE) * gains.hitch_rate;
+    }
+    k
+}
+
+/// The linear closed loop of one controller at one speed, as a quasi-polynomial
+/// p(λ) + D·e^{−λτ}·q(λ) with the count of its roots that are not roots of the loop.
+#[derive(Debug, Clone)]
+pub struct LinearLoop {
+    /// the quasi-polynomial (for the predictor: its characteristic function cleared of
+    /// denominators, [`predictor`])
+    pub feedback: RankOneFeedback,
+    /// the gain D that multiplies q: the paper's D for `yaw_rate` (so that its numbers are
+    /// those of `fig4a`), 1 where the gains are inside q
+    pub gain: f64,
+    /// the predictor's spurious roots, the eigenvalues of its model's Ã (roots of the
+    /// cleared function, not of the loop): removed from counts and root lists
+    pub spurious: Vec<Complex64>,
+    /// the delay τ \[s\] the loop is built for (the predictor's q depends on it)
+    pub delay: f64,
+}
+
+impl LinearLoop {
+    /// The loop of `controller` on `model` at speed V \[m/s\] with delay τ \[s\]; the
+    /// predictor predicts with `prediction_model` (the vehicle itself when `None`).
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] if the linearisation is not finite.
+    pub fn new(
+        model: &Model,
+        controller: &Controller,
+        speed: f64,
+        delay: f64,
+        prediction_model: Option<&Model>,
+    ) -> Result<Self, SwayError> {
+        let context = || {
+            format!(
+                "{} loop with {} at V = {speed} m/s, τ = {delay} s",
+                controller.structure.as_str(),
+                controller.actuator.as_str()
+            )
+        };
+        let lin = model.linearize(speed);
+        let b = controller.actuator.input_column(&lin);
+        let built = match controller.structure {
+            Structure::YawRate => RankOneFeedback::from_state_space(&lin.a4, &b, &lin.c4)
+                .map(|f| (f, controller.gains.yaw_rate, Vec::new())),
+            Structure::YawRateHitch => {
+                let k = output_row(&lin, controller.structure, &controller.gains);
+                RankOneFeedback::from_state_space(&lin.a4, &b, &k).map(|f| (f, 1.0, Vec::new()))
+            }
+            Structure::Predictor => {
+                let model_lin = prediction_model.map_or_else(|| lin.clone(), |m| m.linearize(speed));
+                let b_model = controller.actuator.input_column(&model_lin);
+                let k = model_lin.c4 * controller.gains.yaw_rate;
+                predictor::cleared_loop(&lin.a4, &b, &model_lin.a4, &b_model, &k, delay)
+                    .map(|(f, spurious)| (f, 1.0, spurious))
+            }
+        };
+        let (feedback, gain, spurious) =
+            built.map_err(|e| SwayError::numerical(context(), e))?;
+        Ok(Self {
+            feedback,
+            gain,
+            spurious,
+            delay,
+        })
+    }
+
+    /// Number of roots of the loop with Re λ > 0 (exact crossing count; the predictor's
+    /// spurious roots subtracted).
+    ///
+    /// # Errors
+    /// [`StabilityError`] from the crossing count.
+    pub fn unstable_root_count(&self) -> Result<usize, StabilityError> {
+        let n = self.feedback.unstable_root_count(self.gain, self.delay)?;
+        let spurious = self.spurious.iter().filter(|z| z.re > 0.0).count();
+        Ok(n.saturating_sub(spurious))
+    }
+
+    /// The `count` rightmost roots of the loop (Newton-polished), sorted by decreasing real
+    /// part; for the predictor the roots at its model's eigenvalues are left out.
+    ///
+    /// # Errors
+    /// [`StabilityError`] if the roots cannot be confirmed.
+    pub fn rightmost_roots(&self, count: usize) -> Result<Vec<Complex64>, StabilityError> {
+        if self.gain == 0.0 || self.feedback.q().is_empty() {
+            // no feedback: the loop is the open loop, a polynomial with n roots
+            let mut roots = self.feedback.open_loop_eigenvalues().to_vec();
+            stability::sort_rightmost(&mut roots);
+            return Ok(predictor::without_spurious(roots, &self.spurious, count));
+        }
+        let want = count + self.spurious.len();
+        let roots =
+            self.feedback
+                .rightmost_roots(self.gain, self.delay, want, &RootOptions::default())?;
+        Ok(predictor::without_spurious(roots, &self.spurious, count))
+    }
+}
+
+/// Settings of a critical-speed search: the lowest speed at which straight running under
+/// a controller is unstable, scanned in V and bisected on the exact unstable-root count.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SpeedSearch {
+    /// lowest speed \[m/s\]
+    pub v_min_mps: f64,
+    /// highest speed \[m/s\]: a controller stable up to here is reported as stable up to it
+    pub v_max_mps: f64,
+    /// speeds scanned (evenly, ends included) before bisection; an unstable interval
+    /// shorter than the spacing may be missed
+    pub samples: usize,
+    /// bisection tolerance \[m/s\]
+    pub tolerance_mps: f64,
+}
+
+impl Default for SpeedSearch {
+    fn default() -> Self {
+        Self {
+            v_min_mps: 1.0,
+            v_max_mps: 100.0,
+            samples: 100,
+            tolerance_mps: 1e-9,
+        }
+    }
+}
+
+/// The linear critical speed of a controller: the lowest speed in the search range at which
+/// straight running is unstable, or `None` if it is stable on the whole range.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a loop cannot be built or counted.
+pub fn critical_speed(
+    model: &Model,
+    controller: &Controller,
+    delay: f64,
+    prediction_model: Option<&Model>,
+    search: &SpeedSearch,
+) -> Result<Option<f64>, SwayError> {
+    let unstable = |v: f64| -> Result<bool, SwayError> {
+        let l = LinearLoop::new(model, controller, v, delay, prediction_model)?;
+        l.unstable_root_count().map(|n| n > 0).map_err(|e| {
+            SwayError::numerical(
+                format!(
+                    "unstable roots of the {} loop at V = {v} m/s, τ = {delay} s",
+                    controller.structure.as_str()
+                ),
+                e,
+            )
+        })
+    };
+    first_unstable(search, unstable)
+}
+
+/// The lowest v in the search range where `unstable(v)`: scan, then bisection.
+fn first_unstable(
+    s: &SpeedSearch,
+    unstable: impl Fn(f64) -> Result<bool, SwayError>,
+) -> Result<Option<f64>, SwayError> {
+    if unstable(s.v_min_mps)? {
+        return Ok(Some(s.v_min_mps));
+    }
+    let n = s.samples.max(2);
+    let mut prev = s.v_min_mps;
+    for i in 1..n {
+        let v = s.v_min_mps + (s.v_max_mps - s.v_min_mps) * i as f64 / (n - 1) as f64;
+        if unstable(v)? {
+            let (mut a, mut b) = (prev, v);
+            while b - a > s.tolerance_mps {
+                let m = 0.5 * (a + b);
+                if m <= a || m >= b {
+                    break;
+                }
+                if unstable(m)? {
+                    b = m
+                } else {
+                    a = m
+                }
+            }
+            return Ok(Some(0.5 * (a + b)));
+        }
+        prev = v;
+    }
+    Ok(None)
+}

@@ -1,0 +1,131 @@
+//! The predictor: u(t) = −K·x̂(t), with x̂(t) the state predicted τ ahead from the state
+//! measured at t − τ and the commands applied in \[t − τ, t\],
+//!
+//! x̂(t) = e^{Â τ}·x(t − τ) + ∫_{t−τ}^{t} e^{Â (t − s)}·B̂·u(s) ds,
+//!
+//! through a linear model (Â, B̂) of the vehicle at the current speed (finite spectrum
+//! assignment; the Smith-predictor structure in state form, with a distributed delay).
+//! For the yaw-rate structure K = D·C̃, so the command is −D·ψ̇_p(t) with ψ̇_p = C̃·x̂.
+//!
+//! **What it measures and assumes.** It needs the whole reduced state (σ1, σ2, σ3, θ) at
+//! t − τ — the yaw rate, the hitch angle and its rate and the lateral hitch velocity, from
+//! a yaw-rate sensor, a hitch-angle sensor and an observer — and the commands it sent in
+//! the last τ seconds (it keeps them). It assumes the vehicle is its linear model about
+//! straight running at the measured speed: the model is a separate vehicle file, so a
+//! design can be judged with a model that is off (trailer mass, inertia, centre of gravity).
+//!
+//! **Characteristic function.** With x = X e^{λt} and u = U e^{λt} the plant gives
+//! (λI − A) X = B U and the law gives
+//! U = −K [e^{Âτ} e^{−λτ} X + (λI − Â)^{-1} (I − e^{Âτ} e^{−λτ}) B̂ U], so the roots are the
+//! zeros of 1 + K e^{Âτ}(λI − A)^{-1}B e^{−λτ} + K(λI − Â)^{-1}(I − e^{Âτ}e^{−λτ})B̂.
+//! Multiplied by p(λ) = det(λI − A) and p̂(λ) = det(λI − Â) this is the quasi-polynomial
+//!
+//! P₀(λ) + e^{−λτ} P₁(λ),  P₀ = p p̂ + p·K adj(λI − Â) B̂,
+//! P₁ = p̂·(K e^{Âτ}) adj(λI − A) B − p·K adj(λI − Â) (e^{Âτ} B̂),
+//!
+//! monic of degree 2n with deg P₁ < 2n: retarded, so [`stability::RankOneFeedback`] counts
+//! its unstable roots exactly. Clearing p̂ adds the eigenvalues of Â as roots (the
+//! distributed term is entire: (λI − Â)^{-1}(I − e^{Âτ}e^{−λτ}) has no poles), which are not
+//! roots of the loop: they are subtracted from counts and removed from root lists.
+//!
+//! **Closed form.** With a perfect model (Â, B̂) = (A, B) the two delayed terms cancel and
+//! the loop's roots are the eigenvalues of A − B K, whatever τ: the spectrum of the delay-free
+//! loop (tested). The integral must be computed as the finite integral it is (a quadrature
+//! of the stored commands): realised as the ODE ż = Âz + B̂u − e^{Âτ}B̂u(t − τ) it would
+//! carry the unstable eigenvalues of Â as hidden modes.
+
+use nalgebra::{Matrix4, RowVector4, Vector4};
+use stability::{Complex64, RankOneFeedback, StabilityError};
+
+/// adj(λI − A) = Σ_{k=1}^{4} M_k λ^{4−k} and p(λ) = det(λI − A) (ascending coefficients),
+/// by the Faddeev–LeVerrier recursion M_1 = I, M_k = A M_{k−1} + p_{5−k} I,
+/// p_{4−k} = −tr(A M_k)/k.
+fn adjugate(a: &Matrix4<f64>) -> ([Matrix4<f64>; 4], [f64; 5]) {
+    let mut p = [0.0; 5];
+    p[4] = 1.0;
+    let mut m = [Matrix4::identity(); 4];
+    for k in 1..=4 {
+        if k > 1 {
+            m[k - 1] = a * m[k - 2] + Matrix4::identity() * p[5 - k];
+        }
+        p[4 - k] = -(a * m[k - 1]).trace() / k as f64;
+    }
+    (m, p)
+}
+
+/// The polynomial r·adj(λI − A)·c (ascending coefficients, degree ≤ 3).
+fn transfer(m: &[Matrix4<f64>; 4], r: &RowVector4<f64>, c: &Vector4<f64>) -> Vec<f64> {
+    let mut out = vec![0.0; 4];
+    for k in 1..=4 {
+        out[4 - k] = (r * m[k - 1] * c)[(0, 0)];
+    }
+    out
+}
+
+fn mul(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
+fn add(a: &[f64], b: &[f64], sign: f64) -> Vec<f64> {
+    (0..a.len().max(b.len()))
+        .map(|i| a.get(i).copied().unwrap_or(0.0) + sign * b.get(i).copied().unwrap_or(0.0))
+        .collect()
+}
+
+/// The predictor loop on the plant (A, B) with the model (Â, B̂), gain row K and delay τ
+/// as the cleared quasi-polynomial P₀ + e^{−λτ}P₁ (at gain 1), and its spurious roots (the
+/// eigenvalues of Â).
+///
+/// # Errors
+/// [`StabilityError`] if the coefficients are not finite or an eigensolver fails.
+pub fn cleared_loop(
+    a: &Matrix4<f64>,
+    b: &Vector4<f64>,
+    a_model: &Matrix4<f64>,
+    b_model: &Vector4<f64>,
+    k: &RowVector4<f64>,
+    delay: f64,
+) -> Result<(RankOneFeedback, Vec<Complex64>), StabilityError> {
+    if !(delay.is_finite() && delay >= 0.0) {
+        return Err(StabilityError::InvalidDelay { tau: delay });
+    }
+    let (m, p) = adjugate(a);
+    let (m_hat, p_hat) = adjugate(a_model);
+    let e = (a_model * delay).exp();
+    let q_hat = transfer(&m_hat, k, b_model);
+    let r = transfer(&m, &(k * e), b);
+    let w = transfer(&m_hat, k, &(e * b_model));
+    let p0 = add(&mul(&p, &p_hat), &mul(&p, &q_hat), 1.0);
+    let p1 = add(&mul(&p_hat, &r), &mul(&p, &w), -1.0);
+    let feedback = RankOneFeedback::from_polynomials(&p0, &p1)?;
+    let spurious = stability::polynomial_roots(&p_hat)?;
+    Ok((feedback, spurious))
+}
+
+/// `roots` (sorted rightmost first) without one root near each spurious one (within
+/// 1e-6·max(1, |z|)), truncated to `count`.
+pub fn without_spurious(
+    mut roots: Vec<Complex64>,
+    spurious: &[Complex64],
+    count: usize,
+) -> Vec<Complex64> {
+    for z in spurious {
+        let near = roots
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (i, (r - z).norm()))
+            .filter(|&(_, d)| d <= 1e-6 * z.norm().max(1.0))
+            .min_by(|x, y| x.1.total_cmp(&y.1));
+        if let Some((i, _)) = near {
+            roots.remove(i);
+        }
+    }
+    roots.truncate(count);
+    roots
+}

@@ -108,7 +108,10 @@ fn yaw_moment_matches_newton_euler() {
     let dm = 1000.0;
     let fd = (model.rhs4_with_yaw_moment(&x0, &u0, dm) - model.rhs4(&x0, &u0)) / dm;
     for i in 0..4 {
-        assert!((fd[i] - lin.b4_yaw_moment[i]).abs() <= 1e-12 * fd.norm(), "{i}");
+        assert!(
+            (fd[i] - lin.b4_yaw_moment[i]).abs() <= 1e-12 * fd.norm(),
+            "{i}"
+        );
     }
 }
 

@@ -42,6 +42,7 @@ registry! {
     chart_nonlinear => [TASK],
     corners => [TASK],
     gain_design => [TASK],
+    control_design => [TASK],
     simulate => [TASK],
     mitigation => [TASK],
     sweep => [TASK, BRAKE_TIMING, UNCERTAINTY, FLEET],

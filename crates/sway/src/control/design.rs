@@ -191,8 +191,9 @@ pub fn design(
         }
         Structure::YawRateHitch => {
             let start = one_gain(model, Structure::YawRate, actuator, tau, None, scale, o)?;
-            let (g, v, b, n) =
-                several_gains(model, structure, actuator, tau, prediction, &start.0, warm, o)?;
+            let (g, v, b, n) = several_gains(
+                model, structure, actuator, tau, prediction, &start.0, warm, o,
+            )?;
             (g, v, b, n + start.3)
         }
     };
@@ -211,7 +212,8 @@ pub fn design(
         v_crit_mps: v,
         speed_capped,
         bands,
-        at_double_hopf: second_pair.is_some_and(|[re, _]| re.abs() <= o.double_hopf_tolerance_per_s),
+        at_double_hopf: second_pair
+            .is_some_and(|[re, _]| re.abs() <= o.double_hopf_tolerance_per_s),
         second_pair,
         evaluations,
     })
@@ -289,7 +291,13 @@ impl MixedProblem for CriticalSpeedProblem<'_> {
 
     fn cost(&self, _choice: usize, x: &[f64]) -> Result<f64, SwayError> {
         let c = controller(self.structure, self.actuator, self.gains(x));
-        Ok(-v_crit(self.model, &c, self.tau, self.prediction, &self.search)?)
+        Ok(-v_crit(
+            self.model,
+            &c,
+            self.tau,
+            self.prediction,
+            &self.search,
+        )?)
     }
 }
 

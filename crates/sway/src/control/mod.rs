@@ -28,13 +28,15 @@
 
 mod design;
 pub mod predictor;
+mod study;
 #[cfg(test)]
 mod tests;
 
 pub use design::{
-    DelayBudget, Design, DesignSearch, GainBand, Robustness, VehicleUncertainty, delay_budget,
-    design, designs_over_delays, robust_critical_speed,
+    DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness, VehicleUncertainty,
+    delay_budget, design, designs_over_delays, robust_critical_speed,
 };
+pub use study::{CheckedDesign, Combination, ControlStudy, StudySettings, control_study};
 
 use nalgebra::{RowVector4, Vector4};
 use serde::{Deserialize, Serialize};
@@ -73,11 +75,7 @@ impl Structure {
     pub fn gain_names(&self) -> &'static [GainName] {
         match self {
             Self::YawRate | Self::Predictor => &[GainName::YawRate],
-            Self::YawRateHitch => &[
-                GainName::YawRate,
-                GainName::HitchAngle,
-                GainName::HitchRate,
-            ],
+            Self::YawRateHitch => &[GainName::YawRate, GainName::HitchAngle, GainName::HitchRate],
         }
     }
 }
@@ -289,15 +287,15 @@ impl LinearLoop {
                 RankOneFeedback::from_state_space(&lin.a4, &b, &k).map(|f| (f, 1.0, Vec::new()))
             }
             Structure::Predictor => {
-                let model_lin = prediction_model.map_or_else(|| lin.clone(), |m| m.linearize(speed));
+                let model_lin =
+                    prediction_model.map_or_else(|| lin.clone(), |m| m.linearize(speed));
                 let b_model = controller.actuator.input_column(&model_lin);
                 let k = model_lin.c4 * controller.gains.yaw_rate;
                 predictor::cleared_loop(&lin.a4, &b, &model_lin.a4, &b_model, &k, delay)
                     .map(|(f, spurious)| (f, 1.0, spurious))
             }
         };
-        let (feedback, gain, spurious) =
-            built.map_err(|e| SwayError::numerical(context(), e))?;
+        let (feedback, gain, spurious) = built.map_err(|e| SwayError::numerical(context(), e))?;
         Ok(Self {
             feedback,
             gain,
@@ -410,11 +408,7 @@ fn first_unstable(
                 if m <= a || m >= b {
                     break;
                 }
-                if unstable(m)? {
-                    b = m
-                } else {
-                    a = m
-                }
+                if unstable(m)? { b = m } else { a = m }
             }
             return Ok(Some(0.5 * (a + b)));
         }

@@ -40,7 +40,10 @@ fn yaw_rate_structure_is_the_papers_loop() {
             ..Controller::paper(d)
         };
         let v = critical_speed(&m, &hitch, tau, None, &s).unwrap().unwrap();
-        assert!((v - reference.unwrap()).abs() <= 2e-9, "{v} vs {reference:?}");
+        assert!(
+            (v - reference.unwrap()).abs() <= 2e-9,
+            "{v} vs {reference:?}"
+        );
     }
 }
 
@@ -86,7 +89,13 @@ impl DdeProblem<4> for NonlinearLoop<'_> {
         let t = self.model.slip_angle_tangents(x, &inputs);
         // below the floor a slip has no sign (as in the simulation's plant): round-off
         // sign flips near straight running are not kinks to land on
-        let signed = |t: f64| if t.abs() <= SLIP_TANGENT_FLOOR { 0.0 } else { t };
+        let signed = |t: f64| {
+            if t.abs() <= SLIP_TANGENT_FLOOR {
+                0.0
+            } else {
+                t
+            }
+        };
         g.copy_from_slice(&[signed(t.front), signed(t.rear), signed(t.trailer)]);
     }
     fn history(&self, _t: f64) -> SVector<f64, 4> {
@@ -115,7 +124,9 @@ fn simulated_growth_rate(p: &NonlinearLoop, horizon: f64) -> f64 {
         }
         Flow::Continue
     };
-    solver.integrate(p, horizon, &[], &mut observer).expect("integration");
+    solver
+        .integrate(p, horizon, &[], &mut observer)
+        .expect("integration");
     let peaks: Vec<(f64, f64)> = samples
         .windows(3)
         .filter(|w| w[1].1 > w[0].1 && w[1].1 >= w[2].1)
@@ -139,7 +150,13 @@ fn characteristic_equation_matches_the_growth_of_a_small_perturbation() {
     let scale = Actuator::DifferentialBraking.scale(&m);
     // (structure, actuator, gains, offset below V_crit [m/s], τ [s])
     let cases = [
-        (Structure::YawRate, Actuator::Steering, Gains::yaw_rate(0.1), 0.3, 0.2),
+        (
+            Structure::YawRate,
+            Actuator::Steering,
+            Gains::yaw_rate(0.1),
+            0.3,
+            0.2,
+        ),
         (
             Structure::YawRateHitch,
             Actuator::Steering,
@@ -230,7 +247,10 @@ fn predictor_with_a_perfect_model_has_the_delay_free_spectrum() {
                 .iter()
                 .min_by(|a, b| (*a - e).norm().total_cmp(&(*b - e).norm()))
                 .unwrap();
-            assert!((r - e).norm() <= 1e-8 * e.norm().max(1.0), "{r} vs {e} (V = {v})");
+            assert!(
+                (r - e).norm() <= 1e-8 * e.norm().max(1.0),
+                "{r} vs {e} (V = {v})"
+            );
         }
         assert!((roots[0] - expected[0]).norm() <= 1e-8 * expected[0].norm().max(1.0));
         let unstable = expected.iter().filter(|z| z.re > 0.0).count();
@@ -267,7 +287,11 @@ fn predictor_with_a_wrong_model_is_counted_consistently() {
         let l = LinearLoop::new(&m, &c, v, tau, Some(&wrong)).unwrap();
         let roots = l.rightmost_roots(6).unwrap();
         let by_roots = roots.iter().filter(|z| z.re > 0.0).count();
-        assert_eq!(l.unstable_root_count().unwrap(), by_roots, "V = {v}, τ = {tau}");
+        assert_eq!(
+            l.unstable_root_count().unwrap(),
+            by_roots,
+            "V = {v}, τ = {tau}"
+        );
     }
 }
 
@@ -285,7 +309,16 @@ fn one_gain_design_is_gain_design() {
         ..GainSearch::default()
     };
     let tau = 0.2;
-    let ours = design(&m, Structure::YawRate, Actuator::Steering, tau, None, None, &o).unwrap();
+    let ours = design(
+        &m,
+        Structure::YawRate,
+        Actuator::Steering,
+        tau,
+        None,
+        None,
+        &o,
+    )
+    .unwrap();
     let theirs = linear_optimum(&m, tau, &g).unwrap();
     assert_eq!(ours.gains.yaw_rate, theirs.d_opt_s);
     assert_eq!(ours.v_crit_mps, theirs.v_crit_max_mps);
@@ -308,9 +341,26 @@ fn hitch_sensor_design_beats_the_yaw_rate_design_and_is_confirmed_by_the_roots()
         ..DesignSearch::default()
     };
     let tau = 0.6;
-    let one = design(&m, Structure::YawRate, Actuator::Steering, tau, None, None, &o).unwrap();
-    let three =
-        design(&m, Structure::YawRateHitch, Actuator::Steering, tau, None, None, &o).unwrap();
+    let one = design(
+        &m,
+        Structure::YawRate,
+        Actuator::Steering,
+        tau,
+        None,
+        None,
+        &o,
+    )
+    .unwrap();
+    let three = design(
+        &m,
+        Structure::YawRateHitch,
+        Actuator::Steering,
+        tau,
+        None,
+        None,
+        &o,
+    )
+    .unwrap();
     assert!(three.v_crit_mps >= one.v_crit_mps, "{three:?} vs {one:?}");
     let c = Controller {
         structure: three.structure,

@@ -1,0 +1,634 @@
+//! `cargo xtask control_design` (issue 22, beyond the paper): which controller structure
+//! and which actuator keep straight running stable for which loop delay τ
+//! ([`sway::control`]): for `yaw_rate`, `yaw_rate_hitch` and `predictor` with front-wheel
+//! steering and with differential braking, the gains maximising the linear critical speed
+//! on a grid of delays, the delay budget of each, and at chosen delays the critical speed
+//! the optimum guarantees under vehicle uncertainty (5 % quantile) and, for the paper's
+//! structure, its fold-of-cycles speed.
+//!
+//! `summary.json`: `"designs"`, an array of `{"structure", "actuator", "tau_s", "gains",
+//! "v_crit_mps", "v_fold_mps", "v_crit_p05_mps", "at_double_hopf", …}` (the fold and the
+//! robust speed at the checked delays, null with a `…_reason` elsewhere), and
+//! `"delay_budget_s"`: `{"<structure>_<actuator>": seconds}`. `designs.csv` holds the
+//! same rows; `control_design.svg/.png` the figure.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use sway::bifurcation::chart::ChartOptions;
+use sway::config::{Grid, ensure, ensure_positive};
+use sway::control::{
+    Actuator, CheckedDesign, Combination, ControlStudy, Design, DesignSearch, Gains, SpeedSearch,
+    Structure, StudySettings, VehicleUncertainty, control_study,
+};
+use sway::sampling::{Distribution, Field, Method, Sampling};
+
+use super::{Prepared, Report, Task, TaskContext};
+use crate::TaskError;
+use crate::config_file::{Configured, TaskConfig, check_delays};
+use crate::io::OutputDir;
+use crate::limits::{Plan, human_seconds};
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
+
+/// The task.
+pub const TASK: Task = Task::configured::<ControlDesignConfig>(
+    "control_design",
+    "sway control for longer delays: best gains of each controller structure × actuator per τ, delay budgets, robust V_crit",
+    "control_design.toml",
+);
+
+fn default_delays() -> Grid {
+    Grid {
+        min: 0.0,
+        max: 2.0,
+        points: 21,
+    }
+}
+
+fn default_checked() -> Vec<f64> {
+    vec![0.4, 0.6, 0.8]
+}
+
+fn uniform(key: &str, min: f64, max: f64) -> Field {
+    Field {
+        key: key.into(),
+        distribution: Distribution::Uniform,
+        min,
+        max,
+        mean: None,
+        sd: None,
+    }
+}
+
+/// `study_uncertainty`'s vehicle uncertainty (h and l to ±0.05 m about Table I) and the
+/// predictor's model off by ±10 % in trailer mass, yaw inertia and centre of gravity.
+fn default_uncertainty() -> VehicleUncertainty {
+    VehicleUncertainty {
+        vehicle: Sampling {
+            method: Method::LatinHypercube,
+            samples: 100,
+            seed: 2026,
+            fields: vec![
+                uniform("trailer.cog", 2.85, 2.95),
+                uniform("trailer.axle", 2.75, 2.85),
+            ],
+        },
+        prediction_model: Some(Sampling {
+            method: Method::LatinHypercube,
+            samples: 100,
+            seed: 2027,
+            fields: vec![
+                uniform("trailer.mass", 0.9, 1.1),
+                uniform("trailer.yaw_inertia", 0.9, 1.1),
+                uniform("trailer.cog", 0.9, 1.1),
+            ],
+        }),
+    }
+}
+
+/// The delay budget's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BudgetConfig {
+    /// the required rise of the critical speed over the open loop (0.1: 10 %)
+    pub rise_fraction: f64,
+    /// bisection tolerance in τ \[s\]
+    pub tau_tolerance_s: f64,
+}
+
+impl Default for BudgetConfig {
+    fn default() -> Self {
+        Self {
+            rise_fraction: 0.1,
+            tau_tolerance_s: 1e-3,
+        }
+    }
+}
+
+fn default_robustness_speed() -> SpeedSearch {
+    SpeedSearch {
+        samples: 50,
+        tolerance_mps: 1e-4,
+        ..SpeedSearch::default()
+    }
+}
+
+/// The robustness checks' settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobustnessConfig {
+    /// the delays whose optima are checked \[s\] (snapped to the nearest grid delay)
+    #[serde(default = "default_checked")]
+    pub delays_s: Vec<f64>,
+    /// the critical-speed search of each uncertainty sample
+    #[serde(default = "default_robustness_speed")]
+    pub speed: SpeedSearch,
+    /// the sampled uncertainty
+    #[serde(default = "default_uncertainty")]
+    pub uncertainty: VehicleUncertainty,
+}
+
+impl Default for RobustnessConfig {
+    fn default() -> Self {
+        Self {
+            delays_s: default_checked(),
+            speed: default_robustness_speed(),
+            uncertainty: default_uncertainty(),
+        }
+    }
+}
+
+fn default_structures() -> Vec<Structure> {
+    Structure::ALL.to_vec()
+}
+
+fn default_actuators() -> Vec<Actuator> {
+    Actuator::ALL.to_vec()
+}
+
+fn default_fold_chart() -> ChartOptions {
+    super::gain_design::default_chart()
+}
+
+/// `configs/control_design.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlDesignConfig {
+    /// the delays τ \[s\]
+    #[serde(default = "default_delays")]
+    pub delays_s: Grid,
+    /// the controller structures
+    #[serde(default = "default_structures")]
+    pub structures: Vec<Structure>,
+    /// the actuators
+    #[serde(default = "default_actuators")]
+    pub actuators: Vec<Actuator>,
+    /// the track width w \[m\] of the tow vehicle (the braking limit M_max = μ0·(F_zF +
+    /// F_zR)·w/4 reported beside the designs)
+    #[serde(default = "default_track_width")]
+    pub track_width_m: f64,
+    /// the search of the best gains at one delay
+    #[serde(default)]
+    pub search: DesignSearch,
+    /// the delay budget
+    #[serde(default)]
+    pub budget: BudgetConfig,
+    /// the robustness checks
+    #[serde(default)]
+    pub robustness: RobustnessConfig,
+    /// the fold-of-cycles computation of the paper's structure at the checked delays
+    #[serde(default = "default_fold_chart")]
+    pub fold: ChartOptions,
+}
+
+fn default_track_width() -> f64 {
+    1.6
+}
+
+impl TaskConfig for ControlDesignConfig {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
+        ensure(self.delays_s.min >= 0.0, file, "delays_s.min", || {
+            format!("expected a delay ≥ 0 s, got {}", self.delays_s.min)
+        })?;
+        ensure(!self.structures.is_empty(), file, "structures", || {
+            "expected at least one structure".into()
+        })?;
+        ensure(!self.actuators.is_empty(), file, "actuators", || {
+            "expected at least one actuator".into()
+        })?;
+        ensure_positive(self.track_width_m, file, "track_width_m", "a width > 0 m")?;
+        check_speed_search(&self.search.speed, file, "search.speed")?;
+        check_speed_search(&self.robustness.speed, file, "robustness.speed")?;
+        let s = &self.search;
+        ensure(s.gain_samples >= 3, file, "search.gain_samples", || {
+            format!("expected at least 3 gains, got {}", s.gain_samples)
+        })?;
+        ensure_positive(s.gain_tolerance, file, "search.gain_tolerance", "a tolerance > 0")?;
+        ensure_positive(
+            s.search_tolerance_mps,
+            file,
+            "search.search_tolerance_mps",
+            "a tolerance > 0 m/s",
+        )?;
+        ensure(
+            s.band_fraction > 0.0 && s.band_fraction < 1.0,
+            file,
+            "search.band_fraction",
+            || format!("expected a fraction in (0, 1), got {}", s.band_fraction),
+        )?;
+        for (name, b) in [
+            ("yaw_rate", s.bounds.yaw_rate),
+            ("hitch_angle", s.bounds.hitch_angle),
+            ("hitch_rate", s.bounds.hitch_rate),
+        ] {
+            ensure(b.is_valid(), file, &format!("search.bounds.{name}"), || {
+                format!("expected finite lo ≤ hi, got [{}, {}]", b.lo, b.hi)
+            })?;
+        }
+        s.optimiser
+            .validate()
+            .map_err(|(key, problem)| TaskError::config(file, &format!("search.optimiser.{key}"), problem))?;
+        ensure_positive(self.budget.rise_fraction, file, "budget.rise_fraction", "a fraction > 0")?;
+        ensure_positive(
+            self.budget.tau_tolerance_s,
+            file,
+            "budget.tau_tolerance_s",
+            "a tolerance > 0 s",
+        )?;
+        check_delays(file, "robustness.delays_s", &self.robustness.delays_s)?;
+        let u = &self.robustness.uncertainty;
+        u.vehicle.validate().map_err(|(key, problem)| {
+            TaskError::config(file, &format!("robustness.uncertainty.vehicle.{key}"), problem)
+        })?;
+        if let Some(p) = &u.prediction_model {
+            p.validate().map_err(|(key, problem)| {
+                TaskError::config(
+                    file,
+                    &format!("robustness.uncertainty.prediction_model.{key}"),
+                    problem,
+                )
+            })?;
+        }
+        for (i, f) in u
+            .vehicle
+            .fields
+            .iter()
+            .chain(u.prediction_model.iter().flat_map(|p| &p.fields))
+            .enumerate()
+        {
+            ensure(
+                trailer_model::PARAMETERS.iter().any(|(k, _, _)| *k == f.key),
+                file,
+                &format!("robustness.uncertainty fields[{i}].key"),
+                || format!("`{}` is not a vehicle field", f.key),
+            )?;
+        }
+        Ok(())
+    }
+}
+
+fn check_speed_search(s: &SpeedSearch, file: &Path, key: &str) -> Result<(), TaskError> {
+    ensure(
+        s.v_min_mps > 0.0 && s.v_max_mps > s.v_min_mps && s.v_max_mps.is_finite(),
+        file,
+        &format!("{key}.v_min_mps"),
+        || format!("expected 0 < v_min < v_max, got [{}, {}]", s.v_min_mps, s.v_max_mps),
+    )?;
+    ensure(s.samples >= 2, file, &format!("{key}.samples"), || {
+        format!("expected at least 2 speeds, got {}", s.samples)
+    })?;
+    ensure_positive(s.tolerance_mps, file, &format!("{key}.tolerance_mps"), "a tolerance > 0 m/s")?;
+    Ok(())
+}
+
+impl ControlDesignConfig {
+    fn settings(&self) -> StudySettings {
+        StudySettings {
+            delays_s: self.delays_s.values(),
+            structures: self.structures.clone(),
+            actuators: self.actuators.clone(),
+            search: self.search.clone(),
+            budget_rise_fraction: self.budget.rise_fraction,
+            budget_tau_tolerance_s: self.budget.tau_tolerance_s,
+            checked_delays_s: self.robustness.delays_s.clone(),
+            uncertainty: self.robustness.uncertainty.clone(),
+            robustness_speed: self.robustness.speed,
+            fold: self.fold.clone(),
+        }
+    }
+}
+
+/// One entry of `summary.json`'s `"designs"` (and a row of `designs.csv`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct DesignEntry {
+    structure: &'static str,
+    actuator: &'static str,
+    tau_s: f64,
+    gains: Gains,
+    v_crit_mps: f64,
+    speed_capped: bool,
+    v_fold_mps: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    v_fold_reason: Option<String>,
+    v_crit_p05_mps: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    v_crit_p05_reason: Option<String>,
+    at_double_hopf: bool,
+    second_pair_re_per_s: Option<f64>,
+    second_pair_omega_rad_s: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+struct DesignRow {
+    structure: String,
+    actuator: String,
+    tau_s: f64,
+    gain_yaw_rate: f64,
+    gain_hitch_angle: f64,
+    gain_hitch_rate: f64,
+    v_crit_mps: f64,
+    speed_capped: bool,
+    v_fold_mps: Option<f64>,
+    v_crit_p05_mps: Option<f64>,
+    at_double_hopf: bool,
+}
+
+fn entry(c: &Combination, d: &Design) -> DesignEntry {
+    let checked: Option<&CheckedDesign> = c.checked.iter().find(|k| k.tau_s == d.tau_s);
+    let not_checked = || Some("not a checked delay (robustness.delays_s)".to_string());
+    DesignEntry {
+        structure: d.structure.as_str(),
+        actuator: d.actuator.as_str(),
+        tau_s: d.tau_s,
+        gains: d.gains,
+        v_crit_mps: d.v_crit_mps,
+        speed_capped: d.speed_capped,
+        v_fold_mps: checked.and_then(|k| k.v_fold_mps),
+        v_fold_reason: match checked {
+            Some(k) => k.v_fold_reason.clone(),
+            None => not_checked(),
+        },
+        v_crit_p05_mps: checked.and_then(|k| k.robustness.v_crit_p05_mps),
+        v_crit_p05_reason: match checked {
+            Some(k) if k.robustness.v_crit_p05_mps.is_none() => {
+                Some("every uncertainty sample failed".into())
+            }
+            Some(_) => None,
+            None => not_checked(),
+        },
+        at_double_hopf: d.at_double_hopf,
+        second_pair_re_per_s: d.second_pair.map(|p| p[0]),
+        second_pair_omega_rad_s: d.second_pair.map(|p| p[1]),
+    }
+}
+
+fn key(c: &Combination) -> String {
+    format!("{}_{}", c.structure.as_str(), c.actuator.as_str())
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct Summary {
+    designs: Vec<DesignEntry>,
+    delay_budget_s: BTreeMap<String, Option<f64>>,
+    delay_budget_at_grid_end: BTreeMap<String, bool>,
+    budget_rise_fraction: f64,
+    open_loop_v_crit_mps: f64,
+    yaw_moment_limit_nm: Option<f64>,
+    track_width_m: f64,
+    checked_delays_s: Vec<f64>,
+}
+
+fn color(s: Structure) -> Rgb {
+    match s {
+        Structure::YawRate => Rgb::palette(0),
+        Structure::YawRateHitch => Rgb::palette(1),
+        Structure::Predictor => Rgb::palette(2),
+    }
+}
+
+fn stroke(a: Actuator) -> Stroke {
+    match a {
+        Actuator::Steering => Stroke::Solid,
+        Actuator::DifferentialBraking => Stroke::Dashed,
+    }
+}
+
+fn figure(r: &ControlStudy, cfg: &ControlDesignConfig) -> Figure {
+    let (t0, t1) = (cfg.delays_s.min, cfg.delays_s.max);
+    let v_open = r.open_loop_v_crit_mps;
+    let mut best = Panel::new(
+        "Best linear critical speed per delay (solid: steering, dashed: differential braking)",
+        "loop delay τ [s]",
+        "V_crit,max [m/s]",
+    )
+    .legend(Legend::UpperRight);
+    let mut robust = Panel::new(
+        "What the optimum guarantees at the checked delays",
+        "loop delay τ [s]",
+        "speed [m/s]",
+    )
+    .legend(Legend::UpperRight);
+    for c in &r.combinations {
+        let label = format!("{} + {}", c.structure.as_str(), c.actuator.as_str());
+        let pts: Vec<(f64, f64)> = c.designs.iter().map(|d| (d.tau_s, d.v_crit_mps)).collect();
+        best = best.with(Layer::line(
+            pts,
+            color(c.structure),
+            stroke(c.actuator),
+            Some(&label),
+        ));
+        let p05: Vec<(f64, f64)> = c
+            .checked
+            .iter()
+            .filter_map(|k| k.robustness.v_crit_p05_mps.map(|v| (k.tau_s, v)))
+            .collect();
+        if !p05.is_empty() {
+            robust = robust.with(Layer::line(
+                p05,
+                color(c.structure),
+                stroke(c.actuator),
+                Some(&format!("{label}: 5 % V_crit")),
+            ));
+        }
+        let fold: Vec<(f64, f64)> = c
+            .checked
+            .iter()
+            .filter_map(|k| k.v_fold_mps.map(|v| (k.tau_s, v)))
+            .collect();
+        if !fold.is_empty() {
+            robust = robust.with(Layer::markers(
+                fold,
+                color(c.structure),
+                Some(&format!("{label}: V_fold")),
+            ));
+        }
+    }
+    let reference = |p: Panel| {
+        p.with(Layer::line(
+            vec![(t0, v_open), (t1, v_open)],
+            Rgb(0, 0, 0),
+            Stroke::Dotted,
+            Some("open loop V_crit"),
+        ))
+        .with(Layer::line(
+            vec![(t0, 1.1 * v_open), (t1, 1.1 * v_open)],
+            Rgb(120, 120, 120),
+            Stroke::Dotted,
+            Some("1.1 × open loop"),
+        ))
+        .x_range(t0, t1)
+    };
+    Figure::column(vec![reference(best), reference(robust)])
+        .titled("Sway control for longer delays: controller structures × actuators")
+}
+
+/// Critical speeds per second on one core (release): ≈ 2.5 ms each.
+const SECONDS_PER_CRITICAL_SPEED: f64 = 2.5e-3;
+
+impl Prepared for Configured<ControlDesignConfig> {
+    fn plan(&self) -> Result<Plan, TaskError> {
+        let c = &self.config;
+        let pairs = (c.structures.len() * c.actuators.len()) as f64;
+        let per_design = c.search.gain_samples as f64
+            + 60.0
+            + (c.search.optimiser.random_starts as f64 + 2.0) * 120.0;
+        let designs = pairs * c.delays_s.points as f64 * per_design;
+        let robust = pairs
+            * c.robustness.delays_s.len() as f64
+            * c.robustness.uncertainty.vehicle.samples as f64
+            * 0.5;
+        let time = (designs + robust) * SECONDS_PER_CRITICAL_SPEED / 2.0;
+        Ok(Plan::new(
+            vec![
+                format!(
+                    "control_design: {} structures × {} actuators × {} delays",
+                    c.structures.len(),
+                    c.actuators.len(),
+                    c.delays_s.points
+                ),
+                format!("estimated time on 2 cores: at most {}", human_seconds(time)),
+            ],
+            pairs * c.delays_s.points as f64 * 4000.0,
+            time,
+        ))
+    }
+
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
+        let cfg = &self.config;
+        let steps = (cfg.structures.len() * cfg.actuators.len()) as u64;
+        ctx.run_staged(
+            TASK.name,
+            "control_design: structure × actuator",
+            steps,
+            cfg,
+            &self.file,
+            |out: &OutputDir| {
+                let r = control_study(&ctx.model, &ctx.vehicle, &cfg.settings(), ctx.progress)?;
+                let entries: Vec<DesignEntry> = r
+                    .combinations
+                    .iter()
+                    .flat_map(|c| c.designs.iter().map(move |d| entry(c, d)))
+                    .collect();
+                out.write_table(
+                    "designs.csv",
+                    entries.iter().map(|e| DesignRow {
+                        structure: e.structure.into(),
+                        actuator: e.actuator.into(),
+                        tau_s: e.tau_s,
+                        gain_yaw_rate: e.gains.yaw_rate,
+                        gain_hitch_angle: e.gains.hitch_angle,
+                        gain_hitch_rate: e.gains.hitch_rate,
+                        v_crit_mps: e.v_crit_mps,
+                        speed_capped: e.speed_capped,
+                        v_fold_mps: e.v_fold_mps,
+                        v_crit_p05_mps: e.v_crit_p05_mps,
+                        at_double_hopf: e.at_double_hopf,
+                    }),
+                )?;
+                figure(&r, cfg).render(&out.path("control_design"))?;
+                let lines = headlines(&r, &entries);
+                let summary = Summary {
+                    delay_budget_s: r
+                        .combinations
+                        .iter()
+                        .map(|c| (key(c), c.budget.tau_s))
+                        .collect(),
+                    delay_budget_at_grid_end: r
+                        .combinations
+                        .iter()
+                        .map(|c| (key(c), c.budget.at_grid_end))
+                        .collect(),
+                    designs: entries,
+                    budget_rise_fraction: cfg.budget.rise_fraction,
+                    open_loop_v_crit_mps: r.open_loop_v_crit_mps,
+                    yaw_moment_limit_nm: Actuator::DifferentialBraking
+                        .limit(&ctx.model, cfg.track_width_m),
+                    track_width_m: cfg.track_width_m,
+                    checked_delays_s: cfg.robustness.delays_s.clone(),
+                };
+                Ok((summary, lines))
+            },
+        )
+    }
+}
+
+fn headlines(r: &ControlStudy, entries: &[DesignEntry]) -> Vec<String> {
+    let mut lines = vec![format!(
+        "open-loop V_crit = {:.3} m/s; delay budget = largest τ with V_crit,max ≥ 1.1 × it",
+        r.open_loop_v_crit_mps
+    )];
+    for c in &r.combinations {
+        let budget = match (c.budget.tau_s, c.budget.at_grid_end) {
+            (Some(t), false) => format!("{t:.3} s"),
+            (Some(t), true) => format!("≥ {t:.3} s (grid end)"),
+            (None, _) => "none (not even at the first delay)".into(),
+        };
+        lines.push(format!("{}: delay budget {budget}", key(c)));
+    }
+    for e in entries.iter().filter(|e| e.v_crit_p05_mps.is_some()) {
+        lines.push(format!(
+            "τ = {:.2} s, {} + {}: V_crit = {:.2} m/s, robust (5 %) {:.2} m/s{}{}",
+            e.tau_s,
+            e.structure,
+            e.actuator,
+            e.v_crit_mps,
+            e.v_crit_p05_mps.unwrap_or(f64::NAN),
+            e.v_fold_mps
+                .map(|v| format!(", V_fold {v:.2} m/s"))
+                .unwrap_or_default(),
+            if e.at_double_hopf { " (double-Hopf corner)" } else { "" }
+        ));
+    }
+    lines
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config_file::parse_toml;
+    use std::path::PathBuf;
+
+    fn shipped() -> (PathBuf, String) {
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/control_design.toml");
+        let text = std::fs::read_to_string(&file).expect("shipped config");
+        (file, text)
+    }
+
+    #[test]
+    fn shipped_config_is_valid_and_as_the_issue_asks() {
+        // reference: issue 22 — τ ∈ [0, 2] s, every structure × actuator, the table delays
+        // 0.4 / 0.6 / 0.8 s, a 10 % budget, study_uncertainty's h and l ranges
+        let (file, text) = shipped();
+        let cfg: ControlDesignConfig = parse_toml(&text, &file).unwrap();
+        cfg.check(&file).unwrap();
+        assert_eq!((cfg.delays_s.min, cfg.delays_s.max), (0.0, 2.0));
+        assert_eq!(cfg.structures, Structure::ALL.to_vec());
+        assert_eq!(cfg.actuators, Actuator::ALL.to_vec());
+        assert_eq!(cfg.robustness.delays_s, vec![0.4, 0.6, 0.8]);
+        assert_eq!(cfg.budget.rise_fraction, 0.1);
+        assert_eq!(cfg.robustness.uncertainty, default_uncertainty());
+    }
+
+    #[test]
+    fn bad_values_name_the_file_and_their_key() {
+        let (file, text) = shipped();
+        for (from, to, key) in [
+            ("track_width_m = 1.6", "track_width_m = -1.6", "track_width_m"),
+            ("band_fraction = 0.01", "band_fraction = 1.5", "search.band_fraction"),
+            ("hitch_angle = { lo = -1.0, hi = 1.0 }", "hitch_angle = { lo = 1.0, hi = -1.0 }", "search.bounds.hitch_angle"),
+            ("rise_fraction = 0.1", "rise_fraction = 0", "budget.rise_fraction"),
+            ("key = \"trailer.mass\"", "key = \"trailer.colour\"", "fields[2].key"),
+            ("samples = 50", "samples = 1", "robustness.speed.samples"),
+        ] {
+            assert!(text.contains(from), "{from}");
+            let cfg: ControlDesignConfig = parse_toml(&text.replacen(from, to, 1), &file).unwrap();
+            let e = cfg.check(&file).unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains("control_design.toml"), "{key}: {e}");
+        }
+        let e = parse_toml::<ControlDesignConfig>(&text.replace("structures = [\"yaw_rate\"", "structures = [\"yaw_rat\""), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("structures") && e.contains("control_design.toml"), "{e}");
+    }
+}

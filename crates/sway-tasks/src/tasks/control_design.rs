@@ -42,7 +42,7 @@ fn default_delays() -> Grid {
     Grid {
         min: 0.0,
         max: 2.0,
-        points: 21,
+        points: 11,
     }
 }
 
@@ -317,6 +317,8 @@ struct DesignEntry {
     at_double_hopf: bool,
     second_pair_re_per_s: Option<f64>,
     second_pair_omega_rad_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    second_pair_reason: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Default)]
@@ -360,6 +362,7 @@ fn entry(c: &Combination, d: &Design) -> DesignEntry {
         at_double_hopf: d.at_double_hopf,
         second_pair_re_per_s: d.second_pair.map(|p| p[0]),
         second_pair_omega_rad_s: d.second_pair.map(|p| p[1]),
+        second_pair_reason: d.second_pair_note.clone(),
     }
 }
 
@@ -372,6 +375,7 @@ struct Summary {
     designs: Vec<DesignEntry>,
     delay_budget_s: BTreeMap<String, Option<f64>>,
     delay_budget_at_grid_end: BTreeMap<String, bool>,
+    delay_budget_later_windows_s: BTreeMap<String, Vec<f64>>,
     budget_rise_fraction: f64,
     open_loop_v_crit_mps: f64,
     yaw_moment_limit_nm: Option<f64>,
@@ -539,6 +543,11 @@ impl Prepared for Configured<ControlDesignConfig> {
                         .iter()
                         .map(|c| (key(c), c.budget.at_grid_end))
                         .collect(),
+                    delay_budget_later_windows_s: r
+                        .combinations
+                        .iter()
+                        .map(|c| (key(c), c.budget.later_windows_s.clone()))
+                        .collect(),
                     designs: entries,
                     budget_rise_fraction: cfg.budget.rise_fraction,
                     open_loop_v_crit_mps: r.open_loop_v_crit_mps,
@@ -564,7 +573,15 @@ fn headlines(r: &ControlStudy, entries: &[DesignEntry]) -> Vec<String> {
             (Some(t), true) => format!("≥ {t:.3} s (grid end)"),
             (None, _) => "none (not even at the first delay)".into(),
         };
-        lines.push(format!("{}: delay budget {budget}", key(c)));
+        let later = if c.budget.later_windows_s.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; reached again at τ = {:?} s (back in phase with the sway)",
+                c.budget.later_windows_s
+            )
+        };
+        lines.push(format!("{}: delay budget {budget}{later}", key(c)));
     }
     for e in entries.iter().filter(|e| e.v_crit_p05_mps.is_some()) {
         lines.push(format!(

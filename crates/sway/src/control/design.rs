@@ -101,8 +101,8 @@ impl Default for DesignSearch {
             max_iterations: 200,
             optimiser: OptimiserSettings {
                 seed: 22,
-                random_starts: 2,
-                max_iters: 150,
+                random_starts: 1,
+                max_iters: 100,
                 sd_tolerance: 1e-6,
                 initial_step: 0.3,
             },
@@ -146,6 +146,8 @@ pub struct Design {
     /// the real part \[1/s\] and frequency \[rad/s\] of the rightmost root pair other than the
     /// critical one at V_crit (None where capped or no other pair was found)
     pub second_pair: Option<[f64; 2]>,
+    /// why `second_pair` is None, where it is
+    pub second_pair_note: Option<String>,
     /// critical speeds evaluated
     pub evaluations: usize,
 }
@@ -199,10 +201,23 @@ pub fn design(
     };
     let c = controller(structure, actuator, gains);
     let speed_capped = v >= o.speed.v_max_mps;
-    let second_pair = if speed_capped {
-        None
+    // the rightmost roots at V_crit: a second critical pair marks a double-Hopf corner; where
+    // the roots cannot be confirmed (the predictor's cleared quasi-polynomial of degree 2n is
+    // ill-conditioned for the spectral seeds) the design stands, with the reason
+    let (second_pair, second_pair_note) = if speed_capped {
+        (
+            None,
+            Some("stable up to the top of the speed range".to_string()),
+        )
     } else {
-        second_pair(model, &c, tau, prediction, v)?
+        match second_pair(model, &c, tau, prediction, v) {
+            Ok(Some(p)) => (Some(p), None),
+            Ok(None) => (
+                None,
+                Some("no second root pair among the six rightmost".into()),
+            ),
+            Err(e) => (None, Some(format!("rightmost roots not confirmed: {e}"))),
+        }
     };
     Ok(Design {
         structure,
@@ -215,6 +230,7 @@ pub fn design(
         at_double_hopf: second_pair
             .is_some_and(|[re, _]| re.abs() <= o.double_hopf_tolerance_per_s),
         second_pair,
+        second_pair_note,
         evaluations,
     })
 }
@@ -416,7 +432,7 @@ pub fn designs_over_delays(
 }
 
 /// The delay budget of one structure and actuator.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DelayBudget {
     /// the largest delay at which the best gains still raise the critical speed by
     /// `gain_fraction` over the open loop \[s\] (None: not even at the first delay)
@@ -427,10 +443,13 @@ pub struct DelayBudget {
     pub open_loop_v_crit_mps: f64,
     /// the budget is the last delay of the grid (the true budget may be larger)
     pub at_grid_end: bool,
+    /// grid delays beyond the budget at which the rise is reached again (delays near a
+    /// multiple of the sway period put the delayed feedback back in phase) \[s\]
+    pub later_windows_s: Vec<f64>,
 }
 
-/// The delay budget from the designs of an increasing τ grid: the last grid delay whose
-/// optimum reaches (1 + `fraction`)·`v_open`, refined by bisection in τ (a [`design`] per
+/// The delay budget from the designs of an increasing τ grid: the last grid delay of the
+/// run from the first one whose optima all reach (1 + `fraction`)·`v_open`, refined by bisection in τ (a [`design`] per
 /// step, warm-started from that grid delay's gains) to `tau_tolerance` \[s\].
 ///
 /// # Errors
@@ -450,9 +469,24 @@ pub fn delay_budget(
         gain_fraction: fraction,
         open_loop_v_crit_mps: v_open,
         at_grid_end: false,
+        later_windows_s: Vec::new(),
     };
-    let Some(j) = designs.iter().rposition(|d| d.v_crit_mps >= thr) else {
-        return Ok(budget);
+    let ok = |d: &Design| d.v_crit_mps >= thr;
+    // the budget is connected to τ = 0: beyond the first delay that fails, a delay near a
+    // multiple of the sway period can work again (the delayed feedback is back in phase);
+    // those grid delays are listed, not counted
+    budget.later_windows_s = match designs.iter().position(|d| !ok(d)) {
+        Some(f) => designs[f..]
+            .iter()
+            .filter(|d| ok(d))
+            .map(|d| d.tau_s)
+            .collect(),
+        None => Vec::new(),
+    };
+    let j = match designs.iter().position(|d| !ok(d)) {
+        Some(0) => return Ok(budget),
+        Some(f) => f - 1,
+        None => designs.len() - 1,
     };
     if j + 1 == designs.len() {
         budget.tau_s = Some(designs[j].tau_s);

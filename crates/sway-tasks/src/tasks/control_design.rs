@@ -228,7 +228,7 @@ impl TaskConfig for ControlDesignConfig {
         }
         s.optimiser
             .validate()
-            .map_err(|(key, problem)| TaskError::config(file, &format!("search.optimiser.{key}"), problem))?;
+            .map_err(|(key, problem)| TaskError::config(file, format!("search.optimiser.{key}"), problem))?;
         ensure_positive(self.budget.rise_fraction, file, "budget.rise_fraction", "a fraction > 0")?;
         ensure_positive(
             self.budget.tau_tolerance_s,
@@ -239,13 +239,13 @@ impl TaskConfig for ControlDesignConfig {
         check_delays(file, "robustness.delays_s", &self.robustness.delays_s)?;
         let u = &self.robustness.uncertainty;
         u.vehicle.validate().map_err(|(key, problem)| {
-            TaskError::config(file, &format!("robustness.uncertainty.vehicle.{key}"), problem)
+            TaskError::config(file, format!("robustness.uncertainty.vehicle.{key}"), problem)
         })?;
         if let Some(p) = &u.prediction_model {
             p.validate().map_err(|(key, problem)| {
                 TaskError::config(
                     file,
-                    &format!("robustness.uncertainty.prediction_model.{key}"),
+                    format!("robustness.uncertainty.prediction_model.{key}"),
                     problem,
                 )
             })?;

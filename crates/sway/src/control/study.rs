@@ -83,8 +83,8 @@ pub struct ControlStudy {
 /// not depend on the number of threads), one progress step per combination.
 ///
 /// # Errors
-/// [`SwayError::Numerical`]; [`SwayError::NoCriticalSpeed`]-like numerical errors when the
-/// open loop has no critical speed in the search range (then nothing is to be raised).
+/// [`SwayError::Numerical`], also when the open loop has no critical speed in the search range
+/// (then nothing is to be raised).
 pub fn control_study(
     model: &Model,
     nominal: &VehicleParams,

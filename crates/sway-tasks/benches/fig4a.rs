@@ -1,5 +1,6 @@
 //! The whole default Fig. 4(a) computation (configs/fig4a.toml: 4 delays, 300 × 200 cells each,
-//! boundaries and headline numbers; no file output), and the rightmost roots at one point.
+//! boundaries and headline numbers; no file output), the derivation of its omitted axes from
+//! the vehicle alone (issue 20), and the rightmost roots at one point.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -16,10 +17,14 @@ fn config() -> Fig4aConfig {
 fn fig4a(c: &mut Criterion) {
     let model = Model::new(VehicleParams::default()).unwrap();
     let cfg = config();
+    let bounds = sway::charts::auto_range::SpeedBounds::default();
     let mut g = c.benchmark_group("fig4a");
     g.sample_size(10);
+    g.bench_function("derive_ranges", |b| {
+        b.iter(|| sway::charts::fig4a::resolve(black_box(&model), &cfg, &bounds).unwrap())
+    });
     g.bench_function("default_config", |b| {
-        b.iter(|| compute(black_box(&model), &cfg).unwrap())
+        b.iter(|| compute(black_box(&model), &cfg, &bounds).unwrap())
     });
     g.finish();
     let mut g = c.benchmark_group("roots_point");

@@ -33,7 +33,8 @@ use rayon::prelude::*;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use sway::progress::Progress;
-use sway::sim::sweep::{PointResult, Sweep, SweepConfig};
+use sway::ranging::SpeedSpec;
+use sway::sim::sweep::{PointResult, SweepConfig};
 use trailer_model::{Model, VehicleParams};
 
 use crate::config_file::{TaskConfig, load_toml};
@@ -330,27 +331,27 @@ pub trait PointwiseTask {
 }
 
 /// The sweep (`cargo xtask sweep`, `brake_timing`, the studies): one evaluation per point
-/// of [`Sweep`] (grid × samples, then threshold and reference points).
+/// of [`sway::sim::sweep::Sweep`] (grid × samples, then threshold and reference points).
 #[derive(Debug, Clone, Copy)]
 pub struct SweepPoints;
 
 impl PointwiseTask for SweepPoints {
     const KIND: &'static str = "sweep";
-    type Config = SweepConfig;
+    type Config = SweepConfig<SpeedSpec>;
     type Point = PointResult;
-    type Points = Sweep;
+    type Points = crate::tasks::sweep::SweepRun;
 
-    fn load(file: &Path) -> Result<SweepConfig, TaskError> {
-        let config: SweepConfig = load_toml(file)?;
+    fn load(file: &Path) -> Result<SweepConfig<SpeedSpec>, TaskError> {
+        let config: SweepConfig<SpeedSpec> = load_toml(file)?;
         config.check(file)?;
         Ok(config)
     }
-    fn name(config: &SweepConfig) -> &str {
+    fn name(config: &SweepConfig<SpeedSpec>) -> &str {
         &config.name
     }
     fn fleet(
         _ctx: &TaskContext<'_>,
-        config: &SweepConfig,
+        config: &SweepConfig<SpeedSpec>,
         file: &Path,
     ) -> Result<Vec<VehicleParams>, TaskError> {
         crate::tasks::sweep::fleet_paths(config, file)
@@ -360,25 +361,26 @@ impl PointwiseTask for SweepPoints {
     }
     fn prepare(
         ctx: &TaskContext<'_>,
-        config: &SweepConfig,
+        config: &SweepConfig<SpeedSpec>,
         file: &Path,
-    ) -> Result<Sweep, TaskError> {
-        crate::tasks::sweep::prepare_sweep(ctx, config, file)
+    ) -> Result<crate::tasks::sweep::SweepRun, TaskError> {
+        crate::tasks::sweep::prepare_run(ctx, config, file)
     }
-    fn len(points: &Sweep) -> usize {
+    fn len(points: &crate::tasks::sweep::SweepRun) -> usize {
         points.len()
     }
-    fn run_point(points: &Sweep, k: usize) -> PointResult {
+    fn run_point(points: &crate::tasks::sweep::SweepRun, k: usize) -> PointResult {
         points.run_point(k)
     }
     fn write_outputs(
         ctx: &TaskContext<'_>,
         out: OutputDir,
         config_file: &Path,
-        config: &SweepConfig,
+        config: &SweepConfig<SpeedSpec>,
         points: &[PointResult],
     ) -> Result<Report, TaskError> {
-        crate::tasks::sweep::write_sweep_outputs(ctx, config, config_file, points, out)
+        let resolution = crate::tasks::sweep::resolve(ctx, config)?;
+        crate::tasks::sweep::write_sweep_outputs(ctx, config, &resolution, config_file, points, out)
     }
 }
 
@@ -1114,12 +1116,12 @@ mod tests {
         // reference: FNV-1a 64 test vectors (the published offset basis and "a")
         assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
         assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
-        let cfg: SweepConfig = toml::from_str(
+        let cfg: SweepConfig<SpeedSpec> = toml::from_str(
             "name = \"h\"\n[[axes]]\nparameter = \"speed_mps\"\nmin = 30.0\nmax = 34.0\npoints = 3\n[base]\nspeed = { kind = \"constant\", speed_mps = 33.0 }\ncontroller = { kind = \"none\" }\ninitial = { kind = \"state\", theta0_deg = 5.0 }\n",
         )
         .expect("parses");
         let v = VehicleParams::default();
-        let hash = |c: &SweepConfig, v: &VehicleParams, fleet: &[VehicleParams]| {
+        let hash = |c: &SweepConfig<SpeedSpec>, v: &VehicleParams, fleet: &[VehicleParams]| {
             config_hash::<SweepPoints>(c, v, fleet).expect("hashes")
         };
         let h = hash(&cfg, &v, &[]);

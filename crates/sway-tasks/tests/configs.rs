@@ -1,7 +1,8 @@
 //! Config files: shipped ones load and validate; errors name the file and key path.
 
-use sway::sim::ScenarioConfig;
+use sway::ranging::SpeedSpec;
 use sway::sim::sweep::SweepConfig;
+use sway::sim::{ScenarioConfig, resolve_speeds};
 
 #[test]
 fn scenario_config_errors_name_the_key() {
@@ -35,22 +36,39 @@ initial = { kind = "state", theta0_deg = 2.0 }
 
 #[test]
 fn shipped_configs_load_and_validate() {
+    // the shipped scenario and sweep files give speeds relative to the vehicle: checked as
+    // written, then resolved for Table I (35 m/s etc.) and checked completely
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
+    let model = trailer_model::Model::new(trailer_model::VehicleParams::default()).unwrap();
+    let limits = sway::ranging::SpeedLimits::default();
     let f = root.join("scenario_example.toml");
-    let c: ScenarioConfig = sway_tasks::config_file::load_toml(&f).unwrap();
-    c.validate(&f).unwrap();
-    let f = root.join("sweep_threshold.toml");
-    let c: SweepConfig = sway_tasks::config_file::load_toml(&f).unwrap();
-    c.validate(&f).unwrap();
-    assert!(c.grid_len() >= 64 * 16);
+    let c: ScenarioConfig<SpeedSpec> = sway_tasks::config_file::load_toml(&f).unwrap();
+    c.validate_spec(&f).unwrap();
+    let r = resolve_speeds(&model, &limits, &c)
+        .unwrap()
+        .outcome
+        .unwrap();
+    r.validate(&f).unwrap();
+    assert!((r.speed.initial_speed() - 35.0).abs() < 1e-12);
     for name in [
+        "sweep_threshold.toml",
         "study_uncertainty.toml",
         "study_fleet.toml",
         "sweep_brake_timing.toml",
     ] {
         let f = root.join(name);
-        let c: SweepConfig = sway_tasks::config_file::load_toml(&f).unwrap();
-        c.validate(&f).unwrap();
+        let c: SweepConfig<SpeedSpec> = sway_tasks::config_file::load_toml(&f).unwrap();
+        c.validate_spec(&f).unwrap();
+        let r = resolve_speeds(&model, &limits, &c)
+            .unwrap()
+            .outcome
+            .unwrap();
+        r.validate(&f).unwrap();
+        if name == "sweep_threshold.toml" {
+            assert!(r.grid_len() >= 64 * 16);
+            let speeds = r.axes[0].values();
+            assert!((speeds[0] - 28.0).abs() < 1e-9 && (speeds[63] - 36.0).abs() < 1e-9);
+        }
     }
 }
 
@@ -72,14 +90,14 @@ fn errors_inside_the_flattened_run_settings_name_their_key() {
             "guard",
         ),
     ] {
-        let e = sway_tasks::config_file::parse_toml::<ScenarioConfig>(&bad, file)
+        let e = sway_tasks::config_file::parse_toml::<ScenarioConfig<SpeedSpec>>(&bad, file)
             .expect_err(key)
             .to_string();
         assert!(e.contains(&format!("`{key}`")), "{key}: {e}");
     }
     let sweep = std::fs::read_to_string(root.join("sweep_threshold.toml")).expect("read");
     let bad = sweep.replace("settle_threshold_deg = 1.0", "settle_threshold_deg = 0.0");
-    let e = sway_tasks::config_file::parse_toml::<SweepConfig>(&bad, file)
+    let e = sway_tasks::config_file::parse_toml::<SweepConfig<SpeedSpec>>(&bad, file)
         .expect_err("zero threshold")
         .to_string();
     assert!(e.contains("`base.metrics.settle_threshold_deg`"), "{e}");

@@ -636,5 +636,7 @@ pub fn delay_budget(
     Ok(budget)
 }
 
+pub mod study;
+
 #[cfg(test)]
 mod tests;

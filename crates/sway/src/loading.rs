@@ -68,3 +68,71 @@ pub fn v_crit_map(
         })
         .collect()
 }
+
+/// The V_crit map of [`v_crit_map`] with the finer cut along h at the base mass and the
+/// range of its finite values: everything `cargo xtask loading` draws and summarises.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadingMap {
+    /// trailer masses m2 \[kg\] (columns)
+    pub masses: Vec<f64>,
+    /// centres of gravity h \[m\] (rows)
+    pub cogs: Vec<f64>,
+    /// V_crit \[m/s\], row j for `cogs[j]`, column i for `masses[i]` (NaN: no stability
+    /// change in the search range)
+    pub map: Vec<Vec<f64>>,
+    /// (tongue load \[%\], V_crit \[m/s\]) along h at the base mass, `CUT_POINTS` + 1 points
+    pub cut: Vec<(f64, f64)>,
+    /// the smallest and largest finite V_crit of the map \[m/s\]
+    pub range: (f64, f64),
+}
+
+/// Intervals of the cut along h at the base mass.
+pub const CUT_POINTS: usize = 200;
+
+/// The loading map of `base` over `masses × cogs`, and the cut along h ∈ \[first, last of
+/// `cogs`\] at the base mass (`progress` is called once per row of the map).
+pub fn loading_map(
+    base: &VehicleParams,
+    masses: Vec<f64>,
+    cogs: Vec<f64>,
+    inertia: InertiaScaling,
+    opts: &CriticalSpeedOptions,
+    progress: &(dyn Fn() + Sync),
+) -> LoadingMap {
+    let map = v_crit_map(base, &masses, &cogs, inertia, opts, progress);
+    let (h0, h1) = (cogs[0], cogs[cogs.len() - 1]);
+    let cut = (0..=CUT_POINTS)
+        .map(|k| {
+            let h = h0 + (h1 - h0) * k as f64 / CUT_POINTS as f64;
+            let p = loaded(base, base.trailer.mass, h, inertia);
+            (100.0 * tongue_load_fraction(&p), v_crit_of(&p, opts))
+        })
+        .collect();
+    let range = map
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    LoadingMap {
+        masses,
+        cogs,
+        map,
+        cut,
+        range,
+    }
+}
+
+/// V_crit \[m/s\] of `base` with its trailer loaded to the tongue load `pct` \[% of the
+/// trailer weight\] at its own mass (h = l (1 − pct/100)); NaN as [`v_crit_of`].
+pub fn v_crit_at_tongue_load(
+    base: &VehicleParams,
+    pct: f64,
+    inertia: InertiaScaling,
+    opts: &CriticalSpeedOptions,
+) -> f64 {
+    let h = base.trailer.axle * (1.0 - pct / 100.0);
+    v_crit_of(&loaded(base, base.trailer.mass, h, inertia), opts)
+}

@@ -159,6 +159,7 @@ pub fn open_loop_critical_speed(
 /// ```toml
 /// speed_mps = 33.0                       # m/s
 /// speed_mps = { of_v_crit = 1.0073 }     # 1.0073·V_crit
+/// change_mps = { of_v_crit = -0.2878 }   # a speed change ΔV = −0.2878·V_crit
 /// speed_mps = { in_bistable = 0.458 }    # V_fold + 0.458·(V_crit − V_fold)
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -269,12 +270,14 @@ impl<'de> Deserialize<'de> for SpeedSpec {
             fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
                 f.write_str(EXPECTED)
             }
+            // any finite number: a speed *change* (a braking ramp's ΔV) is negative; a
+            // speed ≤ 0 is refused by the check of the config that uses it, naming its key
             fn visit_f64<E: serde::de::Error>(self, x: f64) -> Result<SpeedSpec, E> {
-                if x.is_finite() && x > 0.0 {
+                if x.is_finite() {
                     Ok(SpeedSpec::Absolute(x))
                 } else {
                     Err(E::custom(format!(
-                        "{x} is invalid: expected a positive speed in m/s"
+                        "{x} is invalid: expected a speed in m/s (a finite number)"
                     )))
                 }
             }
@@ -298,14 +301,11 @@ impl<'de> Deserialize<'de> for SpeedSpec {
                     }
                     let f: f64 = map.next_value()?;
                     out = Some(match key.as_str() {
+                        // any finite factor: a speed *change* (a braking ramp's ΔV) is
+                        // negative; a speed that resolves to ≤ 0 is refused by the check
+                        // of the resolved config, naming its key
                         "of_v_crit" => {
-                            let f = finite::<A::Error>(f, "the factor of V_crit")?;
-                            if f <= 0.0 {
-                                return Err(A::Error::custom(format!(
-                                    "`of_v_crit`: {f} is invalid: expected a positive factor of V_crit"
-                                )));
-                            }
-                            RelativeSpeed::OfVCrit(f)
+                            RelativeSpeed::OfVCrit(finite::<A::Error>(f, "the factor of V_crit")?)
                         }
                         "in_bistable" => RelativeSpeed::InBistable(finite::<A::Error>(
                             f,
@@ -331,7 +331,8 @@ impl<'de> Deserialize<'de> for SpeedSpec {
 /// open-loop diagram ([`open_loop_fold`]).
 ///
 /// # Errors
-/// A numerical failure of the critical-speed search or of the cycle continuation.
+/// A numerical failure of the critical-speed search (a failure of the cycle continuation
+/// leaves the fold null, with the reason).
 pub fn open_loop_references(
     model: &Model,
     limits: &SpeedLimits,
@@ -352,9 +353,16 @@ pub fn open_loop_references(
         ..Default::default()
     };
     if need == Reference::Fold {
-        match open_loop_fold(model, v_crit, limits)? {
-            Ok(v_fold) => refs.v_fold_mps = Some(v_fold),
-            Err(reason) => refs.reason = Some(reason),
+        // a continuation that fails is said as the reason, not an error: the user has
+        // nothing to fix in the config
+        match open_loop_fold(model, v_crit, limits) {
+            Ok(Ok(v_fold)) => refs.v_fold_mps = Some(v_fold),
+            Ok(Err(reason)) => refs.reason = Some(reason),
+            Err(e) => {
+                refs.reason = Some(format!(
+                    "the fold of cycles of the open loop could not be computed: {e}"
+                ));
+            }
         }
     }
     Ok(refs)
@@ -424,15 +432,24 @@ mod tests {
         assert!(unknown.contains("unknown key `of_vcrit`"), "{unknown}");
         let both = parse("speed_mps = { of_v_crit = 0.95, in_bistable = 0.5 }").unwrap_err();
         assert!(both.contains("not both"), "{both}");
+        // a negative number is a speed change (ΔV in m/s); a speed ≤ 0 is refused where the
+        // config is checked
+        assert_eq!(parse("speed_mps = -3.0"), Ok(SpeedSpec::Absolute(-3.0)));
         assert!(
-            parse("speed_mps = -3.0")
+            parse("speed_mps = inf")
                 .unwrap_err()
-                .contains("positive speed")
+                .contains("finite number")
+        );
+        // a negative factor is a speed change (ΔV = f·V_crit); a speed ≤ 0 is refused
+        // when the resolved config is checked
+        assert_eq!(
+            parse("speed_mps = { of_v_crit = -0.25 }"),
+            Ok(SpeedSpec::Relative(RelativeSpeed::OfVCrit(-0.25)))
         );
         assert!(
-            parse("speed_mps = { of_v_crit = -1.0 }")
+            parse("speed_mps = { of_v_crit = nan }")
                 .unwrap_err()
-                .contains("positive factor")
+                .contains("must be finite")
         );
         assert!(parse("speed_mps = {}").unwrap_err().contains("empty table"));
     }

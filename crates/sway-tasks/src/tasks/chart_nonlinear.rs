@@ -13,16 +13,17 @@
 
 use std::path::Path;
 
-use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use stability::{Axis, StabilityChart};
+use serde::Serialize;
+use stability::StabilityChart;
 use crate::TaskError;
-use sway::bifurcation::chart::{
-    ChartOptions, Codim2Kind, NonlinearChart, Region, nonlinear_chart,
+use sway::bifurcation::chart::study::ResolvedChart;
+pub use sway::bifurcation::chart::study::{
+    ChartConfig, ChartNonlinearConfig, ChartStudy, CurvesAtGain, DelayResult, RegionGrid, compute,
+    compute_delay,
 };
-use sway::charts::fig4a_charts;
+use sway::bifurcation::chart::{ChartOptions, Codim2Kind, Region};
+use sway::charts::auto_range::{Derivation, SpeedBounds};
 use sway::config::{ensure, ensure_positive};
-use trailer_model::Model;
 
 use super::fig3a_diagram::validate_options;
 use super::{Prepared, Report, Task, TaskContext};
@@ -38,255 +39,75 @@ pub const TASK: Task = Task::configured::<ChartNonlinearConfig>(
     "chart_nonlinear.toml",
 );
 
-/// The shading grid (cells of the linear stability chart, exact unstable-root counts).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RegionGrid {
-    /// cells along V
-    pub speed_cells: usize,
-    /// cells along D
-    pub gain_cells: usize,
-}
-
-fn default_delays() -> Vec<f64> {
-    vec![0.0, 0.1, 0.2, 0.4]
-}
-fn default_summary_gains() -> Vec<f64> {
-    vec![0.0, 0.05, 0.1, 0.15, 0.2, 0.25]
-}
-fn default_bistable_gain() -> f64 {
-    0.1
-}
-fn default_grid() -> RegionGrid {
-    RegionGrid {
-        speed_cells: 140,
-        gain_cells: 80,
+/// Checks the keys (the derived ones are checked once derived).
+///
+/// # Errors
+/// [`TaskError::Config`] naming the file and key.
+pub fn validate(cfg: &ChartNonlinearConfig, file: &Path) -> Result<(), TaskError> {
+    check_delays(file, "delays_s", &cfg.delays_s)?;
+    validate_chart(&cfg.chart, file, "chart.")?;
+    for (key, n) in [
+        ("regions.speed_cells", cfg.regions.speed_cells),
+        ("regions.gain_cells", cfg.regions.gain_cells),
+    ] {
+        ensure(n >= 2, file, key, || format!("expected ≥ 2, got {n}"))?;
     }
+    Ok(())
 }
 
-/// `configs/chart_nonlinear.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ChartNonlinearConfig {
-    /// the delays τ \[s\], one panel each
-    #[serde(default = "default_delays")]
-    pub delays_s: Vec<f64>,
-    /// gains of the `"curves"` entries of the summary \[s\]
-    #[serde(default = "default_summary_gains")]
-    pub summary_gains_s: Vec<f64>,
-    /// gain of `"bistable_width_mps"` \[s\]
-    #[serde(default = "default_bistable_gain")]
-    pub bistable_gain_s: f64,
-    /// the curves: ranges, seeds, steps, cycle mesh
-    #[serde(default)]
-    pub chart: ChartOptions,
-    /// the shading grid
-    #[serde(default = "default_grid")]
-    pub regions: RegionGrid,
-}
-
-impl ChartNonlinearConfig {
-    /// Checks the keys.
-    ///
-    /// # Errors
-    /// [`TaskError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
-        check_delays(file, "delays_s", &self.delays_s)?;
-        let c = &self.chart;
-        ensure(
-            c.d_min_s.is_finite() && c.d_max_s.is_finite() && c.d_min_s < c.d_max_s,
-            file,
-            "chart.d_min_s",
-            || {
-                format!(
-                    "expected d_min_s < d_max_s, got {} and {}",
-                    c.d_min_s, c.d_max_s
-                )
-            },
-        )?;
-        ensure(
-            c.v_min_mps > 0.0 && c.v_max_mps.is_finite() && c.v_min_mps < c.v_max_mps,
-            file,
-            "chart.v_min_mps",
-            || {
-                format!(
-                    "expected 0 < v_min_mps < v_max_mps, got {} and {}",
-                    c.v_min_mps, c.v_max_mps
-                )
-            },
-        )?;
-        ensure(
-            !c.seed_gains_s.is_empty(),
-            file,
-            "chart.seed_gains_s",
-            || "expected at least one seed gain".into(),
-        )?;
-        for (i, d) in c.seed_gains_s.iter().enumerate() {
-            ensure(
-                *d >= c.d_min_s && *d <= c.d_max_s,
-                file,
-                &format!("chart.seed_gains_s[{i}]"),
-                || format!("seed gain {d} s outside [d_min_s, d_max_s]"),
-            )?;
+/// Checks a `[chart]` table (`prefix` = "chart." or "nonlinear.chart."): the box keys that
+/// are given, the seeds inside the given gain range, the steps and counts, the cycles.
+///
+/// # Errors
+/// [`TaskError::Config`] naming the file and key.
+pub fn validate_chart(c: &ChartConfig, file: &Path, prefix: &str) -> Result<(), TaskError> {
+    let key = |k: &str| format!("{prefix}{k}");
+    let (d0, d1) = (c.d_min_s.unwrap_or(f64::NEG_INFINITY), c.d_max_s.unwrap_or(f64::INFINITY));
+    let finite = c.d_min_s.is_none_or(f64::is_finite) && c.d_max_s.is_none_or(f64::is_finite);
+    ensure(finite && d0 < d1, file, &key("d_min_s"), || {
+        format!("expected d_min_s < d_max_s, got {d0} and {d1}")
+    })?;
+    let (v0, v1) = (c.v_min_mps.unwrap_or(0.5), c.v_max_mps.unwrap_or(f64::INFINITY));
+    ensure(
+        v0 > 0.0 && c.v_max_mps.is_none_or(f64::is_finite) && v0 < v1,
+        file,
+        &key("v_min_mps"),
+        || format!("expected 0 < v_min_mps < v_max_mps, got {v0} and {v1}"),
+    )?;
+    if let Some(seeds) = &c.seed_gains_s {
+        ensure(!seeds.is_empty(), file, &key("seed_gains_s"), || {
+            "expected at least one seed gain".into()
+        })?;
+        for (i, d) in seeds.iter().enumerate() {
+            ensure(*d >= d0 && *d <= d1, file, &key(&format!("seed_gains_s[{i}]")), || {
+                format!("seed gain {d} s outside [d_min_s, d_max_s]")
+            })?;
         }
-        for (key, v) in [
-            ("chart.hopf_step", c.hopf_step),
-            ("chart.hopf_max_step", c.hopf_max_step),
-            ("chart.fold_step", c.fold_step),
-            ("chart.fold_max_step", c.fold_max_step),
-            ("chart.fold_min_amplitude", c.fold_min_amplitude),
-        ] {
-            ensure_positive(v, file, key, "a positive number")?;
-        }
-        for (key, n) in [
-            ("chart.hopf_max_points", c.hopf_max_points),
-            ("chart.fold_max_points", c.fold_max_points),
-            ("chart.criticality_samples", c.criticality_samples),
-            ("chart.criticality_cycle_points", c.criticality_cycle_points),
-            ("regions.speed_cells", self.regions.speed_cells),
-            ("regions.gain_cells", self.regions.gain_cells),
-        ] {
-            ensure(n >= 2, file, key, || format!("expected ≥ 2, got {n}"))?;
-        }
-        validate_options(&c.cycles, file, "chart.cycles")
     }
+    for (k, v) in [
+        ("hopf_step", c.hopf_step),
+        ("hopf_max_step", c.hopf_max_step),
+        ("fold_step", c.fold_step),
+        ("fold_max_step", c.fold_max_step),
+        ("fold_min_amplitude", c.fold_min_amplitude),
+    ] {
+        ensure_positive(v, file, &key(k), "a positive number")?;
+    }
+    for (k, n) in [
+        ("hopf_max_points", c.hopf_max_points),
+        ("fold_max_points", c.fold_max_points),
+        ("criticality_samples", c.criticality_samples),
+        ("criticality_cycle_points", c.criticality_cycle_points),
+    ] {
+        ensure(n >= 2, file, &key(k), || format!("expected ≥ 2, got {n}"))?;
+    }
+    validate_options(&c.cycles, file, &key("cycles"))
 }
 
 impl TaskConfig for ChartNonlinearConfig {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
-        self.validate(file)
+        validate(self, file)
     }
-}
-
-/// The summary row of one gain.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct CurvesAtGain {
-    /// gain D \[s\]
-    pub d_s: f64,
-    /// lowest Hopf speed \[m/s\]
-    pub v_hopf_mps: Option<f64>,
-    /// lowest fold-of-cycles speed \[m/s\]
-    pub v_fold_mps: Option<f64>,
-}
-
-/// Everything computed for one delay.
-#[derive(Debug, Clone)]
-pub struct DelayResult {
-    /// the curves and codimension-two points
-    pub chart: NonlinearChart,
-    /// the linear stability chart of the shading grid (static boundary, regions)
-    pub linear: StabilityChart,
-    /// the speeds at the summary gains
-    pub curves: Vec<CurvesAtGain>,
-    /// V_hopf − V_fold at the bistable gain \[m/s\]
-    pub bistable_width_mps: Option<f64>,
-}
-
-fn grid_axes(cfg: &ChartNonlinearConfig) -> (Axis, Axis) {
-    let c = &cfg.chart;
-    (
-        Axis {
-            min: 0.0,
-            max: c.v_max_mps,
-            count: cfg.regions.speed_cells,
-        },
-        Axis {
-            min: c.d_min_s,
-            max: c.d_max_s,
-            count: cfg.regions.gain_cells,
-        },
-    )
-}
-
-fn speeds_at(model: &Model, chart: &NonlinearChart, d: f64) -> Result<CurvesAtGain, TaskError> {
-    Ok(CurvesAtGain {
-        d_s: d,
-        v_hopf_mps: chart.hopf_speed_at(model, d)?,
-        v_fold_mps: chart.fold_speed_at(model, d)?,
-    })
-}
-
-/// The whole computation of one delay (no I/O).
-///
-/// # Errors
-/// [`sway::SwayError::Numerical`].
-pub fn compute_delay(
-    model: &Model,
-    cfg: &ChartNonlinearConfig,
-    tau: f64,
-) -> Result<DelayResult, TaskError> {
-    // the curves and the linear chart side by side, then the speeds at every summary gain
-    // and at the bistable gain (the last entry) in parallel; each piece is deterministic
-    let (chart, linear) = rayon::join(
-        || nonlinear_chart(model, tau, &cfg.chart),
-        || linear_chart(model, cfg, tau),
-    );
-    let (chart, linear) = (chart?, linear?);
-    let mut curves = cfg
-        .summary_gains_s
-        .par_iter()
-        .chain([cfg.bistable_gain_s].par_iter())
-        .map(|&d| speeds_at(model, &chart, d))
-        .collect::<Result<Vec<_>, _>>()?;
-    let at = curves.pop().ok_or_else(|| {
-        TaskError::numerical(
-            format!("speeds at D = {} s, τ = {tau} s", cfg.bistable_gain_s),
-            continuation::Error::InvalidInput("no speeds returned".into()),
-        )
-    })?;
-    let bistable_width_mps = match (at.v_hopf_mps, at.v_fold_mps) {
-        (Some(h), Some(f)) => Some(h - f),
-        _ => None,
-    };
-    Ok(DelayResult {
-        chart,
-        linear,
-        curves,
-        bistable_width_mps,
-    })
-}
-
-/// fig4a's linear chart of delay τ on the shading grid (exact counts of unstable roots).
-fn linear_chart(
-    model: &Model,
-    cfg: &ChartNonlinearConfig,
-    tau: f64,
-) -> Result<stability::StabilityChart, TaskError> {
-    let (sa, ga) = grid_axes(cfg);
-    fig4a_charts(model, &[tau], sa, ga, &stability::ChartOptions::default())?
-        .into_iter()
-        .next()
-        .ok_or_else(|| {
-            TaskError::numerical(
-                format!("linear chart τ = {tau} s"),
-                continuation::Error::InvalidInput("no chart returned".into()),
-            )
-        })
-}
-
-/// All delays of the config, in its order (parallel over delays; each is deterministic).
-///
-/// # Errors
-/// The first failing delay's error (in config order).
-pub fn compute(
-    model: &Model,
-    cfg: &ChartNonlinearConfig,
-    progress: &dyn sway::progress::Progress,
-) -> Result<Vec<DelayResult>, TaskError> {
-    // the longest delays first (their collocation factors fill most, so they cost most):
-    // rayon then starts them on separate threads instead of last; results in config order
-    let mut order: Vec<usize> = (0..cfg.delays_s.len()).collect();
-    order.sort_by(|&a, &b| cfg.delays_s[b].total_cmp(&cfg.delays_s[a]));
-    let mut results: Vec<(usize, Result<DelayResult, TaskError>)> = order
-        .par_iter()
-        .map(|&i| {
-            let r = compute_delay(model, cfg, cfg.delays_s[i]);
-            progress.advance(1);
-            (i, r)
-        })
-        .collect();
-    results.sort_by_key(|(i, _)| *i);
-    results.into_iter().map(|(_, r)| r).collect()
 }
 
 /// One entry of `"codim2_points"`.
@@ -316,6 +137,18 @@ pub struct DelayEntry {
     pub bistable_width_mps: Option<f64>,
     /// what the pipeline noticed (curves that stopped early, seeds that failed)
     pub notes: Vec<String>,
+    /// why `bistable_width_mps` is null (absent: it is not)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bistable_reason: Option<String>,
+    /// why there is no Hopf curve (absent: there is one)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hopf_reason: Option<String>,
+    /// why there is no fold-of-cycles curve (absent: there is one)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fold_reason: Option<String>,
+    /// the chart is all safe (absent: it is not)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub safe_reason: Option<String>,
 }
 
 impl From<&DelayResult> for DelayEntry {
@@ -336,6 +169,10 @@ impl From<&DelayResult> for DelayEntry {
                 .collect(),
             bistable_width_mps: r.bistable_width_mps,
             notes: r.chart.notes.clone(),
+            bistable_reason: r.bistable_reason.clone(),
+            hopf_reason: r.chart.hopf_reason.clone(),
+            fold_reason: r.chart.fold_reason.clone(),
+            safe_reason: r.safe_reason.clone(),
         }
     }
 }
@@ -345,6 +182,45 @@ impl From<&DelayResult> for DelayEntry {
 pub struct ChartNonlinearSummary {
     /// one entry per delay, in the config's order
     pub per_tau: Vec<DelayEntry>,
+    /// the box, seeds and summary gains used (derived where the config omits them)
+    pub ranges: ResolvedRanges,
+}
+
+/// The settings in use, as `summary.json` records them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResolvedRanges {
+    /// the box \[m/s\], \[s\]
+    pub v_min_mps: f64,
+    /// see `v_min_mps`
+    pub v_max_mps: f64,
+    /// see `v_min_mps`
+    pub d_min_s: f64,
+    /// see `v_min_mps`
+    pub d_max_s: f64,
+    /// the seed gains \[s\]
+    pub seed_gains_s: Vec<f64>,
+    /// the summary gains \[s\]
+    pub summary_gains_s: Vec<f64>,
+    /// the bistable gain \[s\]
+    pub bistable_gain_s: f64,
+    /// which keys were derived, and from what
+    pub derivation: Derivation,
+}
+
+impl From<&ResolvedChart> for ResolvedRanges {
+    fn from(r: &ResolvedChart) -> Self {
+        let o = &r.options;
+        Self {
+            v_min_mps: o.v_min_mps,
+            v_max_mps: o.v_max_mps,
+            d_min_s: o.d_min_s,
+            d_max_s: o.d_max_s,
+            seed_gains_s: o.seed_gains_s.clone(),
+            summary_gains_s: r.summary_gains_s.clone(),
+            bistable_gain_s: r.bistable_gain_s,
+            derivation: r.derivation.clone(),
+        }
+    }
 }
 
 /// One row of `hopf_tau_<τ>_<k>.csv`: a point of a Hopf curve.
@@ -520,8 +396,7 @@ fn codim2_label(kind: Codim2Kind) -> &'static str {
     }
 }
 
-fn panel(r: &DelayResult, cfg: &ChartNonlinearConfig) -> Panel {
-    let c = &cfg.chart;
+fn panel(r: &DelayResult, c: &ChartOptions) -> Panel {
     let regions = r.chart.regions(&r.linear);
     let mut p = Panel::new(&format!("τ = {} s", r.chart.tau_s), "V [m/s]", "D [s]")
         .x_range(0.0, c.v_max_mps)
@@ -649,7 +524,7 @@ impl Prepared for Configured<ChartNonlinearConfig> {
             || "shading cells over all delays".into(),
         )?;
         let intervals = c.chart.cycles.intervals as f64;
-        let seeds = c.chart.seed_gains_s.len() as f64;
+        let seeds = c.chart.seed_gains_s.as_ref().map_or(3, Vec::len) as f64;
         // each seed starts a Hopf curve in two directions; one fold curve per delay
         let hopf_points = 2.0 * seeds * c.chart.hopf_max_points as f64;
         let fold_points = 2.0 * c.chart.fold_max_points as f64;
@@ -682,25 +557,32 @@ impl Prepared for Configured<ChartNonlinearConfig> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress.start(
-            "chart_nonlinear: curves per delay",
-            cfg.delays_s.len() as u64,
-        );
-        let results = compute(&ctx.model, cfg, ctx.progress)?;
+        ctx.run_staged(TASK.name, "chart_nonlinear: curves per delay", cfg.delays_s.len() as u64, cfg, &self.file, |out| {
+        let study = compute(&ctx.model, cfg, &SpeedBounds::from(&ctx.limits), ctx.progress)?;
+        let (res, results) = (&study.resolved, &study.delays);
+        let bistable = res.bistable_gain_s;
         let mut lines = Vec::new();
-        for r in &results {
-            write_curves(&out, r)?;
-            let at = r
-                .curves
-                .iter()
-                .find(|c| (c.d_s - cfg.bistable_gain_s).abs() < 1e-12);
+        if !res.derivation.derived_keys.is_empty() {
+            let o = &res.options;
+            lines.push(format!(
+                "box V in [{}, {}] m/s, D in [{}, {}] s, seeds {:?} s (derived from the vehicle: {})",
+                o.v_min_mps,
+                o.v_max_mps,
+                o.d_min_s,
+                o.d_max_s,
+                o.seed_gains_s,
+                res.derivation.derived_keys.join(", ")
+            ));
+        }
+        for r in results {
+            write_curves(out, r)?;
+            let at = r.curves.iter().find(|c| (c.d_s - bistable).abs() < 1e-12);
             lines.push(format!(
                 "τ = {} s: {} Hopf and {} fold-of-cycles curves; at D = {} s V_hopf = {}, V_fold = {}, bistable width {}; codim-2: {}",
                 r.chart.tau_s,
                 r.chart.hopf_curves.len(),
                 r.chart.fold_curves.len(),
-                cfg.bistable_gain_s,
+                bistable,
                 at.and_then(|c| c.v_hopf_mps).map_or("–".into(), |v| format!("{v:.4} m/s")),
                 at.and_then(|c| c.v_fold_mps).map_or("–".into(), |v| format!("{v:.4} m/s")),
                 r.bistable_width_mps.map_or("–".into(), |v| format!("{v:.4} m/s")),
@@ -711,8 +593,14 @@ impl Prepared for Configured<ChartNonlinearConfig> {
                     .collect::<Vec<_>>()
                     .join("; ")
             ));
+            for why in [&r.safe_reason, &r.chart.hopf_reason, &r.chart.fold_reason, &r.bistable_reason]
+                .into_iter()
+                .flatten()
+            {
+                lines.push(format!("τ = {} s: {why}", r.chart.tau_s));
+            }
         }
-        let panels: Vec<Panel> = results.iter().map(|r| panel(r, cfg)).collect();
+        let panels: Vec<Panel> = results.iter().map(|r| panel(r, &res.options)).collect();
         let n = panels.len();
         let cols = if n <= 1 { 1 } else { 2 };
         let rows = n.div_ceil(cols);
@@ -721,8 +609,10 @@ impl Prepared for Configured<ChartNonlinearConfig> {
             .render(&out.path("chart_nonlinear"))?;
         let summary = ChartNonlinearSummary {
             per_tau: results.iter().map(DelayEntry::from).collect(),
+            ranges: ResolvedRanges::from(res),
         };
-        ctx.conclude(out, summary, cfg, &self.file, lines)
+        Ok((summary, lines))
+        })
     }
 }
 
@@ -742,11 +632,12 @@ mod tests {
     fn shipped_config_is_valid_and_as_the_issue_asks() {
         let (file, text) = shipped();
         let cfg: ChartNonlinearConfig = parse_toml(&text, &file).unwrap();
-        cfg.validate(&file).unwrap();
+        validate(&cfg, &file).unwrap();
         assert_eq!(cfg.delays_s, vec![0.0, 0.1, 0.2, 0.4]);
-        assert_eq!((cfg.chart.d_min_s, cfg.chart.d_max_s), (-0.1, 0.3));
-        assert_eq!(cfg.summary_gains_s, vec![0.0, 0.05, 0.1, 0.15, 0.2, 0.25]);
-        assert_eq!(cfg.bistable_gain_s, 0.1);
+        // the box, the seeds and the summary gains are derived from the vehicle (issue 20)
+        assert_eq!(cfg.chart.box_keys(), sway::charts::auto_range::BoxKeys::default());
+        assert_eq!(cfg.chart.seed_gains_s, None);
+        assert_eq!((cfg.summary_gains_s.as_ref(), cfg.bistable_gain_s), (None, None));
     }
 
     #[test]
@@ -768,9 +659,9 @@ mod tests {
     #[test]
     fn bad_values_name_their_key() {
         let (file, text) = shipped();
-        let bad = text.replace("d_max_s = 0.3", "d_max_s = -0.3");
+        let bad = text.replace("[chart]\n", "[chart]\nd_min_s = -0.1\nd_max_s = -0.3\n");
         let cfg: ChartNonlinearConfig = parse_toml(&bad, &file).unwrap();
-        let e = cfg.validate(&file).unwrap_err().to_string();
+        let e = validate(&cfg, &file).unwrap_err().to_string();
         assert!(e.contains("chart.d_min_s"), "{e}");
         let unknown = text.replace("[regions]", "[regions]\nfoo = 1");
         let e = parse_toml::<ChartNonlinearConfig>(&unknown, &file)

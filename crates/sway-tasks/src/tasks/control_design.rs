@@ -147,8 +147,19 @@ fn default_actuators() -> Vec<Actuator> {
     Actuator::ALL.to_vec()
 }
 
+/// The fold-of-cycles computation of the paper's structure: `chart_nonlinear`'s options with
+/// a coarser cycle mesh (L = 20, as `gain_design`'s fold part) and longer fold steps.
 fn default_fold_chart() -> ChartOptions {
-    super::gain_design::default_chart()
+    ChartOptions {
+        seed_gains_s: vec![0.1],
+        fold_max_step: 4.0,
+        cycles: sway::bifurcation::DiagramOptions {
+            intervals: 20,
+            max_step: 0.5,
+            ..sway::bifurcation::DiagramOptions::default()
+        },
+        ..ChartOptions::default()
+    }
 }
 
 /// `configs/control_design.toml`.

@@ -18,18 +18,17 @@
 
 use std::path::Path;
 
-use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use crate::TaskError;
-use sway::bifurcation::chart::ChartOptions;
 use sway::bifurcation::corners::motion::MotionClass;
+pub use sway::bifurcation::corners::study::{Corners, CornersConfig, ResolvedCorners, compute};
 use sway::bifurcation::corners::{
-    Corner, CornerOptions, CornerStudy, ProbeRun, TorusComparison, TorusCurve, TorusPoint,
-    corner_study,
+    Corner, CornerStudy, ProbeRun, TorusComparison, TorusCurve, TorusPoint,
 };
+use sway::charts::auto_range::SpeedBounds;
 use sway::config::{ensure, ensure_positive};
-use trailer_model::Model;
 
+use super::chart_nonlinear::validate_chart;
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::{Configured, TaskConfig, check_delays};
 use crate::io::OutputDir;
@@ -43,40 +42,19 @@ pub const TASK: Task = Task::configured::<CornersConfig>(
     "corners.toml",
 );
 
-fn default_delays() -> Vec<f64> {
-    vec![0.2, 0.4]
-}
-
-/// `configs/corners.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CornersConfig {
-    /// the delays τ \[s\]
-    #[serde(default = "default_delays")]
-    pub delays_s: Vec<f64>,
-    /// the nonlinear chart: its (V, D) box is the range searched for double-Hopf points
-    #[serde(default)]
-    pub chart: ChartOptions,
-    /// the corner analysis: scan, zoom window, probes, simulations, classifier
-    #[serde(default)]
-    pub corners: CornerOptions,
-}
-
-impl CornersConfig {
-    /// Checks the keys.
-    ///
-    /// # Errors
-    /// [`TaskError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
-        check_delays(file, "delays_s", &self.delays_s)?;
-        let c = &self.chart;
-        ensure(
-            c.d_min_s < c.d_max_s && c.v_min_mps > 0.0 && c.v_min_mps < c.v_max_mps,
-            file,
-            "chart.d_min_s",
-            || "expected d_min_s < d_max_s and 0 < v_min_mps < v_max_mps".into(),
-        )?;
-        let o = &self.corners;
+/// Checks the keys (the derived ones are checked once derived).
+///
+/// # Errors
+/// [`TaskError::Config`] naming the file and key.
+pub fn validate(cfg: &CornersConfig, file: &Path) -> Result<(), TaskError> {
+        check_delays(file, "delays_s", &cfg.delays_s)?;
+        validate_chart(&cfg.chart, file, "chart.")?;
+        let o = &cfg.corners;
+        if let Some(b) = o.beyond_gain_s {
+            ensure(b.is_finite() && b >= 0.0, file, "corners.beyond_gain_s", || {
+                format!("expected a gain ≥ 0 s, got {b}")
+            })?;
+        }
         let s = &o.simulation;
         for (key, v) in [
             ("corners.zoom_half_width_v_mps", o.zoom_half_width_v_mps),
@@ -113,11 +91,10 @@ impl CornersConfig {
         )?;
         Ok(s.settings.solver.validate_at(file, "corners.simulation.settings.solver")?)
     }
-}
 
 impl TaskConfig for CornersConfig {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
-        self.validate(file)
+        validate(self, file)
     }
 }
 
@@ -310,6 +287,22 @@ pub struct CornersSummary {
     pub simulations: Vec<SimulationRow>,
     /// what the pipeline noticed
     pub notes: Vec<String>,
+    /// per delay: the double-Hopf points found in the box, or why there is none
+    pub per_tau: Vec<DelayOutcome>,
+    /// the box, seeds and `beyond_gain_s` used (derived where the config omits them)
+    pub ranges: ResolvedCorners,
+}
+
+/// One delay's outcome in `"per_tau"`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DelayOutcome {
+    /// delay τ \[s\]
+    pub tau_s: f64,
+    /// double-Hopf points inside the box
+    pub double_hopf_points: usize,
+    /// why there is none (absent: there is one)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
 }
 
 fn entry(p: &sway::bifurcation::corners::DoubleHopfPoint, offset: Option<f64>) -> DoubleHopfEntry {
@@ -414,13 +407,24 @@ fn row(tau: f64, k: usize, probe: &sway::bifurcation::corners::Probe, r: &ProbeR
 }
 
 /// The summary of all delays.
-pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
+pub fn summary(c: &Corners) -> CornersSummary {
+    let studies: Vec<&CornerStudy> = c.delays.iter().map(|d| &d.study).collect();
     let mut s = CornersSummary {
+        per_tau: c
+            .delays
+            .iter()
+            .map(|d| DelayOutcome {
+                tau_s: d.study.tau_s,
+                double_hopf_points: d.study.double_hopf.len(),
+                reason: d.reason.clone(),
+            })
+            .collect(),
+        ranges: c.resolved.clone(),
         observed_torus_boundary: Vec::new(),
         torus_curve_vs_observed: Vec::new(),
         double_hopf: Vec::new(),
         double_hopf_beyond_range: Vec::new(),
-        torus_curves: studies.iter().map(torus_extent).collect(),
+        torus_curves: studies.iter().map(|st| torus_extent(st)).collect(),
         quasi_periodic_examples: Vec::new(),
         simulations: Vec::new(),
         notes: Vec::new(),
@@ -470,18 +474,6 @@ pub fn summary(studies: &[CornerStudy]) -> CornersSummary {
         }
     }
     s
-}
-
-/// All delays (in parallel, results in config order; each delay is deterministic).
-///
-/// # Errors
-/// The first failing delay's error.
-pub fn compute(model: &Model, cfg: &CornersConfig) -> Result<Vec<CornerStudy>, TaskError> {
-    cfg.delays_s
-        .par_iter()
-        .map(|&tau| corner_study(model, tau, &cfg.chart, &cfg.corners))
-        .collect::<Result<Vec<_>, sway::SwayError>>()
-        .map_err(TaskError::from)
 }
 
 fn class_color(c: MotionClass) -> Rgb {
@@ -879,15 +871,14 @@ impl Prepared for Configured<CornersConfig> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress
-            .start("corners: double-Hopf points, curves, simulations", cfg.delays_s.len() as u64);
-        let studies = compute(&ctx.model, cfg)?;
+        let stage = "corners: double-Hopf points, curves, simulations";
+        ctx.run_staged(TASK.name, stage, cfg.delays_s.len() as u64, cfg, &self.file, |out| {
+        let c = compute(&ctx.model, cfg, &SpeedBounds::from(&ctx.limits))?;
         ctx.progress.advance(cfg.delays_s.len() as u64);
-        for st in &studies {
-            render(&out, st)?;
+        for d in &c.delays {
+            render(out, &d.study)?;
         }
-        let s = summary(&studies);
+        let s = summary(&c);
         out.write_table("simulations.csv", s.simulations.iter().cloned())?;
         let mut lines: Vec<String> = s
             .double_hopf
@@ -902,12 +893,18 @@ impl Prepared for Configured<CornersConfig> {
         for t in &s.torus_curves {
             lines.push(format!("τ = {} s: {} torus curves", t.tau_s, t.count));
         }
+        for d in &c.delays {
+            if let Some(r) = &d.reason {
+                lines.push(format!("τ = {} s: {r}", d.study.tau_s));
+            }
+        }
         lines.push(format!(
             "{} simulations, {} quasi-periodic",
             s.simulations.len(),
             s.quasi_periodic_examples.len()
         ));
-        ctx.conclude(out, s, cfg, &self.file, lines)
+        Ok((s, lines))
+        })
     }
 }
 
@@ -927,10 +924,11 @@ mod tests {
     fn shipped_config_is_valid_and_as_the_issue_asks() {
         let (file, text) = shipped();
         let cfg: CornersConfig = parse_toml(&text, &file).unwrap();
-        cfg.validate(&file).unwrap();
+        validate(&cfg, &file).unwrap();
         assert_eq!(cfg.delays_s, vec![0.2, 0.4]);
-        assert_eq!((cfg.chart.d_min_s, cfg.chart.d_max_s), (-0.1, 0.3));
-        assert_eq!((cfg.chart.v_min_mps, cfg.chart.v_max_mps), (5.0, 70.0));
+        // the box and the seeds are derived from the vehicle (issue 20)
+        assert_eq!(cfg.chart.box_keys(), sway::charts::auto_range::BoxKeys::default());
+        assert_eq!(cfg.chart.seed_gains_s, None);
     }
 
     #[test]
@@ -938,7 +936,7 @@ mod tests {
         let (file, text) = shipped();
         let bad = text.replace("window_s = 200.0", "window_s = -1.0");
         let cfg: CornersConfig = parse_toml(&bad, &file).unwrap();
-        let e = cfg.validate(&file).unwrap_err().to_string();
+        let e = validate(&cfg, &file).unwrap_err().to_string();
         assert!(e.contains("corners.simulation.window_s"), "{e}");
         let unknown = text.replace("[corners]", "[corners]\nfoo = 1");
         let e = parse_toml::<CornersConfig>(&unknown, &file)

@@ -31,11 +31,11 @@ fn default_stable() -> Vec<SpeedSpec> {
         .map(|f| SpeedSpec::Relative(RelativeSpeed::OfVCrit(f)))
         .to_vec()
 }
-/// Table I's 33 m/s as a fraction of its bistable range (fold 31.52277210492321 m/s to
+/// Table I's 33 m/s as a fraction of its bistable range (fold 31.52277210344242 m/s to
 /// V_crit), as this diagram locates them.
 fn default_unstable() -> Vec<SpeedSpec> {
     vec![SpeedSpec::Relative(RelativeSpeed::InBistable(
-        0.45803367873817763,
+        0.4580336789870148,
     ))]
 }
 

@@ -7,16 +7,27 @@
 //! [`super::fig3a_diagram::run_diagram`], `[diagram]` section of `configs/fig3a.toml`):
 //! one figure `fig3a.svg/.png` with the diagram above the time panels, one `summary.json`
 //! with the diagram's fields and `"time_panels"`.
+//!
+//! The panel speed may be given relative to the vehicle (the shipped config:
+//! `{ in_bistable = f }`, = 33 m/s for Table I; see [`sway::sim::speeds`]); it resolves
+//! against V_crit of the open loop and the diagram's own fold of cycles. A vehicle without a
+//! bistable range (supercritical Hopf point, or stable at every speed up to the maximum) has
+//! no panel speed: `"time_panels"` is null and `"time_panels_reason"` says why.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use crate::TaskError;
 use sway::config::{Positive, ensure};
+use sway::ranging::{SpeedReferences, SpeedSpec};
+use sway::sim::speeds::{
+    ResolveSpeeds, ResolvedSpeed, Resolver, SpeedValue, UnresolvedSpeed, resolve_against,
+};
 use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
 
+use crate::TaskError;
+
 use super::fig3a_diagram::{DiagramConfig, DiagramSummary, run_diagram};
-use super::series::{RunEntry, line, run_and_write};
+use super::series::{RunEntry, line, resolved_check, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
 use crate::io::{Keyed, OutputDir};
@@ -32,8 +43,8 @@ pub const TASK: Task = Task {
     prepare,
 };
 
-fn default_speed() -> Positive {
-    Positive::literal(33.0)
+fn default_speed<S: From<f64>>() -> S {
+    S::from(33.0)
 }
 fn default_thetas() -> Vec<f64> {
     vec![2.0, 8.0]
@@ -45,13 +56,18 @@ fn default_output_step() -> Positive {
     Positive::literal(0.02)
 }
 
-/// The `[panels]` section of `configs/fig3a.toml`.
+/// The `[panels]` section of `configs/fig3a.toml`. `S`: the type of the speed,
+/// [`SpeedSpec`] as written (a number or relative to the vehicle), `f64` when run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct PanelsConfig {
-    /// constant speed V \[m/s\]
+#[serde(bound(
+    serialize = "S: Serialize",
+    deserialize = "S: Deserialize<'de> + From<f64>"
+))]
+pub struct PanelsConfig<S = f64> {
+    /// constant speed V \[m/s\] (default 33 m/s)
     #[serde(default = "default_speed")]
-    pub speed_mps: Positive,
+    pub speed_mps: S,
     /// initial hitch angles θ(0) \[deg\], one panel each (other states 0)
     #[serde(default = "default_thetas")]
     pub theta0_deg: Vec<f64>,
@@ -66,6 +82,33 @@ pub struct PanelsConfig {
     pub settings: RunSettings,
 }
 
+impl<S: SpeedValue> ResolveSpeeds for PanelsConfig<S> {
+    type Resolved = PanelsConfig;
+    fn resolve_speeds(&self, r: &mut Resolver<'_>) -> Result<PanelsConfig, UnresolvedSpeed> {
+        Ok(PanelsConfig {
+            speed_mps: self.speed_mps.resolve_speed("panels.speed_mps", r)?,
+            theta0_deg: self.theta0_deg.clone(),
+            horizon_s: self.horizon_s,
+            output_step_s: self.output_step_s,
+            settings: self.settings,
+        })
+    }
+}
+
+impl PanelsConfig<SpeedSpec> {
+    /// Checks the keys that can be checked before the speed is resolved; with a number,
+    /// every key ([`PanelsConfig::validate`]).
+    ///
+    /// # Errors
+    /// [`TaskError::Config`] naming the file and key.
+    pub fn validate_spec(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
+        match self.all_numbers() {
+            Some(c) => c.validate(file, prefix),
+            None => Ok(()),
+        }
+    }
+}
+
 impl PanelsConfig {
     /// Checks the keys that do not validate themselves (`prefix` is the section's key
     /// path).
@@ -73,6 +116,12 @@ impl PanelsConfig {
     /// # Errors
     /// [`TaskError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
+        ensure(
+            self.speed_mps.is_finite() && self.speed_mps > 0.0,
+            file,
+            &format!("{prefix}.speed_mps"),
+            || format!("expected a speed > 0 m/s, got {}", self.speed_mps),
+        )?;
         ensure(
             !self.theta0_deg.is_empty()
                 && self
@@ -99,7 +148,8 @@ impl PanelsConfig {
                 )
             },
         )?;
-        Ok(self.settings
+        Ok(self
+            .settings
             .solver
             .validate_at(file, &format!("{prefix}.solver"))?)
     }
@@ -108,7 +158,7 @@ impl PanelsConfig {
     pub fn spec(&self) -> SimSpec {
         SimSpec {
             profile: SpeedProfile::Constant {
-                speed_mps: self.speed_mps.get(),
+                speed_mps: self.speed_mps,
             },
             controller: Controller::None,
             horizon_s: self.horizon_s.get(),
@@ -124,7 +174,7 @@ impl PanelsConfig {
 #[serde(deny_unknown_fields)]
 pub struct Fig3aConfig {
     /// time panels
-    pub panels: PanelsConfig,
+    pub panels: PanelsConfig<SpeedSpec>,
     /// the bifurcation diagram
     #[serde(default)]
     pub diagram: DiagramConfig,
@@ -149,14 +199,21 @@ pub struct PanelRun {
 pub type TimePanels = Keyed<RunEntry<PanelRun>>;
 
 /// `summary.json` of fig3a (before the common fields of [`crate::io::Summary`]): the
-/// diagram's fields, then `"time_panels"`.
+/// diagram's fields, then `"time_panels"` (null when the panel speed does not resolve for
+/// this vehicle, with `"time_panels_reason"`), and the resolved panel speed.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Fig3aSummary {
     /// the bifurcation diagram
     #[serde(flatten)]
     pub diagram: DiagramSummary,
     /// the time panels
-    pub time_panels: TimePanels,
+    pub time_panels: Option<TimePanels>,
+    /// why there are no time panels
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_panels_reason: Option<String>,
+    /// the panel speed, when given relative to the vehicle, and its value
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub resolved_speeds: Vec<ResolvedSpeed>,
 }
 
 /// The panel of one run: θ(t) green when it settles, red when it sways, the final window
@@ -176,7 +233,7 @@ fn time_panel(cfg: &PanelsConfig, theta0: f64, r: &sway::sim::SimResult<7>) -> P
         .metrics
         .final_amplitude_deg
         .map_or("n/a".into(), |a| format!("{a:.2}°"));
-    let (v, horizon) = (cfg.speed_mps.get(), cfg.horizon_s.get());
+    let (v, horizon) = (cfg.speed_mps, cfg.horizon_s.get());
     let mut p = Panel::new(
         &format!("V = {v} m/s, θ(0) = {theta0}°: final amplitude {fa}"),
         "t [s]",
@@ -212,7 +269,7 @@ pub fn run_panels(
     out: &OutputDir,
 ) -> Result<(TimePanels, Vec<Panel>, Vec<String>), TaskError> {
     let spec = cfg.spec();
-    let speed = cfg.speed_mps.get();
+    let speed = cfg.speed_mps;
     let mut entries = TimePanels::default();
     let mut panels = Vec::new();
     let mut lines = Vec::new();
@@ -258,7 +315,7 @@ struct Fig3aTask {
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
     let config: Fig3aConfig = load_toml(file)?;
-    config.panels.validate(file, "panels")?;
+    config.panels.validate_spec(file, "panels")?;
     config.diagram.validate(file, "diagram")?;
     Ok(Box::new(Fig3aTask {
         file: file.to_path_buf(),
@@ -289,26 +346,52 @@ impl Prepared for Fig3aTask {
     }
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress
-            .start("fig3a: bifurcation diagram and time panels", 2);
-        let (diagram, diagram_panel, mut lines) = run_diagram(ctx, &self.config.diagram, &out)?;
-        ctx.progress.advance(1);
-        let (time_panels, panels, panel_lines) = run_panels(ctx, &self.config.panels, &out)?;
-        ctx.progress.advance(1);
-        lines.extend(panel_lines);
-        let mut all = vec![diagram_panel];
-        all.extend(panels);
-        let n = all.len() as u32;
-        Figure::grid(all, n as usize, 1, (900, 420 * n))
-            .titled(
-                "Fig. 3a: open loop — bifurcation diagram (top) and bistability in time (below)",
-            )
-            .render(&out.path("fig3a"))?;
-        let summary = Fig3aSummary {
-            diagram,
-            time_panels,
-        };
-        ctx.conclude(out, summary, &self.config, &self.file, lines)
+        let cfg = &self.config;
+        let stage = "fig3a: bifurcation diagram and time panels";
+        ctx.run_staged(TASK.name, stage, 2, cfg, &self.file, |out| {
+            let (diagram, diagram_panel, mut lines) = run_diagram(ctx, &cfg.diagram, out)?;
+            ctx.progress.advance(1);
+            // the panel speed against the diagram's own V_crit and fold (corrected on their
+            // defining systems), as the diagram's report speeds: one factor means the same
+            // speed in both sections, and nothing more is computed
+            let refs = SpeedReferences {
+                v_crit_mps: diagram.hopf_v_mps,
+                v_fold_mps: diagram.fold_v_mps,
+                reason: diagram
+                    .hopf_reason
+                    .clone()
+                    .or_else(|| diagram.fold_reason.clone()),
+            };
+            let resolution = resolve_against(&refs, &cfg.panels);
+            let mut all = vec![diagram_panel];
+            let (time_panels, reason) = match &resolution.outcome {
+                Ok(panels) => {
+                    resolved_check(panels.validate(&self.file, "panels"), &resolution.speeds)?;
+                    let (time_panels, panels, panel_lines) = run_panels(ctx, panels, out)?;
+                    lines.extend(panel_lines);
+                    all.extend(panels);
+                    (Some(time_panels), None)
+                }
+                Err(u) => {
+                    let reason = format!("no time panels (no speed in the bistable range): {}", u.reason);
+                    lines.push(format!("fig3a: {reason}"));
+                    (None, Some(reason))
+                }
+            };
+            ctx.progress.advance(1);
+            let n = all.len() as u32;
+            Figure::grid(all, n as usize, 1, (900, 420 * n))
+                .titled(
+                    "Fig. 3a: open loop — bifurcation diagram (top) and bistability in time (below)",
+                )
+                .render(&out.path("fig3a"))?;
+            let summary = Fig3aSummary {
+                diagram,
+                time_panels,
+                time_panels_reason: reason,
+                resolved_speeds: resolution.speeds.clone(),
+            };
+            Ok((summary, lines))
+        })
     }
 }

@@ -1,99 +1,44 @@
 //! `cargo xtask fig3b` (paper Fig. 3b): braking out of sway. Start on the sway cycle at
 //! V0 = 35 m/s, lower V by 10 m/s over T ∈ {2, 3, 5, 10} s from t = 2 s, 40 s horizon;
 //! panels V(t) and θ(t); metrics per T in `summary.json` under `"T2"`, `"T3"`, `"T5"`, `"T10"`.
+//! The shipped config gives V0 and ΔV relative to V_crit (= 35 and −10 m/s for Table I); a
+//! vehicle stable at every speed up to the maximum has no sway to brake from
+//! (`summary.json`: `reason`).
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use crate::TaskError;
-use sway::config::{NonNegative, Positive, ensure};
-use sway::sim::{Controller, InitialCondition, RunSettings, SimSpec, SpeedProfile};
+use sway::config::{Positive, ensure};
+use sway::ranging::SpeedSpec;
+use sway::sim::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed, check_change};
+use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile, SwayStart};
 
 use super::Task;
 use super::series::{Overlay, OverlayRun, RunEntry, SwayRuns};
+use crate::TaskError;
 use crate::config_file::TaskConfig;
 use crate::io::Keyed;
 use crate::plot::{Rgb, Stroke};
 
 /// The task.
-pub const TASK: Task = Task::configured::<Fig3bConfig>(
+pub const TASK: Task = Task::configured::<Fig3bConfig<SpeedSpec>>(
     "fig3b",
     "paper Fig. 3b: braking out of sway with T = 2, 3, 5, 10 s",
     "fig3b.toml",
 );
 
-/// Start on the sway cycle (shared by fig3b and fig4c).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SwayStart {
-    /// V0 \[m/s\]
-    pub speed_mps: Positive,
-    /// settling time at V0 \[s\]
-    pub settle_s: NonNegative,
-    /// initial perturbation of the settling run θ(0) \[rad\]
-    pub theta0_rad: f64,
-}
-
-impl SwayStart {
-    /// As an initial condition.
-    pub fn initial(&self) -> InitialCondition {
-        InitialCondition::SwayCycle {
-            speed_mps: self.speed_mps.get(),
-            settle_s: self.settle_s.get(),
-            theta0_rad: self.theta0_rad,
-        }
-    }
-
-    /// Checks the keys under `prefix` that do not validate themselves.
-    ///
-    /// # Errors
-    /// [`TaskError::Config`].
-    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
-        Ok(ensure(
-            self.theta0_rad.is_finite() && self.theta0_rad.abs() < 1.5,
-            file,
-            &format!("{prefix}.theta0_rad"),
-            || format!("expected |θ(0)| < 1.5 rad, got {}", self.theta0_rad),
-        )?)
-    }
-
-    /// Checks a run that starts here (fig3b and fig4c): the start under `start`, an output
-    /// step within the horizon, and the time `action_s` of the intervention (key
-    /// `action_key`) in [0, horizon).
-    ///
-    /// # Errors
-    /// [`TaskError::Config`] naming the key.
-    pub fn validate_run(
-        &self,
-        file: &Path,
-        horizon: f64,
-        output_step: f64,
-        action_key: &str,
-        action_s: f64,
-    ) -> Result<(), TaskError> {
-        self.validate(file, "start")?;
-        ensure(output_step <= horizon, file, "output_step_s", || {
-            format!("expected 0 < output_step_s <= horizon_s, got {output_step}")
-        })?;
-        Ok(ensure(
-            action_s.is_finite() && (0.0..horizon).contains(&action_s),
-            file,
-            action_key,
-            || format!("expected 0 <= {action_key} < horizon_s, got {action_s}"),
-        )?)
-    }
-}
-
-/// `configs/fig3b.toml`.
+/// `configs/fig3b.toml`. `S`: the type of the speeds, [`SpeedSpec`] as written (a number
+/// or relative to the vehicle, see [`sway::sim::speeds`]), `f64` when run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Fig3bConfig {
+#[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]
+pub struct Fig3bConfig<S = f64> {
     /// the sway-cycle start
-    pub start: SwayStart,
+    pub start: SwayStart<S>,
     /// t_b \[s\]: braking starts
     pub brake_start_s: f64,
-    /// ΔV \[m/s\] (negative: braking)
-    pub speed_change_mps: f64,
+    /// ΔV \[m/s\] (negative: braking; relative: `{ of_v_crit = f }`)
+    pub speed_change_mps: S,
     /// the ramp durations T \[s\], one run each
     pub brake_durations_s: Vec<Positive>,
     /// horizon \[s\]
@@ -105,12 +50,27 @@ pub struct Fig3bConfig {
     pub settings: RunSettings,
 }
 
+impl<S: SpeedValue> ResolveSpeeds for Fig3bConfig<S> {
+    type Resolved = Fig3bConfig;
+    fn resolve_speeds(&self, r: &mut Resolver<'_>) -> Result<Fig3bConfig, UnresolvedSpeed> {
+        Ok(Fig3bConfig {
+            start: self.start.resolve_speeds("start", r)?,
+            brake_start_s: self.brake_start_s,
+            speed_change_mps: self.speed_change_mps.resolve_change("speed_change_mps", r)?,
+            brake_durations_s: self.brake_durations_s.clone(),
+            horizon_s: self.horizon_s,
+            output_step_s: self.output_step_s,
+            settings: self.settings,
+        })
+    }
+}
+
 impl Fig3bConfig {
     /// The run that brakes over `duration_s`.
     pub fn spec(&self, duration_s: f64) -> SimSpec {
         SimSpec {
             profile: SpeedProfile::Ramp {
-                initial_mps: self.start.speed_mps.get(),
+                initial_mps: self.start.speed_mps,
                 change_mps: self.speed_change_mps,
                 start_s: self.brake_start_s,
                 duration_s,
@@ -141,9 +101,13 @@ pub struct BrakeRun {
 /// `brake_duration_s`.
 pub type Fig3bSummary = Keyed<RunEntry<BrakeRun>>;
 
-impl TaskConfig for Fig3bConfig {
-    fn check(&self, file: &Path) -> Result<(), TaskError> {
-        let start_speed = self.start.speed_mps.get();
+impl Fig3bConfig {
+    /// Checks every key (speeds resolved).
+    ///
+    /// # Errors
+    /// [`TaskError::Config`] naming the key.
+    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
+        let start_speed = self.start.speed_mps;
         self.start.validate_run(
             file,
             self.horizon_s.get(),
@@ -172,9 +136,20 @@ impl TaskConfig for Fig3bConfig {
     }
 }
 
-impl SwayRuns for Fig3bConfig {
-    fn runs(&self) -> (Overlay, Vec<OverlayRun<BrakeRun>>) {
-        let durations = self.brake_durations_s.iter().map(|t| t.get());
+impl TaskConfig for Fig3bConfig<SpeedSpec> {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
+        check_change(&self.speed_change_mps, "speed_change_mps")
+            .map_err(|(k, p)| TaskError::config(file, k, p))?;
+        match self.all_numbers() {
+            Some(c) => c.validate(file),
+            None => Ok(()),
+        }
+    }
+}
+
+impl SwayRuns for Fig3bConfig<SpeedSpec> {
+    fn runs(c: &Fig3bConfig) -> (Overlay, Vec<OverlayRun<BrakeRun>>) {
+        let durations = c.brake_durations_s.iter().map(|t| t.get());
         let runs = durations
             .enumerate()
             .map(|(i, tt)| OverlayRun {
@@ -183,7 +158,7 @@ impl SwayRuns for Fig3bConfig {
                 label: format!("T = {tt} s"),
                 color: Rgb::palette(i),
                 speed_stroke: Stroke::Solid,
-                spec: self.spec(tt),
+                spec: c.spec(tt),
                 about: BrakeRun {
                     brake_duration_s: tt,
                 },
@@ -194,9 +169,20 @@ impl SwayRuns for Fig3bConfig {
     const LABELS: (&'static str, &'static str, &'static str) =
         (TASK.name, "fig3b: braking", "fig3b: braking runs");
     const SPEED_FIRST: bool = true;
+    const NOTHING: &'static str = "no sway to brake from";
     type About = BrakeRun;
-    fn setup(&self) -> (&SwayStart, (f64, f64), &RunSettings) {
-        let sampling = (self.horizon_s.get(), self.output_step_s.get());
-        (&self.start, sampling, &self.settings)
+    fn setup(c: &Fig3bConfig) -> (&SwayStart, (f64, f64), &RunSettings) {
+        let sampling = (c.horizon_s.get(), c.output_step_s.get());
+        (&c.start, sampling, &c.settings)
+    }
+    fn check_resolved(c: &Fig3bConfig, file: &Path) -> Result<(), TaskError> {
+        c.validate(file)
+    }
+    fn plan_shape(&self) -> (f64, (f64, f64), usize) {
+        (
+            self.start.settle_s.get(),
+            (self.horizon_s.get(), self.output_step_s.get()),
+            self.brake_durations_s.len(),
+        )
     }
 }

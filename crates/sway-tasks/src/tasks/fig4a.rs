@@ -3,12 +3,15 @@
 
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
-use stability::{Axis, ChartOptions, StabilityChart};
+use serde::Serialize;
+use stability::StabilityChart;
 use crate::TaskError;
-use sway::charts::{critical_speed_at_gain, fig4a_charts, stable_gain_intervals};
+use sway::charts::auto_range::SpeedBounds;
+use sway::ranging::open_loop_critical_speed;
+pub use sway::charts::fig4a::{
+    Fig4a, Fig4aConfig, Fig4aRanges, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig, compute,
+};
 use sway::config::ensure;
-use trailer_model::CriticalSpeedOptions;
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::{Configured, TaskConfig, check_delays};
@@ -27,90 +30,6 @@ pub const TASK: Task = Task::configured::<Fig4aConfig>(
     "fig4a.toml",
 );
 
-/// Speed axis \[m/s\].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpeedAxis {
-    /// lower edge \[m/s\]
-    pub min_mps: f64,
-    /// upper edge \[m/s\]
-    pub max_mps: f64,
-    /// number of cells
-    pub cells: usize,
-}
-
-/// Gain axis \[s\].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GainAxis {
-    /// lower edge \[s\]
-    pub min_s: f64,
-    /// upper edge \[s\]
-    pub max_s: f64,
-    /// number of cells
-    pub cells: usize,
-}
-
-/// Where the headline numbers are taken.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SummaryConfig {
-    /// gain of `v_crit_at_d_0.1_mps` \[s\]
-    pub gain_for_critical_speed_s: f64,
-    /// speed of `stable_d_interval_at_v_35` \[m/s\]
-    pub speed_for_gain_interval_mps: f64,
-    /// bisection tolerance of the critical speed \[m/s\]
-    pub speed_tolerance_mps: f64,
-}
-
-impl Default for SummaryConfig {
-    fn default() -> Self {
-        Self {
-            gain_for_critical_speed_s: 0.1,
-            speed_for_gain_interval_mps: 35.0,
-            speed_tolerance_mps: 1e-9,
-        }
-    }
-}
-
-/// Numerical settings of the charts.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct NumericsConfig {
-    /// fresh spectral seed every this many cells along D
-    pub reseed_interval: usize,
-    /// rightmost roots followed from cell to cell
-    pub tracked_roots: usize,
-}
-
-impl Default for NumericsConfig {
-    fn default() -> Self {
-        let o = ChartOptions::default();
-        Self {
-            reseed_interval: o.reseed_interval,
-            tracked_roots: o.tracked_roots,
-        }
-    }
-}
-
-/// `configs/fig4a.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Fig4aConfig {
-    /// speed axis
-    pub speed: SpeedAxis,
-    /// gain axis
-    pub gain: GainAxis,
-    /// delays τ \[s\], one panel each
-    pub delays_s: Vec<f64>,
-    /// headline numbers
-    #[serde(default)]
-    pub summary: SummaryConfig,
-    /// numerics
-    #[serde(default)]
-    pub numerics: NumericsConfig,
-}
-
 /// Checks the chart axis `key` with (min, max, cells): `range_ok` (else "expected
 /// `expected`, got min and max" under `key`) and at least 2 cells (under `key.cells`).
 fn check_axis(
@@ -128,145 +47,56 @@ fn check_axis(
     })?)
 }
 
-impl Fig4aConfig {
-    /// The speed axis.
-    pub fn speed_axis(&self) -> Axis {
-        Axis {
-            min: self.speed.min_mps,
-            max: self.speed.max_mps,
-            count: self.speed.cells,
-        }
+/// Checks the config; errors name the key.
+///
+/// # Errors
+/// [`TaskError::Config`].
+pub fn validate(cfg: &Fig4aConfig, file: &Path) -> Result<(), TaskError> {
+    let s = &cfg.speed;
+    let (v0, v1) = (s.min_mps.unwrap_or(0.0), s.max_mps.unwrap_or(f64::INFINITY));
+    let speed_ok = v0 >= 0.0 && v1 > v0 && s.max_mps.is_none_or(f64::is_finite);
+    check_axis(file, "speed", (v0, v1, s.cells), speed_ok, "0 ≤ min_mps < max_mps")?;
+    let g = &cfg.gain;
+    let (d0, d1) = (g.min_s.unwrap_or(f64::NEG_INFINITY), g.max_s.unwrap_or(f64::INFINITY));
+    let finite = g.min_s.is_none_or(f64::is_finite) && g.max_s.is_none_or(f64::is_finite);
+    check_axis(file, "gain", (d0, d1, g.cells), finite && d0 < d1, "finite min_s < max_s")?;
+    check_delays(file, "delays_s", &cfg.delays_s)?;
+    let m = &cfg.summary;
+    if let Some(v) = m.speed_for_gain_interval_mps {
+        ensure(v > 0.0 && v.is_finite(), file, "summary.speed_for_gain_interval_mps", || {
+            format!("expected a positive speed, got {v}")
+        })?;
     }
-    /// The gain axis.
-    pub fn gain_axis(&self) -> Axis {
-        Axis {
-            min: self.gain.min_s,
-            max: self.gain.max_s,
-            count: self.gain.cells,
-        }
+    if let Some(d) = m.gain_for_critical_speed_s {
+        ensure(d.is_finite(), file, "summary.gain_for_critical_speed_s", || {
+            "expected a finite gain".into()
+        })?;
     }
-    /// Chart options.
-    pub fn chart_options(&self) -> ChartOptions {
-        ChartOptions {
-            reseed_interval: self.numerics.reseed_interval,
-            tracked_roots: self.numerics.tracked_roots,
-            ..ChartOptions::default()
-        }
+    ensure(
+        m.speed_tolerance_mps > 0.0 && m.speed_tolerance_mps < 1e-2,
+        file,
+        "summary.speed_tolerance_mps",
+        || {
+            format!(
+                "expected 0 < tolerance < 0.01 m/s, got {}",
+                m.speed_tolerance_mps
+            )
+        },
+    )?;
+    let n = &cfg.numerics;
+    for (key, count) in [
+        ("numerics.reseed_interval", n.reseed_interval),
+        ("numerics.tracked_roots", n.tracked_roots),
+    ] {
+        ensure(count >= 1, file, key, || "expected ≥ 1".into())?;
     }
-
-    /// Checks the config; errors name the key.
-    ///
-    /// # Errors
-    /// [`TaskError::Config`].
-    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
-        let s = &self.speed;
-        let speed_ok = s.min_mps >= 0.0 && s.max_mps > s.min_mps && s.max_mps.is_finite();
-        let speed = (s.min_mps, s.max_mps, s.cells);
-        check_axis(file, "speed", speed, speed_ok, "0 ≤ min_mps < max_mps")?;
-        let g = &self.gain;
-        let gain_ok = g.min_s.is_finite() && g.max_s.is_finite() && g.min_s < g.max_s;
-        check_axis(file, "gain", (g.min_s, g.max_s, g.cells), gain_ok, "finite min_s < max_s")?;
-        check_delays(file, "delays_s", &self.delays_s)?;
-        let m = &self.summary;
-        ensure(
-            m.speed_for_gain_interval_mps > 0.0 && m.speed_for_gain_interval_mps.is_finite(),
-            file,
-            "summary.speed_for_gain_interval_mps",
-            || {
-                format!(
-                    "expected a positive speed, got {}",
-                    m.speed_for_gain_interval_mps
-                )
-            },
-        )?;
-        ensure(
-            m.gain_for_critical_speed_s.is_finite(),
-            file,
-            "summary.gain_for_critical_speed_s",
-            || "expected a finite gain".into(),
-        )?;
-        ensure(
-            m.speed_tolerance_mps > 0.0 && m.speed_tolerance_mps < 1e-2,
-            file,
-            "summary.speed_tolerance_mps",
-            || {
-                format!(
-                    "expected 0 < tolerance < 0.01 m/s, got {}",
-                    m.speed_tolerance_mps
-                )
-            },
-        )?;
-        let n = &self.numerics;
-        for (key, count) in [
-            ("numerics.reseed_interval", n.reseed_interval),
-            ("numerics.tracked_roots", n.tracked_roots),
-        ] {
-            ensure(count >= 1, file, key, || "expected ≥ 1".into())?;
-        }
-        Ok(())
-    }
+    Ok(())
 }
 
 impl TaskConfig for Fig4aConfig {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
-        self.validate(file)
+        validate(self, file)
     }
-}
-
-/// Headline numbers of one chart.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ChartSummary {
-    /// delay \[s\]
-    pub delay_s: f64,
-    /// lowest speed at which the summary gain is unstable \[m/s\]
-    pub v_crit_at_gain_mps: Option<f64>,
-    /// stable gain intervals at the summary speed \[s\]
-    pub stable_gain_intervals: Vec<(f64, f64)>,
-}
-
-/// Computes the charts and the headline numbers (no I/O): the whole Fig. 4(a) computation,
-/// also used by the benchmark.
-///
-/// # Errors
-/// [`sway::SwayError::Numerical`].
-pub fn compute(
-    model: &trailer_model::Model,
-    cfg: &Fig4aConfig,
-) -> Result<(Vec<StabilityChart>, Vec<ChartSummary>), TaskError> {
-    let charts = fig4a_charts(
-        model,
-        &cfg.delays_s,
-        cfg.speed_axis(),
-        cfg.gain_axis(),
-        &cfg.chart_options(),
-    )?;
-    let s = &cfg.summary;
-    let v_lo = cfg.speed_axis().values()[0];
-    let mut summaries = Vec::new();
-    for &tau in &cfg.delays_s {
-        let v_crit = critical_speed_at_gain(
-            model,
-            tau,
-            s.gain_for_critical_speed_s,
-            v_lo,
-            cfg.speed.max_mps,
-            cfg.speed.cells,
-            s.speed_tolerance_mps,
-        )?;
-        let intervals = stable_gain_intervals(
-            model,
-            tau,
-            s.speed_for_gain_interval_mps,
-            cfg.gain.min_s,
-            cfg.gain.max_s,
-        )?;
-        summaries.push(ChartSummary {
-            delay_s: tau,
-            v_crit_at_gain_mps: v_crit,
-            stable_gain_intervals: intervals,
-        });
-    }
-    Ok((charts, summaries))
 }
 
 /// Stable gain intervals as `summary.json` writes them: one interval as `[lo, hi]`, several
@@ -307,13 +137,26 @@ pub struct DelayEntry {
     pub reseeded_cells: usize,
     /// cells whose roots could not be confirmed
     pub failed_cells: usize,
+    /// what the chart shows as a whole or why a number is null (all safe, stable at the
+    /// summary gain up to the axis' top, no stabilising gain); absent: nothing to say
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
 }
 
 /// `summary.json` of fig4a (before the common fields of [`crate::io::Summary`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Fig4aSummary {
-    /// V_crit of the open loop \[m/s\]
-    pub open_loop_v_crit_mps: f64,
+    /// V_crit of the open loop \[m/s\] (null: stable up to the maximum speed, see
+    /// `open_loop`)
+    pub open_loop_v_crit_mps: Option<f64>,
+    /// the open loop is stable up to this speed \[m/s\] (absent: it is not)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub open_loop_stable_up_to_mps: Option<f64>,
+    /// why `open_loop_v_crit_mps` is null (absent: it is not)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub open_loop_reason: Option<String>,
+    /// the axes and summary settings used (derived where the config omits them)
+    pub ranges: Fig4aRanges,
     /// one entry per delay, in the config's order
     pub per_tau: Vec<DelayEntry>,
     /// cells of each chart
@@ -357,9 +200,10 @@ fn write_chart(out: &OutputDir, ch: &StabilityChart) -> Result<(), TaskError> {
 }
 
 /// The figure: one panel per τ, the τ = 0 dynamic boundary dotted on the others.
-fn draw(out: &OutputDir, cfg: &Fig4aConfig, charts: &[StabilityChart]) -> Result<(), TaskError> {
+fn draw(out: &OutputDir, r: &Fig4a) -> Result<(), TaskError> {
+    let charts = &r.charts;
     let reference = charts.iter().find(|c| c.tau == 0.0);
-    let (sa, ga) = (cfg.speed_axis(), cfg.gain_axis());
+    let (sa, ga) = (r.ranges.speed_mps.axis(), r.ranges.gain_s.axis());
     let panels: Vec<_> = charts
         .iter()
         .map(|c| chart_panel(c, reference, &sa, &ga))
@@ -373,15 +217,12 @@ fn draw(out: &OutputDir, cfg: &Fig4aConfig, charts: &[StabilityChart]) -> Result
 }
 
 /// The `"per_tau"` entries and their printed lines.
-fn delay_entries(
-    cfg: &Fig4aConfig,
-    summaries: &[ChartSummary],
-    charts: &[StabilityChart],
-) -> (Vec<DelayEntry>, Vec<String>) {
-    let gain_key = format!("v_crit_at_d_{}_mps", cfg.summary.gain_for_critical_speed_s);
+fn delay_entries(r: &Fig4a) -> (Vec<DelayEntry>, Vec<String>) {
+    let (summaries, charts) = (&r.summaries, &r.charts);
+    let gain_key = format!("v_crit_at_d_{}_mps", r.ranges.gain_for_critical_speed_s);
     let v_key = format!(
         "stable_d_interval_at_v_{}",
-        cfg.summary.speed_for_gain_interval_mps
+        r.ranges.speed_for_gain_interval_mps
     );
     let mut entries = Vec::new();
     let mut lines = Vec::new();
@@ -389,7 +230,7 @@ fn delay_entries(
         let stable = ch.cells.iter().filter(|c| c.is_stable()).count();
         let intervals = GainIntervals::from(s.stable_gain_intervals.as_slice());
         lines.push(format!(
-            "τ = {} s: {gain_key} = {}, {v_key} = {}{}",
+            "τ = {} s: {gain_key} = {}, {v_key} = {}{}{}",
             s.delay_s,
             s.v_crit_at_gain_mps
                 .map_or("stable on the range".to_string(), |v| format!("{v:.4}")),
@@ -398,7 +239,8 @@ fn delay_entries(
                 String::new()
             } else {
                 format!(" ({} cells failed)", ch.failures.len())
-            }
+            },
+            s.reason.as_ref().map_or(String::new(), |r| format!(" — {r}"))
         ));
         entries.push(DelayEntry {
             tau_s: s.delay_s,
@@ -407,6 +249,7 @@ fn delay_entries(
             stable_cell_fraction: stable as f64 / ch.cells.len() as f64,
             reseeded_cells: ch.reseeds,
             failed_cells: ch.failures.len(),
+            reason: s.reason.clone(),
         });
     }
     (entries, lines)
@@ -439,26 +282,47 @@ impl Prepared for Configured<Fig4aConfig> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
-        ctx.progress.start("fig4a: charts", 3);
-        let (charts, summaries) = compute(&ctx.model, cfg)?;
-        ctx.progress.advance(1);
-        for ch in &charts {
-            write_chart(&out, ch)?;
-        }
-        ctx.progress.advance(1);
-        draw(&out, cfg, &charts)?;
-        ctx.progress.advance(1);
-        let vc = ctx.model.critical_speed(&CriticalSpeedOptions::default())?;
-        let (per_tau, delay_lines) = delay_entries(cfg, &summaries, &charts);
-        let mut lines = vec![format!("open-loop V_crit = {:.4} m/s", vc.v_crit_mps)];
-        lines.extend(delay_lines);
-        let summary = Fig4aSummary {
-            open_loop_v_crit_mps: vc.v_crit_mps,
-            per_tau,
-            grid_cells_per_tau: cfg.speed.cells * cfg.gain.cells,
-        };
-        ctx.conclude(out, summary, cfg, &self.file, lines)
+        ctx.run_staged(TASK.name, "fig4a: charts", 3, cfg, &self.file, |out| {
+            let bounds = SpeedBounds::from(&ctx.limits);
+            let r = compute(&ctx.model, cfg, &bounds)?;
+            ctx.progress.advance(1);
+            for ch in &r.charts {
+                write_chart(out, ch)?;
+            }
+            ctx.progress.advance(1);
+            draw(out, &r)?;
+            ctx.progress.advance(1);
+            // the open loop as `linear` reports it (the one V_crit search of every task)
+            let open = open_loop_critical_speed(&ctx.model, &ctx.limits)?.summary();
+            let (per_tau, delay_lines) = delay_entries(&r);
+            let mut lines = vec![match (open.v_crit_mps, &open.reason) {
+                (Some(v), _) => format!("open-loop V_crit = {v:.4} m/s"),
+                (None, why) => format!("open loop: {}", why.clone().unwrap_or_default()),
+            }];
+            let rg = &r.ranges;
+            if !rg.derivation.derived_keys.is_empty() {
+                lines.push(format!(
+                    "axes V in [{}, {}] m/s, D in [{}, {}] s; summary at D = {} s, V = {} m/s (derived from the vehicle: {})",
+                    rg.speed_mps.min,
+                    rg.speed_mps.max,
+                    rg.gain_s.min,
+                    rg.gain_s.max,
+                    rg.gain_for_critical_speed_s,
+                    rg.speed_for_gain_interval_mps,
+                    rg.derivation.derived_keys.join(", ")
+                ));
+            }
+            lines.extend(delay_lines);
+            let summary = Fig4aSummary {
+                open_loop_v_crit_mps: open.v_crit_mps,
+                open_loop_stable_up_to_mps: open.stable_up_to_mps,
+                open_loop_reason: open.reason,
+                ranges: r.ranges.clone(),
+                per_tau,
+                grid_cells_per_tau: cfg.speed.cells * cfg.gain.cells,
+            };
+            Ok((summary, lines))
+        })
     }
 }
 
@@ -478,11 +342,14 @@ mod tests {
     fn shipped_config_is_valid_and_as_the_issue_asks() {
         let (file, text) = shipped();
         let cfg: Fig4aConfig = parse_toml(&text, &file).unwrap();
-        cfg.validate(&file).unwrap();
+        validate(&cfg, &file).unwrap();
         assert!(cfg.speed.cells >= 300 && cfg.gain.cells >= 200);
         assert_eq!(cfg.delays_s, vec![0.0, 0.1, 0.2, 0.4]);
-        assert_eq!((cfg.speed.min_mps, cfg.speed.max_mps), (0.0, 60.0));
-        assert_eq!((cfg.gain.min_s, cfg.gain.max_s), (-0.5, 0.5));
+        // issue 20: the ranges and summary settings are derived from the vehicle
+        assert_eq!((cfg.speed.min_mps, cfg.speed.max_mps), (None, None));
+        assert_eq!((cfg.gain.min_s, cfg.gain.max_s), (None, None));
+        assert_eq!(cfg.summary.gain_for_critical_speed_s, None);
+        assert_eq!(cfg.summary.speed_for_gain_interval_mps, None);
     }
 
     #[test]
@@ -490,7 +357,7 @@ mod tests {
         let (file, text) = shipped();
         let bad = text.replace("delays_s = [0.0, 0.1, 0.2, 0.4]", "delays_s = [0.0, -0.1]");
         let cfg: Fig4aConfig = parse_toml(&bad, &file).unwrap();
-        let e = cfg.validate(&file).unwrap_err().to_string();
+        let e = validate(&cfg, &file).unwrap_err().to_string();
         assert!(e.contains("delays_s[1]"), "{e}");
         let unknown = text.replace("[numerics]", "[numerics]\nfoo = 1");
         let e = parse_toml::<Fig4aConfig>(&unknown, &file)

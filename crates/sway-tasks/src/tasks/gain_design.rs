@@ -17,17 +17,16 @@
 
 use std::path::Path;
 
-use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use crate::TaskError;
-use sway::bifurcation::DiagramOptions;
-use sway::bifurcation::chart::ChartOptions;
-use sway::config::{Grid, ensure, ensure_positive};
-use sway::gain_design::{
-    DelayBudget, FoldResult, GainSearch, LinearOptimum, RangeEnd, SafeSpeedLimit, critical_speed,
-    delay_budget, fold_optimum, linear_optimum, open_loop_fold_speed,
+use sway::bifurcation::chart::study::ChartConfig;
+use sway::charts::auto_range::SpeedBounds;
+use sway::config::{ensure, ensure_positive};
+pub use sway::gain_design::study::{
+    BudgetConfig, GainDesign, GainDesignConfig, GainSearchConfig, NonlinearConfig, ResolvedDesign,
+    compute, default_chart,
 };
-use trailer_model::Model;
+use sway::gain_design::{RangeEnd, SafeSpeedLimit};
 
 use super::fig3a_diagram::validate_options;
 use super::{Prepared, Report, Task, TaskContext};
@@ -43,139 +42,38 @@ pub const TASK: Task = Task::configured::<GainDesignConfig>(
     "gain_design.toml",
 );
 
-/// The delay budget's settings.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BudgetConfig {
-    /// the required rise of the critical speed over the open loop (0.1: 10 %)
-    pub rise_fraction: f64,
-    /// bisection tolerance in τ \[s\]
-    pub tau_tolerance_s: f64,
-}
-
-impl Default for BudgetConfig {
-    fn default() -> Self {
-        Self {
-            rise_fraction: 0.1,
-            tau_tolerance_s: 1e-5,
-        }
-    }
-}
-
-/// The nonlinear part's settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct NonlinearConfig {
-    /// the fold-of-cycles optimum at every `every`-th delay of the grid, the first one
-    /// included (0: none)
-    pub every: usize,
-    /// the fold-of-cycles curve: its speed range, seed gain (the first of
-    /// `seed_gains_s`), steps and cycle mesh; its gain range is the search's
-    pub chart: ChartOptions,
-}
-
-/// The chart settings of the gain design: those of `chart_nonlinear` with the fold seeded
-/// at D = 0.1 s, a coarser cycle mesh (L = 20: fold speeds within 0.01 m/s of L = 40 at
-/// τ = 0.2 s, 3× faster) and longer fold steps.
-pub fn default_chart() -> ChartOptions {
-    ChartOptions {
-        seed_gains_s: vec![0.1],
-        fold_max_step: 4.0,
-        cycles: DiagramOptions {
-            intervals: 20,
-            max_step: 0.5,
-            ..DiagramOptions::default()
-        },
-        ..ChartOptions::default()
-    }
-}
-
-impl Default for NonlinearConfig {
-    fn default() -> Self {
-        Self {
-            every: 10,
-            chart: default_chart(),
-        }
-    }
-}
-
-fn default_delays() -> Grid {
-    Grid {
-        min: 0.0,
-        max: 0.5,
-        points: 51,
-    }
-}
-
-fn default_headline_delays() -> Vec<f64> {
-    vec![0.1, 0.2, 0.4]
-}
-
-/// `configs/gain_design.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GainDesignConfig {
-    /// the delays τ \[s\]
-    #[serde(default = "default_delays")]
-    pub delays_s: Grid,
-    /// delays whose optimum is printed as a headline line \[s\] (the nearest grid delay)
-    #[serde(default = "default_headline_delays")]
-    pub headline_delays_s: Vec<f64>,
-    /// the search for the best gain at one delay
-    #[serde(default)]
-    pub search: GainSearch,
-    /// the delay budget
-    #[serde(default)]
-    pub budget: BudgetConfig,
-    /// the fold-of-cycles optimum
-    #[serde(default)]
-    pub nonlinear: NonlinearConfig,
-}
-
-impl GainDesignConfig {
-    /// Checks the keys.
-    ///
-    /// # Errors
-    /// [`TaskError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path) -> Result<(), TaskError> {
-        ensure(self.delays_s.min >= 0.0, file, "delays_s.min", || {
-            format!("expected a delay ≥ 0 s, got {}", self.delays_s.min)
+/// Checks the keys (the derived ones are checked once derived).
+///
+/// # Errors
+/// [`TaskError::Config`] naming the file and key.
+pub fn validate(cfg: &GainDesignConfig, file: &Path) -> Result<(), TaskError> {
+    ensure(cfg.delays_s.min >= 0.0, file, "delays_s.min", || {
+        format!("expected a delay ≥ 0 s, got {}", cfg.delays_s.min)
+    })?;
+    for (i, t) in cfg.headline_delays_s.iter().enumerate() {
+        ensure(t.is_finite(), file, &format!("headline_delays_s[{i}]"), || {
+            format!("expected a finite delay, got {t}")
         })?;
-        for (i, t) in self.headline_delays_s.iter().enumerate() {
-            ensure(t.is_finite(), file, &format!("headline_delays_s[{i}]"), || {
-                format!("expected a finite delay, got {t}")
-            })?;
-        }
-        validate_search(&self.search, file)?;
-        let b = &self.budget;
-        ensure_positive(b.rise_fraction, file, "budget.rise_fraction", "a fraction > 0")?;
-        ensure_positive(b.tau_tolerance_s, file, "budget.tau_tolerance_s", "a tolerance > 0 s")?;
-        validate_chart(&self.nonlinear.chart, &self.search, file)
     }
-
-    /// The delays of the grid \[s\].
-    pub fn delays(&self) -> Vec<f64> {
-        self.delays_s.values()
-    }
-
-    /// Whether the nonlinear part runs at grid index `i`.
-    pub fn is_nonlinear(&self, i: usize) -> bool {
-        self.nonlinear.every > 0 && i.is_multiple_of(self.nonlinear.every)
-    }
+    validate_search(&cfg.search, file)?;
+    let b = &cfg.budget;
+    ensure_positive(b.rise_fraction, file, "budget.rise_fraction", "a fraction > 0")?;
+    ensure_positive(b.tau_tolerance_s, file, "budget.tau_tolerance_s", "a tolerance > 0 s")?;
+    validate_chart(&cfg.nonlinear.chart, &cfg.search, file)
 }
 
-fn validate_search(s: &GainSearch, file: &Path) -> Result<(), TaskError> {
+fn validate_search(s: &GainSearchConfig, file: &Path) -> Result<(), TaskError> {
+    let (d0, d1) = (s.d_min_s.unwrap_or(0.0), s.d_max_s.unwrap_or(f64::INFINITY));
+    let finite = s.d_min_s.is_none_or(f64::is_finite) && s.d_max_s.is_none_or(f64::is_finite);
+    ensure(finite && d0 < d1, file, "search.d_min_s", || {
+        format!("expected finite d_min_s < d_max_s, got {d0} and {d1}")
+    })?;
+    let (v0, v1) = (s.v_min_mps.unwrap_or(0.5), s.v_max_mps.unwrap_or(f64::INFINITY));
     ensure(
-        s.d_min_s.is_finite() && s.d_max_s.is_finite() && s.d_min_s < s.d_max_s,
-        file,
-        "search.d_min_s",
-        || format!("expected finite d_min_s < d_max_s, got {} and {}", s.d_min_s, s.d_max_s),
-    )?;
-    ensure(
-        s.v_min_mps.is_finite() && s.v_min_mps > 0.0 && s.v_max_mps.is_finite() && s.v_min_mps < s.v_max_mps,
+        v0.is_finite() && v0 > 0.0 && s.v_max_mps.is_none_or(f64::is_finite) && v0 < v1,
         file,
         "search.v_min_mps",
-        || format!("expected 0 < v_min_mps < v_max_mps, got {} and {}", s.v_min_mps, s.v_max_mps),
+        || format!("expected 0 < v_min_mps < v_max_mps, got {v0} and {v1}"),
     )?;
     for (key, n) in [("search.gain_samples", s.gain_samples), ("search.speed_samples", s.speed_samples)] {
         ensure(n >= 3, file, key, || format!("expected ≥ 3, got {n}"))?;
@@ -187,7 +85,9 @@ fn validate_search(s: &GainSearch, file: &Path) -> Result<(), TaskError> {
         "search.speed_tolerance_mps",
         || format!("expected 0 < tolerance < 0.01 m/s, got {}", s.speed_tolerance_mps),
     )?;
-    let span = s.d_max_s - s.d_min_s;
+    // the span is checked against the tolerance once the range is known (derived ranges
+    // are at least 0.1 s wide: 5·D₁ with D₁ ≥ 0.01 s at one significant digit … in practice)
+    let span = if d1.is_finite() { d1 - d0 } else { f64::INFINITY };
     ensure(
         s.gain_tolerance_s > 0.0 && s.gain_tolerance_s < 1e-2 * span,
         file,
@@ -202,20 +102,25 @@ fn validate_search(s: &GainSearch, file: &Path) -> Result<(), TaskError> {
     )?)
 }
 
-fn validate_chart(c: &ChartOptions, s: &GainSearch, file: &Path) -> Result<(), TaskError> {
+fn validate_chart(c: &ChartConfig, s: &GainSearchConfig, file: &Path) -> Result<(), TaskError> {
+    let (v0, v1) = (c.v_min_mps.unwrap_or(0.5), c.v_max_mps.unwrap_or(f64::INFINITY));
     ensure(
-        c.v_min_mps.is_finite() && c.v_min_mps > 0.0 && c.v_max_mps.is_finite() && c.v_min_mps < c.v_max_mps,
+        v0.is_finite() && v0 > 0.0 && c.v_max_mps.is_none_or(f64::is_finite) && v0 < v1,
         file,
         "nonlinear.chart.v_min_mps",
-        || format!("expected 0 < v_min_mps < v_max_mps, got {} and {}", c.v_min_mps, c.v_max_mps),
+        || format!("expected 0 < v_min_mps < v_max_mps, got {v0} and {v1}"),
     )?;
-    let seed = c.seed_gains_s.first().copied();
-    ensure(
-        seed.is_some_and(|d| d >= s.d_min_s && d <= s.d_max_s),
-        file,
-        "nonlinear.chart.seed_gains_s",
-        || format!("expected a first seed gain inside the search's gain range [{}, {}] s", s.d_min_s, s.d_max_s),
-    )?;
+    if let Some(seeds) = &c.seed_gains_s {
+        // a derived gain range starts at 0 (its top is checked once derived)
+        let (d0, d1) = (s.d_min_s.unwrap_or(0.0), s.d_max_s.unwrap_or(f64::INFINITY));
+        let seed = seeds.first().copied();
+        ensure(
+            seed.is_some_and(|d| d >= d0 && d <= d1),
+            file,
+            "nonlinear.chart.seed_gains_s",
+            || format!("expected a first seed gain inside the search's gain range [{d0}, {d1}] s"),
+        )?;
+    }
     for (key, v) in [
         ("nonlinear.chart.fold_step", c.fold_step),
         ("nonlinear.chart.fold_max_step", c.fold_max_step),
@@ -242,85 +147,8 @@ fn validate_chart(c: &ChartOptions, s: &GainSearch, file: &Path) -> Result<(), T
 
 impl TaskConfig for GainDesignConfig {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
-        self.validate(file)
+        validate(self, file)
     }
-}
-
-/// Everything computed (no I/O).
-#[derive(Debug, Clone)]
-pub struct GainDesign {
-    /// the delays \[s\]
-    pub delays_s: Vec<f64>,
-    /// the linear optimum of each delay
-    pub linear: Vec<LinearOptimum>,
-    /// the nonlinear part of each delay (None where it was not computed)
-    pub fold: Vec<Option<FoldResult>>,
-    /// the delay budget
-    pub budget: DelayBudget,
-    /// V_fold(D = 0) \[m/s\] (None: no fold in the speed range, or the nonlinear part is off)
-    pub open_loop_v_fold_mps: Option<f64>,
-}
-
-/// The whole computation (no I/O): the linear optima of all delays and the nonlinear part
-/// of the selected ones side by side on the thread pool (each delay deterministic, results
-/// in grid order), then the delay budget.
-///
-/// # Errors
-/// [`sway::SwayError::Numerical`].
-pub fn compute(
-    model: &Model,
-    cfg: &GainDesignConfig,
-    progress: &dyn sway::progress::Progress,
-) -> Result<GainDesign, TaskError> {
-    let delays = cfg.delays();
-    let o = &cfg.search;
-    let chart = &cfg.nonlinear.chart;
-    let nonlinear: Vec<usize> = (0..delays.len()).filter(|&i| cfg.is_nonlinear(i)).collect();
-    let (linear, (fold, v_fold_open)) = rayon::join(
-        || {
-            let r: Vec<Result<LinearOptimum, sway::SwayError>> = delays
-                .par_iter()
-                .map(|&tau| {
-                    let r = linear_optimum(model, tau, o);
-                    progress.advance(1);
-                    r
-                })
-                .collect();
-            r.into_iter().collect::<Result<Vec<_>, _>>()
-        },
-        || {
-            let r: Vec<Result<FoldResult, sway::SwayError>> = nonlinear
-                .par_iter()
-                .map(|&i| {
-                    let r = fold_optimum(model, delays[i], o, chart);
-                    progress.advance(1);
-                    r
-                })
-                .collect();
-            let open = if nonlinear.is_empty() {
-                Ok(None)
-            } else {
-                open_loop_fold_speed(model, chart)
-            };
-            (r, open)
-        },
-    );
-    let linear = linear?;
-    let mut folds: Vec<Option<FoldResult>> = vec![None; delays.len()];
-    for (&i, r) in nonlinear.iter().zip(fold) {
-        folds[i] = Some(r?);
-    }
-    let v_open = critical_speed(model, 0.0, 0.0, o)?;
-    let b = &cfg.budget;
-    let budget = delay_budget(model, &linear, v_open, b.rise_fraction, b.tau_tolerance_s, o)?;
-    progress.advance(1);
-    Ok(GainDesign {
-        delays_s: delays,
-        linear,
-        fold: folds,
-        budget,
-        open_loop_v_fold_mps: v_fold_open?,
-    })
 }
 
 /// One entry of `"optimal_gain"` in `summary.json`.
@@ -359,6 +187,11 @@ pub struct OptimalGainEntry {
     /// notes of the nonlinear part (no curve, failed seeds)
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub fold_notes: Vec<String>,
+    /// what is special about this optimum: stable up to the top of the speed range
+    /// (`v_crit_capped`), no gain raising the critical speed over the open loop (absent:
+    /// nothing)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
 }
 
 /// `summary.json` of gain_design (before the common fields of [`crate::io::Summary`]).
@@ -367,18 +200,32 @@ pub struct GainDesignSummary {
     /// one entry per delay of the grid
     pub optimal_gain: Vec<OptimalGainEntry>,
     /// the largest delay at which the best gain raises the critical speed by
-    /// `budget_rise_fraction` over the open loop \[s\] (null: not even at the first delay)
+    /// `budget_rise_fraction` over the open loop \[s\] (null: not even at the first delay,
+    /// see `delay_budget_reason`)
     pub delay_budget_s: Option<f64>,
+    /// why there is no delay budget (absent: there is one)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub delay_budget_reason: Option<String>,
     /// the budget is the last grid delay (the true budget is larger)
     pub delay_budget_at_grid_end: bool,
     /// the required rise (0.1: 10 %)
     pub budget_rise_fraction: f64,
-    /// V_crit(D = 0) \[m/s\]
-    pub open_loop_v_crit_mps: f64,
+    /// V_crit(D = 0) \[m/s\] (null: stable up to the top of the speed range, see
+    /// `open_loop_stable_up_to_mps` and `open_loop_reason`)
+    pub open_loop_v_crit_mps: Option<f64>,
+    /// the open loop is stable up to this speed \[m/s\] (absent: it is not)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub open_loop_stable_up_to_mps: Option<f64>,
+    /// the open loop is stable up to the top of the speed range (absent: it is not)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub open_loop_reason: Option<String>,
     /// V_fold(D = 0) \[m/s\]
     pub open_loop_v_fold_mps: Option<f64>,
     /// the delays with the nonlinear part \[s\]
     pub nonlinear_delays_s: Vec<f64>,
+    /// the search's ranges and the fold chart's box and seed used (derived where the config
+    /// omits them)
+    pub ranges: ResolvedDesign,
 }
 
 /// One row of `optimal_gain.csv`.
@@ -418,15 +265,16 @@ fn percent(fraction: f64) -> String {
     format!("{}", (fraction * 100.0 * 1e6).round() / 1e6)
 }
 
-impl GainDesign {
-    fn entries(&self, cfg: &GainDesignConfig) -> Vec<OptimalGainEntry> {
-        let key = format!("d_within_{}pct_s", percent(cfg.search.band_fraction));
-        self.linear
+fn entries(r: &GainDesign) -> Vec<OptimalGainEntry> {
+        let key = format!("d_within_{}pct_s", percent(r.resolved.search.band_fraction));
+        r.linear
             .iter()
-            .zip(&self.fold)
-            .map(|(l, f)| {
+            .zip(&r.fold)
+            .zip(&r.linear_reasons)
+            .map(|((l, f), why)| {
                 let opt = f.as_ref().and_then(|f| f.optimum.as_ref());
                 OptimalGainEntry {
+                    reason: why.clone(),
                     tau_s: l.tau_s,
                     d_s: l.d_opt_s,
                     v_crit_mps: l.v_crit_max_mps,
@@ -445,10 +293,10 @@ impl GainDesign {
             .collect()
     }
 
-    fn rows(&self) -> Vec<OptimalGainRow> {
-        self.linear
+fn rows(r: &GainDesign) -> Vec<OptimalGainRow> {
+        r.linear
             .iter()
-            .zip(&self.fold)
+            .zip(&r.fold)
             .map(|(l, f)| {
                 let opt = f.as_ref().and_then(|f| f.optimum.as_ref());
                 OptimalGainRow {
@@ -467,11 +315,11 @@ impl GainDesign {
     }
 
     /// The headline line of the grid delay nearest to `tau`.
-    fn headline(&self, tau: f64) -> Option<String> {
-        let i = (0..self.delays_s.len())
-            .min_by(|&a, &b| (self.delays_s[a] - tau).abs().total_cmp(&(self.delays_s[b] - tau).abs()))?;
-        let l = &self.linear[i];
-        let fold = self.fold[i].as_ref().and_then(|f| f.optimum.as_ref());
+fn headline(r: &GainDesign, tau: f64) -> Option<String> {
+        let i = (0..r.delays_s.len())
+            .min_by(|&a, &b| (r.delays_s[a] - tau).abs().total_cmp(&(r.delays_s[b] - tau).abs()))?;
+        let l = &r.linear[i];
+        let fold = r.fold[i].as_ref().and_then(|f| f.optimum.as_ref());
         Some(format!(
             "τ = {} s: D* = {:.4} s{} (within 1 %: {:.4}…{:.4} s), V_crit,max = {:.3} m/s{}; {}",
             l.tau_s,
@@ -488,16 +336,22 @@ impl GainDesign {
             } else {
                 " (not confirmed by the roots: the crossing count misses a crossing here)"
             },
-            fold.map_or("V_fold,max: not computed".into(), |f| format!(
-                "V_fold,max = {:.3} m/s at D = {:.4} s",
-                f.v_fold_max_mps, f.d_fold_s
-            ))
+            match (fold, &r.fold[i]) {
+                (Some(f), _) => format!(
+                    "V_fold,max = {:.3} m/s at D = {:.4} s",
+                    f.v_fold_max_mps, f.d_fold_s
+                ),
+                (None, Some(f)) => format!(
+                    "no V_fold,max: {}",
+                    f.notes.last().map_or("no fold-of-cycles curve", String::as_str)
+                ),
+                (None, None) => "V_fold,max: not computed at this delay".into(),
+            }
         ))
     }
-}
 
 fn write_tables(out: &OutputDir, r: &GainDesign) -> Result<(), TaskError> {
-    out.write_table("optimal_gain.csv", r.rows())?;
+    out.write_table("optimal_gain.csv", rows(r))?;
     for f in r.fold.iter().flatten() {
         if let (Some(o), false) = (&f.optimum, f.curve.is_empty()) {
             out.write_table(
@@ -572,7 +426,7 @@ fn speed_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
 
 /// The gain panel: D\*(τ) with its 1 % band shaded, D_fold\*(τ), range-end optima marked.
 fn gain_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
-    let s = &cfg.search;
+    let s = &r.resolved.search;
     let dt = if r.delays_s.len() > 1 {
         (cfg.delays_s.max - cfg.delays_s.min) / (r.delays_s.len() - 1) as f64
     } else {
@@ -691,15 +545,15 @@ impl Prepared for Configured<GainDesignConfig> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
         let n_nl = (0..cfg.delays_s.points).filter(|&i| cfg.is_nonlinear(i)).count();
-        ctx.progress.start("gain_design: optimum per delay", (cfg.delays_s.points + n_nl + 1) as u64);
-        let r = compute(&ctx.model, cfg, ctx.progress)?;
-        write_tables(&out, &r)?;
+        let steps = (cfg.delays_s.points + n_nl + 1) as u64;
+        ctx.run_staged(TASK.name, "gain_design: optimum per delay", steps, cfg, &self.file, |out| {
+        let r = compute(&ctx.model, cfg, &SpeedBounds::from(&ctx.limits), ctx.progress)?;
+        write_tables(out, &r)?;
         Figure::column(vec![speed_panel(&r, cfg), gain_panel(&r, cfg)])
             .titled("Best gain D of the yaw-rate feedback δ(t) = −D·dψ/dt(t − τ) for each delay τ")
             .render(&out.path("gain_design"))?;
-        let mut lines: Vec<String> = cfg.headline_delays_s.iter().filter_map(|&t| r.headline(t)).collect();
+        let mut lines: Vec<String> = cfg.headline_delays_s.iter().filter_map(|&t| headline(&r, t)).collect();
         lines.push(match r.budget.tau_s {
             Some(t) => format!(
                 "delay budget (best gain still ≥ {} % above the open-loop V_crit = {:.3} m/s): τ ≤ {:.4} s{}",
@@ -708,21 +562,45 @@ impl Prepared for Configured<GainDesignConfig> {
                 t,
                 if r.budget.at_grid_end { " (grid end)" } else { "" }
             ),
-            None => "delay budget: no delay of the grid reaches the required rise".into(),
+            None => format!(
+                "delay budget: {}",
+                r.budget_reason.clone().unwrap_or_else(|| "none".into())
+            ),
         });
+        let open_loop_reason = r.open_loop_stable.then(|| {
+            format!(
+                "straight running without feedback is stable at every speed up to the top of the speed range ({} m/s)",
+                r.resolved.search.v_max_mps
+            )
+        });
+        if let Some(why) = &open_loop_reason {
+            lines.push(why.clone());
+        }
+        for (l, why) in r.linear.iter().zip(&r.linear_reasons) {
+            if let Some(why) = why
+                && cfg.headline_delays_s.iter().any(|t| (t - l.tau_s).abs() < 1e-9)
+            {
+                lines.push(format!("τ = {} s: {why}", l.tau_s));
+            }
+        }
         let summary = GainDesignSummary {
-            optimal_gain: r.entries(cfg),
+            optimal_gain: entries(&r),
             delay_budget_s: r.budget.tau_s,
+            delay_budget_reason: r.budget_reason.clone(),
+            open_loop_reason,
             delay_budget_at_grid_end: r.budget.at_grid_end,
             budget_rise_fraction: r.budget.gain_fraction,
-            open_loop_v_crit_mps: r.budget.open_loop_v_crit_mps,
+            open_loop_v_crit_mps: (!r.open_loop_stable).then_some(r.budget.open_loop_v_crit_mps),
+            open_loop_stable_up_to_mps: r.open_loop_stable.then_some(r.resolved.search.v_max_mps),
             open_loop_v_fold_mps: r.open_loop_v_fold_mps,
             nonlinear_delays_s: (0..r.delays_s.len())
                 .filter(|&i| cfg.is_nonlinear(i))
                 .map(|i| r.delays_s[i])
                 .collect(),
+            ranges: r.resolved.clone(),
         };
-        ctx.conclude(out, summary, cfg, &self.file, lines)
+        Ok((summary, lines))
+        })
     }
 }
 
@@ -743,9 +621,10 @@ mod tests {
         // reference: issue 10's defaults (τ = 0 … 0.5 s in 51 values, D in 0 … 0.5 s, 1 %, 10 %)
         let (file, text) = shipped();
         let cfg: GainDesignConfig = parse_toml(&text, &file).unwrap();
-        cfg.validate(&file).unwrap();
+        validate(&cfg, &file).unwrap();
         assert_eq!((cfg.delays_s.min, cfg.delays_s.max, cfg.delays_s.points), (0.0, 0.5, 51));
-        assert_eq!((cfg.search.d_min_s, cfg.search.d_max_s), (0.0, 0.5));
+        // the gain range is derived from the vehicle (issue 20; Table I: [0, 0.5] s)
+        assert_eq!((cfg.search.d_min_s, cfg.search.d_max_s), (None, None));
         assert_eq!(cfg.search.band_fraction, 0.01);
         assert_eq!(cfg.budget.rise_fraction, 0.1);
         // the nonlinear delays include the headline delays 0.1, 0.2, 0.4 s
@@ -760,15 +639,19 @@ mod tests {
     fn bad_values_name_the_file_and_their_key() {
         let (file, text) = shipped();
         for (from, to, key) in [
-            ("d_max_s = 0.5", "d_max_s = -0.5", "search.d_min_s"),
+            ("[search]\n", "[search]\nd_min_s = 0.0\nd_max_s = -0.5\n", "search.d_min_s"),
             ("band_fraction = 0.01", "band_fraction = 1.5", "search.band_fraction"),
             ("rise_fraction = 0.1", "rise_fraction = -0.1", "budget.rise_fraction"),
-            ("seed_gains_s = [0.1]", "seed_gains_s = [0.9]", "nonlinear.chart.seed_gains_s"),
+            (
+                "[nonlinear.chart]\n",
+                "[nonlinear.chart]\nseed_gains_s = [-0.9]\n",
+                "nonlinear.chart.seed_gains_s",
+            ),
             ("intervals = 20", "intervals = 0", "nonlinear.chart.cycles.intervals"),
         ] {
             assert!(text.contains(from), "{from}");
             let cfg: GainDesignConfig = parse_toml(&text.replace(from, to), &file).unwrap();
-            let e = cfg.validate(&file).unwrap_err().to_string();
+            let e = validate(&cfg, &file).unwrap_err().to_string();
             assert!(e.contains(key) && e.contains("gain_design.toml"), "{key}: {e}");
         }
         let e = parse_toml::<GainDesignConfig>(&text.replace("[budget]", "[budget]\nfoo = 1"), &file)

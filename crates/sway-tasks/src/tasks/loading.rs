@@ -6,8 +6,13 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use crate::TaskError;
 use sway::config::{Grid, ensure};
-use sway::loading::{InertiaScaling, loaded, tongue_load_fraction, v_crit_map, v_crit_of};
-use trailer_model::{CriticalSpeedOptions, VehicleParams};
+use sway::loading::{
+    InertiaScaling, LoadingMap, loading_map, tongue_load_fraction, v_crit_at_tongue_load,
+    v_crit_of,
+};
+use sway::ranging::{Reference, SpeedLimits, SpeedSpec, open_loop_references};
+use sway::sim::speeds::SpeedValue;
+use trailer_model::{CriticalSpeedOptions, Model, VehicleParams};
 
 use crate::limits::{
     BYTES_PER_ROW, LOADING_SECONDS_PER_CELL, MAX_SIMULATIONS, Plan, bound, human_seconds,
@@ -31,17 +36,39 @@ pub const TASK: Task = Task {
 pub struct LoadingConfig {
     /// trailer mass m2 \[kg\]
     pub trailer_mass_kg: Grid,
-    /// trailer centre of gravity behind the hitch h \[m\]
-    pub trailer_cog_m: Grid,
+    /// trailer centre of gravity behind the hitch h \[m\] (or `trailer_cog_of_axle`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trailer_cog_m: Option<Grid>,
+    /// h relative to the vehicle's trailer axle, h/l \[-\] (or `trailer_cog_m`): the same
+    /// range of tongue loads 1 − h/l for a short and a long trailer
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trailer_cog_of_axle: Option<Grid>,
     /// how J2 follows m2
     #[serde(default)]
     pub inertia: InertiaScaling,
     /// tongue loads to draw as lines \[% of trailer weight\]
     #[serde(default = "default_tongue")]
     pub tongue_load_lines_pct: Vec<f64>,
-    /// V_crit search range \[m/s\]: cells outside are left empty
-    #[serde(default = "default_v_range")]
-    pub v_range_mps: [f64; 2],
+    /// V_crit search range \[m/s\] (numbers, or relative to the vehicle's V_crit,
+    /// `{ of_v_crit = f }`): cells outside are left empty. Omitted: from the lowest to the
+    /// maximum speed (`--max-speed`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub v_range_mps: Option<[SpeedSpec; 2]>,
+}
+
+impl LoadingConfig {
+    /// The centres of gravity h \[m\] of the map's rows for a trailer axle at `axle_m`.
+    fn cogs(&self, axle_m: f64) -> Grid {
+        match (self.trailer_cog_m, self.trailer_cog_of_axle) {
+            (Some(g), _) => g,
+            (None, Some(g)) => Grid {
+                min: g.min * axle_m,
+                max: g.max * axle_m,
+                points: g.points,
+            },
+            (None, None) => unreachable!("checked by prepare"),
+        }
+    }
 }
 
 fn default_tongue() -> Vec<f64> {
@@ -50,8 +77,33 @@ fn default_tongue() -> Vec<f64> {
 /// Scan step of each cell's V_crit search \[m/s\].
 const SCAN_STEP_MPS: f64 = 0.5;
 
-fn default_v_range() -> [f64; 2] {
-    [1.0, 120.0]
+/// The V_crit search range for this vehicle \[m/s\], and why it is not the config's
+/// (a relative end of a vehicle without V_crit falls back to the limits).
+fn v_range(
+    cfg: &LoadingConfig,
+    model: &Model,
+    limits: &SpeedLimits,
+) -> Result<([f64; 2], Option<String>), TaskError> {
+    let Some([a, b]) = cfg.v_range_mps else {
+        return Ok(([limits.min_speed_mps, limits.max_speed_mps], None));
+    };
+    let need = a.needs().max(b.needs());
+    let refs = open_loop_references(model, limits, need)?;
+    let fallback = [limits.min_speed_mps, limits.max_speed_mps];
+    match (a.resolve(&refs), b.resolve(&refs)) {
+        (Ok(lo), Ok(hi)) => Ok(([lo, hi], None)),
+        (ra, rb) => {
+            let why = ra.err().or(rb.err()).map(|u| u.reason).unwrap_or_default();
+            let lo = a.resolve(&refs).unwrap_or(fallback[0]);
+            let hi = b.resolve(&refs).unwrap_or(fallback[1]);
+            Ok((
+                [lo, hi],
+                Some(format!(
+                    "v_range_mps relative to V_crit does not resolve ({why}): the search runs over [{lo}, {hi}] m/s"
+                )),
+            ))
+        }
+    }
 }
 
 /// `summary.json` of `loading` (before the common fields of [`crate::io::Summary`]).
@@ -73,6 +125,13 @@ pub struct LoadingSummary {
     pub v_crit_map_max_mps: f64,
     /// map cells without a critical speed in the search range
     pub cells_without_critical_speed: usize,
+    /// the V_crit search range of every cell \[m/s\]
+    pub v_range_mps: [f64; 2],
+    /// the centres of gravity of the map \[m\] (first and last row)
+    pub trailer_cog_range_m: [f64; 2],
+    /// why the search range is not the config's (a relative end without V_crit)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_range_reason: Option<String>,
 }
 
 struct LoadingTask {
@@ -93,77 +152,56 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Tas
             )
         },
     )?;
-    ensure(
-        config.trailer_cog_m.min > 0.0,
-        file,
-        "trailer_cog_m.min",
-        || format!("h must be positive, got {}", config.trailer_cog_m.min),
-    )?;
-    let [a, b] = config.v_range_mps;
-    ensure(a > 0.0 && b > a, file, "v_range_mps", || {
-        format!("expected 0 < min < max, got [{a}, {b}]")
+    let cog_key = match (config.trailer_cog_m, config.trailer_cog_of_axle) {
+        (Some(_), None) => "trailer_cog_m",
+        (None, Some(_)) => "trailer_cog_of_axle",
+        _ => {
+            return Err(TaskError::config(
+                file,
+                "trailer_cog_m",
+                "give exactly one of trailer_cog_m (h in m) and trailer_cog_of_axle (h/l)",
+            ));
+        }
+    };
+    let cogs = config.trailer_cog_m.or(config.trailer_cog_of_axle);
+    let cog_min = cogs.map_or(0.0, |g| g.min);
+    ensure(cog_min > 0.0, file, &format!("{cog_key}.min"), || {
+        format!("h must be positive, got {cog_min}")
     })?;
-    // every cell scans the range in steps of SCAN_STEP_MPS until straight running turns
-    // unstable: at most MAX_GRID_POINTS steps (a trailer stable at every speed scans it all)
-    let scan_points = (b - a) / SCAN_STEP_MPS;
-    crate::limits::bound(
-        file,
-        "v_range_mps",
-        scan_points,
-        sway::config::MAX_GRID_POINTS as f64,
-        || {
-            format!(
-                "{scan_points:.3e} scan steps of {SCAN_STEP_MPS} m/s per cell; narrow the range"
-            )
-        },
-    )?;
+    if let Some([a, b]) = config.v_range_mps {
+        if let (Some(a), Some(b)) = (a.absolute(), b.absolute()) {
+            ensure(a > 0.0 && b > a, file, "v_range_mps", || {
+                format!("expected 0 < min < max, got [{a}, {b}]")
+            })?;
+            // every cell scans the range in steps of SCAN_STEP_MPS until straight running
+            // turns unstable: at most MAX_GRID_POINTS steps
+            let scan_points = (b - a) / SCAN_STEP_MPS;
+            crate::limits::bound(
+                file,
+                "v_range_mps",
+                scan_points,
+                sway::config::MAX_GRID_POINTS as f64,
+                || {
+                    format!(
+                        "{scan_points:.3e} scan steps of {SCAN_STEP_MPS} m/s per cell; narrow the range"
+                    )
+                },
+            )?;
+        }
+        for (k, end) in [a, b].iter().enumerate() {
+            if end.needs() == Reference::Fold {
+                return Err(TaskError::config(
+                    file,
+                    format!("v_range_mps[{k}]"),
+                    "expected a number [m/s] or { of_v_crit = f }",
+                ));
+            }
+        }
+    }
     Ok(Box::new(LoadingTask {
         file: file.to_path_buf(),
         config,
     }))
-}
-
-/// The V_crit map over the grid and the cut along h at the base mass.
-struct LoadingMap {
-    masses: Vec<f64>,
-    cogs: Vec<f64>,
-    /// V_crit \[m/s\], row j for `cogs[j]`, column i for `masses[i]`
-    map: Vec<Vec<f64>>,
-    /// (tongue load \[%\], V_crit \[m/s\]) along h at the base mass
-    cut: Vec<(f64, f64)>,
-    /// smallest and largest finite V_crit of the map
-    range: (f64, f64),
-}
-
-/// Step 1: V_crit over mass × centre of gravity, and the finer cut along h.
-fn compute(ctx: &TaskContext<'_>, cfg: &LoadingConfig, opts: &CriticalSpeedOptions) -> LoadingMap {
-    let masses = cfg.trailer_mass_kg.values();
-    let cogs = cfg.trailer_cog_m.values();
-    ctx.progress.start("loading: V_crit map", cogs.len() as u64);
-    let map = v_crit_map(&ctx.vehicle, &masses, &cogs, cfg.inertia, opts, &|| {
-        ctx.progress.advance(1)
-    });
-    ctx.progress.finish();
-    let base = &ctx.vehicle;
-    let cut: Vec<(f64, f64)> = (0..=200)
-        .map(|k| {
-            let h = cfg.trailer_cog_m.min
-                + (cfg.trailer_cog_m.max - cfg.trailer_cog_m.min) * k as f64 / 200.0;
-            let p = loaded(base, base.trailer.mass, h, cfg.inertia);
-            (100.0 * tongue_load_fraction(&p), v_crit_of(&p, opts))
-        })
-        .collect();
-    let finite = map.iter().flatten().copied().filter(|v| v.is_finite());
-    let range = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-        (lo.min(v), hi.max(v))
-    });
-    LoadingMap {
-        masses,
-        cogs,
-        map,
-        cut,
-        range,
-    }
 }
 
 /// Step 2: `v_crit_map.csv` and `v_crit_vs_tongue_load.csv`.
@@ -230,7 +268,7 @@ fn draw(
     // tongue load is independent of m2 as a fraction: horizontal lines h = l (1 − q)
     for (k, &q) in cfg.tongue_load_lines_pct.iter().enumerate() {
         let h = l * (1.0 - q / 100.0);
-        if h >= cfg.trailer_cog_m.min && h <= cfg.trailer_cog_m.max {
+        if h >= m.cogs[0] && h <= m.cogs[m.cogs.len() - 1] {
             map_panel.layers.push(Layer::line(
                 vec![(cfg.trailer_mass_kg.min, h), (cfg.trailer_mass_kg.max, h)],
                 if q.abs() < 1e-12 {
@@ -243,10 +281,11 @@ fn draw(
             ));
         }
     }
+    let who = if base.is_table_i() { "Table I" } else { "this vehicle" };
     map_panel.layers.push(Layer::markers(
         vec![(base.trailer.mass, base.trailer.cog)],
         Rgb::RED,
-        Some("Table I"),
+        Some(who),
     ));
     let cut_panel = Panel::new(
         &format!("Cut at m2 = {} kg", base.trailer.mass),
@@ -262,7 +301,7 @@ fn draw(
     .with(Layer::markers(
         vec![(100.0 * tongue_load_fraction(base), v_crit_of(base, opts))],
         Rgb::RED,
-        Some("Table I"),
+        Some(who),
     ))
     .legend(Legend::UpperLeft);
     Figure::grid(vec![map_panel, cut_panel], 1, 2, (1500, 620)).render(&out.path("loading"))?;
@@ -272,11 +311,12 @@ fn draw(
 impl Prepared for LoadingTask {
     fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
-        let cells = c.trailer_mass_kg.points as f64 * c.trailer_cog_m.points as f64;
+        let cog_points = c.cogs(1.0).points;
+        let cells = c.trailer_mass_kg.points as f64 * cog_points as f64;
         let plan = Plan::new(
             vec![format!(
-                "loading: {} masses × {} centres of gravity = {cells} V_crit searches",
-                c.trailer_mass_kg.points, c.trailer_cog_m.points
+                "loading: {} masses × {cog_points} centres of gravity = {cells} V_crit searches",
+                c.trailer_mass_kg.points
             )],
             cells * BYTES_PER_ROW,
             cells * LOADING_SECONDS_PER_CELL,
@@ -293,38 +333,56 @@ impl Prepared for LoadingTask {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, TASK.name)?;
+        let base = &ctx.vehicle;
+        let l = base.trailer.axle;
+        let ([v_min, v_max], v_range_reason) = v_range(cfg, &ctx.model, &ctx.limits)?;
         let opts = CriticalSpeedOptions {
-            v_min: cfg.v_range_mps[0],
-            v_max: cfg.v_range_mps[1],
+            v_min,
+            v_max,
             scan_step: SCAN_STEP_MPS,
             tolerance: 1e-6,
         };
-        let m = compute(ctx, cfg, &opts);
-        let base = &ctx.vehicle;
-        let l = base.trailer.axle;
-        write_tables(&out, &m, l)?;
-        draw(&out, cfg, base, &m, &opts)?;
-        let at = |q: f64| {
-            let p = loaded(base, base.trailer.mass, l * (1.0 - q / 100.0), cfg.inertia);
-            v_crit_of(&p, &opts)
-        };
-        let summary = LoadingSummary {
-            tongue_load_pct_table_i: 100.0 * tongue_load_fraction(base),
-            v_crit_table_i_mps: v_crit_of(base, &opts),
-            v_crit_at_tongue_load_0pct_mps: at(0.0),
-            v_crit_at_tongue_load_5pct_mps: at(5.0),
-            v_crit_at_tongue_load_10pct_mps: at(10.0),
-            v_crit_map_min_mps: m.range.0,
-            v_crit_map_max_mps: m.range.1,
-            cells_without_critical_speed: m.map.iter().flatten().filter(|v| !v.is_finite()).count(),
-        };
-        let lines = vec![format!(
-            "V_crit at Table I (tongue load {:.1}%) = {:.3} m/s; at 10% tongue load = {:.3} m/s",
-            summary.tongue_load_pct_table_i,
-            summary.v_crit_table_i_mps,
-            summary.v_crit_at_tongue_load_10pct_mps
-        )];
-        ctx.conclude(out, summary, cfg, &self.file, lines)
+        let cogs = cfg.cogs(l);
+        ctx.run_staged(TASK.name, "loading: V_crit map", cogs.points as u64, cfg, &self.file, |out| {
+            let m = loading_map(
+                base,
+                cfg.trailer_mass_kg.values(),
+                cogs.values(),
+                cfg.inertia,
+                &opts,
+                &|| ctx.progress.advance(1),
+            );
+            write_tables(out, &m, l)?;
+            draw(out, cfg, base, &m, &opts)?;
+            let at = |q: f64| v_crit_at_tongue_load(base, q, cfg.inertia, &opts);
+            let summary = LoadingSummary {
+                tongue_load_pct_table_i: 100.0 * tongue_load_fraction(base),
+                v_crit_table_i_mps: v_crit_of(base, &opts),
+                v_crit_at_tongue_load_0pct_mps: at(0.0),
+                v_crit_at_tongue_load_5pct_mps: at(5.0),
+                v_crit_at_tongue_load_10pct_mps: at(10.0),
+                v_crit_map_min_mps: m.range.0,
+                v_crit_map_max_mps: m.range.1,
+                cells_without_critical_speed: m
+                    .map
+                    .iter()
+                    .flatten()
+                    .filter(|v| !v.is_finite())
+                    .count(),
+                v_range_mps: [v_min, v_max],
+                trailer_cog_range_m: [cogs.min, cogs.max],
+                v_range_reason: v_range_reason.clone(),
+            };
+            let mut lines = vec![format!(
+                "V_crit at this vehicle's loading (tongue load {:.1}%) = {:.3} m/s; at 10% tongue load = {:.3} m/s (searched in [{v_min:.3}, {v_max:.3}] m/s)",
+                summary.tongue_load_pct_table_i,
+                summary.v_crit_table_i_mps,
+                summary.v_crit_at_tongue_load_10pct_mps
+            )];
+            if let Some(r) = &v_range_reason {
+                lines.push(r.clone());
+            }
+            Ok((summary, lines))
+        })
     }
 }

@@ -46,6 +46,7 @@ registry! {
     simulate => [TASK],
     mitigation => [TASK],
     sweep => [TASK, BRAKE_TIMING, UNCERTAINTY, FLEET],
+    fleet => [TASK],
 }
 
 pub mod fig3a_diagram;

@@ -1,24 +1,26 @@
 //! `cargo xtask simulate FILE.toml`: one user scenario of the full 7-state model.
 //! Writes `results/<name>/trajectory.csv` (t, σ1, σ2, σ3, θ, ψ, x_H, y_H, V, δ),
 //! `summary.json` (the metrics with the run's `class` and `decay_rate_per_s`) and
-//! `trajectory.svg/.png` (θ and V versus t, and the path).
+//! `trajectory.svg/.png` (θ and V versus t, and the path). Speeds may be given relative to
+//! the vehicle (see [`sway::sim::speeds`]); when they do not resolve (a vehicle stable at
+//! every speed up to the maximum has no V_crit) the summary says why and there is no run.
 
 use std::path::Path;
 
 use serde::Serialize;
-use crate::TaskError;
-use sway::sim::{ScenarioConfig, SimResult};
+use sway::ranging::SpeedSpec;
+use sway::sim::{ScenarioConfig, SimResult, resolve_speeds};
 
-use super::series::{RunEntry, line, run_and_write};
+use super::series::{RunEntry, WithSpeeds, line, nothing_to_show, resolved_check, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
+use crate::TaskError;
 use crate::config_file::{Configured, TaskConfig};
-use crate::io::OutputDir;
-use crate::limits::{Plan, series_plan, settle_s};
+use crate::limits::{Plan, series_plan};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::report::{TrajectoryRow, loss_marker, max_abs_theta_deg};
 
 /// The task (its default config is an example scenario).
-pub const TASK: Task = Task::configured::<ScenarioConfig>(
+pub const TASK: Task = Task::configured::<ScenarioConfig<SpeedSpec>>(
     "simulate",
     "simulate a user scenario (TOML): trajectory, metrics, figure",
     "scenario_example.toml",
@@ -48,9 +50,9 @@ pub struct ScenarioSummary {
     pub run: RunEntry<ScenarioRun>,
 }
 
-impl TaskConfig for ScenarioConfig {
+impl TaskConfig for ScenarioConfig<SpeedSpec> {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
-        Ok(self.validate(file)?)
+        Ok(self.validate_spec(file)?)
     }
 }
 
@@ -104,7 +106,7 @@ fn class_line(name: &str, r: &SimResult<7>) -> String {
     format!("{name}: class {}{rate}", m.class.as_str())
 }
 
-impl Prepared for Configured<ScenarioConfig> {
+impl Prepared for Configured<ScenarioConfig<SpeedSpec>> {
     fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         series_plan(
@@ -112,41 +114,62 @@ impl Prepared for Configured<ScenarioConfig> {
             "",
             (c.horizon_s.get(), c.output_step_s.get()),
             1,
-            ("initial.settle_s", settle_s(&c.initial)),
+            ("initial.settle_s", c.initial.settle_s()),
             &format!("simulate {}", c.name),
         )
     }
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
-        let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;
-        ctx.progress.start(&format!("simulate {}", cfg.name), 2);
-        let x0 = cfg.initial.state7(&ctx.model, &cfg.settings.solver)?;
-        ctx.progress.advance(1);
-        let spec = cfg.spec();
-        let r = run_and_write::<TrajectoryRow>(
-            ctx,
-            &out,
-            &spec,
-            x0,
-            cfg.output_step_s.get(),
-            "trajectory.csv",
-        )?;
-        ctx.progress.advance(1);
-        figure(cfg, spec.action_s, &r).render(&out.path("trajectory"))?;
-        let summary = ScenarioSummary {
-            name: cfg.name.clone(),
-            run: RunEntry {
-                metrics: r.metrics,
-                about: ScenarioRun {
-                    action_s: spec.action_s,
-                    t_end_s: r.t_end,
-                    accepted_steps: r.stats.accepted,
-                    rejected_steps: r.stats.rejected,
-                },
-            },
+        let name = self.config.name.as_str();
+        let resolution = resolve_speeds(&ctx.model, &ctx.limits, &self.config)?;
+        let cfg = match &resolution.outcome {
+            Ok(c) => c,
+            Err(u) => {
+                return nothing_to_show(
+                    ctx,
+                    name,
+                    "no scenario for this vehicle",
+                    u,
+                    &resolution.references,
+                    &self.config,
+                    &self.file,
+                );
+            }
         };
-        let lines = vec![line(&cfg.name, &r), class_line(&cfg.name, &r)];
-        ctx.conclude(out, summary, cfg, &self.file, lines)
+        resolved_check(cfg.validate(&self.file).map_err(Into::into), &resolution.speeds)?;
+        let stage = format!("simulate {name}");
+        ctx.run_staged(name, &stage, 2, &self.config, &self.file, |out| {
+            let x0 = cfg.initial.state7(&ctx.model, &cfg.settings.solver)?;
+            ctx.progress.advance(1);
+            let spec = cfg.spec();
+            let r = run_and_write::<TrajectoryRow>(
+                ctx,
+                out,
+                &spec,
+                x0,
+                cfg.output_step_s.get(),
+                "trajectory.csv",
+            )?;
+            ctx.progress.advance(1);
+            figure(cfg, spec.action_s, &r).render(&out.path("trajectory"))?;
+            let summary = ScenarioSummary {
+                name: cfg.name.clone(),
+                run: RunEntry {
+                    metrics: r.metrics,
+                    about: ScenarioRun {
+                        action_s: spec.action_s,
+                        t_end_s: r.t_end,
+                        accepted_steps: r.stats.accepted,
+                        rejected_steps: r.stats.rejected,
+                    },
+                },
+            };
+            let lines = vec![line(&cfg.name, &r), class_line(&cfg.name, &r)];
+            let summary = WithSpeeds {
+                headline: summary,
+                resolved_speeds: resolution.speeds.clone(),
+            };
+            Ok((summary, lines))
+        })
     }
 }

@@ -10,23 +10,32 @@
 //! Everything written comes from the ordered list of point results through
 //! [`write_sweep_outputs`] (only `wall_time_s` differs between two runs), so a study computed
 //! in shards and merged writes the same files as one run.
+//!
+//! Speeds (the base scenario's and a `speed_mps` axis's `min`/`max`) may be given relative
+//! to the vehicle ([`sway::sim::speeds`]); they are resolved once per run against the
+//! `--vehicle` (a study with a fleet axis gives numbers). A vehicle they do not resolve for
+//! (no V_crit, or no bistable range for an `in_bistable` speed) gets a summary with the
+//! reason and no points.
 
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
-use crate::TaskError;
+use sway::ranging::SpeedSpec;
+use sway::sim::speeds::Resolution;
 use sway::sim::sweep::{
     AxisParameter, PointKind, PointOutput, PointResult, Sweep, SweepConfig, run_sweep,
 };
-use sway::sim::{Metrics, Outcome, SwayClass};
+use sway::sim::{Metrics, Outcome, SwayClass, resolve_speeds};
 
-use super::fig3a_diagram::validate_options;
+use super::fig3a_diagram::validate_settings;
+use super::series::{WithSpeeds, nothing_to_show, resolved_check};
 use super::{Prepared, Report, Task, TaskContext};
+use crate::TaskError;
 use crate::config_file::{Configured, TaskConfig, load_vehicle};
 use crate::io::{Keyed, OutputDir, row_cells};
 use crate::limits::{
     BYTES_PER_ROW, MAX_AXIS_POINTS, MAX_SIMULATED_S, MAX_SIMULATIONS, Plan,
-    SWEEP_SECONDS_PER_SIM_SECOND, bound, human_seconds, settle_s,
+    SWEEP_SECONDS_PER_SIM_SECOND, bound, human_seconds,
 };
 
 mod study;
@@ -37,7 +46,7 @@ pub use study::{
 };
 
 /// The task (its default config is the bistability threshold map).
-pub const TASK: Task = Task::configured::<SweepConfig>(
+pub const TASK: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "sweep",
     "parallel study (TOML): simulations, V_crit or Hopf/fold speeds over scenario, vehicle and fleet axes and uncertainty samples; default: which perturbations trigger sway",
     "sweep_threshold.toml",
@@ -45,7 +54,7 @@ pub const TASK: Task = Task::configured::<SweepConfig>(
 
 /// The same sweep runner on `configs/sweep_brake_timing.toml`: when braking from sway
 /// loses control (beyond the paper), so that `cargo xtask all` regenerates it too.
-pub const BRAKE_TIMING: Task = Task::configured::<SweepConfig>(
+pub const BRAKE_TIMING: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "brake_timing",
     "sweep of braking start t_b × duration T from sway: where braking loses control (beyond the paper)",
     "sweep_brake_timing.toml",
@@ -53,7 +62,7 @@ pub const BRAKE_TIMING: Task = Task::configured::<SweepConfig>(
 
 /// The uncertainty study `configs/study_uncertainty.toml`: the distribution of V_crit when
 /// h and l are known to ±0.05 m (issue 11).
-pub const UNCERTAINTY: Task = Task::configured::<SweepConfig>(
+pub const UNCERTAINTY: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "study_uncertainty",
     "distribution of V_crit when h and l are known to ±0.05 m (Latin hypercube)",
     "study_uncertainty.toml",
@@ -61,34 +70,71 @@ pub const UNCERTAINTY: Task = Task::configured::<SweepConfig>(
 
 /// The fleet study `configs/study_fleet.toml`: V_crit over trailer mass for the vehicle
 /// files of `configs/fleet/`.
-pub const FLEET: Task = Task::configured::<SweepConfig>(
+pub const FLEET: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "study_fleet",
     "V_crit over trailer mass for a fleet of vehicle files (configs/fleet/)",
     "study_fleet.toml",
 );
 
-impl TaskConfig for SweepConfig {
+/// The checks of a sweep config beyond [`SweepConfig::validate`] (its speeds resolved):
+/// the continuation settings, checked as fig3a checks its own.
+///
+/// # Errors
+/// [`TaskError::Config`] naming the key.
+pub fn check_resolved(cfg: &SweepConfig, file: &Path) -> Result<(), TaskError> {
+    cfg.validate(file)?;
+    cfg.check_options(file)
+}
+
+impl TaskConfig for SweepConfig<SpeedSpec> {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
-        self.validate(file)?;
+        self.validate_spec(file)?;
+        self.check_options(file)
+    }
+}
+
+/// The continuation settings of a sweep (any speed type).
+trait CheckOptions {
+    fn check_options(&self, file: &Path) -> Result<(), TaskError>;
+}
+
+impl<S: sway::sim::speeds::SpeedValue> CheckOptions for SweepConfig<S> {
+    fn check_options(&self, file: &Path) -> Result<(), TaskError> {
         // the continuation settings, checked as fig3a checks its own
         if self.kind == PointKind::HopfFoldSpeeds {
-            validate_options(&self.analysis.diagram, file, "analysis.diagram")?;
+            validate_settings(&self.analysis.diagram, file, "analysis.diagram")?;
         }
         if let Some(t) = self.threshold.as_ref().filter(|t| t.compare_cycles) {
-            validate_options(&t.cycles, file, "threshold.cycles")?;
+            validate_settings(&t.cycles, file, "threshold.cycles")?;
         }
         Ok(())
     }
 }
 
 /// The fleet's vehicle files, resolved against the sweep file's directory.
-pub fn fleet_paths(cfg: &SweepConfig, file: &Path) -> Vec<PathBuf> {
+pub fn fleet_paths<S: sway::sim::speeds::SpeedValue>(
+    cfg: &SweepConfig<S>,
+    file: &Path,
+) -> Vec<PathBuf> {
     let dir = file.parent().unwrap_or(Path::new("."));
     cfg.fleet_files().iter().map(|f| dir.join(f)).collect()
 }
 
-/// Builds the [`Sweep`] of `cfg` (read from `file`): loads the fleet's vehicle files (errors
-/// name the file and key) and checks every vehicle the axes and samples can build.
+/// The speeds of `cfg` resolved for the context's vehicle (once per run; nothing is
+/// computed when every speed is a number).
+///
+/// # Errors
+/// When a reference (V_crit, the fold) cannot be computed.
+pub fn resolve(
+    ctx: &TaskContext<'_>,
+    cfg: &SweepConfig<SpeedSpec>,
+) -> Result<Resolution<SweepConfig>, TaskError> {
+    Ok(resolve_speeds(&ctx.model, &ctx.limits, cfg)?)
+}
+
+/// Builds the [`Sweep`] of `cfg` (read from `file`, its speeds resolved): loads the fleet's
+/// vehicle files (errors name the file and key), checks the resolved config and every
+/// vehicle the axes and samples can build.
 ///
 /// # Errors
 /// [`TaskError::Read`] / [`TaskError::Config`].
@@ -107,7 +153,7 @@ pub fn prepare_sweep(
         fleet.clone()
     };
     cfg.validate_vehicles(file, &vehicles)?;
-    Ok(Sweep::new(&ctx.vehicle, &fleet, cfg)?)
+    Ok(Sweep::new(&ctx.vehicle, &fleet, cfg)?.with_limits(ctx.limits))
 }
 
 /// The kind's result columns (the field names of its output).
@@ -123,11 +169,12 @@ fn kind_columns(kind: PointKind) -> Vec<String> {
             hopf_frequency_hz: None,
         }),
         PointKind::HopfFoldSpeeds => names(&sway::sim::sweep::HopfFoldSpeeds {
-            hopf_v_mps: 0.0,
-            hopf_omega_rad_s: 0.0,
-            criticality: continuation::Criticality::Subcritical,
+            hopf_v_mps: None,
+            hopf_omega_rad_s: None,
+            criticality: None,
             fold_v_mps: None,
             fold_amplitude_deg: None,
+            reason: None,
         }),
     }
 }
@@ -322,11 +369,27 @@ fn counts(cfg: &SweepConfig, grid: &[PointResult]) -> SweepSummary {
 /// have the sweep's number of points.
 pub fn write_sweep_outputs(
     ctx: &TaskContext<'_>,
-    cfg: &SweepConfig,
+    spec: &SweepConfig<SpeedSpec>,
+    resolution: &Resolution<SweepConfig>,
     file: &Path,
     results: &[PointResult],
     out: OutputDir,
 ) -> Result<Report, TaskError> {
+    let cfg = match &resolution.outcome {
+        Ok(c) => c,
+        Err(u) => {
+            drop(out);
+            return nothing_to_show(
+                ctx,
+                &spec.name,
+                "no study for this vehicle",
+                u,
+                &resolution.references,
+                spec,
+                file,
+            );
+        }
+    };
     let grid_len = cfg.grid_len();
     if results.len() < grid_len {
         return Err(TaskError::config(
@@ -359,7 +422,11 @@ pub fn write_sweep_outputs(
     if cfg.axes.len() == 1 && cfg.sampling.is_none() && cfg.kind != PointKind::Simulation {
         study::line_figure(&out, cfg, grid)?;
     }
-    ctx.conclude(out, summary, cfg, file, lines)
+    let summary = WithSpeeds {
+        headline: summary,
+        resolved_speeds: resolution.speeds.clone(),
+    };
+    ctx.conclude(out, summary, spec, file, lines)
 }
 
 fn summary_line(cfg: &SweepConfig, s: &SweepSummary) -> String {
@@ -394,7 +461,7 @@ fn seconds_per_point(kind: PointKind) -> f64 {
     }
 }
 
-impl Prepared for Configured<SweepConfig> {
+impl Prepared for Configured<SweepConfig<SpeedSpec>> {
     fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
         let file = self.file.as_path();
@@ -409,7 +476,7 @@ impl Prepared for Configured<SweepConfig> {
         }
         let samples = c.sampling.as_ref().map_or(1.0, |s| s.samples as f64);
         let points = c.axes.iter().map(|a| a.len() as f64).product::<f64>() * samples;
-        let settle = settle_s(&c.base.initial);
+        let settle = c.base.initial.settle_s();
         bound(file, "base.initial.settle_s", settle, MAX_SIMULATED_S, || {
             format!("{} per simulation", human_seconds(settle * SWEEP_SECONDS_PER_SIM_SECOND))
         })?;
@@ -454,12 +521,70 @@ impl Prepared for Configured<SweepConfig> {
     }
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
-        let cfg = &self.config;
-        let out = OutputDir::create(&ctx.results_dir, &cfg.name)?;
-        let sweep = prepare_sweep(ctx, cfg, &self.file)?;
-        let results = run_sweep(&sweep, ctx.progress);
-        write_sweep_outputs(ctx, cfg, &self.file, &results, out)
+        let spec = &self.config;
+        let run = prepare_run(ctx, spec, &self.file)?;
+        let results = match &run.sweep {
+            Some(sweep) => run_sweep(sweep, ctx.progress),
+            None => Vec::new(),
+        };
+        let out = OutputDir::create(&ctx.results_dir, &spec.name)?;
+        write_sweep_outputs(ctx, spec, &run.resolution, &self.file, &results, out)
     }
+}
+
+/// A sweep ready to run: its speeds resolved for the vehicle and, when they resolved, the
+/// [`Sweep`] of its points.
+#[derive(Debug)]
+pub struct SweepRun {
+    /// the config with numbers, or why it has none for this vehicle
+    pub resolution: Resolution<SweepConfig>,
+    /// the points (None when the speeds do not resolve: no points)
+    pub sweep: Option<Sweep>,
+}
+
+impl SweepRun {
+    /// The number of points (0 when the speeds do not resolve).
+    pub fn len(&self) -> usize {
+        self.sweep.as_ref().map_or(0, Sweep::len)
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Point `k` (see [`Sweep::run_point`]).
+    pub fn run_point(&self, k: usize) -> PointResult {
+        match &self.sweep {
+            Some(s) => s.run_point(k),
+            None => PointResult {
+                values: Vec::new(),
+                output: Err("the sweep's speeds do not resolve for this vehicle".into()),
+                steps: 0,
+            },
+        }
+    }
+}
+
+/// Resolves the speeds of `spec` for the context's vehicle and, when they resolve, checks
+/// the resolved config and builds its [`Sweep`] ([`prepare_sweep`]).
+///
+/// # Errors
+/// Config errors naming the key (with the resolved speeds), read errors of a fleet.
+pub fn prepare_run(
+    ctx: &TaskContext<'_>,
+    spec: &SweepConfig<SpeedSpec>,
+    file: &Path,
+) -> Result<SweepRun, TaskError> {
+    let resolution = resolve(ctx, spec)?;
+    let sweep = match &resolution.outcome {
+        Ok(cfg) => {
+            resolved_check(check_resolved(cfg, file), &resolution.speeds)?;
+            Some(prepare_sweep(ctx, cfg, file)?)
+        }
+        Err(_) => None,
+    };
+    Ok(SweepRun { resolution, sweep })
 }
 
 #[cfg(test)]

@@ -291,6 +291,12 @@ pub struct NonlinearChart {
     pub codim2_points: Vec<Codim2>,
     /// seeds that were skipped or failed, with the reason
     pub notes: Vec<String>,
+    /// why there is no Hopf curve (None: there is one)
+    #[serde(default)]
+    pub hopf_reason: Option<String>,
+    /// why there is no fold-of-cycles curve (None: there is one)
+    #[serde(default)]
+    pub fold_reason: Option<String>,
 }
 
 /// The Hopf and fold speeds of one feedback setting, each corrected on its two-parameter
@@ -387,21 +393,36 @@ fn curve_points_at<S: ContinuationSystem>(
     Ok(out)
 }
 
-/// The fold of cycles `u` corrected once more by `cont` (with parameter `fixed` held) from
-/// its canonical phase (θ largest at s = 0): the same discrete fold whatever phase the
-/// cycle of `u` had relative to the mesh, so independent runs agree to the Newton
-/// tolerance.
+/// The fold of cycles `u` corrected by `cont` (with parameter `fixed` held) in its
+/// canonical phase (θ largest at s = 0), to the fixed point: the discrete fold depends on
+/// the cycle's phase relative to the mesh (the C¹ tyre's kinks), and one correction from
+/// the canonical shift of a guess ends at the phase of that guess's maximum, not at the
+/// corrected cycle's. Repeating shift and correction until V stops moving gives the same
+/// discrete fold from any guess (measured: one pass left 4e-6 relative between the fold of
+/// a cycle branch and the same fold read off a fold-of-cycles curve at L = 20; the passes
+/// converge geometrically).
 fn corrected_in_canonical_phase(
     cont: &Continuation,
     sys: &mut FoldSystem<'_>,
     u: &[f64],
     fixed: usize,
 ) -> Result<Vec<f64>, continuation::Error> {
-    let canonical = sys.canonical(u, HITCH_ANGLE);
-    sys.accept(&canonical);
-    let mut e = vec![0.0; canonical.len()];
-    e[fixed] = 1.0;
-    Ok(cont.start(sys, &canonical, &e)?.points.remove(0).u)
+    const PASSES: usize = 8;
+    let (iv, _) = fold_indices(sys);
+    let mut u = u.to_vec();
+    for pass in 0..PASSES {
+        let canonical = sys.canonical(&u, HITCH_ANGLE);
+        sys.accept(&canonical);
+        let mut e = vec![0.0; canonical.len()];
+        e[fixed] = 1.0;
+        let next = cont.start(sys, &canonical, &e)?.points.remove(0).u;
+        let moved = (next[iv] - u[iv]).abs();
+        u = next;
+        if pass > 0 && moved <= 1e-13 * u[iv].abs() {
+            break;
+        }
+    }
+    Ok(u)
 }
 
 /// The two branches of a curve joined in curve order: the first reversed, then the second
@@ -487,12 +508,16 @@ fn criticality_at(
     let mut params = problem.parameters(p.v_mps);
     params[GAIN] = p.d_s;
     let half = 0.3;
-    let (_, hopf) = straight_running(
+    // a point whose Hopf point cannot be re-located (e.g. a curve grazing the box's speed
+    // range) keeps an unknown criticality instead of failing the chart
+    let Ok((_, hopf)) = straight_running(
         problem,
         &params,
         (p.v_mps - half, p.v_mps + half),
         o.cycles.root_degree,
-    )?;
+    ) else {
+        return Ok(None);
+    };
     if (hopf.omega - p.omega_rad_s.abs()).abs() > 0.01 * p.omega_rad_s.abs() {
         return Ok(None);
     }
@@ -628,9 +653,22 @@ struct CorrectedFold<'a> {
     direction: Vec<f64>,
 }
 
+/// Whether V turns at point `i` of a branch: its neighbours lie on the same side of it in V
+/// (true at a branch end, where there is no neighbour to compare with).
+fn turns(points: &[continuation::BranchPoint], i: usize) -> bool {
+    let v = points[i].parameter;
+    match (
+        i.checked_sub(1).and_then(|k| points.get(k)),
+        points.get(i + 1),
+    ) {
+        (Some(a), Some(b)) => (v - a.parameter) * (b.parameter - v) <= 0.0,
+        _ => true,
+    }
+}
+
 /// The fold of the cycle branch of `diagram` corrected on the fold-of-cycles system at the
 /// diagram's gain, finally from the cycle's canonical phase. None if the cycle branch has
-/// no fold.
+/// no fold (no flagged fold at which V turns, [`turns`]).
 fn corrected_fold<'a>(
     problem: &'a ClosedLoop<'a>,
     diagram: &Diagram,
@@ -641,7 +679,19 @@ fn corrected_fold<'a>(
         "fold of cycles at D = {} s, τ = {} s",
         fb.gain_d_s, fb.delay_s
     );
-    let Some((i, _)) = diagram.cycles.first(SpecialKind::Fold) else {
+    // the first flagged fold at which V turns: the fold test (the tangent's V component
+    // changes sign) also fires where the oriented tangent flips at a singular point of the
+    // collocation system that is no turning point (V runs on through it; seen on a coarse
+    // mesh, L = 10, of a vehicle with V_crit = 17 m/s at V = 5.6 m/s, where L = 20 and 40
+    // pass smoothly). The fold-of-cycles system has no solution near such a point: Newton
+    // started there diverges.
+    let turning = diagram
+        .cycles
+        .special_points()
+        .filter(|(_, s)| s.kind == SpecialKind::Fold)
+        .map(|(i, _)| i)
+        .find(|&i| turns(&diagram.cycles.points, i));
+    let Some(i) = turning else {
         return Ok(None);
     };
     let po = diagram.cycle_system(problem)?;
@@ -689,22 +739,40 @@ pub fn critical_speeds(
     })
 }
 
+/// A fold-of-cycles curve with the codimension-two points it ends at or passes, or why
+/// there is none (a physical outcome).
+type FoldStage = Result<(FoldCurve, Vec<Codim2>), String>;
+
 /// The fold-of-cycles curve started at the fold of the cycle branch at gain `d` (if the
 /// Hopf point there is subcritical and the branch folds in the speed range), both
-/// directions; with the codimension-two points it ends at or passes.
-fn fold_curve(
-    model: &Model,
-    tau: f64,
-    d: f64,
-    o: &ChartOptions,
-) -> Result<Option<(FoldCurve, Vec<Codim2>)>, SwayError> {
+/// directions; with the codimension-two points it ends at or passes. Without a curve, the
+/// reason: no Hopf point of straight running at `d` in the speed range (stable there), a
+/// supercritical Hopf point, a cycle branch that does not fold in the speed range.
+fn fold_curve(model: &Model, tau: f64, d: f64, o: &ChartOptions) -> Result<FoldStage, SwayError> {
     let fb = Feedback {
         gain_d_s: d,
         delay_s: tau,
     };
-    let diagram = bifurcation_diagram_until(model, fb, &o.cycle_options(), CycleExtent::FirstFold)?;
+    let range = format!("[{}, {}] m/s", o.v_min_mps, o.v_max_mps);
+    let diagram = match bifurcation_diagram_until(
+        model,
+        fb,
+        &o.cycle_options(),
+        CycleExtent::FirstFold,
+    ) {
+        Ok(diagram) => diagram,
+        Err(e) if e.to_string().contains("no Hopf point") => {
+            return Ok(Err(format!(
+                "no fold-of-cycles curve: straight running has no Hopf point in {range} at the first seed gain D = {d} s (stable there)"
+            )));
+        }
+        Err(e) => return Err(e),
+    };
     if diagram.criticality != Criticality::Subcritical {
-        return Ok(None);
+        return Ok(Err(format!(
+            "no fold-of-cycles curve: the Hopf point at D = {d} s, V = {:.4} m/s is supercritical (the cycles grow from it without folding)",
+            diagram.hopf.parameter
+        )));
     }
     let problem = ClosedLoop::new(model, fb);
     let Some(CorrectedFold {
@@ -713,7 +781,15 @@ fn fold_curve(
         direction: dir,
     }) = corrected_fold(&problem, &diagram, o)?
     else {
-        return Ok(None);
+        return Ok(Err(match &diagram.fold {
+            Some(f) => format!(
+                "no fold-of-cycles curve: the cycle branch from the Hopf point at D = {d} s has a singular point at V = {:.4} m/s where V does not turn (not a fold: a branch point of the discretised cycles; a finer chart.cycles.intervals may pass it)",
+                f.speed_mps
+            ),
+            None => format!(
+                "no fold-of-cycles curve: the cycle branch from the Hopf point at D = {d} s does not fold in {range}"
+            ),
+        }));
     };
     let ctx = format!("fold-of-cycles curve from D = {d} s, τ = {tau} s");
     let cont = o.continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
@@ -761,7 +837,7 @@ fn fold_curve(
         .map(|p| fold_curve_point(&sys, &p.u))
         .collect::<Result<Vec<_>, _>>()
         .map_err(num(ctx))?;
-    Ok(Some((
+    Ok(Ok((
         FoldCurve {
             seed_d_s: d,
             branches,
@@ -915,10 +991,20 @@ pub fn nonlinear_chart(
         .flat_map(|c| hopf_codim2(&sys, c))
         .collect();
     let mut fold_curves = Vec::new();
-    if let Some((f, c2)) = fold_stage? {
-        fold_curves.push(f);
-        codim2.extend(c2);
+    let mut fold_reason = None;
+    match fold_stage? {
+        Ok((f, c2)) => {
+            fold_curves.push(f);
+            codim2.extend(c2);
+        }
+        Err(reason) => fold_reason = Some(reason),
     }
+    let hopf_reason = hopf_curves.is_empty().then(|| {
+        format!(
+            "no Hopf curve: straight running has no Hopf point in [{}, {}] m/s at the seed gains {:?} s (stable at these gains)",
+            o.v_min_mps, o.v_max_mps, o.seed_gains_s
+        )
+    });
     codim2.retain(|c| o.in_box(c.d_s, c.v_mps));
     Ok(NonlinearChart {
         tau_s: tau,
@@ -927,6 +1013,8 @@ pub fn nonlinear_chart(
         fold_curves,
         codim2_points: dedup_codim2(codim2),
         notes,
+        hopf_reason,
+        fold_reason,
     })
 }
 
@@ -1045,6 +1133,8 @@ impl NonlinearChart {
         out
     }
 }
+
+pub mod study;
 
 #[cfg(test)]
 mod tests;

@@ -14,6 +14,9 @@ use trailer_model::Model;
 
 use crate::SwayError;
 
+pub mod auto_range;
+pub mod fig4a;
+
 /// The closed loop at speed V \[m/s\] in quasi-polynomial form (Ã, B̃, C̃ of eq. 11).
 ///
 /// # Errors
@@ -125,3 +128,5 @@ pub fn stable_gain_intervals(
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod vehicle_tests;

@@ -27,6 +27,7 @@
 //! [`optimise::minimise`] (Nelder–Mead per ramp shape, seeded multi-start).
 
 pub mod optimise;
+pub mod study;
 
 use dde::{Direction, Event, EventAction, EventHit, Observer, OdeSolver};
 use serde::{Deserialize, Serialize};
@@ -119,24 +120,42 @@ pub fn sway_cycle(
     search_s: f64,
     solver: &SolverSettings,
 ) -> Result<SwayCycle, SwayError> {
+    find_sway_cycle(model, speed_mps, theta0_rad, settle_s, search_s, solver)?.map_err(|m| {
+        SwayError::numerical(
+            format!("the sway cycle at V = {speed_mps} m/s"),
+            std::io::Error::other(m),
+        )
+    })
+}
+
+/// As [`sway_cycle`], with "no sway at this speed" (fewer than three upward zero crossings
+/// of θ within `search_s`) as `Ok(Err(reason))`, an outcome rather than an error.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the solver fails.
+pub fn find_sway_cycle(
+    model: &Model,
+    speed_mps: f64,
+    theta0_rad: f64,
+    settle_s: f64,
+    search_s: f64,
+    solver: &SolverSettings,
+) -> Result<Result<SwayCycle, String>, SwayError> {
     let x = settle(model, speed_mps, theta0_rad, settle_s, solver)?;
     let (_, c) = open_loop(model, speed_mps, x, search_s, solver)?;
     if c.times.len() < 3 {
-        return Err(SwayError::numerical(
-            format!("the sway cycle at V = {speed_mps} m/s"),
-            std::io::Error::other(format!(
-                "θ crossed zero upwards {} times in {search_s} s after settling for {settle_s} s: \
-                 no sway at this speed? (try a speed above V_crit or a longer settle_s)",
-                c.times.len()
-            )),
-        ));
+        return Ok(Err(format!(
+            "θ crossed zero upwards {} times in {search_s} s after settling for {settle_s} s at V = {speed_mps} m/s: \
+             no sway at this speed (try a speed above V_crit or a longer settle_s)",
+            c.times.len()
+        )));
     }
-    Ok(SwayCycle {
+    Ok(Ok(SwayCycle {
         speed_mps,
         period_s: c.times[2] - c.times[1],
         amplitude_deg: c.peak.to_degrees(),
         anchor: c.states[1],
-    })
+    }))
 }
 
 /// The run starts: the state at φ·P − lead-in after the anchor crossing, for N equally

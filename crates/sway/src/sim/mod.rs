@@ -25,10 +25,12 @@
 
 pub mod classify;
 mod controller;
+pub mod fleet;
 mod plant;
 mod profile;
 mod run;
 mod scenario;
+pub mod speeds;
 pub mod sweep;
 
 pub use classify::SwayClass;
@@ -39,4 +41,8 @@ pub use run::{
     IntegrationMethod, KinkLandingMode, LossOfControl, MetricSettings, Metrics, Outcome, Recording,
     RunSettings, Sample, SimResult, SimSpec, SolverSettings, ValidityGuard, settle, simulate,
 };
-pub use scenario::{InitialCondition, ScenarioConfig, default_action_time, validate_parts};
+pub use scenario::{
+    InitialCondition, ScenarioConfig, SwayStart, default_action_time, validate_parts,
+    validate_spec_parts,
+};
+pub use speeds::{Resolution, ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed, resolve_speeds};

@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::speeds::{Resolver, SpeedValue, UnresolvedSpeed, check_change};
+
 /// The shape s(u) of a speed ramp, u = (t − t_b)/T ∈ \[0, 1\]: V = V0 + ΔV·s(u), s(0) = 0,
 /// s(1) = 1, monotone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
@@ -71,22 +73,29 @@ impl RampShape {
 
 /// A prescribed speed V(t) \[m/s\]. V̇ is right-continuous: at a corner it takes the value
 /// that holds after it (the solver lands a step on every corner, see [`SpeedProfile::breakpoints`]).
+///
+/// `S` is the type of the speeds V0 and ΔV: `f64` (m/s) when running, [`SpeedSpec`] as
+/// written in a config (a number or relative to the vehicle, see [`super::speeds`]); a
+/// table's points are numbers.
+///
+/// [`SpeedSpec`]: crate::ranging::SpeedSpec
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum SpeedProfile {
+#[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]
+pub enum SpeedProfile<S = f64> {
     /// V(t) = V0.
     Constant {
         /// V0 \[m/s\]
-        speed_mps: f64,
+        speed_mps: S,
     },
     /// Ramp: V0 until t_b, then a change of ΔV spread over T with the given shape (linear
     /// by default), then V0 + ΔV (paper Fig. 3b: linear, ΔV = −10 m/s over
     /// T ∈ {2, 3, 5, 10} s).
     Ramp {
         /// V0 \[m/s\]
-        initial_mps: f64,
-        /// ΔV \[m/s\] (negative when braking)
-        change_mps: f64,
+        initial_mps: S,
+        /// ΔV \[m/s\] (negative when braking; relative: `{ of_v_crit = f }`)
+        change_mps: S,
         /// t_b \[s\], start of the ramp
         start_s: f64,
         /// T \[s\], duration of the ramp
@@ -101,6 +110,61 @@ pub enum SpeedProfile {
         /// [\[t, V\], …]
         points: Vec<[f64; 2]>,
     },
+}
+
+impl<S: SpeedValue> SpeedProfile<S> {
+    /// The profile with every speed a number (config keys under `key`).
+    ///
+    /// # Errors
+    /// The first speed that does not resolve for this vehicle.
+    pub fn resolve_speeds(
+        &self,
+        key: &str,
+        r: &mut Resolver<'_>,
+    ) -> Result<SpeedProfile, UnresolvedSpeed> {
+        Ok(match self {
+            SpeedProfile::Constant { speed_mps } => SpeedProfile::Constant {
+                speed_mps: speed_mps.resolve_speed(&format!("{key}.speed_mps"), r)?,
+            },
+            SpeedProfile::Ramp {
+                initial_mps,
+                change_mps,
+                start_s,
+                duration_s,
+                shape,
+            } => SpeedProfile::Ramp {
+                initial_mps: initial_mps.resolve_speed(&format!("{key}.initial_mps"), r)?,
+                change_mps: change_mps.resolve_change(&format!("{key}.change_mps"), r)?,
+                start_s: *start_s,
+                duration_s: *duration_s,
+                shape: *shape,
+            },
+            SpeedProfile::Table { points } => SpeedProfile::Table {
+                points: points.clone(),
+            },
+        })
+    }
+
+    /// Checks what can be checked before the speeds are resolved: a ramp's change is not
+    /// `in_bistable`; `Err((key, problem))` relative to the profile's table.
+    pub fn validate_spec(&self) -> Result<(), (&'static str, String)> {
+        if let SpeedProfile::Ramp { change_mps, .. } = self {
+            check_change(change_mps, "change_mps").map_err(|(_, p)| ("change_mps", p))?;
+        }
+        Ok(())
+    }
+
+    /// When the speed starts to change (ramp start / first changing table segment), if ever.
+    pub fn action_time(&self) -> Option<f64> {
+        match self {
+            SpeedProfile::Constant { .. } => None,
+            SpeedProfile::Ramp { start_s, .. } => Some(*start_s),
+            SpeedProfile::Table { points } => points
+                .windows(2)
+                .find(|w| w[1][1] != w[0][1])
+                .map(|w| w[0][0]),
+        }
+    }
 }
 
 impl SpeedProfile {
@@ -192,18 +256,6 @@ impl SpeedProfile {
             .filter(|&&t| (0.0..=horizon).contains(&t))
             .map(|&t| self.speed(t))
             .fold(f64::INFINITY, f64::min)
-    }
-
-    /// When the speed starts to change (ramp start / first changing table segment), if ever.
-    pub fn action_time(&self) -> Option<f64> {
-        match self {
-            SpeedProfile::Constant { .. } => None,
-            SpeedProfile::Ramp { start_s, .. } => Some(*start_s),
-            SpeedProfile::Table { points } => points
-                .windows(2)
-                .find(|w| w[1][1] != w[0][1])
-                .map(|w| w[0][0]),
-        }
     }
 
     /// Physical checks; `Err((key, problem))` names the offending key (relative to the

@@ -7,14 +7,17 @@ use serde::{Deserialize, Serialize};
 use trailer_model::{Model, State4, State7};
 
 use super::run::{RunSettings, SimSpec, SolverSettings, settle};
+use super::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
 use crate::config::{Positive, ensure};
 
-/// The initial state at t = 0.
+/// The initial state at t = 0 (`S`: the type of the settling speed, as in
+/// [`SpeedProfile`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum InitialCondition {
+#[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]
+pub enum InitialCondition<S = f64> {
     /// A given state; unspecified components are 0.
     State {
         /// σ1 \[m/s\]
@@ -37,12 +40,57 @@ pub enum InitialCondition {
     /// `speed_mps` from θ(0) = `theta0_rad` (other states 0), open loop.
     SwayCycle {
         /// V0 \[m/s\] while settling
-        speed_mps: f64,
+        speed_mps: S,
         /// settling time \[s\]
         settle_s: f64,
         /// the small initial perturbation θ(0) \[rad\]
         theta0_rad: f64,
     },
+}
+
+impl<S: SpeedValue> InitialCondition<S> {
+    /// The initial condition with its speed a number (config keys under `key`).
+    ///
+    /// # Errors
+    /// The speed does not resolve for this vehicle.
+    pub fn resolve_speeds(
+        &self,
+        key: &str,
+        r: &mut Resolver<'_>,
+    ) -> Result<InitialCondition, UnresolvedSpeed> {
+        Ok(match *self {
+            InitialCondition::State {
+                sigma1_mps,
+                sigma2_per_s,
+                sigma3_per_s,
+                theta0_deg,
+                psi0_deg,
+            } => InitialCondition::State {
+                sigma1_mps,
+                sigma2_per_s,
+                sigma3_per_s,
+                theta0_deg,
+                psi0_deg,
+            },
+            InitialCondition::SwayCycle {
+                speed_mps,
+                settle_s,
+                theta0_rad,
+            } => InitialCondition::SwayCycle {
+                speed_mps: speed_mps.resolve_speed(&format!("{key}.speed_mps"), r)?,
+                settle_s,
+                theta0_rad,
+            },
+        })
+    }
+
+    /// The settling time \[s\] (0 for a state start).
+    pub fn settle_s(&self) -> f64 {
+        match self {
+            InitialCondition::SwayCycle { settle_s, .. } => *settle_s,
+            InitialCondition::State { .. } => 0.0,
+        }
+    }
 }
 
 impl InitialCondition {
@@ -162,19 +210,20 @@ macro_rules! with_run_fields {
         }
     ) => {
         $(#[$attr])*
-        pub struct $name {
+        #[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]
+        pub struct $name<S = f64> {
             $($(#[$field_attr])* pub $field: $ty,)*
             /// when the action starts \[s\]; default: the earliest of braking start and
             /// controller switch-on, else 0
             #[serde(default)]
             pub action_s: Option<f64>,
             /// V(t)
-            pub speed: SpeedProfile,
+            pub speed: SpeedProfile<S>,
             /// δ(t)
             #[serde(default)]
             pub controller: Controller,
             /// x(0)
-            pub initial: InitialCondition,
+            pub initial: InitialCondition<S>,
             /// validity guard (`guard = "stop"` or `"off"`), `[solver]`, `[metrics]`
             #[serde(flatten)]
             pub settings: RunSettings,
@@ -244,12 +293,63 @@ pub fn validate_parts(
     settings.solver.validate_at(file, &key("solver"))
 }
 
+/// The speed-spec checks of the parts shared by scenario and sweep files (before the speeds
+/// are resolved): a ramp's change is a number or `{ of_v_crit = f }`.
+///
+/// # Errors
+/// [`SwayError::Config`] naming the file and key.
+pub fn validate_spec_parts<S: SpeedValue>(
+    file: &Path,
+    prefix: &str,
+    speed: &SpeedProfile<S>,
+) -> Result<(), SwayError> {
+    speed.validate_spec().map_err(|(k, p)| {
+        let key = if prefix.is_empty() {
+            format!("speed.{k}")
+        } else {
+            format!("{prefix}.speed.{k}")
+        };
+        SwayError::config(file, key, p)
+    })
+}
+
 /// The default action time: the earliest of braking start and controller switch-on, else 0.
-pub fn default_action_time(speed: &SpeedProfile, controller: &Controller) -> f64 {
+pub fn default_action_time<S: SpeedValue>(speed: &SpeedProfile<S>, controller: &Controller) -> f64 {
     match (speed.action_time(), controller.action_time()) {
         (Some(a), Some(b)) => a.min(b),
         (Some(a), None) | (None, Some(a)) => a,
         (None, None) => 0.0,
+    }
+}
+
+impl<S: SpeedValue> ResolveSpeeds for ScenarioConfig<S> {
+    type Resolved = ScenarioConfig;
+    fn resolve_speeds(&self, r: &mut Resolver<'_>) -> Result<ScenarioConfig, UnresolvedSpeed> {
+        Ok(ScenarioConfig {
+            name: self.name.clone(),
+            horizon_s: self.horizon_s,
+            output_step_s: self.output_step_s,
+            action_s: self.action_s,
+            speed: self.speed.resolve_speeds("speed", r)?,
+            controller: self.controller,
+            initial: self.initial.resolve_speeds("initial", r)?,
+            settings: self.settings,
+        })
+    }
+}
+
+impl<S: SpeedValue> ScenarioConfig<S> {
+    /// Checks every key that can be checked before the speeds are resolved; a scenario
+    /// whose speeds are all numbers is checked completely ([`ScenarioConfig::validate`]).
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the file and key.
+    pub fn validate_spec(&self, file: &Path) -> Result<(), SwayError> {
+        validate_spec_parts(file, "", &self.speed)?;
+        match self.all_numbers() {
+            Some(c) => c.validate(file),
+            None => Ok(()),
+        }
     }
 }
 
@@ -306,5 +406,96 @@ impl ScenarioConfig {
                 .unwrap_or_else(|| default_action_time(&self.speed, &self.controller)),
             settings: self.settings,
         }
+    }
+}
+
+/// Start on the sway cycle (fig3b, fig4c, mitigation): settle `settle_s` seconds at
+/// constant V0 from θ(0) = `theta0_rad` (other states 0), open loop. `S`: the type of V0
+/// (see [`crate::sim::speeds`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]
+pub struct SwayStart<S = f64> {
+    /// V0 \[m/s\]
+    pub speed_mps: S,
+    /// settling time at V0 \[s\]
+    pub settle_s: crate::config::NonNegative,
+    /// initial perturbation of the settling run θ(0) \[rad\]
+    pub theta0_rad: f64,
+}
+
+impl<S: SpeedValue> SwayStart<S> {
+    /// The start with V0 a number (config keys under `key`).
+    ///
+    /// # Errors
+    /// V0 does not resolve for this vehicle.
+    pub fn resolve_speeds(
+        &self,
+        key: &str,
+        r: &mut Resolver<'_>,
+    ) -> Result<SwayStart, UnresolvedSpeed> {
+        Ok(SwayStart {
+            speed_mps: self
+                .speed_mps
+                .resolve_speed(&format!("{key}.speed_mps"), r)?,
+            settle_s: self.settle_s,
+            theta0_rad: self.theta0_rad,
+        })
+    }
+}
+
+impl SwayStart {
+    /// As an initial condition.
+    pub fn initial(&self) -> InitialCondition {
+        InitialCondition::SwayCycle {
+            speed_mps: self.speed_mps,
+            settle_s: self.settle_s.get(),
+            theta0_rad: self.theta0_rad,
+        }
+    }
+
+    /// Checks the keys under `prefix` that do not validate themselves.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`].
+    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
+        ensure(
+            self.speed_mps.is_finite() && self.speed_mps > 0.0,
+            file,
+            &format!("{prefix}.speed_mps"),
+            || format!("expected a speed > 0 m/s, got {}", self.speed_mps),
+        )?;
+        ensure(
+            self.theta0_rad.is_finite() && self.theta0_rad.abs() < 1.5,
+            file,
+            &format!("{prefix}.theta0_rad"),
+            || format!("expected |θ(0)| < 1.5 rad, got {}", self.theta0_rad),
+        )
+    }
+
+    /// Checks a run that starts here (fig3b and fig4c): the start under `start`, an output
+    /// step within the horizon, and the time `action_s` of the intervention (key
+    /// `action_key`) in [0, horizon).
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the key.
+    pub fn validate_run(
+        &self,
+        file: &Path,
+        horizon: f64,
+        output_step: f64,
+        action_key: &str,
+        action_s: f64,
+    ) -> Result<(), SwayError> {
+        self.validate(file, "start")?;
+        ensure(output_step <= horizon, file, "output_step_s", || {
+            format!("expected 0 < output_step_s <= horizon_s, got {output_step}")
+        })?;
+        ensure(
+            action_s.is_finite() && (0.0..horizon).contains(&action_s),
+            file,
+            action_key,
+            || format!("expected 0 <= {action_key} < horizon_s, got {action_s}"),
+        )
     }
 }

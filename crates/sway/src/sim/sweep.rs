@@ -21,12 +21,15 @@ use trailer_model::{Model, State4, VehicleParams};
 
 use super::run::{Metrics, RunSettings, SimSpec, simulate};
 use super::scenario::{
-    InitialCondition, default_action_time, ensure_name, validate_parts, with_run_fields,
+    InitialCondition, default_action_time, ensure_name, validate_parts, validate_spec_parts,
+    with_run_fields,
 };
+use super::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
 use super::{Controller, Recording, SpeedProfile};
 use crate::SwayError;
 use crate::config::{Positive, ensure};
 use crate::progress::Progress;
+use crate::ranging::SpeedLimits;
 use crate::sampling::{Sampler, Sampling};
 
 mod analysis;
@@ -85,20 +88,24 @@ impl PointKind {
     }
 }
 
-/// A sweep file (see `configs/sweep_threshold.toml`).
+/// A sweep file (see `configs/sweep_threshold.toml`). `S`: the type of the speeds (base
+/// scenario and `speed_mps` axes), [`crate::ranging::SpeedSpec`] as written, `f64` when run
+/// (see [`crate::sim::speeds`]; relative speeds resolve once per run against the sweep's
+/// vehicle, not per point).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SweepConfig {
+#[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]
+pub struct SweepConfig<S = f64> {
     /// results go to `results/<name>/`
     pub name: String,
     /// what each point evaluates (default: a simulation)
     #[serde(default, skip_serializing_if = "is_simulation")]
     pub kind: PointKind,
     /// the grid axes (the first two span the heat map); may be empty with `[sampling]`
-    #[serde(default)]
-    pub axes: Vec<Axis>,
+    #[serde(default = "Vec::new")]
+    pub axes: Vec<Axis<S>>,
     /// the scenario that is varied
-    pub base: BaseScenario,
+    pub base: BaseScenario<S>,
     /// uncertainty samples of vehicle fields (every grid point is evaluated per sample)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sampling: Option<Sampling>,
@@ -150,6 +157,102 @@ impl PointResult {
             Ok(PointOutput::Simulation(m)) => Some(m),
             _ => None,
         }
+    }
+}
+
+impl<S: SpeedValue> ResolveSpeeds for BaseScenario<S> {
+    type Resolved = BaseScenario;
+    fn resolve_speeds(&self, r: &mut Resolver<'_>) -> Result<BaseScenario, UnresolvedSpeed> {
+        Ok(BaseScenario {
+            horizon_s: self.horizon_s,
+            action_s: self.action_s,
+            speed: self.speed.resolve_speeds("base.speed", r)?,
+            controller: self.controller,
+            initial: self.initial.resolve_speeds("base.initial", r)?,
+            settings: self.settings,
+        })
+    }
+}
+
+impl<S: SpeedValue> ResolveSpeeds for SweepConfig<S> {
+    type Resolved = SweepConfig;
+    fn resolve_speeds(&self, r: &mut Resolver<'_>) -> Result<SweepConfig, UnresolvedSpeed> {
+        let axes = self
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(i, a)| a.resolve_speeds(&format!("axes[{i}]"), r))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(SweepConfig {
+            name: self.name.clone(),
+            kind: self.kind,
+            axes,
+            base: self.base.resolve_speeds(r)?,
+            sampling: self.sampling.clone(),
+            threshold: self.threshold.clone(),
+            analysis: self.analysis.clone(),
+        })
+    }
+}
+
+impl<S: SpeedValue> SweepConfig<S> {
+    /// Checks every key that can be checked before the speeds are resolved: only
+    /// `speed_mps` axes may be relative, not with a fleet (a relative speed needs one
+    /// vehicle); a sweep whose speeds are all numbers is checked completely
+    /// ([`SweepConfig::validate`]); one with relative speeds is checked completely once
+    /// they are resolved.
+    ///
+    /// # Errors
+    /// [`SwayError::Config`] naming the file and key.
+    pub fn validate_spec(&self, file: &Path) -> Result<(), SwayError> {
+        validate_spec_parts(file, "base", &self.base.speed)?;
+        for (i, a) in self.axes.iter().enumerate() {
+            let speed = a.parameter == AxisParameter::Scenario(SweepParameter::SpeedMps);
+            ensure(
+                speed || !a.is_relative(),
+                file,
+                &format!("axes[{i}]"),
+                || {
+                    format!(
+                        "only a speed_mps axis may give min and max relative to the vehicle; {} takes numbers",
+                        a.parameter.as_str()
+                    )
+                },
+            )?;
+        }
+        let relative = self.needs().reference().is_some();
+        ensure(
+            !relative || self.fleet_files().is_empty(),
+            file,
+            "axes",
+            || {
+                "relative speeds ({ of_v_crit = … }, { in_bistable = … }) refer to one vehicle; with a vehicle_file axis give the speeds in m/s".into()
+            },
+        )?;
+        match self.all_numbers() {
+            Some(c) => c.validate(file),
+            None => Ok(()),
+        }
+    }
+
+    /// The number of grid points (product of the axis lengths, times the samples;
+    /// saturating: a config whose product overflows is refused by the task's plan).
+    pub fn grid_len(&self) -> usize {
+        let samples = self.sampling.as_ref().map_or(1, |s| s.samples.max(1));
+        self.axes
+            .iter()
+            .map(Axis::len)
+            .fold(samples, usize::saturating_mul)
+    }
+
+    /// The fleet's vehicle files as written in the config (relative to the sweep file's
+    /// directory), empty without a `vehicle_file` axis.
+    pub fn fleet_files(&self) -> Vec<PathBuf> {
+        self.axes
+            .iter()
+            .find(|a| a.parameter == AxisParameter::VehicleFile)
+            .map(|a| a.files.clone())
+            .unwrap_or_default()
     }
 }
 
@@ -329,26 +432,6 @@ impl SweepConfig {
         }
         Ok(())
     }
-
-    /// The number of grid points (product of the axis lengths, times the samples;
-    /// saturating: a config whose product overflows is refused by the task's plan).
-    pub fn grid_len(&self) -> usize {
-        let samples = self.sampling.as_ref().map_or(1, |s| s.samples.max(1));
-        self.axes
-            .iter()
-            .map(Axis::len)
-            .fold(samples, usize::saturating_mul)
-    }
-
-    /// The fleet's vehicle files as written in the config (relative to the sweep file's
-    /// directory), empty without a `vehicle_file` axis.
-    pub fn fleet_files(&self) -> Vec<PathBuf> {
-        self.axes
-            .iter()
-            .find(|a| a.parameter == AxisParameter::VehicleFile)
-            .map(|a| a.files.clone())
-            .unwrap_or_default()
-    }
 }
 
 /// The base scenario with one scenario quantity set.
@@ -429,6 +512,8 @@ pub struct Sweep {
     grid: usize,
     thresholds: usize,
     references: usize,
+    /// the limits of the ranges derived from the vehicle (`--max-speed`)
+    pub(crate) limits: SpeedLimits,
 }
 
 impl Sweep {
@@ -495,7 +580,16 @@ impl Sweep {
             sampled_fields,
             thresholds,
             references,
+            limits: SpeedLimits::default(),
         })
+    }
+
+    /// The same sweep with other [`SpeedLimits`] (`--max-speed`): the ranges of the
+    /// linear and bifurcation kinds and of the threshold map's reference diagram that the
+    /// config omits are derived within them.
+    #[must_use]
+    pub fn with_limits(self, limits: SpeedLimits) -> Self {
+        Self { limits, ..self }
     }
 
     /// The config.
@@ -596,12 +690,15 @@ impl Sweep {
         let result = setup.and_then(|(model, s)| match self.cfg.kind {
             PointKind::Simulation => simulate_point(&model, &s, s.horizon_s.get())
                 .map(|(m, steps)| (PointOutput::Simulation(m), steps)),
-            PointKind::LinearCriticalSpeed => {
-                analysis::linear_critical_speed(&model, &s.controller, &self.cfg.analysis)
-                    .map(|r| (PointOutput::LinearCriticalSpeed(r), 0))
-            }
+            PointKind::LinearCriticalSpeed => analysis::linear_critical_speed(
+                &model,
+                &s.controller,
+                &self.cfg.analysis,
+                &self.limits,
+            )
+            .map(|r| (PointOutput::LinearCriticalSpeed(r), 0)),
             PointKind::HopfFoldSpeeds => {
-                analysis::hopf_fold_speeds(&model, &s.controller, &self.cfg.analysis)
+                analysis::hopf_fold_speeds(&model, &s.controller, &self.cfg.analysis, &self.limits)
                     .map(|r| (PointOutput::HopfFoldSpeeds(r), 0))
             }
         });

@@ -40,7 +40,7 @@ fn quantities(kind: PointKind) -> Vec<Quantity> {
         ],
         PointKind::HopfFoldSpeeds => vec![
             ("hopf_v_mps", "V_Hopf [m/s]", |o| match o {
-                PointOutput::HopfFoldSpeeds(h) => Some(h.hopf_v_mps),
+                PointOutput::HopfFoldSpeeds(h) => h.hopf_v_mps,
                 _ => None,
             }),
             ("fold_v_mps", "V_fold [m/s]", |o| match o {

@@ -3,6 +3,7 @@ use std::path::Path;
 use super::*;
 use crate::config_file::load_toml;
 use sway::progress::NoProgress;
+use sway::sim::speeds::ResolveSpeeds;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -19,9 +20,13 @@ fn context(results: &Path) -> TaskContext<'static> {
 }
 
 /// Runs the sweep of `file` with `edit` applied, into `results`; returns the summary.
-fn run(file: &Path, results: &Path, edit: impl FnOnce(&mut SweepConfig)) -> serde_json::Value {
+fn run(
+    file: &Path,
+    results: &Path,
+    edit: impl FnOnce(&mut SweepConfig<SpeedSpec>),
+) -> serde_json::Value {
     let ctx = context(results);
-    let mut cfg: SweepConfig = load_toml(file).unwrap();
+    let mut cfg: SweepConfig<SpeedSpec> = load_toml(file).unwrap();
     edit(&mut cfg);
     cfg.check(file).unwrap();
     Box::new(Configured {
@@ -65,7 +70,13 @@ fn fleet_study_loads_its_files_and_names_them_in_the_rows() {
     let tmp = tempfile::tempdir().unwrap();
     let file = root().join("configs/study_fleet.toml");
     let s = run(&file, tmp.path(), |c| {
-        c.axes[0] = sway::sim::sweep::Axis::range(c.axes[0].parameter, 985.0, 985.0, 1);
+        c.axes[0] = sway::sim::sweep::Axis {
+            parameter: c.axes[0].parameter,
+            min: Some(985.0.into()),
+            max: Some(985.0.into()),
+            points: Some(1),
+            files: Vec::new(),
+        };
     });
     assert_eq!(s["points"], 3);
     let csv = std::fs::read_to_string(tmp.path().join("study_fleet/sweep.csv")).unwrap();
@@ -77,8 +88,8 @@ fn fleet_study_loads_its_files_and_names_them_in_the_rows() {
 
     // a missing fleet file is an error naming it
     let ctx = context(tmp.path());
-    let mut cfg: SweepConfig = load_toml(&file).unwrap();
+    let mut cfg: SweepConfig<SpeedSpec> = load_toml(&file).unwrap();
     cfg.axes[1].files[1] = "fleet/missing.toml".into();
-    let e = prepare_sweep(&ctx, &cfg, &file).unwrap_err().to_string();
+    let e = prepare_sweep(&ctx, &cfg.all_numbers().unwrap(), &file).unwrap_err().to_string();
     assert!(e.contains("missing.toml"), "{e}");
 }

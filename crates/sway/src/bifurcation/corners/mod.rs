@@ -30,6 +30,7 @@
 //!    section θ at the upward zero crossings of the tractor yaw rate ψ̇.
 
 pub mod motion;
+pub mod study;
 
 use continuation::Criticality;
 use rayon::prelude::*;
@@ -78,8 +79,10 @@ pub struct CornerOptions {
     /// speeds of the D-subdivision scan over the chart's speed range (evenly spaced)
     pub v_samples: usize,
     /// the scan for double-Hopf points beyond the chart's gain range (reported apart):
-    /// |D| up to this \[s\] (0: none)
-    pub beyond_gain_s: f64,
+    /// |D| up to this \[s\] (0: none; omitted: 5·D₁, the half width of `fig4a`'s derived
+    /// gain axis, [`crate::charts::auto_range`])
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beyond_gain_s: Option<f64>,
     /// half width of the zoom window in V \[m/s\]
     pub zoom_half_width_v_mps: f64,
     /// half width of the zoom window in D \[s\]
@@ -140,7 +143,7 @@ impl Default for CornerOptions {
     fn default() -> Self {
         Self {
             v_samples: 131,
-            beyond_gain_s: 0.5,
+            beyond_gain_s: None,
             zoom_half_width_v_mps: 8.0,
             zoom_half_width_d_s: 0.07,
             zoom_curve_samples: 161,
@@ -894,7 +897,22 @@ pub fn corner_study(
         || double_hopf_points(model, tau, v_range, d_range, o.v_samples),
         || nonlinear_chart(model, tau, chart),
     );
-    let (double_hopf, nl) = (points?, nl?);
+    let double_hopf = points?;
+    let nl = match nl {
+        Ok(nl) => nl,
+        // without a corner the chart only served the zoom: its failure is a note
+        Err(e) if double_hopf.is_empty() => NonlinearChart {
+            tau_s: tau,
+            options: chart.clone(),
+            hopf_curves: Vec::new(),
+            fold_curves: Vec::new(),
+            codim2_points: Vec::new(),
+            notes: vec![format!("nonlinear chart not computed: {e}")],
+            hopf_reason: None,
+            fold_reason: None,
+        },
+        Err(e) => return Err(e),
+    };
     let beyond_range = beyond(model, tau, v_range, d_range, o)?;
     let corners = double_hopf
         .iter()
@@ -925,10 +943,11 @@ fn beyond(
     d_range: (f64, f64),
     o: &CornerOptions,
 ) -> Result<Vec<DoubleHopfPoint>, SwayError> {
-    if o.beyond_gain_s <= d_range.0.abs().max(d_range.1.abs()) {
+    let beyond_gain = o.beyond_gain_s.unwrap_or(0.0);
+    if beyond_gain <= d_range.0.abs().max(d_range.1.abs()) {
         return Ok(Vec::new());
     }
-    let wide = (-o.beyond_gain_s, o.beyond_gain_s);
+    let wide = (-beyond_gain, beyond_gain);
     let mut all = double_hopf_points(model, tau, v_range, wide, o.v_samples)?;
     all.retain(|p| p.d_s < d_range.0 || p.d_s > d_range.1);
     Ok(all)

@@ -10,38 +10,44 @@ use trailer_model::{Inputs, Model, State4, sorted_eigenvalues};
 use super::PointKind;
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
+use crate::bifurcation::{CycleExtent, Feedback};
+use crate::bifurcation::{DiagramOutcome, DiagramSettings, vehicle_diagram};
 use crate::charts::{critical_speed_at_gain, rightmost_roots};
 use crate::config::ensure;
+use crate::ranging::SpeedLimits;
 use crate::sim::Controller;
 
 /// Settings of the linear and bifurcation point kinds (`[analysis]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AnalysisOptions {
-    /// V_crit is searched in \[v_min, v_max\] \[m/s\]
-    pub v_min_mps: f64,
-    /// upper end of the search \[m/s\]
-    pub v_max_mps: f64,
+    /// V_crit is searched in \[v_min, v_max\] \[m/s\] (omitted: the lowest speed of the
+    /// [`SpeedLimits`], 1 m/s)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_min_mps: Option<f64>,
+    /// upper end of the search \[m/s\] (omitted: the maximum speed, `--max-speed`)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_max_mps: Option<f64>,
     /// scan step of the open-loop search for the sign change of max Re λ \[m/s\]
     pub scan_step_mps: f64,
     /// bisection ends at this bracket width \[m/s\]
     pub tolerance_mps: f64,
     /// closed loop: speeds scanned for the first unstable root count
     pub closed_loop_samples: usize,
-    /// `hopf_fold_speeds`: the bifurcation diagram's settings (default: fig3a's)
-    pub diagram: DiagramOptions,
+    /// `hopf_fold_speeds`: the bifurcation diagram's settings (default: fig3a's, with the
+    /// speed range derived from the vehicle, [`vehicle_diagram`])
+    pub diagram: DiagramSettings,
 }
 
 impl Default for AnalysisOptions {
     fn default() -> Self {
         Self {
-            v_min_mps: 10.0,
-            v_max_mps: 80.0,
+            v_min_mps: None,
+            v_max_mps: None,
             scan_step_mps: 2.0,
             tolerance_mps: 1e-8,
             closed_loop_samples: 71,
-            diagram: DiagramOptions::default(),
+            diagram: DiagramSettings::default(),
         }
     }
 }
@@ -52,21 +58,31 @@ impl AnalysisOptions {
         *self == Self::default()
     }
 
+    /// The V_crit search range \[m/s\]: the config's numbers, else the limits'.
+    pub fn range(&self, limits: &SpeedLimits) -> (f64, f64) {
+        (
+            self.v_min_mps.unwrap_or(limits.min_speed_mps),
+            self.v_max_mps.unwrap_or(limits.max_speed_mps),
+        )
+    }
+
     /// Checks the keys under `analysis`.
     ///
     /// # Errors
     /// [`SwayError::Config`] naming the key.
     pub fn validate(&self, file: &Path, _kind: PointKind) -> Result<(), SwayError> {
+        // an omitted end is checked against the other with the default limits (the
+        // maximum speed is checked by the command line)
+        let (lo, hi) = self.range(&SpeedLimits::default());
         ensure(
-            self.v_min_mps > 0.0 && self.v_max_mps > self.v_min_mps && self.v_max_mps.is_finite(),
+            lo > 0.0 && hi > lo && hi.is_finite(),
             file,
-            "analysis.v_min_mps",
-            || {
-                format!(
-                    "expected 0 < v_min_mps < v_max_mps, got {} and {}",
-                    self.v_min_mps, self.v_max_mps
-                )
+            if self.v_min_mps.is_some() {
+                "analysis.v_min_mps"
+            } else {
+                "analysis.v_max_mps"
             },
+            || format!("expected 0 < v_min_mps < v_max_mps, got {lo} and {hi}"),
         )?;
         ensure(
             self.scan_step_mps > 0.0 && self.scan_step_mps.is_finite(),
@@ -107,18 +123,21 @@ pub struct LinearCriticalSpeed {
 }
 
 /// The Hopf and fold-of-cycles speeds of one point.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HopfFoldSpeeds {
-    /// the Hopf speed \[m/s\]
-    pub hopf_v_mps: f64,
+    /// the Hopf speed \[m/s\] (null: no Hopf point below the maximum speed, see `reason`)
+    pub hopf_v_mps: Option<f64>,
     /// the Hopf frequency \[rad/s\]
-    pub hopf_omega_rad_s: f64,
+    pub hopf_omega_rad_s: Option<f64>,
     /// "Subcritical" or "Supercritical"
-    pub criticality: Criticality,
+    pub criticality: Option<Criticality>,
     /// the fold-of-cycles speed \[m/s\] (null: the branch does not fold in the range)
     pub fold_v_mps: Option<f64>,
     /// max |θ| on the fold's cycle \[deg\]
     pub fold_amplitude_deg: Option<f64>,
+    /// why a value is null
+    #[serde(default)]
+    pub reason: Option<String>,
 }
 
 /// The feedback (D, τ) of a controller for the linear and bifurcation analyses (open loop:
@@ -153,14 +172,19 @@ fn critical_pair(model: &Model, v: f64) -> (f64, f64) {
     (ev[0].re, ev[0].im.abs())
 }
 
-/// The lowest speed in \[v_min, v_max\] where max Re λ(Ã(V)) changes sign: a scan in
+/// The lowest speed in \[v_min, v_max\] ([`AnalysisOptions::range`]) where max Re λ(Ã(V)) changes sign: a scan in
 /// `scan_step_mps`, then the Illinois variant of regula falsi on the bracket down to
 /// `tolerance_mps` (superlinear where the abscissa is smooth, i.e. at a crossing of a
 /// simple pair; the bracket always shrinks). None if stable on the whole range.
 ///
 /// # Errors
 /// When straight running is already unstable at v_min, or the abscissa is not finite.
-pub fn open_loop_critical_speed(model: &Model, o: &AnalysisOptions) -> Result<Option<f64>, String> {
+pub fn open_loop_critical_speed(
+    model: &Model,
+    o: &AnalysisOptions,
+    limits: &SpeedLimits,
+) -> Result<Option<f64>, String> {
+    let (v_min, v_max) = o.range(limits);
     let f = |v: f64| {
         let a = critical_pair(model, v).0;
         if a.is_finite() {
@@ -171,21 +195,20 @@ pub fn open_loop_critical_speed(model: &Model, o: &AnalysisOptions) -> Result<Op
             ))
         }
     };
-    let (mut lo, mut f_lo) = (o.v_min_mps, f(o.v_min_mps)?);
+    let (mut lo, mut f_lo) = (v_min, f(v_min)?);
     if f_lo >= 0.0 {
         return Err(format!(
-            "straight running is already unstable at v_min = {} m/s",
-            o.v_min_mps
+            "straight running is already unstable at v_min = {v_min} m/s"
         ));
     }
     let (mut hi, mut f_hi);
     loop {
-        hi = (lo + o.scan_step_mps).min(o.v_max_mps);
+        hi = (lo + o.scan_step_mps).min(v_max);
         f_hi = f(hi)?;
         if f_hi >= 0.0 {
             break;
         }
-        if hi >= o.v_max_mps {
+        if hi >= v_max {
             return Ok(None);
         }
         (lo, f_lo) = (hi, f_hi);
@@ -228,10 +251,12 @@ pub fn linear_critical_speed(
     model: &Model,
     controller: &Controller,
     o: &AnalysisOptions,
+    limits: &SpeedLimits,
 ) -> Result<LinearCriticalSpeed, String> {
     let fb = feedback(controller)?;
+    let (v_min, v_max) = o.range(limits);
     let (v, omega) = if fb.gain_d_s == 0.0 {
-        match open_loop_critical_speed(model, o)? {
+        match open_loop_critical_speed(model, o, limits)? {
             Some(v) => (Some(v), Some(critical_pair(model, v).1)),
             None => (None, None),
         }
@@ -240,8 +265,8 @@ pub fn linear_critical_speed(
             model,
             fb.delay_s,
             fb.gain_d_s,
-            o.v_min_mps,
-            o.v_max_mps,
+            v_min,
+            v_max,
             o.closed_loop_samples,
             o.tolerance_mps,
         )
@@ -264,8 +289,10 @@ pub fn linear_critical_speed(
 }
 
 /// The Hopf and fold speeds of `model` with `controller`'s feedback: the bifurcation diagram
-/// up to its first fold, corrected on the two-parameter defining systems at fixed D
-/// ([`critical_speeds`], as `fig4b` reports them).
+/// up to its first fold (on the range derived from the vehicle unless `[analysis.diagram]`
+/// gives it, [`vehicle_diagram`]), corrected on the two-parameter defining systems at fixed
+/// D ([`critical_speeds`], as `fig4b` reports them). No Hopf point below the maximum speed
+/// is an outcome: all fields null, with the reason.
 ///
 /// # Errors
 /// A message naming the failing stage.
@@ -273,17 +300,37 @@ pub fn hopf_fold_speeds(
     model: &Model,
     controller: &Controller,
     o: &AnalysisOptions,
+    limits: &SpeedLimits,
 ) -> Result<HopfFoldSpeeds, String> {
     let fb = feedback(controller)?;
-    let d = bifurcation_diagram_until(model, fb, &o.diagram, CycleExtent::FirstFold)
+    let outcome = vehicle_diagram(model, fb, &o.diagram, limits, CycleExtent::FirstFold)
         .map_err(|e| e.to_string())?;
-    let c = critical_speeds(model, &d, &ChartOptions::correcting(&o.diagram))
+    let d = match outcome {
+        DiagramOutcome::Computed(d) => d,
+        DiagramOutcome::NoHopf(n) => {
+            return Ok(HopfFoldSpeeds {
+                hopf_v_mps: None,
+                hopf_omega_rad_s: None,
+                criticality: None,
+                fold_v_mps: None,
+                fold_amplitude_deg: None,
+                reason: Some(n.reason),
+            });
+        }
+    };
+    let c = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))
         .map_err(|e| e.to_string())?;
+    let reason = if c.fold.is_none() {
+        d.fold_reason()
+    } else {
+        None
+    };
     Ok(HopfFoldSpeeds {
-        hopf_v_mps: c.hopf_v_mps,
-        hopf_omega_rad_s: c.hopf_omega_rad_s.abs(),
-        criticality: c.criticality,
+        hopf_v_mps: Some(c.hopf_v_mps),
+        hopf_omega_rad_s: Some(c.hopf_omega_rad_s.abs()),
+        criticality: Some(c.criticality),
         fold_v_mps: c.fold.map(|f| f.v_mps),
         fold_amplitude_deg: c.fold.map(|f| f.amplitude_deg),
+        reason,
     })
 }

@@ -6,6 +6,8 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 use trailer_model::{PARAMETERS, VehicleParams};
 
+use crate::sim::speeds::{Resolver, SpeedValue, UnresolvedSpeed};
+
 /// A swept scenario quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -172,18 +174,20 @@ impl AxisParameter {
 
 /// One axis of the grid: `points` uniformly spaced values from `min` to `max`, or for
 /// `parameter = "vehicle_file"` the vehicle files `files` (paths relative to the sweep
-/// file's directory).
+/// file's directory). `S`: the type of `min` and `max` (a `speed_mps` axis may give them
+/// relative to the vehicle, see [`crate::sim::speeds`]; every other axis gives numbers).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Axis {
+#[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]
+pub struct Axis<S = f64> {
     /// what is swept
     pub parameter: AxisParameter,
     /// first value
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min: Option<f64>,
+    #[serde(default = "none", skip_serializing_if = "Option::is_none")]
+    pub min: Option<S>,
     /// last value
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max: Option<f64>,
+    #[serde(default = "none", skip_serializing_if = "Option::is_none")]
+    pub max: Option<S>,
     /// number of values (≥ 1; 1 gives `min`)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub points: Option<usize>,
@@ -192,16 +196,36 @@ pub struct Axis {
     pub files: Vec<PathBuf>,
 }
 
-impl Axis {
-    /// A range axis.
-    pub fn range(parameter: AxisParameter, min: f64, max: f64, points: usize) -> Self {
-        Self {
-            parameter,
-            min: Some(min),
-            max: Some(max),
-            points: Some(points),
-            files: Vec::new(),
-        }
+fn none<S>() -> Option<S> {
+    None
+}
+
+impl<S: SpeedValue> Axis<S> {
+    /// The axis with numbers for `min` and `max` (config keys under `key`).
+    ///
+    /// # Errors
+    /// An end does not resolve for this vehicle.
+    pub fn resolve_speeds(&self, key: &str, r: &mut Resolver<'_>) -> Result<Axis, UnresolvedSpeed> {
+        let end = |v: &Option<S>, k: &str, r: &mut Resolver<'_>| {
+            v.as_ref()
+                .map(|v| v.resolve_speed(&format!("{key}.{k}"), r))
+                .transpose()
+        };
+        Ok(Axis {
+            parameter: self.parameter,
+            min: end(&self.min, "min", r)?,
+            max: end(&self.max, "max", r)?,
+            points: self.points,
+            files: self.files.clone(),
+        })
+    }
+
+    /// Whether `min` or `max` is given relative to the vehicle.
+    pub fn is_relative(&self) -> bool {
+        [self.min, self.max]
+            .iter()
+            .flatten()
+            .any(|v| v.absolute().is_none())
     }
 
     /// The number of values (the number of files of a fleet axis).
@@ -215,6 +239,19 @@ impl Axis {
     /// True for an axis without values (never: an axis has at least one).
     pub fn is_empty(&self) -> bool {
         false
+    }
+}
+
+impl Axis {
+    /// A range axis.
+    pub fn range(parameter: AxisParameter, min: f64, max: f64, points: usize) -> Self {
+        Self {
+            parameter,
+            min: Some(min),
+            max: Some(max),
+            points: Some(points),
+            files: Vec::new(),
+        }
     }
 
     /// The values (a fleet axis: the file indices 0, 1, …).

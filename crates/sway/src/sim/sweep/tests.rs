@@ -1,3 +1,4 @@
+use crate::ranging::SpeedLimits;
 use std::path::Path;
 
 use super::*;
@@ -40,9 +41,13 @@ points = 3
     let mut edited = VehicleParams::default();
     edited.trailer.mass = 1200.0;
     let model = Model::new(edited).unwrap();
-    let reference =
-        analysis::linear_critical_speed(&model, &Controller::None, &AnalysisOptions::default())
-            .unwrap();
+    let reference = analysis::linear_critical_speed(
+        &model,
+        &Controller::None,
+        &AnalysisOptions::default(),
+        &SpeedLimits::default(),
+    )
+    .unwrap();
     assert_eq!(r.output, Ok(PointOutput::LinearCriticalSpeed(reference)));
     // and the unedited value differs (the axis did act)
     let r0 = sweep.run_point(1);
@@ -93,6 +98,7 @@ files = ["a.toml", "b.toml"]
         &Model::new(heavy).unwrap(),
         &Controller::None,
         &AnalysisOptions::default(),
+        &SpeedLimits::default(),
     )
     .unwrap();
     let r = sweep.run_point(1);
@@ -227,9 +233,13 @@ max = 2.85
     let mut v = VehicleParams::default();
     v.trailer.cog = r.values[0];
     v.trailer.axle = r.values[1];
-    let reference =
-        analysis::linear_critical_speed(&Model::new(v).unwrap(), &Controller::None, &cfg.analysis)
-            .unwrap();
+    let reference = analysis::linear_critical_speed(
+        &Model::new(v).unwrap(),
+        &Controller::None,
+        &cfg.analysis,
+        &SpeedLimits::default(),
+    )
+    .unwrap();
     assert_eq!(r.output, Ok(PointOutput::LinearCriticalSpeed(reference)));
 }
 
@@ -238,6 +248,21 @@ max = 2.85
 /// computed by the sweep's own reference point) is sustained sway; above V_crit a kick
 /// does sway; the bisected threshold lies below the unstable cycle's amplitude... see the
 /// assertions. Reference: fig3a's V_fold = 31.5227 m/s, V_crit = 34.7479 m/s.
+fn range_spec(
+    parameter: AxisParameter,
+    min: f64,
+    max: f64,
+    points: usize,
+) -> Axis<crate::ranging::SpeedSpec> {
+    Axis {
+        parameter,
+        min: Some(min.into()),
+        max: Some(max.into()),
+        points: Some(points),
+        files: Vec::new(),
+    }
+}
+
 #[test]
 fn no_sustained_sway_below_the_fold_of_cycles() {
     let text = std::fs::read_to_string(concat!(
@@ -245,10 +270,14 @@ fn no_sustained_sway_below_the_fold_of_cycles() {
         "/../../configs/sweep_threshold.toml"
     ))
     .unwrap();
-    let mut cfg: SweepConfig = toml::from_str(&text).unwrap();
+    // the shipped file gives the speed axis relative to the vehicle; this test sets it in m/s
+    let mut cfg: SweepConfig<crate::ranging::SpeedSpec> = toml::from_str(&text).unwrap();
     // small resolution: 9 speeds 30–35 m/s (bracketing V_fold and V_crit), 6 kicks
-    cfg.axes[0] = Axis::range(cfg.axes[0].parameter, 30.0, 35.0, 9);
-    cfg.axes[1] = Axis::range(cfg.axes[1].parameter, 0.5, 15.0, 6);
+    let p0 = cfg.axes[0].parameter;
+    let p1 = cfg.axes[1].parameter;
+    cfg.axes[0] = range_spec(p0, 30.0, 35.0, 9);
+    cfg.axes[1] = range_spec(p1, 0.5, 15.0, 6);
+    let cfg = cfg.all_numbers().expect("every speed a number");
     cfg.validate(Path::new("sweep_threshold.toml")).unwrap();
     let sweep = Sweep::new(&VehicleParams::default(), &[], &cfg).unwrap();
     let reference = sweep.run_point(sweep.len() - 1);
@@ -282,9 +311,13 @@ fn open_loop_search_agrees_with_the_model_critical_speed() {
         let reference = model
             .critical_speed(&trailer_model::CriticalSpeedOptions::default())
             .unwrap();
-        let ours =
-            analysis::linear_critical_speed(&model, &Controller::None, &AnalysisOptions::default())
-                .unwrap();
+        let ours = analysis::linear_critical_speed(
+            &model,
+            &Controller::None,
+            &AnalysisOptions::default(),
+            &SpeedLimits::default(),
+        )
+        .unwrap();
         let vc = ours.v_crit_mps.unwrap();
         assert!(
             (vc - reference.v_crit_mps).abs() < 1e-8,
@@ -298,9 +331,12 @@ fn open_loop_search_agrees_with_the_model_critical_speed() {
     }
     // stable on the whole range: none
     let o = AnalysisOptions {
-        v_max_mps: 30.0,
+        v_max_mps: Some(30.0),
         ..AnalysisOptions::default()
     };
     let model = Model::new(VehicleParams::default()).unwrap();
-    assert_eq!(analysis::open_loop_critical_speed(&model, &o), Ok(None));
+    assert_eq!(
+        analysis::open_loop_critical_speed(&model, &o, &SpeedLimits::default()),
+        Ok(None)
+    );
 }

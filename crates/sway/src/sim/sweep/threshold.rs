@@ -21,8 +21,9 @@ use serde::{Deserialize, Serialize};
 use super::{AxisParameter, PointOutput, PointResult, SweepConfig, SweepParameter, simulate_point};
 use super::{BaseScenario, PointKind, Sweep};
 use crate::SwayError;
-use crate::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
+use crate::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
 use crate::config::{Positive, ensure};
+use crate::ranging::SpeedLimits;
 use crate::sim::classify::SwayClass;
 use crate::sim::{Controller, InitialCondition, SpeedProfile};
 use trailer_model::Model;
@@ -58,9 +59,10 @@ pub struct ThresholdSearch {
     /// also compute the cycles of the bifurcation diagram at the speeds of axis 1
     #[serde(default = "yes")]
     pub compare_cycles: bool,
-    /// the diagram's settings (default: fig3a's)
+    /// the diagram's settings (default: fig3a's, with the speed range derived from the
+    /// vehicle, [`vehicle_diagram`])
     #[serde(default)]
-    pub cycles: DiagramOptions,
+    pub cycles: DiagramSettings,
 }
 
 impl ThresholdSearch {
@@ -299,7 +301,12 @@ pub(super) fn run_reference_point(sweep: &Sweep) -> PointResult {
         .as_ref()
         .map(|t| t.cycles.clone())
         .unwrap_or_default();
-    match reference(sweep.base_model(), &opts, &sweep.axis_values[0]) {
+    match reference(
+        sweep.base_model(),
+        &opts,
+        &sweep.limits,
+        &sweep.axis_values[0],
+    ) {
         Ok(r) => PointResult {
             values: Vec::new(),
             output: Ok(PointOutput::CycleReference(r)),
@@ -311,10 +318,26 @@ pub(super) fn run_reference_point(sweep: &Sweep) -> PointResult {
 
 fn reference(
     model: &Model,
-    o: &DiagramOptions,
+    settings: &DiagramSettings,
+    limits: &SpeedLimits,
     speeds: &[f64],
 ) -> Result<CycleReference, SwayError> {
-    let d = bifurcation_diagram(model, Feedback::OPEN_LOOP, o)?;
+    let d = match vehicle_diagram(
+        model,
+        Feedback::OPEN_LOOP,
+        settings,
+        limits,
+        CycleExtent::WholeRange,
+    )? {
+        DiagramOutcome::Computed(d) => d,
+        DiagramOutcome::NoHopf(n) => {
+            return Err(SwayError::numerical(
+                "the reference diagram of the threshold map",
+                std::io::Error::other(n.reason),
+            ));
+        }
+    };
+    let o = &d.options;
     let mut out = Vec::with_capacity(speeds.len());
     for &v in speeds {
         let inside = v > o.v_min_mps && v < o.v_max_mps;
@@ -340,4 +363,20 @@ fn reference(
         fold_amplitude_deg: d.fold.map(|f| f.amplitude_deg),
         speeds: out,
     })
+}
+
+/// The θ(0) threshold at constant speed `speed` \[m/s\] of `base` (a state start): the
+/// first value of `column` \[deg\] that ends in sustained sway, bisected, with the horizon
+/// check of a threshold map (as its threshold points).
+///
+/// # Errors
+/// A message when a simulation fails.
+pub fn theta0_threshold(
+    model: &Model,
+    base: &BaseScenario,
+    column: &[f64],
+    search: &ThresholdSearch,
+    speed: f64,
+) -> Result<Theta0Threshold, String> {
+    search_with_doubling(model, base, column, search, speed).map(|(t, _)| t)
 }

@@ -1,0 +1,446 @@
+//! The computation of `chart_nonlinear` (issue 8): the nonlinear chart of every delay of
+//! `configs/chart_nonlinear.toml`, the linear chart behind its shading, the speeds of the
+//! curves at the summary gains and the bistable width; the box, the seeds and the summary
+//! gains derived from the vehicle where the config omits them
+//! ([`crate::charts::auto_range`]). Also the `[chart]` table that `corners` and
+//! `gain_design` share ([`ChartConfig`]).
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use stability::{Axis, StabilityChart};
+use trailer_model::Model;
+
+use super::{ChartOptions, NonlinearChart, nonlinear_chart};
+use crate::SwayError;
+use crate::bifurcation::DiagramOptions;
+use crate::charts::auto_range::{
+    BoxKeys, Derivation, SpeedBounds, SpeedGainBox, middle, nonlinear_box, seed_gains,
+    summary_gains,
+};
+use crate::charts::fig4a_charts;
+use continuation::NewtonUpdate;
+
+/// The `[chart]` table of a config: [`ChartOptions`] with the box and the seeds optional
+/// (derived from the vehicle where omitted).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ChartConfig {
+    /// lower speed of the box \[m/s\] (omitted: derived)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_min_mps: Option<f64>,
+    /// upper speed of the box \[m/s\] (omitted: derived)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_max_mps: Option<f64>,
+    /// lower gain of the box \[s\] (omitted: derived)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub d_min_s: Option<f64>,
+    /// upper gain of the box \[s\] (omitted: derived)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub d_max_s: Option<f64>,
+    /// seed gains \[s\] (omitted: the middle, the top and the bottom of the gain range)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed_gains_s: Option<Vec<f64>>,
+    /// see [`ChartOptions::hopf_step`]
+    pub hopf_step: f64,
+    /// see [`ChartOptions::hopf_max_step`]
+    pub hopf_max_step: f64,
+    /// see [`ChartOptions::hopf_max_points`]
+    pub hopf_max_points: usize,
+    /// see [`ChartOptions::fold_step`]
+    pub fold_step: f64,
+    /// see [`ChartOptions::fold_max_step`]
+    pub fold_max_step: f64,
+    /// see [`ChartOptions::fold_max_points`]
+    pub fold_max_points: usize,
+    /// see [`ChartOptions::curve_min_tangent_cosine`]
+    pub curve_min_tangent_cosine: f64,
+    /// see [`ChartOptions::curve_target_newton_iterations`]
+    pub curve_target_newton_iterations: usize,
+    /// see [`ChartOptions::curve_newton`]
+    pub curve_newton: NewtonUpdate,
+    /// see [`ChartOptions::criticality_samples`]
+    pub criticality_samples: usize,
+    /// see [`ChartOptions::criticality_cycle_points`]
+    pub criticality_cycle_points: usize,
+    /// see [`ChartOptions::fold_min_amplitude`]
+    pub fold_min_amplitude: f64,
+    /// the cycles (their speed range is replaced by the box's)
+    pub cycles: DiagramOptions,
+}
+
+impl Default for ChartConfig {
+    fn default() -> Self {
+        Self::from_options(&ChartOptions::default(), false)
+    }
+}
+
+impl ChartConfig {
+    /// The table of `o`, with the box and the seeds given (`given`) or left to derive.
+    pub fn from_options(o: &ChartOptions, given: bool) -> Self {
+        let g = |x: f64| given.then_some(x);
+        Self {
+            v_min_mps: g(o.v_min_mps),
+            v_max_mps: g(o.v_max_mps),
+            d_min_s: g(o.d_min_s),
+            d_max_s: g(o.d_max_s),
+            seed_gains_s: given.then(|| o.seed_gains_s.clone()),
+            hopf_step: o.hopf_step,
+            hopf_max_step: o.hopf_max_step,
+            hopf_max_points: o.hopf_max_points,
+            fold_step: o.fold_step,
+            fold_max_step: o.fold_max_step,
+            fold_max_points: o.fold_max_points,
+            curve_min_tangent_cosine: o.curve_min_tangent_cosine,
+            curve_target_newton_iterations: o.curve_target_newton_iterations,
+            curve_newton: o.curve_newton,
+            criticality_samples: o.criticality_samples,
+            criticality_cycle_points: o.criticality_cycle_points,
+            fold_min_amplitude: o.fold_min_amplitude,
+            cycles: o.cycles.clone(),
+        }
+    }
+
+    /// The box keys as given.
+    pub fn box_keys(&self) -> BoxKeys {
+        BoxKeys {
+            v_min_mps: self.v_min_mps,
+            v_max_mps: self.v_max_mps,
+            d_min_s: self.d_min_s,
+            d_max_s: self.d_max_s,
+        }
+    }
+
+    /// The chart options with box `b` and seeds `seeds`.
+    pub fn options(&self, b: &SpeedGainBox, seeds: Vec<f64>) -> ChartOptions {
+        ChartOptions {
+            v_min_mps: b.v_min_mps,
+            v_max_mps: b.v_max_mps,
+            d_min_s: b.d_min_s,
+            d_max_s: b.d_max_s,
+            seed_gains_s: seeds,
+            hopf_step: self.hopf_step,
+            hopf_max_step: self.hopf_max_step,
+            hopf_max_points: self.hopf_max_points,
+            fold_step: self.fold_step,
+            fold_max_step: self.fold_max_step,
+            fold_max_points: self.fold_max_points,
+            curve_min_tangent_cosine: self.curve_min_tangent_cosine,
+            curve_target_newton_iterations: self.curve_target_newton_iterations,
+            curve_newton: self.curve_newton,
+            criticality_samples: self.criticality_samples,
+            criticality_cycle_points: self.criticality_cycle_points,
+            fold_min_amplitude: self.fold_min_amplitude,
+            cycles: self.cycles.clone(),
+        }
+    }
+
+    /// The chart options over `delays` \[s\]: the given box keys and seeds, the others
+    /// derived ([`nonlinear_box`], [`seed_gains`]); keys named with `prefix`.
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] from the derivation.
+    pub fn resolve(
+        &self,
+        model: &Model,
+        delays: &[f64],
+        b: &SpeedBounds,
+        prefix: &str,
+    ) -> Result<(ChartOptions, Derivation), SwayError> {
+        let (bx, mut der) = nonlinear_box(model, &self.box_keys(), delays, b, prefix)?;
+        let seeds = match &self.seed_gains_s {
+            Some(s) => s.clone(),
+            None => {
+                der.derived_keys.push(format!("{prefix}seed_gains_s"));
+                seed_gains((bx.d_min_s, bx.d_max_s))
+            }
+        };
+        Ok((self.options(&bx, seeds), der))
+    }
+}
+
+/// The shading grid (cells of the linear stability chart, exact unstable-root counts).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionGrid {
+    /// cells along V
+    pub speed_cells: usize,
+    /// cells along D
+    pub gain_cells: usize,
+}
+
+impl Default for RegionGrid {
+    fn default() -> Self {
+        Self {
+            speed_cells: 140,
+            gain_cells: 80,
+        }
+    }
+}
+
+fn default_delays() -> Vec<f64> {
+    vec![0.0, 0.1, 0.2, 0.4]
+}
+
+/// `configs/chart_nonlinear.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChartNonlinearConfig {
+    /// the delays τ \[s\], one panel each
+    #[serde(default = "default_delays")]
+    pub delays_s: Vec<f64>,
+    /// gains of the `"curves"` entries of the summary \[s\] (omitted: 0, h, 2h, … below
+    /// the box's top, h = (D_max − D_min)/8)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub summary_gains_s: Option<Vec<f64>>,
+    /// gain of `"bistable_width_mps"` \[s\] (omitted: the middle of the box's gains)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bistable_gain_s: Option<f64>,
+    /// the curves: box, seeds, steps, cycle mesh
+    #[serde(default)]
+    pub chart: ChartConfig,
+    /// the shading grid
+    #[serde(default)]
+    pub regions: RegionGrid,
+}
+
+impl Default for ChartNonlinearConfig {
+    fn default() -> Self {
+        Self {
+            delays_s: default_delays(),
+            summary_gains_s: None,
+            bistable_gain_s: None,
+            chart: ChartConfig::default(),
+            regions: RegionGrid::default(),
+        }
+    }
+}
+
+/// The settings in use: the chart options and the summary gains.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResolvedChart {
+    /// the chart options (box, seeds, numerics)
+    pub options: ChartOptions,
+    /// the gains of `"curves"` \[s\]
+    pub summary_gains_s: Vec<f64>,
+    /// the gain of `"bistable_width_mps"` \[s\]
+    pub bistable_gain_s: f64,
+    /// the shading grid
+    pub regions: RegionGrid,
+    /// which keys were derived, and from what
+    pub derivation: Derivation,
+}
+
+impl ChartNonlinearConfig {
+    /// The settings with the omitted keys derived from the vehicle.
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] from the derivation.
+    pub fn resolve(&self, model: &Model, b: &SpeedBounds) -> Result<ResolvedChart, SwayError> {
+        let (options, mut der) = self.chart.resolve(model, &self.delays_s, b, "chart.")?;
+        let gains = (options.d_min_s, options.d_max_s);
+        let summary_gains_s = self.summary_gains_s.clone().unwrap_or_else(|| {
+            der.derived_keys.push("summary_gains_s".into());
+            summary_gains(gains)
+        });
+        let bistable_gain_s = self.bistable_gain_s.unwrap_or_else(|| {
+            der.derived_keys.push("bistable_gain_s".into());
+            middle(gains)
+        });
+        Ok(ResolvedChart {
+            options,
+            summary_gains_s,
+            bistable_gain_s,
+            regions: self.regions,
+            derivation: der,
+        })
+    }
+}
+
+/// The summary row of one gain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CurvesAtGain {
+    /// gain D \[s\]
+    pub d_s: f64,
+    /// lowest Hopf speed \[m/s\]
+    pub v_hopf_mps: Option<f64>,
+    /// lowest fold-of-cycles speed \[m/s\]
+    pub v_fold_mps: Option<f64>,
+    /// why a speed is null (None: both found)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+/// Everything computed for one delay.
+#[derive(Debug, Clone)]
+pub struct DelayResult {
+    /// the curves and codimension-two points
+    pub chart: NonlinearChart,
+    /// the linear stability chart of the shading grid (static boundary, regions)
+    pub linear: StabilityChart,
+    /// the speeds at the summary gains
+    pub curves: Vec<CurvesAtGain>,
+    /// V_hopf − V_fold at the bistable gain \[m/s\]
+    pub bistable_width_mps: Option<f64>,
+    /// why there is no bistable width (None: there is one)
+    pub bistable_reason: Option<String>,
+    /// the chart is all safe: straight running stable in every shading cell (None: not)
+    pub safe_reason: Option<String>,
+}
+
+/// The shading grid's axes: V from 0 to the box's top, D over the box.
+pub fn grid_axes(r: &ResolvedChart) -> (Axis, Axis) {
+    let c = &r.options;
+    (
+        Axis {
+            min: 0.0,
+            max: c.v_max_mps,
+            count: r.regions.speed_cells,
+        },
+        Axis {
+            min: c.d_min_s,
+            max: c.d_max_s,
+            count: r.regions.gain_cells,
+        },
+    )
+}
+
+fn speeds_at(model: &Model, chart: &NonlinearChart, d: f64) -> Result<CurvesAtGain, SwayError> {
+    let o = &chart.options;
+    let v_hopf_mps = chart.hopf_speed_at(model, d)?;
+    let v_fold_mps = chart.fold_speed_at(model, d)?;
+    let range = format!("[{}, {}] m/s", o.v_min_mps, o.v_max_mps);
+    let mut why = Vec::new();
+    if v_hopf_mps.is_none() {
+        why.push(format!(
+            "no Hopf curve crosses D = {d} s in {range} (straight running stable there up to the box's top)"
+        ));
+    }
+    if v_fold_mps.is_none() {
+        why.push(match &chart.fold_reason {
+            Some(r) => r.clone(),
+            None => format!("the fold-of-cycles curve does not cross D = {d} s in {range}"),
+        });
+    }
+    Ok(CurvesAtGain {
+        d_s: d,
+        v_hopf_mps,
+        v_fold_mps,
+        reason: (!why.is_empty()).then(|| why.join("; ")),
+    })
+}
+
+/// The whole computation of one delay (no I/O).
+///
+/// # Errors
+/// [`SwayError::Numerical`].
+pub fn compute_delay(model: &Model, r: &ResolvedChart, tau: f64) -> Result<DelayResult, SwayError> {
+    // the curves and the linear chart side by side, then the speeds at every summary gain
+    // and at the bistable gain (the last entry) in parallel; each piece is deterministic
+    let (chart, linear) = rayon::join(
+        || nonlinear_chart(model, tau, &r.options),
+        || linear_chart(model, r, tau),
+    );
+    let (chart, linear) = (chart?, linear?);
+    let mut curves = r
+        .summary_gains_s
+        .par_iter()
+        .chain([r.bistable_gain_s].par_iter())
+        .map(|&d| speeds_at(model, &chart, d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let at = curves.pop().ok_or_else(|| {
+        SwayError::numerical(
+            format!("speeds at D = {} s, τ = {tau} s", r.bistable_gain_s),
+            continuation::Error::InvalidInput("no speeds returned".into()),
+        )
+    })?;
+    let bistable_width_mps = match (at.v_hopf_mps, at.v_fold_mps) {
+        (Some(h), Some(f)) => Some(h - f),
+        _ => None,
+    };
+    let bistable_reason = bistable_width_mps.is_none().then(|| {
+        format!(
+            "no bistable band at D = {} s: {}",
+            r.bistable_gain_s,
+            at.reason.clone().unwrap_or_default()
+        )
+    });
+    let safe_reason = linear.cells.iter().all(|c| c.is_stable()).then(|| {
+        format!(
+            "straight running is stable in every cell of the chart (V up to {} m/s, D in [{}, {}] s): no self-excited sway",
+            r.options.v_max_mps, r.options.d_min_s, r.options.d_max_s
+        )
+    });
+    Ok(DelayResult {
+        chart,
+        linear,
+        curves,
+        bistable_width_mps,
+        bistable_reason,
+        safe_reason,
+    })
+}
+
+/// fig4a's linear chart of delay τ on the shading grid (exact counts of unstable roots).
+fn linear_chart(model: &Model, r: &ResolvedChart, tau: f64) -> Result<StabilityChart, SwayError> {
+    let (sa, ga) = grid_axes(r);
+    fig4a_charts(model, &[tau], sa, ga, &stability::ChartOptions::default())?
+        .into_iter()
+        .next()
+        .ok_or_else(|| {
+            SwayError::numerical(
+                format!("linear chart τ = {tau} s"),
+                continuation::Error::InvalidInput("no chart returned".into()),
+            )
+        })
+}
+
+/// The settings and every delay's result.
+#[derive(Debug, Clone)]
+pub struct ChartStudy {
+    /// the settings in use
+    pub resolved: ResolvedChart,
+    /// one result per delay, in the config's order
+    pub delays: Vec<DelayResult>,
+}
+
+/// All delays of the config, in its order (parallel over delays; each is deterministic),
+/// after resolving the settings ([`ChartNonlinearConfig::resolve`]).
+///
+/// # Errors
+/// The first failing delay's error (in config order).
+pub fn compute(
+    model: &Model,
+    cfg: &ChartNonlinearConfig,
+    b: &SpeedBounds,
+    progress: &dyn crate::progress::Progress,
+) -> Result<ChartStudy, SwayError> {
+    let resolved = cfg.resolve(model, b)?;
+    let delays = compute_resolved(model, &resolved, &cfg.delays_s, progress)?;
+    Ok(ChartStudy { resolved, delays })
+}
+
+/// [`compute_delay`] for every delay of `delays` \[s\] (parallel, results in its order).
+///
+/// # Errors
+/// The first failing delay's error.
+pub fn compute_resolved(
+    model: &Model,
+    r: &ResolvedChart,
+    delays: &[f64],
+    progress: &dyn crate::progress::Progress,
+) -> Result<Vec<DelayResult>, SwayError> {
+    // the longest delays first (their collocation factors fill most, so they cost most):
+    // rayon then starts them on separate threads instead of last; results in config order
+    let mut order: Vec<usize> = (0..delays.len()).collect();
+    order.sort_by(|&a, &b| delays[b].total_cmp(&delays[a]));
+    let mut results: Vec<(usize, Result<DelayResult, SwayError>)> = order
+        .par_iter()
+        .map(|&i| {
+            let res = compute_delay(model, r, delays[i]);
+            progress.advance(1);
+            (i, res)
+        })
+        .collect();
+    results.sort_by_key(|(i, _)| *i);
+    results.into_iter().map(|(_, res)| res).collect()
+}

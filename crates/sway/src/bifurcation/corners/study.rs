@@ -1,0 +1,112 @@
+//! The computation of `corners` (issue 12): [`super::corner_study`] for every delay of
+//! `configs/corners.toml`, with the nonlinear chart's box and seeds and the
+//! `beyond_gain_s` scan derived from the vehicle where the config omits them
+//! ([`crate::charts::auto_range`]); a delay without a double-Hopf point in the box is an
+//! outcome with its reason, not an error.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use trailer_model::Model;
+
+use super::{CornerOptions, CornerStudy, corner_study};
+use crate::SwayError;
+use crate::bifurcation::chart::ChartOptions;
+use crate::bifurcation::chart::study::ChartConfig;
+use crate::charts::auto_range::{Derivation, SpeedBounds, chart_gains, vehicle_scale};
+
+fn default_delays() -> Vec<f64> {
+    vec![0.2, 0.4]
+}
+
+/// `configs/corners.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CornersConfig {
+    /// the delays τ \[s\]
+    #[serde(default = "default_delays")]
+    pub delays_s: Vec<f64>,
+    /// the nonlinear chart: its (V, D) box is the range searched for double-Hopf points
+    #[serde(default)]
+    pub chart: ChartConfig,
+    /// the corner analysis: scan, zoom window, probes, simulations, classifier
+    #[serde(default)]
+    pub corners: CornerOptions,
+}
+
+/// The settings in use.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResolvedCorners {
+    /// the nonlinear chart (box, seeds)
+    pub chart: ChartOptions,
+    /// the corner analysis (with `beyond_gain_s` resolved)
+    pub corners: CornerOptions,
+    /// which keys were derived, and from what
+    pub derivation: Derivation,
+}
+
+/// What one delay gave.
+#[derive(Debug, Clone)]
+pub struct DelayCorners {
+    /// the study
+    pub study: CornerStudy,
+    /// why there is nothing near a corner (None: at least one double-Hopf point)
+    pub reason: Option<String>,
+}
+
+/// Everything `corners` computes.
+#[derive(Debug, Clone)]
+pub struct Corners {
+    /// the settings in use
+    pub resolved: ResolvedCorners,
+    /// one entry per delay, in the config's order
+    pub delays: Vec<DelayCorners>,
+}
+
+impl CornersConfig {
+    /// The settings with the omitted keys derived from the vehicle.
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] from the derivation.
+    pub fn resolve(&self, model: &Model, b: &SpeedBounds) -> Result<ResolvedCorners, SwayError> {
+        let (chart, mut der) = self.chart.resolve(model, &self.delays_s, b, "chart.")?;
+        let mut corners = self.corners.clone();
+        if corners.beyond_gain_s.is_none() {
+            let s = match der.scale {
+                Some(s) => s,
+                None => vehicle_scale(model, b)?,
+            };
+            der.scale = Some(s);
+            der.derived_keys.push("corners.beyond_gain_s".into());
+            corners.beyond_gain_s = Some(chart_gains(&s).1);
+        }
+        Ok(ResolvedCorners {
+            chart,
+            corners,
+            derivation: der,
+        })
+    }
+}
+
+/// All delays (in parallel, results in config order; each delay is deterministic).
+///
+/// # Errors
+/// The first failing delay's error.
+pub fn compute(model: &Model, cfg: &CornersConfig, b: &SpeedBounds) -> Result<Corners, SwayError> {
+    let resolved = cfg.resolve(model, b)?;
+    let (c, o) = (&resolved.chart, &resolved.corners);
+    let delays = cfg
+        .delays_s
+        .par_iter()
+        .map(|&tau| {
+            let study = corner_study(model, tau, c, o)?;
+            let reason = study.corners.is_empty().then(|| {
+                format!(
+                    "no double-Hopf corner in the box (V in [{}, {}] m/s, D in [{}, {}] s) at τ = {tau} s: no zoom, probes or torus curves",
+                    c.v_min_mps, c.v_max_mps, c.d_min_s, c.d_max_s
+                )
+            });
+            Ok(DelayCorners { study, reason })
+        })
+        .collect::<Result<Vec<_>, SwayError>>()?;
+    Ok(Corners { resolved, delays })
+}

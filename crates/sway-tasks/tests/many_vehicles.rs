@@ -292,3 +292,30 @@ fn every_task_agrees_on_every_generated_vehicle() {
         "{stable:?}"
     );
 }
+
+/// A vehicle that loses stability through a real eigenvalue (configs/fleet/
+/// divergent_trailer.toml: a static divergence at ≈ 61 m/s, ω = 0) is not a vehicle
+/// without a critical speed: `linear` reports V_crit with `loss_of_stability =
+/// "divergence"`, `fig3a` has no Hopf point and says why, with the divergence speed equal
+/// to linear's V_crit (tolerance 1e-8 relative: both are the zero of a real eigenvalue,
+/// the bisection of the spectral abscissa to 1e-11 m/s and the branch point located on the
+/// equilibrium branch, measured 8e-14).
+#[test]
+fn a_static_divergence_is_a_result_not_a_sway() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let vehicle = configs_dir().join("fleet/divergent_trailer.toml");
+    let linear = run("linear", LINEAR, &vehicle, tmp.path()).expect("linear");
+    assert_eq!(linear["loss_of_stability"], "divergence", "{linear}");
+    assert_eq!(linear["hopf_omega_rad_s"].as_f64(), Some(0.0), "{linear}");
+    let v_crit = linear["v_crit_mps"].as_f64().expect("a V_crit");
+    assert!((50.0..70.0).contains(&v_crit), "{v_crit}");
+    let fig3a = run("fig3a", FIG3A, &vehicle, tmp.path()).expect("fig3a");
+    assert!(fig3a["hopf_v_mps"].is_null(), "{fig3a}");
+    let reason = fig3a["hopf_reason"].as_str().expect("a reason");
+    assert!(reason.contains("real eigenvalue"), "{reason}");
+    let v_div = fig3a["divergence_v_mps"]
+        .as_f64()
+        .expect("the divergence speed");
+    assert!(rel(v_div, v_crit) < 1e-8, "{v_div} vs {v_crit}");
+    assert!(fig3a["fold_v_mps"].is_null() && fig3a["fold_reason"].is_string());
+}

@@ -64,7 +64,8 @@ impl SpeedLimits {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "outcome")]
 pub enum OpenLoopStability {
-    /// The spectral abscissa of Ã(V) (eq. 9–11) changes sign at V_crit (a Hopf point).
+    /// The spectral abscissa of Ã(V) (eq. 9–11) changes sign at V_crit: a Hopf point, or a
+    /// static divergence when the rightmost eigenvalue is real (`hopf_omega_rad_s` = 0).
     Critical {
         /// V_crit \[m/s\]
         v_crit_mps: f64,
@@ -79,6 +80,12 @@ pub enum OpenLoopStability {
 }
 
 impl OpenLoopStability {
+    /// Whether straight running loses stability through a real eigenvalue (ω = 0: a
+    /// static divergence, no Hopf point, no sway cycles) rather than a complex pair.
+    pub fn is_divergence(&self) -> bool {
+        matches!(*self, Self::Critical { hopf_omega_rad_s, .. } if hopf_omega_rad_s == 0.0)
+    }
+
     /// V_crit, if straight running loses stability below the maximum speed.
     pub fn v_crit(&self) -> Option<f64> {
         match *self {
@@ -353,6 +360,12 @@ pub fn open_loop_references(
         ..Default::default()
     };
     if need == Reference::Fold {
+        if stability.is_divergence() {
+            refs.reason = Some(format!(
+                "straight running loses stability at V_crit = {v_crit} m/s through a real eigenvalue (static divergence, ω = 0), not a Hopf point: no sway cycles, no fold of cycles, no bistable range"
+            ));
+            return Ok(refs);
+        }
         // a continuation that fails is said as the reason, not an error: the user has
         // nothing to fix in the config
         match open_loop_fold(model, v_crit, limits) {

@@ -16,6 +16,7 @@
 //!     seed: 7,
 //!     fields: vec![Field {
 //!         key: "trailer.cog".into(),
+//!         about: Default::default(),
 //!         distribution: Distribution::Uniform,
 //!         min: 2.85,
 //!         max: 2.95,
@@ -55,12 +56,41 @@ pub enum Distribution {
     Normal,
 }
 
+/// What the drawn numbers of a field are: the field's value, or a change of the vehicle's
+/// own value (so that one config serves any vehicle file).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum About {
+    /// the value itself (min, max and mean in the field's unit)
+    #[default]
+    Absolute,
+    /// added to the vehicle's value: value = vehicle's + draw (e.g. h ± 0.05 m)
+    Offset,
+    /// multiplies the vehicle's value: value = vehicle's × draw (e.g. m2 ± 10 %: 0.9 … 1.1)
+    Factor,
+}
+
+impl About {
+    /// The field's value for a draw `x` when the vehicle's own value is `vehicle`.
+    pub fn apply(self, vehicle: f64, x: f64) -> f64 {
+        match self {
+            About::Absolute => x,
+            About::Offset => vehicle + x,
+            About::Factor => vehicle * x,
+        }
+    }
+}
+
 /// One sampled field.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Field {
     /// key path of the vehicle field, e.g. `trailer.cog`
     pub key: String,
+    /// what the draws are: the value (`"absolute"`, the default), an `"offset"` added to
+    /// the vehicle's value, or a `"factor"` on it
+    #[serde(default, skip_serializing_if = "is_absolute")]
+    pub about: About,
     /// the distribution
     pub distribution: Distribution,
     /// lower bound (the uniform's start; the normal is truncated here)
@@ -87,6 +117,10 @@ pub struct Sampling {
     pub seed: u64,
     /// the sampled fields (`[[sampling.fields]]`)
     pub fields: Vec<Field>,
+}
+
+fn is_absolute(a: &About) -> bool {
+    *a == About::Absolute
 }
 
 /// Most samples of one study (memory of the Latin-hypercube permutations: 8 bytes per
@@ -461,6 +495,7 @@ mod tests {
     fn uniform(key: &str, min: f64, max: f64) -> Field {
         Field {
             key: key.into(),
+            about: About::Absolute,
             distribution: Distribution::Uniform,
             min,
             max,
@@ -478,6 +513,7 @@ mod tests {
                 uniform("trailer.cog", 2.85, 2.95),
                 Field {
                     key: "trailer.axle".into(),
+                    about: About::Absolute,
                     distribution: Distribution::Normal,
                     min: 2.75,
                     max: 2.85,

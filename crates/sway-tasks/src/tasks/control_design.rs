@@ -22,7 +22,7 @@ use sway::control::{
     Actuator, CheckedDesign, Combination, ControlStudy, Design, DesignSearch, Gains, SpeedSearch,
     Structure, StudySettings, VehicleUncertainty, control_study,
 };
-use sway::sampling::{Distribution, Field, Method, Sampling};
+use sway::sampling::{About, Distribution, Field, Method, Sampling};
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
@@ -50,9 +50,10 @@ fn default_checked() -> Vec<f64> {
     vec![0.4, 0.6, 0.8]
 }
 
-fn uniform(key: &str, min: f64, max: f64) -> Field {
+fn uniform(key: &str, about: About, min: f64, max: f64) -> Field {
     Field {
         key: key.into(),
+        about,
         distribution: Distribution::Uniform,
         min,
         max,
@@ -61,8 +62,9 @@ fn uniform(key: &str, min: f64, max: f64) -> Field {
     }
 }
 
-/// `study_uncertainty`'s vehicle uncertainty (h and l to ±0.05 m about Table I) and the
-/// predictor's model off by ±10 % in trailer mass, yaw inertia and centre of gravity.
+/// `study_uncertainty`'s vehicle uncertainty (h and l to ±0.05 m about the vehicle's
+/// values) and the predictor's model off by ±10 % in trailer mass, yaw inertia and centre
+/// of gravity.
 fn default_uncertainty() -> VehicleUncertainty {
     VehicleUncertainty {
         vehicle: Sampling {
@@ -70,8 +72,8 @@ fn default_uncertainty() -> VehicleUncertainty {
             samples: 100,
             seed: 2026,
             fields: vec![
-                uniform("trailer.cog", 2.85, 2.95),
-                uniform("trailer.axle", 2.75, 2.85),
+                uniform("trailer.cog", About::Offset, -0.05, 0.05),
+                uniform("trailer.axle", About::Offset, -0.05, 0.05),
             ],
         },
         prediction_model: Some(Sampling {
@@ -79,9 +81,9 @@ fn default_uncertainty() -> VehicleUncertainty {
             samples: 100,
             seed: 2027,
             fields: vec![
-                uniform("trailer.mass", 0.9, 1.1),
-                uniform("trailer.yaw_inertia", 0.9, 1.1),
-                uniform("trailer.cog", 0.9, 1.1),
+                uniform("trailer.mass", About::Factor, 0.9, 1.1),
+                uniform("trailer.yaw_inertia", About::Factor, 0.9, 1.1),
+                uniform("trailer.cog", About::Factor, 0.9, 1.1),
             ],
         }),
     }

@@ -255,6 +255,10 @@ pub struct DiagramSummary {
     /// straight running is stable up to this speed \[m/s\] (only without a Hopf point)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stable_up_to_mps: Option<f64>,
+    /// straight running loses stability here through a real eigenvalue (a static
+    /// divergence, no sway cycles) \[m/s\] (only without a Hopf point)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub divergence_v_mps: Option<f64>,
     /// V at the fold of cycles \[m/s\], corrected on the fold-of-cycles defining system
     /// (as `fig4b` and `chart_nonlinear` report it)
     pub fold_v_mps: Option<f64>,
@@ -428,6 +432,7 @@ pub fn run_diagram(
         hopf_v_mps: Some(cs.hopf_v_mps),
         hopf_reason: None,
         stable_up_to_mps: None,
+        divergence_v_mps: None,
         fold_v_mps: fold.map(|f| f.v_mps),
         fold_located_v_mps: d.fold.map(|f| f.speed_mps),
         fold_reason,
@@ -534,6 +539,7 @@ fn no_hopf_diagram(
         hopf_v_mps: None,
         hopf_reason: Some(n.reason.clone()),
         stable_up_to_mps: n.stable_up_to_mps,
+        divergence_v_mps: n.divergence_v_mps,
         fold_v_mps: None,
         fold_located_v_mps: None,
         fold_reason: Some(n.reason.clone()),
@@ -556,14 +562,16 @@ fn no_hopf_diagram(
             degree: cfg.options.degree,
         },
     };
-    let mut panel = Panel::new(
-        "Open loop: straight running (no Hopf point in the searched range)",
-        "V [m/s]",
-        "max |θ| [deg]",
-    )
-    .x_range(n.searched_from_mps, hi)
-    .y_range(-0.5, 10.0)
-    .legend(Legend::UpperLeft);
+    let title = match n.divergence_v_mps {
+        Some(v) => format!(
+            "Open loop: straight running diverges statically at {v:.2} m/s (real eigenvalue, no Hopf point)"
+        ),
+        None => "Open loop: straight running (no Hopf point in the searched range)".to_string(),
+    };
+    let mut panel = Panel::new(&title, "V [m/s]", "max |θ| [deg]")
+        .x_range(n.searched_from_mps, hi)
+        .y_range(-0.5, 10.0)
+        .legend(Legend::UpperLeft);
     let (color, label) = if n.stable_up_to_mps.is_some() {
         (Rgb::GREEN, "straight running, stable")
     } else {

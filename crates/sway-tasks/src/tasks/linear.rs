@@ -108,6 +108,28 @@ impl From<&Sensitivity> for SensitivityEntry {
     }
 }
 
+/// How the rightmost eigenvalue crosses the imaginary axis at V_crit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LossOfStability {
+    /// a complex pair ±iω, ω > 0: a Hopf point, sway starts
+    Hopf,
+    /// a real eigenvalue through 0: a static divergence (pitchfork of the symmetric vehicle)
+    Divergence,
+}
+
+impl LossOfStability {
+    /// The kind of crossing of `vc`: a divergence when its frequency is zero (a real
+    /// eigenvalue is the rightmost one; the eigenvalue solver returns Im λ = 0 exactly).
+    pub fn of(vc: &CriticalSpeed) -> Self {
+        if vc.hopf_omega_rad_s == 0.0 {
+            Self::Divergence
+        } else {
+            Self::Hopf
+        }
+    }
+}
+
 /// `summary.json` of `linear` (before the common fields of [`crate::io::Summary`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LinearSummary {
@@ -120,7 +142,11 @@ pub struct LinearSummary {
     /// why `v_crit_mps` and the quantities at V_crit are null
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
-    /// the Hopf frequency \[Hz\]
+    /// how straight running loses stability at V_crit: `"hopf"` (a complex pair, the
+    /// onset of sway) or `"divergence"` (a real eigenvalue, ω = 0: a static divergence,
+    /// no sway cycles); null when it does not
+    pub loss_of_stability: Option<LossOfStability>,
+    /// the Hopf frequency \[Hz\] (0 for a divergence)
     pub hopf_frequency_hz: Option<f64>,
     /// the Hopf angular frequency ω \[rad/s\]
     pub hopf_omega_rad_s: Option<f64>,
@@ -385,7 +411,10 @@ fn draw_eigenvalues(
                 (vc.v_crit_mps, -vc.hopf_frequency_hz),
             ],
             Rgb::BLACK,
-            Some(&format!("Hopf: {:.3} Hz", vc.hopf_frequency_hz)),
+            Some(&match LossOfStability::of(vc) {
+                LossOfStability::Hopf => format!("Hopf: {:.3} Hz", vc.hopf_frequency_hz),
+                LossOfStability::Divergence => "divergence: real eigenvalue, 0 Hz".to_string(),
+            }),
         ));
     }
     Figure::column(vec![p1, p2]).render(&out.path("eigenvalues"))
@@ -452,6 +481,7 @@ fn summary(
         v_crit_mps: Some(vc.v_crit_mps),
         stable_up_to_mps: None,
         reason: None,
+        loss_of_stability: Some(LossOfStability::of(vc)),
         hopf_frequency_hz: Some(vc.hopf_frequency_hz),
         hopf_omega_rad_s: Some(vc.hopf_omega_rad_s),
         spectral_abscissa_slope_per_m: Some(vc.crossing_speed),
@@ -473,6 +503,7 @@ fn stable_summary(v_max: f64, reason: String) -> LinearSummary {
         v_crit_mps: None,
         stable_up_to_mps: Some(v_max),
         reason: Some(reason),
+        loss_of_stability: None,
         hopf_frequency_hz: None,
         hopf_omega_rad_s: None,
         spectral_abscissa_slope_per_m: None,
@@ -494,12 +525,16 @@ fn headline_lines(
 ) -> Vec<String> {
     let (dh, dl, band, r) = (study.dh, study.dl, study.band, cfg.length_rounding_m);
     let paper = paper.map_or_else(String::new, |p| format!(" (paper: {p} m/s)"));
-    vec![
-        format!("V_crit = {:.9} m/s", vc.v_crit_mps),
-        format!(
+    let crossing = match LossOfStability::of(vc) {
+        LossOfStability::Hopf => format!(
             "Hopf frequency = {:.6} Hz (ω = {:.6} rad/s)",
             vc.hopf_frequency_hz, vc.hopf_omega_rad_s
         ),
+        LossOfStability::Divergence => "a real eigenvalue crosses 0 at V_crit: static divergence, not sway (ω = 0)".to_string(),
+    };
+    vec![
+        format!("V_crit = {:.9} m/s", vc.v_crit_mps),
+        crossing,
         format!(
             "dV_crit/dh = {dh:.3} m/s per m, dV_crit/dl = {dl:.3} m/s per m; ±{r} m rounding of h and l moves V_crit by up to ±{band:.2} m/s{paper}"
         ),

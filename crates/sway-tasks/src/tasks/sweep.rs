@@ -523,11 +523,13 @@ impl Prepared for Configured<SweepConfig<SpeedSpec>> {
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let spec = &self.config;
         let run = prepare_run(ctx, spec, &self.file)?;
+        // staged before the points run: an interrupted sweep leaves its staging directory
+        // to be removed (by the signal handler or the next run), never a half-written result
+        let out = OutputDir::create(&ctx.results_dir, &spec.name)?;
         let results = match &run.sweep {
             Some(sweep) => run_sweep(sweep, ctx.progress),
             None => Vec::new(),
         };
-        let out = OutputDir::create(&ctx.results_dir, &spec.name)?;
         write_sweep_outputs(ctx, spec, &run.resolution, &self.file, &results, out)
     }
 }

@@ -99,7 +99,8 @@ impl DiagramSettings {
         Self::from_options(&DiagramOptions::closed_loop(), None)
     }
 
-    fn from_options(o: &DiagramOptions, range: Option<(f64, f64)>) -> Self {
+    /// The settings of `o` on `range` \[m/s\] (None: the range derived from the vehicle).
+    pub fn from_options(o: &DiagramOptions, range: Option<(f64, f64)>) -> Self {
         Self {
             v_min_mps: range.map(|r| r.0),
             v_max_mps: range.map(|r| r.1),
@@ -239,6 +240,10 @@ pub struct NoHopf {
     pub stable_up_to_mps: Option<f64>,
     /// the lowest speed searched \[m/s\]
     pub searched_from_mps: f64,
+    /// where straight running loses stability through a real eigenvalue instead
+    /// (a static divergence, ω = 0: a pitchfork of the symmetric vehicle) \[m/s\]; None
+    /// when it does not in the searched range
+    pub divergence_v_mps: Option<f64>,
     /// why there is no diagram
     pub reason: String,
 }
@@ -262,15 +267,27 @@ impl DiagramOutcome {
     }
 }
 
-/// Straight running continued from `v_lo` until just past its first Hopf point (or to
-/// `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch and the Hopf
-/// point (None: no Hopf point on [v_lo, v_hi]).
-fn straight_running_to_hopf(
+/// How straight running first loses stability on the searched range.
+#[derive(Debug, Clone, PartialEq)]
+enum FirstLoss {
+    /// a complex pair crosses: the Hopf point where the sway cycles start
+    Hopf(HopfPoint),
+    /// a real eigenvalue crosses zero (static divergence) at this speed \[m/s\]
+    Divergence(f64),
+    /// stable on the whole range
+    None,
+}
+
+/// Straight running continued from `v_lo` until just past the point where it first loses
+/// stability (or to `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch
+/// and that first loss: a Hopf point, or a real eigenvalue through zero (a vehicle can
+/// diverge statically before it sways).
+fn straight_running_to_first_loss(
     problem: &ClosedLoop<'_>,
     params: &[f64],
     (v_lo, v_hi): (f64, f64),
     root_degree: usize,
-) -> Result<(Branch, Option<HopfPoint>), SwayError> {
+) -> Result<(Branch, FirstLoss), SwayError> {
     let ctx = format!(
         "straight running (D = {} s, τ = {} s)",
         params[super::GAIN],
@@ -286,13 +303,13 @@ fn straight_running_to_hopf(
         .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, v_lo], &dir)
         .map_err(num(format!("{ctx} at V = {v_lo} m/s")))?;
     let n = ((v_hi - v_lo) / 0.5).ceil() as usize + 8;
-    // stop at the first regular point after the first Hopf point
-    let mut past_hopf = |b: &Branch| match b.first(SpecialKind::Hopf) {
-        Some((i, _)) if b.points.len() > i + 1 => Decision::Stop,
+    // stop at the first regular point after the first loss of stability
+    let mut past_loss = |b: &Branch| match first_loss_index(b) {
+        Some(i) if b.points.len() > i + 1 => Decision::Stop,
         _ => Decision::Continue,
     };
     let stop = cont
-        .extend_observed(&mut eq, &mut branch, n, &mut past_hopf)
+        .extend_observed(&mut eq, &mut branch, n, &mut past_loss)
         .map_err(num(ctx.clone()))?;
     if let Stop::StepSizeUnderflow { .. } = stop {
         let v = branch.points.last().map_or(v_lo, |p| p.parameter);
@@ -303,14 +320,36 @@ fn straight_running_to_hopf(
             )),
         ));
     }
-    let hopf = match branch.first(SpecialKind::Hopf) {
-        Some((ih, sp)) => Some(
+    let loss = match branch
+        .special_points()
+        .find(|(_, sp)| loses_stability(sp.kind))
+    {
+        Some((ih, sp)) if sp.kind == SpecialKind::Hopf => FirstLoss::Hopf(
             eq.hopf_point(&branch.points[ih].u, sp.transversality.unwrap_or(1.0))
                 .map_err(num(format!("{ctx}: Hopf point")))?,
         ),
-        None => None,
+        Some((_, sp)) => FirstLoss::Divergence(sp.parameter),
+        None => FirstLoss::None,
     };
-    Ok((branch, hopf))
+    Ok((branch, loss))
+}
+
+/// Special points of an equilibrium branch where an eigenvalue crosses the imaginary axis.
+fn loses_stability(kind: SpecialKind) -> bool {
+    matches!(
+        kind,
+        SpecialKind::Hopf
+            | SpecialKind::RealCrossing
+            | SpecialKind::BranchPoint
+            | SpecialKind::Fold
+    )
+}
+
+/// The index of the first point where `b` loses (or changes) stability.
+fn first_loss_index(b: &Branch) -> Option<usize> {
+    b.special_points()
+        .find(|(_, sp)| loses_stability(sp.kind))
+        .map(|(i, _)| i)
 }
 
 fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
@@ -473,10 +512,14 @@ pub fn vehicle_diagram(
     let (lo, hi) = settings.searched(limits);
     let problem = ClosedLoop::new(model, feedback);
     let params = problem.parameters(lo);
-    let (mut equilibria, hopf) =
-        straight_running_to_hopf(&problem, &params, (lo, hi), settings.root_degree)?;
+    let (mut equilibria, loss) =
+        straight_running_to_first_loss(&problem, &params, (lo, hi), settings.root_degree)?;
     let start_unstable = equilibria.points.first().and_then(|p| p.is_stable()) == Some(false);
-    let Some(hopf) = hopf.filter(|_| !start_unstable) else {
+    let hopf = match &loss {
+        FirstLoss::Hopf(h) if !start_unstable => Some(h.clone()),
+        _ => None,
+    };
+    let Some(hopf) = hopf else {
         let which = if settings.v_max_mps.is_some() {
             "v_max_mps"
         } else {
@@ -490,22 +533,31 @@ pub fn vehicle_diagram(
                 feedback.gain_d_s, feedback.delay_s
             )
         };
-        return Ok(DiagramOutcome::NoHopf(if start_unstable {
-            NoHopf {
+        return Ok(DiagramOutcome::NoHopf(match loss {
+            _ if start_unstable => NoHopf {
                 stable_up_to_mps: None,
                 searched_from_mps: lo,
+                divergence_v_mps: None,
                 reason: format!(
                     "straight running{ctl} is unstable already at {lo} m/s (the lowest speed searched): no Hopf point to start the sway cycles from"
                 ),
-            }
-        } else {
-            NoHopf {
+            },
+            FirstLoss::Divergence(v) => NoHopf {
+                stable_up_to_mps: Some(v),
+                searched_from_mps: lo,
+                divergence_v_mps: Some(v),
+                reason: format!(
+                    "straight running{ctl} loses stability at {v:.4} m/s through a real eigenvalue (static divergence, ω = 0), not through a Hopf point: no sway cycles start there"
+                ),
+            },
+            _ => NoHopf {
                 stable_up_to_mps: Some(hi),
                 searched_from_mps: lo,
+                divergence_v_mps: None,
                 reason: format!(
                     "straight running{ctl} is stable at every speed up to {hi} m/s ({which}): no Hopf point, no sway cycles"
                 ),
-            }
+            },
         }));
     };
     let vh = hopf.parameter;

@@ -4,7 +4,9 @@
 //!
 //! Two vehicle quantities set the scales:
 //! - the **reference speed** V_ref: the open-loop critical speed V_crit (D = 0), or the
-//!   maximum speed when straight running is stable up to it;
+//!   maximum speed when straight running is stable up to it (V_crit / 2 when straight
+//!   running diverges statically at V_crit: a real eigenvalue through 0, where p(0) = 0 and
+//!   the static boundary passes through D = 0);
 //! - the **static gain** |D_static| = |p(0)/q(0)| at V_ref: eq. (13) at λ = 0, the gain at
 //!   which the static loop gain D·G(0) is −1 (G(0) = q(0)/p(0), the steady-state yaw-rate
 //!   gain ψ̇/δ): the static boundary of `fig4a`, the same line for every delay τ
@@ -49,6 +51,10 @@ pub const SCAN_TOLERANCE_MPS: f64 = 1e-3;
 pub const SPEED_MARGIN: f64 = 0.05;
 /// D₁ = this × |D_static| before rounding to one significant digit.
 pub const REFERENCE_GAIN_FRACTION: f64 = 0.4;
+/// Below this |D_static| at V_crit \[s\] the static boundary crosses D = 0 at V_crit (a
+/// static divergence: a real eigenvalue through 0, p(0) = 0): the scale is taken at
+/// V_crit / 2 instead (Table I: 0.26 s, far above).
+pub const STATIC_DIVERGENCE_GAIN_S: f64 = 1e-3;
 
 /// The speed interval every search stays in \[m/s\] (the vehicle-independent limits of the
 /// task layer, `--max-speed`).
@@ -90,7 +96,8 @@ impl SpeedBounds {
 pub struct VehicleScale {
     /// open-loop critical speed \[m/s\] (None: stable up to the maximum speed)
     pub v_crit_mps: Option<f64>,
-    /// V_ref: V_crit, or the maximum speed \[m/s\]
+    /// V_ref: V_crit, or the maximum speed \[m/s\]; V_crit / 2 when straight running
+    /// diverges statically at V_crit ([`STATIC_DIVERGENCE_GAIN_S`])
     pub reference_speed_mps: f64,
     /// |D_static| = |p(0)/q(0)| at V_ref \[s\]
     pub static_gain_s: f64,
@@ -143,10 +150,20 @@ pub fn open_loop_critical_speed(model: &Model, b: &SpeedBounds) -> Result<Option
 /// the config).
 pub fn vehicle_scale(model: &Model, b: &SpeedBounds) -> Result<VehicleScale, SwayError> {
     let v_crit = open_loop_critical_speed(model, b)?;
-    let v_ref = v_crit.unwrap_or(b.max_mps);
+    let mut v_ref = v_crit.unwrap_or(b.max_mps);
+    let static_gain_at = |v: f64| -> Result<Option<f64>, SwayError> {
+        let ctx = format!("the gain scale of the charts at V = {v} m/s");
+        let sys = closed_loop(model, v).map_err(|e| SwayError::numerical(ctx, e))?;
+        Ok(sys.static_crossing(0.0).map(|c| c.d.abs()))
+    };
+    let mut d_static = static_gain_at(v_ref)?;
+    if d_static.is_some_and(|d| d < STATIC_DIVERGENCE_GAIN_S) {
+        // a static divergence at V_crit: p(0) = 0 there, the static boundary passes through
+        // D = 0; its distance from D = 0 at half the speed sets the scale instead
+        v_ref = (0.5 * v_ref).max(b.min_mps);
+        d_static = static_gain_at(v_ref)?;
+    }
     let ctx = format!("the gain scale of the charts at V = {v_ref} m/s");
-    let sys = closed_loop(model, v_ref).map_err(|e| SwayError::numerical(ctx.clone(), e))?;
-    let d_static = sys.static_crossing(0.0).map(|c| c.d.abs());
     let Some(static_gain) = d_static.filter(|d| d.is_finite() && *d > 0.0) else {
         return Err(numerical(
             ctx,

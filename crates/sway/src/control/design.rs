@@ -26,7 +26,7 @@ use super::{Actuator, Controller, GainName, Gains, LinearLoop, SpeedSearch, Stru
 use crate::SwayError;
 use crate::gain_design::{GainSearch, band_end, refine_sampled};
 use crate::mitigation::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
-use crate::sampling::{Sampler, Sampling, Statistics};
+use crate::sampling::{About, Sampler, Sampling, Statistics};
 
 /// Bounds of the gains, in steering units (D, D_θ in s, K_θ in rad/rad); for differential
 /// braking they are multiplied by [`Actuator::scale`] (N m per rad of equivalent steering).
@@ -512,15 +512,16 @@ pub fn delay_budget(
 }
 
 /// The vehicle uncertainty a design is judged under: the vehicle's fields sampled as in
-/// `study_uncertainty` (absolute values by key path), and for the predictor its model's
-/// fields off by sampled relative errors (`prediction_model`: fields are factors, e.g.
-/// 0.9 … 1.1 on `trailer.mass`).
+/// `study_uncertainty` (by key path; each field's [`About`] says whether the draws are
+/// values, offsets or factors of the nominal vehicle's), and for the predictor its model's
+/// fields off by sampled errors (`prediction_model`, e.g. factors 0.9 … 1.1 on
+/// `trailer.mass` with `about = "factor"`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VehicleUncertainty {
-    /// the vehicle's sampled fields (absolute values)
+    /// the vehicle's sampled fields
     pub vehicle: Sampling,
-    /// the predictor model's sampled relative errors (factors on the nominal values);
+    /// the predictor model's sampled errors (usually factors on the nominal values);
     /// sample s of it goes with sample s of `vehicle` (so its `samples` must be equal)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prediction_model: Option<Sampling>,
@@ -550,7 +551,7 @@ fn field_index(key: &str) -> Result<usize, SwayError> {
         })
 }
 
-fn sampler(s: &Sampling) -> Result<(Sampler, Vec<usize>), SwayError> {
+fn sampler(s: &Sampling) -> Result<(Sampler, Vec<(usize, About)>), SwayError> {
     let sampler = Sampler::new(s).map_err(|(key, problem)| {
         SwayError::numerical(
             format!("uncertainty sampling `{key}`"),
@@ -560,7 +561,7 @@ fn sampler(s: &Sampling) -> Result<(Sampler, Vec<usize>), SwayError> {
     let idx = s
         .fields
         .iter()
-        .map(|f| field_index(&f.key))
+        .map(|f| field_index(&f.key).map(|i| (i, f.about)))
         .collect::<Result<Vec<_>, _>>()?;
     Ok((sampler, idx))
 }
@@ -591,7 +592,9 @@ pub fn robust_critical_speed(
             .sample(s)
             .iter()
             .zip(&vehicle_idx)
-            .fold(*nominal, |p, (&v, &i)| p.with(i, v));
+            .fold(*nominal, |p, (&v, &(i, about))| {
+                p.with(i, about.apply(nominal.get(i), v))
+            });
         let model = Model::new(params).ok()?;
         let prediction = match &model_errors {
             Some((errors, idx)) => {
@@ -599,7 +602,9 @@ pub fn robust_critical_speed(
                     .sample(s % errors.len())
                     .iter()
                     .zip(idx)
-                    .fold(*nominal, |p, (&f, &i)| p.with(i, nominal.get(i) * f));
+                    .fold(*nominal, |p, (&f, &(i, about))| {
+                        p.with(i, about.apply(nominal.get(i), f))
+                    });
                 Some(Model::new(p).ok()?)
             }
             None => None,

@@ -13,8 +13,9 @@ use super::{
 };
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
+use crate::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
 use crate::progress::Progress;
+use crate::ranging::SpeedLimits;
 
 /// What the study computes (plain data; the task reads it from its config).
 #[derive(Debug, Clone, PartialEq)]
@@ -156,7 +157,8 @@ fn combination(
         };
         let robustness =
             robust_critical_speed(nominal, &c, d.tau_s, &s.uncertainty, &s.robustness_speed)?;
-        let (v_fold_mps, v_fold_reason) = fold_speed(model, &c, d.tau_s, &s.fold)?;
+        let (v_fold_mps, v_fold_reason) =
+            fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
         checked.push(CheckedDesign {
             tau_s: d.tau_s,
             robustness,
@@ -176,13 +178,16 @@ fn combination(
 /// The fold-of-cycles speed of the sway branch of a controller's loop, where the
 /// continuation problem has that loop: the paper's δ = −D·ψ̇(t − τ)
 /// ([`crate::bifurcation::closed_loop`]), corrected on the fold-of-cycles system as the
-/// nonlinear chart does. Otherwise, or without a fold in the speed range, None with the
-/// reason.
+/// nonlinear chart does. The diagram's speed range is derived from the vehicle
+/// ([`vehicle_diagram`]: from the lowest speed of `search` past the Hopf point) unless
+/// `chart.cycles` gives both ends. Otherwise, without a Hopf point (a stable loop, a static
+/// divergence) or without a fold, None with the reason.
 fn fold_speed(
     model: &Model,
     c: &Controller,
     tau: f64,
     chart: &ChartOptions,
+    search: &SpeedSearch,
 ) -> Result<(Option<f64>, Option<String>), SwayError> {
     if !(c.structure == Structure::YawRate && c.actuator == Actuator::Steering) {
         return Ok((
@@ -195,16 +200,21 @@ fn fold_speed(
             )),
         ));
     }
-    let options = DiagramOptions {
-        v_min_mps: chart.v_min_mps,
-        v_max_mps: chart.v_max_mps,
-        ..chart.cycles.clone()
-    };
     let feedback = Feedback {
         gain_d_s: c.gains.yaw_rate,
         delay_s: tau,
     };
-    let diagram = bifurcation_diagram_until(model, feedback, &options, CycleExtent::FirstFold)?;
+    let limits = SpeedLimits {
+        min_speed_mps: search.v_min_mps,
+        max_speed_mps: search.v_max_mps,
+        ..SpeedLimits::default()
+    };
+    let settings = DiagramSettings::from_options(&chart.cycles, None);
+    let diagram =
+        match vehicle_diagram(model, feedback, &settings, &limits, CycleExtent::FirstFold)? {
+            DiagramOutcome::Computed(d) => d,
+            DiagramOutcome::NoHopf(n) => return Ok((None, Some(n.reason))),
+        };
     let fold = critical_speeds(model, &diagram, chart)?
         .fold
         .map(|f| f.v_mps);
@@ -212,10 +222,9 @@ fn fold_speed(
         Some(v) => (Some(v), None),
         None => (
             None,
-            Some(format!(
-                "the cycle branch of the optimum does not fold in [{}, {}] m/s",
-                chart.v_min_mps, chart.v_max_mps
-            )),
+            Some(diagram.fold_reason().unwrap_or_else(|| {
+                "the fold of the cycle branch of the optimum could not be corrected".into()
+            })),
         ),
     })
 }

@@ -30,7 +30,7 @@ use crate::SwayError;
 use crate::config::{Positive, ensure};
 use crate::progress::Progress;
 use crate::ranging::SpeedLimits;
-use crate::sampling::{Sampler, Sampling};
+use crate::sampling::{About, Sampler, Sampling};
 
 mod analysis;
 mod axis;
@@ -396,11 +396,11 @@ impl SweepConfig {
         file: &Path,
         vehicles: &[VehicleParams],
     ) -> Result<(), SwayError> {
-        let mut ends: Vec<(String, VehicleField, f64)> = Vec::new();
+        let mut ends: Vec<(String, VehicleField, About, f64)> = Vec::new();
         for (i, a) in self.axes.iter().enumerate() {
             if let AxisParameter::Vehicle(f) = a.parameter {
                 for v in [a.min, a.max].into_iter().flatten() {
-                    ends.push((format!("axes[{i}]"), f, v));
+                    ends.push((format!("axes[{i}]"), f, About::Absolute, v));
                 }
             }
         }
@@ -412,18 +412,19 @@ impl SweepConfig {
         {
             if let Ok(field) = VehicleField::from_key(&f.key) {
                 for v in [f.min, f.max] {
-                    ends.push((format!("sampling.fields[{i}]"), field, v));
+                    ends.push((format!("sampling.fields[{i}]"), field, f.about, v));
                 }
             }
         }
         for (j, base) in vehicles.iter().enumerate() {
-            for (key, f, v) in &ends {
-                Model::new(f.set(base, *v)).map_err(|e| {
+            for (key, f, about, v) in &ends {
+                let value = about.apply(f.get(base), *v);
+                Model::new(f.set(base, value)).map_err(|e| {
                     SwayError::config(
                         file,
                         key,
                         format!(
-                            "{} = {v} gives an invalid vehicle (vehicle {j}): {e}",
+                            "{} = {value} gives an invalid vehicle (vehicle {j}): {e}",
                             f.key()
                         ),
                     )
@@ -505,8 +506,8 @@ pub struct Sweep {
     /// the values of each axis
     axis_values: Vec<Vec<f64>>,
     sampler: Option<Sampler>,
-    /// sampled fields, in the sampler's order
-    sampled_fields: Vec<VehicleField>,
+    /// sampled fields, in the sampler's order, with what their draws are
+    sampled_fields: Vec<(VehicleField, About)>,
     /// points of one sample (product of the axis lengths)
     per_sample: usize,
     grid: usize,
@@ -557,7 +558,7 @@ impl Sweep {
         let sampled_fields = sampler
             .iter()
             .flat_map(|s| s.fields())
-            .map(|f| VehicleField::from_key(&f.key))
+            .map(|f| VehicleField::from_key(&f.key).map(|v| (v, f.about)))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|m| SwayError::config(sweep_file, "sampling.fields", m))?;
         let thresholds = cfg
@@ -668,8 +669,10 @@ impl Sweep {
             values.resize(start + self.sampled_fields.len(), 0.0);
             sampler.sample_into(s, &mut values[start..]);
             let mut p = params.unwrap_or(self.vehicles[fleet]);
-            for (f, &v) in self.sampled_fields.iter().zip(&values[start..]) {
-                p = f.set(&p, v);
+            // the recorded value is the field's value (the draw applied to the vehicle's)
+            for ((f, about), v) in self.sampled_fields.iter().zip(&mut values[start..]) {
+                *v = about.apply(f.get(&p), *v);
+                p = f.set(&p, *v);
             }
             params = Some(p);
         }

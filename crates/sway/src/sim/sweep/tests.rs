@@ -340,3 +340,48 @@ fn open_loop_search_agrees_with_the_model_critical_speed() {
         Ok(None)
     );
 }
+
+/// `about = "offset"` draws are added to the vehicle's own value: on Table I (h = 2.9 m)
+/// an offset in [−0.05, 0.05] samples the same h as the absolute [2.85, 2.95] (the draws
+/// differ only by the rounding of 2.9 + x against 2.85 + (x + 0.05): ≤ 4 ulp), and on a
+/// vehicle with h = 1.9 m the recorded values lie in [1.85, 1.95]; a `factor` multiplies.
+#[test]
+fn offset_and_factor_draws_follow_the_vehicle() {
+    let sampled = |about: &str, min: f64, max: f64| {
+        parse(&format!(
+            r#"name = "t"
+kind = "linear_critical_speed"
+{BASE}
+[sampling]
+method = "latin_hypercube"
+samples = 8
+seed = 3
+[[sampling.fields]]
+key = "trailer.cog"
+about = "{about}"
+distribution = "uniform"
+min = {min:?}
+max = {max:?}
+"#
+        ))
+    };
+    let table1 = VehicleParams::default();
+    let absolute = Sweep::new(&table1, &[], &sampled("absolute", 2.85, 2.95)).unwrap();
+    let offset = Sweep::new(&table1, &[], &sampled("offset", -0.05, 0.05)).unwrap();
+    for k in 0..absolute.len() {
+        let (a, o) = (absolute.run_point(k), offset.run_point(k));
+        let (ha, ho) = (*a.values.last().unwrap(), *o.values.last().unwrap());
+        assert!((ha - ho).abs() <= 4.0 * f64::EPSILON * ha, "{ha} vs {ho}");
+        assert!((2.85..=2.95).contains(&ho), "{ho}");
+    }
+    let mut other = table1;
+    other.trailer.cog = 1.9;
+    let moved = Sweep::new(&other, &[], &sampled("offset", -0.05, 0.05)).unwrap();
+    let scaled = Sweep::new(&other, &[], &sampled("factor", 0.9, 1.1)).unwrap();
+    for k in 0..moved.len() {
+        let h = *moved.run_point(k).values.last().unwrap();
+        assert!((1.85..=1.95).contains(&h), "{h}");
+        let h = *scaled.run_point(k).values.last().unwrap();
+        assert!((1.71..=2.09 + 1e-12).contains(&h), "{h}");
+    }
+}

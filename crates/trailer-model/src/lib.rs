@@ -21,12 +21,21 @@
 //! assert!((vc.v_crit_mps - 34.0).abs() < 1.0);
 //! ```
 
+mod extended;
 mod linear;
 mod model;
 mod params;
+mod plant;
+mod spec;
 
 pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};
 pub use model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4, State7, YAW_ANGLE};
+pub use extended::{AnyVehicleModel, AxleModel, MAX_STATES, VehicleModel};
+pub use plant::{Plant, PlantLinearization, SwitchingKind};
+pub use spec::{
+    AxleSpec, DEFAULT_FRICTION_REGULARISATION_RAD_S, HitchSpec, MAX_AXLES, MIN_AXLE_SPACING_M,
+    ResolvedAxle, TractorSpec, TrailerSpec, Unit, VehicleSpec,
+};
 pub use params::{
     AxleLoads, FrictionParams, PARAMETERS, TractorParams, TrailerParams, VehicleParams,
 };
@@ -52,6 +61,37 @@ pub enum ModelError {
         /// the tire error
         #[source]
         source: tires::TireError,
+    },
+    /// A key of a vehicle file (the variants of [`VehicleSpec`]) violates a constraint.
+    #[error("invalid vehicle key `{key}` = {value}: expected {expected}")]
+    InvalidSpec {
+        /// key path, e.g. `trailer.axles[1].position_m`
+        key: String,
+        /// the offending value (NaN where the key is missing or a choice is wrong)
+        value: f64,
+        /// what was expected
+        expected: String,
+    },
+    /// The tyre law of an axle cannot be built.
+    #[error("`{key}`: {source}")]
+    TireSpec {
+        /// key path of the tyre law, e.g. `tractor.front_tire`
+        key: String,
+        /// the tyre error
+        #[source]
+        source: tires::TireError,
+    },
+    /// A [`VehicleModel`] was asked for a state count its vehicle does not have.
+    #[error("the vehicle has {relaxed} relaxing axles, hence {expected} states, not {requested}{hint}")]
+    StateCount {
+        /// axles with σ > 0
+        relaxed: usize,
+        /// 4 + relaxed
+        expected: usize,
+        /// the N asked for
+        requested: usize,
+        /// what to do
+        hint: &'static str,
     },
     /// No sign change of the open-loop spectral abscissa in the scanned speed range.
     #[error("no critical speed in [{v_min}, {v_max}] m/s: {detail}; widen the speed range")]

@@ -29,6 +29,7 @@ mod plant;
 mod spec;
 
 pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};
+pub use plant::sorted_spectrum;
 pub use model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4, State7, YAW_ANGLE};
 pub use extended::{AnyVehicleModel, AxleModel, MAX_STATES, VehicleModel};
 pub use plant::{Plant, PlantLinearization, SwitchingKind};

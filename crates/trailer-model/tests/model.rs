@@ -892,3 +892,221 @@ mod variants {
         assert!(matches!(e, ModelError::StateCount { expected: 7, requested: 5, .. }), "{e}");
     }
 }
+
+mod vehicle_files {
+    use std::path::PathBuf;
+
+    use super::*;
+    use tires::TireLawSpec;
+    use trailer_model::{
+        AnyVehicleModel, AxleSpec, HitchSpec, ModelError, Plant, VehicleSpec, with_plant,
+    };
+
+    fn configs() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../configs")
+    }
+
+    fn read<T: serde::de::DeserializeOwned>(path: &std::path::Path) -> T {
+        let text = std::fs::read_to_string(path).expect("readable");
+        toml::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    }
+
+    #[test]
+    fn todays_vehicle_files_read_as_specs_with_the_same_parameters() {
+        // Reference: the file read as VehicleParams (today's format): the spec's equivalent
+        // parameters equal it exactly, and the spec is `From<VehicleParams>` of it.
+        let mut files = vec![configs().join("vehicle.toml")];
+        for entry in std::fs::read_dir(configs().join("fleet")).expect("fleet dir") {
+            files.push(entry.expect("entry").path());
+        }
+        for f in files {
+            let params: VehicleParams = read(&f);
+            let spec: VehicleSpec = read(&f);
+            assert_eq!(spec.equivalent_params().unwrap(), params, "{}", f.display());
+            assert_eq!(spec, VehicleSpec::from(params), "{}", f.display());
+        }
+    }
+
+    #[test]
+    fn example_variant_files_are_table_i_with_only_their_change() {
+        // Reference: Table I's spec with the one change made in code; each file parses,
+        // validates, builds its model with the expected number of states and has a V_crit.
+        let dir = configs().join("vehicles");
+        let table_i = VehicleSpec::from(VehicleParams::default());
+        let mf = TireLawSpec::MagicFormula {
+            shape_factor: 1.247,
+            curvature_factor: -1.24,
+            peak_friction: Some(0.648),
+            peak_force: None,
+            stiffness_factor: None,
+        };
+        let mut magic = table_i.clone();
+        magic.tractor.front_tire = Some(mf);
+        magic.tractor.rear_tire = Some(mf);
+        magic.trailer.tire = Some(mf);
+        let mut tandem = table_i.clone();
+        tandem.trailer.axle = None;
+        tandem.trailer.cornering_stiffness = None;
+        let half = |position_m| AxleSpec {
+            position_m,
+            cornering_stiffness: 25e3,
+            steered: false,
+            tire: TireLawSpec::default(),
+            relaxation_length_m: 0.0,
+        };
+        tandem.trailer.axles = Some(vec![half(2.4), half(3.2)]);
+        let mut hitch = table_i.clone();
+        hitch.hitch = HitchSpec {
+            yaw_damping_nms: 0.0,
+            friction_torque_nm: 200.0,
+            friction_regularisation_rad_s: 0.02,
+        };
+        let expected = [
+            ("relaxation.toml", VehicleSpec::table_i_with_relaxation(0.3), 7),
+            ("magic_formula.toml", magic, 4),
+            ("tandem.toml", tandem, 4),
+            ("hitch_friction.toml", hitch, 4),
+        ];
+        let mut found = 0;
+        for entry in std::fs::read_dir(&dir).expect("configs/vehicles") {
+            let path = entry.expect("entry").path();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            let spec: VehicleSpec = read(&path);
+            spec.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+            let (_, want, n) = expected
+                .iter()
+                .find(|(f, _, _)| *f == name)
+                .unwrap_or_else(|| panic!("{name} has no expectation in this test"));
+            assert_eq!(&spec, want, "{name}");
+            let any = AnyVehicleModel::new(&spec).unwrap();
+            assert_eq!(any.states(), *n, "{name}");
+            let vc = with_plant!(&any, m => m.critical_speed(&CriticalSpeedOptions::default()))
+                .unwrap();
+            println!("{name}: N = {n}, V_crit = {:.4} m/s", vc.v_crit_mps);
+            found += 1;
+        }
+        assert_eq!(found, expected.len());
+        // the Magic Formula file keeps Table I's cornering stiffness, peak 0.648 F_z and the
+        // sliding asymptote μ F_z (to the 3 digits of C)
+        let spec: VehicleSpec = read(&dir.join("magic_formula.toml"));
+        let m = trailer_model::VehicleModel::<4>::new(&spec).unwrap();
+        use tires::TireModel;
+        for (a, c) in m.axles().iter().zip([137e3, 256e3, 50e3]) {
+            assert_relative_eq!(a.tire.cornering_stiffness(), c, max_relative = 1e-14);
+            let far = a.tire.lateral_force(1e6) / a.vertical_load;
+            assert!((far - 0.6).abs() < 2e-3, "{far}");
+        }
+        let _ = Plant::params(&m);
+    }
+
+    fn error_of(text: &str) -> String {
+        match toml::from_str::<VehicleSpec>(text) {
+            Err(e) => e.to_string(),
+            Ok(spec) => match spec.validate() {
+                Err(e) => e.to_string(),
+                Ok(()) => match AnyVehicleModel::new(&spec) {
+                    Err(e) => e.to_string(),
+                    Ok(_) => String::from("accepted"),
+                },
+            },
+        }
+    }
+
+    #[test]
+    fn bad_variant_keys_are_named_errors() {
+        // Reference: each broken file names the key (or the law) and the problem.
+        let base = std::fs::read_to_string(configs().join("vehicle.toml")).unwrap();
+        let with = |table: &str, line: &str| base.replacen(table, &format!("{table}\n{line}"), 1);
+        let cases = [
+            (
+                with("[trailer]", "tire = { law = \"pacejka\" }"),
+                "pacejka",
+            ),
+            (
+                with("[trailer]", "relaxation_length_m = -0.3"),
+                "trailer.relaxation_length_m",
+            ),
+            (
+                with("[tractor]", "front_relaxation_length_m = -1.0"),
+                "tractor.front_relaxation_length_m",
+            ),
+            (with("[trailer]", "relaxation = 0.3"), "relaxation"),
+            (
+                with(
+                    "[tractor]",
+                    "front_tire = { law = \"magic_formula\", shape_factor = 2.4, peak_friction = 0.9 }",
+                ),
+                "tractor.front_tire",
+            ),
+            (
+                with(
+                    "[trailer]",
+                    "tire = { law = \"magic_formula\", shape_factor = 1.3 }",
+                ),
+                "peak_friction",
+            ),
+            (
+                format!("{base}\n[[trailer.axles]]\nposition_m = 2.4\ncornering_stiffness = 25e3\n"),
+                "trailer.axle",
+            ),
+            (format!("{base}\n[hitch]\nfriction_torque_nm = -5.0\n"), "hitch.friction_torque_nm"),
+            (
+                format!("{base}\n[hitch]\nfriction_torque_nm = 5.0\nfriction_regularisation_rad_s = 0.0\n"),
+                "hitch.friction_regularisation_rad_s",
+            ),
+        ];
+        for (text, needle) in &cases {
+            let e = error_of(text);
+            assert!(e.contains(needle), "expected `{needle}` in: {e}");
+        }
+        // list forms: an axle on the hitch, overlapping axles, a steered trailer axle
+        let tandem = std::fs::read_to_string(configs().join("vehicles/tandem.toml")).unwrap();
+        for (from, to, needle) in [
+            ("position_m = 2.4", "position_m = 0.0", "trailer.axles[0].position_m"),
+            ("position_m = 3.2", "position_m = 2.5", "overlap"),
+            (
+                "position_m = 3.2",
+                "position_m = 3.2\nsteered = true",
+                "trailer.axles[1].steered",
+            ),
+            ("cornering_stiffness = 25e3         # [N/rad]\n\n", "cornering_stiffness = -25e3\n\n", "trailer.axles[0].cornering_stiffness"),
+        ] {
+            let text = tandem.replacen(from, to, 1);
+            assert_ne!(text, tandem);
+            let e = error_of(&text);
+            assert!(e.contains(needle), "expected `{needle}` in: {e}");
+        }
+        // a tractor axle list without a steered axle
+        let mut spec = VehicleSpec::from(VehicleParams::default());
+        spec.tractor.front_axle = None;
+        spec.tractor.rear_axle = None;
+        spec.tractor.front_cornering_stiffness = None;
+        spec.tractor.rear_cornering_stiffness = None;
+        let ax = |p: f64| AxleSpec {
+            position_m: p,
+            cornering_stiffness: 1e5,
+            steered: false,
+            tire: TireLawSpec::default(),
+            relaxation_length_m: 0.0,
+        };
+        spec.tractor.axles = Some(vec![ax(5.0), ax(1.3)]);
+        let e = spec.validate().unwrap_err();
+        assert!(e.to_string().contains("steered"), "{e}");
+        // seven relaxing axles: more states than supported
+        spec.tractor.axles = Some(vec![
+            AxleSpec { steered: true, relaxation_length_m: 0.3, ..ax(5.0) },
+            AxleSpec { relaxation_length_m: 0.3, ..ax(1.3) },
+            AxleSpec { relaxation_length_m: 0.3, ..ax(0.8) },
+        ]);
+        spec.trailer.axle = None;
+        spec.trailer.cornering_stiffness = None;
+        spec.trailer.axles = Some(
+            [2.0, 2.6, 3.2, 3.8]
+                .map(|p| AxleSpec { relaxation_length_m: 0.3, ..ax(p) })
+                .to_vec(),
+        );
+        spec.validate().unwrap();
+        let e = AnyVehicleModel::new(&spec).unwrap_err();
+        assert!(matches!(e, ModelError::StateCount { .. }), "{e}");
+    }
+}

@@ -656,6 +656,30 @@ impl VehicleSpec {
         Ok(())
     }
 
+    /// Whether the vehicle differs from the paper's model: more than one axle in a group
+    /// (steered, unsteered, trailer), a tyre law other than the brush tyre with the vehicle's
+    /// friction, σ > 0 on an axle, or a torque at the hitch. Without variants the model is
+    /// the paper's [`crate::Model`] of [`Self::equivalent_params`].
+    ///
+    /// # Errors
+    /// As [`Self::resolved_axles`].
+    pub fn has_variants(&self) -> Result<bool, ModelError> {
+        let axles = self.resolved_axles()?;
+        let count = |unit: Unit, steered: bool| {
+            axles
+                .iter()
+                .filter(|a| a.unit == unit && a.spec.steered == steered)
+                .count()
+        };
+        let one_each = count(Unit::Tractor, true) == 1
+            && count(Unit::Tractor, false) == 1
+            && count(Unit::Trailer, false) == 1;
+        let plain = axles
+            .iter()
+            .all(|a| a.spec.tire == TireLawSpec::default() && a.spec.relaxation_length_m == 0.0);
+        Ok(!(one_each && plain && self.hitch.is_free()))
+    }
+
     /// Number of axles with σ > 0: the relaxation states the model adds to the 4 of eq. (5)–(6).
     ///
     /// # Errors

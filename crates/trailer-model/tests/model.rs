@@ -885,9 +885,15 @@ mod variants {
             s.trailer.relaxation_length_m = Some(sigmas[2]);
             let any = AnyVehicleModel::new(&s).unwrap();
             assert_eq!(any.states(), n);
+            // no variant at all: the paper's model itself
+            assert_eq!(matches!(any, AnyVehicleModel::Paper(_)), n == 4);
             let spectrum = with_plant!(&any, m => m.open_loop_spectrum(30.0));
             assert_eq!(spectrum.len(), n);
         }
+        // a variant without extra states is the general model with N = 4
+        let mut s = VehicleSpec::from(VehicleParams::default());
+        s.hitch.yaw_damping_nms = 100.0;
+        assert!(matches!(AnyVehicleModel::new(&s).unwrap(), AnyVehicleModel::N4(_)));
         let e = VehicleModel::<5>::new(&VehicleSpec::table_i_with_relaxation(0.3)).unwrap_err();
         assert!(matches!(e, ModelError::StateCount { expected: 7, requested: 5, .. }), "{e}");
     }

@@ -66,13 +66,17 @@ pub enum TireError {
         expected: &'static str,
     },
     /// The Magic Formula's peak needs exactly one of `peak_force` and `peak_friction`.
-    #[error("magic formula: give exactly one of `peak_force` (D) and `peak_friction` (D = μ_p·F_z), got {given}")]
+    #[error(
+        "magic formula: give exactly one of `peak_force` (D) and `peak_friction` (D = μ_p·F_z), got {given}"
+    )]
     PeakChoice {
         /// how many of the two were given
         given: usize,
     },
     /// A given stiffness factor B disagrees with the axle's cornering stiffness.
-    #[error("magic formula: `stiffness_factor` gives B·C·D = {bcd} N/rad, but the axle's cornering stiffness is {cornering_stiffness} N/rad (omit B to derive it)")]
+    #[error(
+        "magic formula: `stiffness_factor` gives B·C·D = {bcd} N/rad, but the axle's cornering stiffness is {cornering_stiffness} N/rad (omit B to derive it)"
+    )]
     StiffnessMismatch {
         /// B·C·D \[N/rad\]
         bcd: f64,
@@ -370,11 +374,11 @@ impl TireModel for MagicFormulaTire {
 /// the linear tyre. Dispatches [`TireModel`] without dynamic allocation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum TireLaw {
-    /// [`BrushTire`], eq. (14)–(15): kinks at α = 0 (C¹) and |α| = α_cr (C⁰)
+    /// [`BrushTire`], eq. (14)–(15), with kinks at α = 0 (C¹) and |α| = α_cr (C⁰)
     Brush(BrushTire),
-    /// [`MagicFormulaTire`]: smooth
+    /// [`MagicFormulaTire`] (smooth)
     MagicFormula(MagicFormulaTire),
-    /// [`LinearTire`]: smooth
+    /// [`LinearTire`] (smooth)
     Linear(LinearTire),
 }
 
@@ -579,8 +583,9 @@ impl TireLawSpec {
                 let b = match stiffness_factor {
                     Some(b) => {
                         let bcd = b * shape_factor * d;
-                        if !((bcd - cornering_stiffness).abs() <= 1e-6 * cornering_stiffness.abs())
-                        {
+                        let close =
+                            (bcd - cornering_stiffness).abs() <= 1e-6 * cornering_stiffness.abs();
+                        if !close {
                             return Err(TireError::StiffnessMismatch {
                                 bcd,
                                 cornering_stiffness,

@@ -159,14 +159,24 @@ fn tyre_laws_from_the_vehicle_file_form() {
     // errors naming the parameter.
     let fz = 10008.0;
     let parse = |s: &str| -> TireLawSpec { toml::from_str(s).expect(s) };
-    let brush = parse("law = \"brush\"").build(50e3, fz, 0.9, 0.6).expect("brush");
-    assert_eq!(brush, TireLaw::Brush(BrushTire::new(50e3, fz, 0.9, 0.6).unwrap()));
+    let brush = parse("law = \"brush\"")
+        .build(50e3, fz, 0.9, 0.6)
+        .expect("brush");
+    assert_eq!(
+        brush,
+        TireLaw::Brush(BrushTire::new(50e3, fz, 0.9, 0.6).unwrap())
+    );
     assert_eq!(TireLawSpec::default().build(50e3, fz, 0.9, 0.6), Ok(brush));
     let own = parse("law = \"brush\"\nmu_static = 1.0\nmu_dynamic = 0.8")
         .build(50e3, fz, 0.9, 0.6)
         .expect("brush");
-    assert_eq!(own, TireLaw::Brush(BrushTire::new(50e3, fz, 1.0, 0.8).unwrap()));
-    let lin = parse("law = \"linear\"").build(50e3, fz, 0.9, 0.6).expect("linear");
+    assert_eq!(
+        own,
+        TireLaw::Brush(BrushTire::new(50e3, fz, 1.0, 0.8).unwrap())
+    );
+    let lin = parse("law = \"linear\"")
+        .build(50e3, fz, 0.9, 0.6)
+        .expect("linear");
     assert_eq!(lin.lateral_force(0.01), 500.0);
     let mf = parse("law = \"magic_formula\"\nshape_factor = 1.536\ncurvature_factor = 0.3\npeak_friction = 0.9")
         .build(137e3, 11894.6, 0.9, 0.6)
@@ -176,16 +186,21 @@ fn tyre_laws_from_the_vehicle_file_form() {
     assert!(!mf.kinks().at_zero && brush.kinks().at_zero);
     // B given and consistent: accepted; inconsistent: named error
     let b = magic().stiffness_factor;
-    let with_b = format!("law = \"magic_formula\"\nshape_factor = 1.536\ncurvature_factor = 0.3\npeak_force = {}\nstiffness_factor = {b}", 0.9 * 11894.6);
+    let with_b = format!(
+        "law = \"magic_formula\"\nshape_factor = 1.536\ncurvature_factor = 0.3\npeak_force = {}\nstiffness_factor = {b}",
+        0.9 * 11894.6
+    );
     assert!(parse(&with_b).build(137e3, 11894.6, 0.9, 0.6).is_ok());
     assert!(matches!(
         parse(&with_b).build(100e3, 11894.6, 0.9, 0.6),
         Err(TireError::StiffnessMismatch { .. })
     ));
     // D twice or not at all
-    let e = parse("law = \"magic_formula\"\nshape_factor = 1.3\npeak_force = 9000.0\npeak_friction = 0.9")
-        .build(137e3, fz, 0.9, 0.6)
-        .unwrap_err();
+    let e = parse(
+        "law = \"magic_formula\"\nshape_factor = 1.3\npeak_force = 9000.0\npeak_friction = 0.9",
+    )
+    .build(137e3, fz, 0.9, 0.6)
+    .unwrap_err();
     assert_eq!(e, TireError::PeakChoice { given: 2 });
     let e = parse("law = \"magic_formula\"\nshape_factor = 1.3").build(137e3, fz, 0.9, 0.6);
     assert_eq!(e, Err(TireError::PeakChoice { given: 0 }));
@@ -194,9 +209,11 @@ fn tyre_laws_from_the_vehicle_file_form() {
         .build(137e3, fz, 0.9, 0.6)
         .unwrap_err();
     assert!(e.to_string().contains("shape_factor"), "{e}");
-    let e = parse("law = \"magic_formula\"\nshape_factor = 1.3\ncurvature_factor = 1.5\npeak_friction = 0.9")
-        .build(137e3, fz, 0.9, 0.6)
-        .unwrap_err();
+    let e = parse(
+        "law = \"magic_formula\"\nshape_factor = 1.3\ncurvature_factor = 1.5\npeak_friction = 0.9",
+    )
+    .build(137e3, fz, 0.9, 0.6)
+    .unwrap_err();
     assert!(e.to_string().contains("curvature_factor"), "{e}");
     let e = parse("law = \"magic_formula\"\nshape_factor = 1.3\npeak_friction = -0.9")
         .build(137e3, fz, 0.9, 0.6)

@@ -38,8 +38,8 @@ fn bench(c: &mut Criterion) {
     });
 
     // issue 21: the general model
-    let paper = VehicleModel::<4>::new(&VehicleSpec::from(VehicleParams::default()))
-        .expect("Table I");
+    let paper =
+        VehicleModel::<4>::new(&VehicleSpec::from(VehicleParams::default())).expect("Table I");
     let relaxed =
         VehicleModel::<7>::new(&VehicleSpec::table_i_with_relaxation(0.3)).expect("σ = 0.3 m");
     let x10 = SVector::<f64, 10>::from_column_slice(&[

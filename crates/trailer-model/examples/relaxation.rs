@@ -9,7 +9,7 @@ fn main() -> Result<(), trailer_model::ModelError> {
         let any = AnyVehicleModel::new(&VehicleSpec::table_i_with_relaxation(sigma))?;
         let vc = with_plant!(&any, m => m.critical_speed(&CriticalSpeedOptions::default()))?;
         println!(
-            "sigma = {sigma:.1} m: N = {}, V_crit = {:.4} m/s, f = {:.4} Hz",
+            "sigma = {sigma:.1} m: N = {}, V_crit = {:.6} m/s, f = {:.4} Hz",
             any.states(),
             vc.v_crit_mps,
             vc.hopf_frequency_hz

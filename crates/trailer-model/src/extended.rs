@@ -360,9 +360,7 @@ impl<const N: usize> VehicleModel<N> {
             };
         }
         // moments on the tractor and the trailer (yaw moment input, hitch damping)
-        let hitch = self
-            .hitch
-            .map(|_| self.hitch_torque(kin.hitch_angle_rate));
+        let hitch = self.hitch.map(|_| self.hitch_torque(kin.hitch_angle_rate));
         let m_tractor = match (yaw_moment, hitch) {
             (Some(m), Some(t)) => Some(m + t),
             (Some(m), None) => Some(m),
@@ -384,30 +382,30 @@ impl<const N: usize> VehicleModel<N> {
             + v * (s2 * k.q13 - s1 * k.q14) * cs
             + (s1 * s3 - v_dot) * sn * k.q13;
         for &i in &self.unsteered {
-            num = num + force[i] * self.axles[i].k_sigma1;
+            num += force[i] * self.axles[i].k_sigma1;
         }
         for &i in &self.trailer {
-            num = num + force[i] * cs * self.axles[i].k_sigma1;
+            num += force[i] * cs * self.axles[i].k_sigma1;
         }
         for &i in &self.steered {
-            num = num + force[i] * self.axles[i].k_sigma1;
+            num += force[i] * self.axles[i].k_sigma1;
         }
         for &i in &self.unsteered {
-            sigma2_dot = sigma2_dot + force[i] * self.axles[i].k_other;
+            sigma2_dot += force[i] * self.axles[i].k_other;
         }
         for &i in &self.steered {
-            sigma2_dot = sigma2_dot + force[i] * self.axles[i].k_other;
+            sigma2_dot += force[i] * self.axles[i].k_other;
         }
         for &i in &self.trailer {
-            sigma3_dot = sigma3_dot - force[i] * self.axles[i].k_other;
+            sigma3_dot -= force[i] * self.axles[i].k_other;
         }
         if let Some(m) = m_tractor {
-            num = num + m * self.k_moment_tractor;
-            sigma2_dot = sigma2_dot + m / self.core.i1;
+            num += m * self.k_moment_tractor;
+            sigma2_dot += m / self.core.i1;
         }
         if let Some(m2) = m_trailer {
-            num = num + m2 * cs * self.k_moment_trailer;
-            sigma3_dot = sigma3_dot + m2 / self.core.i2;
+            num += m2 * cs * self.k_moment_trailer;
+            sigma3_dot += m2 / self.core.i2;
         }
         dx[0] = num / denom;
         dx[1] = sigma2_dot;

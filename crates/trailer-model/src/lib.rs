@@ -4,6 +4,21 @@
 //! time-varying speed V(t) and steering angle δ, and the linearisation about straight
 //! running (eq. 9–11).
 //!
+//! Beyond the paper (issue 21): the plant abstraction [`Plant`] (any model with N reduced
+//! states, exact derivatives, linearisation, V_crit; [`Model`] is `Plant<4>`), and the
+//! general model [`VehicleModel`] built from a vehicle file [`VehicleSpec`] — axle lists
+//! (tandems), a tyre law per axle, first-order tyre relaxation, hitch damping — with
+//! [`AnyVehicleModel`] / [`with_plant!`] choosing N at run time.
+//!
+//! ```
+//! use trailer_model::{CriticalSpeedOptions, Plant, VehicleModel, VehicleSpec};
+//!
+//! // Table I with relaxation length σ = 0.3 m on every axle: 4 + 3 states
+//! let model = VehicleModel::<7>::new(&VehicleSpec::table_i_with_relaxation(0.3)).unwrap();
+//! let vc = model.critical_speed(&CriticalSpeedOptions::default()).unwrap();
+//! assert!((vc.v_crit_mps - 32.58).abs() < 0.01);
+//! ```
+//!
 //! This crate knows nothing about files, plots or solvers: it evaluates right-hand sides
 //! and their exact derivatives. The right-hand sides are generic over the scalar type
 //! ([`num_dual::DualNum`]), so Jacobians are exact.
@@ -28,17 +43,17 @@ mod params;
 mod plant;
 mod spec;
 
-pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};
-pub use plant::sorted_spectrum;
-pub use model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4, State7, YAW_ANGLE};
 pub use extended::{AnyVehicleModel, AxleModel, MAX_STATES, VehicleModel};
+pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};
+pub use model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4, State7, YAW_ANGLE};
+pub use params::{
+    AxleLoads, FrictionParams, PARAMETERS, TractorParams, TrailerParams, VehicleParams,
+};
+pub use plant::sorted_spectrum;
 pub use plant::{Plant, PlantLinearization, SwitchingKind};
 pub use spec::{
     AxleSpec, DEFAULT_FRICTION_REGULARISATION_RAD_S, HitchSpec, MAX_AXLES, MIN_AXLE_SPACING_M,
     ResolvedAxle, TractorSpec, TrailerSpec, Unit, VehicleSpec,
-};
-pub use params::{
-    AxleLoads, FrictionParams, PARAMETERS, TractorParams, TrailerParams, VehicleParams,
 };
 
 /// Errors of the model crate.
@@ -83,7 +98,9 @@ pub enum ModelError {
         source: tires::TireError,
     },
     /// A [`VehicleModel`] was asked for a state count its vehicle does not have.
-    #[error("the vehicle has {relaxed} relaxing axles, hence {expected} states, not {requested}{hint}")]
+    #[error(
+        "the vehicle has {relaxed} relaxing axles, hence {expected} states, not {requested}{hint}"
+    )]
     StateCount {
         /// axles with σ > 0
         relaxed: usize,

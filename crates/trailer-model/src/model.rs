@@ -244,7 +244,10 @@ impl Model {
         self.kinematics(x).hitch_angle_rate
     }
 
-    pub(crate) fn kinematics<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> Kinematics<D> {
+    pub(crate) fn kinematics<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+    ) -> Kinematics<D> {
         let (s1, s2, s3) = (x[0], x[1], x[2]);
         let (sin_theta, cos_theta) = x[3].sin_cos();
         Kinematics {

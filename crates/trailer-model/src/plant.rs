@@ -112,7 +112,12 @@ pub trait Plant<const N: usize> {
         x: &SVector<D, M>,
         u: &Inputs<D>,
     ) -> SVector<D, M> {
-        const { assert!(M == N + 3, "the full state is the reduced state plus ψ, x_H, y_H") };
+        const {
+            assert!(
+                M == N + 3,
+                "the full state is the reduced state plus ψ, x_H, y_H"
+            )
+        };
         let xr: SVector<D, N> = x.fixed_rows::<N>(0).into_owned();
         let r = self.rhs(&xr, u);
         let (sp, cp) = x[N].sin_cos();
@@ -227,7 +232,6 @@ fn input_columns<P: Plant<N> + ?Sized, const N: usize>(
     let col = |k: usize| {
         SVector::<f64, N>::from_fn(|i, _| {
             r[i].eps
-                .clone()
                 .unwrap_generic(nalgebra::Const::<2>, nalgebra::Const::<1>)[k]
         })
     };

@@ -346,9 +346,7 @@ impl VehicleSpec {
             }
             None => {
                 let need = |key: &str, v: Option<f64>| {
-                    v.ok_or_else(|| {
-                        invalid(key, f64::NAN, "a value (or the list `tractor.axles`)")
-                    })
+                    v.ok_or_else(|| invalid(key, f64::NAN, "a value (or the list `tractor.axles`)"))
                 };
                 let f = need("tractor.front_axle", t.front_axle)?;
                 let c = need("tractor.rear_axle", t.rear_axle)?;
@@ -393,9 +391,15 @@ impl VehicleSpec {
             Some(list) => {
                 for (key, given) in [
                     ("trailer.axle", r.axle.is_some()),
-                    ("trailer.cornering_stiffness", r.cornering_stiffness.is_some()),
+                    (
+                        "trailer.cornering_stiffness",
+                        r.cornering_stiffness.is_some(),
+                    ),
                     ("trailer.tire", r.tire.is_some()),
-                    ("trailer.relaxation_length_m", r.relaxation_length_m.is_some()),
+                    (
+                        "trailer.relaxation_length_m",
+                        r.relaxation_length_m.is_some(),
+                    ),
                 ] {
                     if given {
                         return Err(invalid(
@@ -424,7 +428,11 @@ impl VehicleSpec {
             }
             None => {
                 let l = r.axle.ok_or_else(|| {
-                    invalid("trailer.axle", f64::NAN, "a value (or the list `trailer.axles`)")
+                    invalid(
+                        "trailer.axle",
+                        f64::NAN,
+                        "a value (or the list `trailer.axles`)",
+                    )
                 })?;
                 let ct = r.cornering_stiffness.ok_or_else(|| {
                     invalid(
@@ -570,7 +578,9 @@ impl VehicleSpec {
                 return Err(invalid(
                     a.position_key.clone(),
                     p,
-                    format!("a positive distance {side} (an axle on the hitch or on the wrong side is not a vehicle)"),
+                    format!(
+                        "a positive distance {side} (an axle on the hitch or on the wrong side is not a vehicle)"
+                    ),
                 ));
             }
             let c = a.spec.cornering_stiffness;

@@ -621,7 +621,12 @@ mod variants {
         let lin = Plant::plant_linearization(&paper, 33.0);
         assert_eq!(lin.a, paper.linearize(33.0).a4);
         let vc = Plant::critical_speed(&paper, &CriticalSpeedOptions::default()).unwrap();
-        assert_eq!(vc, paper.critical_speed(&CriticalSpeedOptions::default()).unwrap());
+        assert_eq!(
+            vc,
+            paper
+                .critical_speed(&CriticalSpeedOptions::default())
+                .unwrap()
+        );
         // the full state: [reduced, ψ, x_H, y_H] is rhs7
         for (x4, u, psi) in random_points(32, 100) {
             let x7 = State7Like::from_column_slice(&[x4[0], x4[1], x4[2], x4[3], psi, 3.0, -2.0]);
@@ -683,7 +688,8 @@ mod variants {
         // 1e-3 m/s at 1e-4 m. (b) On the slow manifold α′ = α the mechanical part of the
         // right-hand side is the instantaneous one (the force F(α′) from the angle equals
         // F(α) from its tangent): 1e-12 relative over 500 random states.
-        let v0 = vcrit(&VehicleModel::<4>::new(&VehicleSpec::table_i_with_relaxation(0.0)).unwrap());
+        let v0 =
+            vcrit(&VehicleModel::<4>::new(&VehicleSpec::table_i_with_relaxation(0.0)).unwrap());
         let diffs: Vec<f64> = [1e-2, 1e-3, 1e-4]
             .iter()
             .map(|&s| {
@@ -768,7 +774,10 @@ mod variants {
                 assert!((a[i] - b[i]).abs() <= 1e-12 * a[i].abs().max(1.0), "{i}");
             }
         }
-        let v = single.critical_speed(&CriticalSpeedOptions::default()).unwrap().v_crit_mps;
+        let v = single
+            .critical_speed(&CriticalSpeedOptions::default())
+            .unwrap()
+            .v_crit_mps;
         assert!((vcrit(&m) - v).abs() < 1e-9);
         // the tandem of the example file: equal loads summing to F_z,T (statics: moments
         // about the hitch F (l1 + l2) = m2 g h)
@@ -788,7 +797,10 @@ mod variants {
             p.trailer.mass * p.gravity * p.trailer.cog,
             max_relative = 1e-14
         );
-        println!("tandem ±0.4 m: V_crit = {:.4} m/s (single axle {v:.4})", vcrit(&m));
+        println!(
+            "tandem ±0.4 m: V_crit = {:.4} m/s (single axle {v:.4})",
+            vcrit(&m)
+        );
     }
 
     #[test]
@@ -814,11 +826,17 @@ mod variants {
         );
         let (vc, vv) = (vcrit(&coulomb), vcrit(&viscous));
         assert!((vc - vv).abs() < 1e-9);
-        assert!(vc > vcrit(&with(0.0, 0.0)), "damping at the hitch raises V_crit");
+        assert!(
+            vc > vcrit(&with(0.0, 0.0)),
+            "damping at the hitch raises V_crit"
+        );
         assert_eq!(coulomb.hitch_torque(0.1), 100.0);
         assert_eq!(coulomb.hitch_torque(-0.1), -100.0);
         assert_relative_eq!(coulomb.hitch_torque(0.01), 20.0, max_relative = 1e-15);
-        assert_eq!(coulomb.switching_kinds().last(), Some(&trailer_model::SwitchingKind::HitchFriction));
+        assert_eq!(
+            coulomb.switching_kinds().last(),
+            Some(&trailer_model::SwitchingKind::HitchFriction)
+        );
         println!("hitch: M_c = 100 N m, ω_c = 0.05 rad/s: V_crit = {vc:.4} m/s");
     }
 
@@ -878,7 +896,11 @@ mod variants {
     #[test]
     fn any_model_dispatches_on_the_number_of_relaxing_axles() {
         // Reference: N = 4 + (axles with σ > 0); a wrong N is an error that says so.
-        for (sigmas, n) in [([0.0, 0.0, 0.0], 4), ([0.3, 0.0, 0.0], 5), ([0.3, 0.3, 0.3], 7)] {
+        for (sigmas, n) in [
+            ([0.0, 0.0, 0.0], 4),
+            ([0.3, 0.0, 0.0], 5),
+            ([0.3, 0.3, 0.3], 7),
+        ] {
             let mut s = VehicleSpec::from(VehicleParams::default());
             s.tractor.front_relaxation_length_m = Some(sigmas[0]);
             s.tractor.rear_relaxation_length_m = Some(sigmas[1]);
@@ -893,9 +915,22 @@ mod variants {
         // a variant without extra states is the general model with N = 4
         let mut s = VehicleSpec::from(VehicleParams::default());
         s.hitch.yaw_damping_nms = 100.0;
-        assert!(matches!(AnyVehicleModel::new(&s).unwrap(), AnyVehicleModel::N4(_)));
+        assert!(matches!(
+            AnyVehicleModel::new(&s).unwrap(),
+            AnyVehicleModel::N4(_)
+        ));
         let e = VehicleModel::<5>::new(&VehicleSpec::table_i_with_relaxation(0.3)).unwrap_err();
-        assert!(matches!(e, ModelError::StateCount { expected: 7, requested: 5, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                ModelError::StateCount {
+                    expected: 7,
+                    requested: 5,
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 }
 
@@ -968,7 +1003,11 @@ mod vehicle_files {
             friction_regularisation_rad_s: 0.02,
         };
         let expected = [
-            ("relaxation.toml", VehicleSpec::table_i_with_relaxation(0.3), 7),
+            (
+                "relaxation.toml",
+                VehicleSpec::table_i_with_relaxation(0.3),
+                7,
+            ),
             ("magic_formula.toml", magic, 4),
             ("tandem.toml", tandem, 4),
             ("hitch_friction.toml", hitch, 4),
@@ -986,8 +1025,8 @@ mod vehicle_files {
             assert_eq!(&spec, want, "{name}");
             let any = AnyVehicleModel::new(&spec).unwrap();
             assert_eq!(any.states(), *n, "{name}");
-            let vc = with_plant!(&any, m => m.critical_speed(&CriticalSpeedOptions::default()))
-                .unwrap();
+            let vc =
+                with_plant!(&any, m => m.critical_speed(&CriticalSpeedOptions::default())).unwrap();
             println!("{name}: N = {n}, V_crit = {:.4} m/s", vc.v_crit_mps);
             found += 1;
         }
@@ -1024,10 +1063,7 @@ mod vehicle_files {
         let base = std::fs::read_to_string(configs().join("vehicle.toml")).unwrap();
         let with = |table: &str, line: &str| base.replacen(table, &format!("{table}\n{line}"), 1);
         let cases = [
-            (
-                with("[trailer]", "tire = { law = \"pacejka\" }"),
-                "pacejka",
-            ),
+            (with("[trailer]", "tire = { law = \"pacejka\" }"), "pacejka"),
             (
                 with("[trailer]", "relaxation_length_m = -0.3"),
                 "trailer.relaxation_length_m",
@@ -1052,12 +1088,19 @@ mod vehicle_files {
                 "peak_friction",
             ),
             (
-                format!("{base}\n[[trailer.axles]]\nposition_m = 2.4\ncornering_stiffness = 25e3\n"),
+                format!(
+                    "{base}\n[[trailer.axles]]\nposition_m = 2.4\ncornering_stiffness = 25e3\n"
+                ),
                 "trailer.axle",
             ),
-            (format!("{base}\n[hitch]\nfriction_torque_nm = -5.0\n"), "hitch.friction_torque_nm"),
             (
-                format!("{base}\n[hitch]\nfriction_torque_nm = 5.0\nfriction_regularisation_rad_s = 0.0\n"),
+                format!("{base}\n[hitch]\nfriction_torque_nm = -5.0\n"),
+                "hitch.friction_torque_nm",
+            ),
+            (
+                format!(
+                    "{base}\n[hitch]\nfriction_torque_nm = 5.0\nfriction_regularisation_rad_s = 0.0\n"
+                ),
                 "hitch.friction_regularisation_rad_s",
             ),
         ];
@@ -1068,14 +1111,22 @@ mod vehicle_files {
         // list forms: an axle on the hitch, overlapping axles, a steered trailer axle
         let tandem = std::fs::read_to_string(configs().join("vehicles/tandem.toml")).unwrap();
         for (from, to, needle) in [
-            ("position_m = 2.4", "position_m = 0.0", "trailer.axles[0].position_m"),
+            (
+                "position_m = 2.4",
+                "position_m = 0.0",
+                "trailer.axles[0].position_m",
+            ),
             ("position_m = 3.2", "position_m = 2.5", "overlap"),
             (
                 "position_m = 3.2",
                 "position_m = 3.2\nsteered = true",
                 "trailer.axles[1].steered",
             ),
-            ("cornering_stiffness = 25e3         # [N/rad]\n\n", "cornering_stiffness = -25e3\n\n", "trailer.axles[0].cornering_stiffness"),
+            (
+                "cornering_stiffness = 25e3         # [N/rad]\n\n",
+                "cornering_stiffness = -25e3\n\n",
+                "trailer.axles[0].cornering_stiffness",
+            ),
         ] {
             let text = tandem.replacen(from, to, 1);
             assert_ne!(text, tandem);
@@ -1100,15 +1151,28 @@ mod vehicle_files {
         assert!(e.to_string().contains("steered"), "{e}");
         // seven relaxing axles: more states than supported
         spec.tractor.axles = Some(vec![
-            AxleSpec { steered: true, relaxation_length_m: 0.3, ..ax(5.0) },
-            AxleSpec { relaxation_length_m: 0.3, ..ax(1.3) },
-            AxleSpec { relaxation_length_m: 0.3, ..ax(0.8) },
+            AxleSpec {
+                steered: true,
+                relaxation_length_m: 0.3,
+                ..ax(5.0)
+            },
+            AxleSpec {
+                relaxation_length_m: 0.3,
+                ..ax(1.3)
+            },
+            AxleSpec {
+                relaxation_length_m: 0.3,
+                ..ax(0.8)
+            },
         ]);
         spec.trailer.axle = None;
         spec.trailer.cornering_stiffness = None;
         spec.trailer.axles = Some(
             [2.0, 2.6, 3.2, 3.8]
-                .map(|p| AxleSpec { relaxation_length_m: 0.3, ..ax(p) })
+                .map(|p| AxleSpec {
+                    relaxation_length_m: 0.3,
+                    ..ax(p)
+                })
                 .to_vec(),
         );
         spec.validate().unwrap();

@@ -192,8 +192,7 @@ pub fn newton_euler_general<const N: usize>(
     }
     let hs = model.spec().hitch;
     let t_h = hs.yaw_damping_nms * theta_dot
-        + hs.friction_torque_nm
-            * (theta_dot / hs.friction_regularisation_rad_s).clamp(-1.0, 1.0);
+        + hs.friction_torque_nm * (theta_dot / hs.friction_regularisation_rad_s).clamp(-1.0, 1.0);
 
     let a_h0 = e1 * (v_dot - s1 * psi_dot) + e2 * (v * psi_dot);
     let a_c1_0 = a_h0 - e1 * (d * psi_dot * psi_dot);

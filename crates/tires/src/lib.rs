@@ -406,6 +406,18 @@ impl TireLaw {
         }
     }
 
+    /// Slip angle \[rad\] beyond which the tyre is saturated (no more lateral force for more
+    /// slip): α_cr of the brush tyre (full sliding), the Magic Formula's peak slip
+    /// ([`MagicFormulaTire::peak_slip_angle`]), +∞ for the linear tyre. A validity guard
+    /// ("the axle slides") compares |α| with it.
+    pub fn saturation_slip_angle(&self) -> f64 {
+        match self {
+            Self::Brush(t) => t.critical_slip_angle().unwrap_or(f64::INFINITY),
+            Self::MagicFormula(t) => t.peak_slip_angle(),
+            Self::Linear(_) => f64::INFINITY,
+        }
+    }
+
     /// Name of the law as the vehicle file spells it (`brush`, `magic_formula`, `linear`).
     pub fn name(&self) -> &'static str {
         match self {

@@ -64,6 +64,8 @@ pub struct AxleModel {
     inv_sigma: f64,
     /// tan α_cr (+∞ without a sliding limit)
     tan_critical: f64,
+    /// tan α_sat of the validity guard (+∞ without saturation)
+    tan_saturation: f64,
 }
 
 /// The general car–trailer model with N reduced states (see the module docs).
@@ -133,6 +135,12 @@ impl<const N: usize> VehicleModel<N> {
                 Some(acr) if acr < std::f64::consts::FRAC_PI_2 => acr.tan(),
                 _ => f64::INFINITY,
             };
+            let sat = law.saturation_slip_angle();
+            let tan_saturation = if sat < std::f64::consts::FRAC_PI_2 {
+                sat.tan()
+            } else {
+                f64::INFINITY
+            };
             axles.push(AxleModel {
                 unit: a.unit,
                 position_m: pos,
@@ -146,6 +154,7 @@ impl<const N: usize> VehicleModel<N> {
                 k_other,
                 inv_sigma: if sigma > 0.0 { 1.0 / sigma } else { 0.0 },
                 tan_critical,
+                tan_saturation,
             });
         }
         debug_assert!(axles.len() <= MAX_AXLES);
@@ -447,6 +456,45 @@ impl<const N: usize> Plant<N> for VehicleModel<N> {
 
     fn params(&self) -> &VehicleParams {
         &self.core.params
+    }
+
+    fn guard_values(&self, x: &SVector<f64, N>, u: &Inputs) -> [f64; 5] {
+        let x4 = State4::new(x[0], x[1], x[2], x[3]);
+        let yaw_rate = self.core.k.m1d_i1;
+        let yaw_rate = x[1] - x[0] * yaw_rate;
+        let mut out = [f64::NEG_INFINITY; 5];
+        let (sd, cd) = if u.steering_angle == 0.0 {
+            (0.0, 1.0)
+        } else {
+            u.steering_angle.sin_cos()
+        };
+        for a in self.axles.iter().filter(|a| a.unit == Unit::Tractor) {
+            let lateral = x[0] + yaw_rate * a.position_m;
+            let r = lateral / u.speed;
+            let tan_abs = match a.state {
+                Some(j) if x[j].abs() < std::f64::consts::FRAC_PI_2 => x[j].abs().tan(),
+                Some(_) => f64::INFINITY,
+                None if a.steered => {
+                    Model::front_slip_tangent(u.steering_angle, r).map_or(f64::INFINITY, f64::abs)
+                }
+                None => r.abs(),
+            };
+            let k = usize::from(!a.steered);
+            if a.tan_saturation.is_finite() {
+                out[k] = out[k].max(tan_abs - a.tan_saturation);
+            }
+            if a.steered {
+                let speed = if u.steering_angle == 0.0 {
+                    u.speed
+                } else {
+                    u.speed * cd + lateral * sd
+                };
+                out[2] = out[2].max(-speed);
+            }
+        }
+        out[3] = -u.speed;
+        out[4] = -self.core.trailer_wheel_speed(&x4, u.speed);
+        out
     }
 
     fn switching_kinds(&self) -> &[SwitchingKind] {

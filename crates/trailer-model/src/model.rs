@@ -81,6 +81,8 @@ pub struct Model {
     pub(crate) i2: f64,
     pub(crate) p: [f64; 16], // p[1..=15] of eq. (7); p[0] unused
     pub(crate) k: Derived,
+    /// [`Model::critical_slip_tangents`], cached for the validity guard
+    pub(crate) critical_tangents: (f64, f64),
 }
 
 /// Products of the constants of eq. (6)–(7) that do not depend on the state, computed
@@ -182,7 +184,7 @@ impl Model {
             m1d_i1: m1 * d / i1,
             m2h_i2: m2 * h / i2,
         };
-        Ok(Self {
+        let mut model = Self {
             params,
             loads,
             front_tire,
@@ -195,7 +197,10 @@ impl Model {
             i2,
             p,
             k,
-        })
+            critical_tangents: (f64::INFINITY, f64::INFINITY),
+        };
+        model.critical_tangents = model.critical_slip_tangents();
+        Ok(model)
     }
 
     /// The parameters the model was built from.

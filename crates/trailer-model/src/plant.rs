@@ -94,6 +94,15 @@ pub trait Plant<const N: usize> {
     /// sign changes are the kinks of the right-hand side.
     fn switching_functions(&self, x: &SVector<f64, N>, u: &Inputs, g: &mut [f64]);
 
+    /// The conditions of the simulations' validity guard at (x, u), each tripped when > 0, in
+    /// this order: a steered tractor axle saturates (|tan α| − tan α_sat, the largest over the
+    /// steered axles), an unsteered tractor axle saturates (likewise), a steered wheel stops
+    /// (−(V cos δ + (σ1 + a ψ̇) sin δ)), the tractor stops (−V), the trailer stops
+    /// (−(V cos θ + σ1 sin θ)). α_sat is the tyre's [`tires::TireLaw::saturation_slip_angle`]
+    /// (α_cr of the brush tyre, eq. 15); a relaxing axle compares its lagged slip α′. A
+    /// condition that cannot trip is −∞.
+    fn guard_values(&self, x: &SVector<f64, N>, u: &Inputs) -> [f64; 5];
+
     /// Longitudinal speed of the trailer at its axles, V cos θ + σ1 sin θ \[m/s\]: the model is
     /// meaningful only while it is positive.
     fn trailer_longitudinal_speed<D: DualNum<Primitive = f64> + Copy>(
@@ -292,6 +301,27 @@ impl Plant<4> for Model {
             g[k] = tans[k];
             g[3 + k] = tans[k] * tans[k] - crs[k] * crs[k];
         }
+    }
+
+    /// As `sway::sim`'s guard computes it for the paper's model (|tan α| against tan α_cr,
+    /// the front wheel's speed V at δ = 0 without trigonometry).
+    fn guard_values(&self, x: &State4, u: &Inputs) -> [f64; 5] {
+        let (tan_cr_front, tan_cr_rear) = self.critical_tangents;
+        let (tan_front, tan_rear) = self.axle_slip_tangents(x, u);
+        let front_wheel_speed = if u.steering_angle == 0.0 {
+            u.speed
+        } else {
+            let lateral_front = x[0] + Model::yaw_rate(self, x) * self.f;
+            let (sd, cd) = u.steering_angle.sin_cos();
+            u.speed * cd + lateral_front * sd
+        };
+        [
+            tan_front - tan_cr_front,
+            tan_rear - tan_cr_rear,
+            -front_wheel_speed,
+            -u.speed,
+            -self.trailer_wheel_speed(x, u.speed),
+        ]
     }
 
     fn jacobian(&self, x: &State4, u: &Inputs) -> (SMatrix<f64, 4, 4>, SVector<f64, 4>) {

@@ -73,7 +73,8 @@ pub struct AxleSpec {
 }
 
 /// The towing car: Table I's keys (the axle keys optional when `axles` is given) plus the
-/// per-axle tyre law and relaxation length of the paper's two axles.
+/// per-axle tyre law and relaxation length of the paper's two axles. The fields are in the
+/// order of [`TractorParams`], so a file of the paper's form serialises as it does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TractorSpec {
@@ -81,11 +82,11 @@ pub struct TractorSpec {
     pub mass: f64,
     /// J1 \[kg m²\] about C1
     pub yaw_inertia: f64,
-    /// d \[m\]: hitch → centre of gravity C1
-    pub cog: f64,
     /// f \[m\]: hitch → front (steered) axle (paper form)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub front_axle: Option<f64>,
+    /// d \[m\]: hitch → centre of gravity C1
+    pub cog: f64,
     /// c \[m\]: hitch → rear axle (paper form)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rear_axle: Option<f64>,
@@ -688,6 +689,46 @@ impl VehicleSpec {
             .iter()
             .all(|a| a.spec.tire == TireLawSpec::default() && a.spec.relaxation_length_m == 0.0);
         Ok(!(one_each && plain && self.hitch.is_free()))
+    }
+
+    /// A copy with parameter `index` of [`crate::PARAMETERS`] set to `value` (not validated),
+    /// for sweeps over the paper's keys on a vehicle with variants.
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidSpec`] for an axle key (f, c, C_F, C_R, l, C_T) of a unit given
+    /// as a list of axles (the key does not exist there).
+    pub fn with_parameter(&self, index: usize, value: f64) -> Result<Self, ModelError> {
+        let mut s = self.clone();
+        let t = &mut s.tractor;
+        let r = &mut s.trailer;
+        let slot: Option<&mut f64> = match index {
+            0 => Some(&mut t.mass),
+            1 => Some(&mut t.yaw_inertia),
+            2 => t.front_axle.as_mut(),
+            3 => Some(&mut t.cog),
+            4 => t.rear_axle.as_mut(),
+            5 => t.front_cornering_stiffness.as_mut(),
+            6 => t.rear_cornering_stiffness.as_mut(),
+            7 => Some(&mut r.mass),
+            8 => Some(&mut r.yaw_inertia),
+            9 => Some(&mut r.cog),
+            10 => r.axle.as_mut(),
+            11 => r.cornering_stiffness.as_mut(),
+            12 => Some(&mut s.friction.mu_static),
+            13 => Some(&mut s.friction.mu_dynamic),
+            _ => Some(&mut s.gravity),
+        };
+        match slot {
+            Some(v) => {
+                *v = value;
+                Ok(s)
+            }
+            None => Err(invalid(
+                crate::PARAMETERS[index.min(crate::PARAMETERS.len() - 1)].0,
+                value,
+                "a key of the paper's form: this unit's axles are a list (`axles`)",
+            )),
+        }
     }
 
     /// Number of axles with σ > 0: the relaxation states the model adds to the 4 of eq. (5)–(6).

@@ -1180,3 +1180,93 @@ mod vehicle_files {
         assert!(matches!(e, ModelError::StateCount { .. }), "{e}");
     }
 }
+
+mod plant_services {
+    use super::*;
+    use tires::{TireLawSpec, TireModel};
+    use trailer_model::{PARAMETERS, Plant, VehicleModel, VehicleSpec};
+
+    #[test]
+    fn guard_values_of_the_general_model_are_the_papers() {
+        // Reference: the paper's model's guard (the conditions sway's simulations check):
+        // VehicleModel<4> of Table I gives the same values (1e-12 relative: the same tangents,
+        // the sliding limit through α_cr of the law) at 2000 random points, δ ≠ 0 and δ = 0.
+        // A relaxing axle is judged by its lagged slip α′; a Magic Formula axle by its peak slip.
+        let paper = table_i();
+        let m = VehicleModel::<4>::new(&VehicleSpec::from(VehicleParams::default())).unwrap();
+        for (x, mut u, _) in random_points(81, 2000) {
+            for delta in [u.steering_angle, 0.0] {
+                u.steering_angle = delta;
+                let (a, b) = (Plant::guard_values(&paper, &x, &u), m.guard_values(&x, &u));
+                for k in 0..5 {
+                    assert!(
+                        (a[k] - b[k]).abs() <= 1e-12 * a[k].abs().max(1.0),
+                        "{k}: {a:?} {b:?}"
+                    );
+                }
+            }
+        }
+        let relaxed = VehicleModel::<7>::new(&VehicleSpec::table_i_with_relaxation(0.3)).unwrap();
+        let acr = paper.critical_slip_angles();
+        let mut x = SVector::<f64, 7>::zeros();
+        x[4] = acr.front * 1.01;
+        let g = relaxed.guard_values(&x, &Inputs::constant_speed(30.0));
+        assert!(g[0] > 0.0 && g[1] < 0.0, "{g:?}");
+        assert_relative_eq!(
+            g[0],
+            (acr.front * 1.01).tan() - acr.front.tan(),
+            max_relative = 1e-14
+        );
+        let mut s = VehicleSpec::from(VehicleParams::default());
+        s.tractor.rear_tire = Some(TireLawSpec::Linear {});
+        s.tractor.front_tire = Some(TireLawSpec::MagicFormula {
+            shape_factor: 1.3,
+            curvature_factor: 0.0,
+            peak_friction: Some(0.9),
+            peak_force: None,
+            stiffness_factor: None,
+        });
+        let mf = VehicleModel::<4>::new(&s).unwrap();
+        let g = mf.guard_values(&State4::zeros(), &Inputs::constant_speed(30.0));
+        let peak = mf.axles()[0].tire.saturation_slip_angle();
+        assert_relative_eq!(g[0], -peak.tan(), max_relative = 1e-14);
+        assert_eq!(g[1], f64::NEG_INFINITY, "a linear tyre never saturates");
+        // the peak slip is where the force is largest
+        let tire = mf.axles()[0].tire;
+        assert!(tire.lateral_force(peak) > tire.lateral_force(peak * 0.99));
+        assert!(tire.lateral_force(peak) > tire.lateral_force(peak * 1.01));
+    }
+
+    #[test]
+    fn a_paper_form_spec_serialises_as_the_parameters_do() {
+        // Reference: toml of VehicleParams (what result summaries echo today): the same text,
+        // so an echo of the spec keeps committed results byte-identical.
+        let p = VehicleParams::default();
+        let a = toml::to_string(&p).unwrap();
+        let b = toml::to_string(&VehicleSpec::from(p)).unwrap();
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn spec_parameters_follow_the_paper_keys() {
+        // Reference: VehicleParams::with (today's sweeps): the same change through the spec.
+        let p = VehicleParams::default();
+        let s = VehicleSpec::from(p);
+        for (i, _) in PARAMETERS.iter().enumerate() {
+            let v = p.get(i) * 1.1;
+            let changed = s.with_parameter(i, v).unwrap();
+            assert_eq!(changed.equivalent_params().unwrap(), p.with(i, v), "{i}");
+        }
+        let tandem: VehicleSpec = toml::from_str(
+            &std::fs::read_to_string(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../configs/vehicles/tandem.toml"
+            ))
+            .unwrap(),
+        )
+        .unwrap();
+        assert!(tandem.with_parameter(7, 1200.0).is_ok());
+        let e = tandem.with_parameter(10, 3.0).unwrap_err();
+        assert!(e.to_string().contains("trailer.axle"), "{e}");
+    }
+}

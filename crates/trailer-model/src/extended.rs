@@ -68,6 +68,26 @@ pub struct AxleModel {
     tan_saturation: f64,
 }
 
+/// Which sum of eq. (6) an axle's force enters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum EvalKind {
+    Unsteered,
+    Trailer,
+    Steered,
+}
+
+/// What the right-hand side needs of one axle.
+#[derive(Debug, Clone, Copy)]
+struct EvalAxle {
+    kind: EvalKind,
+    position_m: f64,
+    tire: TireLaw,
+    k_sigma1: f64,
+    k_other: f64,
+    inv_sigma: f64,
+    state: Option<usize>,
+}
+
 /// The general car–trailer model with N reduced states (see the module docs).
 #[derive(Debug, Clone)]
 pub struct VehicleModel<const N: usize> {
@@ -75,11 +95,10 @@ pub struct VehicleModel<const N: usize> {
     core: Model,
     spec: VehicleSpec,
     axles: Vec<AxleModel>,
-    /// evaluation order of the force sums (unsteered tractor, trailer, steered tractor: the
-    /// order of eq. 6, so that one axle per unit reproduces the paper's model bit for bit)
-    unsteered: Vec<usize>,
-    trailer: Vec<usize>,
-    steered: Vec<usize>,
+    /// the axles in the evaluation order of the force sums (unsteered tractor, trailer,
+    /// steered tractor: the order of eq. 6, so that one axle per unit reproduces the paper's
+    /// model bit for bit), compact for the hot loop
+    eval: Vec<EvalAxle>,
     /// c_h \[N m s/rad\], M_c \[N m\], ω_c \[rad/s\]; `None` for a free hitch
     hitch: Option<(f64, f64, f64)>,
     /// −m1 d I1 I2³ and m2 h I1² I2²: a tractor / trailer moment in σ̇1's numerator
@@ -158,17 +177,25 @@ impl<const N: usize> VehicleModel<N> {
             });
         }
         debug_assert!(axles.len() <= MAX_AXLES);
-        let pick = |f: &dyn Fn(&AxleModel) -> bool| {
-            axles
-                .iter()
-                .enumerate()
-                .filter(|(_, a)| f(a))
-                .map(|(i, _)| i)
-                .collect::<Vec<_>>()
+        let kind = |a: &AxleModel| match (a.unit, a.steered) {
+            (Unit::Trailer, _) => EvalKind::Trailer,
+            (Unit::Tractor, false) => EvalKind::Unsteered,
+            (Unit::Tractor, true) => EvalKind::Steered,
         };
-        let unsteered = pick(&|a| a.unit == Unit::Tractor && !a.steered);
-        let trailer = pick(&|a| a.unit == Unit::Trailer);
-        let steered = pick(&|a| a.unit == Unit::Tractor && a.steered);
+        let mut eval = Vec::with_capacity(axles.len());
+        for wanted in [EvalKind::Unsteered, EvalKind::Trailer, EvalKind::Steered] {
+            for a in axles.iter().filter(|a| kind(a) == wanted) {
+                eval.push(EvalAxle {
+                    kind: wanted,
+                    position_m: a.position_m,
+                    tire: a.tire,
+                    k_sigma1: a.k_sigma1,
+                    k_other: a.k_other,
+                    inv_sigma: a.inv_sigma,
+                    state: a.state,
+                });
+            }
+        }
         let hs = spec.hitch;
         let hitch = (!hs.is_free()).then_some((
             hs.yaw_damping_nms,
@@ -193,9 +220,7 @@ impl<const N: usize> VehicleModel<N> {
             core,
             spec: spec.clone(),
             axles,
-            unsteered,
-            trailer,
-            steered,
+            eval,
             hitch,
             k_moment_tractor: -(m1 * d) * i1 * i2.powi(3),
             k_moment_trailer: m2 * h * i1 * i1 * i2 * i2,
@@ -306,6 +331,7 @@ impl<const N: usize> VehicleModel<N> {
         }
     }
 
+    #[inline]
     fn rhs_actuated<D: DualNum<Primitive = f64> + Copy>(
         &self,
         x: &SVector<D, N>,
@@ -327,47 +353,6 @@ impl<const N: usize> VehicleModel<N> {
         } else {
             u.steering_angle.cos()
         };
-        // lateral forces of the axles (steered ones times cos δ), relaxation rates
-        let mut force = [zero; MAX_AXLES];
-        for (i, a) in self.axles.iter().enumerate() {
-            force[i] = match a.unit {
-                Unit::Tractor => {
-                    let r = (s1 + kin.yaw_rate * a.position_m) / v;
-                    match (a.state, a.steered) {
-                        (None, true) => {
-                            let f = Self::steered_force(&a.tire, u.steering_angle, r);
-                            if plain_delta { f } else { f * cos_delta }
-                        }
-                        (None, false) => a.tire.lateral_force_from_tan(-r),
-                        (Some(j), steered) => {
-                            let alpha = if steered {
-                                u.steering_angle - r.atan()
-                            } else {
-                                (-r).atan()
-                            };
-                            dx[j] = (alpha - x[j]) * v * a.inv_sigma;
-                            let f = a.tire.lateral_force(x[j]);
-                            if steered && !plain_delta {
-                                f * cos_delta
-                            } else {
-                                f
-                            }
-                        }
-                    }
-                }
-                Unit::Trailer => {
-                    let t = self.trailer_tangent(s1, v, &kin, a);
-                    match a.state {
-                        None => a.tire.lateral_force_from_tan(t),
-                        Some(j) => {
-                            let vx = v * cs + s1 * sn;
-                            dx[j] = (t.atan() - x[j]) * vx * a.inv_sigma;
-                            a.tire.lateral_force(x[j])
-                        }
-                    }
-                }
-            };
-        }
         // moments on the tractor and the trailer (yaw moment input, hitch damping)
         let hitch = self.hitch.map(|_| self.hitch_torque(kin.hitch_angle_rate));
         let m_tractor = match (yaw_moment, hitch) {
@@ -381,7 +366,8 @@ impl<const N: usize> VehicleModel<N> {
         let sn2 = sn * sn;
         let sc = sn * cs;
         let denom = cs * cs * k.d_cos2 + sn2 * k.d_sin2 + k.d0;
-        // eq. (6) in the order of Model::rhs4 (unsteered, trailer, steered)
+        // eq. (6) with the axle terms added in the order of Model::rhs4 (unsteered, trailer,
+        // steered: `eval` is sorted so), which keeps one axle per unit bitwise the paper's
         let mut num = (s1 * s2 - s1 * s3 * 2.0 - v_dot) * sc * p[1]
             - s1 * s1 * (cs * p[3] + p[2]) * sc
             - s3 * s3 * sn * p[4]
@@ -390,23 +376,49 @@ impl<const N: usize> VehicleModel<N> {
         let mut sigma3_dot = s1 * s1 * sc * k.q12
             + v * (s2 * k.q13 - s1 * k.q14) * cs
             + (s1 * s3 - v_dot) * sn * k.q13;
-        for &i in &self.unsteered {
-            num += force[i] * self.axles[i].k_sigma1;
-        }
-        for &i in &self.trailer {
-            num += force[i] * cs * self.axles[i].k_sigma1;
-        }
-        for &i in &self.steered {
-            num += force[i] * self.axles[i].k_sigma1;
-        }
-        for &i in &self.unsteered {
-            sigma2_dot += force[i] * self.axles[i].k_other;
-        }
-        for &i in &self.steered {
-            sigma2_dot += force[i] * self.axles[i].k_other;
-        }
-        for &i in &self.trailer {
-            sigma3_dot -= force[i] * self.axles[i].k_other;
+        for a in &self.eval {
+            match a.kind {
+                EvalKind::Trailer => {
+                    let t = -(-v * sn + s1 * cs
+                        - (kin.yaw_rate + kin.hitch_angle_rate) * a.position_m)
+                        / (v * cs + s1 * sn);
+                    let f = match a.state {
+                        None => a.tire.lateral_force_from_tan(t),
+                        Some(j) => {
+                            let vx = v * cs + s1 * sn;
+                            dx[j] = (t.atan() - x[j]) * vx * a.inv_sigma;
+                            a.tire.lateral_force(x[j])
+                        }
+                    };
+                    num += f * cs * a.k_sigma1;
+                    sigma3_dot -= f * a.k_other;
+                }
+                EvalKind::Unsteered | EvalKind::Steered => {
+                    let steered = a.kind == EvalKind::Steered;
+                    let r = (s1 + kin.yaw_rate * a.position_m) / v;
+                    let f = match a.state {
+                        None if steered => Self::steered_force(&a.tire, u.steering_angle, r),
+                        None => a.tire.lateral_force_from_tan(-r),
+                        Some(j) => {
+                            let alpha = if steered {
+                                u.steering_angle - r.atan()
+                            } else {
+                                (-r).atan()
+                            };
+                            dx[j] = (alpha - x[j]) * v * a.inv_sigma;
+                            a.tire.lateral_force(x[j])
+                        }
+                    };
+                    // the lateral component in the tractor's frame: F cos δ when steered
+                    let f = if steered && !plain_delta {
+                        f * cos_delta
+                    } else {
+                        f
+                    };
+                    num += f * a.k_sigma1;
+                    sigma2_dot += f * a.k_other;
+                }
+            }
         }
         if let Some(m) = m_tractor {
             num += m * self.k_moment_tractor;

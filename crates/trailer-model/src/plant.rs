@@ -127,16 +127,16 @@ pub trait Plant<const N: usize> {
                 "the full state is the reduced state plus ψ, x_H, y_H"
             )
         };
-        let xr: SVector<D, N> = x.fixed_rows::<N>(0).into_owned();
+        let xr = SVector::<D, N>::from_fn(|i, _| x[i]);
         let r = self.rhs(&xr, u);
         let (sp, cp) = x[N].sin_cos();
         let s1 = x[0];
-        let mut out = SVector::<D, M>::from_element(D::from(0.0));
-        out.fixed_rows_mut::<N>(0).copy_from(&r);
-        out[N] = self.yaw_rate(&xr);
-        out[N + 1] = u.speed * cp - s1 * sp;
-        out[N + 2] = u.speed * sp + s1 * cp;
-        out
+        let kinematics = [
+            self.yaw_rate(&xr),
+            u.speed * cp - s1 * sp,
+            u.speed * sp + s1 * cp,
+        ];
+        SVector::<D, M>::from_fn(|i, _| if i < N { r[i] } else { kinematics[i - N] })
     }
 
     /// Exact Jacobian ∂f/∂x (N×N) of the reduced system and ∂f/∂δ (forward-mode AD).

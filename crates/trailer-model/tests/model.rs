@@ -1319,3 +1319,16 @@ mod plant_services {
         assert!(e.to_string().contains("trailer.axle"), "{e}");
     }
 }
+
+#[test]
+fn critical_speed_of_table_i_is_the_committed_one() {
+    // Reference: results/linear/summary.json as committed (computed before the plant
+    // abstraction existed): V_crit = 34.747923362676374 m/s, printed with 17 significant
+    // digits (serde_json round-trips f64). The search is shared with every Plant now; Table
+    // I's number must not move by one bit.
+    let v = table_i()
+        .critical_speed(&CriticalSpeedOptions::default())
+        .expect("V_crit")
+        .v_crit_mps;
+    assert_eq!(v, 34.747923362676374);
+}

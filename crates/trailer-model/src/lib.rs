@@ -4,6 +4,21 @@
 //! time-varying speed V(t) and steering angle δ, and the linearisation about straight
 //! running (eq. 9–11).
 //!
+//! Beyond the paper (issue 21): the plant abstraction [`Plant`] (any model with N reduced
+//! states, exact derivatives, linearisation, V_crit; [`Model`] is `Plant<4>`), and the
+//! general model [`VehicleModel`] built from a vehicle file [`VehicleSpec`] — axle lists
+//! (tandems), a tyre law per axle, first-order tyre relaxation, hitch damping — with
+//! [`AnyVehicleModel`] / [`with_plant!`] choosing N at run time.
+//!
+//! ```
+//! use trailer_model::{CriticalSpeedOptions, Plant, VehicleModel, VehicleSpec};
+//!
+//! // Table I with relaxation length σ = 0.3 m on every axle: 4 + 3 states
+//! let model = VehicleModel::<7>::new(&VehicleSpec::table_i_with_relaxation(0.3)).unwrap();
+//! let vc = model.critical_speed(&CriticalSpeedOptions::default()).unwrap();
+//! assert!((vc.v_crit_mps - 32.58).abs() < 0.01);
+//! ```
+//!
 //! This crate knows nothing about files, plots or solvers: it evaluates right-hand sides
 //! and their exact derivatives. The right-hand sides are generic over the scalar type
 //! ([`num_dual::DualNum`]), so Jacobians are exact.
@@ -21,14 +36,24 @@
 //! assert!((vc.v_crit_mps - 34.0).abs() < 1.0);
 //! ```
 
+mod extended;
 mod linear;
 mod model;
 mod params;
+mod plant;
+mod spec;
 
+pub use extended::{AnyVehicleModel, AxleModel, MAX_STATES, VehicleModel};
 pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};
 pub use model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4, State7, YAW_ANGLE};
 pub use params::{
     AxleLoads, FrictionParams, PARAMETERS, TractorParams, TrailerParams, VehicleParams,
+};
+pub use plant::sorted_spectrum;
+pub use plant::{Plant, PlantLinearization, SwitchingKind};
+pub use spec::{
+    AxleSpec, DEFAULT_FRICTION_REGULARISATION_RAD_S, HitchSpec, MAX_AXLES, MIN_AXLE_SPACING_M,
+    ResolvedAxle, TractorSpec, TrailerSpec, Unit, VehicleSpec,
 };
 
 /// Errors of the model crate.
@@ -52,6 +77,39 @@ pub enum ModelError {
         /// the tire error
         #[source]
         source: tires::TireError,
+    },
+    /// A key of a vehicle file (the variants of [`VehicleSpec`]) violates a constraint.
+    #[error("invalid vehicle key `{key}` = {value}: expected {expected}")]
+    InvalidSpec {
+        /// key path, e.g. `trailer.axles[1].position_m`
+        key: String,
+        /// the offending value (NaN where the key is missing or a choice is wrong)
+        value: f64,
+        /// what was expected
+        expected: String,
+    },
+    /// The tyre law of an axle cannot be built.
+    #[error("`{key}`: {source}")]
+    TireSpec {
+        /// key path of the tyre law, e.g. `tractor.front_tire`
+        key: String,
+        /// the tyre error
+        #[source]
+        source: tires::TireError,
+    },
+    /// A [`VehicleModel`] was asked for a state count its vehicle does not have.
+    #[error(
+        "the vehicle has {relaxed} relaxing axles, hence {expected} states, not {requested}{hint}"
+    )]
+    StateCount {
+        /// axles with σ > 0
+        relaxed: usize,
+        /// 4 + relaxed
+        expected: usize,
+        /// the N asked for
+        requested: usize,
+        /// what to do
+        hint: &'static str,
     },
     /// No sign change of the open-loop spectral abscissa in the scanned speed range.
     #[error("no critical speed in [{v_min}, {v_max}] m/s: {detail}; widen the speed range")]

@@ -173,67 +173,82 @@ impl Model {
         &self,
         opts: &CriticalSpeedOptions,
     ) -> Result<Option<CriticalSpeed>, ModelError> {
-        let no_crossing = |detail| ModelError::NoCriticalSpeed {
-            v_min: opts.v_min,
-            v_max: opts.v_max,
-            detail,
-        };
-        let abscissa = |v: f64| {
-            let a = self.spectral_abscissa(v);
-            if a.is_finite() {
-                Ok(a)
-            } else {
-                Err(no_crossing(
-                    "the eigenvalues are not finite on the scanned range (speed beyond the model's range)",
-                ))
-            }
-        };
-        let mut lo = opts.v_min;
-        if abscissa(lo)? >= 0.0 {
-            return Err(no_crossing("straight running is already unstable at v_min"));
-        }
-        let mut hi = lo;
-        loop {
-            let next = (hi + opts.scan_step).min(opts.v_max);
-            if next <= hi {
-                // a step below the round-off of the speed would never reach v_max
-                return Err(no_crossing(
-                    "the scan step is below the round-off of the speed (the scan cannot advance)",
-                ));
-            }
-            hi = next;
-            if abscissa(hi)? >= 0.0 {
-                break;
-            }
-            if hi >= opts.v_max {
-                return Ok(None);
-            }
-            lo = hi;
-        }
-        // bisection down to the tolerance or to adjacent floating-point numbers (a
-        // tolerance below the round-off of the speed ends there instead of looping)
-        while hi - lo > opts.tolerance {
-            let mid = 0.5 * (lo + hi);
-            if mid <= lo || mid >= hi {
-                break;
-            }
-            if abscissa(mid)? < 0.0 {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        let v = 0.5 * (lo + hi);
-        let ev = self.open_loop_eigenvalues(v);
-        let dv = 1e-4;
-        let slope = (self.spectral_abscissa(v + dv) - self.spectral_abscissa(v - dv)) / (2.0 * dv);
-        Ok(Some(CriticalSpeed {
-            v_crit_mps: v,
-            hopf_omega_rad_s: ev[0].im.abs(),
-            hopf_frequency_hz: ev[0].im.abs() / (2.0 * std::f64::consts::PI),
-            crossing_speed: slope,
-        }))
+        critical_speed_scan(
+            opts,
+            |v| self.spectral_abscissa(v),
+            |v| self.open_loop_eigenvalues(v)[0],
+        )
     }
+}
+
+/// The scan and bisection of [`Model::critical_speed_search`] on any spectral abscissa
+/// `abscissa(V)` whose rightmost eigenvalue is `leading(V)` (shared by every
+/// [`crate::Plant`]).
+pub(crate) fn critical_speed_scan(
+    opts: &CriticalSpeedOptions,
+    spectral_abscissa: impl Fn(f64) -> f64,
+    leading: impl Fn(f64) -> Complex<f64>,
+) -> Result<Option<CriticalSpeed>, ModelError> {
+    let no_crossing = |detail| ModelError::NoCriticalSpeed {
+        v_min: opts.v_min,
+        v_max: opts.v_max,
+        detail,
+    };
+    let abscissa = |v: f64| {
+        let a = spectral_abscissa(v);
+        if a.is_finite() {
+            Ok(a)
+        } else {
+            Err(no_crossing(
+                "the eigenvalues are not finite on the scanned range (speed beyond the model's range)",
+            ))
+        }
+    };
+    let mut lo = opts.v_min;
+    if abscissa(lo)? >= 0.0 {
+        return Err(no_crossing("straight running is already unstable at v_min"));
+    }
+    let mut hi = lo;
+    loop {
+        let next = (hi + opts.scan_step).min(opts.v_max);
+        if next <= hi {
+            // a step below the round-off of the speed would never reach v_max
+            return Err(no_crossing(
+                "the scan step is below the round-off of the speed (the scan cannot advance)",
+            ));
+        }
+        hi = next;
+        if abscissa(hi)? >= 0.0 {
+            break;
+        }
+        if hi >= opts.v_max {
+            return Ok(None);
+        }
+        lo = hi;
+    }
+    // bisection down to the tolerance or to adjacent floating-point numbers (a
+    // tolerance below the round-off of the speed ends there instead of looping)
+    while hi - lo > opts.tolerance {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if abscissa(mid)? < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let v = 0.5 * (lo + hi);
+    let ev = leading(v);
+    let dv = 1e-4;
+    let slope = (spectral_abscissa(v + dv) - spectral_abscissa(v - dv)) / (2.0 * dv);
+    Ok(Some(CriticalSpeed {
+        v_crit_mps: v,
+        hopf_omega_rad_s: ev.im.abs(),
+        hopf_frequency_hz: ev.im.abs() / (2.0 * std::f64::consts::PI),
+        crossing_speed: slope,
+    }))
 }
 
 #[cfg(test)]

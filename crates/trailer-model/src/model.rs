@@ -68,58 +68,60 @@ pub struct SlipAngles<D = f64> {
 /// eq. (7) and the three tires, so evaluating the right-hand side allocates nothing.
 #[derive(Debug, Clone)]
 pub struct Model {
-    params: VehicleParams,
+    pub(crate) params: VehicleParams,
     loads: AxleLoads,
     front_tire: BrushTire,
     rear_tire: BrushTire,
     trailer_tire: BrushTire,
     // geometry used by the slip angles
-    f: f64,
-    c: f64,
-    l: f64,
-    i1: f64,
-    i2: f64,
-    p: [f64; 16], // p[1..=15] of eq. (7); p[0] unused
-    k: Derived,
+    pub(crate) f: f64,
+    pub(crate) c: f64,
+    pub(crate) l: f64,
+    pub(crate) i1: f64,
+    pub(crate) i2: f64,
+    pub(crate) p: [f64; 16], // p[1..=15] of eq. (7); p[0] unused
+    pub(crate) k: Derived,
+    /// [`Model::critical_slip_tangents`], cached for the validity guard
+    pub(crate) critical_tangents: (f64, f64),
 }
 
 /// Products of the constants of eq. (6)–(7) that do not depend on the state, computed
 /// once so that the right-hand side does no redundant arithmetic.
 #[derive(Debug, Clone, Copy)]
-struct Derived {
+pub(crate) struct Derived {
     /// D(θ) = d0 + d_cos2·cos²θ + d_sin2·sin²θ (eq. 7)
-    d0: f64,
-    d_cos2: f64,
-    d_sin2: f64,
+    pub(crate) d0: f64,
+    pub(crate) d_cos2: f64,
+    pub(crate) d_sin2: f64,
     /// σ̇2 = s2_v1·V σ1 − s2_v2·V σ2 + s2_r·F_R + s2_f·F_F cos δ
-    s2_v1: f64,
-    s2_v2: f64,
-    s2_r: f64,
-    s2_f: f64,
+    pub(crate) s2_v1: f64,
+    pub(crate) s2_v2: f64,
+    pub(crate) s2_r: f64,
+    pub(crate) s2_f: f64,
     /// p12, p13, p14, p15 divided by I1·I2³ (σ̇3 of eq. 6 with the corrected prefactor)
-    q12: f64,
-    q13: f64,
-    q14: f64,
-    q15: f64,
+    pub(crate) q12: f64,
+    pub(crate) q13: f64,
+    pub(crate) q14: f64,
+    pub(crate) q15: f64,
     /// m1 d / I1 and m2 h / I2 (eq. 4–5)
-    m1d_i1: f64,
-    m2h_i2: f64,
+    pub(crate) m1d_i1: f64,
+    pub(crate) m2h_i2: f64,
 }
 
 /// State-dependent quantities shared by the slip angles and the right-hand side.
 #[derive(Debug, Clone, Copy)]
-struct Kinematics<D> {
-    sin_theta: D,
-    cos_theta: D,
-    yaw_rate: D,
-    hitch_angle_rate: D,
+pub(crate) struct Kinematics<D> {
+    pub(crate) sin_theta: D,
+    pub(crate) cos_theta: D,
+    pub(crate) yaw_rate: D,
+    pub(crate) hitch_angle_rate: D,
 }
 
 /// Whether `x` is a plain number (no derivative parts) equal to ±0: then tan x = ±0 and
 /// cos x = 1 exactly, and the hot loop skips the calls. (A dual number's `is_zero` looks at
 /// its real part only, so duals always take the calls.)
 #[inline]
-fn is_plain_zero<D: DualNum<Primitive = f64> + Copy>(x: D) -> bool {
+pub(crate) fn is_plain_zero<D: DualNum<Primitive = f64> + Copy>(x: D) -> bool {
     D::NDERIV == 0 && x.re() == 0.0
 }
 
@@ -182,7 +184,7 @@ impl Model {
             m1d_i1: m1 * d / i1,
             m2h_i2: m2 * h / i2,
         };
-        Ok(Self {
+        let mut model = Self {
             params,
             loads,
             front_tire,
@@ -195,7 +197,10 @@ impl Model {
             i2,
             p,
             k,
-        })
+            critical_tangents: (f64::INFINITY, f64::INFINITY),
+        };
+        model.critical_tangents = model.critical_slip_tangents();
+        Ok(model)
     }
 
     /// The parameters the model was built from.
@@ -244,7 +249,10 @@ impl Model {
         self.kinematics(x).hitch_angle_rate
     }
 
-    fn kinematics<D: DualNum<Primitive = f64> + Copy>(&self, x: &State4<D>) -> Kinematics<D> {
+    pub(crate) fn kinematics<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &State4<D>,
+    ) -> Kinematics<D> {
         let (s1, s2, s3) = (x[0], x[1], x[2]);
         let (sin_theta, cos_theta) = x[3].sin_cos();
         Kinematics {
@@ -299,7 +307,7 @@ impl Model {
     /// tan α_F = (tan δ − r_F)/(1 + r_F tan δ) for α_F = δ − atan r_F; `None` where
     /// 1 + r_F tan δ ≤ 0 (|α_F| ≥ π/2). At δ = 0 no trigonometric function is called.
     #[inline]
-    fn front_slip_tangent(steering_angle: f64, r: f64) -> Option<f64> {
+    pub(crate) fn front_slip_tangent(steering_angle: f64, r: f64) -> Option<f64> {
         if steering_angle == 0.0 {
             return Some(-r);
         }

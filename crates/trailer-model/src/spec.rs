@@ -1,0 +1,745 @@
+//! The vehicle file with the model variants of issue 21: per-axle tyre laws, tyre
+//! relaxation, axle lists (tandems) and hitch damping, as serde data with validation.
+//!
+//! Every key of today's `configs/vehicle.toml` ([`VehicleParams`]) keeps its meaning; the new
+//! keys are optional and default to the paper's model:
+//!
+//! ```toml
+//! [tractor]                       # as in configs/vehicle.toml, plus optionally
+//! front_relaxation_length_m = 0.3 # σ [m] of the front axle (default 0: no lag)
+//! rear_relaxation_length_m = 0.3
+//! front_tire = { law = "magic_formula", shape_factor = 1.536, peak_friction = 0.9 }
+//! rear_tire = { law = "linear" }  # default { law = "brush" } with [friction]
+//!
+//! [trailer]                       # either `axle` + `cornering_stiffness` (+ `tire`,
+//! mass = 985.0                    #   `relaxation_length_m`) or a list of axles:
+//! yaw_inertia = 1416.0
+//! cog = 2.9
+//! [[trailer.axles]]
+//! position_m = 2.4                # behind the hitch (tractor: in front of it) [m]
+//! cornering_stiffness = 25e3      # [N/rad]
+//! [[trailer.axles]]
+//! position_m = 3.2
+//! cornering_stiffness = 25e3
+//! relaxation_length_m = 0.3       # optional, as `tire` = { law = … }
+//!
+//! [hitch]                         # optional: a friction sway-control device
+//! yaw_damping_nms = 0.0           # c_h [N m s/rad], viscous
+//! friction_torque_nm = 400.0      # M_c [N m], Coulomb
+//! friction_regularisation_rad_s = 0.02   # ω_c [rad/s] (default 0.02)
+//! ```
+//!
+//! A tractor axle list marks its steered axles with `steered = true` (at least one steered and
+//! one unsteered axle). Static loads of a group of axles (the tractor's steered axles, its
+//! unsteered axles, the trailer's axles) follow from the statics of Fig. 2 with the group at
+//! the mean position of its axles, shared **equally** by the axles of the group (the
+//! load-equalising suspension of a tandem). For the trailer this is exact statics: equal
+//! loads F at l₁, l₂ balance the moment m2·g·h about the hitch iff F·(l₁ + l₂) = m2·g·h, the
+//! load of one axle at (l₁ + l₂)/2.
+
+use serde::{Deserialize, Serialize};
+use tires::{TireLaw, TireLawSpec};
+
+use crate::{AxleLoads, FrictionParams, ModelError, TractorParams, TrailerParams, VehicleParams};
+
+/// Axles of one unit closer than this \[m\] overlap (less than a small trailer wheel's
+/// diameter): an error in a vehicle file ([`VehicleSpec::validate`]), usually a duplicated
+/// entry. The model itself accepts coincident axles.
+pub const MIN_AXLE_SPACING_M: f64 = 0.3;
+
+/// Default ω_c \[rad/s\] of the regularised Coulomb friction at the hitch.
+pub const DEFAULT_FRICTION_REGULARISATION_RAD_S: f64 = 0.02;
+
+/// Most axles a vehicle may have (both units together).
+pub const MAX_AXLES: usize = 8;
+
+/// One axle of a unit in the list form.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxleSpec {
+    /// distance \[m\] from the hitch: forward on the tractor, backward on the trailer (> 0)
+    pub position_m: f64,
+    /// cornering stiffness C_α of the axle (all its tyres) \[N/rad\]
+    pub cornering_stiffness: f64,
+    /// whether the axle turns with the steering angle δ (tractor only)
+    #[serde(default)]
+    pub steered: bool,
+    /// the tyre law (default: brush with the vehicle's friction)
+    #[serde(default)]
+    pub tire: TireLawSpec,
+    /// relaxation length σ \[m\] of the first-order slip lag (0: instantaneous)
+    #[serde(default)]
+    pub relaxation_length_m: f64,
+}
+
+/// The towing car: Table I's keys (the axle keys optional when `axles` is given) plus the
+/// per-axle tyre law and relaxation length of the paper's two axles. The fields are in the
+/// order of [`TractorParams`], so a file of the paper's form serialises as it does.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TractorSpec {
+    /// m1 \[kg\]
+    pub mass: f64,
+    /// J1 \[kg m²\] about C1
+    pub yaw_inertia: f64,
+    /// f \[m\]: hitch → front (steered) axle (paper form)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub front_axle: Option<f64>,
+    /// d \[m\]: hitch → centre of gravity C1
+    pub cog: f64,
+    /// c \[m\]: hitch → rear axle (paper form)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rear_axle: Option<f64>,
+    /// C_F \[N/rad\] (paper form)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub front_cornering_stiffness: Option<f64>,
+    /// C_R \[N/rad\] (paper form)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rear_cornering_stiffness: Option<f64>,
+    /// tyre law of the front axle (paper form; default brush)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub front_tire: Option<TireLawSpec>,
+    /// tyre law of the rear axle (paper form; default brush)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rear_tire: Option<TireLawSpec>,
+    /// σ \[m\] of the front axle (paper form; default 0)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub front_relaxation_length_m: Option<f64>,
+    /// σ \[m\] of the rear axle (paper form; default 0)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rear_relaxation_length_m: Option<f64>,
+    /// the axles as a list (instead of the paper form's keys)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axles: Option<Vec<AxleSpec>>,
+}
+
+/// The trailer: Table I's keys (the axle keys optional when `axles` is given) plus the tyre
+/// law and relaxation length of its axle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrailerSpec {
+    /// m2 \[kg\]
+    pub mass: f64,
+    /// J2 \[kg m²\] about C2
+    pub yaw_inertia: f64,
+    /// h \[m\]: hitch → centre of gravity C2
+    pub cog: f64,
+    /// l \[m\]: hitch → axle (paper form)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axle: Option<f64>,
+    /// C_T \[N/rad\] (paper form)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cornering_stiffness: Option<f64>,
+    /// tyre law of the axle (paper form; default brush)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tire: Option<TireLawSpec>,
+    /// σ \[m\] of the axle (paper form; default 0)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relaxation_length_m: Option<f64>,
+    /// the axles as a list (instead of the paper form's keys)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axles: Option<Vec<AxleSpec>>,
+}
+
+/// Yaw damping at the hitch (a friction sway-control device): the torque on the trailer
+/// about the hitch is −T_h with T_h = c_h·θ̇ + M_c·sat(θ̇/ω_c), and +T_h on the tractor.
+///
+/// The Coulomb torque M_c·sgn θ̇ is regularised as a saturation: linear (a viscous damping
+/// M_c/ω_c) for |θ̇| < ω_c, exactly M_c·sgn θ̇ beyond. Its kinks at |θ̇| = ω_c are declared as
+/// the switching function θ̇² − ω_c² ([`crate::SwitchingKind::HitchFriction`]). The
+/// linearisation about straight running sees the damping c_h + M_c/ω_c.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HitchSpec {
+    /// viscous yaw damping c_h \[N m s/rad\] (default 0)
+    #[serde(default)]
+    pub yaw_damping_nms: f64,
+    /// Coulomb friction torque M_c \[N m\] (default 0)
+    #[serde(default)]
+    pub friction_torque_nm: f64,
+    /// regularisation ω_c \[rad/s\] of the Coulomb torque (default 0.02 rad/s)
+    #[serde(default = "default_regularisation")]
+    pub friction_regularisation_rad_s: f64,
+}
+
+fn default_regularisation() -> f64 {
+    DEFAULT_FRICTION_REGULARISATION_RAD_S
+}
+
+impl Default for HitchSpec {
+    fn default() -> Self {
+        Self {
+            yaw_damping_nms: 0.0,
+            friction_torque_nm: 0.0,
+            friction_regularisation_rad_s: DEFAULT_FRICTION_REGULARISATION_RAD_S,
+        }
+    }
+}
+
+impl HitchSpec {
+    /// No torque at the hitch (the paper's frictionless hitch).
+    pub fn is_free(&self) -> bool {
+        self.yaw_damping_nms == 0.0 && self.friction_torque_nm == 0.0
+    }
+}
+
+fn is_default_hitch(h: &HitchSpec) -> bool {
+    *h == HitchSpec::default()
+}
+
+fn default_gravity() -> f64 {
+    9.81
+}
+
+/// A vehicle file: [`VehicleParams`]' keys with the optional variants. [`From<VehicleParams>`]
+/// gives the paper's model; [`VehicleSpec::equivalent_params`] the single-axle vehicle of the
+/// paper's form (identical to the file's keys when it has that form).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleSpec {
+    /// the towing car
+    pub tractor: TractorSpec,
+    /// the trailer
+    pub trailer: TrailerSpec,
+    /// tyre–road friction of the brush tyres (eq. 15)
+    pub friction: FrictionParams,
+    /// g \[m/s²\]
+    #[serde(default = "default_gravity")]
+    pub gravity: f64,
+    /// torque at the hitch (default: none)
+    #[serde(default, skip_serializing_if = "is_default_hitch")]
+    pub hitch: HitchSpec,
+}
+
+/// Which body an axle belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Unit {
+    /// the towing car (positions forward of the hitch)
+    Tractor,
+    /// the trailer (positions behind the hitch)
+    Trailer,
+}
+
+/// One axle, resolved: the list form of either unit's axles, with its key path in the file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResolvedAxle {
+    /// unit
+    pub unit: Unit,
+    /// the axle's spec
+    pub spec: AxleSpec,
+    /// key path of the axle in the file (`tractor.axles[1]`, or `tractor.front_axle` …)
+    pub key: String,
+    /// key of its position, for error messages
+    pub position_key: String,
+    /// key prefix of its tyre and relaxation (`tractor.front_` / `trailer.axles[0].`)
+    pub prefix: String,
+}
+
+impl From<VehicleParams> for VehicleSpec {
+    fn from(p: VehicleParams) -> Self {
+        Self {
+            tractor: TractorSpec {
+                mass: p.tractor.mass,
+                yaw_inertia: p.tractor.yaw_inertia,
+                cog: p.tractor.cog,
+                front_axle: Some(p.tractor.front_axle),
+                rear_axle: Some(p.tractor.rear_axle),
+                front_cornering_stiffness: Some(p.tractor.front_cornering_stiffness),
+                rear_cornering_stiffness: Some(p.tractor.rear_cornering_stiffness),
+                front_tire: None,
+                rear_tire: None,
+                front_relaxation_length_m: None,
+                rear_relaxation_length_m: None,
+                axles: None,
+            },
+            trailer: TrailerSpec {
+                mass: p.trailer.mass,
+                yaw_inertia: p.trailer.yaw_inertia,
+                cog: p.trailer.cog,
+                axle: Some(p.trailer.axle),
+                cornering_stiffness: Some(p.trailer.cornering_stiffness),
+                tire: None,
+                relaxation_length_m: None,
+                axles: None,
+            },
+            friction: p.friction,
+            gravity: p.gravity,
+            hitch: HitchSpec::default(),
+        }
+    }
+}
+
+fn invalid(key: impl Into<String>, value: f64, expected: impl Into<String>) -> ModelError {
+    ModelError::InvalidSpec {
+        key: key.into(),
+        value,
+        expected: expected.into(),
+    }
+}
+
+fn mean(xs: impl Iterator<Item = f64>) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for x in xs {
+        sum += x;
+        n += 1;
+    }
+    sum / n as f64
+}
+
+impl VehicleSpec {
+    /// Table I with every axle given relaxation length σ \[m\] (issue 21's first variant).
+    pub fn table_i_with_relaxation(sigma_m: f64) -> Self {
+        let mut s = Self::from(VehicleParams::default());
+        s.tractor.front_relaxation_length_m = Some(sigma_m);
+        s.tractor.rear_relaxation_length_m = Some(sigma_m);
+        s.trailer.relaxation_length_m = Some(sigma_m);
+        s
+    }
+
+    /// The axles of both units in the list form, tractor first, each in file order.
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidSpec`] when a unit mixes the paper form's axle keys with
+    /// `axles`, or gives neither completely.
+    pub fn resolved_axles(&self) -> Result<Vec<ResolvedAxle>, ModelError> {
+        let mut out = Vec::new();
+        let t = &self.tractor;
+        let paper_keys = [
+            ("tractor.front_axle", t.front_axle.is_some()),
+            ("tractor.rear_axle", t.rear_axle.is_some()),
+            (
+                "tractor.front_cornering_stiffness",
+                t.front_cornering_stiffness.is_some(),
+            ),
+            (
+                "tractor.rear_cornering_stiffness",
+                t.rear_cornering_stiffness.is_some(),
+            ),
+            ("tractor.front_tire", t.front_tire.is_some()),
+            ("tractor.rear_tire", t.rear_tire.is_some()),
+            (
+                "tractor.front_relaxation_length_m",
+                t.front_relaxation_length_m.is_some(),
+            ),
+            (
+                "tractor.rear_relaxation_length_m",
+                t.rear_relaxation_length_m.is_some(),
+            ),
+        ];
+        match &t.axles {
+            Some(list) => {
+                if let Some((key, _)) = paper_keys.iter().find(|(_, given)| *given) {
+                    return Err(invalid(
+                        *key,
+                        f64::NAN,
+                        "either the paper form's axle keys or `tractor.axles`, not both",
+                    ));
+                }
+                for (i, a) in list.iter().enumerate() {
+                    out.push(ResolvedAxle {
+                        unit: Unit::Tractor,
+                        spec: *a,
+                        key: format!("tractor.axles[{i}]"),
+                        position_key: format!("tractor.axles[{i}].position_m"),
+                        prefix: format!("tractor.axles[{i}]."),
+                    });
+                }
+            }
+            None => {
+                let need = |key: &str, v: Option<f64>| {
+                    v.ok_or_else(|| invalid(key, f64::NAN, "a value (or the list `tractor.axles`)"))
+                };
+                let f = need("tractor.front_axle", t.front_axle)?;
+                let c = need("tractor.rear_axle", t.rear_axle)?;
+                let cf = need(
+                    "tractor.front_cornering_stiffness",
+                    t.front_cornering_stiffness,
+                )?;
+                let cr = need(
+                    "tractor.rear_cornering_stiffness",
+                    t.rear_cornering_stiffness,
+                )?;
+                out.push(ResolvedAxle {
+                    unit: Unit::Tractor,
+                    spec: AxleSpec {
+                        position_m: f,
+                        cornering_stiffness: cf,
+                        steered: true,
+                        tire: t.front_tire.unwrap_or_default(),
+                        relaxation_length_m: t.front_relaxation_length_m.unwrap_or(0.0),
+                    },
+                    key: "tractor.front_axle".into(),
+                    position_key: "tractor.front_axle".into(),
+                    prefix: "tractor.front_".into(),
+                });
+                out.push(ResolvedAxle {
+                    unit: Unit::Tractor,
+                    spec: AxleSpec {
+                        position_m: c,
+                        cornering_stiffness: cr,
+                        steered: false,
+                        tire: t.rear_tire.unwrap_or_default(),
+                        relaxation_length_m: t.rear_relaxation_length_m.unwrap_or(0.0),
+                    },
+                    key: "tractor.rear_axle".into(),
+                    position_key: "tractor.rear_axle".into(),
+                    prefix: "tractor.rear_".into(),
+                });
+            }
+        }
+        let r = &self.trailer;
+        match &r.axles {
+            Some(list) => {
+                for (key, given) in [
+                    ("trailer.axle", r.axle.is_some()),
+                    (
+                        "trailer.cornering_stiffness",
+                        r.cornering_stiffness.is_some(),
+                    ),
+                    ("trailer.tire", r.tire.is_some()),
+                    (
+                        "trailer.relaxation_length_m",
+                        r.relaxation_length_m.is_some(),
+                    ),
+                ] {
+                    if given {
+                        return Err(invalid(
+                            key,
+                            f64::NAN,
+                            "either the paper form's axle keys or `trailer.axles`, not both",
+                        ));
+                    }
+                }
+                for (i, a) in list.iter().enumerate() {
+                    if a.steered {
+                        return Err(invalid(
+                            format!("trailer.axles[{i}].steered"),
+                            1.0,
+                            "false: only the tractor's axles are steered",
+                        ));
+                    }
+                    out.push(ResolvedAxle {
+                        unit: Unit::Trailer,
+                        spec: *a,
+                        key: format!("trailer.axles[{i}]"),
+                        position_key: format!("trailer.axles[{i}].position_m"),
+                        prefix: format!("trailer.axles[{i}]."),
+                    });
+                }
+            }
+            None => {
+                let l = r.axle.ok_or_else(|| {
+                    invalid(
+                        "trailer.axle",
+                        f64::NAN,
+                        "a value (or the list `trailer.axles`)",
+                    )
+                })?;
+                let ct = r.cornering_stiffness.ok_or_else(|| {
+                    invalid(
+                        "trailer.cornering_stiffness",
+                        f64::NAN,
+                        "a value (or the list `trailer.axles`)",
+                    )
+                })?;
+                out.push(ResolvedAxle {
+                    unit: Unit::Trailer,
+                    spec: AxleSpec {
+                        position_m: l,
+                        cornering_stiffness: ct,
+                        steered: false,
+                        tire: r.tire.unwrap_or_default(),
+                        relaxation_length_m: r.relaxation_length_m.unwrap_or(0.0),
+                    },
+                    key: "trailer.axle".into(),
+                    position_key: "trailer.axle".into(),
+                    prefix: "trailer.".into(),
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// The single-axle vehicle of the paper's form: each group of axles (steered, unsteered,
+    /// trailer) at the mean position of its axles with the sum of their cornering
+    /// stiffnesses. For a file in the paper's form these are its keys, exactly. Its static
+    /// loads are the group loads of the equal-load assumption (module docs).
+    ///
+    /// # Errors
+    /// As [`Self::resolved_axles`], and [`ModelError::InvalidSpec`] for a tractor without a
+    /// steered or an unsteered axle, or a trailer without axles.
+    pub fn equivalent_params(&self) -> Result<VehicleParams, ModelError> {
+        let axles = self.resolved_axles()?;
+        let group = |unit: Unit, steered: bool| {
+            axles
+                .iter()
+                .filter(move |a| a.unit == unit && a.spec.steered == steered)
+        };
+        let need = |unit: Unit, steered: bool, key: &str, what: &str| {
+            if group(unit, steered).next().is_none() {
+                Err(invalid(key, f64::NAN, what))
+            } else {
+                Ok(())
+            }
+        };
+        need(
+            Unit::Tractor,
+            true,
+            "tractor.axles",
+            "at least one steered axle (`steered = true`)",
+        )?;
+        need(
+            Unit::Tractor,
+            false,
+            "tractor.axles",
+            "at least one unsteered axle",
+        )?;
+        need(Unit::Trailer, false, "trailer.axles", "at least one axle")?;
+        let pos = |u, s| mean(group(u, s).map(|a| a.spec.position_m));
+        let stiff = |u, s| {
+            group(u, s)
+                .map(|a| a.spec.cornering_stiffness)
+                .fold(0.0, |acc, c| acc + c)
+        };
+        Ok(VehicleParams {
+            tractor: TractorParams {
+                mass: self.tractor.mass,
+                yaw_inertia: self.tractor.yaw_inertia,
+                front_axle: pos(Unit::Tractor, true),
+                cog: self.tractor.cog,
+                rear_axle: pos(Unit::Tractor, false),
+                front_cornering_stiffness: stiff(Unit::Tractor, true),
+                rear_cornering_stiffness: stiff(Unit::Tractor, false),
+            },
+            trailer: TrailerParams {
+                mass: self.trailer.mass,
+                yaw_inertia: self.trailer.yaw_inertia,
+                cog: self.trailer.cog,
+                axle: pos(Unit::Trailer, false),
+                cornering_stiffness: stiff(Unit::Trailer, false),
+            },
+            friction: self.friction,
+            gravity: self.gravity,
+        })
+    }
+
+    /// Static vertical load \[N\] of each axle of [`Self::resolved_axles`]: the group load of
+    /// the equivalent vehicle ([`AxleLoads`]) shared equally within the group.
+    ///
+    /// # Errors
+    /// As [`Self::equivalent_params`].
+    pub fn axle_loads(&self) -> Result<Vec<f64>, ModelError> {
+        let axles = self.resolved_axles()?;
+        let loads = AxleLoads::from_params(&self.equivalent_params()?);
+        let count = |unit: Unit, steered: bool| {
+            axles
+                .iter()
+                .filter(|a| a.unit == unit && a.spec.steered == steered)
+                .count() as f64
+        };
+        let (nf, nr, nt) = (
+            count(Unit::Tractor, true),
+            count(Unit::Tractor, false),
+            count(Unit::Trailer, false),
+        );
+        Ok(axles
+            .iter()
+            .map(|a| match (a.unit, a.spec.steered) {
+                (Unit::Tractor, true) => loads.front / nf,
+                (Unit::Tractor, false) => loads.rear / nr,
+                (Unit::Trailer, _) => loads.trailer / nt,
+            })
+            .collect())
+    }
+
+    /// The physical checks a model needs: the equivalent vehicle's ([`VehicleParams::validate`]),
+    /// every axle off the hitch (position > 0), positive stiffnesses, σ ≥ 0, at most
+    /// [`MAX_AXLES`] axles, the hitch's c_h ≥ 0, M_c ≥ 0, ω_c > 0, and each tyre law buildable.
+    /// Coincident axles are accepted (see [`Self::validate`]).
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidSpec`] / [`ModelError::InvalidParameter`] naming the key;
+    /// [`ModelError::TireSpec`] for a tyre law.
+    pub fn check_physics(&self) -> Result<Vec<TireLaw>, ModelError> {
+        let axles = self.resolved_axles()?;
+        if axles.len() > MAX_AXLES {
+            return Err(invalid(
+                "axles",
+                axles.len() as f64,
+                format!("at most {MAX_AXLES} axles in all"),
+            ));
+        }
+        for a in &axles {
+            let p = a.spec.position_m;
+            if !(p.is_finite() && p > 0.0) {
+                let side = match a.unit {
+                    Unit::Tractor => "in front of the hitch",
+                    Unit::Trailer => "behind the hitch",
+                };
+                return Err(invalid(
+                    a.position_key.clone(),
+                    p,
+                    format!(
+                        "a positive distance {side} (an axle on the hitch or on the wrong side is not a vehicle)"
+                    ),
+                ));
+            }
+            let c = a.spec.cornering_stiffness;
+            if !(c.is_finite() && c > 0.0) {
+                return Err(invalid(
+                    format!("{}cornering_stiffness", a.prefix),
+                    c,
+                    "a positive finite cornering stiffness [N/rad]",
+                ));
+            }
+            let s = a.spec.relaxation_length_m;
+            if !(s.is_finite() && s >= 0.0) {
+                return Err(invalid(
+                    format!("{}relaxation_length_m", a.prefix),
+                    s,
+                    "a relaxation length σ ≥ 0 m",
+                ));
+            }
+        }
+        let params = self.equivalent_params()?;
+        params.validate()?;
+        let h = &self.hitch;
+        for (key, v) in [
+            ("hitch.yaw_damping_nms", h.yaw_damping_nms),
+            ("hitch.friction_torque_nm", h.friction_torque_nm),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(key, v, "a finite value ≥ 0"));
+            }
+        }
+        let w = h.friction_regularisation_rad_s;
+        if !(w.is_finite() && w > 0.0) {
+            return Err(invalid(
+                "hitch.friction_regularisation_rad_s",
+                w,
+                "a positive regularisation ω_c [rad/s]",
+            ));
+        }
+        let loads = self.axle_loads()?;
+        axles
+            .iter()
+            .zip(loads)
+            .map(|(a, fz)| {
+                a.spec
+                    .tire
+                    .build(
+                        a.spec.cornering_stiffness,
+                        fz,
+                        self.friction.mu_static,
+                        self.friction.mu_dynamic,
+                    )
+                    .map_err(|source| ModelError::TireSpec {
+                        key: format!("{}tire", a.prefix),
+                        source,
+                    })
+            })
+            .collect()
+    }
+
+    /// The checks of a vehicle file: [`Self::check_physics`] and no two axles of a unit
+    /// closer than [`MIN_AXLE_SPACING_M`] (overlapping axles, usually a duplicated entry).
+    ///
+    /// # Errors
+    /// As [`Self::check_physics`]; [`ModelError::InvalidSpec`] naming the second axle.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        self.check_physics()?;
+        let axles = self.resolved_axles()?;
+        for (i, a) in axles.iter().enumerate() {
+            for b in &axles[..i] {
+                let gap = (a.spec.position_m - b.spec.position_m).abs();
+                if a.unit == b.unit && gap < MIN_AXLE_SPACING_M {
+                    return Err(invalid(
+                        a.position_key.clone(),
+                        a.spec.position_m,
+                        format!(
+                            "at least {MIN_AXLE_SPACING_M} m from `{}` ({} m): the axles overlap",
+                            b.key, b.spec.position_m
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the vehicle differs from the paper's model: more than one axle in a group
+    /// (steered, unsteered, trailer), a tyre law other than the brush tyre with the vehicle's
+    /// friction, σ > 0 on an axle, or a torque at the hitch. Without variants the model is
+    /// the paper's [`crate::Model`] of [`Self::equivalent_params`].
+    ///
+    /// # Errors
+    /// As [`Self::resolved_axles`].
+    pub fn has_variants(&self) -> Result<bool, ModelError> {
+        let axles = self.resolved_axles()?;
+        let count = |unit: Unit, steered: bool| {
+            axles
+                .iter()
+                .filter(|a| a.unit == unit && a.spec.steered == steered)
+                .count()
+        };
+        let one_each = count(Unit::Tractor, true) == 1
+            && count(Unit::Tractor, false) == 1
+            && count(Unit::Trailer, false) == 1;
+        let plain = axles
+            .iter()
+            .all(|a| a.spec.tire == TireLawSpec::default() && a.spec.relaxation_length_m == 0.0);
+        Ok(!(one_each && plain && self.hitch.is_free()))
+    }
+
+    /// A copy with parameter `index` of [`crate::PARAMETERS`] set to `value` (not validated),
+    /// for sweeps over the paper's keys on a vehicle with variants.
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidSpec`] for an axle key (f, c, C_F, C_R, l, C_T) of a unit given
+    /// as a list of axles (the key does not exist there).
+    pub fn with_parameter(&self, index: usize, value: f64) -> Result<Self, ModelError> {
+        let mut s = self.clone();
+        let t = &mut s.tractor;
+        let r = &mut s.trailer;
+        let slot: Option<&mut f64> = match index {
+            0 => Some(&mut t.mass),
+            1 => Some(&mut t.yaw_inertia),
+            2 => t.front_axle.as_mut(),
+            3 => Some(&mut t.cog),
+            4 => t.rear_axle.as_mut(),
+            5 => t.front_cornering_stiffness.as_mut(),
+            6 => t.rear_cornering_stiffness.as_mut(),
+            7 => Some(&mut r.mass),
+            8 => Some(&mut r.yaw_inertia),
+            9 => Some(&mut r.cog),
+            10 => r.axle.as_mut(),
+            11 => r.cornering_stiffness.as_mut(),
+            12 => Some(&mut s.friction.mu_static),
+            13 => Some(&mut s.friction.mu_dynamic),
+            _ => Some(&mut s.gravity),
+        };
+        match slot {
+            Some(v) => {
+                *v = value;
+                Ok(s)
+            }
+            None => Err(invalid(
+                crate::PARAMETERS[index.min(crate::PARAMETERS.len() - 1)].0,
+                value,
+                "a key of the paper's form: this unit's axles are a list (`axles`)",
+            )),
+        }
+    }
+
+    /// Number of axles with σ > 0: the relaxation states the model adds to the 4 of eq. (5)–(6).
+    ///
+    /// # Errors
+    /// As [`Self::resolved_axles`].
+    pub fn relaxed_axles(&self) -> Result<usize, ModelError> {
+        Ok(self
+            .resolved_axles()?
+            .iter()
+            .filter(|a| a.spec.relaxation_length_m > 0.0)
+            .count())
+    }
+}

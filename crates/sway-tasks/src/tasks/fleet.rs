@@ -112,6 +112,10 @@ pub fn markdown(rows: &[FleetRow], delay_s: f64) -> String {
     for r in rows {
         let e = &r.entry;
         let vc = match (e.v_crit_mps, e.stable_up_to_mps) {
+            // a real eigenvalue crosses: a static divergence, not sway
+            (Some(v), _) if e.hopf_frequency_hz == Some(0.0) => {
+                format!("{v:.3} (static divergence, ω = 0)")
+            }
             (Some(v), _) => format!("{v:.3}"),
             (None, Some(m)) => format!("none (stable up to {m} m/s)"),
             (None, None) => "–".into(),

@@ -48,6 +48,12 @@ pub trait ContinuationSystem {
     fn column_order(&self) -> Option<Vec<usize>> {
         None
     }
+    /// where the unknowns and equations sit on a collocation mesh, for the structured
+    /// solver of the bordered Newton systems ([`crate::LinearSolver::Krylov`]); None: one
+    /// sparse LU of the whole system
+    fn mesh_structure(&self) -> Option<crate::linalg::MeshStructure> {
+        None
+    }
     /// called on every accepted point (e.g. to update a phase-condition reference)
     fn accept(&mut self, _u: &[f64]) {}
     /// stability of the solution `u` (None if the system does not compute it)
@@ -329,7 +335,8 @@ fn bordered_step<S: ContinuationSystem>(
         NeedsDeterminant::Yes => Factorisation::WithDeterminant(order.as_deref()),
         NeedsDeterminant::No => Factorisation::Fast(order.as_deref()),
     };
-    let lu = SparseLu::new(nu, entries, factorisation, what)?;
+    let structure = sys.mesh_structure();
+    let lu = SparseLu::structured(nu, entries, factorisation, structure.as_ref(), what)?;
     solved(lu, residual, what)
 }
 
@@ -1040,6 +1047,61 @@ pub fn newton_step<S: ContinuationSystem>(
         "Newton step",
     )?;
     Ok(step.update)
+}
+
+/// Newton's method on the bordered system G(u) = 0, Σ w_i t_i (u_i − u0_i) = 0 from `u0`
+/// with chord iterations: a factorisation is kept while the updates shrink at least
+/// fourfold per iteration (the rate of the chord method is of the order of the update the
+/// factorisation was made at) and renewed otherwise. Converged when the largest update is
+/// at most `tolerance` times max(1, max |u_i|). Used where the same system is corrected
+/// from a close guess many times (the cycles the Floquet computation re-solves on a
+/// kink-resolved mesh).
+pub(crate) fn correct_with_chord<S: ContinuationSystem>(
+    sys: &mut S,
+    u0: &[f64],
+    tangent: &[f64],
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<Vec<f64>> {
+    let w = sys.weights();
+    let b = border(&w, tangent);
+    let mut u = u0.to_vec();
+    let mut entries = Vec::new();
+    let mut kept: Option<SparseLu> = None;
+    let mut last = f64::INFINITY;
+    let (mut size, mut residual) = (f64::NAN, f64::NAN);
+    for _ in 0..max_iterations {
+        let constraint = (0..u.len()).map(|i| b[i] * (u[i] - u0[i])).sum();
+        let step = match kept.take() {
+            Some(lu) => chord_step(sys, &u, constraint, lu, "Newton (chord)")?,
+            None => bordered_step(
+                sys,
+                &u,
+                &b,
+                constraint,
+                &mut entries,
+                NeedsDeterminant::No,
+                "Newton",
+            )?,
+        };
+        size = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        residual = step.residual_norm;
+        u.iter_mut().zip(&step.update).for_each(|(a, d)| *a += d);
+        let scale = u.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        if size <= tolerance * scale {
+            return Ok(u);
+        }
+        if size <= 0.25 * last {
+            kept = Some(step.lu);
+        }
+        last = size;
+    }
+    Err(Error::NewtonDivergence {
+        parameter: u[sys.parameter_index()],
+        iterations: max_iterations,
+        residual,
+        update: size,
+    })
 }
 
 /// Solutions on `branch` at the parameter value `p`: for every pair of consecutive points

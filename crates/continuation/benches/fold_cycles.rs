@@ -82,12 +82,14 @@ fn bench(c: &mut Criterion) {
                 b.iter(|| newton_step(&mut sys, black_box(&u), &t).expect("step"))
             });
             // the fold's cycle as a one-parameter cycle system: one Newton step of the
-            // plain periodic-orbit collocation of the delay equation
+            // plain periodic-orbit collocation of the delay equation, bordered with the
+            // branch's tangent at the fold, the null vector (v, v_T, 0) (the parameter
+            // direction is tangent to the fold's hyperplane there: that border is singular)
             let mut po = sys.periodic_system(&u).expect("cycle system");
             po.set_linear_solver(solver);
             let orbit = sys.orbit(&u).to_vec();
-            let mut e = vec![0.0; orbit.len()];
-            e[po.parameter_index()] = 1.0;
+            let mut e = sys.null_vector(&u).to_vec();
+            e.push(0.0);
             let name = format!("cycle_newton_step{suffix}");
             group.bench_with_input(BenchmarkId::new(name, l), &l, |b, _| {
                 b.iter(|| newton_step(&mut po, black_box(&orbit), &e).expect("step"))

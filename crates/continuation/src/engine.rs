@@ -10,7 +10,7 @@
 //! bordered determinant, whose change with a non-turning tangent marks a branch point.
 
 use crate::error::{Error, Result};
-use crate::linalg::{Determinant, Entry, Factorisation, SparseLu};
+use crate::linalg::{Determinant, Entry, Factorisation, SUPERNODAL_MIN_SIZE, SparseLu};
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
 use serde::{Deserialize, Serialize};
 
@@ -47,6 +47,14 @@ pub trait ContinuationSystem {
     /// COLAMD and lets faer choose simplicial or supernodal factors.
     fn column_order(&self) -> Option<Vec<usize>> {
         None
+    }
+    /// Whether the bordered Jacobian is banded in [`ContinuationSystem::column_order`] up
+    /// to its borders (an ODE's collocation: each interval couples with its neighbours
+    /// only): the simplicial LU in that order is then the fast one for every solve (and
+    /// gives the determinant for free), the supernodal factors' symbolic analysis costs
+    /// more than it saves (measured 4× on the trailer's open-loop cycle branch, L = 60).
+    fn banded(&self) -> bool {
+        false
     }
     /// where the unknowns and equations sit on a collocation mesh, for the structured
     /// solver of the bordered Newton systems ([`crate::LinearSolver::Krylov`]); None: one
@@ -327,17 +335,29 @@ fn bordered_step<S: ContinuationSystem>(
     determinant: NeedsDeterminant,
     what: &str,
 ) -> Result<BorderedStep> {
-    let nu = sys.n_unknowns();
     let residual = bordered_residual(sys, u, constraint)?;
+    let lu = bordered_lu(sys, u, border, entries, determinant, what)?;
+    solved(lu, residual, what)
+}
+
+/// The factorised bordered Jacobian [G_u(u); bᵀ] (`entries` is a reusable buffer).
+fn bordered_lu<S: ContinuationSystem>(
+    sys: &mut S,
+    u: &[f64],
+    border: &[f64],
+    entries: &mut Vec<Entry>,
+    determinant: NeedsDeterminant,
+    what: &str,
+) -> Result<SparseLu> {
+    let nu = sys.n_unknowns();
     bordered_jacobian(sys, u, border, entries)?;
     let order = sys.column_order();
     let factorisation = match determinant {
-        NeedsDeterminant::Yes => Factorisation::WithDeterminant(order.as_deref()),
-        NeedsDeterminant::No => Factorisation::Fast(order.as_deref()),
+        NeedsDeterminant::No if !sys.banded() => Factorisation::Fast(order.as_deref()),
+        _ => Factorisation::WithDeterminant(order.as_deref()),
     };
     let structure = sys.mesh_structure();
-    let lu = SparseLu::structured(nu, entries, factorisation, structure.as_ref(), what)?;
-    solved(lu, residual, what)
+    SparseLu::structured(nu, entries, factorisation, structure.as_ref(), what)
 }
 
 /// The Newton update −J⁻¹ r from the factorisation `lu` and the residual `(r, ‖r‖∞)`.
@@ -505,6 +525,13 @@ impl Continuation {
             NewtonUpdate::Chord { full } => it <= full.max(1),
         };
         let mut kept: Option<SparseLu> = None;
+        // small or banded systems: the one (simplicial) factorisation gives the
+        // determinant anyway
+        let iteration_determinant = if u.len() < SUPERNODAL_MIN_SIZE || sys.banded() {
+            self.needs_determinant(sys)
+        } else {
+            NeedsDeterminant::No
+        };
         for it in 1..=self.options.max_newton_iterations {
             let constraint = (0..u.len()).map(|i| b[i] * (u[i] - pred[i])).sum();
             let step = match kept.take() {
@@ -517,7 +544,7 @@ impl Continuation {
                     &b,
                     constraint,
                     &mut entries,
-                    self.needs_determinant(sys),
+                    iteration_determinant,
                     "Newton corrector",
                 )?,
             };
@@ -525,7 +552,21 @@ impl Continuation {
             let upd = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
             if upd <= self.options.newton_tolerance * (1.0 + u[ip].abs()) {
-                return Self::corrected(step.lu, u, w, it);
+                // the iterations use the fast factorisation (supernodal where large); where
+                // the branch-point test needs the determinant, the bordered Jacobian is
+                // factorised once more at the converged point with it (its tangent too)
+                let lu = match (self.needs_determinant(sys), iteration_determinant) {
+                    (NeedsDeterminant::Yes, NeedsDeterminant::No) => bordered_lu(
+                        sys,
+                        &u,
+                        &b,
+                        &mut entries,
+                        NeedsDeterminant::Yes,
+                        "Newton corrector (determinant)",
+                    )?,
+                    _ => step.lu,
+                };
+                return Self::corrected(lu, u, w, it);
             }
             kept = Some(step.lu);
             if it > 2 && upd > 2.0 * last_update {

@@ -562,8 +562,9 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     /// collocated on the orbit's mesh. For a problem with switching functions (kinks of
     /// the right-hand side) the cycle is first corrected on a mesh with points at its
     /// switching times and, for a delay equation, at those times carried along the delays
-    /// twice (where the kinks reappear in higher derivatives), repeated until that mesh
-    /// stops moving, and the monodromy computed there: without, the multipliers of a
+    /// twice (where the kinks reappear in higher derivatives), and the monodromy computed
+    /// there ([`PeriodicOrbitSystem::kink_resolved`]: one factorisation and a chord step or
+    /// two per cycle): without, the multipliers of a
     /// piecewise-smooth problem converge only like a low power of h, and the trivial
     /// multiplier of a cycle computed on one mesh but linearised on another is off by the
     /// cycle's error on the second mesh (3.5e-5 on the trailer's sway branch at L = 40).
@@ -577,8 +578,8 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         if self.problem.n_switching() == 0 {
             return self.monodromy_multipliers(u);
         }
-        let (mesh, orbit) = match self.kink_resolved(u) {
-            Ok(resolved) => resolved,
+        match self.kink_resolved(u) {
+            Ok((mut sys, orbit)) => sys.monodromy_multipliers(&orbit),
             Err(_) => {
                 // the correction failed: the switching times only inserted into the mesh
                 // (the cycle's polynomial pieces unchanged, split there)
@@ -594,25 +595,17 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                     }
                 }
                 fmesh.sort_by(f64::total_cmp);
-                let target = Self::with_mesh(
+                let mut target = Self::with_mesh(
                     self.problem,
                     self.params.clone(),
                     self.ip,
-                    fmesh.clone(),
+                    fmesh,
                     self.options.clone(),
                 )?;
-                (fmesh, self.remesh(u, &target))
+                let orbit = self.remesh(u, &target);
+                target.monodromy_multipliers(&orbit)
             }
-        };
-        let mut sys = Self::with_mesh(
-            self.problem,
-            self.params.clone(),
-            self.ip,
-            mesh,
-            self.options.clone(),
-        )?;
-        sys.linear_solver = self.linear_solver;
-        sys.monodromy_multipliers(&orbit)
+        }
     }
 
     /// The times s ∈ [0, 1) where the profile of u has kinks: the switching times
@@ -672,57 +665,38 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         out
     }
 
-    /// The cycle u corrected on a mesh with points at its switching times (the kinks of
-    /// the right-hand side, [`Problem::switching`]): the orbit mesh with the switching
-    /// times resolved ([`PeriodicOrbitSystem::mesh_with_points`]), the cycle interpolated
-    /// there and corrected by Newton with the parameter fixed, repeated with the switching
-    /// times of the corrected cycle until the mesh stops moving (at most 4 rounds). On such
-    /// a mesh the collocation keeps its order (a kink inside an interval limits it to
-    /// O(h³)), and the corrected cycle solves the discretisation on which its monodromy is
-    /// computed, so that the trivial multiplier is 1 to that order. Returns (mesh, u).
-    fn kink_resolved(&mut self, u: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
-        let mut mesh = self.mesh.clone();
-        let mut orbit = u.to_vec();
-        for _ in 0..4 {
-            let mut current = Self::with_mesh(
-                self.problem,
-                self.params.clone(),
-                self.ip,
-                mesh.clone(),
-                self.options.clone(),
-            )?;
-            let times = current.kink_times(&orbit, KINK_GENERATIONS);
-            let next = Self::mesh_with_points(&self.mesh, &times);
-            let hmin = next
-                .windows(2)
-                .map(|w| w[1] - w[0])
-                .fold(f64::INFINITY, f64::min);
-            if next.len() == mesh.len()
-                && next
-                    .iter()
-                    .zip(&mesh)
-                    .all(|(a, b)| (a - b).abs() <= 1e-10 * hmin)
-            {
-                break;
-            }
-            let mut target = Self::with_mesh(
-                self.problem,
-                self.params.clone(),
-                self.ip,
-                next,
-                self.options.clone(),
-            )?;
-            target.linear_solver = self.linear_solver;
-            let v = current.remesh(&orbit, &target);
-            target.set_reference(&v);
-            let nu = v.len();
-            let mut e = vec![0.0; nu];
-            e[nu - 1] = 1.0;
-            let v = crate::engine::correct_with_chord(&mut target, &v, &e, 1e-10, 12)?;
-            mesh = target.mesh;
-            orbit = v;
-        }
-        Ok((mesh, orbit))
+    /// The cycle u corrected on a mesh with points at its kinks: the orbit mesh with the
+    /// kink times of u resolved ([`PeriodicOrbitSystem::kink_times`],
+    /// [`PeriodicOrbitSystem::mesh_with_points`]), the cycle interpolated there and corrected
+    /// by chord Newton with the parameter fixed. On such a mesh the collocation keeps its
+    /// order (a kink inside an interval limits it to O(h³)), and the corrected cycle solves
+    /// the discretisation on which its monodromy is computed, so that the trivial
+    /// multiplier is 1 to that order. One round suffices: the corrected cycle's kinks differ
+    /// from u's by the cycle's error (≲ 1e-4 of the period), and a kink that far inside an
+    /// interval costs the collocation its cube, below 1e-12. The interpolated cycle is
+    /// within the collocation error (~1e-7) of the corrected one, so that one factorisation
+    /// and a chord step or two converge (a factorisation kept from the neighbouring cycle
+    /// of a branch was tried: its kink mesh differs topologically often enough that the
+    /// chord iteration diverged and cost more than it saved). Returns the system on the
+    /// kink mesh and the corrected cycle.
+    fn kink_resolved(&mut self, u: &[f64]) -> Result<(Self, Vec<f64>)> {
+        let times = self.kink_times(u, KINK_GENERATIONS);
+        let mesh = Self::mesh_with_points(&self.mesh, &times);
+        let mut target = Self::with_mesh(
+            self.problem,
+            self.params.clone(),
+            self.ip,
+            mesh,
+            self.options.clone(),
+        )?;
+        target.linear_solver = self.linear_solver;
+        let v = self.remesh(u, &target);
+        target.set_reference(&v);
+        let nu = v.len();
+        let mut e = vec![0.0; nu];
+        e[nu - 1] = 1.0;
+        let v = crate::engine::correct_with_chord(&mut target, &v, &e, 1e-10, 12)?;
+        Ok((target, v))
     }
 
     /// Floquet multipliers from the discretised monodromy operator on this system's mesh
@@ -829,12 +803,16 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                 parameter: u[u.len() - 1],
             });
         }
-        let lu = SparseLu::new(
-            n * np,
-            &ap,
-            Factorisation::Fast(None),
-            "monodromy (collocation)",
-        )?;
+        // an ODE's initial-value collocation is block bidiagonal in the natural order: the
+        // simplicial LU in that order (no fill); a delay equation's: supernodes
+        let natural: Vec<usize>;
+        let factorisation = if k == 0 {
+            natural = (0..n * np).collect();
+            Factorisation::WithDeterminant(Some(&natural))
+        } else {
+            Factorisation::Fast(None)
+        };
+        let lu = SparseLu::new(n * np, &ap, factorisation, "monodromy (collocation)")?;
         lu.solve_mat(&mut ah, "monodromy (collocation)")?;
         let dim = n * nh;
         let mut mono = Mat::<f64>::zeros(dim, dim);
@@ -1045,6 +1023,12 @@ impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
     /// periodic wrap-around border (measured faster than COLAMD, see benches/collocation.rs)
     fn column_order(&self) -> Option<Vec<usize>> {
         Some((0..self.n_unknowns()).collect())
+    }
+
+    /// an ODE's collocation is banded in the natural order (up to the periodic wrap and
+    /// the borders); a delay equation's reaches τ/T of the period back
+    fn banded(&self) -> bool {
+        self.problem.n_delays() == 0
     }
 
     fn mesh_structure(&self) -> Option<MeshStructure> {

@@ -54,7 +54,7 @@ fn check(feedback: Feedback, options: DiagramOptions) {
 #[test]
 fn trivial_multiplier_of_open_loop_sway_cycles_is_one() {
     // reference: exactly 1 (autonomous system); tolerance 1e-6 (issue 23 item 3), on the
-    // fig3a branch with a coarser mesh (L = 20; fig3a uses 60): measured 8.0e-8
+    // fig3a branch with a coarser mesh (L = 20; fig3a uses 60): measured 7.3e-8
     check(
         Feedback::OPEN_LOOP,
         DiagramOptions {
@@ -68,7 +68,7 @@ fn trivial_multiplier_of_open_loop_sway_cycles_is_one() {
 #[test]
 fn trivial_multiplier_of_delayed_closed_loop_sway_cycles_is_one() {
     // reference: exactly 1; tolerance 1e-6, on fig4b's delayed pair τ = 0.2 s, D = 0.1 s
-    // with fig4b's mesh L = 40 (measured 9.4e-8; 3.6e-6 on L = 20, 2.5e-4 there with mesh
+    // with fig4b's mesh L = 40 (measured 1.6e-7; 3.6e-6 on L = 20, 2.5e-4 there with mesh
     // points at the switching times only, not at the kinks carried along the delay)
     check(
         Feedback {

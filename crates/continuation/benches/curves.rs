@@ -4,8 +4,8 @@
 //! degree N, 8 rightmost roots, Newton-refined) at every point and codimension-two points
 //! (two double-Hopf points) located. The spectrum dominates the cost: N = 30 (the default)
 //! and N = 20 (enough for the rightmost roots here: |λ|τ ≲ 15) are measured.
-use continuation::textbook::DelayedOscillators;
 use continuation::*;
+use continuation_textbook::DelayedOscillators;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 

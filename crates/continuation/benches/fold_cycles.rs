@@ -2,8 +2,8 @@
 //! number of mesh intervals L, and of a whole curve of 80 points, on a 4-dimensional delayed
 //! problem: two coupled Bautin oscillators with delayed cubic terms (the in-phase rotating
 //! waves have folds of cycles).
-use continuation::textbook::DelayedBautin;
 use continuation::*;
+use continuation_textbook::DelayedBautin;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::f64::consts::PI;
 use std::hint::black_box;
@@ -71,9 +71,31 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for &l in &[20usize, 40, 80, 160] {
         let (mut sys, u, t) = fold_start(&problem, l, false);
-        group.bench_with_input(BenchmarkId::new("newton_step", l), &l, |b, _| {
-            b.iter(|| newton_step(&mut sys, black_box(&u), &t).expect("step"))
-        });
+        // the default solver (LinearSolver::Auto) and the sparse LU of the whole system
+        for (solver, suffix) in [
+            (LinearSolver::Auto, ""),
+            (LinearSolver::SparseLu, "_sparse_lu"),
+        ] {
+            sys.set_linear_solver(solver);
+            let name = format!("newton_step{suffix}");
+            group.bench_with_input(BenchmarkId::new(name, l), &l, |b, _| {
+                b.iter(|| newton_step(&mut sys, black_box(&u), &t).expect("step"))
+            });
+            // the fold's cycle as a one-parameter cycle system: one Newton step of the
+            // plain periodic-orbit collocation of the delay equation, bordered with the
+            // branch's tangent at the fold, the null vector (v, v_T, 0) (the parameter
+            // direction is tangent to the fold's hyperplane there: that border is singular)
+            let mut po = sys.periodic_system(&u).expect("cycle system");
+            po.set_linear_solver(solver);
+            let orbit = sys.orbit(&u).to_vec();
+            let mut e = sys.null_vector(&u).to_vec();
+            e.push(0.0);
+            let name = format!("cycle_newton_step{suffix}");
+            group.bench_with_input(BenchmarkId::new(name, l), &l, |b, _| {
+                b.iter(|| newton_step(&mut po, black_box(&orbit), &e).expect("step"))
+            });
+        }
+        sys.set_linear_solver(LinearSolver::Auto);
     }
     for multipliers in [false, true] {
         let (mut sys, u, t) = fold_start(&problem, CURVE_INTERVALS, multipliers);

@@ -2,8 +2,8 @@
 //! mesh intervals L, and of a whole torus curve of 40 points, on the 4-dimensional delayed
 //! test bed of `textbook::TorusTestBed` (τ = 2.5, τ/T ≈ 0.4), started at its double-Hopf
 //! point on the torus curve of cycle 1.
-use continuation::textbook::TorusTestBed;
 use continuation::*;
+use continuation_textbook::TorusTestBed;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 

@@ -6,15 +6,15 @@
 //!
 //! keeps the cycles z = √μ e^{it} (period 2π) of the undelayed oscillator for every κ, τ, so
 //! the table can be checked by eye: the amplitude column must equal √μ and the period 2π.
-//! The problem is [`continuation::textbook::DelayedStuartLandau`], with its Jacobian supplied
+//! The problem is [`continuation_textbook::DelayedStuartLandau`], with its Jacobian supplied
 //! exactly. Run with
 //!
 //! ```text
 //! cargo run --example delayed_hopf -p continuation
 //! ```
 
-use continuation::textbook::DelayedStuartLandau;
 use continuation::*;
+use continuation_textbook::DelayedStuartLandau;
 use std::f64::consts::PI;
 
 fn main() -> Result<()> {

@@ -3,8 +3,8 @@
 //! both torus curves started there and compared with their closed forms.
 //!
 //! Run with `cargo run --release -p continuation --example torus_curve`.
-use continuation::textbook::TorusTestBed;
 use continuation::*;
+use continuation_textbook::TorusTestBed;
 
 fn main() -> Result<()> {
     let bed = TorusTestBed::delayed();

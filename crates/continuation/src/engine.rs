@@ -10,7 +10,7 @@
 //! bordered determinant, whose change with a non-turning tangent marks a branch point.
 
 use crate::error::{Error, Result};
-use crate::linalg::{Determinant, Entry, Factorisation, SparseLu};
+use crate::linalg::{Determinant, Entry, Factorisation, SUPERNODAL_MIN_SIZE, SparseLu};
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
 use serde::{Deserialize, Serialize};
 
@@ -46,6 +46,20 @@ pub trait ContinuationSystem {
     /// the engine needs the determinant (branch-point test); elsewhere the engine orders by
     /// COLAMD and lets faer choose simplicial or supernodal factors.
     fn column_order(&self) -> Option<Vec<usize>> {
+        None
+    }
+    /// Whether the bordered Jacobian is banded in [`ContinuationSystem::column_order`] up
+    /// to its borders (an ODE's collocation: each interval couples with its neighbours
+    /// only): the simplicial LU in that order is then the fast one for every solve (and
+    /// gives the determinant for free), the supernodal factors' symbolic analysis costs
+    /// more than it saves (measured 4× on the trailer's open-loop cycle branch, L = 60).
+    fn banded(&self) -> bool {
+        false
+    }
+    /// where the unknowns and equations sit on a collocation mesh, for the structured
+    /// solver of the bordered Newton systems ([`crate::LinearSolver::Krylov`]); None: one
+    /// sparse LU of the whole system
+    fn mesh_structure(&self) -> Option<crate::linalg::MeshStructure> {
         None
     }
     /// called on every accepted point (e.g. to update a phase-condition reference)
@@ -321,16 +335,29 @@ fn bordered_step<S: ContinuationSystem>(
     determinant: NeedsDeterminant,
     what: &str,
 ) -> Result<BorderedStep> {
-    let nu = sys.n_unknowns();
     let residual = bordered_residual(sys, u, constraint)?;
+    let lu = bordered_lu(sys, u, border, entries, determinant, what)?;
+    solved(lu, residual, what)
+}
+
+/// The factorised bordered Jacobian [G_u(u); bᵀ] (`entries` is a reusable buffer).
+fn bordered_lu<S: ContinuationSystem>(
+    sys: &mut S,
+    u: &[f64],
+    border: &[f64],
+    entries: &mut Vec<Entry>,
+    determinant: NeedsDeterminant,
+    what: &str,
+) -> Result<SparseLu> {
+    let nu = sys.n_unknowns();
     bordered_jacobian(sys, u, border, entries)?;
     let order = sys.column_order();
     let factorisation = match determinant {
-        NeedsDeterminant::Yes => Factorisation::WithDeterminant(order.as_deref()),
-        NeedsDeterminant::No => Factorisation::Fast(order.as_deref()),
+        NeedsDeterminant::No if !sys.banded() => Factorisation::Fast(order.as_deref()),
+        _ => Factorisation::WithDeterminant(order.as_deref()),
     };
-    let lu = SparseLu::new(nu, entries, factorisation, what)?;
-    solved(lu, residual, what)
+    let structure = sys.mesh_structure();
+    SparseLu::structured(nu, entries, factorisation, structure.as_ref(), what)
 }
 
 /// The Newton update −J⁻¹ r from the factorisation `lu` and the residual `(r, ‖r‖∞)`.
@@ -498,6 +525,13 @@ impl Continuation {
             NewtonUpdate::Chord { full } => it <= full.max(1),
         };
         let mut kept: Option<SparseLu> = None;
+        // small or banded systems: the one (simplicial) factorisation gives the
+        // determinant anyway
+        let iteration_determinant = if u.len() < SUPERNODAL_MIN_SIZE || sys.banded() {
+            self.needs_determinant(sys)
+        } else {
+            NeedsDeterminant::No
+        };
         for it in 1..=self.options.max_newton_iterations {
             let constraint = (0..u.len()).map(|i| b[i] * (u[i] - pred[i])).sum();
             let step = match kept.take() {
@@ -510,7 +544,7 @@ impl Continuation {
                     &b,
                     constraint,
                     &mut entries,
-                    self.needs_determinant(sys),
+                    iteration_determinant,
                     "Newton corrector",
                 )?,
             };
@@ -518,7 +552,21 @@ impl Continuation {
             let upd = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
             if upd <= self.options.newton_tolerance * (1.0 + u[ip].abs()) {
-                return Self::corrected(step.lu, u, w, it);
+                // the iterations use the fast factorisation (supernodal where large); where
+                // the branch-point test needs the determinant, the bordered Jacobian is
+                // factorised once more at the converged point with it (its tangent too)
+                let lu = match (self.needs_determinant(sys), iteration_determinant) {
+                    (NeedsDeterminant::Yes, NeedsDeterminant::No) => bordered_lu(
+                        sys,
+                        &u,
+                        &b,
+                        &mut entries,
+                        NeedsDeterminant::Yes,
+                        "Newton corrector (determinant)",
+                    )?,
+                    _ => step.lu,
+                };
+                return Self::corrected(lu, u, w, it);
             }
             kept = Some(step.lu);
             if it > 2 && upd > 2.0 * last_update {
@@ -1040,6 +1088,61 @@ pub fn newton_step<S: ContinuationSystem>(
         "Newton step",
     )?;
     Ok(step.update)
+}
+
+/// Newton's method on the bordered system G(u) = 0, Σ w_i t_i (u_i − u0_i) = 0 from `u0`
+/// with chord iterations: a factorisation is kept while the updates shrink at least
+/// fourfold per iteration (the rate of the chord method is of the order of the update the
+/// factorisation was made at) and renewed otherwise. Converged when the largest update is
+/// at most `tolerance` times max(1, max |u_i|). Used where the same system is corrected
+/// from a close guess many times (the cycles the Floquet computation re-solves on a
+/// kink-resolved mesh).
+pub(crate) fn correct_with_chord<S: ContinuationSystem>(
+    sys: &mut S,
+    u0: &[f64],
+    tangent: &[f64],
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<Vec<f64>> {
+    let w = sys.weights();
+    let b = border(&w, tangent);
+    let mut u = u0.to_vec();
+    let mut entries = Vec::new();
+    let mut kept: Option<SparseLu> = None;
+    let mut last = f64::INFINITY;
+    let (mut size, mut residual) = (f64::NAN, f64::NAN);
+    for _ in 0..max_iterations {
+        let constraint = (0..u.len()).map(|i| b[i] * (u[i] - u0[i])).sum();
+        let step = match kept.take() {
+            Some(lu) => chord_step(sys, &u, constraint, lu, "Newton (chord)")?,
+            None => bordered_step(
+                sys,
+                &u,
+                &b,
+                constraint,
+                &mut entries,
+                NeedsDeterminant::No,
+                "Newton",
+            )?,
+        };
+        size = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        residual = step.residual_norm;
+        u.iter_mut().zip(&step.update).for_each(|(a, d)| *a += d);
+        let scale = u.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        if size <= tolerance * scale {
+            return Ok(u);
+        }
+        if size <= 0.25 * last {
+            kept = Some(step.lu);
+        }
+        last = size;
+    }
+    Err(Error::NewtonDivergence {
+        parameter: u[sys.parameter_index()],
+        iterations: max_iterations,
+        residual,
+        update: size,
+    })
 }
 
 /// Solutions on `branch` at the parameter value `p`: for every pair of consecutive points

@@ -4,11 +4,11 @@
 //!
 //! The equations, special points and an example are documented on [`FoldOfCyclesSystem`].
 
-use crate::collocation::{MAX_DEGREE, lagrange_d2};
+use crate::cycle_curve::{CycleCurve, ModeScratch, Out, RealMode, extend_checked, uniform_mesh};
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::error::{Error, Result};
 use crate::linalg::Entry;
-use crate::periodic::{Loc, PeriodicOrbitSystem};
+use crate::periodic::PeriodicOrbitSystem;
 use crate::problem::Problem;
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
 use crate::{BranchPoint, CollocationOptions};
@@ -59,35 +59,6 @@ pub enum FoldCyclesStop {
     Continuation(Stop),
     /// the cycle shrank below `min_amplitude`: the curve ends at a generalised Hopf point
     HopfEnd(HopfEnd),
-}
-
-/// Per-collocation-point scratch of the second-order terms (allocated once).
-#[derive(Debug)]
-struct Scratch {
-    f: Vec<f64>,
-    jac: Vec<f64>,
-    /// B = f_XX[Xv, ·] (n × n(k+1), row-major)
-    b: Vec<f64>,
-    /// Xv = X'·(v, v_T): the stacked arguments' derivative along the null vector
-    xv: Vec<f64>,
-    unit: Vec<f64>,
-    col: Vec<f64>,
-    fp1: Vec<f64>,
-    fp2: Vec<f64>,
-    fxp1: Vec<f64>,
-    fxp2: Vec<f64>,
-    /// v_s and x_ss at the delayed points (n per delay)
-    vs: Vec<f64>,
-    xss: Vec<f64>,
-    locs: Vec<Loc>,
-}
-
-/// where the second-order terms go
-enum Out<'b> {
-    /// A·(v, v_T) (n·L·m values)
-    Residual(&'b mut [f64]),
-    /// Jacobian rows of A·(v, v_T) and the p2 column of R
-    Jacobian(&'b mut Vec<Entry>),
 }
 
 /// Fold-of-cycles (limit point of cycles) defining system in two free parameters, as a
@@ -208,12 +179,11 @@ enum Out<'b> {
 /// ```
 #[derive(Debug)]
 pub struct FoldOfCyclesSystem<'a, P: Problem> {
-    po: PeriodicOrbitSystem<'a, P>,
-    ip2: usize,
+    base: CycleCurve<'a, P>,
     options: FoldCyclesOptions,
     /// normalised null vector of the last accepted point (length n·L·m + 1)
     v_ref: Vec<f64>,
-    s: Scratch,
+    s: ModeScratch,
 }
 
 impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
@@ -224,57 +194,39 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
     pub fn with_mesh(
         problem: &'a P,
         params: Vec<f64>,
-        (ip1, ip2): (usize, usize),
+        free: (usize, usize),
         mesh: Vec<f64>,
         collocation: CollocationOptions,
         options: FoldCyclesOptions,
     ) -> Result<Self> {
-        if ip2 >= params.len() || ip2 == ip1 {
-            return Err(Error::InvalidInput(format!(
-                "secondary parameter index {ip2} must differ from the primary {ip1} and be below {}",
-                params.len()
-            )));
-        }
-        let po = PeriodicOrbitSystem::with_mesh(problem, params, ip1, mesh, collocation)?;
-        let n = problem.dim();
-        let k = problem.n_delays();
-        let nc = n * (k + 1);
-        let s = Scratch {
-            f: vec![0.0; n],
-            jac: vec![0.0; n * nc],
-            b: vec![0.0; n * nc],
-            xv: vec![0.0; nc],
-            unit: vec![0.0; nc],
-            col: vec![0.0; n],
-            fp1: vec![0.0; n],
-            fp2: vec![0.0; n],
-            fxp1: vec![0.0; n],
-            fxp2: vec![0.0; n],
-            vs: vec![0.0; n * k],
-            xss: vec![0.0; n * k],
-            locs: vec![Loc::ZERO; k],
-        };
-        let v_ref = vec![0.0; po.period_index() + 1];
-        Ok(Self {
-            po,
-            ip2,
+        Ok(Self::on(
+            CycleCurve::new(problem, params, free, mesh, collocation)?,
+            options,
+        ))
+    }
+
+    fn on(base: CycleCurve<'a, P>, options: FoldCyclesOptions) -> Self {
+        let problem = base.po.problem;
+        let s = ModeScratch::new(problem.dim(), problem.n_delays());
+        let v_ref = vec![0.0; base.np() + 1];
+        Self {
+            base,
             options,
             v_ref,
             s,
-        })
+        }
     }
 
     /// New system on a uniform mesh of `collocation.intervals` intervals.
     pub fn new(
         problem: &'a P,
         params: Vec<f64>,
-        (ip1, ip2): (usize, usize),
+        free: (usize, usize),
         collocation: CollocationOptions,
         options: FoldCyclesOptions,
     ) -> Result<Self> {
-        let l = collocation.intervals.max(1);
-        let mesh = (0..=l).map(|i| i as f64 / l as f64).collect();
-        Self::with_mesh(problem, params, (ip1, ip2), mesh, collocation, options)
+        let mesh = uniform_mesh(collocation.intervals);
+        Self::with_mesh(problem, params, free, mesh, collocation, options)
     }
 
     /// Start from a fold of cycles `point` located on a branch of `po` (a
@@ -289,31 +241,22 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         options: FoldCyclesOptions,
     ) -> Result<(Self, Vec<f64>, Vec<f64>)> {
         let np = po.period_index();
-        if point.u.len() != np + 2 || point.tangent.len() != np + 2 {
+        if point.tangent.len() != np + 2 {
             return Err(Error::InvalidInput(format!(
-                "from_fold: the point has {} unknowns, the periodic-orbit system {}",
-                point.u.len(),
+                "from_fold: the point's tangent has {} entries, the periodic-orbit system {}",
+                point.tangent.len(),
                 np + 2
             )));
         }
-        let mut params = po.params.clone();
-        params[po.ip] = point.parameter;
-        let mut sys = Self::with_mesh(
-            po.problem,
-            params,
-            (po.ip, ip2),
-            po.mesh.clone(),
-            po.options.clone(),
-            options,
-        )?;
-        let p2 = sys.po.params[ip2];
+        let base = CycleCurve::from_branch_point(po, point, ip2, "from_fold")?;
+        let mut sys = Self::on(base, options);
+        let p2 = sys.base.po.params[ip2];
         let guess = sys.unknowns(&point.u, p2, &point.tangent[..=np])?;
         let mut direction = vec![0.0; guess.len()];
         direction[np + 2] = 1.0;
         sys.accept(&guess);
         Ok((sys, guess, direction))
     }
-
     /// Unknowns [x, T, p1, p2, v, v_T] from periodic-orbit unknowns `orbit` = [x, T, p1], the
     /// second parameter and a null-vector guess (v, v_T) (normalised here).
     pub fn unknowns(&self, orbit: &[f64], p2: f64, null_vector: &[f64]) -> Result<Vec<f64>> {
@@ -341,20 +284,14 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
 
     /// n·L·m: number of profile unknowns
     fn np(&self) -> usize {
-        self.po.period_index()
+        self.base.np()
     }
 
     /// ⟨a, b⟩ = Σ a_i b_i /(L·m) + a_T b_T on (profile, period) vectors
     fn inner(&self, a: &[f64], b: &[f64]) -> f64 {
         let np = self.np();
         let prof: f64 = a[..np].iter().zip(&b[..np]).map(|(x, y)| x * y).sum();
-        prof / self.po.n_nodes() as f64 + a[np] * b[np]
-    }
-
-    fn sync(&mut self, u: &[f64]) {
-        let np = self.np();
-        self.po.params[self.ip2] = u[np + 2];
-        self.po.set_params(&u[..np + 2]);
+        prof / self.base.po.n_nodes() as f64 + a[np] * b[np]
     }
 
     /// The point u with the cycle and the null vector shifted in phase so that profile
@@ -364,16 +301,17 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
     /// solutions of the same discretised system.
     pub fn canonical(&self, u: &[f64], component: usize) -> Vec<f64> {
         let np = self.np();
-        let shift = self.po.canonical_phase(self.orbit(u), component);
-        let mut out = self.po.shifted(self.orbit(u), shift);
+        let po = &self.base.po;
+        let shift = po.canonical_phase(self.orbit(u), component);
+        let mut out = po.shifted(self.orbit(u), shift);
         out.push(u[np + 2]);
-        out.extend(self.po.shifted(self.null_vector(u), shift));
+        out.extend(po.shifted(self.null_vector(u), shift));
         out
     }
 
     /// the periodic-orbit unknowns [x, T, p1] of the fold's cycle
     pub fn orbit<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        &u[..self.np() + 2]
+        self.base.orbit(u)
     }
 
     /// the null vector (v, v_T) of the linearised periodic problem at the fold
@@ -388,32 +326,32 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
 
     /// all parameters at the point u
     pub fn parameters(&self, u: &[f64]) -> Vec<f64> {
-        let np = self.np();
-        let mut p = self.po.params.clone();
-        p[self.po.ip] = u[np + 1];
-        p[self.ip2] = u[np + 2];
-        p
+        self.base.parameters(u)
     }
 
     /// amplitude of the fold's cycle: half the peak-to-peak range of the node values,
     /// largest over the components [state units]
     pub fn amplitude(&self, u: &[f64]) -> f64 {
-        self.po.amplitude(u)
+        self.base.po.amplitude(u)
     }
 
     /// The periodic-orbit system of the fold's cycle at the parameters of u (free parameter
     /// p1, same mesh, phase reference set to the cycle): continue the cycle branch through
     /// the fold from here, or evaluate the cycle with [`PeriodicOrbitSystem::eval`].
     pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
-        self.po.at(self.parameters(u), self.orbit(u))
+        self.base.periodic_system(u)
+    }
+
+    /// How the bordered Newton systems are solved (default: that of the cycle system the
+    /// curve was started from, [`crate::LinearSolver::Auto`] unless set there).
+    pub fn set_linear_solver(&mut self, solver: crate::LinearSolver) {
+        self.base.po.set_linear_solver(solver);
     }
 
     /// Floquet multipliers of the fold's cycle (sorted by decreasing modulus; the trivial
     /// multiplier and the fold's multiplier are both ≈ 1)
     pub fn multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
-        self.sync(u);
-        let np = self.np();
-        self.po.floquet_multipliers(&u[..np + 2])
+        self.base.multipliers(u)
     }
 
     /// Continue the fold-of-cycles curve by up to `max_points` points (like
@@ -426,24 +364,16 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         branch: &mut Branch,
         max_points: usize,
     ) -> Result<FoldCyclesStop> {
-        let mut added = 0;
-        while added < max_points {
-            let before = branch.points.len();
-            let stop = cont.extend(self, branch, 1)?;
-            added += branch.points.len() - before;
-            self.label_cusps(branch, before);
-            let amplitude = match branch.points.last() {
-                Some(last) => self.amplitude(&last.u),
-                None => return Err(Error::EmptyBranch),
-            };
-            if amplitude < self.options.min_amplitude {
-                return Ok(FoldCyclesStop::HopfEnd(self.mark_hopf_end(branch)));
-            }
-            if stop != Stop::MaxPoints {
-                return Ok(FoldCyclesStop::Continuation(stop));
-            }
-        }
-        Ok(FoldCyclesStop::Continuation(Stop::MaxPoints))
+        let stop = extend_checked(self, cont, branch, max_points, |sys, branch, before| {
+            sys.label_cusps(branch, before);
+            let last = &branch.points[branch.points.len() - 1];
+            Ok((sys.amplitude(&last.u) < sys.options.min_amplitude)
+                .then(|| sys.mark_hopf_end(branch)))
+        })?;
+        Ok(match stop {
+            Ok(stop) => FoldCyclesStop::Continuation(stop),
+            Err(end) => FoldCyclesStop::HopfEnd(end),
+        })
     }
 
     /// turning points in p1 (points from index `from` on) where p2 turns in the same step
@@ -477,27 +407,13 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
     fn mark_hopf_end(&self, branch: &mut Branch) -> HopfEnd {
         let np = self.np();
         let last = branch.points.len() - 1;
-        let b = &branch.points[last];
-        let rho_b = self.amplitude(&b.u).powi(2);
-        let values = |p: &BranchPoint| [p.u[np + 1], p.u[np + 2], p.u[np]];
-        let vb = values(b);
-        let est = match last.checked_sub(1).map(|i| &branch.points[i]) {
-            Some(a) => {
-                let rho_a = self.amplitude(&a.u).powi(2);
-                let va = values(a);
-                if rho_a > rho_b {
-                    let t = rho_b / (rho_a - rho_b);
-                    [0, 1, 2].map(|i| vb[i] - t * (va[i] - vb[i]))
-                } else {
-                    vb
-                }
-            }
-            None => vb,
-        };
+        let (est, amplitude) = self
+            .base
+            .extrapolate_to_zero_amplitude(branch, |p| [p.u[np + 1], p.u[np + 2], p.u[np]]);
         let omega = 2.0 * std::f64::consts::PI / est[2];
         let end = HopfEnd {
             index: last,
-            amplitude: rho_b.sqrt(),
+            amplitude,
             parameters: [est[0], est[1]],
             period: est[2],
             omega,
@@ -511,214 +427,6 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         });
         end
     }
-
-    /// A·(v, v_T) (residual) or its derivative with respect to (x, T, p1, p2) together with
-    /// the p2 column of R (Jacobian), collocation point by collocation point.
-    fn second_order(&mut self, u: &[f64], mut out: Out<'_>) -> Result<()> {
-        let n = self.po.dim();
-        let m = self.po.degree();
-        let problem = self.po.problem;
-        let k = problem.n_delays();
-        let nc = n * (k + 1);
-        let np = self.np();
-        let period = u[np];
-        let (ip1, ip2) = (self.po.ip, self.ip2);
-        let delays = self.po.delays();
-        let dtau1: Vec<f64> = (0..k)
-            .map(|d| problem.delay_dp(d, &self.po.params, ip1))
-            .collect();
-        let dtau2: Vec<f64> = (0..k)
-            .map(|d| problem.delay_dp(d, &self.po.params, ip2))
-            .collect();
-        let vt = u[2 * np + 3];
-        let (mut l, mut dl, mut ddl) = (
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-        );
-        for i in 0..self.po.intervals() {
-            let h = self.po.mesh[i + 1] - self.po.mesh[i];
-            for c in 0..m {
-                self.po
-                    .fill_args(&u[..np + 2], i, c, period, &delays, &mut self.s.locs);
-                let params = &self.po.params;
-                let args = &self.po.args;
-                problem.rhs(args, params, &mut self.s.f);
-                problem.jacobian(args, params, &mut self.s.jac);
-                // Xv: v at s_c, and v(s_d) + x_s(s_d)·(τ_d/T²)·v_T at the delayed points
-                for kk in 0..n {
-                    self.s.xv[kk] = (0..=m)
-                        .map(|j| {
-                            self.po.basis.val[c * (m + 1) + j]
-                                * u[np + 3 + self.po.node(i, j) * n + kk]
-                        })
-                        .sum();
-                }
-                for (d, &tau) in delays.iter().enumerate() {
-                    let loc = self.s.locs[d];
-                    let hd = self.po.mesh[loc.base + 1] - self.po.mesh[loc.base];
-                    lagrange_d2(m, loc.xi, &mut l, &mut dl, &mut ddl);
-                    for kk in 0..n {
-                        let (mut vd, mut vs, mut xss) = (0.0, 0.0, 0.0);
-                        for j in 0..=m {
-                            let g = self.po.node(loc.base, j) * n + kk;
-                            vd += l[j] * u[np + 3 + g];
-                            vs += dl[j] * u[np + 3 + g] / hd;
-                            xss += ddl[j] * u[g] / (hd * hd);
-                        }
-                        let xs = self.po.dx[d * n + kk];
-                        self.s.xv[(d + 1) * n + kk] = vd + xs * tau / (period * period) * vt;
-                        self.s.vs[d * n + kk] = vs;
-                        self.s.xss[d * n + kk] = xss;
-                    }
-                }
-                let row0 = (i * m + c) * n;
-                match &mut out {
-                    Out::Residual(r) => {
-                        for rr in 0..n {
-                            let dv: f64 = (0..=m)
-                                .map(|j| {
-                                    self.po.basis.der[c * (m + 1) + j]
-                                        * u[np + 3 + self.po.node(i, j) * n + rr]
-                                })
-                                .sum();
-                            let jxv: f64 = (0..nc)
-                                .map(|col| self.s.jac[rr * nc + col] * self.s.xv[col])
-                                .sum();
-                            r[row0 + rr] = dv / h - vt * self.s.f[rr] - period * jxv;
-                        }
-                    }
-                    Out::Jacobian(entries) => {
-                        let at = Point {
-                            i,
-                            c,
-                            row0,
-                            period,
-                            vt,
-                            delays: &delays,
-                            dtau: [&dtau1, &dtau2],
-                        };
-                        self.push_second_order(&at, entries)?;
-                    }
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Jacobian entries of one collocation point (the scratch holds f, J, Xv, v_s, x_ss and
-    /// `po` the arguments, x_s and the delayed locations).
-    fn push_second_order(&mut self, at: &Point<'_>, entries: &mut Vec<Entry>) -> Result<()> {
-        let n = self.po.dim();
-        let m = self.po.degree();
-        let problem = self.po.problem;
-        let k = problem.n_delays();
-        let nc = n * (k + 1);
-        let np = self.np();
-        let (ip1, ip2) = (self.po.ip, self.ip2);
-        let (t, vt) = (at.period, at.vt);
-        let params = &self.po.params;
-        let args = &self.po.args;
-        let s = &mut self.s;
-        // B = f_XX[Xv, ·], column by column
-        for col in 0..nc {
-            s.unit.iter_mut().for_each(|e| *e = 0.0);
-            s.unit[col] = 1.0;
-            problem.second_derivative(args, params, &s.xv, &s.unit, &mut s.col)?;
-            for r in 0..n {
-                s.b[r * nc + col] = s.col[r];
-            }
-        }
-        problem.dfdp(args, params, ip1, &mut s.fp1);
-        problem.dfdp(args, params, ip2, &mut s.fp2);
-        problem.jacobian_dp(args, params, ip1, &s.xv, &mut s.fxp1)?;
-        problem.jacobian_dp(args, params, ip2, &s.xv, &mut s.fxp2)?;
-        let xs = &self.po.dx;
-        let dot = |mat: &[f64], r: usize, d: usize, vec: &[f64]| -> f64 {
-            (0..n)
-                .map(|kk| mat[r * nc + (d + 1) * n + kk] * vec[d * n + kk])
-                .sum::<f64>()
-        };
-        let row_a = np + 1 + at.row0;
-        for r in 0..n {
-            // R's column of p2: −T f_p2 + Σ_d J_d x_s(s_d) ∂τ_d/∂p2
-            let mut c_r2 = -t * s.fp2[r];
-            // A·(v, v_T) differentiated by T, p1, p2
-            let jxv: f64 = (0..nc).map(|col| s.jac[r * nc + col] * s.xv[col]).sum();
-            let mut c_t = -jxv;
-            let mut c_p = [
-                -vt * s.fp1[r] - t * s.fxp1[r],
-                -vt * s.fp2[r] - t * s.fxp2[r],
-            ];
-            for (d, &tau) in at.delays.iter().enumerate() {
-                let jx = dot(&s.jac, r, d, xs);
-                let bx = dot(&s.b, r, d, xs);
-                let jvs = dot(&s.jac, r, d, &s.vs);
-                let jxss = dot(&s.jac, r, d, &s.xss);
-                let st = tau / (t * t);
-                let dst_dt = -2.0 * tau / (t * t * t);
-                c_t -= vt * jx * st
-                    + t * bx * st
-                    + t * (jvs * st + vt * (jxss * st * st + jx * dst_dt));
-                c_r2 += jx * at.dtau[1][d];
-                for (cp, dtau) in c_p.iter_mut().zip(at.dtau) {
-                    let sp = -dtau[d] / t;
-                    let dst_dp = dtau[d] / (t * t);
-                    *cp -= vt * jx * sp
-                        + t * bx * sp
-                        + t * (jvs * sp + vt * (jxss * st * sp + jx * dst_dp));
-                }
-            }
-            entries.push(Entry::new(at.row0 + r, np + 2, c_r2));
-            entries.push(Entry::new(row_a + r, np, c_t));
-            entries.push(Entry::new(row_a + r, np + 1, c_p[0]));
-            entries.push(Entry::new(row_a + r, np + 2, c_p[1]));
-        }
-        // profile columns at s_c: −v_T J_0 − T B_0
-        let basis = &self.po.basis;
-        for j in 0..=m {
-            let g = self.po.node(at.i, j);
-            let lv = basis.val[at.c * (m + 1) + j];
-            for r in 0..n {
-                for kk in 0..n {
-                    let v = (-vt * s.jac[r * nc + kk] - t * s.b[r * nc + kk]) * lv;
-                    entries.push(Entry::new(row_a + r, g * n + kk, v));
-                }
-            }
-        }
-        // profile columns at the delayed points: (−v_T J_d − T B_d) ℓ_j − T v_T (τ_d/T²) J_d ℓ'_j
-        let (mut l, mut dl) = ([0.0; MAX_DEGREE + 1], [0.0; MAX_DEGREE + 1]);
-        let mut ddl = [0.0; MAX_DEGREE + 1];
-        for (d, &tau) in at.delays.iter().enumerate() {
-            let loc = s.locs[d];
-            let hd = self.po.mesh[loc.base + 1] - self.po.mesh[loc.base];
-            lagrange_d2(m, loc.xi, &mut l, &mut dl, &mut ddl);
-            let st = tau / (t * t);
-            for j in 0..=m {
-                let g = self.po.node(loc.base, j);
-                for r in 0..n {
-                    for kk in 0..n {
-                        let q = r * nc + (d + 1) * n + kk;
-                        let v = (-vt * s.jac[q] - t * s.b[q]) * l[j]
-                            - t * vt * st * s.jac[q] * dl[j] / hd;
-                        entries.push(Entry::new(row_a + r, g * n + kk, v));
-                    }
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
-/// where the second-order terms of one collocation point are assembled
-struct Point<'d> {
-    i: usize,
-    c: usize,
-    row0: usize,
-    period: f64,
-    vt: f64,
-    delays: &'d [f64],
-    dtau: [&'d [f64]; 2],
 }
 
 impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
@@ -734,12 +442,24 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
 
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
         let np = self.np();
-        self.sync(u);
+        self.base.sync(u);
         let (r_cycle, r_null) = r.split_at_mut(np + 1);
-        self.po.residual(&u[..np + 2], r_cycle)?;
-        self.second_order(u, Out::Residual(&mut r_null[..np]))?;
+        self.base.po.residual(&u[..np + 2], r_cycle)?;
+        self.base.real_mode_rows(
+            u,
+            RealMode::Periodic,
+            &mut self.s,
+            Out::Residual(&mut r_null[..np]),
+        )?;
         let v = &u[np + 3..];
-        r_null[np] = self.po.phase_row.iter().zip(v).map(|(a, b)| a * b).sum();
+        r_null[np] = self
+            .base
+            .po
+            .phase_row
+            .iter()
+            .zip(v)
+            .map(|(a, b)| a * b)
+            .sum();
         r_null[np + 1] = self.inner(&self.v_ref, v) - 1.0;
         if r_null.iter().all(|x| x.is_finite()) {
             Ok(())
@@ -752,9 +472,9 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
 
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
         let np = self.np();
-        self.sync(u);
+        self.base.sync(u);
         let start = entries.len();
-        self.po.jacobian(&u[..np + 2], entries)?;
+        self.base.po.jacobian(&u[..np + 2], entries)?;
         // the null-vector rows contain A itself: the cycle's (x, T) columns, shifted
         for idx in start..entries.len() {
             let (row, col, val) = (entries[idx].row, entries[idx].col, entries[idx].val);
@@ -763,8 +483,9 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
             }
         }
         let second = entries.len();
-        self.second_order(u, Out::Jacobian(entries))?;
-        let w = 1.0 / self.po.n_nodes() as f64;
+        self.base
+            .real_mode_rows(u, RealMode::Periodic, &mut self.s, Out::Jacobian(entries))?;
+        let w = 1.0 / self.base.po.n_nodes() as f64;
         for (i, &v) in self.v_ref[..np].iter().enumerate() {
             entries.push(Entry::new(2 * np + 2, np + 3 + i, v * w));
         }
@@ -778,39 +499,32 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
         }
     }
 
-    /// mesh-node order with the cycle x and the null vector v interleaved node by node
-    /// ([x_0, v_0, x_1, v_1, …]) and the border (T, v_T, p1, p2) last: the doubled Jacobian
-    /// [[A, 0], [B(v), A]] is then banded like A, and the LU fills only that band (half the
-    /// Newton-step cost of COLAMD at L = 20, a third at L = 80, see benches/fold_cycles.rs)
     /// x and v interleaved node by node (each node's state of the cycle, then of the null
-    /// vector), the borders (T, v_T, p1, p2) last: the fill of simplicial factors stays in
-    /// the band of the delay couplings (large systems are factorised with supernodes in
-    /// COLAMD order instead, see the engine)
+    /// vector), the borders (T, v_T, p1, p2) last: the doubled Jacobian [[A, 0], [B(v), A]]
+    /// is then banded like A, and the fill of simplicial factors stays in that band (large
+    /// systems are factorised with supernodes in COLAMD order instead, see the engine)
     fn column_order(&self) -> Option<Vec<usize>> {
         let np = self.np();
-        let n = self.po.dim();
-        let mut order = Vec::with_capacity(2 * np + 4);
-        for g in 0..np / n {
-            order.extend(g * n..(g + 1) * n);
-            order.extend(np + 3 + g * n..np + 3 + (g + 1) * n);
-        }
-        order.extend([np, 2 * np + 3, np + 1, np + 2]);
-        Some(order)
+        Some(
+            self.base
+                .interleaved_order(&[np + 3], &[np, 2 * np + 3, np + 1, np + 2]),
+        )
     }
 
     fn weights(&self) -> Vec<f64> {
+        self.base.weights(2 * self.np() + 4)
+    }
+
+    /// the cycle and the null vector on the mesh (see [`crate::LinearSolver::Krylov`])
+    fn mesh_structure(&self) -> Option<crate::linalg::MeshStructure> {
         let np = self.np();
-        let w = self.po.weights();
-        let mut v = vec![0.0; 2 * np + 4];
-        v[..np + 2].copy_from_slice(&w);
-        v[np + 2] = w[np + 1];
-        v
+        self.base.po.structure(vec![0, np + 3], vec![0, np + 1])
     }
 
     fn accept(&mut self, u: &[f64]) {
         let np = self.np();
-        self.sync(u);
-        self.po.set_reference(&u[..np + 2]);
+        self.base.sync(u);
+        self.base.po.set_reference(&u[..np + 2]);
         let v = &u[np + 3..];
         let norm = self.inner(v, v).sqrt();
         if norm > 0.0 && norm.is_finite() {

@@ -41,8 +41,9 @@
 //!   curves where l1 changes sign. Problems only C¹ at kinks ([`Smoothness::C1AtKinks`])
 //!   get [`Error::NotSmooth`] instead of a number.
 //!
-//! - [`textbook`]: problems with closed-form answers (normal forms, delayed oscillators) with
-//!   exact derivatives, to test a setup against a known answer.
+//! Problems with closed-form answers (normal forms, delayed oscillators) with exact
+//! derivatives, used by this crate's tests, benches and examples, are in the dev-only crate
+//! `continuation-textbook`.
 //!
 //! The crate knows nothing about any application.
 //!
@@ -96,6 +97,7 @@
 
 mod codim2;
 mod collocation;
+mod cycle_curve;
 mod engine;
 mod equilibrium;
 mod error;
@@ -104,11 +106,11 @@ mod fold_cycles;
 mod hopf_curve;
 mod linalg;
 mod normal_form;
+mod period_doubling;
 mod periodic;
 mod problem;
 mod roots;
 mod stability;
-pub mod textbook;
 pub mod torus;
 
 pub use codim2::Codim2Point;
@@ -123,8 +125,9 @@ pub use error::{Error, Result};
 pub use fold_curve::FoldCurveSystem;
 pub use fold_cycles::{FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfEnd};
 pub use hopf_curve::HopfCurveSystem;
-pub use linalg::Entry;
+pub use linalg::{Entry, KRYLOV_MIN_SIZE, KRYLOV_TOLERANCE, LinearSolver, MeshStructure};
 pub use normal_form::{DoubleHopfCase, DoubleHopfNormalForm, HopfNormalForm};
+pub use period_doubling::{PeriodDoublingCurveSystem, PeriodDoublingOptions};
 pub use periodic::{ArclengthWeights, CollocationOptions, PeriodicOrbitSystem};
 pub use problem::{
     Problem, Smoothness, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative,

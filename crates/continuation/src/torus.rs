@@ -75,11 +75,14 @@
 //! turning points of the curve in p1 are *located* and also labelled `Fold`.
 
 use crate::collocation::{MAX_DEGREE, lagrange};
+use crate::cycle_curve::{
+    CycleCurve, extend_checked, inverse_iteration, second_derivative_matrix, uniform_mesh,
+};
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::equilibrium::HopfPoint;
 use crate::error::{Error, Result};
 use crate::hopf_curve::HopfCurveSystem;
-use crate::linalg::{Entry, Factorisation, SparseLu};
+use crate::linalg::Entry;
 use crate::periodic::{Loc, PeriodicOrbitSystem};
 use crate::problem::Problem;
 use crate::roots::CharacteristicRoots;
@@ -384,7 +387,7 @@ struct Scratch {
 ///
 /// ```
 /// use continuation::*;
-/// use continuation::textbook::TorusTestBed;
+/// use continuation_textbook::TorusTestBed;
 /// use continuation::torus::*;
 ///
 /// # fn main() -> Result<()> {
@@ -421,8 +424,7 @@ struct Scratch {
 /// ```
 #[derive(Debug)]
 pub struct TorusCurveSystem<'a, P: Problem> {
-    po: PeriodicOrbitSystem<'a, P>,
-    ip2: usize,
+    base: CycleCurve<'a, P>,
     options: TorusCurveOptions,
     /// the mode q_ref = a_ref + i b_ref of the last accepted point (⟨q_ref, q_ref⟩ = 1)
     a_ref: Vec<f64>,
@@ -444,20 +446,20 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     pub fn with_mesh(
         problem: &'a P,
         params: Vec<f64>,
-        (ip1, ip2): (usize, usize),
+        free: (usize, usize),
         mesh: Vec<f64>,
         collocation: CollocationOptions,
         options: TorusCurveOptions,
     ) -> Result<Self> {
-        if ip2 >= params.len() || ip2 == ip1 {
-            return Err(Error::InvalidInput(format!(
-                "secondary parameter index {ip2} must differ from the primary {ip1} and be below {}",
-                params.len()
-            )));
-        }
-        let po = PeriodicOrbitSystem::with_mesh(problem, params, ip1, mesh, collocation)?;
-        let n = problem.dim();
-        let k = problem.n_delays();
+        Ok(Self::on(
+            CycleCurve::new(problem, params, free, mesh, collocation)?,
+            options,
+        ))
+    }
+
+    fn on(base: CycleCurve<'a, P>, options: TorusCurveOptions) -> Self {
+        let n = base.po.dim();
+        let k = base.po.problem.n_delays();
         let nc = n * (k + 1);
         let s = Scratch {
             jac: vec![0.0; n * nc],
@@ -478,28 +480,26 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             dtau: [vec![0.0; k], vec![0.0; k]],
             locs: vec![Loc::ZERO; k],
         };
-        let np = po.period_index();
-        Ok(Self {
-            po,
-            ip2,
+        let np = base.np();
+        Self {
+            base,
             options,
             a_ref: vec![0.0; np],
             b_ref: vec![0.0; np],
             s,
-        })
+        }
     }
 
     /// New system on a uniform mesh of `collocation.intervals` intervals.
     pub fn new(
         problem: &'a P,
         params: Vec<f64>,
-        (ip1, ip2): (usize, usize),
+        free: (usize, usize),
         collocation: CollocationOptions,
         options: TorusCurveOptions,
     ) -> Result<Self> {
-        let l = collocation.intervals.max(1);
-        let mesh = (0..=l).map(|i| i as f64 / l as f64).collect();
-        Self::with_mesh(problem, params, (ip1, ip2), mesh, collocation, options)
+        let mesh = uniform_mesh(collocation.intervals);
+        Self::with_mesh(problem, params, free, mesh, collocation, options)
     }
 
     /// Start from a torus point `point` of a branch of `po` (a [`SpecialKind::Torus`]
@@ -516,13 +516,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         options: TorusCurveOptions,
     ) -> Result<(Self, Vec<f64>, Vec<f64>)> {
         let np = po.period_index();
-        if point.u.len() != np + 2 {
-            return Err(Error::InvalidInput(format!(
-                "from_torus: the point has {} unknowns, the periodic-orbit system {}",
-                point.u.len(),
-                np + 2
-            )));
-        }
+        let base = CycleCurve::from_branch_point(po, point, ip2, "from_torus")?;
         let crit = point
             .special
             .as_ref()
@@ -536,18 +530,9 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             .ok_or(Error::InvalidInput(
                 "from_torus: the point has no critical multiplier (compute the stability)".into(),
             ))?;
-        let mut params = po.params.clone();
-        params[po.ip] = point.parameter;
-        let mut sys = Self::with_mesh(
-            po.problem,
-            params,
-            (po.ip, ip2),
-            po.mesh.clone(),
-            po.options.clone(),
-            options,
-        )?;
+        let mut sys = Self::on(base, options);
         let mut guess = point.u.clone();
-        guess.push(sys.po.params[ip2]);
+        guess.push(sys.base.po.params[ip2]);
         guess.extend(std::iter::repeat_n(0.0, 2 * np));
         guess.push(crit.arg().abs());
         sys.mode_by_inverse_iteration(&mut guess)?;
@@ -610,7 +595,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         family: usize,
         amplitude: f64,
     ) -> Result<(Vec<f64>, Vec<f64>)> {
-        let n = self.po.dim();
+        let n = self.base.po.dim();
         if family > 1 {
             return Err(Error::InvalidInput(format!(
                 "double-Hopf start: cycle family {family} (0 or 1)"
@@ -618,23 +603,23 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         }
         if hh.state.len() != n
             || hh.eigenvectors.iter().any(|v| v.len() != n)
-            || hh.parameters.len() != self.po.params.len()
+            || hh.parameters.len() != self.base.po.params.len()
         {
             return Err(Error::InvalidInput(format!(
                 "double-Hopf start: point of dimension {} with {} parameters for a system of dimension {n} with {}",
                 hh.state.len(),
                 hh.parameters.len(),
-                self.po.params.len()
+                self.base.po.params.len()
             )));
         }
-        self.po.params.clone_from(&hh.parameters);
-        let hopf = hh.hopf_point(family, self.po.ip);
-        let (orbit, cycle_dir) = self.po.hopf_guess(&hopf, amplitude);
+        self.base.po.params.clone_from(&hh.parameters);
+        let hopf = hh.hopf_point(family, self.base.po.ip);
+        let (orbit, cycle_dir) = self.base.po.hopf_guess(&hopf, amplitude);
         let other = 1 - family;
         let v = &hh.eigenvectors[other];
-        let nodes = self.po.n_nodes();
+        let nodes = self.base.po.n_nodes();
         let mut guess = orbit;
-        guess.push(hh.parameters[self.ip2]);
+        guess.push(hh.parameters[self.base.ip2]);
         guess.extend((0..nodes).flat_map(|_| v.iter().map(|z| z.re)));
         guess.extend((0..nodes).flat_map(|_| v.iter().map(|z| z.im)));
         guess.push(2.0 * PI * hh.omegas[other] / hh.omegas[family]);
@@ -647,7 +632,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
 
     /// n·L·m: number of profile unknowns
     fn np(&self) -> usize {
-        self.po.period_index()
+        self.base.np()
     }
 
     /// index of θ in u
@@ -657,7 +642,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
 
     /// ⟨a, b⟩ = Σ a_i b_i /(L·m) on profile-sized vectors
     fn mean_dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / self.po.n_nodes() as f64
+        a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / self.base.po.n_nodes() as f64
     }
 
     /// scale the mode (a, b) of u to ⟨q, q⟩ = 1
@@ -685,37 +670,19 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         let mut entries = Vec::new();
         self.jacobian(u, &mut entries)?;
         let (r0, c0, size) = (np + 1, np + 3, 2 * np);
-        let block: Vec<Entry> = entries
-            .into_iter()
-            .filter(|e| (r0..r0 + size).contains(&e.row) && (c0..c0 + size).contains(&e.col))
-            .map(|e| Entry::new(e.row - r0, e.col - c0, e.val))
-            .collect();
-        let lu = SparseLu::new(size, &block, Factorisation::Fast(None), "torus mode")?;
         let mut z = u[c0..c0 + size].to_vec();
-        for _ in 0..4 {
-            lu.solve(&mut z, "torus mode (inverse iteration)")?;
-            let norm = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            if !(norm > 0.0 && norm.is_finite()) {
-                return Err(Error::SingularSystem {
-                    size,
-                    what: "torus mode: inverse iteration gave a zero or non-finite vector".into(),
-                });
-            }
-            z.iter_mut().for_each(|v| *v /= norm);
-        }
+        inverse_iteration(entries, (r0, c0, size), &mut z, "torus mode")?;
         u[c0..c0 + size].copy_from_slice(&z);
         self.normalise_mode(u)
     }
 
     fn sync(&mut self, u: &[f64]) {
-        let np = self.np();
-        self.po.params[self.ip2] = u[np + 2];
-        self.po.set_params(&u[..np + 2]);
+        self.base.sync(u);
     }
 
     /// the periodic-orbit unknowns [x, T, p1] of the torus point's cycle
     pub fn orbit<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        &u[..self.np() + 2]
+        self.base.orbit(u)
     }
 
     /// the Floquet mode q = a + ib of (T1) as (a, b), node values like the profile
@@ -736,17 +703,13 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
 
     /// all parameters at the point u
     pub fn parameters(&self, u: &[f64]) -> Vec<f64> {
-        let np = self.np();
-        let mut p = self.po.params.clone();
-        p[self.po.ip] = u[np + 1];
-        p[self.ip2] = u[np + 2];
-        p
+        self.base.parameters(u)
     }
 
     /// amplitude of the cycle: half the peak-to-peak range of the node values, largest
     /// over the components [state units]
     pub fn amplitude(&self, u: &[f64]) -> f64 {
-        self.po.amplitude(u)
+        self.base.po.amplitude(u)
     }
 
     /// The torus point at u: the cycle, its period, all parameters, the multiplier angle
@@ -779,15 +742,19 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     /// The periodic-orbit system of the cycle at the parameters of u (free parameter p1,
     /// same mesh, phase reference set to the cycle).
     pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
-        self.po.at(self.parameters(u), self.orbit(u))
+        self.base.periodic_system(u)
+    }
+
+    /// How the bordered Newton systems are solved (default: that of the cycle system the
+    /// curve was started from, [`crate::LinearSolver::Auto`] unless set there).
+    pub fn set_linear_solver(&mut self, solver: crate::LinearSolver) {
+        self.base.po.set_linear_solver(solver);
     }
 
     /// Floquet multipliers of the cycle at u (sorted by decreasing modulus; two of them are
     /// e^{±iθ}, one is the trivial multiplier 1)
     pub fn multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
-        self.sync(u);
-        let np = self.np();
-        self.po.floquet_multipliers(&u[..np + 2])
+        self.base.multipliers(u)
     }
 
     /// Continue the torus curve by up to `max_points` points (like [`Continuation::extend`]),
@@ -799,32 +766,23 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         branch: &mut Branch,
         max_points: usize,
     ) -> Result<TorusCurveStop> {
-        let mut added = 0;
-        while added < max_points {
-            let before = branch.points.len();
-            let stop = cont.extend(self, branch, 1)?;
-            added += branch.points.len() - before;
+        let stop = extend_checked(self, cont, branch, max_points, |sys, branch, _| {
             let last = branch.points.len() - 1;
-            let amplitude = self.amplitude(&branch.points[last].u);
-            let shrinking = last > 0 && amplitude < self.amplitude(&branch.points[last - 1].u);
-            if amplitude < self.options.min_amplitude && shrinking {
-                return Ok(TorusCurveStop::DoubleHopfEnd(self.mark_end(branch)));
+            let amplitude = sys.amplitude(&branch.points[last].u);
+            let shrinking = last > 0 && amplitude < sys.amplitude(&branch.points[last - 1].u);
+            if amplitude < sys.options.min_amplitude && shrinking {
+                return Ok(Some(TorusCurveStop::DoubleHopfEnd(sys.mark_end(branch))));
             }
-            if last > 0
-                && let Some((order, _)) =
-                    self.strong_resonance(&branch.points[last - 1].u, &branch.points[last].u)
-            {
-                return Ok(TorusCurveStop::StrongResonance {
+            Ok((last > 0)
+                .then(|| sys.strong_resonance(&branch.points[last - 1].u, &branch.points[last].u))
+                .flatten()
+                .map(|(order, _)| TorusCurveStop::StrongResonance {
                     index: last,
                     order,
-                    angle: multiplier_angle(self.theta(&branch.points[last].u)),
-                });
-            }
-            if stop != Stop::MaxPoints {
-                return Ok(TorusCurveStop::Continuation(stop));
-            }
-        }
-        Ok(TorusCurveStop::Continuation(Stop::MaxPoints))
+                    angle: multiplier_angle(sys.theta(&branch.points[last].u)),
+                }))
+        })?;
+        Ok(stop.map_or_else(|end| end, TorusCurveStop::Continuation))
     }
 
     /// A strong resonance between the points `a` and `b` of a curve: 1:1 (q = 1) or 1:2
@@ -886,27 +844,13 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     fn mark_end(&self, branch: &mut Branch) -> DoubleHopfEnd {
         let np = self.np();
         let last = branch.points.len() - 1;
-        let b = &branch.points[last];
-        let rho_b = self.amplitude(&b.u).powi(2);
-        let values = |p: &BranchPoint| [p.u[np + 1], p.u[np + 2], p.u[np], self.theta(&p.u)];
-        let vb = values(b);
-        let est = match last.checked_sub(1).map(|i| &branch.points[i]) {
-            Some(a) => {
-                let rho_a = self.amplitude(&a.u).powi(2);
-                let va = values(a);
-                if rho_a > rho_b {
-                    let t = rho_b / (rho_a - rho_b);
-                    [0, 1, 2, 3].map(|i| vb[i] - t * (va[i] - vb[i]))
-                } else {
-                    vb
-                }
-            }
-            None => vb,
-        };
+        let (est, amplitude) = self.base.extrapolate_to_zero_amplitude(branch, |p| {
+            [p.u[np + 1], p.u[np + 2], p.u[np], self.theta(&p.u)]
+        });
         let omega = 2.0 * PI / est[2];
         let end = DoubleHopfEnd {
             index: last,
-            amplitude: rho_b.sqrt(),
+            amplitude,
             parameters: [est[0], est[1]],
             period: est[2],
             omegas: [omega, est[3] / est[2]],
@@ -934,13 +878,13 @@ struct At {
 impl<P: Problem> TorusCurveSystem<'_, P> {
     /// delays, their parameter derivatives and e^{−iθτ_j/T} at u (after `sync`)
     fn prepare_delays(&mut self, period: f64, theta: f64) {
-        let problem = self.po.problem;
-        let params = &self.po.params;
+        let problem = self.base.po.problem;
+        let params = &self.base.po.params;
         for d in 0..problem.n_delays() {
             let tau = problem.delay(d, params);
             self.s.delays[d] = tau;
-            self.s.dtau[0][d] = problem.delay_dp(d, params, self.po.ip);
-            self.s.dtau[1][d] = problem.delay_dp(d, params, self.ip2);
+            self.s.dtau[0][d] = problem.delay_dp(d, params, self.base.po.ip);
+            self.s.dtau[1][d] = problem.delay_dp(d, params, self.base.ip2);
             let ph = theta * tau / period;
             self.s.cs[d] = (ph.cos(), ph.sin());
         }
@@ -949,11 +893,11 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
     /// arguments, J, Q = [q(s), Φ_j q(s_j)] and W_j = Φ_j (q' + iθq)(s_j) at collocation
     /// point c of interval i
     fn prepare_point(&mut self, u: &[f64], at: &At) {
-        let n = self.po.dim();
-        let m = self.po.degree();
+        let n = self.base.po.dim();
+        let m = self.base.po.degree();
         let np = self.np();
         let (a_off, b_off) = (np + 3, 2 * np + 3);
-        self.po.fill_args(
+        self.base.po.fill_args(
             &u[..np + 2],
             at.i,
             at.c,
@@ -961,7 +905,7 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
             &self.s.delays,
             &mut self.s.locs,
         );
-        let po = &self.po;
+        let po = &self.base.po;
         let s = &mut self.s;
         po.problem.jacobian(&po.args, &po.params, &mut s.jac);
         for kk in 0..n {
@@ -1003,14 +947,14 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
     /// (T1) residual rows or their Jacobian entries (with the cycle's p2 column), point by
     /// point; `r` is the slice of the 2·n·L·m (T1) rows
     fn eigen_rows(&mut self, u: &[f64], mut out: Out<'_>) -> Result<()> {
-        let n = self.po.dim();
-        let m = self.po.degree();
+        let n = self.base.po.dim();
+        let m = self.base.po.degree();
         let np = self.np();
-        let nc = n * (self.po.problem.n_delays() + 1);
+        let nc = n * (self.base.po.problem.n_delays() + 1);
         let (period, theta) = (u[np], self.theta(u));
         self.prepare_delays(period, theta);
-        for i in 0..self.po.intervals() {
-            let h = self.po.mesh[i + 1] - self.po.mesh[i];
+        for i in 0..self.base.po.intervals() {
+            let h = self.base.po.mesh[i + 1] - self.base.po.mesh[i];
             for c in 0..m {
                 let at = At {
                     i,
@@ -1022,7 +966,7 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
                 self.prepare_point(u, &at);
                 match &mut out {
                     Out::Residual(r) => {
-                        let (po, s) = (&self.po, &self.s);
+                        let (po, s) = (&self.base.po, &self.s);
                         for rr in 0..n {
                             let (mut da, mut db) = (0.0, 0.0);
                             for j in 0..=m {
@@ -1051,29 +995,31 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
 
     /// B_a = f_XX[Q_a, ·] and B_b = f_XX[Q_b, ·], column by column
     fn second_derivatives(&mut self) -> Result<()> {
-        let (po, s) = (&self.po, &mut self.s);
-        let n = po.dim();
-        let nc = s.qa.len();
-        for col in 0..nc {
-            s.unit.iter_mut().for_each(|e| *e = 0.0);
-            s.unit[col] = 1.0;
-            po.problem
-                .second_derivative(&po.args, &po.params, &s.qa, &s.unit, &mut s.col)?;
-            for r in 0..n {
-                s.ba[r * nc + col] = s.col[r];
-            }
-            po.problem
-                .second_derivative(&po.args, &po.params, &s.qb, &s.unit, &mut s.col)?;
-            for r in 0..n {
-                s.bb[r * nc + col] = s.col[r];
-            }
-        }
-        Ok(())
+        let (po, s) = (&self.base.po, &mut self.s);
+        let (problem, args, params) = (po.problem, &po.args, &po.params);
+        second_derivative_matrix(
+            problem,
+            args,
+            params,
+            &s.qa,
+            &mut s.unit,
+            &mut s.col,
+            &mut s.ba,
+        )?;
+        second_derivative_matrix(
+            problem,
+            args,
+            params,
+            &s.qb,
+            &mut s.unit,
+            &mut s.col,
+            &mut s.bb,
+        )
     }
 
     /// entries of the (T1) rows in the columns of a, b (the mode) and x (the cycle)
     fn push_mode_columns(&self, at: &At, h: f64, entries: &mut Vec<Entry>) {
-        let (po, s) = (&self.po, &self.s);
+        let (po, s) = (&self.base.po, &self.s);
         let n = po.dim();
         let m = po.degree();
         let np = self.np();
@@ -1123,12 +1069,12 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
     /// entries in the columns of T, p1, p2 and θ: of the (T1) rows, and the cycle's p2
     /// column
     fn push_border_columns(&mut self, at: &At, entries: &mut Vec<Entry>) -> Result<()> {
-        let n = self.po.dim();
+        let n = self.base.po.dim();
         let np = self.np();
         self.parameter_derivatives()?;
         let mut border = std::mem::take(&mut self.s.border);
         self.border_values(at, &mut border);
-        let (po, s) = (&self.po, &self.s);
+        let (po, s) = (&self.base.po, &self.s);
         let nc = s.qa.len();
         let (ra, rb) = (np + 1 + at.row0, 2 * np + 1 + at.row0);
         let cols = [
@@ -1162,22 +1108,22 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
 
     /// f_Xp[Q_a], f_Xp[Q_b] for p1 and p2 and f_p2 at the current arguments
     fn parameter_derivatives(&mut self) -> Result<()> {
-        let (po, s) = (&self.po, &mut self.s);
+        let (po, s) = (&self.base.po, &mut self.s);
         let n = po.dim();
         let (problem, args, params) = (po.problem, &po.args, &po.params);
-        for (i, ip) in [po.ip, self.ip2].into_iter().enumerate() {
+        for (i, ip) in [po.ip, self.base.ip2].into_iter().enumerate() {
             let range = i * n..(i + 1) * n;
             problem.jacobian_dp(args, params, ip, &s.qa, &mut s.fxa[range.clone()])?;
             problem.jacobian_dp(args, params, ip, &s.qb, &mut s.fxb[range])?;
         }
-        problem.dfdp(args, params, self.ip2, &mut s.fp);
+        problem.dfdp(args, params, self.base.ip2, &mut s.fp);
         Ok(())
     }
 
     /// per row r of the point: ∂(T1)/∂(T, θ, p1, p2), real and imaginary parts
     /// ([Re_T, Im_T, Re_θ, Im_θ, Re_p1, Im_p1, Re_p2, Im_p2])
     fn border_values(&self, at: &At, border: &mut [[f64; 8]]) {
-        let (po, s) = (&self.po, &self.s);
+        let (po, s) = (&self.base.po, &self.s);
         let n = po.dim();
         let nc = s.qa.len();
         let k = s.delays.len();
@@ -1245,7 +1191,7 @@ impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
         let np = self.np();
         self.sync(u);
         let (r_cycle, r_mode) = r.split_at_mut(np + 1);
-        self.po.residual(&u[..np + 2], r_cycle)?;
+        self.base.po.residual(&u[..np + 2], r_cycle)?;
         self.eigen_rows(u, Out::Residual(&mut r_mode[..2 * np]))?;
         let (a, b) = self.mode(u);
         let re = self.mean_dot(&self.a_ref, a) + self.mean_dot(&self.b_ref, b) - 1.0;
@@ -1264,10 +1210,10 @@ impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
         let np = self.np();
         self.sync(u);
-        self.po.jacobian(&u[..np + 2], entries)?;
+        self.base.po.jacobian(&u[..np + 2], entries)?;
         let start = entries.len();
         self.eigen_rows(u, Out::Jacobian(entries))?;
-        let w = 1.0 / self.po.n_nodes() as f64;
+        let w = 1.0 / self.base.po.n_nodes() as f64;
         let (row_re, row_im) = (3 * np + 1, 3 * np + 2);
         for (g, (&ar, &br)) in self.a_ref.iter().zip(&self.b_ref).enumerate() {
             entries.push(Entry::new(row_re, np + 3 + g, ar * w));
@@ -1289,32 +1235,31 @@ impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
     /// like the cycle's, in blocks three times as wide
     fn column_order(&self) -> Option<Vec<usize>> {
         let np = self.np();
-        let n = self.po.dim();
-        let mut order = Vec::with_capacity(3 * np + 4);
-        for g in 0..np / n {
-            order.extend(g * n..(g + 1) * n);
-            order.extend(np + 3 + g * n..np + 3 + (g + 1) * n);
-            order.extend(2 * np + 3 + g * n..2 * np + 3 + (g + 1) * n);
-        }
-        order.extend([np, 3 * np + 3, np + 1, np + 2]);
-        Some(order)
+        Some(
+            self.base
+                .interleaved_order(&[np + 3, 2 * np + 3], &[np, 3 * np + 3, np + 1, np + 2]),
+        )
     }
 
     /// the cycle's weights ([`PeriodicOrbitSystem`]), p2 weighted like p1, the mode and θ
     /// not at all
     fn weights(&self) -> Vec<f64> {
+        self.base.weights(3 * self.np() + 4)
+    }
+
+    /// the cycle and the two parts of the mode on the mesh (see
+    /// [`crate::LinearSolver::Krylov`])
+    fn mesh_structure(&self) -> Option<crate::linalg::MeshStructure> {
         let np = self.np();
-        let w = self.po.weights();
-        let mut v = vec![0.0; 3 * np + 4];
-        v[..np + 2].copy_from_slice(&w);
-        v[np + 2] = w[np + 1];
-        v
+        self.base
+            .po
+            .structure(vec![0, np + 3, 2 * np + 3], vec![0, np + 1, 2 * np + 1])
     }
 
     fn accept(&mut self, u: &[f64]) {
         let np = self.np();
         self.sync(u);
-        self.po.set_reference(&u[..np + 2]);
+        self.base.po.set_reference(&u[..np + 2]);
         let (a, b) = self.mode(u);
         let norm = (self.mean_dot(a, a) + self.mean_dot(b, b)).sqrt();
         if norm > 0.0 && norm.is_finite() {

@@ -1,8 +1,8 @@
 //! Branch points (pitchfork, transcritical) on equilibrium branches, branch switching,
 //! singular points met on Hopf curves (zero-Hopf points of symmetric systems), and
 //! observers of the continuation.
-use continuation::textbook::{Neuron, Pitchfork};
 use continuation::*;
+use continuation_textbook::{Neuron, Pitchfork};
 
 /// The delayed pair of issue 8:
 /// x1' = −x1/2 − tanh x1(t−1.5) + tanh x2(t−0.2),

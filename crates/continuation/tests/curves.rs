@@ -6,8 +6,8 @@ use common::{
     cont, continued, curve_system, dense_jacobian, equilibrium_branch, fd_jacobian_of,
     hopf_on_branch, only_codim2, single_codim2,
 };
-use continuation::textbook::*;
 use continuation::*;
+use continuation_textbook::*;
 use num_complex::Complex64;
 
 #[test]

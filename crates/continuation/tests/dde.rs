@@ -3,8 +3,8 @@ mod common;
 
 use approx::assert_relative_eq;
 use common::{colloc, cycles_from_hopf};
-use continuation::textbook::{DelayedStuartLandau, LinearDelay};
 use continuation::*;
+use continuation_textbook::{DelayedStuartLandau, LinearDelay};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use std::f64::consts::PI;

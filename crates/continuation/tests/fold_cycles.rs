@@ -3,8 +3,8 @@
 mod common;
 use approx::assert_relative_eq;
 use common::{colloc, cont, dense_jacobian, fd_jacobian_of};
-use continuation::textbook::{DelayedBautin, Radial};
 use continuation::*;
+use continuation_textbook::{DelayedBautin, Radial};
 use std::f64::consts::PI;
 
 /// rotating wave (ρ, ω) of `DelayedBautin` near the guess, by Newton on the 2 × 2 system

@@ -5,8 +5,8 @@
 mod common;
 
 use common::{cont, continued, curve_system, single_codim2};
-use continuation::textbook::*;
 use continuation::*;
+use continuation_textbook::*;
 use num_complex::Complex64;
 
 fn close(a: Complex64, b: Complex64, tol: f64) -> bool {

@@ -3,8 +3,8 @@ mod common;
 
 use approx::assert_relative_eq;
 use common::{colloc, cont, cycles_from_hopf, hopf_on_branch};
-use continuation::textbook::{NormalForm, SaddleNode, VanDerPol};
 use continuation::*;
+use continuation_textbook::{NormalForm, SaddleNode, VanDerPol};
 use std::f64::consts::PI;
 
 #[test]

@@ -3,8 +3,8 @@
 //! differences.
 mod common;
 use common::{cont, curve_system, dense_jacobian, fd_jacobian_of, hopf_on_branch, single_codim2};
-use continuation::textbook::TorusTestBed;
 use continuation::*;
+use continuation_textbook::TorusTestBed;
 use std::f64::consts::PI;
 
 const TAU: f64 = 2.5;

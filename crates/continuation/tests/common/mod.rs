@@ -1,4 +1,4 @@
-//! Helpers shared by the integration tests (the problems are in `continuation::textbook`).
+//! Helpers shared by the integration tests (the problems are in `continuation_textbook`).
 #![allow(dead_code)]
 
 use continuation::*;

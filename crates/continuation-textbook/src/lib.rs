@@ -2,12 +2,13 @@
 //! two-parameter systems need them, exact second derivatives and parameter derivatives of
 //! the Jacobian).
 //!
-//! They serve this crate's tests, benchmarks and examples, and users who want to test their
-//! own setup (options, root finders, meshes) against a known answer before trusting it on
-//! their own system. Each type's documentation gives the equation, the parameter vector
-//! `p` and the closed forms it is checked against.
+//! They serve the `continuation` crate's tests, benchmarks and examples (this crate is its
+//! dev-dependency, outside its public surface), and users who want to test their own setup
+//! (options, root finders, meshes) against a known answer before trusting it on their own
+//! system. Each type's documentation gives the equation, the parameter vector `p` and the
+//! closed forms it is checked against.
 
-use crate::{Problem, Result};
+use continuation::{Problem, Result};
 use num_dual::{Dual64, DualNum, HyperDual64, HyperHyperDual64};
 
 /// Writes `impl Problem for $ty` from compact method headers, so that each problem states

@@ -322,12 +322,15 @@ fn nonlinear_chart_of_a_stable_vehicle_is_an_outcome() {
 #[test]
 fn a_flagged_fold_where_v_does_not_turn_is_not_corrected() {
     // the low-V_crit vehicle at D = 0.2 s, τ = 0 on the coarse mesh L = 10 of `small_chart`:
-    // the fold test flags V = 5.64 m/s, but V runs on through it (no turning point: the
-    // oriented tangent flipped at a singular point of the discretised cycles) and the
-    // fold-of-cycles Newton diverged there. Reference: the meshes L = 20 and 40 pass that
-    // speed smoothly with no fold above the box's 5 m/s; so the fold is None (no error)
+    // on the uniform mesh the fold test flagged V = 5.64 m/s although V runs on through it
+    // (no turning point: the oriented tangent flipped at a singular point of the
+    // discretised cycles) and the fold-of-cycles Newton diverged there. With the kink mesh
+    // of the cycles (issue 23) the coarse mesh no longer flags it; either way no fold may be
+    // reported. Reference: the meshes L = 20 and 40 pass that speed smoothly with no fold
+    // above the box's 5 m/s.
     use crate::bifurcation::chart::critical_speeds;
     use crate::bifurcation::{CycleExtent, Feedback, bifurcation_diagram_until};
+    const FLAGGED_ON_THE_UNIFORM_MESH_MPS: f64 = 5.64;
     let m = low_critical_speed();
     let o = small_chart().resolve(&m, &BOUNDS).unwrap().options;
     let d = o.seed_gains_s[0];
@@ -345,29 +348,36 @@ fn a_flagged_fold_where_v_does_not_turn_is_not_corrected() {
         bifurcation_diagram_until(&m, fb, &opts, CycleExtent::FirstFold).unwrap()
     };
     let coarse = diagram(10);
-    let flagged = coarse.fold.expect("the coarse mesh flags a fold");
-    let pts = &coarse.cycles.points;
-    let (i, _) = coarse
-        .cycles
-        .first(continuation::SpecialKind::Fold)
-        .unwrap();
-    let (a, v, b) = (pts[i - 1].parameter, pts[i].parameter, pts[i + 1].parameter);
-    assert!(
-        (v - a) * (b - v) > 0.0,
-        "V turns at the flagged point: {a} {v} {b}"
-    );
-    assert_eq!(
-        critical_speeds(&m, &coarse, &o).unwrap().fold,
-        None,
-        "{flagged:?}"
-    );
-    for l in [20, 40] {
+    if let Some(flagged) = coarse.fold {
+        // a flagged fold where V does not turn is refused by the correction
+        let pts = &coarse.cycles.points;
+        let (i, _) = coarse
+            .cycles
+            .first(continuation::SpecialKind::Fold)
+            .unwrap();
+        let (a, v, b) = (pts[i - 1].parameter, pts[i].parameter, pts[i + 1].parameter);
+        if (v - a) * (b - v) > 0.0 {
+            assert_eq!(
+                critical_speeds(&m, &coarse, &o).unwrap().fold,
+                None,
+                "{flagged:?}"
+            );
+        }
+    }
+    for l in [10, 20, 40] {
         let fine = diagram(l);
-        assert!(fine.fold.is_none(), "L = {l}: {:?}", fine.fold);
+        if l > 10 {
+            assert!(fine.fold.is_none(), "L = {l}: {:?}", fine.fold);
+        }
+        assert_eq!(
+            critical_speeds(&m, &fine, &o).unwrap().fold,
+            None,
+            "L = {l}"
+        );
         assert!(
             fine.cycle_summary
                 .iter()
-                .any(|c| c.speed_mps < flagged.speed_mps),
+                .any(|c| c.speed_mps < FLAGGED_ON_THE_UNIFORM_MESH_MPS),
             "L = {l}"
         );
     }

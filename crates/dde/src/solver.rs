@@ -1159,7 +1159,9 @@ impl Switches {
                 // up to rounding): landing on both would need a step of an ulp
                 let near = |x: &f64| (x - e).abs() <= 64.0 * f64::EPSILON * e.abs().max(1.0);
                 let duplicate = echoes.get(i).is_some_and(near)
-                    || i.checked_sub(1).and_then(|j| echoes.get(j)).is_some_and(near);
+                    || i.checked_sub(1)
+                        .and_then(|j| echoes.get(j))
+                        .is_some_and(near);
                 if !duplicate {
                     echoes.insert(i, e);
                 }

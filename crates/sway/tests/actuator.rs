@@ -162,9 +162,7 @@ fn a_fast_unlimited_actuator_converges_to_the_ideal_controller() {
 
 // ---- issue 22: the `yaw_rate_hitch` and `predictor` controller kinds, simulated ----
 
-use sway::control::{
-    self, Actuator, Gains, LinearLoop, SpeedSearch, Structure, critical_speed,
-};
+use sway::control::{self, Actuator, Gains, LinearLoop, SpeedSearch, Structure, critical_speed};
 use sway::sim::{CommandLimit, ModelError};
 
 /// The scenario controller of a structure (`yaw_rate_hitch` or `predictor`).
@@ -236,7 +234,13 @@ fn new_controller_kinds_grow_at_the_rightmost_root() {
     };
     // (structure, actuator, gains, τ [s], model error, horizon [s])
     let cases = [
-        (Structure::YawRateHitch, Actuator::Steering, hitch, 0.3, ModelError::default()),
+        (
+            Structure::YawRateHitch,
+            Actuator::Steering,
+            hitch,
+            0.3,
+            ModelError::default(),
+        ),
         (
             Structure::YawRateHitch,
             Actuator::DifferentialBraking,
@@ -248,7 +252,13 @@ fn new_controller_kinds_grow_at_the_rightmost_root() {
             0.4,
             ModelError::default(),
         ),
-        (Structure::Predictor, Actuator::Steering, Gains::yaw_rate(0.05), 0.6, ModelError::default()),
+        (
+            Structure::Predictor,
+            Actuator::Steering,
+            Gains::yaw_rate(0.05),
+            0.6,
+            ModelError::default(),
+        ),
         (
             Structure::Predictor,
             Actuator::DifferentialBraking,
@@ -256,7 +266,13 @@ fn new_controller_kinds_grow_at_the_rightmost_root() {
             0.6,
             ModelError::default(),
         ),
-        (Structure::Predictor, Actuator::Steering, Gains::yaw_rate(0.05), 0.6, off),
+        (
+            Structure::Predictor,
+            Actuator::Steering,
+            Gains::yaw_rate(0.05),
+            0.6,
+            off,
+        ),
     ];
     for (structure, actuator, gains, tau, error) in cases {
         let c = control::Controller {
@@ -341,7 +357,9 @@ fn new_controller_kinds_are_typed_in_toml() {
         "gains.hitch_rate"
     );
     assert_eq!(
-        bad("kind = \"predictor\"\ndelay_s = 0.6\nmodel_error = { trailer_cog_factor = 0.0 }\ngains = { yaw_rate = 0.1 }\n"),
+        bad(
+            "kind = \"predictor\"\ndelay_s = 0.6\nmodel_error = { trailer_cog_factor = 0.0 }\ngains = { yaw_rate = 0.1 }\n"
+        ),
         "model_error.trailer_cog_factor"
     );
     assert_eq!(
@@ -349,7 +367,9 @@ fn new_controller_kinds_are_typed_in_toml() {
         "delay_s"
     );
     assert_eq!(
-        bad("kind = \"yaw_rate_hitch\"\ndelay_s = 0.2\nactuator = \"differential_braking\"\nlimit = { max_yaw_moment_nm = -5.0 }\ngains = { yaw_rate = 0.1 }\n"),
+        bad(
+            "kind = \"yaw_rate_hitch\"\ndelay_s = 0.2\nactuator = \"differential_braking\"\nlimit = { max_yaw_moment_nm = -5.0 }\ngains = { yaw_rate = 0.1 }\n"
+        ),
         "limit.max_yaw_moment_nm"
     );
     // an unknown actuator is a parse error naming the variants

@@ -441,9 +441,9 @@ impl Controller {
     /// The actuator limits (none for the open loop).
     pub fn actuator(&self) -> ActuatorLimits {
         match self {
-            Controller::None
-            | Controller::YawRateHitch { .. }
-            | Controller::Predictor { .. } => ActuatorLimits::NONE,
+            Controller::None | Controller::YawRateHitch { .. } | Controller::Predictor { .. } => {
+                ActuatorLimits::NONE
+            }
             Controller::YawRateFeedback { actuator, .. } => *actuator,
         }
     }

@@ -8,8 +8,8 @@ use dde::{DdeProblem, OdeProblem};
 use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
 use trailer_model::{Inputs, Model, SlipAngles, State4};
 
-use super::{Controller, SpeedProfile};
 use super::controller::LoopLaw;
+use super::{Controller, SpeedProfile};
 use crate::SwayError;
 use crate::control::{Actuator, Structure};
 
@@ -463,7 +463,12 @@ fn loop_command(
         c.k = lin.c4 * law.gains.yaw_rate;
         c.k_e = c.k * e;
         c.e_b = e * c.b_hat;
-        let finite = c.a_hat.iter().chain(c.b_hat.iter()).chain(c.k_e.iter()).chain(c.e_b.iter())
+        let finite = c
+            .a_hat
+            .iter()
+            .chain(c.b_hat.iter())
+            .chain(c.k_e.iter())
+            .chain(c.e_b.iter())
             .all(|v| v.is_finite());
         if !finite {
             return Err(SwayError::numerical(

@@ -1155,7 +1155,16 @@ impl Switches {
             }
             propagate(k.t, 1, &self.echo_delays, self.echo_depth, &mut |e| {
                 let i = echoes.partition_point(|&x| x < e);
-                echoes.insert(i, e);
+                // one echo for times a few ulps apart (t + 2τ₁ vs t + τ₂ with τ₂ = 2τ₁
+                // up to rounding): landing on both would need a step of an ulp
+                let near = |x: &f64| (x - e).abs() <= 64.0 * f64::EPSILON * e.abs().max(1.0);
+                let duplicate = echoes.get(i).is_some_and(near)
+                    || i.checked_sub(1)
+                        .and_then(|j| echoes.get(j))
+                        .is_some_and(near);
+                if !duplicate {
+                    echoes.insert(i, e);
+                }
             });
             self.last_landing = Some(k);
         }

@@ -31,7 +31,7 @@ fn plant_rhs_matches_the_model_rhs7() {
     };
     let x = State7::from_column_slice(&[0.3, -0.05, 0.2, 0.15, 0.4, 10.0, -2.0]);
     let xd = State7::from_column_slice(&[0.1, 0.08, -0.1, 0.05, 0.3, 9.0, -1.5]);
-    let plant = Plant::<7>::new(&m, &profile, ctl, x);
+    let plant = Plant::<7>::new(&m, &profile, ctl, x).unwrap();
     let t = 2.0;
     let mut dx = SVector::<f64, 7>::zeros();
     DdeProblem::rhs(&plant, t, &x, &[xd], &mut dx);

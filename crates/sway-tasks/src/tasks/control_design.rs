@@ -23,6 +23,10 @@ use sway::control::{
     Structure, StudySettings, VehicleUncertainty, control_study,
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
+use sway::sim::{
+    Controller, Recording, RunSettings, SimSpec, SpeedProfile, SwayClass, simulate,
+};
+use trailer_model::State4;
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
@@ -193,6 +197,42 @@ pub struct ControlDesignConfig {
     /// the fold-of-cycles computation of the paper's structure at the checked delays
     #[serde(default = "default_fold_chart")]
     pub fold: ChartOptions,
+    /// the simulation check of one design per structure (issue 22, item 7)
+    #[serde(default)]
+    pub simulation_check: SimulationCheck,
+}
+
+/// The simulation check: at `speed_fraction`·V_crit (open loop) and constant speed, the
+/// smallest of `kicks_deg` (a hitch-angle kick θ(0), the other states 0) that makes the
+/// open loop sway (class "sustained_sway" at the horizon) is applied to the loop closed by
+/// each structure's design at τ = `delay_s` (the study's optimum there, with
+/// `actuator`); a design passes when its run settles (|θ| below the settle threshold over
+/// the final window).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimulationCheck {
+    /// τ \[s\]: must be one of the grid's delays
+    pub delay_s: f64,
+    /// V / V_crit of the open loop \[-\]
+    pub speed_fraction: f64,
+    /// candidate kicks θ(0) \[deg\], tried in increasing order on the open loop
+    pub kicks_deg: Vec<f64>,
+    /// simulated time \[s\]
+    pub horizon_s: f64,
+    /// the actuator of the checked designs
+    pub actuator: Actuator,
+}
+
+impl Default for SimulationCheck {
+    fn default() -> Self {
+        Self {
+            delay_s: 0.6,
+            speed_fraction: 0.95,
+            kicks_deg: vec![2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0],
+            horizon_s: 60.0,
+            actuator: Actuator::Steering,
+        }
+    }
 }
 
 fn default_track_width() -> f64 {
@@ -211,6 +251,31 @@ impl TaskConfig for ControlDesignConfig {
             "expected at least one actuator".into()
         })?;
         ensure_positive(self.track_width_m, file, "track_width_m", "a width > 0 m")?;
+        let sc = &self.simulation_check;
+        ensure(
+            self.delays_s.values().iter().any(|t| (t - sc.delay_s).abs() < 1e-9),
+            file,
+            "simulation_check.delay_s",
+            || format!("expected one of the delays of delays_s, got {}", sc.delay_s),
+        )?;
+        ensure(
+            sc.speed_fraction > 0.0 && sc.speed_fraction.is_finite(),
+            file,
+            "simulation_check.speed_fraction",
+            || format!("expected a fraction > 0, got {}", sc.speed_fraction),
+        )?;
+        ensure(
+            !sc.kicks_deg.is_empty() && sc.kicks_deg.iter().all(|k| k.is_finite() && *k > 0.0),
+            file,
+            "simulation_check.kicks_deg",
+            || format!("expected kicks > 0 deg, got {:?}", sc.kicks_deg),
+        )?;
+        ensure_positive(
+            sc.horizon_s,
+            file,
+            "simulation_check.horizon_s",
+            "a time > 0 s",
+        )?;
         check_speed_search(&self.search.speed, file, "search.speed")?;
         check_speed_search(&self.robustness.speed, file, "robustness.speed")?;
         let s = &self.search;
@@ -394,6 +459,162 @@ struct Summary {
     yaw_moment_limit_nm: Option<f64>,
     track_width_m: f64,
     checked_delays_s: Vec<f64>,
+    simulation_check: SimulationOutcome,
+}
+
+/// The simulation check in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct SimulationOutcome {
+    delay_s: f64,
+    speed_mps: f64,
+    /// the kick θ(0) \[deg\] (the smallest candidate that makes the open loop sway)
+    kick_deg: f64,
+    open_loop_sways: bool,
+    open_loop_final_amplitude_deg: Option<f64>,
+    designs: Vec<SimulatedDesign>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct SimulatedDesign {
+    structure: &'static str,
+    actuator: &'static str,
+    gains: Gains,
+    /// the run settled (|θ| below the settle threshold over the final window)
+    decays: bool,
+    /// max |θ| over the final window \[deg\]
+    final_amplitude_deg: Option<f64>,
+    class: String,
+}
+
+/// The scenario controller of a design (steering `yaw_rate`: the paper's kind).
+fn sim_controller(structure: Structure, actuator: Actuator, gains: Gains, tau: f64) -> Controller {
+    match (structure, actuator) {
+        (Structure::YawRate, Actuator::Steering) => Controller::YawRateFeedback {
+            gain_s: gains.yaw_rate,
+            delay_s: tau,
+            on_s: 0.0,
+            off_s: None,
+            actuator: Default::default(),
+        },
+        (Structure::Predictor, _) => Controller::Predictor {
+            gains,
+            delay_s: tau,
+            actuator,
+            on_s: 0.0,
+            off_s: None,
+            limit: Default::default(),
+            model_error: Default::default(),
+        },
+        _ => Controller::YawRateHitch {
+            gains,
+            delay_s: tau,
+            actuator,
+            on_s: 0.0,
+            off_s: None,
+            limit: Default::default(),
+        },
+    }
+}
+
+type Curve = (String, Vec<(f64, f64)>);
+
+/// Runs the simulation check: the outcome and the θ(t) curves (open loop first).
+fn simulation_check(
+    model: &trailer_model::Model,
+    r: &ControlStudy,
+    sc: &SimulationCheck,
+) -> Result<(SimulationOutcome, Vec<Curve>), TaskError> {
+    let speed = sc.speed_fraction * r.open_loop_v_crit_mps;
+    let run = |controller: Controller, kick_deg: f64| {
+        let spec = SimSpec {
+            profile: SpeedProfile::Constant { speed_mps: speed },
+            controller,
+            horizon_s: sc.horizon_s,
+            action_s: 0.0,
+            settings: RunSettings::default(),
+        };
+        let x0 = State4::new(0.0, 0.0, 0.0, kick_deg.to_radians());
+        simulate::<4>(model, &spec, x0, Recording::Every { step_s: 0.02 })
+    };
+    let curve = |label: String, res: &sway::sim::SimResult<4>| -> Curve {
+        (
+            label,
+            res.trajectory
+                .iter()
+                .map(|s| (s.t, s.x[trailer_model::HITCH_ANGLE].to_degrees()))
+                .collect(),
+        )
+    };
+    let mut kicks = sc.kicks_deg.clone();
+    kicks.sort_by(f64::total_cmp);
+    let mut open = None;
+    for &k in &kicks {
+        let res = run(Controller::None, k)?;
+        let sways = res.metrics.class == SwayClass::SustainedSway;
+        open = Some((k, res, sways));
+        if sways {
+            break;
+        }
+    }
+    let Some((kick_deg, open_run, open_loop_sways)) = open else {
+        return Err(TaskError::config(
+            Path::new("control_design.toml"),
+            "simulation_check.kicks_deg",
+            "expected at least one kick",
+        ));
+    };
+    let mut curves = vec![curve("open loop".into(), &open_run)];
+    let mut designs = Vec::new();
+    for c in r.combinations.iter().filter(|c| c.actuator == sc.actuator) {
+        let Some(d) = c.designs.iter().find(|d| (d.tau_s - sc.delay_s).abs() < 1e-9) else {
+            continue;
+        };
+        let res = run(sim_controller(c.structure, c.actuator, d.gains, d.tau_s), kick_deg)?;
+        curves.push(curve(
+            format!("{} + {}", c.structure.as_str(), c.actuator.as_str()),
+            &res,
+        ));
+        designs.push(SimulatedDesign {
+            structure: c.structure.as_str(),
+            actuator: c.actuator.as_str(),
+            gains: d.gains,
+            decays: res.metrics.class == SwayClass::Settled,
+            final_amplitude_deg: res.metrics.final_amplitude_deg,
+            class: format!("{:?}", res.metrics.class),
+        });
+    }
+    Ok((
+        SimulationOutcome {
+            delay_s: sc.delay_s,
+            speed_mps: speed,
+            kick_deg,
+            open_loop_sways,
+            open_loop_final_amplitude_deg: open_run.metrics.final_amplitude_deg,
+            designs,
+        },
+        curves,
+    ))
+}
+
+fn simulation_figure(o: &SimulationOutcome, curves: &[Curve]) -> Figure {
+    let mut panel = Panel::new(
+        &format!(
+            "Kick θ(0) = {}° at V = {:.2} m/s (0.95 × open-loop V_crit), designs at τ = {} s",
+            o.kick_deg, o.speed_mps, o.delay_s
+        ),
+        "time t [s]",
+        "hitch angle θ [deg]",
+    )
+    .legend(Legend::UpperRight);
+    for (i, (label, pts)) in curves.iter().enumerate() {
+        let (colour, stroke) = if i == 0 {
+            (Rgb(0, 0, 0), Stroke::Dotted)
+        } else {
+            (Rgb::palette(i - 1), Stroke::Solid)
+        };
+        panel = panel.with(Layer::line(pts.clone(), colour, stroke, Some(label)));
+    }
+    Figure::single(panel).titled("Simulation check of the designs: does the sway-triggering kick die out?")
 }
 
 fn color(s: Structure) -> Rgb {
@@ -544,6 +765,12 @@ impl Prepared for Configured<ControlDesignConfig> {
                     }),
                 )?;
                 figure(&r, cfg).render(&out.path("control_design"))?;
+                let (simulation, curves) =
+                    simulation_check(&ctx.model, &r, &cfg.simulation_check)?;
+                simulation_figure(&simulation, &curves).render(&out.path(&format!(
+                    "simulation_tau_{}",
+                    cfg.simulation_check.delay_s
+                )))?;
                 let lines = headlines(&r, &entries);
                 let summary = Summary {
                     delay_budget_s: r
@@ -568,6 +795,7 @@ impl Prepared for Configured<ControlDesignConfig> {
                         .limit(&ctx.model, cfg.track_width_m),
                     track_width_m: cfg.track_width_m,
                     checked_delays_s: cfg.robustness.delays_s.clone(),
+                    simulation_check: simulation,
                 };
                 Ok((summary, lines))
             },

@@ -84,7 +84,7 @@ fn open_loop(
     solver: &SolverSettings,
 ) -> Result<(State4, Crossings), SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
-    let plant = Plant::<4>::new(model, &profile, Controller::None, x0);
+    let plant = Plant::<4>::new(model, &profile, Controller::None, x0)?;
     let context = || format!("the sway cycle at V = {speed_mps} m/s over {duration_s} s");
     let mut obs = Crossings {
         times: Vec::new(),

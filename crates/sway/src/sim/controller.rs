@@ -21,6 +21,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::control::{Actuator, Gains};
+
 fn default_time_constant() -> f64 {
     0.05
 }
@@ -167,6 +169,210 @@ pub enum Controller {
         #[serde(default, skip_serializing_if = "ActuatorLimits::is_default")]
         actuator: ActuatorLimits,
     },
+    /// u(t) = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) for t_on ≤ t < t_off (issue 22's
+    /// `yaw_rate_hitch`, [`crate::control::Structure::YawRateHitch`]): a yaw-rate and a
+    /// hitch-angle sensor; u is the steering angle δ \[rad\] or the braking yaw moment
+    /// M_z \[N m\] (saturated at ±M_max, [`CommandLimit`]).
+    YawRateHitch {
+        /// D, K_θ, D_θ (units of the actuator: [`crate::control`])
+        gains: Gains,
+        /// loop delay τ \[s\]
+        delay_s: f64,
+        /// what the command moves (default steering)
+        #[serde(default = "default_loop_actuator")]
+        actuator: Actuator,
+        /// t_on \[s\]: switched on
+        #[serde(default)]
+        on_s: f64,
+        /// t_off \[s\]: switched off (never when absent)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        off_s: Option<f64>,
+        /// the braking limit (ignored for steering)
+        #[serde(default, skip_serializing_if = "CommandLimit::is_default")]
+        limit: CommandLimit,
+    },
+    /// u(t) = −D·ψ̇_p(t) for t_on ≤ t < t_off (issue 22's `predictor`,
+    /// [`crate::control::predictor`]): ψ̇_p = Ĉ·x̂(t), x̂(t) = e^{Âτ}x(t − τ) + z(t), the state
+    /// predicted τ ahead through the prediction model (Â, B̂, Ĉ) linearised at the speed of
+    /// t = 0, with z(t) = ∫_{t−τ}^{t} e^{Â(t−s)}B̂u(s) ds realised as the four extra states
+    /// ż = Âz + B̂u(t) − e^{Âτ}B̂u(t − τ), z(0) = 0 (u ≡ 0 before t_on). The realisation
+    /// carries the eigenvalues of Â as modes that the exact integral does not have (an
+    /// error in z obeys ė = Â e): exact where the prediction model is stable (below its
+    /// open-loop critical speed); above it round-off grows at the rate of Â's unstable root.
+    Predictor {
+        /// D, on the predicted yaw rate (only `yaw_rate`; the hitch gains must be 0)
+        gains: Gains,
+        /// loop delay τ \[s\] (the prediction horizon)
+        delay_s: f64,
+        /// what the command moves (default steering)
+        #[serde(default = "default_loop_actuator")]
+        actuator: Actuator,
+        /// t_on \[s\]: switched on
+        #[serde(default)]
+        on_s: f64,
+        /// t_off \[s\]: switched off (never when absent)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        off_s: Option<f64>,
+        /// the braking limit (ignored for steering)
+        #[serde(default, skip_serializing_if = "CommandLimit::is_default")]
+        limit: CommandLimit,
+        /// how the prediction model differs from the vehicle (default: a perfect model)
+        #[serde(default, skip_serializing_if = "ModelError::is_default")]
+        model_error: ModelError,
+    },
+}
+
+fn default_loop_actuator() -> Actuator {
+    Actuator::Steering
+}
+
+fn default_track_width() -> f64 {
+    1.6
+}
+
+/// The limit of the differential-braking command (the `limit` table of `yaw_rate_hitch`
+/// and `predictor`): |M_z| ≤ M_max with M_max = `max_yaw_moment_nm` when given, else
+/// [`Actuator::limit`] of the vehicle, μ0·(F_zF + F_zR)·w/4 with the track width w.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommandLimit {
+    /// track width w \[m\] of the tractor for [`Actuator::limit`] (default 1.6 m)
+    #[serde(default = "default_track_width")]
+    pub track_width_m: f64,
+    /// M_max \[N m\] stated directly (replaces the friction limit when present)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_yaw_moment_nm: Option<f64>,
+}
+
+impl Default for CommandLimit {
+    fn default() -> Self {
+        Self {
+            track_width_m: default_track_width(),
+            max_yaw_moment_nm: None,
+        }
+    }
+}
+
+impl CommandLimit {
+    /// Whether these are the defaults (then they are not written out).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// M_max \[N m\] of `actuator` on `model` (`None` for steering: no limit).
+    pub fn max_command(&self, actuator: Actuator, model: &trailer_model::Model) -> Option<f64> {
+        match actuator {
+            Actuator::Steering => None,
+            Actuator::DifferentialBraking => self
+                .max_yaw_moment_nm
+                .or_else(|| actuator.limit(model, self.track_width_m)),
+        }
+    }
+
+    fn validate(&self) -> Result<(), (&'static str, String)> {
+        let w = self.track_width_m;
+        if !(w.is_finite() && w > 0.0) {
+            return Err((
+                "limit.track_width_m",
+                format!("expected a width > 0 m, got {w}"),
+            ));
+        }
+        if let Some(m) = self.max_yaw_moment_nm
+            && !(m.is_finite() && m > 0.0)
+        {
+            return Err((
+                "limit.max_yaw_moment_nm",
+                format!("expected a finite yaw moment > 0 N m, got {m}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// How the predictor's model differs from the vehicle: factors on the trailer's mass m2,
+/// yaw inertia J2 and hitch-to-centre-of-gravity distance h (the `model_error` table;
+/// each defaults to 1, a perfect model).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModelError {
+    /// factor on m2 \[-\]
+    pub trailer_mass_factor: f64,
+    /// factor on J2 \[-\]
+    pub trailer_yaw_inertia_factor: f64,
+    /// factor on h \[-\]
+    pub trailer_cog_factor: f64,
+}
+
+impl Default for ModelError {
+    fn default() -> Self {
+        Self {
+            trailer_mass_factor: 1.0,
+            trailer_yaw_inertia_factor: 1.0,
+            trailer_cog_factor: 1.0,
+        }
+    }
+}
+
+impl ModelError {
+    /// Whether this is the perfect model.
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The prediction model's parameters: `params` with the factors applied.
+    pub fn apply(&self, params: &trailer_model::VehicleParams) -> trailer_model::VehicleParams {
+        let mut p = *params;
+        p.trailer.mass *= self.trailer_mass_factor;
+        p.trailer.yaw_inertia *= self.trailer_yaw_inertia_factor;
+        p.trailer.cog *= self.trailer_cog_factor;
+        p
+    }
+
+    fn validate(&self) -> Result<(), (&'static str, String)> {
+        for (key, f) in [
+            ("model_error.trailer_mass_factor", self.trailer_mass_factor),
+            (
+                "model_error.trailer_yaw_inertia_factor",
+                self.trailer_yaw_inertia_factor,
+            ),
+            ("model_error.trailer_cog_factor", self.trailer_cog_factor),
+        ] {
+            if !(f.is_finite() && f > 0.0) {
+                return Err((key, format!("expected a finite factor > 0, got {f}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The loop law of a `yaw_rate_hitch` or `predictor` controller, as [`Controller::loop_law`]
+/// gives it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopLaw {
+    /// `yaw_rate_hitch` or `predictor`
+    pub structure: crate::control::Structure,
+    /// the gains
+    pub gains: Gains,
+    /// τ \[s\]
+    pub delay_s: f64,
+    /// steering or braking
+    pub actuator: Actuator,
+    /// t_on \[s\]
+    pub on_s: f64,
+    /// t_off \[s\]
+    pub off_s: Option<f64>,
+    /// the braking limit
+    pub limit: CommandLimit,
+    /// the predictor's model error (perfect for `yaw_rate_hitch`)
+    pub model_error: ModelError,
+}
+
+impl LoopLaw {
+    /// Whether the controller acts at time t (t_on ≤ t < t_off).
+    #[inline]
+    pub fn is_on(&self, t: f64) -> bool {
+        t >= self.on_s && self.off_s.is_none_or(|off| t < off)
+    }
 }
 
 impl Controller {
@@ -174,14 +380,70 @@ impl Controller {
     pub fn delay(&self) -> Option<f64> {
         match self {
             Controller::None => None,
-            Controller::YawRateFeedback { delay_s, .. } => Some(*delay_s),
+            Controller::YawRateFeedback { delay_s, .. }
+            | Controller::YawRateHitch { delay_s, .. }
+            | Controller::Predictor { delay_s, .. } => Some(*delay_s),
+        }
+    }
+
+    /// The law of a `yaw_rate_hitch` or `predictor` controller (`None` for the others).
+    pub fn loop_law(&self) -> Option<LoopLaw> {
+        use crate::control::Structure;
+        match *self {
+            Controller::None | Controller::YawRateFeedback { .. } => None,
+            Controller::YawRateHitch {
+                gains,
+                delay_s,
+                actuator,
+                on_s,
+                off_s,
+                limit,
+            } => Some(LoopLaw {
+                structure: Structure::YawRateHitch,
+                gains,
+                delay_s,
+                actuator,
+                on_s,
+                off_s,
+                limit,
+                model_error: ModelError::default(),
+            }),
+            Controller::Predictor {
+                gains,
+                delay_s,
+                actuator,
+                on_s,
+                off_s,
+                limit,
+                model_error,
+            } => Some(LoopLaw {
+                structure: Structure::Predictor,
+                gains,
+                delay_s,
+                actuator,
+                on_s,
+                off_s,
+                limit,
+                model_error,
+            }),
+        }
+    }
+
+    /// Number of states the simulation adds to the vehicle's: 1 for a rate-limited
+    /// actuator (δ), 4 for the predictor (z), else 0.
+    pub fn extra_states(&self) -> usize {
+        match self {
+            Controller::Predictor { .. } => 4,
+            _ => usize::from(self.has_actuator_state()),
         }
     }
 
     /// The actuator limits (none for the open loop).
     pub fn actuator(&self) -> ActuatorLimits {
         match self {
-            Controller::None => ActuatorLimits::NONE,
+            Controller::None | Controller::YawRateHitch { .. } | Controller::Predictor { .. } => {
+                ActuatorLimits::NONE
+            }
             Controller::YawRateFeedback { actuator, .. } => *actuator,
         }
     }
@@ -201,11 +463,14 @@ impl Controller {
     }
 
     /// The command before saturation \[rad\]: −D·ψ̇(t − τ) while the controller is on, 0
-    /// while it is off.
+    /// while it is off (0 for `yaw_rate_hitch` and `predictor`, whose commands the
+    /// [`crate::sim::Plant`] computes from the whole delayed state).
     #[inline]
     pub fn raw_steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
         match self {
-            Controller::None => 0.0,
+            Controller::None | Controller::YawRateHitch { .. } | Controller::Predictor { .. } => {
+                0.0
+            }
             Controller::YawRateFeedback {
                 gain_s,
                 on_s,
@@ -225,9 +490,21 @@ impl Controller {
     pub fn breakpoints(&self) -> Vec<f64> {
         match self {
             Controller::None => Vec::new(),
-            Controller::YawRateFeedback { on_s, off_s, .. } => {
+            Controller::YawRateFeedback { on_s, off_s, .. }
+            | Controller::YawRateHitch { on_s, off_s, .. } => {
                 let mut v = vec![*on_s];
                 v.extend(off_s.iter());
+                v
+            }
+            // u(t − τ) in ż jumps τ later
+            Controller::Predictor {
+                on_s,
+                off_s,
+                delay_s,
+                ..
+            } => {
+                let mut v = vec![*on_s, on_s + delay_s];
+                v.extend(off_s.iter().flat_map(|o| [*o, o + delay_s]));
                 v
             }
         }
@@ -237,7 +514,9 @@ impl Controller {
     pub fn action_time(&self) -> Option<f64> {
         match self {
             Controller::None => None,
-            Controller::YawRateFeedback { on_s, .. } => Some(*on_s),
+            Controller::YawRateFeedback { on_s, .. }
+            | Controller::YawRateHitch { on_s, .. }
+            | Controller::Predictor { on_s, .. } => Some(*on_s),
         }
     }
 
@@ -269,6 +548,48 @@ impl Controller {
                 ));
             }
             actuator.validate()?;
+        }
+        if let Some(law) = self.loop_law() {
+            let g = law.gains;
+            for (key, v) in [
+                ("gains.yaw_rate", g.yaw_rate),
+                ("gains.hitch_angle", g.hitch_angle),
+                ("gains.hitch_rate", g.hitch_rate),
+            ] {
+                if !v.is_finite() {
+                    return Err((key, format!("expected a finite gain, got {v}")));
+                }
+            }
+            if law.structure == crate::control::Structure::Predictor {
+                for (key, v) in [
+                    ("gains.hitch_angle", g.hitch_angle),
+                    ("gains.hitch_rate", g.hitch_rate),
+                ] {
+                    if v != 0.0 {
+                        return Err((
+                            key,
+                            format!("the predictor feeds back only gains.yaw_rate; got {v}"),
+                        ));
+                    }
+                }
+            }
+            let (delay_s, on_s) = (law.delay_s, law.on_s);
+            if !(delay_s.is_finite() && delay_s >= 0.0) {
+                return Err(("delay_s", format!("expected a delay >= 0 s, got {delay_s}")));
+            }
+            if !(on_s.is_finite() && on_s >= 0.0) {
+                return Err(("on_s", format!("expected a time >= 0 s, got {on_s}")));
+            }
+            if let Some(off) = law.off_s
+                && !(off.is_finite() && off > on_s)
+            {
+                return Err((
+                    "off_s",
+                    format!("expected off_s > on_s = {on_s}, got {off}"),
+                ));
+            }
+            law.limit.validate()?;
+            law.model_error.validate()?;
         }
         Ok(())
     }

@@ -34,7 +34,7 @@ pub mod speeds;
 pub mod sweep;
 
 pub use classify::SwayClass;
-pub use controller::{ActuatorLimits, Controller};
+pub use controller::{ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError};
 pub use plant::{Plant, reduced};
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{

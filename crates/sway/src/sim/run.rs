@@ -461,8 +461,9 @@ impl<const N: usize> Observer<N> for MetricObserver<'_, '_, N> {
 /// Runs one scenario from the state `x0` at t = 0 (4 states, or 7 to get the path).
 /// Open loop uses the ODE solver; with a controller the DDE solver (history: x ≡ x0 for t ≤ 0).
 /// With a rate-limited actuator the steering angle is an extra state, starting at δ(0) = 0
-/// (see [`crate::sim::ActuatorLimits`]); the result has `N` states all the same, and the
-/// recorded `steering_angle` is that state.
+/// (see [`crate::sim::ActuatorLimits`]), with a predictor its integral z, starting at
+/// z(0) = 0 ([`Controller::Predictor`]); the result has `N` states all the same, and the
+/// recorded `steering_angle` is the applied steering angle (0 under differential braking).
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails (step-size underflow, non-finite state,
@@ -473,20 +474,21 @@ pub fn simulate<const N: usize>(
     x0: SVector<f64, N>,
     recording: Recording,
 ) -> Result<SimResult<N>, SwayError> {
-    if !spec.controller.has_actuator_state() {
-        return simulate_plant::<N>(model, spec, x0, recording);
-    }
-    match N {
-        4 => with_actuator_state::<N, 5>(model, spec, x0, recording),
-        7 => with_actuator_state::<N, 8>(model, spec, x0, recording),
-        _ => Err(SwayError::numerical(
-            format!("simulation with a rate-limited actuator and {N} states"),
+    match (spec.controller.extra_states(), N) {
+        (0, _) => simulate_plant::<N>(model, spec, x0, recording),
+        (1, 4) => with_actuator_state::<N, 5>(model, spec, x0, recording),
+        (1, 7) => with_actuator_state::<N, 8>(model, spec, x0, recording),
+        (4, 4) => with_actuator_state::<N, 8>(model, spec, x0, recording),
+        (4, 7) => with_actuator_state::<N, 11>(model, spec, x0, recording),
+        (extra, _) => Err(SwayError::numerical(
+            format!("simulation with {extra} controller states and {N} vehicle states"),
             std::io::Error::other("expected 4 or 7 states"),
         )),
     }
 }
 
-/// Runs the `M = N + 1`-state plant (δ last, δ(0) = 0) and drops δ from the states.
+/// Runs the `M`-state plant (the controller's states last: δ(0) = 0 or z(0) = 0) and drops
+/// them from the states.
 fn with_actuator_state<const N: usize, const M: usize>(
     model: &Model,
     spec: &SimSpec,
@@ -520,7 +522,7 @@ fn simulate_plant<const N: usize>(
     x0: SVector<f64, N>,
     recording: Recording,
 ) -> Result<SimResult<N>, SwayError> {
-    let plant = Plant::<N>::new(model, &spec.profile, spec.controller, x0);
+    let plant = Plant::<N>::new(model, &spec.profile, spec.controller, x0)?;
     let (tan_cr_front, tan_cr_rear) = model.critical_slip_tangents();
     let th_s = spec
         .settings
@@ -733,7 +735,7 @@ pub fn settle(
 ) -> Result<State4, SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
     let x0 = State4::new(0.0, 0.0, 0.0, theta0_rad);
-    let plant = Plant::<4>::new(model, &profile, Controller::None, x0);
+    let plant = Plant::<4>::new(model, &profile, Controller::None, x0)?;
     let context = || format!("settling on the sway cycle at V = {speed_mps} m/s for {settle_s} s");
     let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options(&Controller::None))
         .map_err(|e| SwayError::numerical(context(), e))?;

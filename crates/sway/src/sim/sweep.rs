@@ -472,9 +472,17 @@ fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(), S
                     *delay_s = v;
                 }
             }
+            Controller::YawRateHitch { gains, delay_s, .. }
+            | Controller::Predictor { gains, delay_s, .. } => {
+                if p == SweepParameter::GainS {
+                    gains.yaw_rate = v;
+                } else {
+                    *delay_s = v;
+                }
+            }
             Controller::None => {
                 return Err(format!(
-                    "{} needs a yaw_rate_feedback controller in [base.controller]",
+                    "{} needs a yaw_rate_feedback, yaw_rate_hitch or predictor controller in [base.controller]",
                     p.as_str()
                 ));
             }

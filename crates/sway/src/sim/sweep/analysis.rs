@@ -145,6 +145,9 @@ pub struct HopfFoldSpeeds {
 fn feedback(controller: &Controller) -> Result<Feedback, String> {
     match *controller {
         Controller::None => Ok(Feedback::OPEN_LOOP),
+        Controller::YawRateHitch { .. } | Controller::Predictor { .. } => Err(
+            "the linear and bifurcation kinds of sweeps take the open loop or a yaw_rate_feedback controller; yaw_rate_hitch and predictor are simulated only".into(),
+        ),
         Controller::YawRateFeedback {
             gain_s,
             delay_s,

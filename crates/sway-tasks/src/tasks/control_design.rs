@@ -483,7 +483,8 @@ struct SimulatedDesign {
     decays: bool,
     /// max |θ| over the final window \[deg\]
     final_amplitude_deg: Option<f64>,
-    class: String,
+    /// the run's class (`settled`, `sustained_sway`, …)
+    class: SwayClass,
 }
 
 /// The scenario controller of a design (steering `yaw_rate`: the paper's kind).
@@ -580,7 +581,7 @@ fn simulation_check(
             gains: d.gains,
             decays: res.metrics.class == SwayClass::Settled,
             final_amplitude_deg: res.metrics.final_amplitude_deg,
-            class: format!("{:?}", res.metrics.class),
+            class: res.metrics.class,
         });
     }
     Ok((
@@ -767,10 +768,10 @@ impl Prepared for Configured<ControlDesignConfig> {
                 figure(&r, cfg).render(&out.path("control_design"))?;
                 let (simulation, curves) =
                     simulation_check(&ctx.model, &r, &cfg.simulation_check)?;
-                simulation_figure(&simulation, &curves).render(&out.path(&format!(
-                    "simulation_tau_{}",
-                    cfg.simulation_check.delay_s
-                )))?;
+                // `simulation_tau_0_6` for τ = 0.6 s: a dot would read as the file's extension
+                let stem = format!("simulation_tau_{}", cfg.simulation_check.delay_s)
+                    .replace('.', "_");
+                simulation_figure(&simulation, &curves).render(&out.path(&stem))?;
                 let lines = headlines(&r, &entries);
                 let summary = Summary {
                     delay_budget_s: r

@@ -144,7 +144,8 @@ pub struct LinearSummary {
     pub reason: Option<String>,
     /// how straight running loses stability at V_crit: `"hopf"` (a complex pair, the
     /// onset of sway) or `"divergence"` (a real eigenvalue, ω = 0: a static divergence,
-    /// no sway cycles); null when it does not
+    /// no sway cycles); absent when it does not (then `reason` says why)
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub loss_of_stability: Option<LossOfStability>,
     /// the Hopf frequency \[Hz\] (0 for a divergence)
     pub hopf_frequency_hz: Option<f64>,

@@ -10,7 +10,7 @@ use crate::limits::{self, MAX_ARRAY_LEN, MAX_STRING_LEN};
 use crate::tasks::{Prepared, Task, TaskContext};
 use sway::config::ensure;
 use sway::sim::RunSettings;
-use trailer_model::{Model, ModelError, VehicleParams};
+use trailer_model::{AnyVehicleModel, Model, ModelError, VehicleParams, VehicleSpec};
 
 /// Reads and deserialises a TOML file into `T`.
 ///
@@ -145,14 +145,38 @@ fn run_settings_error(text: &str) -> Option<(String, String)> {
     walk(&toml::from_str(text).ok()?, "")
 }
 
-/// Loads a vehicle file (the form of `configs/vehicle.toml`, Table I) and builds the model.
-///
-/// # Errors
-/// As [`load_toml`], plus [`TaskError::Config`] naming the parameter when a physical
-/// check fails (positive masses, 0 < c < f, 0 < d < f, 0 < μ ≤ μ0, …).
-pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), TaskError> {
-    let params: VehicleParams = load_toml(file)?;
-    let model = Model::new(params).map_err(|e| match e {
+/// A vehicle file read in its general form ([`VehicleSpec`]: axle lists, tyre laws,
+/// relaxation, hitch torque), validated, with its plant and the paper-form equivalent.
+#[derive(Debug, Clone)]
+pub struct LoadedVehicle {
+    /// the file as written
+    pub spec: VehicleSpec,
+    /// the plant of every task that takes any model ([`AnyVehicleModel::Paper`] for a
+    /// vehicle of the paper's form: bit for bit the paper's [`Model`])
+    pub plant: AnyVehicleModel,
+    /// the paper-form parameters ([`VehicleSpec::equivalent_params`]: identical to the
+    /// file's keys for a vehicle of the paper's form; for a vehicle with variants the
+    /// single-axle brush-tyre vehicle with the same statics and cornering stiffnesses, for
+    /// ranges and names only, never for its dynamics)
+    pub params: VehicleParams,
+    /// the paper's model of [`Self::params`]
+    pub paper_model: Model,
+    /// the first key that makes the vehicle differ from the paper's model
+    /// ([`VehicleSpec::first_variant_key`]); None for a vehicle of the paper's form
+    pub variant_key: Option<String>,
+}
+
+impl LoadedVehicle {
+    /// Whether the vehicle is of the paper's form (one brush-tyre axle per group, σ = 0, a
+    /// free hitch).
+    pub fn is_paper_form(&self) -> bool {
+        self.variant_key.is_none()
+    }
+}
+
+/// A model error of a vehicle file as a config error naming the key.
+fn vehicle_error(file: &Path, e: ModelError) -> TaskError {
+    match e {
         ModelError::InvalidParameter {
             key,
             value,
@@ -162,8 +186,51 @@ pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), TaskError> {
             key,
             format!("{value} is invalid: expected {expected}"),
         ),
+        ModelError::InvalidSpec {
+            key,
+            value,
+            expected,
+        } => TaskError::config(
+            file,
+            key,
+            format!("{value} is invalid: expected {expected}"),
+        ),
+        ModelError::TireSpec { key, source } => TaskError::config(file, key, source.to_string()),
         other => TaskError::config(file, "<root>", other.to_string()),
-    })?;
+    }
+}
+
+/// Loads a vehicle file in its general form (the paper's keys of `configs/vehicle.toml`,
+/// plus the optional model variants of `configs/vehicles/*.toml`), validates it and builds
+/// its plant.
+///
+/// # Errors
+/// As [`load_toml`], plus [`TaskError::Config`] naming the key when a physical check
+/// fails (positive masses, 0 < c < f, overlapping axles, a bad tyre law, …).
+pub fn load_vehicle_spec(file: &Path) -> Result<LoadedVehicle, TaskError> {
+    let spec: VehicleSpec = load_toml(file)?;
+    let checked = || -> Result<LoadedVehicle, ModelError> {
+        spec.validate()?;
+        let params = spec.equivalent_params()?;
+        Ok(LoadedVehicle {
+            plant: AnyVehicleModel::new(&spec)?,
+            paper_model: Model::new(params)?,
+            variant_key: spec.first_variant_key()?,
+            params,
+            spec: spec.clone(),
+        })
+    };
+    checked().map_err(|e| vehicle_error(file, e))
+}
+
+/// Loads a vehicle file (the form of `configs/vehicle.toml`, Table I) and builds the model.
+///
+/// # Errors
+/// As [`load_toml`], plus [`TaskError::Config`] naming the parameter when a physical
+/// check fails (positive masses, 0 < c < f, 0 < d < f, 0 < μ ≤ μ0, …).
+pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), TaskError> {
+    let params: VehicleParams = load_toml(file)?;
+    let model = Model::new(params).map_err(|e| vehicle_error(file, e))?;
     Ok((params, model))
 }
 
@@ -242,6 +309,7 @@ impl Task {
             about,
             config,
             prepare: prepare_config::<C>,
+            models: crate::tasks::Models::Paper,
         }
     }
 }

@@ -1050,6 +1050,11 @@ fn merge_as<T: PointwiseTask>(
         vehicle_file: m.provenance.vehicle_file.clone(),
         vehicle: m.vehicle,
         model: Model::new(m.vehicle).map_err(TaskError::from)?,
+        spec: m.vehicle.into(),
+        plant: trailer_model::AnyVehicleModel::Paper(
+            Model::new(m.vehicle).map_err(TaskError::from)?,
+        ),
+        variant_key: None,
         configs_dir: PathBuf::new(),
         results_dir: results_root.to_path_buf(),
         progress,

@@ -174,3 +174,47 @@ fn bad_task_configs_are_rejected_before_any_work() {
     }
     assert!(tasks::resolve("fig99").is_err());
 }
+
+/// Every example vehicle with a model variant loads (its plant has 4 + relaxing-axle
+/// states), and a task that takes only the paper's model refuses it before any work,
+/// naming the file, the variant key and the task.
+#[test]
+fn model_variant_files_load_and_paper_only_tasks_refuse_them_by_key() {
+    let cases = [
+        ("relaxation.toml", "tractor.front_relaxation_length_m", 7),
+        ("magic_formula.toml", "tire", 4),
+        ("tandem.toml", "trailer.axles", 4),
+        ("hitch_friction.toml", "hitch.friction_torque_nm", 4),
+    ];
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let results = tmp.path().join("results");
+    for (file, key, states) in cases {
+        let path = root().join("configs/vehicles").join(file);
+        let ctx = TaskContext::new(&path, &root().join("configs"), &results, &NoProgress)
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(ctx.plant.states(), states, "{file}");
+        let variant = ctx.variant_key.clone().expect("a variant");
+        assert!(variant.contains(key), "{file}: {variant}");
+        for task in tasks::registry()
+            .into_iter()
+            .filter(|t| t.models == tasks::Models::Paper)
+        {
+            let config = root().join("configs").join(task.config);
+            let err = match tasks::prepare_checked(&task, &ctx, &config) {
+                Ok(_) => panic!("{file}: task {} took a model variant", task.name),
+                Err(e) => e.to_string(),
+            };
+            assert!(
+                err.contains(file) && err.contains(&variant) && err.contains(task.name),
+                "{file}: {err}"
+            );
+        }
+        assert!(!results.exists(), "{file}: nothing may be written");
+    }
+    let paper = context(&results);
+    assert!(paper.variant_key.is_none());
+    assert!(matches!(
+        paper.plant,
+        trailer_model::AnyVehicleModel::Paper(_)
+    ));
+}

@@ -675,20 +675,48 @@ impl VehicleSpec {
     /// # Errors
     /// As [`Self::resolved_axles`].
     pub fn has_variants(&self) -> Result<bool, ModelError> {
+        Ok(self.first_variant_key()?.is_some())
+    }
+
+    /// The first key that makes the vehicle differ from the paper's model (see
+    /// [`Self::has_variants`]): `tractor.axles` / `trailer.axles` for a group of more than one
+    /// axle, an axle's `…tire` or `…relaxation_length_m`, `hitch.yaw_damping_nms` or
+    /// `hitch.friction_torque_nm`; None for a vehicle of the paper's form. For messages
+    /// ("this task takes the paper's model only: `…` is a variant").
+    ///
+    /// # Errors
+    /// As [`Self::resolved_axles`].
+    pub fn first_variant_key(&self) -> Result<Option<String>, ModelError> {
         let axles = self.resolved_axles()?;
-        let count = |unit: Unit, steered: bool| {
+        let group = |unit: Unit, steered: bool| {
             axles
                 .iter()
-                .filter(|a| a.unit == unit && a.spec.steered == steered)
-                .count()
+                .filter(move |a| a.unit == unit && a.spec.steered == steered)
         };
-        let one_each = count(Unit::Tractor, true) == 1
-            && count(Unit::Tractor, false) == 1
-            && count(Unit::Trailer, false) == 1;
-        let plain = axles
-            .iter()
-            .all(|a| a.spec.tire == TireLawSpec::default() && a.spec.relaxation_length_m == 0.0);
-        Ok(!(one_each && plain && self.hitch.is_free()))
+        for (unit, steered, key) in [
+            (Unit::Tractor, true, "tractor.axles"),
+            (Unit::Tractor, false, "tractor.axles"),
+            (Unit::Trailer, false, "trailer.axles"),
+        ] {
+            if group(unit, steered).count() != 1 {
+                return Ok(Some(key.to_string()));
+            }
+        }
+        for a in &axles {
+            if a.spec.tire != TireLawSpec::default() {
+                return Ok(Some(format!("{}tire", a.prefix)));
+            }
+            if a.spec.relaxation_length_m != 0.0 {
+                return Ok(Some(format!("{}relaxation_length_m", a.prefix)));
+            }
+        }
+        Ok(if self.hitch.yaw_damping_nms != 0.0 {
+            Some("hitch.yaw_damping_nms".to_string())
+        } else if self.hitch.friction_torque_nm != 0.0 {
+            Some("hitch.friction_torque_nm".to_string())
+        } else {
+            None
+        })
     }
 
     /// A copy with parameter `index` of [`crate::PARAMETERS`] set to `value` (not validated),

@@ -41,6 +41,7 @@ pub const TASK: Task = Task {
     about: "paper Fig. 3a: bifurcation diagram and time panels (2° decays, 8° grows into sway at 33 m/s)",
     config: "fig3a.toml",
     prepare,
+    models: super::Models::Paper,
 };
 
 fn default_speed<S: From<f64>>() -> S {

@@ -36,6 +36,7 @@ pub const TASK: Task = Task {
     about: "paper Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback for several (τ, D)",
     config: "fig4b.toml",
     prepare,
+    models: super::Models::Paper,
 };
 
 /// One feedback setting: `{ delay_s = τ, gain_s = D }` in the config. The config echo in

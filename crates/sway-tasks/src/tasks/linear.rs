@@ -23,6 +23,7 @@ pub const TASK: Task = Task {
     about: "open-loop eigenvalues vs V, V_crit, Hopf frequency, dV_crit/dp",
     config: "linear.toml",
     prepare,
+    models: super::Models::Paper,
 };
 
 /// `configs/linear.toml`.

@@ -28,6 +28,7 @@ pub const TASK: Task = Task {
     about: "V_crit vs trailer mass and centre of gravity, tongue-load lines (beyond the paper)",
     config: "loading.toml",
     prepare,
+    models: super::Models::Paper,
 };
 
 /// `configs/loading.toml`.

@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
-use trailer_model::{Model, VehicleParams};
+use trailer_model::{AnyVehicleModel, Model, VehicleParams, VehicleSpec};
 
 use crate::TaskError;
 use crate::config_file;
@@ -58,10 +58,20 @@ pub mod series;
 pub struct TaskContext<'a> {
     /// the vehicle file the model was loaded from
     pub vehicle_file: PathBuf,
-    /// its parameters
+    /// its paper-form parameters (the file's keys for a vehicle of the paper's form; for a
+    /// vehicle with model variants the equivalent single-axle vehicle, which only tasks of
+    /// [`Models::Paper`] see, and they refuse such a vehicle: [`prepare_checked`])
     pub vehicle: VehicleParams,
-    /// the model built from them
+    /// the paper's model built from them
     pub model: Model,
+    /// the vehicle file as written (axle lists, tyre laws, relaxation, hitch torque)
+    pub spec: VehicleSpec,
+    /// the plant of the vehicle, for tasks of [`Models::Any`]
+    /// ([`AnyVehicleModel::Paper`] for a vehicle of the paper's form)
+    pub plant: AnyVehicleModel,
+    /// the first key of the file that makes it differ from the paper's model, None for a
+    /// vehicle of the paper's form
+    pub variant_key: Option<String>,
     /// directory of the default task configs (`configs/`)
     pub configs_dir: PathBuf,
     /// root of the results (`results/`)
@@ -85,7 +95,7 @@ impl std::fmt::Debug for TaskContext<'_> {
 }
 
 impl<'a> TaskContext<'a> {
-    /// Loads and validates the vehicle file.
+    /// Loads and validates the vehicle file ([`config_file::load_vehicle_spec`]).
     ///
     /// # Errors
     /// [`TaskError::Read`] / [`TaskError::Config`] naming the file and key.
@@ -95,11 +105,14 @@ impl<'a> TaskContext<'a> {
         results_dir: &Path,
         progress: &'a dyn Progress,
     ) -> Result<Self, TaskError> {
-        let (vehicle, model) = config_file::load_vehicle(vehicle_file)?;
+        let loaded = config_file::load_vehicle_spec(vehicle_file)?;
         Ok(Self {
             vehicle_file: vehicle_file.to_path_buf(),
-            vehicle,
-            model,
+            vehicle: loaded.params,
+            model: loaded.paper_model,
+            spec: loaded.spec,
+            plant: loaded.plant,
+            variant_key: loaded.variant_key,
             configs_dir: configs_dir.to_path_buf(),
             results_dir: results_dir.to_path_buf(),
             progress,
@@ -214,9 +227,55 @@ pub fn prepare_checked(
     ctx: &TaskContext<'_>,
     file: &Path,
 ) -> Result<(Box<dyn Prepared>, Plan), TaskError> {
+    check_models(task, ctx)?;
     let prepared = (task.prepare)(ctx, file)?;
     let plan = prepared.plan()?;
     Ok((prepared, plan))
+}
+
+/// A task of [`Models::Paper`] refuses a vehicle with model variants, naming the file, the
+/// variant key and the tasks that take it (never the equivalent paper vehicle in silence).
+///
+/// # Errors
+/// [`TaskError::Config`] naming the vehicle file and its first variant key.
+fn check_models(task: &Task, ctx: &TaskContext<'_>) -> Result<(), TaskError> {
+    let Some(key) = &ctx.variant_key else {
+        return Ok(());
+    };
+    if task.models == Models::Any {
+        return Ok(());
+    }
+    let takers: Vec<&str> = registry()
+        .iter()
+        .filter(|t| t.models == Models::Any)
+        .map(|t| t.name)
+        .collect();
+    Err(TaskError::config(
+        &ctx.vehicle_file,
+        key.as_str(),
+        format!(
+            "task `{}` takes only the paper's model (one brush-tyre axle per unit, no \
+             relaxation, a free hitch), and this key makes the vehicle a model variant; \
+             tasks that take model variants: {}",
+            task.name,
+            if takers.is_empty() {
+                "none yet".to_string()
+            } else {
+                takers.join(", ")
+            }
+        ),
+    ))
+}
+
+/// Which vehicle models a task takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Models {
+    /// only the paper's model (a vehicle file of the paper's form); a vehicle with model
+    /// variants is refused before any work
+    #[default]
+    Paper,
+    /// any plant ([`TaskContext::plant`]): relaxation, tyre laws, axle lists, hitch torque
+    Any,
 }
 
 /// Loads and validates a task's config.
@@ -233,6 +292,19 @@ pub struct Task {
     pub config: &'static str,
     /// config loading and validation
     pub prepare: PrepareFn,
+    /// which vehicle models it takes
+    pub models: Models,
+}
+
+impl Task {
+    /// The same task, taking any plant ([`Models::Any`]).
+    #[must_use]
+    pub const fn any_model(self) -> Self {
+        Self {
+            models: Models::Any,
+            ..self
+        }
+    }
 }
 
 /// Named groups of tasks: `fig3`, `fig4` (the panels of one figure, plus the nonlinear

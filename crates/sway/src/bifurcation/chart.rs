@@ -24,11 +24,11 @@ use continuation::{
     NewtonUpdate, Refinement, SpecialKind, Stop,
 };
 use serde::{Deserialize, Serialize};
-use trailer_model::{HITCH_ANGLE, Model};
+use trailer_model::HITCH_ANGLE;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, SPEED,
-    bifurcation_diagram_until, cycles_from_hopf, straight_running,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, LoopLaw,
+    LoopPlant, SPEED, bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
 use rayon::prelude::*;
@@ -339,7 +339,7 @@ impl ChartOptions {
     }
 }
 
-type HopfSystem<'a> = HopfCurveSystem<'a, ClosedLoop<'a>, ChebyshevRoots>;
+type HopfSystem<'a, P, const N: usize> = HopfCurveSystem<'a, ClosedLoop<'a, P, N>, ChebyshevRoots>;
 
 /// Extends `branch` in chunks until it stops, leaves the box (through the secondary
 /// parameter, which the engine does not watch) or has `max_points` points.
@@ -401,9 +401,9 @@ fn curve_points_at<S: ContinuationSystem>(
 /// discrete fold from any guess (measured: one pass left 4e-6 relative between the fold of
 /// a cycle branch and the same fold read off a fold-of-cycles curve at L = 20; the passes
 /// converge geometrically).
-fn corrected_in_canonical_phase(
+fn corrected_in_canonical_phase<P: LoopPlant<N>, const N: usize>(
     cont: &Continuation,
-    sys: &mut FoldSystem<'_>,
+    sys: &mut FoldSystem<'_, P, N>,
     u: &[f64],
     fixed: usize,
 ) -> Result<Vec<f64>, continuation::Error> {
@@ -437,11 +437,11 @@ fn joined(branches: &[Branch; 2]) -> impl Iterator<Item = &BranchPoint> {
 
 /// The Hopf-curve system of the closed loop with free parameters [D, V] (D primary),
 /// the gain set to `d` (where [`HopfCurveSystem::start_at_hopf`] starts).
-fn hopf_system<'a>(
-    problem: &'a ClosedLoop<'a>,
+fn hopf_system<'a, P: LoopPlant<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
     d: f64,
     o: &ChartOptions,
-) -> Result<HopfSystem<'a>, SwayError> {
+) -> Result<HopfSystem<'a, P, N>, SwayError> {
     let mut params = problem.parameters(0.0);
     params[GAIN] = d;
     HopfCurveSystem::new(problem, params, [GAIN, SPEED], o.roots())
@@ -462,8 +462,8 @@ fn hopf_curve_point(u: &[f64]) -> HopfCurvePoint {
 }
 
 /// The Hopf curve through the located Hopf point `hopf` at gain `d`, both directions.
-fn hopf_curve(
-    problem: &ClosedLoop<'_>,
+fn hopf_curve<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
     d: f64,
     hopf: &HopfPoint,
     o: &ChartOptions,
@@ -500,8 +500,8 @@ fn hopf_curve(
 /// re-located on straight running near V (so that the transversality is known), then a
 /// short cycle branch from it. None if the located point is another mode (ω differs by
 /// more than 1 %).
-fn criticality_at(
-    problem: &ClosedLoop<'_>,
+fn criticality_at<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
     p: &HopfCurvePoint,
     o: &ChartOptions,
 ) -> Result<Option<Criticality>, SwayError> {
@@ -527,8 +527,8 @@ fn criticality_at(
 }
 
 /// Samples the criticality at evenly spaced points of the curve inside the box.
-fn sample_criticality(
-    problem: &ClosedLoop<'_>,
+fn sample_criticality<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
     curve: &HopfCurve,
     o: &ChartOptions,
 ) -> Result<Vec<CriticalitySample>, SwayError> {
@@ -559,8 +559,8 @@ fn sample_criticality(
 }
 
 /// Lowest speed of the Hopf curves at gain `d`, each crossing corrected at fixed D.
-fn lowest_hopf_speed(
-    problem: &ClosedLoop<'_>,
+fn lowest_hopf_speed<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
     curves: &[HopfCurve],
     d: f64,
     o: &ChartOptions,
@@ -598,13 +598,15 @@ fn on_curve(curves: &[HopfCurve], d: f64, hopf: &HopfPoint) -> bool {
 }
 
 /// Fold-of-cycles system unknowns [x, T, V, D, v, v_T]: index of V and D
-fn fold_indices(sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_>>) -> (usize, usize) {
+fn fold_indices<P: LoopPlant<N>, const N: usize>(
+    sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_, P, N>>,
+) -> (usize, usize) {
     let ip = sys.parameter_index();
     (ip, ip + 1)
 }
 
-fn fold_curve_point(
-    sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_>>,
+fn fold_curve_point<P: LoopPlant<N>, const N: usize>(
+    sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_, P, N>>,
     u: &[f64],
 ) -> Result<FoldCurvePoint, continuation::Error> {
     let (iv, id) = fold_indices(sys);
@@ -626,8 +628,8 @@ fn fold_options(o: &ChartOptions) -> FoldCyclesOptions {
 
 /// The Hopf point `hopf` (located on straight running at the gain of `problem`'s
 /// parameters) corrected on the Hopf-curve system at fixed D; returns the unknowns.
-fn corrected_hopf(
-    problem: &ClosedLoop<'_>,
+fn corrected_hopf<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
     d: f64,
     hopf: &HopfPoint,
     o: &ChartOptions,
@@ -644,11 +646,11 @@ fn corrected_hopf(
     Ok(b.points.remove(0).u)
 }
 
-type FoldSystem<'a> = FoldOfCyclesSystem<'a, ClosedLoop<'a>>;
+type FoldSystem<'a, P, const N: usize> = FoldOfCyclesSystem<'a, ClosedLoop<'a, P, N>>;
 
 /// A fold of cycles corrected at fixed D: its system, the point and the direction +D.
-struct CorrectedFold<'a> {
-    sys: FoldSystem<'a>,
+struct CorrectedFold<'a, P: LoopPlant<N>, const N: usize> {
+    sys: FoldSystem<'a, P, N>,
     u: Vec<f64>,
     direction: Vec<f64>,
 }
@@ -669,11 +671,11 @@ fn turns(points: &[continuation::BranchPoint], i: usize) -> bool {
 /// The fold of the cycle branch of `diagram` corrected on the fold-of-cycles system at the
 /// diagram's gain, finally from the cycle's canonical phase. None if the cycle branch has
 /// no fold (no flagged fold at which V turns, [`turns`]).
-fn corrected_fold<'a>(
-    problem: &'a ClosedLoop<'a>,
+fn corrected_fold<'a, P: LoopPlant<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
     diagram: &Diagram,
     o: &ChartOptions,
-) -> Result<Option<CorrectedFold<'a>>, SwayError> {
+) -> Result<Option<CorrectedFold<'a, P, N>>, SwayError> {
     let fb = diagram.feedback;
     let ctx = format!(
         "fold of cycles at D = {} s, τ = {} s",
@@ -718,12 +720,28 @@ fn corrected_fold<'a>(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage.
-pub fn critical_speeds(
-    model: &Model,
+pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     diagram: &Diagram,
     o: &ChartOptions,
 ) -> Result<CriticalSpeeds, SwayError> {
-    let problem = ClosedLoop::new(model, diagram.feedback);
+    critical_speeds_with_law(model, diagram, LoopLaw::PAPER, o)
+}
+
+/// [`critical_speeds`] of a diagram of the loop with the controller `law` (actuator, hitch
+/// gains; the diagram must have been computed with it,
+/// [`super::vehicle_diagram_with_law`]). D is the free second parameter of the defining
+/// systems; the hitch gains stay fixed.
+///
+/// # Errors
+/// As [`critical_speeds`].
+pub fn critical_speeds_with_law<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    diagram: &Diagram,
+    law: LoopLaw,
+    o: &ChartOptions,
+) -> Result<CriticalSpeeds, SwayError> {
+    let problem = ClosedLoop::with_law(model, diagram.feedback, law);
     let d = diagram.feedback.gain_d_s;
     let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
     let fold = match corrected_fold(&problem, diagram, o)? {
@@ -748,7 +766,12 @@ type FoldStage = Result<(FoldCurve, Vec<Codim2>), String>;
 /// directions; with the codimension-two points it ends at or passes. Without a curve, the
 /// reason: no Hopf point of straight running at `d` in the speed range (stable there), a
 /// supercritical Hopf point, a cycle branch that does not fold in the speed range.
-fn fold_curve(model: &Model, tau: f64, d: f64, o: &ChartOptions) -> Result<FoldStage, SwayError> {
+fn fold_curve<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    tau: f64,
+    d: f64,
+    o: &ChartOptions,
+) -> Result<FoldStage, SwayError> {
     let fb = Feedback {
         gain_d_s: d,
         delay_s: tau,
@@ -848,7 +871,10 @@ fn fold_curve(model: &Model, tau: f64, d: f64, o: &ChartOptions) -> Result<FoldS
 }
 
 /// Codimension-two points the Hopf-curve system located on a curve.
-fn hopf_codim2(sys: &HopfSystem<'_>, curve: &HopfCurve) -> Vec<Codim2> {
+fn hopf_codim2<P: LoopPlant<N>, const N: usize>(
+    sys: &HopfSystem<'_, P, N>,
+    curve: &HopfCurve,
+) -> Vec<Codim2> {
     curve
         .branches
         .iter()
@@ -888,8 +914,8 @@ fn dedup_codim2(mut points: Vec<Codim2>) -> Vec<Codim2> {
 /// # Errors
 /// [`SwayError::Numerical`] if a curve fails; a seed without a Hopf point in the speed
 /// range is only noted.
-pub fn hopf_curves(
-    model: &Model,
+pub fn hopf_curves<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     o: &ChartOptions,
 ) -> Result<(Vec<HopfCurve>, Vec<String>), SwayError> {
@@ -931,8 +957,8 @@ pub fn hopf_curves(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a correction fails.
-pub fn hopf_speed_at(
-    model: &Model,
+pub fn hopf_speed_at<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     curves: &[HopfCurve],
     d: f64,
@@ -953,8 +979,8 @@ pub fn hopf_speed_at(
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage; a seed gain without a Hopf point in
 /// the speed range is not an error (it is recorded in [`NonlinearChart::notes`]).
-pub fn nonlinear_chart(
-    model: &Model,
+pub fn nonlinear_chart<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     o: &ChartOptions,
 ) -> Result<NonlinearChart, SwayError> {
@@ -1019,7 +1045,7 @@ pub fn nonlinear_chart(
 }
 
 impl NonlinearChart {
-    fn problem<'a>(&self, model: &'a Model) -> ClosedLoop<'a> {
+    fn problem<'a, P: LoopPlant<N>, const N: usize>(&self, model: &'a P) -> ClosedLoop<'a, P, N> {
         ClosedLoop::new(
             model,
             Feedback {
@@ -1034,7 +1060,11 @@ impl NonlinearChart {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if a correction fails.
-    pub fn hopf_speed_at(&self, model: &Model, d: f64) -> Result<Option<f64>, SwayError> {
+    pub fn hopf_speed_at<P: LoopPlant<N>, const N: usize>(
+        &self,
+        model: &P,
+        d: f64,
+    ) -> Result<Option<f64>, SwayError> {
         hopf_speed_at(model, self.tau_s, &self.hopf_curves, d, &self.options)
     }
 
@@ -1043,7 +1073,11 @@ impl NonlinearChart {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if a correction fails.
-    pub fn fold_speed_at(&self, model: &Model, d: f64) -> Result<Option<f64>, SwayError> {
+    pub fn fold_speed_at<P: LoopPlant<N>, const N: usize>(
+        &self,
+        model: &P,
+        d: f64,
+    ) -> Result<Option<f64>, SwayError> {
         let problem = self.problem(model);
         let o = &self.options;
         let mut best: Option<f64> = None;

@@ -2,16 +2,32 @@
 //! any of which may be free: the right-hand side and all its derivatives (Jacobian, ∂f/∂p,
 //! second derivatives along two directions, ∂J/∂p·a) exact by dual numbers.
 //!
-//! f(x, x_τ; V, D, τ) = F(x, δ; V) with δ = −D·c·x_τ (eq. 8; c·x = ψ̇ of eq. 5, linear in x)
-//! and F the reduced model of eq. (5)–(6). The delay τ enters only through the argument
-//! x_τ = x(t − τ) (reported by [`Problem::delay_dp`]); f itself does not depend on it.
+//! f(x, x_τ; V, D, τ) = F(x, u; V) with the command u = −D·c·x_τ (eq. 8; c·x = ψ̇ of eq. 5,
+//! linear in x) and F the plant's reduced right-hand side ([`Plant::rhs`], eq. (5)–(6) for
+//! the paper's [`Model`]). The delay τ enters only through the argument x_τ = x(t − τ)
+//! (reported by [`Problem::delay_dp`]); f itself does not depend on it.
+//!
+//! **Any plant.** The loop is generic over the plant `P: `[`LoopPlant<N>`] (N reduced
+//! states): the paper's [`Model`] keeps its own switching functions (slip angles) and guard,
+//! so that its diagrams are bit for bit what they were; every [`trailer_model::VehicleModel`]
+//! gets them from [`Plant::switching_functions`] and [`Plant::guard_values`].
+//!
+//! **Controller structures** ([`LoopLaw`], issue 22): the command may also feed back the
+//! hitch angle and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) (`yaw_rate_hitch`, θ̇ the
+//! plant's nonlinear hitch-angle rate, as the simulations measure it), and drive either the
+//! steering angle δ \[rad\] or a yaw moment M_z \[N m\] on the tractor
+//! ([`Plant::rhs_with_yaw_moment`], differential braking). The braking limit
+//! ([`crate::control::Actuator::limit`]) is **not** modelled in continuation (the moment is
+//! unsaturated); the `predictor` structure (a distributed delay) is not a problem of this
+//! module.
 
 use continuation::Problem;
-use nalgebra::SVector;
+use nalgebra::{SMatrix, SVector};
 use num_dual::{Dual64, DualNum, DualSVec64, HyperDual64, jacobian};
 use serde::{Deserialize, Serialize};
-use trailer_model::{Inputs, Model, State4};
+use trailer_model::{HITCH_ANGLE, Inputs, Model, Plant, State4, VehicleModel};
 
+use crate::control::Actuator;
 use crate::sim::LossOfControl;
 
 /// index of the speed V \[m/s\] in the parameter vector
@@ -44,41 +60,263 @@ impl Feedback {
     }
 }
 
-/// The closed loop as a continuation problem, parameters p = [V, D, τ] (indices [`SPEED`],
-/// [`GAIN`], [`DELAY`]); any of them may be the free parameter. The gain and the delay are
-/// read from p; the [`Feedback`] it was built with only fixes the structure (a DDE with one
-/// delay p\[τ\] if τ > 0, an ODE with instantaneous feedback otherwise) and the default
-/// parameter vector ([`ClosedLoop::parameters`]).
-#[derive(Debug, Clone, Copy)]
-pub struct ClosedLoop<'a> {
-    model: &'a Model,
-    feedback: Feedback,
-    delayed: bool,
-    /// gradient c of the yaw rate ψ̇ = c·x (linear in x, eq. 5)
-    yaw_gradient: [f64; 4],
+/// The rest of the controller beyond the yaw-rate gain D and the delay τ of [`Feedback`]
+/// (issue 22): the actuator the command drives and the gains on the delayed hitch angle
+/// and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ). Units are the actuator's
+/// ([`crate::control`]): steering K_θ rad/rad, D_θ s; braking N m/rad, N m s/rad.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopLaw {
+    /// what the command moves
+    pub actuator: Actuator,
+    /// K_θ, on the hitch angle θ
+    pub hitch_angle: f64,
+    /// D_θ, on the hitch-angle rate θ̇
+    pub hitch_rate: f64,
 }
 
-impl<'a> ClosedLoop<'a> {
-    /// The closed loop of `model` with `feedback`.
-    pub fn new(model: &'a Model, feedback: Feedback) -> Self {
-        let e = |i: usize| State4::from_fn(|k, _| if k == i { 1.0 } else { 0.0 });
-        let yaw_gradient = [0, 1, 2, 3].map(|i| model.yaw_rate(&e(i)));
+impl LoopLaw {
+    /// The paper's law: steering, yaw rate only.
+    pub const PAPER: LoopLaw = LoopLaw {
+        actuator: Actuator::Steering,
+        hitch_angle: 0.0,
+        hitch_rate: 0.0,
+    };
+
+    /// Only the yaw rate is fed back (the command is linear in the state).
+    fn yaw_rate_only(&self) -> bool {
+        self.hitch_angle == 0.0 && self.hitch_rate == 0.0
+    }
+}
+
+/// What the closed loop needs of a plant beyond [`Plant`]: its switching functions and its
+/// validity guard at real arguments, and ∂F/∂x, ∂F/∂δ for the steering Jacobian. The
+/// defaults come from [`Plant`]; the paper's [`Model`] overrides them with the forms the
+/// closed loop has always used (slip angles as switching functions, one 5-component dual
+/// Jacobian), so that its diagrams do not move by a bit.
+pub trait LoopPlant<const N: usize>: Plant<N> + Sync {
+    /// number of switching functions
+    fn loop_switching_count(&self) -> usize {
+        self.switching_kinds().len()
+    }
+
+    /// the switching functions at (x, u) (kinks of the right-hand side)
+    fn loop_switching(&self, x: &SVector<f64, N>, u: &Inputs, g: &mut [f64]) {
+        self.switching_functions(x, u, g);
+    }
+
+    /// The first tripped condition of the simulations' validity guard (in
+    /// [`LossOfControl`]'s order: a saturating axle when its value is > 0, a stopped wheel
+    /// when ≥ 0, as `sway::sim` checks them), None while the model is valid.
+    fn loop_loss_of_control(&self, x: &SVector<f64, N>, u: &Inputs) -> Option<LossOfControl> {
+        let v = self.guard_values(x, u);
+        (0..5)
+            .find(|&k| if k < 2 { v[k] > 0.0 } else { v[k] >= 0.0 })
+            .map(|k| GUARD_ORDER[k])
+    }
+
+    /// ∂F/∂x and ∂F/∂δ at (x, δ, V), exact (an N-component and a one-component dual pass).
+    fn steering_jacobian(
+        &self,
+        x: &SVector<f64, N>,
+        steering: f64,
+        speed: f64,
+    ) -> (SMatrix<f64, N, N>, SVector<f64, N>) {
+        input_jacobian(self, x, steering, speed, Actuator::Steering)
+    }
+}
+
+/// the conditions of [`Plant::guard_values`] in their order
+const GUARD_ORDER: [LossOfControl; 5] = [
+    LossOfControl::FrontAxleSliding,
+    LossOfControl::RearAxleSliding,
+    LossOfControl::FrontWheelStopped,
+    LossOfControl::RearWheelStopped,
+    LossOfControl::TrailerWheelStopped,
+];
+
+/// ∂F/∂x and ∂F/∂u at (x, u, V) for the command u of `actuator`, exact.
+fn input_jacobian<P: Plant<N> + ?Sized, const N: usize>(
+    plant: &P,
+    x: &SVector<f64, N>,
+    command: f64,
+    speed: f64,
+    actuator: Actuator,
+) -> (SMatrix<f64, N, N>, SVector<f64, N>) {
+    let (_, jx) = jacobian(
+        |z: SVector<DualSVec64<N>, N>| {
+            actuated_rhs(
+                plant,
+                &z,
+                DualSVec64::<N>::from(command),
+                DualSVec64::<N>::from(speed),
+                actuator,
+            )
+        },
+        x,
+    );
+    let r = actuated_rhs(
+        plant,
+        &x.map(Dual64::from),
+        Dual64::new(command, 1.0),
+        Dual64::from(speed),
+        actuator,
+    );
+    (jx, r.map(|v| v.eps))
+}
+
+/// F(x, u; V) at constant speed with the command u on `actuator`, for any number type
+#[inline]
+fn actuated_rhs<P: Plant<N> + ?Sized, T: DualNum<Primitive = f64> + Copy, const N: usize>(
+    plant: &P,
+    x: &SVector<T, N>,
+    command: T,
+    speed: T,
+    actuator: Actuator,
+) -> SVector<T, N> {
+    match actuator {
+        Actuator::Steering => plant.rhs(
+            x,
+            &Inputs {
+                steering_angle: command,
+                speed,
+                acceleration: T::from(0.0),
+            },
+        ),
+        Actuator::DifferentialBraking => plant.rhs_with_yaw_moment(
+            x,
+            &Inputs {
+                steering_angle: T::from(0.0),
+                speed,
+                acceleration: T::from(0.0),
+            },
+            command,
+        ),
+    }
+}
+
+/// The paper's model: the closed loop's own switching functions, guard and Jacobian.
+impl LoopPlant<4> for Model {
+    fn loop_switching_count(&self) -> usize {
+        6
+    }
+
+    /// slip angles α_F, α_R, α_T (the brush tire is only C¹ at α = 0) and |α| − α_cr
+    /// (sliding starts, the force curve's second derivative jumps)
+    fn loop_switching(&self, x: &State4, u: &Inputs, g: &mut [f64]) {
+        let a = self.slip_angles(x, u);
+        let cr = self.critical_slip_angles();
+        g[0] = a.front;
+        g[1] = a.rear;
+        g[2] = a.trailer;
+        g[3] = a.front.abs() - cr.front;
+        g[4] = a.rear.abs() - cr.rear;
+        g[5] = a.trailer.abs() - cr.trailer;
+    }
+
+    /// A tractor axle sliding fully (|α| > α_cr, eq. 15) or a wheel's longitudinal velocity
+    /// at or below 0.
+    fn loop_loss_of_control(&self, x: &State4, u: &Inputs) -> Option<LossOfControl> {
+        let (tan_front, tan_rear) = self.axle_slip_tangents(x, u);
+        let (cr_front, cr_rear) = self.critical_slip_tangents();
+        let front_wheel_speed = {
+            let lateral_front = x[0] + Model::yaw_rate(self, x) * self.params().tractor.front_axle;
+            let (sd, cd) = u.steering_angle.sin_cos();
+            u.speed * cd + lateral_front * sd
+        };
+        if tan_front > cr_front {
+            Some(LossOfControl::FrontAxleSliding)
+        } else if tan_rear > cr_rear {
+            Some(LossOfControl::RearAxleSliding)
+        } else if front_wheel_speed <= 0.0 {
+            Some(LossOfControl::FrontWheelStopped)
+        } else if u.speed <= 0.0 {
+            Some(LossOfControl::RearWheelStopped)
+        } else if self.trailer_wheel_speed(x, u.speed) <= 0.0 {
+            Some(LossOfControl::TrailerWheelStopped)
+        } else {
+            None
+        }
+    }
+
+    /// ∂F/∂(x, δ) by one 5-component dual vector
+    fn steering_jacobian(
+        &self,
+        x: &State4,
+        steering: f64,
+        speed: f64,
+    ) -> (SMatrix<f64, 4, 4>, SVector<f64, 4>) {
+        let z = SVector::<f64, 5>::new(x[0], x[1], x[2], x[3], steering);
+        let (_, j) = jacobian(
+            |z: SVector<DualSVec64<5>, 5>| {
+                let x = State4::new(z[0], z[1], z[2], z[3]);
+                let u = Inputs {
+                    steering_angle: z[4],
+                    speed: DualSVec64::<5>::from(speed),
+                    acceleration: DualSVec64::<5>::from(0.0),
+                };
+                self.rhs4(&x, &u)
+            },
+            &z,
+        );
+        (
+            SMatrix::<f64, 4, 4>::from_fn(|i, k| j[(i, k)]),
+            SVector::<f64, 4>::from_fn(|i, _| j[(i, 4)]),
+        )
+    }
+}
+
+/// Every model of a vehicle file: the defaults from [`Plant`].
+impl<const N: usize> LoopPlant<N> for VehicleModel<N> {}
+
+/// The closed loop as a continuation problem, parameters p = [V, D, τ] (indices [`SPEED`],
+/// [`GAIN`], [`DELAY`]); any of them may be free. The gain and the delay are read from p;
+/// the [`Feedback`] it was built with only fixes the structure (a DDE with one delay p\[τ\]
+/// if τ > 0, an ODE with instantaneous feedback otherwise) and the default parameter vector
+/// ([`ClosedLoop::parameters`]); the [`LoopLaw`] fixes the actuator and the hitch gains.
+/// Generic over the plant `P` with `N` reduced states (default: the paper's [`Model`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ClosedLoop<'a, P = Model, const N: usize = 4> {
+    model: &'a P,
+    feedback: Feedback,
+    law: LoopLaw,
+    delayed: bool,
+    /// gradient c of the yaw rate ψ̇ = c·x (linear in x, eq. 5)
+    yaw_gradient: [f64; N],
+}
+
+impl<'a, P: LoopPlant<N>, const N: usize> ClosedLoop<'a, P, N> {
+    /// The closed loop of `model` with the paper's `feedback` δ = −D·ψ̇(t − τ).
+    pub fn new(model: &'a P, feedback: Feedback) -> Self {
+        Self::with_law(model, feedback, LoopLaw::PAPER)
+    }
+
+    /// The closed loop of `model` with the command u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) on
+    /// the actuator of `law` (D and τ from `feedback`).
+    pub fn with_law(model: &'a P, feedback: Feedback, law: LoopLaw) -> Self {
+        let e = |i: usize| SVector::<f64, N>::from_fn(|k, _| if k == i { 1.0 } else { 0.0 });
+        let yaw_gradient = std::array::from_fn(|i| model.yaw_rate(&e(i)));
         Self {
             model,
             feedback,
+            law,
             delayed: feedback.is_delayed(),
             yaw_gradient,
         }
     }
 
     /// The model.
-    pub fn model(&self) -> &'a Model {
+    pub fn model(&self) -> &'a P {
         self.model
     }
 
     /// The feedback it was built with.
     pub fn feedback(&self) -> Feedback {
         self.feedback
+    }
+
+    /// The controller law beyond D and τ.
+    pub fn law(&self) -> LoopLaw {
+        self.law
     }
 
     /// parameter vector [V, D, τ] with the built-in feedback
@@ -88,43 +326,93 @@ impl<'a> ClosedLoop<'a> {
 
     /// offset of the fed-back state in the stacked arguments (x(t − τ) or x(t))
     fn feedback_offset(&self) -> usize {
-        if self.delayed { 4 } else { 0 }
+        if self.delayed { N } else { 0 }
     }
 
-    /// number of stacked arguments, 4·(k + 1)
-    fn n_args(&self) -> usize {
-        4 + self.feedback_offset()
+    /// number of stacked arguments, N·(k + 1)
+    pub(crate) fn n_args(&self) -> usize {
+        N + self.feedback_offset()
     }
 
     /// yaw rate c·v of the fed-back part of stacked arguments `v`
     fn fed_back_yaw(&self, v: &[f64]) -> f64 {
         let o = self.feedback_offset();
-        (0..4).map(|k| self.yaw_gradient[k] * v[o + k]).sum()
+        (0..N).map(|k| self.yaw_gradient[k] * v[o + k]).sum()
     }
 
-    fn state(x: &[f64]) -> State4 {
-        State4::new(x[0], x[1], x[2], x[3])
+    /// the fed-back state of stacked arguments `v` with its directions a and b (hyper-dual;
+    /// b = None: 0)
+    fn fed_back_hyper(&self, v: &[f64], a: &[f64], b: Option<&[f64]>) -> SVector<HyperDual64, N> {
+        let o = self.feedback_offset();
+        SVector::from_fn(|k, _| {
+            HyperDual64::new(v[o + k], a[o + k], b.map_or(0.0, |b| b[o + k]), 0.0)
+        })
     }
 
-    /// F(x, δ; V) of eq. (5)–(6) at constant speed, for any number type
+    /// K_θ·θ + D_θ·θ̇ of the fed-back state, for any number type
+    fn hitch_term<T: DualNum<Primitive = f64> + Copy>(&self, xf: &SVector<T, N>) -> T {
+        xf[HITCH_ANGLE] * self.law.hitch_angle
+            + self.model.hitch_angle_rate(xf) * self.law.hitch_rate
+    }
+
+    /// K_θ·θ + D_θ·θ̇ of the fed-back part of stacked arguments `v`
+    fn hitch_value(&self, v: &[f64]) -> f64 {
+        let o = self.feedback_offset();
+        self.hitch_term(&SVector::<f64, N>::from_fn(|k, _| v[o + k]))
+    }
+
+    /// the command u at stacked arguments `v` with gain D
+    fn command(&self, v: &[f64], gain: f64) -> f64 {
+        if self.law.yaw_rate_only() {
+            -gain * self.fed_back_yaw(v)
+        } else {
+            -(gain * self.fed_back_yaw(v) + self.hitch_value(v))
+        }
+    }
+
+    /// the command along args + ε1·a + ε2·b (b = None: 0) with gain D
+    fn command_hyper(&self, args: &[f64], a: &[f64], b: Option<&[f64]>, gain: f64) -> HyperDual64 {
+        if self.law.yaw_rate_only() {
+            HyperDual64::new(
+                -gain * self.fed_back_yaw(args),
+                -gain * self.fed_back_yaw(a),
+                b.map_or(0.0, |b| -gain * self.fed_back_yaw(b)),
+                0.0,
+            )
+        } else {
+            let y = HyperDual64::new(
+                self.fed_back_yaw(args),
+                self.fed_back_yaw(a),
+                b.map_or(0.0, |b| self.fed_back_yaw(b)),
+                0.0,
+            );
+            -(y * gain + self.hitch_term(&self.fed_back_hyper(args, a, b)))
+        }
+    }
+
+    fn state(x: &[f64]) -> SVector<f64, N> {
+        SVector::<f64, N>::from_fn(|k, _| x[k])
+    }
+
+    /// F(x, u; V) at constant speed, for any number type
+    #[inline]
     fn model_rhs<T: DualNum<Primitive = f64> + Copy>(
         &self,
-        x: &State4<T>,
-        steering: T,
+        x: &SVector<T, N>,
+        command: T,
         speed: T,
-    ) -> State4<T> {
-        let u = Inputs {
-            steering_angle: steering,
-            speed,
-            acceleration: T::from(0.0),
-        };
-        self.model.rhs4(x, &u)
+    ) -> SVector<T, N> {
+        actuated_rhs(self.model, x, command, speed, self.law.actuator)
     }
 
-    /// inputs at real arguments (for the switching functions)
+    /// inputs at real arguments (for the switching functions and the guard; a yaw moment
+    /// does not enter the slip angles)
     fn inputs(&self, args: &[f64], p: &[f64]) -> Inputs {
         Inputs {
-            steering_angle: -p[GAIN] * self.fed_back_yaw(args),
+            steering_angle: match self.law.actuator {
+                Actuator::Steering => self.command(args, p[GAIN]),
+                Actuator::DifferentialBraking => 0.0,
+            },
             speed: p[SPEED],
             acceleration: 0.0,
         }
@@ -137,39 +425,23 @@ impl<'a> ClosedLoop<'a> {
     /// velocity at or below 0.
     pub fn loss_of_control(&self, args: &[f64], p: &[f64]) -> Option<LossOfControl> {
         let u = self.inputs(args, p);
-        let x = Self::state(args);
-        let (tan_front, tan_rear) = self.model.axle_slip_tangents(&x, &u);
-        let (cr_front, cr_rear) = self.model.critical_slip_tangents();
-        let front_wheel_speed = {
-            let lateral_front =
-                x[0] + self.model.yaw_rate(&x) * self.model.params().tractor.front_axle;
-            let (sd, cd) = u.steering_angle.sin_cos();
-            u.speed * cd + lateral_front * sd
-        };
-        if tan_front > cr_front {
-            Some(LossOfControl::FrontAxleSliding)
-        } else if tan_rear > cr_rear {
-            Some(LossOfControl::RearAxleSliding)
-        } else if front_wheel_speed <= 0.0 {
-            Some(LossOfControl::FrontWheelStopped)
-        } else if u.speed <= 0.0 {
-            Some(LossOfControl::RearWheelStopped)
-        } else if self.model.trailer_wheel_speed(&x, u.speed) <= 0.0 {
-            Some(LossOfControl::TrailerWheelStopped)
-        } else {
-            None
-        }
+        self.model.loop_loss_of_control(&Self::state(args), &u)
+    }
+
+    /// The command u(t) \[rad or N m\] at stacked arguments `args`, `p` = [V, D, τ].
+    pub fn command_at(&self, args: &[f64], p: &[f64]) -> f64 {
+        self.command(args, p[GAIN])
     }
 
     /// state x + ε1·a + ε2·b as hyper-dual numbers
-    fn hyper_state(x: &[f64], a: &[f64], b: &[f64]) -> State4<HyperDual64> {
-        State4::from_fn(|k, _| HyperDual64::new(x[k], a[k], b[k], 0.0))
+    fn hyper_state(x: &[f64], a: &[f64], b: &[f64]) -> SVector<HyperDual64, N> {
+        SVector::from_fn(|k, _| HyperDual64::new(x[k], a[k], b[k], 0.0))
     }
 }
 
-impl Problem for ClosedLoop<'_> {
+impl<P: LoopPlant<N>, const N: usize> Problem for ClosedLoop<'_, P, N> {
     fn dim(&self) -> usize {
-        4
+        N
     }
     fn n_delays(&self) -> usize {
         usize::from(self.delayed)
@@ -182,53 +454,71 @@ impl Problem for ClosedLoop<'_> {
         if ip == DELAY { 1.0 } else { 0.0 }
     }
     fn rhs(&self, args: &[f64], p: &[f64], f: &mut [f64]) {
-        let steering = -p[GAIN] * self.fed_back_yaw(args);
-        let r = self.model_rhs(&Self::state(args), steering, p[SPEED]);
-        f[..4].copy_from_slice(r.as_slice());
+        let command = self.command(args, p[GAIN]);
+        let r = self.model_rhs(&Self::state(args), command, p[SPEED]);
+        f[..N].copy_from_slice(r.as_slice());
     }
-    /// exact: ∂F/∂(x, δ) by a 5-component dual vector, then the chain rule through the
-    /// linear δ = −D·c·x_τ
+    /// exact: ∂F/∂(x, u) by dual numbers, then the chain rule through the command
+    /// u = −(D·c·x_τ + K_θ·θ_τ + D_θ·θ̇(x_τ)) (the last term by an N-component dual pass)
     fn jacobian(&self, args: &[f64], p: &[f64], jac: &mut [f64]) {
         let (gain, speed) = (p[GAIN], p[SPEED]);
-        let delta = -gain * self.fed_back_yaw(args);
-        let z = SVector::<f64, 5>::new(args[0], args[1], args[2], args[3], delta);
-        let (_, j) = jacobian(
-            |z: SVector<DualSVec64<5>, 5>| {
-                let x = State4::new(z[0], z[1], z[2], z[3]);
-                self.model_rhs(&x, z[4], DualSVec64::<5>::from(speed))
-            },
-            &z,
-        );
-        let (nc, off) = (self.n_args(), self.feedback_offset());
-        jac[..4 * nc].iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..4 {
-            for k in 0..4 {
-                jac[i * nc + k] = j[(i, k)];
+        let command = self.command(args, gain);
+        let x = Self::state(args);
+        let (jx, ju) = match self.law.actuator {
+            Actuator::Steering => self.model.steering_jacobian(&x, command, speed),
+            a => input_jacobian(self.model, &x, command, speed, a),
+        };
+        // ∂u/∂x_τ
+        let mut row = [0.0; N];
+        if self.law.yaw_rate_only() {
+            for (k, r) in row.iter_mut().enumerate() {
+                *r = -gain * self.yaw_gradient[k];
             }
-            for k in 0..4 {
-                jac[i * nc + off + k] += j[(i, 4)] * (-gain * self.yaw_gradient[k]);
+        } else {
+            let o = self.feedback_offset();
+            let xf = SVector::<f64, N>::from_fn(|k, _| args[o + k]);
+            let (_, gh) = jacobian(
+                |z: SVector<DualSVec64<N>, N>| {
+                    SVector::<DualSVec64<N>, 1>::new(self.hitch_term(&z))
+                },
+                &xf,
+            );
+            for (k, r) in row.iter_mut().enumerate() {
+                *r = -(gain * self.yaw_gradient[k] + gh[(0, k)]);
+            }
+        }
+        let (nc, off) = (self.n_args(), self.feedback_offset());
+        jac[..N * nc].iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..N {
+            for k in 0..N {
+                jac[i * nc + k] = jx[(i, k)];
+            }
+            for k in 0..N {
+                jac[i * nc + off + k] += ju[i] * row[k];
             }
         }
     }
     /// exact (dual numbers); ∂f/∂τ = 0: the delay acts only through x(t − τ)
     fn dfdp(&self, args: &[f64], p: &[f64], ip: usize, out: &mut [f64]) {
-        let yaw = self.fed_back_yaw(args);
-        let (steering, speed) = match ip {
-            SPEED => (Dual64::from(-p[GAIN] * yaw), Dual64::new(p[SPEED], 1.0)),
-            GAIN => (Dual64::new(-p[GAIN] * yaw, -yaw), Dual64::from(p[SPEED])),
+        let command = self.command(args, p[GAIN]);
+        let (command, speed) = match ip {
+            SPEED => (Dual64::from(command), Dual64::new(p[SPEED], 1.0)),
+            GAIN => (
+                Dual64::new(command, -self.fed_back_yaw(args)),
+                Dual64::from(p[SPEED]),
+            ),
             _ => {
-                out[..4].iter_mut().for_each(|v| *v = 0.0);
+                out[..N].iter_mut().for_each(|v| *v = 0.0);
                 return;
             }
         };
         let x = Self::state(args).map(Dual64::from);
-        let r = self.model_rhs(&x, steering, speed);
-        for i in 0..4 {
+        let r = self.model_rhs(&x, command, speed);
+        for i in 0..N {
             out[i] = r[i].eps;
         }
     }
-    /// exact: one evaluation with hyper-dual numbers along (a, b); δ is linear in the
-    /// arguments, so its directions are −D·c·a_τ and −D·c·b_τ
+    /// exact: one evaluation with hyper-dual numbers along (a, b), the command along them too
     fn second_derivative(
         &self,
         args: &[f64],
@@ -237,16 +527,10 @@ impl Problem for ClosedLoop<'_> {
         b: &[f64],
         out: &mut [f64],
     ) -> continuation::Result<()> {
-        let gain = p[GAIN];
         let x = Self::hyper_state(args, a, b);
-        let steering = HyperDual64::new(
-            -gain * self.fed_back_yaw(args),
-            -gain * self.fed_back_yaw(a),
-            -gain * self.fed_back_yaw(b),
-            0.0,
-        );
-        let r = self.model_rhs(&x, steering, HyperDual64::from(p[SPEED]));
-        for i in 0..4 {
+        let command = self.command_hyper(args, a, Some(b), p[GAIN]);
+        let r = self.model_rhs(&x, command, HyperDual64::from(p[SPEED]));
+        for i in 0..N {
             out[i] = r[i].eps1eps2;
         }
         Ok(())
@@ -261,25 +545,30 @@ impl Problem for ClosedLoop<'_> {
         a: &[f64],
         out: &mut [f64],
     ) -> continuation::Result<()> {
-        let (gain, yaw, yaw_a) = (p[GAIN], self.fed_back_yaw(args), self.fed_back_yaw(a));
-        let (steering, speed) = match ip {
-            SPEED => (
-                HyperDual64::new(-gain * yaw, -gain * yaw_a, 0.0, 0.0),
-                HyperDual64::new(p[SPEED], 0.0, 1.0, 0.0),
-            ),
-            // δ = −(D + ε2)·(y + ε1·y_a)
-            GAIN => (
-                HyperDual64::new(-gain * yaw, -gain * yaw_a, -yaw, -yaw_a),
-                HyperDual64::from(p[SPEED]),
-            ),
+        let zeros = [0.0; N];
+        let gain = p[GAIN];
+        let (command, speed) = match ip {
+            SPEED => {
+                let c = self.command_hyper(args, a, None, gain);
+                (c, HyperDual64::new(p[SPEED], 0.0, 1.0, 0.0))
+            }
+            // u = −((D + ε2)·(y + ε1·y_a) + h(x_τ + ε1·a_τ))
+            GAIN => {
+                let c = self.command_hyper(args, a, None, gain);
+                let (yaw, yaw_a) = (self.fed_back_yaw(args), self.fed_back_yaw(a));
+                (
+                    HyperDual64::new(c.re, c.eps1, -yaw, -yaw_a),
+                    HyperDual64::from(p[SPEED]),
+                )
+            }
             _ => {
-                out[..4].iter_mut().for_each(|v| *v = 0.0);
+                out[..N].iter_mut().for_each(|v| *v = 0.0);
                 return Ok(());
             }
         };
-        let x = Self::hyper_state(args, a, &[0.0; 4]);
-        let r = self.model_rhs(&x, steering, speed);
-        for i in 0..4 {
+        let x = Self::hyper_state(args, a, &zeros);
+        let r = self.model_rhs(&x, command, speed);
+        for i in 0..N {
             out[i] = r[i].eps1eps2;
         }
         Ok(())
@@ -290,20 +579,14 @@ impl Problem for ClosedLoop<'_> {
         continuation::Smoothness::C1AtKinks
     }
     fn n_switching(&self) -> usize {
-        6
+        self.model.loop_switching_count()
     }
-    /// slip angles α_F, α_R, α_T (the brush tire is only C¹ at α = 0) and |α| − α_cr
-    /// (sliding starts, the force curve's second derivative jumps)
+    /// the plant's switching functions at x(t) with the command of the loop
+    /// ([`LoopPlant::loop_switching`]; for the paper's model the slip angles α_F, α_R, α_T
+    /// and |α| − α_cr)
     fn switching(&self, args: &[f64], p: &[f64], g: &mut [f64]) {
         let u = self.inputs(args, p);
-        let a = self.model.slip_angles(&Self::state(args), &u);
-        let cr = self.model.critical_slip_angles();
-        g[0] = a.front;
-        g[1] = a.rear;
-        g[2] = a.trailer;
-        g[3] = a.front.abs() - cr.front;
-        g[4] = a.rear.abs() - cr.rear;
-        g[5] = a.trailer.abs() - cr.trailer;
+        self.model.loop_switching(&Self::state(args), &u, g);
     }
 }
 

@@ -7,7 +7,7 @@
 use continuation::Criticality;
 use rayon::prelude::*;
 use serde::Serialize;
-use trailer_model::Model;
+use super::LoopPlant;
 
 use super::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
 use super::{
@@ -145,8 +145,8 @@ pub struct PairSummary {
 ///
 /// # Errors
 /// Numerical failures naming the stage.
-pub fn closed_loop_diagram(
-    model: &Model,
+pub fn closed_loop_diagram<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     feedback: Feedback,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
@@ -168,8 +168,8 @@ pub fn closed_loop_diagram(
 ///
 /// # Errors
 /// The first failing setting's error (in their order).
-pub fn closed_loop_diagrams(
-    model: &Model,
+pub fn closed_loop_diagrams<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     feedbacks: &[Feedback],
     settings: &DiagramSettings,
     limits: &SpeedLimits,

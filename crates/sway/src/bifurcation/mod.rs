@@ -23,7 +23,7 @@ use continuation::{
     Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
-use trailer_model::{HITCH_ANGLE, Model};
+use trailer_model::HITCH_ANGLE;
 
 use crate::SwayError;
 
@@ -32,13 +32,13 @@ mod closed_loop;
 pub mod closed_loop_diagrams;
 pub mod corners;
 mod ranged;
-pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, SPEED};
+pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, LoopLaw, LoopPlant, SPEED};
 pub use closed_loop_diagrams::{
     PairDiagram, PairSummary, closed_loop_diagram, closed_loop_diagrams, common_range,
 };
 pub use ranged::{
     BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, MARGIN_BELOW, NoHopf,
-    cycle_loss_of_control, vehicle_diagram,
+    cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
 };
 
 /// Options of the bifurcation diagram of one feedback setting.
@@ -199,10 +199,10 @@ fn collocation(o: &DiagramOptions) -> CollocationOptions {
 
 impl Diagram {
     /// The collocation system the cycle branch was computed with (to evaluate its points).
-    pub fn cycle_system<'a>(
+    pub fn cycle_system<'a, P: LoopPlant<N>, const N: usize>(
         &self,
-        problem: &'a ClosedLoop<'a>,
-    ) -> Result<PeriodicOrbitSystem<'a, ClosedLoop<'a>>, SwayError> {
+        problem: &'a ClosedLoop<'a, P, N>,
+    ) -> Result<PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>, SwayError> {
         PeriodicOrbitSystem::new(
             problem,
             problem.parameters(self.hopf.parameter),
@@ -212,8 +212,13 @@ impl Diagram {
         .map_err(num("cycle system".into()))
     }
 
-    /// The cycles at speed V \[m/s\] (all crossings of the branch), corrected at fixed V.
-    pub fn cycles_at(&self, model: &Model, speed: f64) -> Result<Vec<CycleSummary>, SwayError> {
+    /// The cycles at speed V \[m/s\] (all crossings of the branch), corrected at fixed V
+    /// (the diagram's feedback with the paper's law, [`LoopLaw::PAPER`]).
+    pub fn cycles_at<P: LoopPlant<N>, const N: usize>(
+        &self,
+        model: &P,
+        speed: f64,
+    ) -> Result<Vec<CycleSummary>, SwayError> {
         let problem = ClosedLoop::new(model, self.feedback);
         let mut sys = self.cycle_system(&problem)?;
         let cont = Continuation::default();
@@ -231,9 +236,9 @@ impl Diagram {
     ///
     /// # Errors
     /// Numerical failures of the correction at fixed V.
-    pub fn cycle_at(
+    pub fn cycle_at<P: LoopPlant<N>, const N: usize>(
         &self,
-        model: &Model,
+        model: &P,
         speed: f64,
         kind: CycleKind,
     ) -> Result<CycleAt, SwayError> {
@@ -279,8 +284,8 @@ impl Diagram {
     }
 }
 
-fn summarise(
-    sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_>>,
+fn summarise<P: LoopPlant<N>, const N: usize>(
+    sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_, P, N>>,
     u: &[f64],
     st: Option<&continuation::Stability>,
 ) -> CycleSummary {
@@ -323,8 +328,8 @@ fn fold_of(cycles: &Branch, summary: &[CycleSummary]) -> Option<FoldPoint> {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if there is no Hopf point in the range or a step fails.
-pub fn straight_running(
-    problem: &ClosedLoop<'_>,
+pub fn straight_running<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (v_min, v_max): (f64, f64),
     root_degree: usize,
@@ -344,8 +349,10 @@ pub fn straight_running(
     let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
         .map_err(num(ctx.clone()))?;
     let dir = eq.parameter_direction();
+    let mut start = vec![0.0; N + 1];
+    start[N] = v_min;
     let mut equilibria = cont_eq
-        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, v_min], &dir)
+        .start(&mut eq, &start, &dir)
         .map_err(num(format!("{ctx} at V = {v_min} m/s")))?;
     let n_eq = ((v_max - v_min) / 0.5).ceil() as usize + 8;
     cont_eq
@@ -381,13 +388,20 @@ pub enum CycleExtent {
 /// # Errors
 /// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
 /// leave the Hopf point.
-pub fn cycles_from_hopf<'a>(
-    problem: &'a ClosedLoop<'a>,
+pub fn cycles_from_hopf<'a, P: LoopPlant<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
     o: &DiagramOptions,
     max_points: usize,
-) -> Result<(PeriodicOrbitSystem<'a, ClosedLoop<'a>>, Branch, Criticality), SwayError> {
+) -> Result<
+    (
+        PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
+        Branch,
+        Criticality,
+    ),
+    SwayError,
+> {
     cycles_from_hopf_until(
         problem,
         params,
@@ -402,14 +416,21 @@ pub fn cycles_from_hopf<'a>(
 ///
 /// # Errors
 /// As [`cycles_from_hopf`].
-pub fn cycles_from_hopf_until<'a>(
-    problem: &'a ClosedLoop<'a>,
+pub fn cycles_from_hopf_until<'a, P: LoopPlant<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
     o: &DiagramOptions,
     max_points: usize,
     extent: CycleExtent,
-) -> Result<(PeriodicOrbitSystem<'a, ClosedLoop<'a>>, Branch, Criticality), SwayError> {
+) -> Result<
+    (
+        PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
+        Branch,
+        Criticality,
+    ),
+    SwayError,
+> {
     let ctx = format!(
         "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
         hopf.parameter, params[GAIN], params[DELAY]
@@ -466,8 +487,8 @@ pub fn cycles_from_hopf_until<'a>(
 /// # Errors
 /// [`SwayError::Numerical`] saying which stage failed (no Hopf point in the range, Newton
 /// divergence, ...).
-pub fn bifurcation_diagram(
-    model: &Model,
+pub fn bifurcation_diagram<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     feedback: Feedback,
     options: &DiagramOptions,
 ) -> Result<Diagram, SwayError> {
@@ -478,14 +499,29 @@ pub fn bifurcation_diagram(
 ///
 /// # Errors
 /// As [`bifurcation_diagram`].
-pub fn bifurcation_diagram_until(
-    model: &Model,
+pub fn bifurcation_diagram_until<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     feedback: Feedback,
     options: &DiagramOptions,
     extent: CycleExtent,
 ) -> Result<Diagram, SwayError> {
+    bifurcation_diagram_with_law(model, feedback, LoopLaw::PAPER, options, extent)
+}
+
+/// [`bifurcation_diagram_until`] of the loop with the controller `law` (actuator, hitch
+/// gains) beside the gain and delay of `feedback`.
+///
+/// # Errors
+/// As [`bifurcation_diagram`].
+pub fn bifurcation_diagram_with_law<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    feedback: Feedback,
+    law: LoopLaw,
+    options: &DiagramOptions,
+    extent: CycleExtent,
+) -> Result<Diagram, SwayError> {
     let o = options;
-    let problem = ClosedLoop::new(model, feedback);
+    let problem = ClosedLoop::with_law(model, feedback, law);
     let params = problem.parameters(o.v_min_mps);
     let (equilibria, hopf) =
         straight_running(&problem, &params, (o.v_min_mps, o.v_max_mps), o.root_degree)?;

@@ -19,11 +19,10 @@ use continuation::{
     PeriodicOrbitSystem, SpecialKind, Stop, criticality,
 };
 use serde::{Deserialize, Serialize};
-use trailer_model::Model;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, SPEED,
-    collocation, fold_of, num, root_finder, summarise,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, LoopLaw,
+    LoopPlant, SPEED, collocation, fold_of, num, root_finder, summarise,
 };
 use crate::SwayError;
 use crate::ranging::SpeedLimits;
@@ -282,8 +281,8 @@ enum FirstLoss {
 /// stability (or to `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch
 /// and that first loss: a Hopf point, or a real eigenvalue through zero (a vehicle can
 /// diverge statically before it sways).
-fn straight_running_to_first_loss(
-    problem: &ClosedLoop<'_>,
+fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (v_lo, v_hi): (f64, f64),
     root_degree: usize,
@@ -299,8 +298,10 @@ fn straight_running_to_first_loss(
     let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
         .map_err(num(ctx.clone()))?;
     let dir = eq.parameter_direction();
+    let mut start = vec![0.0; N + 1];
+    start[N] = v_lo;
     let mut branch = cont
-        .start(&mut eq, &[0.0, 0.0, 0.0, 0.0, v_lo], &dir)
+        .start(&mut eq, &start, &dir)
         .map_err(num(format!("{ctx} at V = {v_lo} m/s")))?;
     let n = ((v_hi - v_lo) / 0.5).ceil() as usize + 8;
     // stop at the first regular point after the first loss of stability
@@ -363,9 +364,9 @@ fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
 
 /// The first tripped validity condition on the cycle `u` of `sys` (checked at the
 /// collocation nodes, with the delayed state read off the periodic profile).
-pub fn cycle_loss_of_control(
-    sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_>>,
-    problem: &ClosedLoop<'_>,
+pub fn cycle_loss_of_control<P: LoopPlant<N>, const N: usize>(
+    sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_, P, N>>,
+    problem: &ClosedLoop<'_, P, N>,
     u: &[f64],
 ) -> Option<LossOfControl> {
     let fb = problem.feedback();
@@ -373,12 +374,16 @@ pub fn cycle_loss_of_control(
     let p = [speed, fb.gain_d_s, fb.delay_s];
     let period = sys.period(u);
     let times = sys.node_times();
-    let mut args = [0.0; 8];
-    let mut dx = [0.0; 4];
+    let mut buf = [[0.0; N]; 3];
+    let [now, delayed, dx] = &mut buf;
+    let mut args = Vec::with_capacity(2 * N);
     for (g, &s) in times.iter().enumerate() {
-        args[..4].copy_from_slice(&u[4 * g..4 * g + 4]);
+        now.copy_from_slice(&u[N * g..N * g + N]);
+        args.clear();
+        args.extend_from_slice(now);
         if fb.is_delayed() {
-            sys.eval(u, s - fb.delay_s / period, &mut args[4..], &mut dx);
+            sys.eval(u, s - fb.delay_s / period, delayed, dx);
+            args.extend_from_slice(delayed);
         }
         if let Some(c) = problem.loss_of_control(&args, &p) {
             return Some(c);
@@ -390,8 +395,8 @@ pub fn cycle_loss_of_control(
 /// The cycle branch from `hopf`, continued on `o`'s speed range for at most `max_points`
 /// points, stopped by the first of: V ≥ `v_stop`, the first fold (`extent`), the validity
 /// guard. Returns the system, the branch, its criticality and why it ended.
-fn cycles_with_stop_rules<'a>(
-    problem: &'a ClosedLoop<'a>,
+fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
     o: &DiagramOptions,
@@ -399,7 +404,7 @@ fn cycles_with_stop_rules<'a>(
     extent: CycleExtent,
 ) -> Result<
     (
-        PeriodicOrbitSystem<'a, ClosedLoop<'a>>,
+        PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
         Branch,
         Criticality,
         BranchEnd,
@@ -497,20 +502,41 @@ fn cycles_with_stop_rules<'a>(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] saying which stage failed.
-pub fn vehicle_diagram(
-    model: &Model,
+pub fn vehicle_diagram<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     feedback: Feedback,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
     extent: CycleExtent,
 ) -> Result<DiagramOutcome, SwayError> {
+    vehicle_diagram_with_law(model, feedback, LoopLaw::PAPER, settings, limits, extent)
+}
+
+/// [`vehicle_diagram`] of the loop with the controller `law` (actuator, hitch gains) beside
+/// the gain and delay of `feedback`.
+///
+/// # Errors
+/// As [`vehicle_diagram`].
+pub fn vehicle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    feedback: Feedback,
+    law: LoopLaw,
+    settings: &DiagramSettings,
+    limits: &SpeedLimits,
+    extent: CycleExtent,
+) -> Result<DiagramOutcome, SwayError> {
     if let (Some(lo), Some(hi)) = (settings.v_min_mps, settings.v_max_mps) {
-        let d =
-            super::bifurcation_diagram_until(model, feedback, &settings.options(lo, hi), extent)?;
+        let d = super::bifurcation_diagram_with_law(
+            model,
+            feedback,
+            law,
+            &settings.options(lo, hi),
+            extent,
+        )?;
         return Ok(DiagramOutcome::Computed(Box::new(d)));
     }
     let (lo, hi) = settings.searched(limits);
-    let problem = ClosedLoop::new(model, feedback);
+    let problem = ClosedLoop::with_law(model, feedback, law);
     let params = problem.parameters(lo);
     let (mut equilibria, loss) =
         straight_running_to_first_loss(&problem, &params, (lo, hi), settings.root_degree)?;

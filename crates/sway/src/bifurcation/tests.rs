@@ -10,7 +10,7 @@ use dde::{DdeProblem, OdeProblem, Options, solve_dde, solve_ode};
 use nalgebra::{DMatrix, SVector};
 use stability::{RankOneFeedback, first_unstable_parameter};
 use std::sync::OnceLock;
-use trailer_model::{CriticalSpeedOptions, State4, VehicleParams};
+use trailer_model::{CriticalSpeedOptions, Model, State4, VehicleParams};
 
 fn model() -> &'static Model {
     static M: OnceLock<Model> = OnceLock::new();

@@ -3,7 +3,7 @@
 use super::*;
 use crate::bifurcation::bifurcation_diagram;
 use std::sync::OnceLock;
-use trailer_model::VehicleParams;
+use trailer_model::{Model, VehicleParams};
 
 fn model() -> &'static Model {
     static M: OnceLock<Model> = OnceLock::new();

@@ -3,12 +3,16 @@
 //! ([`sway::control`]): for `yaw_rate`, `yaw_rate_hitch` and `predictor` with front-wheel
 //! steering and with differential braking, the gains maximising the linear critical speed
 //! on a grid of delays, the delay budget of each, and at chosen delays the critical speed
-//! the optimum guarantees under vehicle uncertainty (5 % quantile) and, for the paper's
-//! structure, its fold-of-cycles speed.
+//! the optimum guarantees under vehicle uncertainty (5 % quantile); for every optimum of
+//! `yaw_rate` and `yaw_rate_hitch` (either actuator) its fold-of-cycles speed and, at a
+//! double-Hopf optimum, the gains a little away from it with the largest fold speed.
 //!
 //! `summary.json`: `"designs"`, an array of `{"structure", "actuator", "tau_s", "gains",
-//! "v_crit_mps", "v_fold_mps", "v_crit_p05_mps", "at_double_hopf", …}` (the fold and the
-//! robust speed at the checked delays, null with a `…_reason` elsewhere), and
+//! "v_crit_mps", "v_fold_mps", "v_crit_p05_mps", "at_double_hopf",
+//! "v_fold_away_from_corner", …}` (the fold of every design, null with `v_fold_reason` for
+//! the predictor and where there is none; the robust speed at the checked delays, null with
+//! a `…_reason` elsewhere; `v_fold_away_from_corner` = `{"gains", "v_fold_mps",
+//! "v_crit_mps", "tried"}` at a double-Hopf optimum, else null), and
 //! `"delay_budget_s"`: `{"<structure>_<actuator>": seconds}`. `designs.csv` holds the
 //! same rows; `control_design.svg/.png` the figure.
 
@@ -19,7 +23,8 @@ use serde::{Deserialize, Serialize};
 use sway::bifurcation::chart::ChartOptions;
 use sway::config::{Grid, ensure, ensure_positive};
 use sway::control::{
-    Actuator, CheckedDesign, Combination, ControlStudy, Design, DesignSearch, Gains, SpeedSearch,
+    Actuator, AwayFromCorner, CheckedDesign, Combination, ControlStudy, Design, DesignSearch,
+    Gains, SpeedSearch,
     Structure, StudySettings, VehicleUncertainty, control_study,
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
@@ -155,6 +160,10 @@ fn default_actuators() -> Vec<Actuator> {
 
 /// The fold-of-cycles computation of the paper's structure: `chart_nonlinear`'s options with
 /// a coarser cycle mesh (L = 20, as `gain_design`'s fold part) and longer fold steps.
+fn default_away_samples() -> usize {
+    2
+}
+
 fn default_fold_chart() -> ChartOptions {
     ChartOptions {
         seed_gains_s: vec![0.1],
@@ -194,9 +203,13 @@ pub struct ControlDesignConfig {
     /// the robustness checks
     #[serde(default)]
     pub robustness: RobustnessConfig,
-    /// the fold-of-cycles computation of the paper's structure at the checked delays
+    /// the fold-of-cycles computation of every design (the output-feedback structures)
     #[serde(default = "default_fold_chart")]
     pub fold: ChartOptions,
+    /// gains of D tried on each side of a double-Hopf optimum, evenly over its near-optimal
+    /// band, for the fold speed away from the corner (`v_fold_away_from_corner`; 0: skipped)
+    #[serde(default = "default_away_samples")]
+    pub away_from_corner_samples: usize,
     /// the simulation check of one design per structure (issue 22, item 7)
     #[serde(default)]
     pub simulation_check: SimulationCheck,
@@ -373,6 +386,7 @@ impl ControlDesignConfig {
             uncertainty: self.robustness.uncertainty.clone(),
             robustness_speed: self.robustness.speed,
             fold: self.fold.clone(),
+            away_from_corner_samples: self.away_from_corner_samples,
         }
     }
 }
@@ -393,6 +407,9 @@ struct DesignEntry {
     #[serde(skip_serializing_if = "Option::is_none")]
     v_crit_p05_reason: Option<String>,
     at_double_hopf: bool,
+    /// at a double-Hopf optimum: the gains a little away from it (along D, in its band)
+    /// with the largest fold speed
+    v_fold_away_from_corner: Option<AwayFromCorner>,
     second_pair_re_per_s: Option<f64>,
     second_pair_omega_rad_s: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -412,10 +429,17 @@ struct DesignRow {
     v_fold_mps: Option<f64>,
     v_crit_p05_mps: Option<f64>,
     at_double_hopf: bool,
+    v_fold_away_from_corner_mps: Option<f64>,
 }
 
 fn entry(c: &Combination, d: &Design) -> DesignEntry {
     let checked: Option<&CheckedDesign> = c.checked.iter().find(|k| k.tau_s == d.tau_s);
+    let fold = c
+        .designs
+        .iter()
+        .zip(&c.folds)
+        .find(|(e, _)| e.tau_s == d.tau_s)
+        .map(|(_, f)| f);
     let not_checked = || Some("not a checked delay (robustness.delays_s)".to_string());
     DesignEntry {
         structure: d.structure.as_str(),
@@ -424,11 +448,8 @@ fn entry(c: &Combination, d: &Design) -> DesignEntry {
         gains: d.gains,
         v_crit_mps: d.v_crit_mps,
         speed_capped: d.speed_capped,
-        v_fold_mps: checked.and_then(|k| k.v_fold_mps),
-        v_fold_reason: match checked {
-            Some(k) => k.v_fold_reason.clone(),
-            None => not_checked(),
-        },
+        v_fold_mps: fold.and_then(|f| f.v_fold_mps),
+        v_fold_reason: fold.and_then(|f| f.v_fold_reason.clone()),
         v_crit_p05_mps: checked.and_then(|k| k.robustness.v_crit_p05_mps),
         v_crit_p05_reason: match checked {
             Some(k) if k.robustness.v_crit_p05_mps.is_none() => {
@@ -438,6 +459,7 @@ fn entry(c: &Combination, d: &Design) -> DesignEntry {
             None => not_checked(),
         },
         at_double_hopf: d.at_double_hopf,
+        v_fold_away_from_corner: fold.and_then(|f| f.away_from_corner.clone()),
         second_pair_re_per_s: d.second_pair.map(|p| p[0]),
         second_pair_omega_rad_s: d.second_pair.map(|p| p[1]),
         second_pair_reason: d.second_pair_note.clone(),
@@ -763,6 +785,10 @@ impl Prepared for Configured<ControlDesignConfig> {
                         v_fold_mps: e.v_fold_mps,
                         v_crit_p05_mps: e.v_crit_p05_mps,
                         at_double_hopf: e.at_double_hopf,
+                        v_fold_away_from_corner_mps: e
+                            .v_fold_away_from_corner
+                            .as_ref()
+                            .map(|a| a.v_fold_mps),
                     }),
                 )?;
                 figure(&r, cfg).render(&out.path("control_design"))?;

@@ -14,7 +14,7 @@ use crate::TaskError;
 use serde::{Deserialize, Serialize};
 use sway::bifurcation::chart::{ChartOptions, critical_speeds};
 use sway::bifurcation::{
-    CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, Feedback,
+    CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, Feedback, LoopPlant,
     vehicle_diagram,
 };
 use sway::config::ensure;
@@ -362,8 +362,19 @@ pub fn run_diagram(
     cfg: &DiagramConfig,
     out: &OutputDir,
 ) -> Result<DiagramParts, TaskError> {
+    trailer_model::with_plant!(&ctx.plant, m => run_diagram_on(m, ctx, cfg, out))
+}
+
+/// [`run_diagram`] on the concrete plant of the vehicle (any model variant; the paper's
+/// [`trailer_model::Model`] for a vehicle of the paper's form).
+fn run_diagram_on<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    ctx: &TaskContext<'_>,
+    cfg: &DiagramConfig,
+    out: &OutputDir,
+) -> Result<DiagramParts, TaskError> {
     let outcome = vehicle_diagram(
-        &ctx.model,
+        model,
         Feedback::OPEN_LOOP,
         &cfg.options,
         &ctx.limits,
@@ -376,7 +387,7 @@ pub fn run_diagram(
     write_branches(&d, out)?;
     // the Hopf point and the fold corrected on their defining systems, as fig4b and the
     // nonlinear chart report them (one number per vehicle across the tasks)
-    let cs = critical_speeds(&ctx.model, &d, &ChartOptions::correcting(&d.options))?;
+    let cs = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))?;
     let refs = SpeedReferences {
         v_crit_mps: Some(cs.hopf_v_mps),
         v_fold_mps: cs.fold.map(|f| f.v_mps),
@@ -389,7 +400,7 @@ pub fn run_diagram(
         let Some((key, v)) = resolve_or_note(spec, &refs, &mut reasons) else {
             continue;
         };
-        let c = d.cycles_at(&ctx.model, v)?;
+        let c = d.cycles_at(model, v)?;
         let s = c
             .iter()
             .filter(|c| c.stable)
@@ -407,7 +418,7 @@ pub fn run_diagram(
         let Some((key, v)) = resolve_or_note(spec, &refs, &mut reasons) else {
             continue;
         };
-        let c = d.cycles_at(&ctx.model, v)?;
+        let c = d.cycles_at(model, v)?;
         let s = c
             .iter()
             .filter(|c| !c.stable)

@@ -13,6 +13,11 @@
 //! against V_crit of the open loop and the diagram's own fold of cycles. A vehicle without a
 //! bistable range (supercritical Hopf point, or stable at every speed up to the maximum) has
 //! no panel speed: `"time_panels"` is null and `"time_panels_reason"` says why.
+//!
+//! Any vehicle file: the diagram is computed on the vehicle's plant (relaxation, tyre laws,
+//! axle lists, hitch torque); the time panels simulate through [`run_and_write`], which
+//! simulates the paper's model, so a vehicle with model variants gets the diagram without
+//! time panels (`"time_panels_reason"` names the variant).
 
 use std::path::{Path, PathBuf};
 
@@ -41,7 +46,7 @@ pub const TASK: Task = Task {
     about: "paper Fig. 3a: bifurcation diagram and time panels (2° decays, 8° grows into sway at 33 m/s)",
     config: "fig3a.toml",
     prepare,
-    models: super::Models::Paper,
+    models: super::Models::Any,
 };
 
 fn default_speed<S: From<f64>>() -> S {
@@ -366,6 +371,14 @@ impl Prepared for Fig3aTask {
             let resolution = resolve_against(&refs, &cfg.panels);
             let mut all = vec![diagram_panel];
             let (time_panels, reason) = match &resolution.outcome {
+                Ok(_) if ctx.variant_key.is_some() => {
+                    let reason = format!(
+                        "no time panels: the vehicle has a model variant ({}) and the time panels simulate the paper's model",
+                        ctx.variant_key.as_deref().unwrap_or_default()
+                    );
+                    lines.push(format!("fig3a: {reason}"));
+                    (None, Some(reason))
+                }
                 Ok(panels) => {
                     resolved_check(panels.validate(&self.file, "panels"), &resolution.speeds)?;
                     let (time_panels, panels, panel_lines) = run_panels(ctx, panels, out)?;

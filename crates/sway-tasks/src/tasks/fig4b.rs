@@ -11,6 +11,10 @@
 //! chart ([`sway::bifurcation::chart::critical_speeds`]): the Hopf point and the fold of
 //! cycles located on the diagram are corrected on the Hopf and fold-of-cycles defining
 //! systems, so `fig4b` and `chart_nonlinear` share one implementation.
+//!
+//! Any vehicle file: the diagrams are computed on the vehicle's plant (relaxation, tyre
+//! laws, axle lists, hitch torque; `sway::bifurcation::ClosedLoop` over any
+//! `trailer_model::Plant`).
 
 use std::path::{Path, PathBuf};
 
@@ -36,7 +40,7 @@ pub const TASK: Task = Task {
     about: "paper Fig. 4b: bifurcation diagrams with delayed yaw-rate feedback for several (τ, D)",
     config: "fig4b.toml",
     prepare,
-    models: super::Models::Paper,
+    models: super::Models::Any,
 };
 
 /// One feedback setting: `{ delay_s = τ, gain_s = D }` in the config. The config echo in
@@ -187,8 +191,8 @@ fn feedback(p: &Pair) -> Feedback {
 ///
 /// # Errors
 /// The first failing pair's error (in config order).
-pub fn diagrams(
-    model: &trailer_model::Model,
+pub fn diagrams<P: sway::bifurcation::LoopPlant<N>, const N: usize>(
+    model: &P,
     cfg: &Fig4bConfig,
     limits: &sway::ranging::SpeedLimits,
     progress: &dyn sway::progress::Progress,
@@ -229,7 +233,7 @@ impl Prepared for Fig4bTask {
         let cfg = &self.config;
         let steps = cfg.pairs.len() as u64;
         ctx.run_staged(TASK.name, "fig4b: bifurcation diagrams", steps, cfg, &self.file, |out| {
-            let ds = diagrams(&ctx.model, cfg, &ctx.limits, ctx.progress)?;
+            let ds = trailer_model::with_plant!(&ctx.plant, m => diagrams(m, cfg, &ctx.limits, ctx.progress))?;
             let (lines, entries) = write_pairs(cfg, &ds, out)?;
             diagrams_figure(cfg, &ds).render(&out.path("diagrams"))?;
             Ok((Fig4bSummary { pairs: entries }, lines))

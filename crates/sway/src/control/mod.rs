@@ -36,7 +36,10 @@ pub use design::{
     DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness, VehicleUncertainty,
     delay_budget, design, designs_over_delays, robust_critical_speed,
 };
-pub use study::{CheckedDesign, Combination, ControlStudy, StudySettings, control_study};
+pub use study::{
+    AwayFromCorner, CheckedDesign, Combination, ControlStudy, DesignFold, StudySettings,
+    control_study, fold_speed, loop_law,
+};
 
 use nalgebra::{RowVector4, Vector4};
 use serde::{Deserialize, Serialize};

@@ -1,19 +1,27 @@
 //! The control-design study of `cargo xtask control_design`: for every structure ×
 //! actuator, the best gains on a grid of delays, the delay budget, and at chosen delays the
-//! robust (5 %) critical speed under vehicle uncertainty and, for the paper's structure,
-//! the fold-of-cycles speed of its optimum.
+//! robust (5 %) critical speed under vehicle uncertainty; for every optimum of the
+//! output-feedback structures (`yaw_rate`, `yaw_rate_hitch`, either actuator) the
+//! fold-of-cycles speed of its loop ([`crate::bifurcation::ClosedLoop`] with the
+//! [`LoopLaw`] of the design) and, where the optimum sits on a double-Hopf corner, the gain a
+//! little away from it that maximises the fold speed instead ([`AwayFromCorner`], issue 22
+//! item 4). The `predictor` has no fold: its distributed delay is not a continuation problem
+//! here.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use trailer_model::{Model, VehicleParams};
 
 use super::{
-    Actuator, Controller, DelayBudget, Design, DesignSearch, Robustness, SpeedSearch, Structure,
-    VehicleUncertainty, delay_budget, designs_over_delays, robust_critical_speed,
+    Actuator, Controller, DelayBudget, Design, DesignSearch, GainName, Gains, Robustness,
+    SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
+    robust_critical_speed,
 };
 use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
+use crate::bifurcation::chart::{ChartOptions, critical_speeds_with_law};
+use crate::bifurcation::{
+    CycleExtent, DiagramOutcome, DiagramSettings, Feedback, LoopLaw, vehicle_diagram_with_law,
+};
 use crate::progress::Progress;
 use crate::ranging::SpeedLimits;
 
@@ -39,8 +47,41 @@ pub struct StudySettings {
     pub uncertainty: VehicleUncertainty,
     /// the critical-speed search of the uncertainty samples
     pub robustness_speed: SpeedSearch,
-    /// the fold-of-cycles computation (speed range, mesh) of the paper's structure
+    /// the fold-of-cycles computation (speed range, mesh) of every design
     pub fold: ChartOptions,
+    /// gains tried on each side of a double-Hopf optimum, evenly in its near-optimal band of
+    /// D (0: the search away from the corner is skipped)
+    pub away_from_corner_samples: usize,
+}
+
+/// The fold of cycles of one optimum (one entry of [`Combination::designs`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DesignFold {
+    /// the grid delay \[s\]
+    pub tau_s: f64,
+    /// the fold-of-cycles speed of the optimum \[m/s\] (no kick triggers sway below it)
+    pub v_fold_mps: Option<f64>,
+    /// why `v_fold_mps` is null, where it is
+    pub v_fold_reason: Option<String>,
+    /// where the optimum is a double-Hopf corner: the gains a little away from it with the
+    /// largest fold speed
+    pub away_from_corner: Option<AwayFromCorner>,
+}
+
+/// The gains near a double-Hopf optimum that maximise the fold-of-cycles speed (issue 22,
+/// item 4): D varied over its near-optimal band ([`super::GainBand`], the gains whose
+/// linear critical speed is within the band fraction of the best), `samples` evenly on each
+/// side of the corner, the other gains kept at the optimum.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AwayFromCorner {
+    /// the gains (actuator units)
+    pub gains: Gains,
+    /// their fold-of-cycles speed \[m/s\]
+    pub v_fold_mps: f64,
+    /// their linear critical speed \[m/s\] (the top of the search range if stable there)
+    pub v_crit_mps: f64,
+    /// the gains tried (with a fold)
+    pub tried: usize,
 }
 
 /// The checks of one optimum at one delay.
@@ -69,6 +110,8 @@ pub struct Combination {
     pub budget: DelayBudget,
     /// the checks at the checked delays
     pub checked: Vec<CheckedDesign>,
+    /// the fold of cycles of each optimum, in the order of `designs`
+    pub folds: Vec<DesignFold>,
 }
 
 /// The whole study.
@@ -142,6 +185,10 @@ fn combination(
         None,
         &s.search,
     )?;
+    let folds = designs
+        .iter()
+        .map(|d| design_fold(model, d, s))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut checked = Vec::new();
     for &tau in &s.checked_delays_s {
         let Some(d) = designs
@@ -157,8 +204,13 @@ fn combination(
         };
         let robustness =
             robust_critical_speed(nominal, &c, d.tau_s, &s.uncertainty, &s.robustness_speed)?;
+        let fold = designs
+            .iter()
+            .zip(&folds)
+            .find(|(e, _)| e.tau_s == d.tau_s)
+            .map(|(_, f)| f);
         let (v_fold_mps, v_fold_reason) =
-            fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
+            fold.map_or((None, None), |f| (f.v_fold_mps, f.v_fold_reason.clone()));
         checked.push(CheckedDesign {
             tau_s: d.tau_s,
             robustness,
@@ -172,34 +224,118 @@ fn combination(
         designs,
         budget,
         checked,
+        folds,
     })
 }
 
-/// The fold-of-cycles speed of the sway branch of a controller's loop, where the
-/// continuation problem has that loop: the paper's δ = −D·ψ̇(t − τ)
-/// ([`crate::bifurcation::closed_loop`]), corrected on the fold-of-cycles system as the
-/// nonlinear chart does. The diagram's speed range is derived from the vehicle
-/// ([`vehicle_diagram`]: from the lowest speed of `search` past the Hopf point) unless
-/// `chart.cycles` gives both ends. Otherwise, without a Hopf point (a stable loop, a static
-/// divergence) or without a fold, None with the reason.
-fn fold_speed(
+/// The law of the continuation problem of a controller: None for the predictor.
+pub fn loop_law(c: &Controller) -> Option<LoopLaw> {
+    match c.structure {
+        Structure::YawRate => Some(LoopLaw {
+            actuator: c.actuator,
+            ..LoopLaw::PAPER
+        }),
+        Structure::YawRateHitch => Some(LoopLaw {
+            actuator: c.actuator,
+            hitch_angle: c.gains.hitch_angle,
+            hitch_rate: c.gains.hitch_rate,
+        }),
+        Structure::Predictor => None,
+    }
+}
+
+/// The fold of one optimum and, at a double-Hopf corner, the best gains away from it.
+fn design_fold(model: &Model, d: &Design, s: &StudySettings) -> Result<DesignFold, SwayError> {
+    let c = Controller {
+        structure: d.structure,
+        actuator: d.actuator,
+        gains: d.gains,
+    };
+    let (v_fold_mps, v_fold_reason) =
+        fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
+    let away_from_corner = match (d.at_double_hopf, v_fold_mps) {
+        (true, Some(_)) if s.away_from_corner_samples > 0 => away_from_corner(model, d, s)?,
+        _ => None,
+    };
+    Ok(DesignFold {
+        tau_s: d.tau_s,
+        v_fold_mps,
+        v_fold_reason,
+        away_from_corner,
+    })
+}
+
+/// [`AwayFromCorner`] of a double-Hopf optimum `d`: None when no gain of the band has a fold.
+fn away_from_corner(
+    model: &Model,
+    d: &Design,
+    s: &StudySettings,
+) -> Result<Option<AwayFromCorner>, SwayError> {
+    let Some(band) = d.bands.iter().find(|b| b.gain == GainName::YawRate) else {
+        return Ok(None);
+    };
+    let d0 = d.gains.yaw_rate;
+    let n = s.away_from_corner_samples;
+    let mut best: Option<AwayFromCorner> = None;
+    let mut tried = 0;
+    for k in 1..=n {
+        let f = k as f64 / n as f64;
+        for gain in [d0 - f * (d0 - band.lo), d0 + f * (band.hi - d0)] {
+            if gain == d0 {
+                continue;
+            }
+            let c = Controller {
+                structure: d.structure,
+                actuator: d.actuator,
+                gains: d.gains.with(GainName::YawRate, gain),
+            };
+            let (Some(v), _) = fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?
+            else {
+                continue;
+            };
+            tried += 1;
+            if best.as_ref().is_none_or(|b| v > b.v_fold_mps) {
+                let v_crit = super::critical_speed(model, &c, d.tau_s, None, &s.search.speed)?
+                    .unwrap_or(s.search.speed.v_max_mps);
+                best = Some(AwayFromCorner {
+                    gains: c.gains,
+                    v_fold_mps: v,
+                    v_crit_mps: v_crit,
+                    tried: 0,
+                });
+            }
+        }
+    }
+    Ok(best.map(|b| AwayFromCorner { tried, ..b }))
+}
+
+/// The fold-of-cycles speed of the sway branch of a controller's loop
+/// ([`crate::bifurcation::ClosedLoop`] with the controller's [`LoopLaw`]: u = −(D·ψ̇ +
+/// K_θ·θ + D_θ·θ̇)(t − τ) on steering or a yaw moment), corrected on the fold-of-cycles
+/// system as the nonlinear chart does. The diagram's speed range is derived from the vehicle
+/// ([`vehicle_diagram_with_law`]: from the lowest speed of `search` past the Hopf point)
+/// unless `chart.cycles` gives both ends. Otherwise, without a Hopf point (a stable loop, a
+/// static divergence), without a fold, for the predictor or when the continuation fails,
+/// None with the reason (one design's failure does not stop the study).
+pub fn fold_speed(
     model: &Model,
     c: &Controller,
     tau: f64,
     chart: &ChartOptions,
     search: &SpeedSearch,
 ) -> Result<(Option<f64>, Option<String>), SwayError> {
-    if !(c.structure == Structure::YawRate && c.actuator == Actuator::Steering) {
+    let Some(law) = loop_law(c) else {
         return Ok((
             None,
             Some(format!(
-                "not computed: the continuation problem (bifurcation::closed_loop) drives only \
-                 the paper's yaw_rate + steering loop so far, not {} + {}",
+                "not computed: the predictor's distributed delay (the integral of the commands \
+                 over [t − τ, t]) is not a continuation problem of bifurcation::closed_loop \
+                 ({} + {})",
                 c.structure.as_str(),
                 c.actuator.as_str()
             )),
         ));
-    }
+    };
     let feedback = Feedback {
         gain_d_s: c.gains.yaw_rate,
         delay_s: tau,
@@ -210,14 +346,23 @@ fn fold_speed(
         ..SpeedLimits::default()
     };
     let settings = DiagramSettings::from_options(&chart.cycles, None);
-    let diagram =
-        match vehicle_diagram(model, feedback, &settings, &limits, CycleExtent::FirstFold)? {
-            DiagramOutcome::Computed(d) => d,
-            DiagramOutcome::NoHopf(n) => return Ok((None, Some(n.reason))),
-        };
-    let fold = critical_speeds(model, &diagram, chart)?
-        .fold
-        .map(|f| f.v_mps);
+    let failed = |e: SwayError| (None, Some(format!("the continuation failed: {e}")));
+    let diagram = match vehicle_diagram_with_law(
+        model,
+        feedback,
+        law,
+        &settings,
+        &limits,
+        CycleExtent::FirstFold,
+    ) {
+        Ok(DiagramOutcome::Computed(d)) => d,
+        Ok(DiagramOutcome::NoHopf(n)) => return Ok((None, Some(n.reason))),
+        Err(e) => return Ok(failed(e)),
+    };
+    let fold = match critical_speeds_with_law(model, &diagram, law, chart) {
+        Ok(cs) => cs.fold.map(|f| f.v_mps),
+        Err(e) => return Ok(failed(e)),
+    };
     Ok(match fold {
         Some(v) => (Some(v), None),
         None => (

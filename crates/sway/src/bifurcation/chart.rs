@@ -27,8 +27,8 @@ use serde::{Deserialize, Serialize};
 use trailer_model::HITCH_ANGLE;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, LoopLaw,
-    LoopPlant, SPEED, bifurcation_diagram_until, cycles_from_hopf, straight_running,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, LoopPlant,
+    SPEED, bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
 use rayon::prelude::*;
@@ -448,16 +448,26 @@ fn hopf_system<'a, P: LoopPlant<N>, const N: usize>(
         .map_err(num("Hopf curve system".into()))
 }
 
-/// index of D and V in the Hopf-curve unknowns [x (4), Re v (4), Im v (4), ω, D, V]
-const HOPF_D: usize = 13;
-const HOPF_V: usize = 14;
-const HOPF_OMEGA: usize = 12;
+/// D, V and ω of the Hopf-curve unknowns [x (N), Re v (N), Im v (N), ω, D, V]: the last three
+fn hopf_d(u: &[f64]) -> f64 {
+    u[u.len() - 2]
+}
+fn hopf_v(u: &[f64]) -> f64 {
+    u[u.len() - 1]
+}
+fn hopf_omega(u: &[f64]) -> f64 {
+    u[u.len() - 3]
+}
+/// index of D in the Hopf-curve unknowns of an N-state loop
+const fn hopf_d_index(n: usize) -> usize {
+    3 * n + 1
+}
 
 fn hopf_curve_point(u: &[f64]) -> HopfCurvePoint {
     HopfCurvePoint {
-        d_s: u[HOPF_D],
-        v_mps: u[HOPF_V],
-        omega_rad_s: u[HOPF_OMEGA],
+        d_s: hopf_d(u),
+        v_mps: hopf_v(u),
+        omega_rad_s: hopf_omega(u),
     }
 }
 
@@ -471,7 +481,7 @@ fn hopf_curve<P: LoopPlant<N>, const N: usize>(
     let ctx = format!("Hopf curve from D = {d} s, V = {} m/s", hopf.parameter);
     let mut sys = hopf_system(problem, d, o)?;
     let cont = o.continuation(o.hopf_step, o.hopf_max_step, (o.d_min_s, o.d_max_s));
-    let inside = |p: &BranchPoint| o.in_box(p.u[HOPF_D], p.u[HOPF_V]);
+    let inside = |p: &BranchPoint| o.in_box(hopf_d(&p.u), hopf_v(&p.u));
     let mut branches = Vec::new();
     let (guess, dir) = sys.start_at_hopf(hopf, SPEED).map_err(num(ctx.clone()))?;
     for sign in [-1.0, 1.0] {
@@ -568,10 +578,10 @@ fn lowest_hopf_speed<P: LoopPlant<N>, const N: usize>(
     let mut sys = hopf_system(problem, d, o)?;
     let mut best: Option<f64> = None;
     for c in curves {
-        let pts = curve_points_at(&mut sys, &c.branches, HOPF_D, d)
+        let pts = curve_points_at(&mut sys, &c.branches, hopf_d_index(N), d)
             .map_err(num(format!("Hopf curve at D = {d} s")))?;
         for u in pts {
-            let v = u[HOPF_V];
+            let v = hopf_v(&u);
             if v >= o.v_min_mps && v <= o.v_max_mps {
                 best = Some(best.map_or(v, |b: f64| b.min(v)));
             }
@@ -717,6 +727,8 @@ fn corrected_fold<'a, P: LoopPlant<N>, const N: usize>(
 /// The Hopf and fold speeds of a one-parameter diagram read off the two-parameter
 /// defining systems at the diagram's fixed D (what `fig4b` reports; the chart's curves
 /// pass through them). Uses the diagram's located Hopf point and cycle fold as guesses.
+/// The loop is the diagram's (its feedback and [`super::LoopLaw`]); D is the free second
+/// parameter of the defining systems, the hitch gains stay fixed.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage.
@@ -725,23 +737,7 @@ pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
     diagram: &Diagram,
     o: &ChartOptions,
 ) -> Result<CriticalSpeeds, SwayError> {
-    critical_speeds_with_law(model, diagram, LoopLaw::PAPER, o)
-}
-
-/// [`critical_speeds`] of a diagram of the loop with the controller `law` (actuator, hitch
-/// gains; the diagram must have been computed with it,
-/// [`super::vehicle_diagram_with_law`]). D is the free second parameter of the defining
-/// systems; the hitch gains stay fixed.
-///
-/// # Errors
-/// As [`critical_speeds`].
-pub fn critical_speeds_with_law<P: LoopPlant<N>, const N: usize>(
-    model: &P,
-    diagram: &Diagram,
-    law: LoopLaw,
-    o: &ChartOptions,
-) -> Result<CriticalSpeeds, SwayError> {
-    let problem = ClosedLoop::with_law(model, diagram.feedback, law);
+    let problem = ClosedLoop::with_law(model, diagram.feedback, diagram.law);
     let d = diagram.feedback.gain_d_s;
     let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
     let fold = match corrected_fold(&problem, diagram, o)? {
@@ -750,8 +746,8 @@ pub fn critical_speeds_with_law<P: LoopPlant<N>, const N: usize>(
     };
     Ok(CriticalSpeeds {
         located_hopf: diagram.hopf.clone(),
-        hopf_v_mps: hu[HOPF_V],
-        hopf_omega_rad_s: hu[HOPF_OMEGA],
+        hopf_v_mps: hopf_v(&hu),
+        hopf_omega_rad_s: hopf_omega(&hu),
         criticality: diagram.criticality,
         fold,
     })

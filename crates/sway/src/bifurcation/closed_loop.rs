@@ -74,6 +74,12 @@ pub struct LoopLaw {
     pub hitch_rate: f64,
 }
 
+impl Default for LoopLaw {
+    fn default() -> Self {
+        Self::PAPER
+    }
+}
+
 impl LoopLaw {
     /// The paper's law: steering, yaw rate only.
     pub const PAPER: LoopLaw = LoopLaw {

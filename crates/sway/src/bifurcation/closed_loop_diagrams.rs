@@ -4,10 +4,10 @@
 //! defining systems of the nonlinear chart ([`critical_speeds`]), so that `fig4b`,
 //! `chart_nonlinear` and the `hopf_fold_speeds` sweep kind share one implementation.
 
+use super::LoopPlant;
 use continuation::Criticality;
 use rayon::prelude::*;
 use serde::Serialize;
-use super::LoopPlant;
 
 use super::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
 use super::{

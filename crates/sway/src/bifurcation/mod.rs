@@ -163,6 +163,10 @@ pub struct CycleAt {
 pub struct Diagram {
     /// the feedback
     pub feedback: Feedback,
+    /// the controller law beyond D and τ (actuator, hitch gains); not serialised (a
+    /// deserialised diagram has the paper's law)
+    #[serde(skip)]
+    pub law: LoopLaw,
     /// the options used
     pub options: DiagramOptions,
     /// straight running (x = 0) versus V, with stability and the Hopf point
@@ -212,14 +216,13 @@ impl Diagram {
         .map_err(num("cycle system".into()))
     }
 
-    /// The cycles at speed V \[m/s\] (all crossings of the branch), corrected at fixed V
-    /// (the diagram's feedback with the paper's law, [`LoopLaw::PAPER`]).
+    /// The cycles at speed V \[m/s\] (all crossings of the branch), corrected at fixed V.
     pub fn cycles_at<P: LoopPlant<N>, const N: usize>(
         &self,
         model: &P,
         speed: f64,
     ) -> Result<Vec<CycleSummary>, SwayError> {
-        let problem = ClosedLoop::new(model, self.feedback);
+        let problem = ClosedLoop::with_law(model, self.feedback, self.law);
         let mut sys = self.cycle_system(&problem)?;
         let cont = Continuation::default();
         let pts = points_at_parameter(&cont, &mut sys, &self.cycles, speed)
@@ -554,6 +557,7 @@ pub fn bifurcation_diagram_with_law<P: LoopPlant<N>, const N: usize>(
     };
     Ok(Diagram {
         feedback,
+        law,
         options: o.clone(),
         equilibria,
         hopf,

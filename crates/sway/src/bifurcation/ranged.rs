@@ -622,6 +622,7 @@ pub fn vehicle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
     let fold = fold_of(&cycles, &cycle_summary);
     Ok(DiagramOutcome::Computed(Box::new(Diagram {
         feedback,
+        law,
         options: settings.options(plot_lo, plot_hi),
         equilibria,
         hopf,

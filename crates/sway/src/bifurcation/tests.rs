@@ -88,7 +88,7 @@ fn amplitude_and_period(eval: impl Fn(f64) -> State4, t0: f64, t1: f64) -> (f64,
 
 /// profile of a cycle at speed V as a function of time (periodic), from the diagram
 fn cycle_profile(d: &Diagram, speed: f64, stable: bool) -> (Vec<f64>, f64) {
-    let problem = ClosedLoop::new(model(), d.feedback);
+    let problem = ClosedLoop::with_law(model(), d.feedback, d.law);
     let mut sys = d.cycle_system(&problem).unwrap();
     let pts = points_at_parameter(&Continuation::default(), &mut sys, &d.cycles, speed).unwrap();
     let p = pts
@@ -100,7 +100,7 @@ fn cycle_profile(d: &Diagram, speed: f64, stable: bool) -> (Vec<f64>, f64) {
 }
 
 fn eval_profile(d: &Diagram, u: &[f64], t: f64, period: f64) -> State4 {
-    let problem = ClosedLoop::new(model(), d.feedback);
+    let problem = ClosedLoop::with_law(model(), d.feedback, d.law);
     let sys = d.cycle_system(&problem).unwrap();
     let mut x = [0.0; 4];
     let mut dx = [0.0; 4];
@@ -172,7 +172,7 @@ fn stable_cycles_agree_with_long_simulations() {
         let (u, period) = cycle_profile(d, v, true);
         let x0 = eval_profile(d, &u, 0.0, period);
         let sim = Sim {
-            problem: ClosedLoop::new(model(), d.feedback),
+            problem: ClosedLoop::with_law(model(), d.feedback, d.law),
             speed: v,
             delays: [0.0],
             history: |_t| x0,
@@ -221,7 +221,7 @@ fn unstable_cycle_at_33_separates_decay_from_sway() {
     for (scale, grows) in [(0.97, false), (1.03, true)] {
         let x0 = x_star * scale;
         let sim = Sim {
-            problem: ClosedLoop::new(model(), d.feedback),
+            problem: ClosedLoop::with_law(model(), d.feedback, d.law),
             speed: 33.0,
             delays: [0.0],
             history: |_t| x0,
@@ -251,7 +251,7 @@ fn floquet_multipliers_agree_with_simulated_monodromy_matrix() {
     let (u, _) = cycle_profile(d, v, true);
     // the orbit for the simulation: the same cycle corrected on a 160-interval mesh, so that
     // the start point and period of the reference do not carry the coarse mesh's error
-    let problem = ClosedLoop::new(model(), d.feedback);
+    let problem = ClosedLoop::with_law(model(), d.feedback, d.law);
     let coarse = d.cycle_system(&problem).unwrap();
     let mut fine = PeriodicOrbitSystem::new(
         &problem,
@@ -279,7 +279,7 @@ fn floquet_multipliers_agree_with_simulated_monodromy_matrix() {
     let x0 = State4::from_column_slice(&x);
     let flow = |x: State4| -> State4 {
         let sim = Sim {
-            problem: ClosedLoop::new(model(), d.feedback),
+            problem: ClosedLoop::with_law(model(), d.feedback, d.law),
             speed: v,
             delays: [0.0],
             history: |_t| x,
@@ -560,4 +560,227 @@ fn vehicle_stable_up_to_the_maximum_speed_has_no_hopf_point_as_an_outcome() {
         }
         DiagramOutcome::Computed(d) => panic!("unexpected Hopf point at {}", d.hopf.parameter),
     }
+}
+
+// ---- the controller structures of issue 22 in continuation ----
+
+/// yaw_rate_hitch on steering, yaw_rate and yaw_rate_hitch on braking (gains in steering
+/// units times the braking scale C_F·(f − c)), with their delays
+fn controller_cases() -> Vec<(crate::control::Controller, f64)> {
+    use crate::control::{Actuator, Controller, Gains, Structure};
+    let s = Actuator::DifferentialBraking.scale(model());
+    let hitch = |k: f64| Gains {
+        yaw_rate: 0.1 * k,
+        hitch_angle: -0.05 * k,
+        hitch_rate: -0.02 * k,
+    };
+    vec![
+        (
+            Controller {
+                structure: Structure::YawRateHitch,
+                actuator: Actuator::Steering,
+                gains: hitch(1.0),
+            },
+            0.4,
+        ),
+        (
+            Controller {
+                structure: Structure::YawRate,
+                actuator: Actuator::DifferentialBraking,
+                gains: Gains::yaw_rate(0.1 * s),
+            },
+            0.4,
+        ),
+        (
+            Controller {
+                structure: Structure::YawRateHitch,
+                actuator: Actuator::DifferentialBraking,
+                gains: hitch(s),
+            },
+            0.6,
+        ),
+    ]
+}
+
+#[test]
+fn controller_hopf_points_are_the_linear_critical_speeds() {
+    // reference: the critical speed of sway::control's quasi-polynomial of the same
+    // structure, actuator, gains and delay (exact unstable-root counts, bisection to
+    // 1e-10 m/s), an independent formulation (characteristic function, not the nonlinear
+    // loop); the continuation locates its Hopf point to ~1e-10: 1e-6 relative
+    let search = crate::control::SpeedSearch {
+        v_min_mps: 5.0,
+        v_max_mps: 100.0,
+        samples: 200,
+        tolerance_mps: 1e-10,
+    };
+    for (c, tau) in controller_cases() {
+        let v_lin = crate::control::critical_speed(model(), &c, tau, None, &search)
+            .unwrap()
+            .expect("a critical speed");
+        let fb = Feedback {
+            gain_d_s: c.gains.yaw_rate,
+            delay_s: tau,
+        };
+        let problem = ClosedLoop::with_law(model(), fb, crate::control::loop_law(&c).unwrap());
+        let (_, hopf) = straight_running(
+            &problem,
+            &problem.parameters(5.0),
+            (5.0, 100.0),
+            DiagramOptions::default().root_degree,
+        )
+        .unwrap();
+        assert!(
+            (hopf.parameter - v_lin).abs() < 1e-6 * v_lin,
+            "{c:?}, τ = {tau}: Hopf {} vs linear {v_lin}",
+            hopf.parameter
+        );
+    }
+}
+
+#[test]
+fn controller_cycle_agrees_with_simulation() {
+    // reference: dde crate (DDE solver, rtol 1e-10) with the periodic profile as history,
+    // run for 15 periods: amplitude to 0.01°, period to 1e-4 s (as for the paper's loop)
+    let mut checked = 0;
+    for (c, tau) in controller_cases() {
+        let fb = Feedback {
+            gain_d_s: c.gains.yaw_rate,
+            delay_s: tau,
+        };
+        let law = crate::control::loop_law(&c).unwrap();
+        let settings = DiagramSettings {
+            intervals: 40,
+            ..DiagramSettings::default()
+        };
+        let limits = crate::ranging::SpeedLimits::default();
+        let d = match vehicle_diagram_with_law(
+            model(),
+            fb,
+            law,
+            &settings,
+            &limits,
+            CycleExtent::WholeRange,
+        )
+        .unwrap()
+        {
+            DiagramOutcome::Computed(d) => d,
+            DiagramOutcome::NoHopf(n) => panic!("{c:?}: {}", n.reason),
+        };
+        println!(
+            "{c:?}: Hopf {} m/s, {:?}, fold {:?}, end {:?}, first/last cycles {:?} {:?}",
+            d.hopf.parameter,
+            d.criticality,
+            d.fold,
+            d.cycle_branch_end,
+            d.cycle_summary.first(),
+            d.cycle_summary.last()
+        );
+        // a stable cycle of the branch with at least 1° (a loop whose branch has none, e.g.
+        // gains that make the Hopf point lose control before folding, is not compared)
+        let Some(v) = d
+            .cycle_summary
+            .iter()
+            .find(|c| c.stable && c.amplitude_deg > 1.0)
+            .map(|c| c.speed_mps)
+        else {
+            continue;
+        };
+        let stable = d
+            .cycle_at(model(), v, CycleKind::Stable)
+            .unwrap()
+            .cycle
+            .expect("stable sway");
+        checked += 1;
+        let (u, period) = cycle_profile(&d, v, true);
+        let sim = Sim {
+            problem: ClosedLoop::with_law(model(), fb, law),
+            speed: v,
+            delays: [tau],
+            history: |t| eval_profile(&d, &u, t, period),
+        };
+        let t_end = 15.0 * period;
+        let sol = solve_dde(&sim, 0.0, t_end, Options::with_tolerances(1e-10, 1e-12)).unwrap();
+        let (amp, per) =
+            amplitude_and_period(|t| sol.eval(t).unwrap(), t_end - 3.0 * period, t_end);
+        assert!(
+            (amp - stable.amplitude_deg).abs() < 0.01,
+            "{c:?}: {amp} vs {}",
+            stable.amplitude_deg
+        );
+        assert!(
+            (per - stable.period_s).abs() < 1e-4,
+            "{c:?}: {per} vs {}",
+            stable.period_s
+        );
+    }
+    assert!(checked >= 2, "only {checked} loops had a stable cycle");
+}
+
+// ---- any plant (issue 21) ----
+
+#[test]
+fn relaxation_plant_diagram_hopf_is_its_critical_speed_and_fold_converges() {
+    // σ = 0.3 m on every axle of Table I (7 states). References: the plant's linear V_crit
+    // (bisection on the spectral abscissa to 1e-11 m/s): 1e-8 relative; the fold of cycles
+    // on a converged finer mesh (L = 80 against L = 20, degree 4; the discrete fold moves as
+    // h^{2m} from the coarse mesh): 1e-4 relative, as the paper's mesh-doubling test
+    let plant = trailer_model::VehicleModel::<7>::new(
+        &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
+    )
+    .unwrap();
+    let v_crit = trailer_model::Plant::critical_speed(
+        &plant,
+        &CriticalSpeedOptions {
+            tolerance: 1e-11,
+            ..CriticalSpeedOptions::default()
+        },
+    )
+    .unwrap()
+    .v_crit_mps;
+    let limits = crate::ranging::SpeedLimits::default();
+    let fold_at = |intervals: usize| {
+        let settings = DiagramSettings {
+            intervals,
+            max_step: 0.5,
+            ..DiagramSettings::default()
+        };
+        let d = match vehicle_diagram(
+            &plant,
+            Feedback::OPEN_LOOP,
+            &settings,
+            &limits,
+            CycleExtent::FirstFold,
+        )
+        .unwrap()
+        {
+            DiagramOutcome::Computed(d) => d,
+            DiagramOutcome::NoHopf(n) => panic!("{}", n.reason),
+        };
+        let cs = chart::critical_speeds(&plant, &d, &chart::ChartOptions::correcting(&d.options))
+            .unwrap();
+        (
+            d.hopf.parameter,
+            cs.hopf_v_mps,
+            cs.fold.expect("a fold").v_mps,
+        )
+    };
+    let (located, corrected, coarse) = fold_at(20);
+    let (_, _, fine) = fold_at(80);
+    println!(
+        "σ = 0.3 m: V_crit {v_crit}, Hopf {located} / {corrected}, fold L=20 {coarse}, L=80 {fine}"
+    );
+    assert!(
+        (located - v_crit).abs() < 1e-8 * v_crit,
+        "{located} vs {v_crit}"
+    );
+    assert!(
+        (corrected - v_crit).abs() < 1e-8 * v_crit,
+        "{corrected} vs {v_crit}"
+    );
+    assert!(coarse < v_crit, "subcritical: the fold lies below V_crit");
+    assert!(
+        (coarse - fine).abs() < 1e-4 * fine,
+        "fold {coarse} (L = 20) vs {fine} (L = 80)"
+    );
 }

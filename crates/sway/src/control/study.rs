@@ -18,7 +18,7 @@ use super::{
     robust_critical_speed,
 };
 use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, critical_speeds_with_law};
+use crate::bifurcation::chart::{ChartOptions, critical_speeds};
 use crate::bifurcation::{
     CycleExtent, DiagramOutcome, DiagramSettings, Feedback, LoopLaw, vehicle_diagram_with_law,
 };
@@ -251,8 +251,7 @@ fn design_fold(model: &Model, d: &Design, s: &StudySettings) -> Result<DesignFol
         actuator: d.actuator,
         gains: d.gains,
     };
-    let (v_fold_mps, v_fold_reason) =
-        fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
+    let (v_fold_mps, v_fold_reason) = fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
     let away_from_corner = match (d.at_double_hopf, v_fold_mps) {
         (true, Some(_)) if s.away_from_corner_samples > 0 => away_from_corner(model, d, s)?,
         _ => None,
@@ -289,8 +288,7 @@ fn away_from_corner(
                 actuator: d.actuator,
                 gains: d.gains.with(GainName::YawRate, gain),
             };
-            let (Some(v), _) = fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?
-            else {
+            let (Some(v), _) = fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)? else {
                 continue;
             };
             tried += 1;
@@ -359,7 +357,7 @@ pub fn fold_speed(
         Ok(DiagramOutcome::NoHopf(n)) => return Ok((None, Some(n.reason))),
         Err(e) => return Ok(failed(e)),
     };
-    let fold = match critical_speeds_with_law(model, &diagram, law, chart) {
+    let fold = match critical_speeds(model, &diagram, chart) {
         Ok(cs) => cs.fold.map(|f| f.v_mps),
         Err(e) => return Ok(failed(e)),
     };

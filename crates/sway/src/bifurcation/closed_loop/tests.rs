@@ -3,9 +3,10 @@
 //! from the tire curve's kinks (where the differences would straddle a jump of f'').
 
 use super::*;
+use crate::control::Actuator;
 use continuation::{fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
 use std::sync::OnceLock;
-use trailer_model::VehicleParams;
+use trailer_model::{VehicleModel, VehicleParams, VehicleSpec};
 
 fn model() -> &'static Model {
     static M: OnceLock<Model> = OnceLock::new();
@@ -30,9 +31,57 @@ impl Lcg {
 /// typical sway magnitudes of [σ1 (m/s), σ2 (1/s), σ3 (1/s), θ (rad)]
 const SCALE: [f64; 4] = [0.8, 0.3, 0.3, 0.2];
 
-/// the settings: ODE (τ = 0) and DDE (τ = 0.2 s) loops, gains of both signs and zero
+/// the yaw moment per radian of equivalent steering (the braking gains' scale)
+fn braking_scale() -> f64 {
+    Actuator::DifferentialBraking.scale(model())
+}
+
+/// the controller laws of issue 22: hitch gains on steering, braking alone and with the
+/// hitch gains (K_θ, D_θ in steering units, scaled for braking)
+fn laws() -> [(LoopLaw, f64); 3] {
+    let s = braking_scale();
+    [
+        (
+            LoopLaw {
+                actuator: Actuator::Steering,
+                hitch_angle: 0.3,
+                hitch_rate: -0.1,
+            },
+            1.0,
+        ),
+        (
+            LoopLaw {
+                actuator: Actuator::DifferentialBraking,
+                ..LoopLaw::PAPER
+            },
+            s,
+        ),
+        (
+            LoopLaw {
+                actuator: Actuator::DifferentialBraking,
+                hitch_angle: 0.3 * s,
+                hitch_rate: 0.1 * s,
+            },
+            s,
+        ),
+    ]
+}
+
+/// the settings: ODE (τ = 0) and DDE (τ = 0.2 s) loops, gains of both signs and zero; then
+/// the controller laws of issue 22 with τ = 0 and 0.2 s
 fn loops() -> Vec<(ClosedLoop<'static>, Vec<f64>)> {
     let mut out = Vec::new();
+    for (law, scale) in laws() {
+        for (tau, gain, speed) in [(0.0, 0.1, 35.0), (0.2, 0.15, 45.0)] {
+            let fb = Feedback {
+                gain_d_s: gain * scale,
+                delay_s: tau,
+            };
+            let cl = ClosedLoop::with_law(model(), fb, law);
+            let p = cl.parameters(speed);
+            out.push((cl, p));
+        }
+    }
     for (tau, gain, speed) in [
         (0.0, 0.15, 35.0),
         (0.2, 0.1, 45.0),
@@ -179,4 +228,53 @@ fn structure_does_not_switch_with_the_gain() {
         0,
         "τ = 0 is an ODE"
     );
+}
+
+/// The loop of a 7-state plant (σ = 0.3 m on the three axles of Table I) with each law:
+/// derivatives against central differences as above (same references and tolerances).
+#[test]
+fn relaxation_plant_loop_derivatives_agree_with_central_differences() {
+    let plant = VehicleModel::<7>::new(&VehicleSpec::table_i_with_relaxation(0.3)).unwrap();
+    let scale7 = [0.8, 0.3, 0.3, 0.2, 0.05, 0.05, 0.05];
+    let mut rng = Lcg(17);
+    for (law, scale) in laws().into_iter().chain([(LoopLaw::PAPER, 1.0)]) {
+        for (tau, gain, speed) in [(0.0, 0.1, 35.0), (0.2, 0.15, 45.0)] {
+            let fb = Feedback {
+                gain_d_s: gain * scale,
+                delay_s: tau,
+            };
+            let cl = ClosedLoop::with_law(&plant, fb, law);
+            let p = cl.parameters(speed);
+            let na = cl.n_args();
+            let mut g = vec![0.0; cl.n_switching()];
+            let mut done = 0;
+            while done < 10 {
+                let args: Vec<f64> = (0..na).map(|i| scale7[i % 7] * rng.next()).collect();
+                cl.switching(&args, &p, &mut g);
+                if g.iter().any(|v| v.abs() < 1e-3) {
+                    continue;
+                }
+                done += 1;
+                let (mut j, mut jfd) = (vec![0.0; 7 * na], vec![0.0; 7 * na]);
+                cl.jacobian(&args, &p, &mut j);
+                fd_jacobian(&cl, &args, &p, &mut jfd);
+                assert_close(&j, &jfd, 1e-6, "jacobian (7 states)");
+                let a: Vec<f64> = (0..na).map(|i| scale7[i % 7] * rng.next()).collect();
+                let b: Vec<f64> = (0..na).map(|i| scale7[i % 7] * rng.next()).collect();
+                let (mut s2, mut sfd) = ([0.0; 7], [0.0; 7]);
+                cl.second_derivative(&args, &p, &a, &b, &mut s2).unwrap();
+                fd_second_derivative(&cl, &args, &p, &a, &b, &mut sfd).unwrap();
+                assert_close(&s2, &sfd, 1e-6, "second derivative (7 states)");
+                for ip in [SPEED, GAIN] {
+                    let (mut d, mut dfd) = ([0.0; 7], [0.0; 7]);
+                    cl.dfdp(&args, &p, ip, &mut d);
+                    fd_dfdp(&cl, &args, &p, ip, &mut dfd);
+                    assert_close(&d, &dfd, 1e-6, "dfdp (7 states)");
+                    cl.jacobian_dp(&args, &p, ip, &a, &mut d).unwrap();
+                    fd_jacobian_dp(&cl, &args, &p, ip, &a, &mut dfd).unwrap();
+                    assert_close(&d, &dfd, 1e-6, "jacobian_dp (7 states)");
+                }
+            }
+        }
+    }
 }

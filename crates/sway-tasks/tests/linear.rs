@@ -218,3 +218,81 @@ fn model_variant_files_load_and_paper_only_tasks_refuse_them_by_key() {
         trailer_model::AnyVehicleModel::Paper(_)
     ));
 }
+
+/// Runs `task` with config text `toml` on the vehicle file `vehicle`; its `summary.json`.
+fn run_on(task: &str, toml: &str, vehicle: &Path, dir: &Path) -> serde_json::Value {
+    let file = write(dir, &format!("{task}.toml"), toml);
+    let ctx = TaskContext::new(
+        vehicle,
+        &root().join("configs"),
+        &dir.join("results"),
+        &NoProgress,
+    )
+    .expect("vehicle loads");
+    let t = tasks::registry()
+        .into_iter()
+        .find(|t| t.name == task)
+        .expect("task");
+    assert_eq!(t.models, tasks::Models::Any, "{task} takes any plant");
+    let (prepared, _) = tasks::prepare_checked(&t, &ctx, &file).expect("prepared");
+    let report = prepared.run(&ctx).expect("runs");
+    let text = std::fs::read_to_string(report.output_dir.join("summary.json")).expect("summary");
+    serde_json::from_str(&text).expect("json")
+}
+
+#[test]
+fn fig3a_and_fig4b_run_on_the_relaxation_vehicle() {
+    // σ = 0.3 m on every axle (7 states), at a small mesh (L = 20, m = 4). References: the
+    // plant's linear V_crit (bisection of the spectral abscissa to 1e-11 m/s): 1e-8
+    // relative; fig3a's and fig4b's open-loop folds, corrected on the same defining system:
+    // 1e-6 relative (the fold against a converged finer mesh is sway's
+    // bifurcation::tests::relaxation_plant_diagram_hopf_is_its_critical_speed_and_fold_converges)
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let vehicle = root().join("configs/vehicles/relaxation.toml");
+    let fig3a = run_on(
+        "fig3a",
+        "[panels]\nspeed_mps = 30.0\ntheta0_deg = [2.0]\nhorizon_s = 2.0\noutput_step_s = 0.05\n\
+         [diagram]\nstable_speeds_mps = [{ of_v_crit = 1.05 }]\n\
+         unstable_speeds_mps = [{ in_bistable = 0.5 }]\n\
+         [diagram.continuation]\nintervals = 20\ndegree = 4\nmax_step = 0.5\n",
+        &vehicle,
+        tmp.path(),
+    );
+    let fig4b = run_on(
+        "fig4b",
+        "[[pairs]]\ndelay_s = 0.0\ngain_s = 0.0\n[continuation]\nintervals = 20\ndegree = 4\n",
+        &vehicle,
+        tmp.path(),
+    );
+    let spec = trailer_model::VehicleSpec::table_i_with_relaxation(0.3);
+    let plant = trailer_model::VehicleModel::<7>::new(&spec).expect("plant");
+    let v_crit = trailer_model::Plant::critical_speed(
+        &plant,
+        &trailer_model::CriticalSpeedOptions {
+            tolerance: 1e-11,
+            ..Default::default()
+        },
+    )
+    .expect("V_crit")
+    .v_crit_mps;
+    let num = |v: &serde_json::Value| v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"));
+    let pair = &fig4b["pairs"][0];
+    for (what, v) in [
+        ("fig3a", num(&fig3a["hopf_v_mps"])),
+        ("fig4b", num(&pair["hopf_v_mps"])),
+    ] {
+        assert!(
+            (v - v_crit).abs() < 1e-8 * v_crit,
+            "{what}: {v} vs {v_crit}"
+        );
+    }
+    let (f3, f4) = (num(&fig3a["fold_v_mps"]), num(&pair["fold_v_mps"]));
+    assert!((f3 - f4).abs() < 1e-6 * f4, "fold fig3a {f3} vs fig4b {f4}");
+    assert!(
+        f3 < v_crit - 1.0,
+        "relaxation keeps a bistable range: fold {f3}"
+    );
+    assert!(fig3a["time_panels"].is_null());
+    let reason = fig3a["time_panels_reason"].as_str().expect("a reason");
+    assert!(reason.contains("relaxation_length_m"), "{reason}");
+}

@@ -392,6 +392,14 @@ pub fn cycle_loss_of_control<P: LoopPlant<N>, const N: usize>(
     None
 }
 
+/// A cycle branch with its system, criticality and why it ended.
+type StoppedCycles<'a, P, const N: usize> = (
+    PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
+    Branch,
+    Criticality,
+    BranchEnd,
+);
+
 /// The cycle branch from `hopf`, continued on `o`'s speed range for at most `max_points`
 /// points, stopped by the first of: V ≥ `v_stop`, the first fold (`extent`), the validity
 /// guard. Returns the system, the branch, its criticality and why it ended.
@@ -402,15 +410,7 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
     o: &DiagramOptions,
     v_stop: Option<f64>,
     extent: CycleExtent,
-) -> Result<
-    (
-        PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
-        Branch,
-        Criticality,
-        BranchEnd,
-    ),
-    SwayError,
-> {
+) -> Result<StoppedCycles<'a, P, N>, SwayError> {
     let ctx = format!(
         "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
         hopf.parameter,

@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 use stability::{Axis, ChartOptions, StabilityChart};
-use trailer_model::Model;
+use crate::control::LoopModel;
 
 use super::auto_range::{
     Derivation, SpeedBounds, VehicleScale, chart_gains, critical_speed_extent, speed_top,
@@ -159,8 +159,8 @@ pub struct Fig4aRanges {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] from the derivation.
-pub fn resolve(
-    model: &Model,
+pub fn resolve<M: LoopModel + ?Sized>(
+    model: &M,
     cfg: &Fig4aConfig,
     b: &SpeedBounds,
 ) -> Result<Fig4aRanges, SwayError> {
@@ -293,7 +293,11 @@ fn chart_reason(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn compute(model: &Model, cfg: &Fig4aConfig, b: &SpeedBounds) -> Result<Fig4a, SwayError> {
+pub fn compute<M: LoopModel + ?Sized>(
+    model: &M,
+    cfg: &Fig4aConfig,
+    b: &SpeedBounds,
+) -> Result<Fig4a, SwayError> {
     let ranges = resolve(model, cfg, b)?;
     let (sa, ga) = (ranges.speed_mps.axis(), ranges.gain_s.axis());
     let charts = fig4a_charts(model, &cfg.delays_s, sa, ga, &cfg.chart_options())?;

@@ -10,20 +10,49 @@ use stability::{
     Axis, ChartOptions, Complex64, RankOneFeedback, RootOptions, StabilityChart, StabilityError,
     first_unstable_parameter, stability_charts,
 };
-use trailer_model::Model;
-
 use crate::SwayError;
+use crate::control::LoopModel;
 
 pub mod auto_range;
 pub mod fig4a;
 
-/// The closed loop at speed V \[m/s\] in quasi-polynomial form (Ã, B̃, C̃ of eq. 11).
+/// The closed loop at speed V \[m/s\] in quasi-polynomial form (Ã, B̃, C̃ of eq. 11) of any
+/// plant ([`LoopModel`]: the paper's `Model`, a `VehicleModel<N>`, an `AnyVehicleModel`):
+/// p = det(λI − A) of degree n, q = C adj(λI − A) B.
 ///
 /// # Errors
 /// [`StabilityError`] if the linearisation is not finite (e.g. V = 0).
-pub fn closed_loop(model: &Model, speed: f64) -> Result<RankOneFeedback, StabilityError> {
-    let lin = model.linearize(speed);
-    RankOneFeedback::from_state_space(&lin.a4, &lin.b4, &lin.c4)
+pub fn closed_loop<M: LoopModel + ?Sized>(
+    model: &M,
+    speed: f64,
+) -> Result<RankOneFeedback, StabilityError> {
+    let lin = model.loop_linearization(speed);
+    RankOneFeedback::from_state_space(&lin.a, &lin.b, &lin.c)
+}
+
+/// The open-loop critical speed of any plant: [`crate::ranging::open_loop_critical_speed`]
+/// (the one search every task uses) through [`LoopModel::critical_speed_search`]; for the
+/// paper's `Model` the same call, so the same numbers.
+///
+/// # Errors
+/// [`SwayError::Model`] when straight running is already unstable at the lowest speed or
+/// the eigenvalues are not finite.
+pub fn open_loop_stability<M: LoopModel + ?Sized>(
+    model: &M,
+    limits: &crate::ranging::SpeedLimits,
+) -> Result<crate::ranging::OpenLoopStability, SwayError> {
+    use crate::ranging::OpenLoopStability;
+    Ok(
+        match model.critical_speed_search(&limits.critical_speed_options())? {
+            Some(c) => OpenLoopStability::Critical {
+                v_crit_mps: c.v_crit_mps,
+                hopf_omega_rad_s: c.hopf_omega_rad_s,
+            },
+            None => OpenLoopStability::StableUpTo {
+                stable_up_to_mps: limits.max_speed_mps,
+            },
+        },
+    )
 }
 
 fn numerical(context: String) -> impl FnOnce(StabilityError) -> SwayError {
@@ -36,8 +65,8 @@ fn numerical(context: String) -> impl FnOnce(StabilityError) -> SwayError {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the roots cannot be confirmed.
-pub fn rightmost_roots(
-    model: &Model,
+pub fn rightmost_roots<M: LoopModel + ?Sized>(
+    model: &M,
     speed: f64,
     gain: f64,
     delay: f64,
@@ -53,8 +82,8 @@ pub fn rightmost_roots(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn unstable_root_count(
-    model: &Model,
+pub fn unstable_root_count<M: LoopModel + ?Sized>(
+    model: &M,
     speed: f64,
     gain: f64,
     delay: f64,
@@ -68,8 +97,8 @@ pub fn unstable_root_count(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] for an invalid grid or a failed linearisation.
-pub fn fig4a_charts(
-    model: &Model,
+pub fn fig4a_charts<M: LoopModel + ?Sized>(
+    model: &M,
     delays: &[f64],
     speed: Axis,
     gain: Axis,
@@ -85,8 +114,8 @@ pub fn fig4a_charts(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn critical_speed_at_gain(
-    model: &Model,
+pub fn critical_speed_at_gain<M: LoopModel + ?Sized>(
+    model: &M,
     delay: f64,
     gain: f64,
     v_min: f64,
@@ -113,8 +142,8 @@ pub fn critical_speed_at_gain(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn stable_gain_intervals(
-    model: &Model,
+pub fn stable_gain_intervals<M: LoopModel + ?Sized>(
+    model: &M,
     delay: f64,
     speed: f64,
     d_min: f64,

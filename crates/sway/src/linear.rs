@@ -4,11 +4,13 @@
 
 use nalgebra::Complex;
 use serde::{Deserialize, Serialize};
-use trailer_model::{AnyVehicleModel, CriticalSpeedOptions, Model, PARAMETERS, VehicleParams, VehicleSpec};
+use trailer_model::{
+    AnyVehicleModel, CriticalSpeedOptions, Model, PARAMETERS, VehicleParams, VehicleSpec,
+};
 
 use crate::SwayError;
-use crate::control::LoopModel;
 use crate::config::Grid;
+use crate::control::LoopModel;
 
 /// Eigenvalues of Ã along a speed grid, each column following one eigenvalue
 /// continuously (matched to the previous speed by nearest distance); n columns for a plant
@@ -237,11 +239,13 @@ fn v_crit_near_spec(
     };
     match LoopModel::critical_speed_search(&model, &opts)? {
         Some(c) => Ok(c.v_crit_mps),
-        None => Err(SwayError::Model(trailer_model::ModelError::NoCriticalSpeed {
-            v_min: opts.v_min,
-            v_max: opts.v_max,
-            detail: "straight running stays stable up to v_max",
-        })),
+        None => Err(SwayError::Model(
+            trailer_model::ModelError::NoCriticalSpeed {
+                v_min: opts.v_min,
+                v_max: opts.v_max,
+                detail: "straight running stays stable up to v_max",
+            },
+        )),
     }
 }
 

@@ -5,7 +5,7 @@
 //! (relative accuracy ~1e-14, well inside the promised 1e-9).
 
 use stability::Complex64;
-use trailer_model::Model;
+use sway::control::LoopModel;
 
 use crate::TaskError;
 
@@ -20,8 +20,8 @@ pub const MAX_COUNT: usize = 200;
 ///
 /// # Errors
 /// As [`validate_args`], and [`sway::SwayError::Numerical`] if the roots cannot be confirmed.
-pub fn roots(
-    model: &Model,
+pub fn roots<M: LoopModel + ?Sized>(
+    model: &M,
     speed: f64,
     gain: f64,
     delay: f64,
@@ -90,7 +90,7 @@ pub fn format_roots(roots: &[Complex64]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use trailer_model::VehicleParams;
+    use trailer_model::{Model, VehicleParams};
 
     #[test]
     fn roots_are_sorted_conjugate_and_satisfy_the_characteristic_equation() {

@@ -151,7 +151,10 @@ pub fn open_loop_critical_speed<M: LoopModel + ?Sized>(
 /// [`SwayError::Numerical`] if the critical speed fails, or if the vehicle has no static
 /// yaw-rate response at V_ref (q(0) = 0 or p(0) = 0: then the gain ranges must be given in
 /// the config).
-pub fn vehicle_scale<M: LoopModel + ?Sized>(model: &M, b: &SpeedBounds) -> Result<VehicleScale, SwayError> {
+pub fn vehicle_scale<M: LoopModel + ?Sized>(
+    model: &M,
+    b: &SpeedBounds,
+) -> Result<VehicleScale, SwayError> {
     let v_crit = open_loop_critical_speed(model, b)?;
     let mut v_ref = v_crit.unwrap_or(b.max_mps);
     let static_gain_at = |v: f64| -> Result<Option<f64>, SwayError> {

@@ -3,9 +3,9 @@
 //! axes derived from the vehicle where `configs/fig4a.toml` omits them
 //! ([`super::auto_range`]).
 
+use crate::control::LoopModel;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, ChartOptions, StabilityChart};
-use crate::control::LoopModel;
 
 use super::auto_range::{
     Derivation, SpeedBounds, VehicleScale, chart_gains, critical_speed_extent, speed_top,

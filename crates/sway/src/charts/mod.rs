@@ -6,12 +6,12 @@
 //! its characteristic function (13) is the quasi-polynomial p(λ) + D e^{−λτ} q(λ) with
 //! p = det(λI − Ã), q = C̃ adj(λI − Ã) B̃ ([`stability::RankOneFeedback`]).
 
+use crate::SwayError;
+use crate::control::LoopModel;
 use stability::{
     Axis, ChartOptions, Complex64, RankOneFeedback, RootOptions, StabilityChart, StabilityError,
     first_unstable_parameter, stability_charts,
 };
-use crate::SwayError;
-use crate::control::LoopModel;
 
 pub mod auto_range;
 pub mod fig4a;

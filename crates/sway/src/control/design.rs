@@ -662,9 +662,7 @@ pub fn robust_critical_speed_spec(
      -> Option<AnyVehicleModel> {
         let mut spec = base.clone();
         for (&v, &(i, about)) in draws.iter().zip(idx) {
-            spec = spec
-                .with_parameter(i, about.apply(values.get(i), v))
-                .ok()?;
+            spec = spec.with_parameter(i, about.apply(values.get(i), v)).ok()?;
         }
         AnyVehicleModel::new(&spec).ok()
     };

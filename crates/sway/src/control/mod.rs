@@ -430,6 +430,10 @@ pub struct LinearLoop {
     pub spurious: Vec<Complex64>,
     /// the delay τ \[s\] the loop is built for (the predictor's q depends on it)
     pub delay: f64,
+    /// s \[1/s\]: `feedback` is written in μ = λ/s with the delay s·τ (1 but for the
+    /// predictor of a plant or model with more than 4 states, whose cleared function is
+    /// balanced so, [`predictor::cleared_loop_dyn`])
+    pub time_scale: f64,
 }
 
 impl LinearLoop {
@@ -477,25 +481,27 @@ impl LinearLoop {
         let b = controller.actuator.loop_input_column(lin);
         let built = match controller.structure {
             Structure::YawRate => RankOneFeedback::from_state_space(&lin.a, b, &lin.c)
-                .map(|f| (f, controller.gains.yaw_rate, Vec::new())),
+                .map(|f| (f, controller.gains.yaw_rate, Vec::new(), 1.0)),
             Structure::YawRateHitch => {
                 let k = loop_output_row(lin, controller.structure, &controller.gains);
-                RankOneFeedback::from_state_space(&lin.a, b, &k).map(|f| (f, 1.0, Vec::new()))
+                RankOneFeedback::from_state_space(&lin.a, b, &k).map(|f| (f, 1.0, Vec::new(), 1.0))
             }
             Structure::Predictor => {
                 let model_lin = prediction.unwrap_or(lin);
                 let b_model = controller.actuator.loop_input_column(model_lin);
                 let k = &model_lin.c * controller.gains.yaw_rate;
                 predictor::cleared_loop_dyn(&lin.a, b, &model_lin.a, b_model, &k, delay)
-                    .map(|(f, spurious)| (f, 1.0, spurious))
+                    .map(|(f, spurious, s)| (f, 1.0, spurious, s))
             }
         };
-        let (feedback, gain, spurious) = built.map_err(|e| SwayError::numerical(context(), e))?;
+        let (feedback, gain, spurious, time_scale) =
+            built.map_err(|e| SwayError::numerical(context(), e))?;
         Ok(Self {
             feedback,
             gain,
             spurious,
             delay,
+            time_scale,
         })
     }
 
@@ -505,7 +511,9 @@ impl LinearLoop {
     /// # Errors
     /// [`StabilityError`] from the crossing count.
     pub fn unstable_root_count(&self) -> Result<usize, StabilityError> {
-        let n = self.feedback.unstable_root_count(self.gain, self.delay)?;
+        let n = self
+            .feedback
+            .unstable_root_count(self.gain, self.delay * self.time_scale)?;
         let spurious = self.spurious.iter().filter(|z| z.re > 0.0).count();
         Ok(n.saturating_sub(spurious))
     }
@@ -518,15 +526,46 @@ impl LinearLoop {
     pub fn rightmost_roots(&self, count: usize) -> Result<Vec<Complex64>, StabilityError> {
         if self.gain == 0.0 || self.feedback.q().is_empty() {
             // no feedback: the loop is the open loop, a polynomial with n roots
-            let mut roots = self.feedback.open_loop_eigenvalues().to_vec();
+            let mut roots: Vec<Complex64> = self
+                .feedback
+                .open_loop_eigenvalues()
+                .iter()
+                .map(|z| z * self.time_scale)
+                .collect();
             stability::sort_rightmost(&mut roots);
             return Ok(predictor::without_spurious(roots, &self.spurious, count));
         }
-        let want = count + self.spurious.len();
-        let roots =
-            self.feedback
-                .rightmost_roots(self.gain, self.delay, want, &RootOptions::default())?;
-        Ok(predictor::without_spurious(roots, &self.spurious, count))
+        let options = RootOptions::default();
+        // the feedback is in μ = λ/s with the delay s·τ (s = 1 but for a predictor with
+        // more than four states)
+        let s = self.time_scale;
+        let roots_of = |want: usize| -> Result<Vec<Complex64>, StabilityError> {
+            Ok(self
+                .feedback
+                .rightmost_roots(self.gain, self.delay * s, want, &options)?
+                .into_iter()
+                .map(|z| z * s)
+                .collect())
+        };
+        if self.spurious.len() <= 4 {
+            // the paper's model predicting: its four spurious roots asked for with the others
+            let roots = roots_of(count + self.spurious.len())?;
+            return Ok(predictor::without_spurious(roots, &self.spurious, count));
+        }
+        // a model with more states (tyre relaxation) has spurious roots far in the left
+        // half-plane (−V/σ), where the cleared function is ill-conditioned (its delayed
+        // term, cancelling only up to round-off, is weighted by e^{−Re λ·τ}): ask only for as
+        // many more roots as spurious ones turned up among the rightmost
+        let mut want = count;
+        loop {
+            let roots = roots_of(want)?;
+            let found = roots.len();
+            let kept = predictor::without_spurious(roots, &self.spurious, count);
+            if kept.len() >= count || found < want || want >= count + self.spurious.len() {
+                return Ok(kept);
+            }
+            want += count - kept.len();
+        }
     }
 }
 

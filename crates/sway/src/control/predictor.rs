@@ -145,7 +145,14 @@ fn transfer_dyn(m: &[DMatrix<f64>], r: &RowDVector<f64>, c: &DVector<f64>) -> Ve
 /// model may have another state count than the vehicle: a relaxed vehicle predicted with
 /// the paper's model, say); K acts on the model's state. P₀ has degree n + m. With
 /// n = m = 4 it is [`cleared_loop`] itself (the same arithmetic, so the paper's numbers do
-/// not move).
+/// not move) and the time scale (the third value) is 1.
+///
+/// Otherwise the quasi-polynomial is returned in the scaled variable μ = λ/s with the delay
+/// s·τ (the third value is s, the geometric mean of the magnitudes of the roots of P₀):
+/// P₀(sμ)/s^{n+m} + e^{−μ·sτ} P₁(sμ)/s^{n+m}. A relaxed vehicle has roots near −V/σ
+/// (−100 /s at 30 m/s, σ = 0.3 m) beside the sway mode (≈ 1 /s): unscaled, the coefficients
+/// of the degree-14 polynomials span ~20 orders of magnitude and the companion realisation
+/// behind the root seeds loses the rightmost roots.
 ///
 /// # Errors
 /// [`StabilityError`] if the dimensions do not fit, the coefficients are not finite or an
@@ -157,7 +164,7 @@ pub fn cleared_loop_dyn(
     b_model: &DVector<f64>,
     k: &RowDVector<f64>,
     delay: f64,
-) -> Result<(RankOneFeedback, Vec<Complex64>), StabilityError> {
+) -> Result<(RankOneFeedback, Vec<Complex64>, f64), StabilityError> {
     let (n, nm) = (a.nrows(), a_model.nrows());
     if n == 4 && nm == 4 && a.ncols() == 4 && a_model.ncols() == 4 && b.len() == 4 {
         return cleared_loop(
@@ -167,7 +174,8 @@ pub fn cleared_loop_dyn(
             &Vector4::from_fn(|i, _| b_model[i]),
             &RowVector4::from_fn(|_, j| k[j]),
             delay,
-        );
+        )
+        .map(|(f, spurious)| (f, spurious, 1.0));
     }
     let mismatch = |what, rows, cols, er, ec| StabilityError::DimensionMismatch {
         what,
@@ -180,7 +188,13 @@ pub fn cleared_loop_dyn(
         return Err(mismatch("A, B of the plant", b.len(), a.ncols(), n, n));
     }
     if a_model.ncols() != nm || b_model.len() != nm || k.len() != nm {
-        return Err(mismatch("Â, B̂, K of the model", b_model.len(), k.len(), nm, nm));
+        return Err(mismatch(
+            "Â, B̂, K of the model",
+            b_model.len(),
+            k.len(),
+            nm,
+            nm,
+        ));
     }
     if !(delay.is_finite() && delay >= 0.0) {
         return Err(StabilityError::InvalidDelay { tau: delay });
@@ -200,9 +214,29 @@ pub fn cleared_loop_dyn(
     let w = transfer_dyn(&m_hat, k, &(&e * b_model));
     let p0 = add(&mul(&p, &p_hat), &mul(&p, &q_hat), 1.0);
     let p1 = add(&mul(&p_hat, &r), &mul(&p, &w), -1.0);
-    let feedback = RankOneFeedback::from_polynomials(&p0, &p1)?;
     let spurious = stability::polynomial_roots(&p_hat)?;
-    Ok((feedback, spurious))
+    let s = time_scale(&p0);
+    let degree = p0.len() - 1;
+    let (p0, p1) = (scaled(&p0, s, degree), scaled(&p1, s, degree));
+    let feedback = RankOneFeedback::from_polynomials(&p0, &p1)?;
+    Ok((feedback, spurious, s))
+}
+
+/// The scale s \[1/s\] of the roots of the monic polynomial `p` of degree N: the geometric
+/// mean of their magnitudes, |p(0)|^{1/N} (1 if p(0) = 0 or not finite).
+fn time_scale(p: &[f64]) -> f64 {
+    let n = p.len().saturating_sub(1);
+    let s = p[0].abs().powf(1.0 / n.max(1) as f64);
+    if s.is_finite() && s > 0.0 { s } else { 1.0 }
+}
+
+/// The coefficients of c(s·μ)/s^N, N the degree of the monic polynomial of the pair:
+/// c_k·s^{k−N}.
+fn scaled(c: &[f64], s: f64, degree: usize) -> Vec<f64> {
+    c.iter()
+        .enumerate()
+        .map(|(k, x)| x * s.powi(k as i32 - degree as i32))
+        .collect()
 }
 
 /// `roots` (sorted rightmost first) without one root near each spurious one (within

@@ -235,8 +235,8 @@ fn run_task(ctx: &TaskContext<'_>, name: &str, cfg: &Path) -> serde_json::Value 
     assert_eq!(task.models, tasks::Models::Any, "{name} takes any plant");
     let (prepared, _) = tasks::prepare_checked(&task, ctx, cfg).expect("config valid");
     prepared.run(ctx).expect("runs");
-    let text = std::fs::read_to_string(ctx.results_dir.join(name).join("summary.json"))
-        .expect("summary");
+    let text =
+        std::fs::read_to_string(ctx.results_dir.join(name).join("summary.json")).expect("summary");
     serde_json::from_str(&text).expect("json")
 }
 
@@ -272,8 +272,15 @@ fn linear_fig4a_and_gain_design_run_on_a_relaxed_vehicle() {
     assert!(delay_free_abscissa(&ctx.plant, vc - 1e-6, 0.0) < 0.0);
     assert!(delay_free_abscissa(&ctx.plant, vc + 1e-6, 0.0) > 0.0);
     let csv = std::fs::read_to_string(results.join("linear/eigenvalues.csv")).expect("csv");
-    assert_eq!(csv.lines().next().expect("header").split(',').count(), 1 + 2 * 7);
-    assert!(s["sensitivities"]["h"]["dv_crit_dp"].as_f64().is_some_and(f64::is_finite));
+    assert_eq!(
+        csv.lines().next().expect("header").split(',').count(),
+        1 + 2 * 7
+    );
+    assert!(
+        s["sensitivities"]["h"]["dv_crit_dp"]
+            .as_f64()
+            .is_some_and(f64::is_finite)
+    );
 
     // fig4a at a small resolution: the open loop as `linear`, and V_crit at D = 0.1 s and
     // τ = 0 where the eigenvalues of A − B·D·C cross (to the bisection tolerance, 1e-6 m/s)
@@ -289,8 +296,14 @@ fn linear_fig4a_and_gain_design_run_on_a_relaxed_vehicle() {
     let v0 = s["per_tau"][0]["v_crit_at_d_0.1_mps"]
         .as_f64()
         .unwrap_or_else(|| panic!("V_crit at D = 0.1 s, τ = 0: {}", s["per_tau"][0]));
-    assert!(delay_free_abscissa(&ctx.plant, v0 - 1e-6, 0.1) < 0.0, "{v0}");
-    assert!(delay_free_abscissa(&ctx.plant, v0 + 1e-6, 0.1) > 0.0, "{v0}");
+    assert!(
+        delay_free_abscissa(&ctx.plant, v0 - 1e-6, 0.1) < 0.0,
+        "{v0}"
+    );
+    assert!(
+        delay_free_abscissa(&ctx.plant, v0 + 1e-6, 0.1) > 0.0,
+        "{v0}"
+    );
 
     // gain_design at a small resolution: the optimum at τ = 0 is a crossing of the delay-free
     // spectrum and beats the open loop; the nonlinear part is left out with its reason

@@ -53,6 +53,10 @@ fn check_axis(
 /// # Errors
 /// [`TaskError::Config`].
 pub fn validate(cfg: &Fig4aConfig, file: &Path) -> Result<(), TaskError> {
+    if let Some(c) = &cfg.controller {
+        c.check()
+            .map_err(|m| TaskError::config(file, "controller.structure", m))?;
+    }
     let s = &cfg.speed;
     let (v0, v1) = (s.min_mps.unwrap_or(0.0), s.max_mps.unwrap_or(f64::INFINITY));
     let speed_ok = v0 >= 0.0 && v1 > v0 && s.max_mps.is_none_or(f64::is_finite);

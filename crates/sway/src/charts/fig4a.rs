@@ -104,6 +104,10 @@ pub struct Fig4aConfig {
     /// numerics
     #[serde(default)]
     pub numerics: NumericsConfig,
+    /// the controller whose gain D is the chart's axis (omitted: the paper's yaw-rate
+    /// steering, [`super::ChartController`])
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<super::ChartController>,
 }
 
 impl Fig4aConfig {
@@ -294,6 +298,32 @@ fn chart_reason(
 /// # Errors
 /// [`SwayError::Numerical`].
 pub fn compute<M: LoopModel + ?Sized>(
+    model: &M,
+    cfg: &Fig4aConfig,
+    b: &SpeedBounds,
+) -> Result<Fig4a, SwayError> {
+    match cfg.controller {
+        Some(c) if !c.is_paper() => {
+            c.check().map_err(|m| {
+                SwayError::numerical(
+                    "the controller of the chart",
+                    continuation::Error::InvalidInput(m),
+                )
+            })?;
+            compute_loop(
+                &super::Controlled {
+                    model,
+                    controller: c,
+                },
+                cfg,
+                b,
+            )
+        }
+        _ => compute_loop(model, cfg, b),
+    }
+}
+
+fn compute_loop<M: LoopModel + ?Sized>(
     model: &M,
     cfg: &Fig4aConfig,
     b: &SpeedBounds,

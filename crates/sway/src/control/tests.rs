@@ -516,9 +516,9 @@ fn relaxed_plant_delayed_loops_match_chebyshev_collocation() {
     }
 }
 
-/// The predictor loop's characteristic function 1 + K e^{Âτ} S (λI − A)^{-1} B e^{−λτ}
-/// + K (λI − Â)^{-1} (I − e^{Âτ} e^{−λτ}) B̂ (module docs of [`predictor`], S the first
-/// min(n, m) states), evaluated with complex linear solves.
+/// The predictor loop's characteristic function, the sum of 1, K e^{Âτ} S (λI − A)^{-1} B
+/// e^{−λτ} and K (λI − Â)^{-1} (I − e^{Âτ} e^{−λτ}) B̂ (module docs of [`predictor`], S the
+/// first min(n, m) states), evaluated with complex linear solves.
 fn predictor_characteristic(
     lin: &LoopLinearization,
     model: &LoopLinearization,

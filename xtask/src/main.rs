@@ -112,7 +112,7 @@ fn usage() -> String {
     }
     s.push_str(&format!(
         "  {:<10} {}\n",
-        "roots", "rightmost characteristic roots of eq. (13) at one point: --speed V --gain D --delay TAU [--count N]"
+        "roots", "rightmost characteristic roots of eq. (13) at one point: --speed V --gain D --delay TAU [--count N] [--structure S] [--actuator A] [--hitch-angle-gain K] [--hitch-rate-gain D] [--prediction-vehicle FILE]"
     ));
     s.push_str(&format!(
         "  {:<10} {}\n  {:<10} {}\n",
@@ -364,9 +364,24 @@ struct RootsArgs {
     /// how many roots
     #[arg(long, default_value_t = sway_tasks::tasks::roots::DEFAULT_COUNT)]
     count: usize,
-    /// vehicle parameters (the form of configs/vehicle.toml)
+    /// vehicle file (the form of configs/vehicle.toml, or a model variant of configs/vehicles/)
     #[arg(long)]
     vehicle: Option<PathBuf>,
+    /// controller structure: yaw_rate (default), yaw_rate_hitch or predictor (issue 22)
+    #[arg(long, default_value = "yaw_rate")]
+    structure: String,
+    /// actuator: steering (default) or differential_braking
+    #[arg(long, default_value = "steering")]
+    actuator: String,
+    /// K_θ of yaw_rate_hitch (steering: rad/rad; braking: N m/rad)
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    hitch_angle_gain: f64,
+    /// D_θ of yaw_rate_hitch (steering: s; braking: N m s/rad)
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    hitch_rate_gain: f64,
+    /// the predictor's model of the vehicle, a separate vehicle file (default: the vehicle)
+    #[arg(long)]
+    prediction_vehicle: Option<PathBuf>,
     /// validate the arguments and the vehicle, then exit
     #[arg(long)]
     check: bool,
@@ -377,7 +392,35 @@ fn roots(args: &[String]) -> Result<()> {
     let vehicle = a
         .vehicle
         .unwrap_or_else(|| repo_root().join("configs").join("vehicle.toml"));
-    let (_, model) = config_file::load_vehicle(&vehicle)?;
+    let loaded = config_file::load_vehicle_spec(&vehicle)?;
+    use sway::control::{Actuator, Structure};
+    let structure = Structure::ALL
+        .into_iter()
+        .find(|s| s.as_str() == a.structure)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "--structure: expected yaw_rate, yaw_rate_hitch or predictor, got `{}`",
+                a.structure
+            )
+        })?;
+    let actuator = Actuator::ALL
+        .into_iter()
+        .find(|s| s.as_str() == a.actuator)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "--actuator: expected steering or differential_braking, got `{}`",
+                a.actuator
+            )
+        })?;
+    let controller = sway::control::Controller {
+        structure,
+        actuator,
+        gains: sway::control::Gains {
+            yaw_rate: a.gain,
+            hitch_angle: a.hitch_angle_gain,
+            hitch_rate: a.hitch_rate_gain,
+        },
+    };
     if a.check {
         sway_tasks::tasks::roots::validate_args(a.speed, a.gain, a.delay, a.count)?;
         println!(
@@ -387,7 +430,24 @@ fn roots(args: &[String]) -> Result<()> {
         println!("  estimate: memory ≈ 1 MB, time ≈ 0.01 s");
         return Ok(());
     }
-    let roots = sway_tasks::tasks::roots::roots(&model, a.speed, a.gain, a.delay, a.count)?;
+    let prediction = match &a.prediction_vehicle {
+        Some(file) => Some(config_file::load_vehicle_spec(file)?.plant),
+        None => None,
+    };
+    let roots = if controller == sway::control::Controller::paper(a.gain) {
+        sway_tasks::tasks::roots::roots(&loaded.plant, a.speed, a.gain, a.delay, a.count)?
+    } else {
+        sway_tasks::tasks::roots::roots_with_controller(
+            &loaded.plant,
+            &controller,
+            a.speed,
+            a.delay,
+            a.count,
+            prediction
+                .as_ref()
+                .map(|m| m as &dyn sway::control::LoopModel),
+        )?
+    };
     print!("{}", sway_tasks::tasks::roots::format_roots(&roots));
     Ok(())
 }

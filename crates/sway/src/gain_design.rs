@@ -34,6 +34,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
+use crate::control::LoopModel;
+
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, NonlinearChart, critical_speeds, nonlinear_chart};
 use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
@@ -155,8 +157,8 @@ pub const CONFIRM_OFFSET_MPS: f64 = 1e-4;
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the roots cannot be confirmed.
-pub fn roots_confirm(
-    model: &Model,
+pub fn roots_confirm<M: LoopModel + ?Sized>(
+    model: &M,
     tau: f64,
     d: f64,
     v: f64,
@@ -180,7 +182,12 @@ pub fn roots_confirm(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn critical_speed(model: &Model, tau: f64, d: f64, o: &GainSearch) -> Result<f64, SwayError> {
+pub fn critical_speed<M: LoopModel + ?Sized>(
+    model: &M,
+    tau: f64,
+    d: f64,
+    o: &GainSearch,
+) -> Result<f64, SwayError> {
     let v = critical_speed_at_gain(
         model,
         tau,
@@ -345,7 +352,11 @@ fn first_argmax(ys: &[f64]) -> usize {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a critical speed cannot be computed.
-pub fn linear_optimum(model: &Model, tau: f64, o: &GainSearch) -> Result<LinearOptimum, SwayError> {
+pub fn linear_optimum<M: LoopModel + ?Sized>(
+    model: &M,
+    tau: f64,
+    o: &GainSearch,
+) -> Result<LinearOptimum, SwayError> {
     let f = |d: f64| critical_speed(model, tau, d, o);
     let gains = o.gains();
     let speeds = gains.iter().map(|&d| f(d)).collect::<Result<Vec<_>, _>>()?;
@@ -368,8 +379,8 @@ pub fn linear_optimum(model: &Model, tau: f64, o: &GainSearch) -> Result<LinearO
 ///
 /// # Errors
 /// The first failing delay's error (in the order of `taus`).
-pub fn linear_optima(
-    model: &Model,
+pub fn linear_optima<M: LoopModel + ?Sized>(
+    model: &M,
     taus: &[f64],
     o: &GainSearch,
 ) -> Result<Vec<LinearOptimum>, SwayError> {
@@ -606,8 +617,8 @@ pub struct DelayBudget {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] from a [`linear_optimum`].
-pub fn delay_budget(
-    model: &Model,
+pub fn delay_budget<M: LoopModel + ?Sized>(
+    model: &M,
     optima: &[LinearOptimum],
     v_open: f64,
     fraction: f64,

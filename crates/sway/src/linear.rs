@@ -4,29 +4,50 @@
 
 use nalgebra::Complex;
 use serde::{Deserialize, Serialize};
-use trailer_model::{CriticalSpeedOptions, Model, PARAMETERS, VehicleParams};
+use trailer_model::{
+    AnyVehicleModel, CriticalSpeedOptions, Model, PARAMETERS, VehicleParams, VehicleSpec,
+};
 
 use crate::SwayError;
 use crate::config::Grid;
+use crate::control::LoopModel;
 
 /// Eigenvalues of Ã along a speed grid, each column following one eigenvalue
-/// continuously (matched to the previous speed by nearest distance).
+/// continuously (matched to the previous speed by nearest distance); n columns for a plant
+/// of n states (4 for the paper's model).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EigenTable {
     /// speeds V \[m/s\]
     pub speeds: Vec<f64>,
-    /// eigenvalues λ \[1/s\] per speed, continuous branches in fixed columns
-    pub eigenvalues: Vec<[Complex<f64>; 4]>,
+    /// eigenvalues λ \[1/s\] per speed (n each), continuous branches in fixed columns
+    pub eigenvalues: Vec<Vec<Complex<f64>>>,
 }
 
-/// Eigenvalues of Ã on `speeds`, ordered into continuous branches.
-pub fn eigen_table(model: &Model, speeds: &[f64]) -> EigenTable {
-    let mut out: Vec<[Complex<f64>; 4]> = Vec::with_capacity(speeds.len());
+impl EigenTable {
+    /// Number of eigenvalues per speed (the plant's state count).
+    pub fn columns(&self) -> usize {
+        self.eigenvalues.first().map_or(0, Vec::len)
+    }
+}
+
+/// Plants of at most this many states are matched over all permutations (Heap's
+/// algorithm, n! candidates: 24 for the paper's model, 5040 for 7 states); larger ones
+/// greedily, closest pair first.
+const EXHAUSTIVE_MATCH_STATES: usize = 7;
+
+/// Eigenvalues of Ã on `speeds`, ordered into continuous branches, for any plant
+/// ([`LoopModel`]: the paper's `Model`, a `VehicleModel<N>`, an `AnyVehicleModel`).
+pub fn eigen_table<M: LoopModel + ?Sized>(model: &M, speeds: &[f64]) -> EigenTable {
+    let mut out: Vec<Vec<Complex<f64>>> = Vec::with_capacity(speeds.len());
     for &v in speeds {
-        let ev = model.open_loop_eigenvalues(v);
+        let ev = model.open_loop_spectrum(v);
         let next = match out.last() {
             None => ev,
-            Some(prev) => best_match(prev, &ev),
+            Some(prev) if prev.len() == ev.len() && ev.len() <= EXHAUSTIVE_MATCH_STATES => {
+                best_match(prev, &ev)
+            }
+            Some(prev) if prev.len() == ev.len() => greedy_match(prev, &ev),
+            Some(_) => ev,
         };
         out.push(next);
     }
@@ -36,23 +57,26 @@ pub fn eigen_table(model: &Model, speeds: &[f64]) -> EigenTable {
     }
 }
 
-/// The permutation of `ev` closest to `prev` (sum of distances; 24 candidates).
-fn best_match(prev: &[Complex<f64>; 4], ev: &[Complex<f64>; 4]) -> [Complex<f64>; 4] {
-    let mut best = *ev;
+/// The permutation of `ev` closest to `prev` (sum of distances; all n! candidates).
+fn best_match(prev: &[Complex<f64>], ev: &[Complex<f64>]) -> Vec<Complex<f64>> {
+    let n = ev.len();
+    let mut best = ev.to_vec();
     let mut best_cost = f64::INFINITY;
-    let mut perm = [0usize, 1, 2, 3];
-    // Heap's algorithm over the 24 permutations
-    let mut c = [0usize; 4];
-    let mut eval = |p: &[usize; 4]| {
-        let cost: f64 = (0..4).map(|k| (ev[p[k]] - prev[k]).norm()).sum();
+    let mut perm: Vec<usize> = (0..n).collect();
+    // Heap's algorithm over the n! permutations
+    let mut c = vec![0usize; n];
+    let mut eval = |p: &[usize]| {
+        let cost: f64 = (0..n).map(|k| (ev[p[k]] - prev[k]).norm()).sum();
         if cost < best_cost {
             best_cost = cost;
-            best = [ev[p[0]], ev[p[1]], ev[p[2]], ev[p[3]]];
+            for k in 0..n {
+                best[k] = ev[p[k]];
+            }
         }
     };
     eval(&perm);
     let mut i = 0;
-    while i < 4 {
+    while i < n {
         if c[i] < i {
             if i % 2 == 0 {
                 perm.swap(0, i);
@@ -68,6 +92,27 @@ fn best_match(prev: &[Complex<f64>; 4], ev: &[Complex<f64>; 4]) -> [Complex<f64>
         }
     }
     best
+}
+
+/// Column k of the result is the eigenvalue of `ev` assigned to `prev[k]`, pairs taken
+/// closest first.
+fn greedy_match(prev: &[Complex<f64>], ev: &[Complex<f64>]) -> Vec<Complex<f64>> {
+    let n = ev.len();
+    let mut pairs: Vec<(f64, usize, usize)> = (0..n)
+        .flat_map(|k| (0..n).map(move |j| (k, j)))
+        .map(|(k, j)| ((ev[j] - prev[k]).norm(), k, j))
+        .collect();
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    let (mut used_k, mut used_j) = (vec![false; n], vec![false; n]);
+    let mut out = ev.to_vec();
+    for (_, k, j) in pairs {
+        if !used_k[k] && !used_j[j] {
+            used_k[k] = true;
+            used_j[j] = true;
+            out[k] = ev[j];
+        }
+    }
+    out
 }
 
 /// dV_crit/dp of one parameter.
@@ -169,6 +214,108 @@ pub fn v_crit_curve(
         .iter()
         .map(|&p| {
             let v = match v_crit_near(&params.with(index, p), around, 0.9 * around, 1e-9) {
+                Ok(v) => Some(v),
+                Err(SwayError::Model(trailer_model::ModelError::NoCriticalSpeed { .. })) => None,
+                Err(e) => return Err(e),
+            };
+            Ok((p, v))
+        })
+        .collect()
+}
+
+/// V_crit of the vehicle file `spec` (any form), searched in `around ± window` \[m/s\].
+fn v_crit_near_spec(
+    spec: &VehicleSpec,
+    around: f64,
+    window: f64,
+    tolerance: f64,
+) -> Result<f64, SwayError> {
+    let model = AnyVehicleModel::new(spec)?;
+    let opts = CriticalSpeedOptions {
+        v_min: (around - window).max(0.5),
+        v_max: around + window,
+        scan_step: 0.25,
+        tolerance,
+    };
+    match LoopModel::critical_speed_search(&model, &opts)? {
+        Some(c) => Ok(c.v_crit_mps),
+        None => Err(SwayError::Model(
+            trailer_model::ModelError::NoCriticalSpeed {
+                v_min: opts.v_min,
+                v_max: opts.v_max,
+                detail: "straight running stays stable up to v_max",
+            },
+        )),
+    }
+}
+
+/// [`sensitivities`] of a vehicle file of any form (tyre relaxation, tyre laws, axle
+/// lists, hitch damping): each parameter of [`PARAMETERS`] changed on the file
+/// ([`VehicleSpec::with_parameter`], about its equivalent single-axle value) and V_crit of
+/// the changed plant. A key the file does not have (an axle key of a unit given as a list
+/// of axles) gets NaN.
+///
+/// # Errors
+/// If the file is invalid or a changed vehicle has no critical speed near the nominal one.
+pub fn sensitivities_spec(
+    spec: &VehicleSpec,
+    v_crit: f64,
+    opts: &SensitivityOptions,
+    tolerance: f64,
+) -> Result<Vec<Sensitivity>, SwayError> {
+    let params = spec.equivalent_params()?;
+    PARAMETERS
+        .iter()
+        .enumerate()
+        .map(|(i, &(key, symbol, unit))| {
+            let value = params.get(i);
+            let h = opts.relative_step * value;
+            let (Ok(up), Ok(down)) = (
+                spec.with_parameter(i, value + h),
+                spec.with_parameter(i, value - h),
+            ) else {
+                return Ok(Sensitivity {
+                    key,
+                    symbol,
+                    unit,
+                    value,
+                    dv_crit_dp: f64::NAN,
+                    elasticity: f64::NAN,
+                });
+            };
+            let up = v_crit_near_spec(&up, v_crit, 3.0, tolerance)?;
+            let down = v_crit_near_spec(&down, v_crit, 3.0, tolerance)?;
+            let d = (up - down) / (2.0 * h);
+            Ok(Sensitivity {
+                key,
+                symbol,
+                unit,
+                value,
+                dv_crit_dp: d,
+                elasticity: d * value / v_crit,
+            })
+        })
+        .collect()
+}
+
+/// [`v_crit_curve`] of a vehicle file of any form; every value None where the file does
+/// not have the key (an axle key of a unit given as a list of axles).
+///
+/// # Errors
+/// If a changed vehicle is invalid, or its eigenvalues are not finite.
+pub fn v_crit_curve_spec(
+    spec: &VehicleSpec,
+    index: usize,
+    values: &[f64],
+    around: f64,
+) -> Result<Vec<(f64, Option<f64>)>, SwayError> {
+    values
+        .iter()
+        .map(|&p| {
+            let Ok(changed) = spec.with_parameter(index, p) else {
+                return Ok((p, None));
+            };
+            let v = match v_crit_near_spec(&changed, around, 0.9 * around, 1e-9) {
                 Ok(v) => Some(v),
                 Err(SwayError::Model(trailer_model::ModelError::NoCriticalSpeed { .. })) => None,
                 Err(e) => return Err(e),

@@ -7,7 +7,7 @@ use serde::Serialize;
 use stability::StabilityChart;
 use crate::TaskError;
 use sway::charts::auto_range::SpeedBounds;
-use sway::ranging::open_loop_critical_speed;
+use sway::charts::open_loop_stability;
 pub use sway::charts::fig4a::{
     Fig4a, Fig4aConfig, Fig4aRanges, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig, compute,
 };
@@ -28,7 +28,8 @@ pub const TASK: Task = Task::configured::<Fig4aConfig>(
     "fig4a",
     "stability charts in the (V, D) plane for several delays τ (Fig. 4a)",
     "fig4a.toml",
-);
+)
+.any_model();
 
 /// Checks the chart axis `key` with (min, max, cells): `range_ok` (else "expected
 /// `expected`, got min and max" under `key`) and at least 2 cells (under `key.cells`).
@@ -52,6 +53,10 @@ fn check_axis(
 /// # Errors
 /// [`TaskError::Config`].
 pub fn validate(cfg: &Fig4aConfig, file: &Path) -> Result<(), TaskError> {
+    if let Some(c) = &cfg.controller {
+        c.check()
+            .map_err(|m| TaskError::config(file, "controller.structure", m))?;
+    }
     let s = &cfg.speed;
     let (v0, v1) = (s.min_mps.unwrap_or(0.0), s.max_mps.unwrap_or(f64::INFINITY));
     let speed_ok = v0 >= 0.0 && v1 > v0 && s.max_mps.is_none_or(f64::is_finite);
@@ -284,7 +289,7 @@ impl Prepared for Configured<Fig4aConfig> {
         let cfg = &self.config;
         ctx.run_staged(TASK.name, "fig4a: charts", 3, cfg, &self.file, |out| {
             let bounds = SpeedBounds::from(&ctx.limits);
-            let r = compute(&ctx.model, cfg, &bounds)?;
+            let r = compute(&ctx.plant, cfg, &bounds)?;
             ctx.progress.advance(1);
             for ch in &r.charts {
                 write_chart(out, ch)?;
@@ -293,7 +298,7 @@ impl Prepared for Configured<Fig4aConfig> {
             draw(out, &r)?;
             ctx.progress.advance(1);
             // the open loop as `linear` reports it (the one V_crit search of every task)
-            let open = open_loop_critical_speed(&ctx.model, &ctx.limits)?.summary();
+            let open = open_loop_stability(&ctx.plant, &ctx.limits)?.summary();
             let (per_tau, delay_lines) = delay_entries(&r);
             let mut lines = vec![match (open.v_crit_mps, &open.reason) {
                 (Some(v), _) => format!("open-loop V_crit = {v:.4} m/s"),

@@ -24,7 +24,7 @@ use sway::charts::auto_range::SpeedBounds;
 use sway::config::{ensure, ensure_positive};
 pub use sway::gain_design::study::{
     BudgetConfig, GainDesign, GainDesignConfig, GainSearchConfig, NonlinearConfig, ResolvedDesign,
-    compute, default_chart,
+    compute, compute_plant, default_chart,
 };
 use sway::gain_design::{RangeEnd, SafeSpeedLimit};
 
@@ -40,7 +40,8 @@ pub const TASK: Task = Task::configured::<GainDesignConfig>(
     "gain_design",
     "best feedback gain D*(τ) for each delay: linear and fold-of-cycles optimum, 1 % band, delay budget",
     "gain_design.toml",
-);
+)
+.any_model();
 
 /// Checks the keys (the derived ones are checked once derived).
 ///
@@ -223,6 +224,10 @@ pub struct GainDesignSummary {
     pub open_loop_v_fold_mps: Option<f64>,
     /// the delays with the nonlinear part \[s\]
     pub nonlinear_delays_s: Vec<f64>,
+    /// why the nonlinear part was left out (absent: it ran where the config asks; present
+    /// for a vehicle with model variants, issue 21)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nonlinear_reason: Option<String>,
     /// the search's ranges and the fold chart's box and seed used (derived where the config
     /// omits them)
     pub ranges: ResolvedDesign,
@@ -548,7 +553,10 @@ impl Prepared for Configured<GainDesignConfig> {
         let n_nl = (0..cfg.delays_s.points).filter(|&i| cfg.is_nonlinear(i)).count();
         let steps = (cfg.delays_s.points + n_nl + 1) as u64;
         ctx.run_staged(TASK.name, "gain_design: optimum per delay", steps, cfg, &self.file, |out| {
-        let r = compute(&ctx.model, cfg, &SpeedBounds::from(&ctx.limits), ctx.progress)?;
+        // a vehicle with model variants: the linear part on its plant, the nonlinear part
+        // (fold of cycles) only for the paper's model (`nonlinear_reason`)
+        let nonlinear_model = ctx.variant_key.is_none().then_some(&ctx.model);
+        let r = compute_plant(&ctx.plant, nonlinear_model, cfg, &SpeedBounds::from(&ctx.limits), ctx.progress)?;
         write_tables(out, &r)?;
         Figure::column(vec![speed_panel(&r, cfg), gain_panel(&r, cfg)])
             .titled("Best gain D of the yaw-rate feedback δ(t) = −D·dψ/dt(t − τ) for each delay τ")
@@ -576,6 +584,9 @@ impl Prepared for Configured<GainDesignConfig> {
         if let Some(why) = &open_loop_reason {
             lines.push(why.clone());
         }
+        if let Some(why) = &r.nonlinear_reason {
+            lines.push(why.clone());
+        }
         for (l, why) in r.linear.iter().zip(&r.linear_reasons) {
             if let Some(why) = why
                 && cfg.headline_delays_s.iter().any(|t| (t - l.tau_s).abs() < 1e-9)
@@ -594,9 +605,10 @@ impl Prepared for Configured<GainDesignConfig> {
             open_loop_stable_up_to_mps: r.open_loop_stable.then_some(r.resolved.search.v_max_mps),
             open_loop_v_fold_mps: r.open_loop_v_fold_mps,
             nonlinear_delays_s: (0..r.delays_s.len())
-                .filter(|&i| cfg.is_nonlinear(i))
+                .filter(|&i| cfg.is_nonlinear(i) && r.nonlinear_reason.is_none())
                 .map(|i| r.delays_s[i])
                 .collect(),
+            nonlinear_reason: r.nonlinear_reason.clone(),
             ranges: r.resolved.clone(),
         };
         Ok((summary, lines))

@@ -7,9 +7,10 @@ use crate::TaskError;
 use sway::config::{Grid, ensure};
 use sway::linear::{
     EigenTable, Sensitivity, SensitivityOptions, eigen_table, parameter_index, sensitivities,
-    v_crit_curve,
+    sensitivities_spec, v_crit_curve, v_crit_curve_spec,
 };
-use trailer_model::{CriticalSpeed, CriticalSpeedOptions, VehicleParams};
+use sway::control::LoopModel;
+use trailer_model::{CriticalSpeed, CriticalSpeedOptions, VehicleParams, VehicleSpec};
 
 use crate::limits::{BYTES_PER_ROW, LINEAR_SECONDS_PER_POINT, Plan};
 use super::{Prepared, Report, Task, TaskContext};
@@ -23,7 +24,7 @@ pub const TASK: Task = Task {
     about: "open-loop eigenvalues vs V, V_crit, Hopf frequency, dV_crit/dp",
     config: "linear.toml",
     prepare,
-    models: super::Models::Paper,
+    models: super::Models::Any,
 };
 
 /// `configs/linear.toml`.
@@ -288,18 +289,24 @@ fn write_eigenvalues(out: &OutputDir, table: &EigenTable) -> Result<(), TaskErro
             r
         })
         .collect();
-    out.write_csv(
-        "eigenvalues.csv",
-        &[
-            "v_mps", "re1", "im1", "re2", "im2", "re3", "im3", "re4", "im4",
-        ],
-        &rows,
-    )
+    let mut header = vec!["v_mps".to_string()];
+    for k in 1..=table.columns() {
+        header.extend([format!("re{k}"), format!("im{k}")]);
+    }
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    out.write_csv("eigenvalues.csv", &header, &rows)
+}
+
+/// The vehicle of the rounding study: its paper-form parameters, and its file where it has
+/// model variants (then the curves change the file's keys).
+struct Vehicle<'a> {
+    params: &'a VehicleParams,
+    spec: Option<&'a VehicleSpec>,
 }
 
 /// Step 3: V_crit along h and l (±0.1 m around Table I), `v_crit_vs_h_l.csv`.
 fn rounding_study(
-    vehicle: &VehicleParams,
+    vehicle: &Vehicle<'_>,
     sens: &[Sensitivity],
     v_crit: f64,
     rounding_m: f64,
@@ -311,10 +318,13 @@ fn rounding_study(
     );
     let (dh, dl) = (sens[ih].dv_crit_dp, sens[il].dv_crit_dp);
     let offsets: Vec<f64> = (0..=40).map(|k| -0.1 + 0.2 * k as f64 / 40.0).collect();
-    let (h0, l0) = (vehicle.get(ih), vehicle.get(il));
+    let (h0, l0) = (vehicle.params.get(ih), vehicle.params.get(il));
     let along = |i: usize, p0: f64| {
         let values: Vec<f64> = offsets.iter().map(|o| p0 + o).collect();
-        v_crit_curve(vehicle, i, &values, v_crit)
+        match vehicle.spec {
+            None => v_crit_curve(vehicle.params, i, &values, v_crit),
+            Some(spec) => v_crit_curve_spec(spec, i, &values, v_crit),
+        }
     };
     let (by_h, by_l) = (along(ih, h0)?, along(il, l0)?);
     let rows = offsets
@@ -340,7 +350,7 @@ fn rounding_study(
 /// One line per eigenvalue, `part` of each (real part, or frequency), solid and dashed
 /// alternating.
 fn eigenvalue_layers(table: &EigenTable, part: impl Fn(num_complex::Complex64) -> f64) -> Vec<Layer> {
-    (0..4)
+    (0..table.columns())
         .map(|k| {
             Layer::line(
                 table
@@ -563,12 +573,12 @@ impl Prepared for LinearTask {
                 .critical_speed
                 .as_ref()
                 .map_or_else(|| ctx.limits.critical_speed_options(), SearchConfig::options);
-            let vc = ctx.model.critical_speed_search(&search)?;
+            let vc = LoopModel::critical_speed_search(&ctx.plant, &search)?;
             ctx.progress.advance(1);
             let grid = cfg.speed_grid.unwrap_or_else(|| {
                 sway::linear::derived_speed_grid(vc.as_ref().map(|c| c.v_crit_mps), &ctx.limits)
             });
-            let table = eigen_table(&ctx.model, &grid.values());
+            let table = eigen_table(&ctx.plant, &grid.values());
             write_eigenvalues(out, &table)?;
             ctx.progress.advance(1);
             draw_eigenvalues(out, &table, &grid, vc.as_ref())?;
@@ -586,9 +596,15 @@ impl Prepared for LinearTask {
                 let lines = vec![format!("no V_crit: {reason}")];
                 return Ok((stable_summary(search.v_max, reason), lines));
             };
-            let sens = sensitivities(&ctx.vehicle, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?;
+            // a vehicle of the paper's form: the paper's parameters (the numbers of results/);
+            // one with model variants: its file, each key changed on it
+            let sens = match &ctx.variant_key {
+                None => sensitivities(&ctx.vehicle, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?,
+                Some(_) => sensitivities_spec(&ctx.spec, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?,
+            };
             out.write_table("sensitivity.csv", sens.iter().cloned())?;
-            let study = rounding_study(&ctx.vehicle, &sens, vc.v_crit_mps, cfg.length_rounding_m, out)?;
+            let vehicle = Vehicle { params: &ctx.vehicle, spec: ctx.variant_key.is_some().then_some(&ctx.spec) };
+            let study = rounding_study(&vehicle, &sens, vc.v_crit_mps, cfg.length_rounding_m, out)?;
             ctx.progress.advance(1);
             let paper = ctx.vehicle.is_table_i().then_some(cfg.paper_v_crit_mps);
             draw_rounding(out, &study, cfg, vc.v_crit_mps, paper)?;

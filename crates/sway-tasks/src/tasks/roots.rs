@@ -5,7 +5,7 @@
 //! (relative accuracy ~1e-14, well inside the promised 1e-9).
 
 use stability::Complex64;
-use trailer_model::Model;
+use sway::control::{Controller, LinearLoop, LoopModel};
 
 use crate::TaskError;
 
@@ -16,27 +16,77 @@ pub const DEFAULT_COUNT: usize = 6;
 /// count; 200 roots reach far into the left half-plane, where nothing is of interest.
 pub const MAX_COUNT: usize = 200;
 
-/// The roots at speed V \[m/s\], gain D \[s\], delay τ \[s\].
+/// The roots at speed V \[m/s\], gain D \[s\], delay τ \[s\] of the paper's controller
+/// δ = −D·ψ̇(t − τ) on any plant.
 ///
 /// # Errors
 /// As [`validate_args`], and [`sway::SwayError::Numerical`] if the roots cannot be confirmed.
-pub fn roots(
-    model: &Model,
+pub fn roots<M: LoopModel + ?Sized>(
+    model: &M,
     speed: f64,
     gain: f64,
     delay: f64,
     count: usize,
 ) -> Result<Vec<Complex64>, TaskError> {
     validate_args(speed, gain, delay, count)?;
-    // one more root than asked, so that a conjugate pair is never split: if the N-th
-    // root is complex, its conjugate is listed too (N + 1 lines)
-    let mut r = sway::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
+    let r = sway::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
+    Ok(without_split_pair(r, count))
+}
+
+/// `r` (count + 1 roots, rightmost first) cut to `count`, or to count + 1 where the last two
+/// are a conjugate pair (a pair is never split).
+fn without_split_pair(mut r: Vec<Complex64>, count: usize) -> Vec<Complex64> {
     if r.len() > count {
         let (last, next) = (r[count - 1], r[count]);
         let pair = last.im != 0.0 && (next - last.conj()).norm() <= 1e-9 * last.norm().max(1.0);
         r.truncate(if pair { count + 1 } else { count });
     }
-    Ok(r)
+    r
+}
+
+/// The roots at speed V \[m/s\] and delay τ \[s\] of any controller (structure, actuator,
+/// gains; issue 22) on any plant; the predictor predicts with `prediction` (the vehicle
+/// itself when `None`). For the paper's controller the same quasi-polynomial and root finder
+/// as [`sway::charts::rightmost_roots`] (but at D = 0, where
+/// it lists the open loop's eigenvalues).
+///
+/// # Errors
+/// As [`validate_args`] (the yaw-rate gain as `--gain`), and
+/// [`sway::SwayError::Numerical`] if the loop cannot be built or its roots confirmed.
+pub fn roots_with_controller<M: LoopModel + ?Sized>(
+    model: &M,
+    controller: &Controller,
+    speed: f64,
+    delay: f64,
+    count: usize,
+    prediction: Option<&dyn LoopModel>,
+) -> Result<Vec<Complex64>, TaskError> {
+    let g = &controller.gains;
+    validate_args(speed, g.yaw_rate, delay, count)?;
+    if !(g.hitch_angle.is_finite() && g.hitch_rate.is_finite()) {
+        return Err(TaskError::config(
+            "command line",
+            "--hitch-angle-gain",
+            format!(
+                "expected finite gains, got {} and {}",
+                g.hitch_angle, g.hitch_rate
+            ),
+        ));
+    }
+    let ctx = || {
+        format!(
+            "rightmost roots of the {} loop with {} at V = {speed} m/s, τ = {delay} s",
+            controller.structure.as_str(),
+            controller.actuator.as_str()
+        )
+    };
+    let l = LinearLoop::new(model, controller, speed, delay, prediction)?;
+    // one more root than asked, so that a conjugate pair is never split: if the N-th
+    // root is complex, its conjugate is listed too (N + 1 lines)
+    let r = l
+        .rightmost_roots(count + 1)
+        .map_err(|e| sway::SwayError::numerical(ctx(), e))?;
+    Ok(without_split_pair(r, count))
 }
 
 /// Checks the command-line arguments of `roots` (what `--check` validates).
@@ -90,7 +140,7 @@ pub fn format_roots(roots: &[Complex64]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use trailer_model::VehicleParams;
+    use trailer_model::{Model, VehicleParams};
 
     #[test]
     fn roots_are_sorted_conjugate_and_satisfy_the_characteristic_equation() {
@@ -139,6 +189,50 @@ mod tests {
             .parse()
             .unwrap();
         assert_eq!(back, r[0].re);
+    }
+
+    #[test]
+    fn controller_roots_of_a_relaxed_vehicle_satisfy_the_loop_equation() {
+        // reference: det(λI − A + B K e^{−λτ}) of the 7-state relaxed plant evaluated
+        // directly (complex LU), for the hitch-sensor structure with differential braking;
+        // the paper's controller gives the numbers of `charts::rightmost_roots` (the same
+        // quasi-polynomial and root finder: equal to the bit)
+        use sway::control::{Actuator, Gains, Structure, loop_output_row};
+        let m = Model::new(VehicleParams::default()).unwrap();
+        let paper = roots(&m, 35.0, 0.1, 0.2, 6).unwrap();
+        assert_eq!(
+            paper,
+            sway::charts::rightmost_roots(&m, 35.0, 0.1, 0.2, 7).unwrap()
+        );
+        let plant = trailer_model::AnyVehicleModel::new(
+            &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
+        )
+        .unwrap();
+        let scale = Actuator::DifferentialBraking.scale(&m);
+        let c = Controller {
+            structure: Structure::YawRateHitch,
+            actuator: Actuator::DifferentialBraking,
+            gains: Gains {
+                yaw_rate: 0.1 * scale,
+                hitch_angle: 0.05 * scale,
+                hitch_rate: 0.03 * scale,
+            },
+        };
+        let (v, tau) = (40.0, 0.4);
+        let r = roots_with_controller(&plant, &c, v, tau, 4, None).unwrap();
+        let lin = plant.loop_linearization(v);
+        let k = loop_output_row(&lin, c.structure, &c.gains);
+        let bk = &lin.b_yaw_moment * &k;
+        for l in &r {
+            let e = (-l * tau).exp();
+            let mat = nalgebra::DMatrix::from_fn(7, 7, |i, j| {
+                let base = Complex64::new(-lin.a[(i, j)], 0.0) + e * bk[(i, j)];
+                if i == j { base + l } else { base }
+            });
+            let scale = mat.norm().powi(7);
+            let det = mat.lu().determinant();
+            assert!(det.norm() < 1e-12 * scale, "root {l}: residual {det}");
+        }
     }
 
     #[test]

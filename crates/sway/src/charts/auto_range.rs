@@ -36,10 +36,10 @@
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use trailer_model::Model;
 
 use super::{closed_loop, critical_speed_at_gain};
 use crate::SwayError;
+use crate::control::LoopModel;
 
 /// Gains of the coarse scan of the critical speed over a gain range (ends included).
 pub const SCAN_GAINS: usize = 21;
@@ -133,13 +133,16 @@ fn numerical(context: String, message: String) -> SwayError {
 ///
 /// # Errors
 /// [`SwayError::Model`] when straight running is unstable at the lowest speed.
-pub fn open_loop_critical_speed(model: &Model, b: &SpeedBounds) -> Result<Option<f64>, SwayError> {
+pub fn open_loop_critical_speed<M: LoopModel + ?Sized>(
+    model: &M,
+    b: &SpeedBounds,
+) -> Result<Option<f64>, SwayError> {
     let limits = crate::ranging::SpeedLimits {
         min_speed_mps: b.min_mps,
         max_speed_mps: b.max_mps,
         ..crate::ranging::SpeedLimits::default()
     };
-    Ok(crate::ranging::open_loop_critical_speed(model, &limits)?.v_crit())
+    Ok(super::open_loop_stability(model, &limits)?.v_crit())
 }
 
 /// The vehicle's scales (module documentation).
@@ -148,7 +151,10 @@ pub fn open_loop_critical_speed(model: &Model, b: &SpeedBounds) -> Result<Option
 /// [`SwayError::Numerical`] if the critical speed fails, or if the vehicle has no static
 /// yaw-rate response at V_ref (q(0) = 0 or p(0) = 0: then the gain ranges must be given in
 /// the config).
-pub fn vehicle_scale(model: &Model, b: &SpeedBounds) -> Result<VehicleScale, SwayError> {
+pub fn vehicle_scale<M: LoopModel + ?Sized>(
+    model: &M,
+    b: &SpeedBounds,
+) -> Result<VehicleScale, SwayError> {
     let v_crit = open_loop_critical_speed(model, b)?;
     let mut v_ref = v_crit.unwrap_or(b.max_mps);
     let static_gain_at = |v: f64| -> Result<Option<f64>, SwayError> {
@@ -215,8 +221,8 @@ pub fn scan_gains((d_min, d_max): (f64, f64)) -> Vec<f64> {
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn critical_speed_extent(
-    model: &Model,
+pub fn critical_speed_extent<M: LoopModel + ?Sized>(
+    model: &M,
     delays: &[f64],
     gains: (f64, f64),
     b: &SpeedBounds,
@@ -385,8 +391,8 @@ pub struct Derivation {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] from the scales or the scan.
-pub fn nonlinear_box(
-    model: &Model,
+pub fn nonlinear_box<M: LoopModel + ?Sized>(
+    model: &M,
     keys: &BoxKeys,
     delays: &[f64],
     b: &SpeedBounds,

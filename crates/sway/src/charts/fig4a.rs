@@ -3,9 +3,9 @@
 //! axes derived from the vehicle where `configs/fig4a.toml` omits them
 //! ([`super::auto_range`]).
 
+use crate::control::LoopModel;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, ChartOptions, StabilityChart};
-use trailer_model::Model;
 
 use super::auto_range::{
     Derivation, SpeedBounds, VehicleScale, chart_gains, critical_speed_extent, speed_top,
@@ -104,6 +104,10 @@ pub struct Fig4aConfig {
     /// numerics
     #[serde(default)]
     pub numerics: NumericsConfig,
+    /// the controller whose gain D is the chart's axis (omitted: the paper's yaw-rate
+    /// steering, [`super::ChartController`])
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<super::ChartController>,
 }
 
 impl Fig4aConfig {
@@ -159,8 +163,8 @@ pub struct Fig4aRanges {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] from the derivation.
-pub fn resolve(
-    model: &Model,
+pub fn resolve<M: LoopModel + ?Sized>(
+    model: &M,
     cfg: &Fig4aConfig,
     b: &SpeedBounds,
 ) -> Result<Fig4aRanges, SwayError> {
@@ -293,7 +297,37 @@ fn chart_reason(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn compute(model: &Model, cfg: &Fig4aConfig, b: &SpeedBounds) -> Result<Fig4a, SwayError> {
+pub fn compute<M: LoopModel + ?Sized>(
+    model: &M,
+    cfg: &Fig4aConfig,
+    b: &SpeedBounds,
+) -> Result<Fig4a, SwayError> {
+    match cfg.controller {
+        Some(c) if !c.is_paper() => {
+            c.check().map_err(|m| {
+                SwayError::numerical(
+                    "the controller of the chart",
+                    continuation::Error::InvalidInput(m),
+                )
+            })?;
+            compute_loop(
+                &super::Controlled {
+                    model,
+                    controller: c,
+                },
+                cfg,
+                b,
+            )
+        }
+        _ => compute_loop(model, cfg, b),
+    }
+}
+
+fn compute_loop<M: LoopModel + ?Sized>(
+    model: &M,
+    cfg: &Fig4aConfig,
+    b: &SpeedBounds,
+) -> Result<Fig4a, SwayError> {
     let ranges = resolve(model, cfg, b)?;
     let (sa, ga) = (ranges.speed_mps.axis(), ranges.gain_s.axis());
     let charts = fig4a_charts(model, &cfg.delays_s, sa, ga, &cfg.chart_options())?;

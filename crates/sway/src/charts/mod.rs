@@ -6,24 +6,161 @@
 //! its characteristic function (13) is the quasi-polynomial p(λ) + D e^{−λτ} q(λ) with
 //! p = det(λI − Ã), q = C̃ adj(λI − Ã) B̃ ([`stability::RankOneFeedback`]).
 
+use serde::{Deserialize, Serialize};
+
+use crate::SwayError;
+use crate::control::{Actuator, Gains, LoopLinearization, LoopModel, Structure, loop_output_row};
 use stability::{
     Axis, ChartOptions, Complex64, RankOneFeedback, RootOptions, StabilityChart, StabilityError,
     first_unstable_parameter, stability_charts,
 };
-use trailer_model::Model;
-
-use crate::SwayError;
 
 pub mod auto_range;
 pub mod fig4a;
 
-/// The closed loop at speed V \[m/s\] in quasi-polynomial form (Ã, B̃, C̃ of eq. 11).
+/// The closed loop at speed V \[m/s\] in quasi-polynomial form (Ã, B̃, C̃ of eq. 11) of any
+/// plant ([`LoopModel`]: the paper's `Model`, a `VehicleModel<N>`, an `AnyVehicleModel`):
+/// p = det(λI − A) of degree n, q = C adj(λI − A) B.
 ///
 /// # Errors
 /// [`StabilityError`] if the linearisation is not finite (e.g. V = 0).
-pub fn closed_loop(model: &Model, speed: f64) -> Result<RankOneFeedback, StabilityError> {
-    let lin = model.linearize(speed);
-    RankOneFeedback::from_state_space(&lin.a4, &lin.b4, &lin.c4)
+pub fn closed_loop<M: LoopModel + ?Sized>(
+    model: &M,
+    speed: f64,
+) -> Result<RankOneFeedback, StabilityError> {
+    let lin = model.loop_linearization(speed);
+    RankOneFeedback::from_state_space(&lin.a, &lin.b, &lin.c)
+}
+
+/// The controller of a (V, D) chart (issue 22): the structure and actuator whose gain D is
+/// the chart's gain axis. For the chart to stay the D-subdivision of one quasi-polynomial
+/// p(λ) + D·e^{−λτ}·q(λ), every gain is proportional to D: with `yaw_rate_hitch` the loop is
+/// u = −D·(ψ̇ + k_θ·θ + d_θ·θ̇)(t − τ), k_θ = `hitch_angle_per_d`, d_θ = `hitch_rate_per_d`.
+/// The default is the paper's yaw-rate steering (numbers unchanged). The predictor is not
+/// linear in D (its cleared function has D in both terms): charts refuse it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ChartController {
+    /// `yaw_rate` (default) or `yaw_rate_hitch`
+    pub structure: Structure,
+    /// `steering` (default; D in s) or `differential_braking` (D in N m s/rad)
+    pub actuator: Actuator,
+    /// K_θ / D \[rad/rad per unit of D\] (`yaw_rate_hitch` only)
+    pub hitch_angle_per_d: f64,
+    /// D_θ / D \[s per unit of D\] (`yaw_rate_hitch` only)
+    pub hitch_rate_per_d: f64,
+}
+
+impl Default for ChartController {
+    fn default() -> Self {
+        Self {
+            structure: Structure::YawRate,
+            actuator: Actuator::Steering,
+            hitch_angle_per_d: 0.0,
+            hitch_rate_per_d: 0.0,
+        }
+    }
+}
+
+impl ChartController {
+    /// The paper's controller δ = −D·ψ̇(t − τ).
+    pub fn is_paper(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// Checks that the chart can be drawn for this controller.
+    ///
+    /// # Errors
+    /// A message for the predictor (not linear in D) and for non-finite ratios.
+    pub fn check(&self) -> Result<(), String> {
+        if self.structure == Structure::Predictor {
+            return Err(
+                "the predictor is not linear in D (its cleared characteristic function \
+                 has D in both terms): a (V, D) chart takes `yaw_rate` or `yaw_rate_hitch`"
+                    .into(),
+            );
+        }
+        if !(self.hitch_angle_per_d.is_finite() && self.hitch_rate_per_d.is_finite()) {
+            return Err("expected finite hitch_angle_per_d and hitch_rate_per_d".into());
+        }
+        Ok(())
+    }
+}
+
+/// A plant seen through a chart controller: its linearisation with B the actuator's column
+/// and C the controller's output row per unit of D, so that every chart function
+/// ([`closed_loop`], [`fig4a_charts`], [`critical_speed_at_gain`], [`auto_range`]) draws the
+/// chart of that controller with D as its gain. The paper's controller passes the plant's
+/// own B̃, C̃ through.
+#[derive(Debug, Clone, Copy)]
+pub struct Controlled<'a, M: LoopModel + ?Sized> {
+    /// the plant
+    pub model: &'a M,
+    /// the controller
+    pub controller: ChartController,
+}
+
+impl<M: LoopModel + ?Sized> LoopModel for Controlled<'_, M> {
+    fn loop_linearization(&self, speed: f64) -> LoopLinearization {
+        let mut lin = self.model.loop_linearization(speed);
+        if self.controller.is_paper() {
+            return lin;
+        }
+        let c = self.controller;
+        let gains = Gains {
+            yaw_rate: 1.0,
+            hitch_angle: c.hitch_angle_per_d,
+            hitch_rate: c.hitch_rate_per_d,
+        };
+        let row = loop_output_row(&lin, c.structure, &gains);
+        lin.b = c.actuator.loop_input_column(&lin).clone();
+        lin.c = row;
+        lin
+    }
+
+    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64> {
+        self.model.open_loop_spectrum(speed)
+    }
+
+    fn critical_speed_search(
+        &self,
+        opts: &trailer_model::CriticalSpeedOptions,
+    ) -> Result<Option<trailer_model::CriticalSpeed>, trailer_model::ModelError> {
+        self.model.critical_speed_search(opts)
+    }
+
+    fn paper_model(&self) -> &trailer_model::Model {
+        self.model.paper_model()
+    }
+
+    fn states(&self) -> usize {
+        self.model.states()
+    }
+}
+
+/// The open-loop critical speed of any plant: [`crate::ranging::open_loop_critical_speed`]
+/// (the one search every task uses) through [`LoopModel::critical_speed_search`]; for the
+/// paper's `Model` the same call, so the same numbers.
+///
+/// # Errors
+/// [`SwayError::Model`] when straight running is already unstable at the lowest speed or
+/// the eigenvalues are not finite.
+pub fn open_loop_stability<M: LoopModel + ?Sized>(
+    model: &M,
+    limits: &crate::ranging::SpeedLimits,
+) -> Result<crate::ranging::OpenLoopStability, SwayError> {
+    use crate::ranging::OpenLoopStability;
+    Ok(
+        match model.critical_speed_search(&limits.critical_speed_options())? {
+            Some(c) => OpenLoopStability::Critical {
+                v_crit_mps: c.v_crit_mps,
+                hopf_omega_rad_s: c.hopf_omega_rad_s,
+            },
+            None => OpenLoopStability::StableUpTo {
+                stable_up_to_mps: limits.max_speed_mps,
+            },
+        },
+    )
 }
 
 fn numerical(context: String) -> impl FnOnce(StabilityError) -> SwayError {
@@ -36,8 +173,8 @@ fn numerical(context: String) -> impl FnOnce(StabilityError) -> SwayError {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the roots cannot be confirmed.
-pub fn rightmost_roots(
-    model: &Model,
+pub fn rightmost_roots<M: LoopModel + ?Sized>(
+    model: &M,
     speed: f64,
     gain: f64,
     delay: f64,
@@ -53,8 +190,8 @@ pub fn rightmost_roots(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn unstable_root_count(
-    model: &Model,
+pub fn unstable_root_count<M: LoopModel + ?Sized>(
+    model: &M,
     speed: f64,
     gain: f64,
     delay: f64,
@@ -68,8 +205,8 @@ pub fn unstable_root_count(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] for an invalid grid or a failed linearisation.
-pub fn fig4a_charts(
-    model: &Model,
+pub fn fig4a_charts<M: LoopModel + ?Sized>(
+    model: &M,
     delays: &[f64],
     speed: Axis,
     gain: Axis,
@@ -85,8 +222,8 @@ pub fn fig4a_charts(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn critical_speed_at_gain(
-    model: &Model,
+pub fn critical_speed_at_gain<M: LoopModel + ?Sized>(
+    model: &M,
     delay: f64,
     gain: f64,
     v_min: f64,
@@ -113,8 +250,8 @@ pub fn critical_speed_at_gain(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn stable_gain_intervals(
-    model: &Model,
+pub fn stable_gain_intervals<M: LoopModel + ?Sized>(
+    model: &M,
     delay: f64,
     speed: f64,
     d_min: f64,

@@ -121,6 +121,7 @@ fn small_fig4a() -> Fig4aConfig {
         delays_s: vec![0.0, 0.2],
         summary: SummaryConfig::default(),
         numerics: NumericsConfig::default(),
+        controller: None,
     }
 }
 
@@ -381,4 +382,62 @@ fn a_flagged_fold_where_v_does_not_turn_is_not_corrected() {
             "L = {l}"
         );
     }
+}
+
+#[test]
+fn chart_controller_charts_the_loop_of_that_controller() {
+    // reference: the critical speed of the same controller from `control` (its loop built
+    // with the gains inside q, gain 1), against the chart's, where D multiplies q of the row
+    // per unit of D: two formulations of one loop; equal to the bisection tolerances (1e-9)
+    use crate::control::{Actuator, Controller, Gains, SpeedSearch, Structure};
+    let m = trailer_model::AnyVehicleModel::new(
+        &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
+    )
+    .unwrap();
+    let scale = Actuator::DifferentialBraking.scale(crate::control::LoopModel::paper_model(&m));
+    let chart = super::ChartController {
+        structure: Structure::YawRateHitch,
+        actuator: Actuator::DifferentialBraking,
+        hitch_angle_per_d: 0.4,
+        hitch_rate_per_d: 0.2,
+    };
+    let controlled = super::Controlled {
+        model: &m,
+        controller: chart,
+    };
+    let s = SpeedSearch::default();
+    for (d, tau) in [(0.1 * scale, 0.2), (0.05 * scale, 0.4)] {
+        let by_chart = super::critical_speed_at_gain(
+            &controlled,
+            tau,
+            d,
+            s.v_min_mps,
+            s.v_max_mps,
+            s.samples,
+            s.tolerance_mps,
+        )
+        .unwrap();
+        let c = Controller {
+            structure: Structure::YawRateHitch,
+            actuator: Actuator::DifferentialBraking,
+            gains: Gains {
+                yaw_rate: d,
+                hitch_angle: 0.4 * d,
+                hitch_rate: 0.2 * d,
+            },
+        };
+        let by_control = crate::control::critical_speed(&m, &c, tau, None, &s).unwrap();
+        match (by_chart, by_control) {
+            (Some(a), Some(b)) => assert!((a - b).abs() <= 2e-9, "{a} vs {b}"),
+            (a, b) => assert_eq!(a, b),
+        }
+    }
+    assert!(
+        super::ChartController {
+            structure: Structure::Predictor,
+            ..chart
+        }
+        .check()
+        .is_err()
+    );
 }

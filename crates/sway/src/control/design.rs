@@ -20,7 +20,9 @@
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use trailer_model::{Model, PARAMETERS, VehicleParams};
+use trailer_model::{AnyVehicleModel, Model, PARAMETERS, VehicleParams, VehicleSpec};
+
+use super::LoopModel;
 
 use super::{Actuator, Controller, GainName, Gains, LinearLoop, SpeedSearch, Structure};
 use crate::SwayError;
@@ -162,11 +164,11 @@ fn controller(structure: Structure, actuator: Actuator, gains: Gains) -> Control
 }
 
 /// The critical speed of a controller, the top of the range where stable on all of it.
-fn v_crit(
-    model: &Model,
+fn v_crit<M: LoopModel + ?Sized>(
+    model: &M,
     c: &Controller,
     tau: f64,
-    prediction: Option<&Model>,
+    prediction: Option<&dyn LoopModel>,
     search: &SpeedSearch,
 ) -> Result<f64, SwayError> {
     Ok(super::critical_speed(model, c, tau, prediction, search)?.unwrap_or(search.v_max_mps))
@@ -177,16 +179,16 @@ fn v_crit(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a critical speed cannot be computed.
-pub fn design(
-    model: &Model,
+pub fn design<M: LoopModel + ?Sized>(
+    model: &M,
     structure: Structure,
     actuator: Actuator,
     tau: f64,
-    prediction: Option<&Model>,
+    prediction: Option<&dyn LoopModel>,
     warm: Option<&Gains>,
     o: &DesignSearch,
 ) -> Result<Design, SwayError> {
-    let scale = actuator.scale(model);
+    let scale = actuator.scale(model.paper_model());
     let (gains, v, bands, evaluations) = match structure {
         Structure::YawRate | Structure::Predictor => {
             one_gain(model, structure, actuator, tau, prediction, scale, o)?
@@ -238,12 +240,12 @@ pub fn design(
 type Found = (Gains, f64, Vec<GainBand>, usize);
 
 /// One gain (D): `gain_design`'s scan, Brent refinement and band, on this structure's loop.
-fn one_gain(
-    model: &Model,
+fn one_gain<M: LoopModel + ?Sized>(
+    model: &M,
     structure: Structure,
     actuator: Actuator,
     tau: f64,
-    prediction: Option<&Model>,
+    prediction: Option<&dyn LoopModel>,
     scale: f64,
     o: &DesignSearch,
 ) -> Result<Found, SwayError> {
@@ -276,18 +278,18 @@ fn one_gain(
 }
 
 /// Several gains: −V_crit minimised by Nelder–Mead from the given starts.
-struct CriticalSpeedProblem<'a> {
-    model: &'a Model,
+struct CriticalSpeedProblem<'a, M: LoopModel + ?Sized> {
+    model: &'a M,
     structure: Structure,
     actuator: Actuator,
     tau: f64,
-    prediction: Option<&'a Model>,
+    prediction: Option<&'a dyn LoopModel>,
     names: &'static [GainName],
     bounds: Vec<Bound>,
     search: SpeedSearch,
 }
 
-impl CriticalSpeedProblem<'_> {
+impl<M: LoopModel + ?Sized> CriticalSpeedProblem<'_, M> {
     fn gains(&self, x: &[f64]) -> Gains {
         self.names
             .iter()
@@ -296,7 +298,7 @@ impl CriticalSpeedProblem<'_> {
     }
 }
 
-impl MixedProblem for CriticalSpeedProblem<'_> {
+impl<M: LoopModel + ?Sized> MixedProblem for CriticalSpeedProblem<'_, M> {
     fn bounds(&self) -> &[Bound] {
         &self.bounds
     }
@@ -318,17 +320,17 @@ impl MixedProblem for CriticalSpeedProblem<'_> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn several_gains(
-    model: &Model,
+fn several_gains<M: LoopModel + ?Sized>(
+    model: &M,
     structure: Structure,
     actuator: Actuator,
     tau: f64,
-    prediction: Option<&Model>,
+    prediction: Option<&dyn LoopModel>,
     one_gain_optimum: &Gains,
     warm: Option<&Gains>,
     o: &DesignSearch,
 ) -> Result<Found, SwayError> {
-    let scale = actuator.scale(model);
+    let scale = actuator.scale(model.paper_model());
     let names = structure.gain_names();
     let problem = CriticalSpeedProblem {
         model,
@@ -381,11 +383,11 @@ fn several_gains(
 /// The rightmost root pair at V \[m/s\] whose frequency differs from the critical pair's
 /// (by more than 1 %): its real part and frequency, or None if there is none among the
 /// six rightmost roots.
-fn second_pair(
-    model: &Model,
+fn second_pair<M: LoopModel + ?Sized>(
+    model: &M,
     c: &Controller,
     tau: f64,
-    prediction: Option<&Model>,
+    prediction: Option<&dyn LoopModel>,
     v: f64,
 ) -> Result<Option<[f64; 2]>, SwayError> {
     let l = LinearLoop::new(model, c, v, tau, prediction)?;
@@ -407,12 +409,12 @@ fn second_pair(
 ///
 /// # Errors
 /// The first failing delay's error.
-pub fn designs_over_delays(
-    model: &Model,
+pub fn designs_over_delays<M: LoopModel + ?Sized>(
+    model: &M,
     structure: Structure,
     actuator: Actuator,
     taus: &[f64],
-    prediction: Option<&Model>,
+    prediction: Option<&dyn LoopModel>,
     o: &DesignSearch,
 ) -> Result<Vec<Design>, SwayError> {
     let mut out: Vec<Design> = Vec::with_capacity(taus.len());
@@ -454,13 +456,13 @@ pub struct DelayBudget {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] from a [`design`].
-pub fn delay_budget(
-    model: &Model,
+pub fn delay_budget<M: LoopModel + ?Sized>(
+    model: &M,
     designs: &[Design],
     v_open: f64,
     fraction: f64,
     tau_tolerance: f64,
-    prediction: Option<&Model>,
+    prediction: Option<&dyn LoopModel>,
     o: &DesignSearch,
 ) -> Result<DelayBudget, SwayError> {
     let thr = (1.0 + fraction) * v_open;
@@ -610,7 +612,75 @@ pub fn robust_critical_speed(
             None => None,
         };
         let prediction = match controller.structure {
-            Structure::Predictor => Some(prediction.as_ref().unwrap_or(&nominal_model)),
+            Structure::Predictor => {
+                Some(prediction.as_ref().unwrap_or(&nominal_model) as &dyn LoopModel)
+            }
+            _ => None,
+        };
+        v_crit(&model, controller, tau, prediction, search).ok()
+    };
+    let values: Vec<Option<f64>> = (0..vehicle.len()).into_par_iter().map(one).collect();
+    let failed_samples = values.iter().filter(|v| v.is_none()).count();
+    let stats = Statistics::of(values.into_iter().flatten());
+    Ok(Robustness {
+        v_crit_p05_mps: stats.as_ref().map(|s| s.quantiles.q05),
+        v_crit: stats,
+        failed_samples,
+    })
+}
+
+/// [`robust_critical_speed`] for a vehicle file of any form (tyre relaxation, axle lists,
+/// …): each sample sets the sampled fields of the paper's keys on `nominal`
+/// ([`VehicleSpec::with_parameter`], about the nominal equivalent values); the predictor
+/// predicts with `prediction` (a separate vehicle file; `nominal` when `None`), perturbed
+/// by the uncertainty's `prediction_model` errors where given.
+///
+/// # Errors
+/// [`SwayError::Numerical`] for an invalid sampling or an unknown field; the nominal
+/// vehicle's or prediction model's errors.
+pub fn robust_critical_speed_spec(
+    nominal: &VehicleSpec,
+    prediction: Option<&VehicleSpec>,
+    controller: &Controller,
+    tau: f64,
+    uncertainty: &VehicleUncertainty,
+    search: &SpeedSearch,
+) -> Result<Robustness, SwayError> {
+    let (vehicle, vehicle_idx) = sampler(&uncertainty.vehicle)?;
+    let model_errors = match (&uncertainty.prediction_model, controller.structure) {
+        (Some(s), Structure::Predictor) => Some(sampler(s)?),
+        _ => None,
+    };
+    let predicted = prediction.unwrap_or(nominal);
+    let nominal_values = nominal.equivalent_params()?;
+    let predicted_values = predicted.equivalent_params()?;
+    let prediction_model = AnyVehicleModel::new(predicted)?;
+    let perturbed = |base: &VehicleSpec,
+                     values: &VehicleParams,
+                     draws: &[f64],
+                     idx: &[(usize, About)]|
+     -> Option<AnyVehicleModel> {
+        let mut spec = base.clone();
+        for (&v, &(i, about)) in draws.iter().zip(idx) {
+            spec = spec.with_parameter(i, about.apply(values.get(i), v)).ok()?;
+        }
+        AnyVehicleModel::new(&spec).ok()
+    };
+    let one = |s: usize| -> Option<f64> {
+        let model = perturbed(nominal, &nominal_values, &vehicle.sample(s), &vehicle_idx)?;
+        let sampled_prediction = match &model_errors {
+            Some((errors, idx)) => Some(perturbed(
+                predicted,
+                &predicted_values,
+                &errors.sample(s % errors.len()),
+                idx,
+            )?),
+            None => None,
+        };
+        let prediction = match controller.structure {
+            Structure::Predictor => {
+                Some(sampled_prediction.as_ref().unwrap_or(&prediction_model) as &dyn LoopModel)
+            }
             _ => None,
         };
         v_crit(&model, controller, tau, prediction, search).ok()

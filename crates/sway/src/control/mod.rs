@@ -34,19 +34,171 @@ mod tests;
 
 pub use design::{
     DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness, VehicleUncertainty,
-    delay_budget, design, designs_over_delays, robust_critical_speed,
+    delay_budget, design, designs_over_delays, robust_critical_speed, robust_critical_speed_spec,
 };
 pub use study::{
     AwayFromCorner, CheckedDesign, Combination, ControlStudy, DesignFold, StudySettings,
     control_study, fold_speed, loop_law,
 };
 
-use nalgebra::{RowVector4, Vector4};
+use nalgebra::{DMatrix, DVector, RowDVector, RowVector4, Vector4};
 use serde::{Deserialize, Serialize};
 use stability::{Complex64, RankOneFeedback, RootOptions, StabilityError};
-use trailer_model::{HITCH_ANGLE, Linearization, Model};
+use trailer_model::{
+    AnyVehicleModel, CriticalSpeed, CriticalSpeedOptions, HITCH_ANGLE, Linearization, Model,
+    ModelError, Plant, PlantLinearization, VehicleModel, with_plant,
+};
 
 use crate::SwayError;
+
+/// The linearisation of a plant of any state count n about straight running at one speed
+/// V: x' = A x + B δ + B_M M_z, ψ̇ = C x (eq. 9–11 for the paper's model, n = 4), as
+/// dynamic-size matrices.
+///
+/// The linear loops are built on the dynamic size rather than generic over the plant's
+/// const N: [`stability::RankOneFeedback`] works on dynamic matrices anyway, the
+/// predictor's model may have another state count than the vehicle (a relaxed vehicle
+/// predicted with the paper's model), and the design, chart and gain-design code is then
+/// compiled once, not once per N of [`AnyVehicleModel`]. The paper's model gives the same
+/// entries as [`Model::linearize`], so its numbers do not move.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopLinearization {
+    /// speed V \[m/s\]
+    pub speed: f64,
+    /// A = ∂f/∂x (n×n) \[1/s\]
+    pub a: DMatrix<f64>,
+    /// B = ∂f/∂δ (steering)
+    pub b: DVector<f64>,
+    /// B_M = ∂f/∂M_z (yaw moment on the tractor)
+    pub b_yaw_moment: DVector<f64>,
+    /// C: ψ̇ = C x
+    pub c: RowDVector<f64>,
+}
+
+impl LoopLinearization {
+    /// The dynamic-size copy of a plant's linearisation.
+    pub fn from_plant<const N: usize>(l: &PlantLinearization<N>) -> Self {
+        Self {
+            speed: l.speed,
+            a: DMatrix::from_column_slice(N, N, l.a.as_slice()),
+            b: DVector::from_column_slice(l.b.as_slice()),
+            b_yaw_moment: DVector::from_column_slice(l.b_yaw_moment.as_slice()),
+            c: RowDVector::from_row_slice(l.c.as_slice()),
+        }
+    }
+
+    /// Number of states n.
+    pub fn states(&self) -> usize {
+        self.a.nrows()
+    }
+}
+
+/// What the linear loops need of a vehicle model: its linearisation at a speed, its
+/// open-loop spectrum and critical speed, and the paper's form of it (the equivalent
+/// single-axle vehicle, which sizes the actuators, [`Actuator::scale`]). Implemented by
+/// the paper's [`Model`], every [`VehicleModel`] and [`AnyVehicleModel`]: the linear side
+/// (loops, charts, gain design, the linear task) takes any of them.
+pub trait LoopModel: Sync {
+    /// The linearisation about straight running at speed V \[m/s\].
+    fn loop_linearization(&self, speed: f64) -> LoopLinearization;
+
+    /// Eigenvalues of A(V), sorted by decreasing real part (ties: decreasing imaginary part).
+    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64>;
+
+    /// The open-loop critical speed search ([`Plant::critical_speed_search`]).
+    ///
+    /// # Errors
+    /// As [`Plant::critical_speed_search`].
+    fn critical_speed_search(
+        &self,
+        opts: &CriticalSpeedOptions,
+    ) -> Result<Option<CriticalSpeed>, ModelError>;
+
+    /// The paper's form of the vehicle (for axle lists the equivalent single-axle vehicle).
+    fn paper_model(&self) -> &Model;
+
+    /// Number of reduced states n.
+    fn states(&self) -> usize;
+}
+
+fn spectrum_c64(v: Vec<nalgebra::Complex<f64>>) -> Vec<Complex64> {
+    v.into_iter().map(|z| Complex64::new(z.re, z.im)).collect()
+}
+
+impl LoopModel for Model {
+    fn loop_linearization(&self, speed: f64) -> LoopLinearization {
+        LoopLinearization::from_plant(&Plant::plant_linearization(self, speed))
+    }
+
+    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64> {
+        spectrum_c64(Plant::open_loop_spectrum(self, speed))
+    }
+
+    fn critical_speed_search(
+        &self,
+        opts: &CriticalSpeedOptions,
+    ) -> Result<Option<CriticalSpeed>, ModelError> {
+        Model::critical_speed_search(self, opts)
+    }
+
+    fn paper_model(&self) -> &Model {
+        self
+    }
+
+    fn states(&self) -> usize {
+        4
+    }
+}
+
+impl<const N: usize> LoopModel for VehicleModel<N> {
+    fn loop_linearization(&self, speed: f64) -> LoopLinearization {
+        LoopLinearization::from_plant(&self.plant_linearization(speed))
+    }
+
+    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64> {
+        spectrum_c64(Plant::open_loop_spectrum(self, speed))
+    }
+
+    fn critical_speed_search(
+        &self,
+        opts: &CriticalSpeedOptions,
+    ) -> Result<Option<CriticalSpeed>, ModelError> {
+        Plant::critical_speed_search(self, opts)
+    }
+
+    fn paper_model(&self) -> &Model {
+        self.equivalent_model()
+    }
+
+    fn states(&self) -> usize {
+        N
+    }
+}
+
+impl LoopModel for AnyVehicleModel {
+    fn loop_linearization(&self, speed: f64) -> LoopLinearization {
+        with_plant!(self, m => LoopModel::loop_linearization(m, speed))
+    }
+
+    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64> {
+        with_plant!(self, m => LoopModel::open_loop_spectrum(m, speed))
+    }
+
+    fn critical_speed_search(
+        &self,
+        opts: &CriticalSpeedOptions,
+    ) -> Result<Option<CriticalSpeed>, ModelError> {
+        with_plant!(self, m => LoopModel::critical_speed_search(m, opts))
+    }
+
+    fn paper_model(&self) -> &Model {
+        with_plant!(self, m => LoopModel::paper_model(m))
+    }
+
+    fn states(&self) -> usize {
+        AnyVehicleModel::states(self)
+    }
+}
 
 /// The controller structure: what is measured and how it is turned into the command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -111,6 +263,14 @@ impl Actuator {
         match self {
             Self::Steering => lin.b4,
             Self::DifferentialBraking => lin.b4_yaw_moment,
+        }
+    }
+
+    /// [`Actuator::input_column`] of a plant of any state count.
+    pub fn loop_input_column<'a>(&self, lin: &'a LoopLinearization) -> &'a DVector<f64> {
+        match self {
+            Self::Steering => &lin.b,
+            Self::DifferentialBraking => &lin.b_yaw_moment,
         }
     }
 
@@ -243,6 +403,21 @@ pub fn output_row(lin: &Linearization, structure: Structure, gains: &Gains) -> R
     k
 }
 
+/// [`output_row`] of a plant of any state count (θ is state 3 of every plant,
+/// [`HITCH_ANGLE`]).
+pub fn loop_output_row(
+    lin: &LoopLinearization,
+    structure: Structure,
+    gains: &Gains,
+) -> RowDVector<f64> {
+    let mut k = &lin.c * gains.yaw_rate;
+    if structure == Structure::YawRateHitch {
+        k[HITCH_ANGLE] += gains.hitch_angle;
+        k += lin.a.row(HITCH_ANGLE) * gains.hitch_rate;
+    }
+    k
+}
+
 /// The linear closed loop of one controller at one speed, as a quasi-polynomial
 /// p(λ) + D·e^{−λτ}·q(λ) with the count of its roots that are not roots of the loop.
 #[derive(Debug, Clone)]
@@ -258,21 +433,47 @@ pub struct LinearLoop {
     pub spurious: Vec<Complex64>,
     /// the delay τ \[s\] the loop is built for (the predictor's q depends on it)
     pub delay: f64,
+    /// s \[1/s\]: `feedback` is written in μ = λ/s with the delay s·τ (1 but for the
+    /// predictor of a plant or model with more than 4 states, whose cleared function is
+    /// balanced so, [`predictor::cleared_loop_dyn`])
+    pub time_scale: f64,
 }
 
 impl LinearLoop {
-    /// The loop of `controller` on `model` at speed V \[m/s\] with delay τ \[s\]; the
-    /// predictor predicts with `prediction_model` (the vehicle itself when `None`).
+    /// The loop of `controller` on `model` (the paper's [`Model`], a [`VehicleModel`] or an
+    /// [`AnyVehicleModel`]) at speed V \[m/s\] with delay τ \[s\]; the predictor predicts
+    /// with `prediction_model` (the vehicle itself when `None`; it may have another state
+    /// count than the vehicle).
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if the linearisation is not finite.
-    pub fn new(
-        model: &Model,
+    pub fn new<M: LoopModel + ?Sized>(
+        model: &M,
         controller: &Controller,
         speed: f64,
         delay: f64,
-        prediction_model: Option<&Model>,
+        prediction_model: Option<&dyn LoopModel>,
     ) -> Result<Self, SwayError> {
+        let lin = model.loop_linearization(speed);
+        let model_lin = match (controller.structure, prediction_model) {
+            (Structure::Predictor, Some(m)) => Some(m.loop_linearization(speed)),
+            _ => None,
+        };
+        Self::from_linearization(&lin, controller, delay, model_lin.as_ref())
+    }
+
+    /// The loop of `controller` on the linearisation `lin` with delay τ \[s\]; the predictor
+    /// predicts with `prediction` (`lin` itself when `None`).
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] if the linearisation is not finite.
+    pub fn from_linearization(
+        lin: &LoopLinearization,
+        controller: &Controller,
+        delay: f64,
+        prediction: Option<&LoopLinearization>,
+    ) -> Result<Self, SwayError> {
+        let speed = lin.speed;
         let context = || {
             format!(
                 "{} loop with {} at V = {speed} m/s, τ = {delay} s",
@@ -280,30 +481,30 @@ impl LinearLoop {
                 controller.actuator.as_str()
             )
         };
-        let lin = model.linearize(speed);
-        let b = controller.actuator.input_column(&lin);
+        let b = controller.actuator.loop_input_column(lin);
         let built = match controller.structure {
-            Structure::YawRate => RankOneFeedback::from_state_space(&lin.a4, &b, &lin.c4)
-                .map(|f| (f, controller.gains.yaw_rate, Vec::new())),
+            Structure::YawRate => RankOneFeedback::from_state_space(&lin.a, b, &lin.c)
+                .map(|f| (f, controller.gains.yaw_rate, Vec::new(), 1.0)),
             Structure::YawRateHitch => {
-                let k = output_row(&lin, controller.structure, &controller.gains);
-                RankOneFeedback::from_state_space(&lin.a4, &b, &k).map(|f| (f, 1.0, Vec::new()))
+                let k = loop_output_row(lin, controller.structure, &controller.gains);
+                RankOneFeedback::from_state_space(&lin.a, b, &k).map(|f| (f, 1.0, Vec::new(), 1.0))
             }
             Structure::Predictor => {
-                let model_lin =
-                    prediction_model.map_or_else(|| lin.clone(), |m| m.linearize(speed));
-                let b_model = controller.actuator.input_column(&model_lin);
-                let k = model_lin.c4 * controller.gains.yaw_rate;
-                predictor::cleared_loop(&lin.a4, &b, &model_lin.a4, &b_model, &k, delay)
-                    .map(|(f, spurious)| (f, 1.0, spurious))
+                let model_lin = prediction.unwrap_or(lin);
+                let b_model = controller.actuator.loop_input_column(model_lin);
+                let k = &model_lin.c * controller.gains.yaw_rate;
+                predictor::cleared_loop_dyn(&lin.a, b, &model_lin.a, b_model, &k, delay)
+                    .map(|(f, spurious, s)| (f, 1.0, spurious, s))
             }
         };
-        let (feedback, gain, spurious) = built.map_err(|e| SwayError::numerical(context(), e))?;
+        let (feedback, gain, spurious, time_scale) =
+            built.map_err(|e| SwayError::numerical(context(), e))?;
         Ok(Self {
             feedback,
             gain,
             spurious,
             delay,
+            time_scale,
         })
     }
 
@@ -313,7 +514,9 @@ impl LinearLoop {
     /// # Errors
     /// [`StabilityError`] from the crossing count.
     pub fn unstable_root_count(&self) -> Result<usize, StabilityError> {
-        let n = self.feedback.unstable_root_count(self.gain, self.delay)?;
+        let n = self
+            .feedback
+            .unstable_root_count(self.gain, self.delay * self.time_scale)?;
         let spurious = self.spurious.iter().filter(|z| z.re > 0.0).count();
         Ok(n.saturating_sub(spurious))
     }
@@ -326,15 +529,46 @@ impl LinearLoop {
     pub fn rightmost_roots(&self, count: usize) -> Result<Vec<Complex64>, StabilityError> {
         if self.gain == 0.0 || self.feedback.q().is_empty() {
             // no feedback: the loop is the open loop, a polynomial with n roots
-            let mut roots = self.feedback.open_loop_eigenvalues().to_vec();
+            let mut roots: Vec<Complex64> = self
+                .feedback
+                .open_loop_eigenvalues()
+                .iter()
+                .map(|z| z * self.time_scale)
+                .collect();
             stability::sort_rightmost(&mut roots);
             return Ok(predictor::without_spurious(roots, &self.spurious, count));
         }
-        let want = count + self.spurious.len();
-        let roots =
-            self.feedback
-                .rightmost_roots(self.gain, self.delay, want, &RootOptions::default())?;
-        Ok(predictor::without_spurious(roots, &self.spurious, count))
+        let options = RootOptions::default();
+        // the feedback is in μ = λ/s with the delay s·τ (s = 1 but for a predictor with
+        // more than four states)
+        let s = self.time_scale;
+        let roots_of = |want: usize| -> Result<Vec<Complex64>, StabilityError> {
+            Ok(self
+                .feedback
+                .rightmost_roots(self.gain, self.delay * s, want, &options)?
+                .into_iter()
+                .map(|z| z * s)
+                .collect())
+        };
+        if self.spurious.len() <= 4 {
+            // the paper's model predicting: its four spurious roots asked for with the others
+            let roots = roots_of(count + self.spurious.len())?;
+            return Ok(predictor::without_spurious(roots, &self.spurious, count));
+        }
+        // a model with more states (tyre relaxation) has spurious roots far in the left
+        // half-plane (−V/σ), where the cleared function is ill-conditioned (its delayed
+        // term, cancelling only up to round-off, is weighted by e^{−Re λ·τ}): ask only for as
+        // many more roots as spurious ones turned up among the rightmost
+        let mut want = count;
+        loop {
+            let roots = roots_of(want)?;
+            let found = roots.len();
+            let kept = predictor::without_spurious(roots, &self.spurious, count);
+            if kept.len() >= count || found < want || want >= count + self.spurious.len() {
+                return Ok(kept);
+            }
+            want += count - kept.len();
+        }
     }
 }
 
@@ -370,11 +604,11 @@ impl Default for SpeedSearch {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a loop cannot be built or counted.
-pub fn critical_speed(
-    model: &Model,
+pub fn critical_speed<M: LoopModel + ?Sized>(
+    model: &M,
     controller: &Controller,
     delay: f64,
-    prediction_model: Option<&Model>,
+    prediction_model: Option<&dyn LoopModel>,
     search: &SpeedSearch,
 ) -> Result<Option<f64>, SwayError> {
     let unstable = |v: f64| -> Result<bool, SwayError> {

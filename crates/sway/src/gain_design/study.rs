@@ -8,6 +8,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
+use crate::control::LoopModel;
+
 use super::{
     DelayBudget, FoldResult, GainSearch, LinearOptimum, critical_speed, delay_budget, fold_optimum,
     linear_optimum, open_loop_fold_speed,
@@ -175,7 +177,11 @@ impl GainDesignConfig {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] from the derivation.
-    pub fn resolve(&self, model: &Model, b: &SpeedBounds) -> Result<ResolvedDesign, SwayError> {
+    pub fn resolve<M: LoopModel + ?Sized>(
+        &self,
+        model: &M,
+        b: &SpeedBounds,
+    ) -> Result<ResolvedDesign, SwayError> {
         let s = &self.search;
         let mut der = Derivation::default();
         if s.d_min_s.is_none() || s.d_max_s.is_none() {
@@ -288,6 +294,9 @@ pub struct GainDesign {
     pub open_loop_stable: bool,
     /// V_fold(D = 0) \[m/s\] (None: no fold in the speed range, or the nonlinear part is off)
     pub open_loop_v_fold_mps: Option<f64>,
+    /// why the nonlinear part was left out although the config asks for it (None: it ran
+    /// where asked)
+    pub nonlinear_reason: Option<String>,
 }
 
 /// The reason of one linear optimum: V_crit capped at the speed range's top, or no gain
@@ -320,11 +329,40 @@ pub fn compute(
     b: &SpeedBounds,
     progress: &dyn crate::progress::Progress,
 ) -> Result<GainDesign, SwayError> {
+    compute_plant(model, Some(model), cfg, b, progress)
+}
+
+/// [`compute`] on any plant ([`LoopModel`]: the linear part — optima, bands, budget, the
+/// derived ranges — on `model`'s own linearisation); the nonlinear part (the fold-of-cycles
+/// optimum, V_fold(D = 0)) runs on `nonlinear_model`, the paper's model of the same
+/// vehicle, and is left out (every `fold` None, [`GainDesign::nonlinear_reason`] says why)
+/// when it is `None`: the nonlinear chart of the variant plants is not wired yet.
+///
+/// # Errors
+/// [`SwayError::Numerical`].
+pub fn compute_plant<M: LoopModel + ?Sized>(
+    model: &M,
+    nonlinear_model: Option<&Model>,
+    cfg: &GainDesignConfig,
+    b: &SpeedBounds,
+    progress: &dyn crate::progress::Progress,
+) -> Result<GainDesign, SwayError> {
     let resolved = cfg.resolve(model, b)?;
     let delays = cfg.delays();
     let o = &resolved.search;
     let chart = &resolved.chart;
-    let nonlinear: Vec<usize> = (0..delays.len()).filter(|&i| cfg.is_nonlinear(i)).collect();
+    let nonlinear: Vec<usize> = match nonlinear_model {
+        Some(_) => (0..delays.len()).filter(|&i| cfg.is_nonlinear(i)).collect(),
+        None => Vec::new(),
+    };
+    let nonlinear_reason = match nonlinear_model {
+        None if (0..delays.len()).any(|i| cfg.is_nonlinear(i)) => Some(
+            "the fold-of-cycles optimum is computed for the paper's model only: this vehicle \
+             has model variants (issue 21), whose nonlinear chart is not wired into gain_design yet"
+                .to_string(),
+        ),
+        _ => None,
+    };
     let (linear, (fold, v_fold_open)) = rayon::join(
         || {
             let r: Vec<Result<LinearOptimum, SwayError>> = delays
@@ -341,22 +379,24 @@ pub fn compute(
             let r: Vec<Result<FoldResult, SwayError>> = nonlinear
                 .par_iter()
                 .map(|&i| {
-                    let r = fold_optimum(model, delays[i], o, chart);
+                    let r = match nonlinear_model {
+                        Some(m) => fold_optimum(m, delays[i], o, chart),
+                        None => unreachable_fold(),
+                    };
                     progress.advance(1);
                     r
                 })
                 .collect();
-            let open = if nonlinear.is_empty() {
-                Ok(None)
-            } else {
-                open_loop_fold_speed(model, chart).or_else(|e| {
+            let open = match nonlinear_model {
+                Some(m) if !nonlinear.is_empty() => open_loop_fold_speed(m, chart).or_else(|e| {
                     // no Hopf point of the open loop in the chart's speed range: no fold
                     if e.to_string().contains("no Hopf point") {
                         Ok(None)
                     } else {
                         Err(e)
                     }
-                })
+                }),
+                _ => Ok(None),
             };
             (r, open)
         },
@@ -401,5 +441,14 @@ pub fn compute(
         budget_reason,
         open_loop_stable,
         open_loop_v_fold_mps: v_fold_open?,
+        nonlinear_reason,
     })
+}
+
+/// The nonlinear part is never asked for without a nonlinear model (`nonlinear` is empty).
+fn unreachable_fold() -> Result<FoldResult, SwayError> {
+    Err(SwayError::numerical(
+        "the fold-of-cycles optimum",
+        std::io::Error::other("no nonlinear model of this plant"),
+    ))
 }

@@ -440,3 +440,162 @@ fn brake_timing_sweep_reproduces_fig3b_and_fig4c_points() {
     assert_eq!(late.outcome, Outcome::LossOfControl);
     assert_abs_diff_eq!(late.loss_of_control_time_s.unwrap(), 14.695, epsilon = 1e-3);
 }
+
+/// A digest of every number of a run (FNV-1a over the bits of the recorded samples, the end
+/// state, the metrics' numbers and the solver's counters).
+fn digest<const N: usize>(r: &SimResult<N>) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |v: u64| {
+        for b in v.to_le_bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for s in &r.trajectory {
+        eat(s.t.to_bits());
+        s.x.iter().for_each(|v| eat(v.to_bits()));
+        eat(s.speed.to_bits());
+        eat(s.steering_angle.to_bits());
+    }
+    r.x_end.iter().for_each(|v| eat(v.to_bits()));
+    eat(r.t_end.to_bits());
+    let m = &r.metrics;
+    for v in [
+        m.peak_theta_deg_after_action,
+        m.final_amplitude_deg,
+        m.settle_time_s,
+        m.loss_of_control_time_s,
+        m.decay_rate_per_s,
+    ] {
+        eat(v.map_or(u64::MAX, f64::to_bits));
+    }
+    for v in [
+        r.stats.accepted,
+        r.stats.rejected,
+        r.stats.rhs_evals,
+        r.stats.switches,
+    ] {
+        eat(v as u64);
+    }
+    h
+}
+
+#[test]
+fn paper_vehicle_simulations_are_bitwise_those_of_main() {
+    // reference: digests recorded on main (4728b97) before the simulation became generic
+    // over the plant; every number of these runs must be identical (no tolerance)
+    let m = model();
+    let rec = Recording::Every { step_s: 0.05 };
+    let feedback = |actuator| Controller::YawRateFeedback {
+        gain_s: 0.1,
+        delay_s: 0.2,
+        on_s: 1.0,
+        off_s: None,
+        actuator,
+    };
+    let limited = sway::sim::ActuatorLimits {
+        max_angle_deg: Some(1.0),
+        max_rate_deg_s: Some(5.0),
+        time_constant_s: 0.05,
+    };
+    let gains = sway::control::Gains::yaw_rate(0.1);
+    let predictor = Controller::Predictor {
+        gains,
+        delay_s: 0.3,
+        actuator: sway::control::Actuator::Steering,
+        on_s: 0.0,
+        off_s: None,
+        limit: Default::default(),
+        model_error: Default::default(),
+    };
+    let braking = Controller::YawRateHitch {
+        gains: sway::control::Gains::yaw_rate(2e4),
+        delay_s: 0.2,
+        actuator: sway::control::Actuator::DifferentialBraking,
+        on_s: 0.5,
+        off_s: None,
+        limit: Default::default(),
+    };
+    let v35 = SpeedProfile::Constant { speed_mps: 35.0 };
+    let runs: Vec<(&str, u64)> = vec![
+        (
+            "S1 open loop 7 states",
+            digest(
+                &simulate::<7>(
+                    &m,
+                    &spec(SpeedProfile::Constant { speed_mps: 33.0 }, Controller::None, 30.0, 1e-8),
+                    x7(5.7),
+                    rec,
+                )
+                .unwrap(),
+            ),
+        ),
+        (
+            "S3 closed loop 7 states",
+            digest(
+                &simulate::<7>(&m, &spec(v35.clone(), feedback(Default::default()), 20.0, 1e-8), x7(5.7), rec)
+                    .unwrap(),
+            ),
+        ),
+        (
+            "rate-limited actuator 4 states",
+            digest(
+                &simulate::<4>(
+                    &m,
+                    &spec(v35.clone(), feedback(limited), 20.0, 1e-8),
+                    State4::new(0.0, 0.0, 0.0, 0.1),
+                    rec,
+                )
+                .unwrap(),
+            ),
+        ),
+        (
+            "predictor 7 states",
+            digest(&simulate::<7>(&m, &spec(v35.clone(), predictor, 20.0, 1e-8), x7(5.7), rec).unwrap()),
+        ),
+        (
+            "braking yaw_rate_hitch 4 states",
+            digest(
+                &simulate::<4>(
+                    &m,
+                    &spec(v35.clone(), braking, 20.0, 1e-8),
+                    State4::new(0.0, 0.0, 0.0, 0.1),
+                    rec,
+                )
+                .unwrap(),
+            ),
+        ),
+        (
+            "hard braking to loss of control",
+            digest(
+                &simulate::<7>(
+                    &m,
+                    &spec(braking_35_to_25(0.0, 0.3), Controller::None, 10.0, 1e-8),
+                    x7(8.0),
+                    rec,
+                )
+                .unwrap(),
+            ),
+        ),
+        (
+            "settle",
+            {
+                let x = settle(&m, 35.0, 0.1, 50.0, &SolverSettings::default()).unwrap();
+                x.iter().fold(0u64, |h, v| h.rotate_left(7) ^ v.to_bits())
+            },
+        ),
+    ];
+    let main: [(&str, u64); 7] = [
+        ("S1 open loop 7 states", 0x01e3_31b1_a3e6_dffe),
+        ("S3 closed loop 7 states", 0x6287_b217_ce6f_0b08),
+        ("rate-limited actuator 4 states", 0x6d8a_07ca_9823_0656),
+        ("predictor 7 states", 0xa08d_4c8b_a12c_975e),
+        ("braking yaw_rate_hitch 4 states", 0xe1e5_0819_8008_8b71),
+        ("hard braking to loss of control", 0x7cc7_f5fb_7550_48c5),
+        ("settle", 0x29f1_e714_78b5_ded1),
+    ];
+    for ((name, d), (main_name, main_d)) in runs.iter().zip(main) {
+        assert_eq!(*name, main_name);
+        assert_eq!(*d, main_d, "{name}: digest {d:#018x}, main {main_d:#018x}");
+    }
+}

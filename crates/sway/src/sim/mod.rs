@@ -33,13 +33,18 @@ mod scenario;
 pub mod speeds;
 pub mod sweep;
 
-pub use classify::SwayClass;
+pub use classify::{MetricSettings, SwayClass};
 pub use controller::{ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError};
-pub use plant::{Plant, reduced};
+#[allow(deprecated)]
+pub use plant::Plant;
+pub use plant::{
+    SLIP_TANGENT_FLOOR, SWITCHING_FUNCTIONS, SimPlant, SimProblem, reduced, reduced_state,
+};
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{
-    IntegrationMethod, KinkLandingMode, LossOfControl, MetricSettings, Metrics, Outcome, Recording,
-    RunSettings, Sample, SimResult, SimSpec, SolverSettings, ValidityGuard, settle, simulate,
+    ControllerStates, IntegrationMethod, KinkLandingMode, Layout, LossOfControl, Metrics, Outcome,
+    Recording, RunSettings, Sample, SimResult, SimSpec, SolverSettings, ValidityGuard, lift_state,
+    paper_layout, settle, settle_any, settle_plant, simulate, simulate_any, simulate_plant,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, validate_parts,

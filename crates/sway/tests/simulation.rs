@@ -12,8 +12,8 @@ use sway::sim::sweep::{
     Axis, AxisParameter, BaseScenario, Sweep, SweepConfig, SweepParameter, run_sweep,
 };
 use sway::sim::{
-    Controller, InitialCondition, LossOfControl, MetricSettings, Outcome, Recording, SimProblem,
-    RunSettings, SimResult, SimSpec, SolverSettings, SpeedProfile, ValidityGuard, settle, simulate,
+    Controller, InitialCondition, LossOfControl, MetricSettings, Outcome, Recording, RunSettings,
+    SimProblem, SimResult, SimSpec, SolverSettings, SpeedProfile, ValidityGuard, settle, simulate,
 };
 use trailer_model::{Inputs, State4, State7};
 
@@ -523,7 +523,12 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
             digest(
                 &simulate::<7>(
                     &m,
-                    &spec(SpeedProfile::Constant { speed_mps: 33.0 }, Controller::None, 30.0, 1e-8),
+                    &spec(
+                        SpeedProfile::Constant { speed_mps: 33.0 },
+                        Controller::None,
+                        30.0,
+                        1e-8,
+                    ),
                     x7(5.7),
                     rec,
                 )
@@ -533,8 +538,13 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         (
             "S3 closed loop 7 states",
             digest(
-                &simulate::<7>(&m, &spec(v35.clone(), feedback(Default::default()), 20.0, 1e-8), x7(5.7), rec)
-                    .unwrap(),
+                &simulate::<7>(
+                    &m,
+                    &spec(v35.clone(), feedback(Default::default()), 20.0, 1e-8),
+                    x7(5.7),
+                    rec,
+                )
+                .unwrap(),
             ),
         ),
         (
@@ -551,7 +561,10 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         ),
         (
             "predictor 7 states",
-            digest(&simulate::<7>(&m, &spec(v35.clone(), predictor, 20.0, 1e-8), x7(5.7), rec).unwrap()),
+            digest(
+                &simulate::<7>(&m, &spec(v35.clone(), predictor, 20.0, 1e-8), x7(5.7), rec)
+                    .unwrap(),
+            ),
         ),
         (
             "braking yaw_rate_hitch 4 states",
@@ -577,13 +590,10 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
                 .unwrap(),
             ),
         ),
-        (
-            "settle",
-            {
-                let x = settle(&m, 35.0, 0.1, 50.0, &SolverSettings::default()).unwrap();
-                x.iter().fold(0u64, |h, v| h.rotate_left(7) ^ v.to_bits())
-            },
-        ),
+        ("settle", {
+            let x = settle(&m, 35.0, 0.1, 50.0, &SolverSettings::default()).unwrap();
+            x.iter().fold(0u64, |h, v| h.rotate_left(7) ^ v.to_bits())
+        }),
     ];
     let main: [(&str, u64); 7] = [
         ("S1 open loop 7 states", 0x01e3_31b1_a3e6_dffe),

@@ -4,6 +4,13 @@
 //! sweeps. The integration is done by the general-purpose [`dde`] crate: the open loop is an
 //! ODE, the closed loop a DDE with one constant delay.
 //!
+//! Any plant simulates ([`trailer_model::Plant`] through [`SimPlant`]: the paper's
+//! [`trailer_model::Model`] and every [`trailer_model::VehicleModel`] of a vehicle file with
+//! model variants): [`SimProblem`] is the ODE/DDE problem of a plant with M reduced states,
+//! [`simulate`] runs the paper's model, [`simulate_plant`] any plant in its own layout, and
+//! [`simulate_any`] the model of a vehicle file ([`trailer_model::AnyVehicleModel`]) in the
+//! paper's layout of 4 or 7 states (the paper's model bit for bit as [`simulate`]).
+//!
 //! ```
 //! use sway::sim::{Controller, Outcome, Recording, SimSpec, SpeedProfile, simulate};
 //! use trailer_model::{Model, State4, VehicleParams};

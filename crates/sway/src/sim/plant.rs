@@ -11,8 +11,7 @@
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
 use trailer_model::{
-    Inputs, MAX_AXLES, Model, Plant as PlantModel, SlipAngles, State4, SwitchingKind,
-    VehicleModel,
+    Inputs, MAX_AXLES, Model, Plant as PlantModel, SlipAngles, State4, SwitchingKind, VehicleModel,
 };
 
 use super::controller::LoopLaw;
@@ -50,7 +49,8 @@ pub trait SimPlant<const M: usize>: PlantModel<M> + Sync {
         for (g, kind) in g.iter_mut().zip(self.switching_kinds()) {
             if !g.is_finite() {
                 *g = -1.0;
-            } else if matches!(kind, SwitchingKind::SlipSign { .. }) && g.abs() <= SLIP_TANGENT_FLOOR
+            } else if matches!(kind, SwitchingKind::SlipSign { .. })
+                && g.abs() <= SLIP_TANGENT_FLOOR
             {
                 *g = 0.0;
             }

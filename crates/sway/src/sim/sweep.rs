@@ -37,9 +37,8 @@ mod axis;
 pub mod threshold;
 
 pub use analysis::{
-    linear_critical_speed_any,
     AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed, hopf_fold_speeds, linear_critical_speed,
-    open_loop_critical_speed,
+    linear_critical_speed_any, open_loop_critical_speed,
 };
 pub use axis::{Axis, AxisParameter, SweepParameter, VEHICLE_FILE, VehicleField};
 pub use threshold::{
@@ -514,7 +513,11 @@ pub(crate) enum PointModel<'a> {
 
 impl PointModel<'_> {
     /// Simulates scenario `s` to `horizon_s` ([`simulate_point`], [`simulate_point_any`]).
-    pub(crate) fn simulate(&self, s: &BaseScenario, horizon_s: f64) -> Result<(Metrics, usize), String> {
+    pub(crate) fn simulate(
+        &self,
+        s: &BaseScenario,
+        horizon_s: f64,
+    ) -> Result<(Metrics, usize), String> {
         match self {
             PointModel::Paper(m) => simulate_point(m, s, horizon_s),
             PointModel::Variant(v) => simulate_point_any(v, s, horizon_s),

@@ -191,7 +191,10 @@ pub fn open_loop_critical_speed(
 }
 
 /// The rightmost eigenvalue's real part and |imaginary part| of any plant's A(V).
-fn plant_critical_pair<P: trailer_model::Plant<M>, const M: usize>(plant: &P, v: f64) -> (f64, f64) {
+fn plant_critical_pair<P: trailer_model::Plant<M>, const M: usize>(
+    plant: &P,
+    v: f64,
+) -> (f64, f64) {
     let ev = trailer_model::sorted_spectrum(&plant.plant_linearization(v).a);
     (ev[0].re, ev[0].im.abs())
 }
@@ -212,9 +215,11 @@ pub fn linear_critical_speed_any(
         return linear_critical_speed(model, controller, o, limits);
     }
     if feedback(controller)?.gain_d_s != 0.0 {
-        return Err("the closed-loop critical speed of a vehicle with model variants is not \
+        return Err(
+            "the closed-loop critical speed of a vehicle with model variants is not \
              available in sweeps (open loop only, issue 21)"
-            .into());
+                .into(),
+        );
     }
     let (v, omega) = trailer_model::with_plant!(vehicle, m => {
         match open_loop_scan(|v| plant_critical_pair(m, v).0, o, limits)? {

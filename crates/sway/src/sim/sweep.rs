@@ -504,6 +504,7 @@ fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(), S
 /// The model of one point: the paper's (borrowed when no vehicle field varies), or the plant
 /// of a vehicle with model variants.
 #[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one per point, on the stack of its run
 pub(crate) enum PointModel<'a> {
     /// the paper's model
     Paper(Cow<'a, Model>),

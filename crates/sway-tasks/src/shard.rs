@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 use sway::progress::Progress;
 use sway::ranging::SpeedSpec;
 use sway::sim::sweep::{PointResult, SweepConfig};
-use trailer_model::{Model, VehicleParams};
+use trailer_model::{Model, VehicleParams, VehicleSpec};
 
 use crate::config_file::{TaskConfig, load_toml};
 use crate::io::OutputDir;
@@ -423,8 +423,13 @@ pub struct ShardFile<C, P> {
     pub provenance: Provenance,
     /// the parsed config
     pub config: C,
-    /// the vehicle parameters (Table I form)
+    /// the vehicle parameters (Table I form; for a vehicle with model variants the
+    /// equivalent single-axle vehicle)
     pub vehicle: VehicleParams,
+    /// the vehicle file as written when it has model variants (issue 21: relaxation, axle
+    /// lists, tyre laws, hitch torque), absent for a vehicle of the paper's form
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle_spec: Option<VehicleSpec>,
     /// further vehicles of the study (a fleet), in order
     pub fleet: Vec<VehicleParams>,
     /// one result per point of `provenance.point_range`, in order
@@ -455,7 +460,8 @@ fn fnv1a64(bytes: &[u8]) -> u64 {
 }
 
 /// The config hash of a study: `fnv1a64:` and 16 hex digits of FNV-1a over the canonical
-/// JSON of `{kind, config, vehicle, fleet}`.
+/// JSON of `{kind, config, vehicle, fleet}` (with `vehicle_spec` after `vehicle` for a
+/// vehicle with model variants: [`config_hash_of`]).
 ///
 /// # Errors
 /// [`ShardError::Task`] if the config does not serialise (never for the shipped types).
@@ -464,21 +470,43 @@ pub fn config_hash<T: PointwiseTask>(
     vehicle: &VehicleParams,
     fleet: &[VehicleParams],
 ) -> Result<String, ShardError> {
+    config_hash_of::<T>(config, vehicle, None, fleet)
+}
+
+/// [`config_hash`] with the vehicle file of a vehicle with model variants (`None` for one of
+/// the paper's form: the hash of [`config_hash`]).
+///
+/// # Errors
+/// As [`config_hash`].
+pub fn config_hash_of<T: PointwiseTask>(
+    config: &T::Config,
+    vehicle: &VehicleParams,
+    vehicle_spec: Option<&VehicleSpec>,
+    fleet: &[VehicleParams],
+) -> Result<String, ShardError> {
     #[derive(Serialize)]
     struct Inputs<'a, C> {
         kind: &'a str,
         config: &'a C,
         vehicle: &'a VehicleParams,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        vehicle_spec: Option<&'a VehicleSpec>,
         fleet: &'a [VehicleParams],
     }
     let json = serde_json::to_vec(&Inputs {
         kind: T::KIND,
         config,
         vehicle,
+        vehicle_spec,
         fleet,
     })
     .map_err(|e| numerical("serialising the config for its hash", e))?;
     Ok(format!("fnv1a64:{:016x}", fnv1a64(&json)))
+}
+
+/// The vehicle file of `ctx` when it has model variants (it enters the hash and the shard).
+fn variant_spec<'c>(ctx: &'c TaskContext<'_>) -> Option<&'c VehicleSpec> {
+    ctx.variant_key.as_ref().map(|_| &ctx.spec)
 }
 
 fn numerical(context: &str, e: impl std::error::Error + Send + Sync + 'static) -> ShardError {
@@ -508,7 +536,7 @@ pub fn provenance<T: PointwiseTask>(
         format: FORMAT.to_string(),
         kind: T::KIND.to_string(),
         name: T::name(config).to_string(),
-        config_hash: config_hash::<T>(config, &ctx.vehicle, fleet)?,
+        config_hash: config_hash_of::<T>(config, &ctx.vehicle, variant_spec(ctx), fleet)?,
         tool_version: TOOL_VERSION.to_string(),
         shard: spec.shard,
         shards: spec.shards,
@@ -575,6 +603,7 @@ fn run_shard_inner<T: PointwiseTask>(
         provenance,
         config,
         vehicle: ctx.vehicle,
+        vehicle_spec: variant_spec(ctx).cloned(),
         fleet,
         results,
     };
@@ -916,6 +945,8 @@ pub struct Merged<T: PointwiseTask> {
     pub config: T::Config,
     /// the vehicle parameters
     pub vehicle: VehicleParams,
+    /// the vehicle file when it has model variants
+    pub vehicle_spec: Option<VehicleSpec>,
     /// further vehicles of the study (a fleet)
     pub fleet: Vec<VehicleParams>,
     /// all results, point 0 first
@@ -951,6 +982,7 @@ fn load<T: PointwiseTask>(files: &[PathBuf]) -> Result<Merged<T>, ShardError> {
                     provenance: s.provenance,
                     config: s.config,
                     vehicle: s.vehicle,
+                    vehicle_spec: s.vehicle_spec,
                     fleet: s.fleet,
                     results: s.results,
                 })
@@ -974,7 +1006,7 @@ fn check_consistent<T: PointwiseTask>(
         file: file.to_path_buf(),
         problem,
     };
-    let hash = config_hash::<T>(&s.config, &s.vehicle, &s.fleet)?;
+    let hash = config_hash_of::<T>(&s.config, &s.vehicle, s.vehicle_spec.as_ref(), &s.fleet)?;
     if hash != p.config_hash {
         return Err(bad(format!(
             "its config and vehicle hash to {hash}, its provenance says {}",
@@ -1046,15 +1078,25 @@ fn merge_as<T: PointwiseTask>(
 ) -> Result<Report, ShardError> {
     let m = collect::<T>(dir)?;
     let out = OutputDir::create(results_root, &m.provenance.name)?;
+    let (spec, plant, variant_key) = match &m.vehicle_spec {
+        Some(spec) => (
+            spec.clone(),
+            trailer_model::AnyVehicleModel::new(spec).map_err(TaskError::from)?,
+            spec.first_variant_key().map_err(TaskError::from)?,
+        ),
+        None => (
+            m.vehicle.into(),
+            trailer_model::AnyVehicleModel::Paper(Model::new(m.vehicle).map_err(TaskError::from)?),
+            None,
+        ),
+    };
     let ctx = TaskContext {
         vehicle_file: m.provenance.vehicle_file.clone(),
         vehicle: m.vehicle,
         model: Model::new(m.vehicle).map_err(TaskError::from)?,
-        spec: m.vehicle.into(),
-        plant: trailer_model::AnyVehicleModel::Paper(
-            Model::new(m.vehicle).map_err(TaskError::from)?,
-        ),
-        variant_key: None,
+        spec,
+        plant,
+        variant_key,
         configs_dir: PathBuf::new(),
         results_dir: results_root.to_path_buf(),
         progress,

@@ -370,3 +370,75 @@ fn scenario_tasks_and_sweep_kinds_run_on_every_generated_vehicle() {
         "the named stable vehicle is stable up to the maximum speed"
     );
 }
+
+/// A small simulation sweep: θ(0) × trailer mass at an absolute speed, with `{ of_v_crit }`
+/// as the base speed so that the variant's own V_crit is resolved.
+const SWEEP_VARIANT: &str = "\
+name = \"variant_sweep\"
+[[axes]]
+parameter = \"theta0_deg\"
+min = 2.0
+max = 8.0
+points = 2
+[[axes]]
+parameter = \"trailer.mass\"
+min = 1400.0
+max = 1500.0
+points = 2
+[base]
+horizon_s = 4.0
+speed = { kind = \"constant\", speed_mps = { of_v_crit = 0.95 } }
+controller = { kind = \"none\" }
+initial = { kind = \"state\", theta0_deg = 2.0 }
+[base.solver]
+rtol = 1e-6
+atol = 1e-8
+";
+
+#[test]
+fn simulation_tasks_run_on_each_model_variant_file() {
+    // each example vehicle of issue 21 (relaxation, Magic Formula, tandem, hitch friction)
+    // through simulate, fig3b, fig4c and a sweep: every run ends with its metrics; the
+    // relative speeds refer to the variant's own V_crit (reference:
+    // trailer_model::Plant::critical_speed of the vehicle's plant, 1e-6 relative: both
+    // scan and bisect the spectral abscissa to 1e-11 m/s)
+    let dir = tempfile::tempdir().expect("tempdir");
+    let vehicles_dir = configs_dir().join("vehicles");
+    for file in [
+        "relaxation.toml",
+        "magic_formula.toml",
+        "tandem.toml",
+        "hitch_friction.toml",
+    ] {
+        let vehicle = vehicles_dir.join(file);
+        let ctx = TaskContext::new(&vehicle, &configs_dir(), &dir.path().join("r"), &NoProgress)
+            .expect("vehicle loads");
+        assert!(ctx.variant_key.is_some(), "{file}");
+        let v_crit = trailer_model::with_plant!(&ctx.plant, m => {
+            trailer_model::Plant::critical_speed(m, &Default::default())
+        })
+        .expect("V_crit")
+        .v_crit_mps;
+        for (task, toml) in [
+            ("simulate", simulate()),
+            ("fig3b", fig3b()),
+            ("fig4c", fig4c()),
+        ] {
+            let s =
+                run(task, &toml, &vehicle, dir.path()).unwrap_or_else(|e| panic!("{file}: {e}"));
+            let speeds = s["resolved_speeds"].as_array().expect("resolved speeds");
+            let first = &speeds[0];
+            let factor = first["spec"]["of_v_crit"].as_f64().expect("of_v_crit");
+            let v = first["speed_mps"].as_f64().expect("speed");
+            assert!(
+                rel(v, factor * v_crit) < 1e-6,
+                "{file} {task}: {v} vs {factor}·{v_crit}"
+            );
+            let text = s.to_string();
+            assert!(text.contains("\"class\""), "{file} {task}: {text}");
+        }
+        let s = run("sweep", SWEEP_VARIANT, &vehicle, dir.path())
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(s["points_failed"].as_u64(), Some(0), "{file}: {s}");
+    }
+}

@@ -399,7 +399,7 @@ fn braking_is_saturated_at_the_friction_limit() {
     );
     let profile = SpeedProfile::Constant { speed_mps: 35.0 };
     let x = on_the_cycle();
-    let plant = sway::sim::Plant::<4>::new(&model, &profile, c, x).unwrap();
+    let plant = sway::sim::SimProblem::<_, 4, 4>::new(&model, &profile, c, x).unwrap();
     let mz = plant.yaw_moment(1.0, &x, &[x]);
     assert_eq!(mz.abs(), limit, "M_z = {mz}, limit {limit}");
     let spec = common::spec(profile, c, 10.0, 1e-8);

@@ -25,7 +25,8 @@ pub const TASK: Task = Task::configured::<Fig3bConfig<SpeedSpec>>(
     "fig3b",
     "paper Fig. 3b: braking out of sway with T = 2, 3, 5, 10 s",
     "fig3b.toml",
-);
+)
+.any_model();
 
 /// `configs/fig3b.toml`. `S`: the type of the speeds, [`SpeedSpec`] as written (a number
 /// or relative to the vehicle, see [`sway::sim::speeds`]), `f64` when run.

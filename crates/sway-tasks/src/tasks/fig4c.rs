@@ -25,7 +25,8 @@ pub const TASK: Task = Task::configured::<Fig4cConfig<SpeedSpec>>(
     "fig4c",
     "paper Fig. 4c: sway suppression by braking, steering, and both",
     "fig4c.toml",
-);
+)
+.any_model();
 
 /// The steering controller of the strategies "steering" and "combined".
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -1,5 +1,6 @@
 //! The one skeleton of the time-series tasks (`fig3a` panels, `fig3b`, `fig4c`,
-//! `simulate`): every run is simulated on the 7-state model, written as one CSV of typed
+//! `simulate`): every run is simulated on the vehicle's plant (`ctx.plant`, any model variant;
+//! the paper's 7-state layout), written as one CSV of typed
 //! rows, drawn, and summarised by its [`Metrics`] plus what distinguishes it. The tasks of
 //! several runs from the sway cycle drawn over each other (`fig3b`, `fig4c`) share all of
 //! their [`Prepared`] through [`SwayRuns`].
@@ -10,10 +11,10 @@ use std::path::Path;
 
 use sway::SwayError;
 use sway::ranging::SpeedReferences;
+use sway::sim::speeds::resolve_speeds_any;
 use sway::sim::speeds::{ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};
 use sway::sim::{
-    Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, SwayStart, resolve_speeds,
-    simulate,
+    Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, SwayStart, simulate_any,
 };
 use trailer_model::State7;
 
@@ -52,8 +53,8 @@ pub fn run_and_write<R>(
 where
     R: Serialize + Default + for<'s> From<&'s Sample<7>>,
 {
-    let r = simulate::<7>(
-        &ctx.model,
+    let r = simulate_any::<7>(
+        &ctx.plant,
         spec,
         x0,
         Recording::Every {
@@ -272,7 +273,7 @@ impl<C: SwayRuns> Prepared for Configured<C> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = C::LABELS.0;
-        let resolution = resolve_speeds(&ctx.model, &ctx.limits, &self.config)?;
+        let resolution = resolve_speeds_any(&ctx.plant, &ctx.limits, &self.config)?;
         let c = match &resolution.outcome {
             Ok(c) => c,
             Err(u) => {
@@ -292,7 +293,7 @@ impl<C: SwayRuns> Prepared for Configured<C> {
         let (mut figure, runs) = C::runs(c);
         let steps = runs.len() as u64 + 1;
         ctx.run_staged(name, C::LABELS.1, steps, &self.config, &self.file, |out| {
-            let x0 = start.initial().state7(&ctx.model, &settings.solver)?;
+            let x0 = start.initial().state7_any(&ctx.plant, &settings.solver)?;
             ctx.progress.advance(1);
             let mut summary = Keyed::default();
             let mut lines = Vec::new();

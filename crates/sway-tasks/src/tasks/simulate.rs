@@ -9,7 +9,8 @@ use std::path::Path;
 
 use serde::Serialize;
 use sway::ranging::SpeedSpec;
-use sway::sim::{ScenarioConfig, SimResult, resolve_speeds};
+use sway::sim::speeds::resolve_speeds_any;
+use sway::sim::{ScenarioConfig, SimResult};
 
 use super::series::{RunEntry, WithSpeeds, line, nothing_to_show, resolved_check, run_and_write};
 use super::{Prepared, Report, Task, TaskContext};
@@ -24,7 +25,8 @@ pub const TASK: Task = Task::configured::<ScenarioConfig<SpeedSpec>>(
     "simulate",
     "simulate a user scenario (TOML): trajectory, metrics, figure",
     "scenario_example.toml",
-);
+)
+.any_model();
 
 /// What a scenario's `summary.json` says about the run beside its metrics.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -121,7 +123,7 @@ impl Prepared for Configured<ScenarioConfig<SpeedSpec>> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = self.config.name.as_str();
-        let resolution = resolve_speeds(&ctx.model, &ctx.limits, &self.config)?;
+        let resolution = resolve_speeds_any(&ctx.plant, &ctx.limits, &self.config)?;
         let cfg = match &resolution.outcome {
             Ok(c) => c,
             Err(u) => {
@@ -139,7 +141,7 @@ impl Prepared for Configured<ScenarioConfig<SpeedSpec>> {
         resolved_check(cfg.validate(&self.file).map_err(Into::into), &resolution.speeds)?;
         let stage = format!("simulate {name}");
         ctx.run_staged(name, &stage, 2, &self.config, &self.file, |out| {
-            let x0 = cfg.initial.state7(&ctx.model, &cfg.settings.solver)?;
+            let x0 = cfg.initial.state7_any(&ctx.plant, &cfg.settings.solver)?;
             ctx.progress.advance(1);
             let spec = cfg.spec();
             let r = run_and_write::<TrajectoryRow>(

@@ -25,7 +25,8 @@ use sway::sim::speeds::Resolution;
 use sway::sim::sweep::{
     AxisParameter, PointKind, PointOutput, PointResult, Sweep, SweepConfig, run_sweep,
 };
-use sway::sim::{Metrics, Outcome, SwayClass, resolve_speeds};
+use sway::sim::speeds::resolve_speeds_any;
+use sway::sim::{Metrics, Outcome, SwayClass};
 
 use super::fig3a_diagram::validate_settings;
 use super::series::{WithSpeeds, nothing_to_show, resolved_check};
@@ -50,7 +51,8 @@ pub const TASK: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "sweep",
     "parallel study (TOML): simulations, V_crit or Hopf/fold speeds over scenario, vehicle and fleet axes and uncertainty samples; default: which perturbations trigger sway",
     "sweep_threshold.toml",
-);
+)
+.any_model();
 
 /// The same sweep runner on `configs/sweep_brake_timing.toml`: when braking from sway
 /// loses control (beyond the paper), so that `cargo xtask all` regenerates it too.
@@ -58,7 +60,8 @@ pub const BRAKE_TIMING: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "brake_timing",
     "sweep of braking start t_b × duration T from sway: where braking loses control (beyond the paper)",
     "sweep_brake_timing.toml",
-);
+)
+.any_model();
 
 /// The uncertainty study `configs/study_uncertainty.toml`: the distribution of V_crit when
 /// h and l are known to ±0.05 m (issue 11).
@@ -66,7 +69,8 @@ pub const UNCERTAINTY: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "study_uncertainty",
     "distribution of V_crit when h and l are known to ±0.05 m (Latin hypercube)",
     "study_uncertainty.toml",
-);
+)
+.any_model();
 
 /// The fleet study `configs/study_fleet.toml`: V_crit over trailer mass for the vehicle
 /// files of `configs/fleet/`.
@@ -74,7 +78,8 @@ pub const FLEET: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "study_fleet",
     "V_crit over trailer mass for a fleet of vehicle files (configs/fleet/)",
     "study_fleet.toml",
-);
+)
+.any_model();
 
 /// The checks of a sweep config beyond [`SweepConfig::validate`] (its speeds resolved):
 /// the continuation settings, checked as fig3a checks its own.
@@ -129,7 +134,7 @@ pub fn resolve(
     ctx: &TaskContext<'_>,
     cfg: &SweepConfig<SpeedSpec>,
 ) -> Result<Resolution<SweepConfig>, TaskError> {
-    Ok(resolve_speeds(&ctx.model, &ctx.limits, cfg)?)
+    Ok(resolve_speeds_any(&ctx.plant, &ctx.limits, cfg)?)
 }
 
 /// Builds the [`Sweep`] of `cfg` (read from `file`, its speeds resolved): loads the fleet's
@@ -153,7 +158,9 @@ pub fn prepare_sweep(
         fleet.clone()
     };
     cfg.validate_vehicles(file, &vehicles)?;
-    Ok(Sweep::new(&ctx.vehicle, &fleet, cfg)?.with_limits(ctx.limits))
+    Ok(Sweep::new(&ctx.vehicle, &fleet, cfg)?
+        .with_limits(ctx.limits)
+        .with_vehicle_spec(&ctx.spec)?)
 }
 
 /// The kind's result columns (the field names of its output).

@@ -35,7 +35,7 @@ use trailer_model::{HITCH_ANGLE, Model, State4};
 
 use crate::SwayError;
 use crate::sim::{
-    ActuatorLimits, Controller, Metrics, Outcome, Plant, RampShape, Recording, RunSettings,
+    ActuatorLimits, Controller, Metrics, Outcome, RampShape, Recording, RunSettings, SimProblem,
     SimResult, SimSpec, SolverSettings, SpeedProfile, settle, simulate,
 };
 use optimise::{Bound, Minimum, MixedProblem, OptimiserSettings, minimise, worst_case};
@@ -84,7 +84,7 @@ fn open_loop(
     solver: &SolverSettings,
 ) -> Result<(State4, Crossings), SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
-    let plant = Plant::<4>::new(model, &profile, Controller::None, x0)?;
+    let plant = SimProblem::<Model, 4, 4>::new(model, &profile, Controller::None, x0)?;
     let context = || format!("the sway cycle at V = {speed_mps} m/s over {duration_s} s");
     let mut obs = Crossings {
         times: Vec::new(),

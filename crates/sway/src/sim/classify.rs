@@ -20,7 +20,36 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::run::MetricSettings;
+use crate::config::Positive;
+
+/// Settings of the metrics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MetricSettings {
+    /// |θ| below this counts as settled \[deg\]
+    pub settle_threshold_deg: Positive,
+    /// `final_amplitude_deg` is max |θ| over the last this many seconds \[s\]; the
+    /// classification compares this window with the one before it
+    pub final_window_s: Positive,
+    /// θ oscillates when θ − mean crosses zero at least this often in the final window
+    /// (classification, see [`crate::sim::classify`])
+    pub min_crossings: usize,
+    /// an oscillation is `decaying` when its amplitude, from the window before the final one
+    /// to the final one, shrinks faster than by this fraction per window length; otherwise
+    /// it is sustained sway
+    pub decay_tolerance: Positive,
+}
+
+impl Default for MetricSettings {
+    fn default() -> Self {
+        Self {
+            settle_threshold_deg: Positive::literal(1.0),
+            final_window_s: Positive::literal(5.0),
+            min_crossings: 2,
+            decay_tolerance: Positive::literal(1e-3),
+        }
+    }
+}
 
 /// The class of a simulated point.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -4,6 +4,13 @@
 //! sweeps. The integration is done by the general-purpose [`dde`] crate: the open loop is an
 //! ODE, the closed loop a DDE with one constant delay.
 //!
+//! Any plant simulates ([`trailer_model::Plant`] through [`SimPlant`]: the paper's
+//! [`trailer_model::Model`] and every [`trailer_model::VehicleModel`] of a vehicle file with
+//! model variants): [`SimProblem`] is the ODE/DDE problem of a plant with M reduced states,
+//! [`simulate`] runs the paper's model, [`simulate_plant`] any plant in its own layout, and
+//! [`simulate_any`] the model of a vehicle file ([`trailer_model::AnyVehicleModel`]) in the
+//! paper's layout of 4 or 7 states (the paper's model bit for bit as [`simulate`]).
+//!
 //! ```
 //! use sway::sim::{Controller, Outcome, Recording, SimSpec, SpeedProfile, simulate};
 //! use trailer_model::{Model, State4, VehicleParams};
@@ -33,13 +40,18 @@ mod scenario;
 pub mod speeds;
 pub mod sweep;
 
-pub use classify::SwayClass;
+pub use classify::{MetricSettings, SwayClass};
 pub use controller::{ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError};
-pub use plant::{Plant, reduced};
+#[allow(deprecated)]
+pub use plant::Plant;
+pub use plant::{
+    SLIP_TANGENT_FLOOR, SWITCHING_FUNCTIONS, SimPlant, SimProblem, reduced, reduced_state,
+};
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{
-    IntegrationMethod, KinkLandingMode, LossOfControl, MetricSettings, Metrics, Outcome, Recording,
-    RunSettings, Sample, SimResult, SimSpec, SolverSettings, ValidityGuard, settle, simulate,
+    ControllerStates, IntegrationMethod, KinkLandingMode, Layout, LossOfControl, Metrics, Outcome,
+    Recording, RunSettings, Sample, SimResult, SimSpec, SolverSettings, ValidityGuard, lift_state,
+    paper_layout, settle, settle_any, settle_plant, simulate, simulate_any, simulate_plant,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, validate_parts,

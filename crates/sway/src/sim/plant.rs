@@ -1,17 +1,133 @@
 //! The car–trailer model with a speed profile and a steering controller, as an ODE/DDE
-//! problem for the [`dde`] solver: 4 states \[σ1, σ2, σ3, θ\] or all 7 \[σ1, σ2, σ3, θ, ψ, x_H, y_H\],
-//! plus the steering angle δ as a last state (5 or 8 states) when the controller has a
-//! rate-limited actuator (see [`crate::sim::ActuatorLimits`]), or the predictor's integral
-//! z as the last four states (8 or 11 states, see [`Controller::Predictor`]).
+//! problem for the [`dde`] solver ([`SimProblem`]), for any plant
+//! ([`trailer_model::Plant<M>`] with M reduced states, through [`SimPlant`]). The state of
+//! the problem is, in this order: the M reduced states (\[σ1, σ2, σ3, θ\] and the plant's own,
+//! e.g. the lagged slips α′ of relaxing axles), the kinematic states \[ψ, x_H, y_H\] when the
+//! path is wanted, the steering angle δ when the controller has a rate-limited actuator (see
+//! [`crate::sim::ActuatorLimits`]), or the predictor's integral z as the last four states (see
+//! [`Controller::Predictor`]). For the paper's [`Model`] (M = 4) that is 4 or 7 states, 5 or 8
+//! with a rate-limited actuator, 8 or 11 with a predictor.
 
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
-use trailer_model::{Inputs, Model, SlipAngles, State4};
+use trailer_model::{
+    Inputs, MAX_AXLES, Model, Plant as PlantModel, SlipAngles, State4, SwitchingKind, VehicleModel,
+};
 
 use super::controller::LoopLaw;
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
 use crate::control::{Actuator, Structure};
+
+/// What a simulation needs of a plant beyond [`trailer_model::Plant`]: the paper-form model of
+/// the vehicle (for the predictor's model and the braking limit), the plant's initial state
+/// from the paper's four states, and its switching functions as the integrator wants them.
+/// Implemented by the paper's [`Model`] (with the code the simulation had before the trait,
+/// so its numbers do not move) and by every [`VehicleModel`].
+pub trait SimPlant<const M: usize>: PlantModel<M> + Sync {
+    /// The paper's model of the vehicle (for axle lists: of the equivalent single-axle
+    /// vehicle, [`trailer_model::VehicleSpec::equivalent_params`]).
+    fn paper_model(&self) -> &Model;
+
+    /// The reduced state with \[σ1, σ2, σ3, θ\] = `x4` and the plant's own states at their
+    /// values in steady state of the tyres: a lagged slip α′ starts at the instantaneous
+    /// slip α(x4) at speed `speed_mps` and δ = 0.
+    fn initial_state(&self, x4: &State4, speed_mps: f64) -> SVector<f64, M>;
+
+    /// Number of the plant's switching functions ([`Self::sim_switching`]).
+    fn switching_count(&self) -> usize {
+        self.switching_kinds().len()
+    }
+
+    /// The plant's switching functions at (x, u) into `g` (length
+    /// [`SimPlant::switching_count`]): [`trailer_model::Plant::switching_functions`] with a
+    /// slip below [`SLIP_TANGENT_FLOOR`] counted as zero (near straight running the slips
+    /// hover at round-off level, where sign flips are noise and landing on them would never
+    /// end) and a function that cannot change sign (no sliding limit) as −1.
+    fn sim_switching(&self, x: &SVector<f64, M>, u: &Inputs, g: &mut [f64]) {
+        self.switching_functions(x, u, g);
+        for (g, kind) in g.iter_mut().zip(self.switching_kinds()) {
+            if !g.is_finite() {
+                *g = -1.0;
+            } else if matches!(kind, SwitchingKind::SlipSign { .. })
+                && g.abs() <= SLIP_TANGENT_FLOOR
+            {
+                *g = 0.0;
+            }
+        }
+    }
+}
+
+impl SimPlant<4> for Model {
+    fn paper_model(&self) -> &Model {
+        self
+    }
+
+    fn initial_state(&self, x4: &State4, _speed_mps: f64) -> State4 {
+        *x4
+    }
+
+    fn switching_count(&self) -> usize {
+        6
+    }
+
+    /// tan α of the front, rear and trailer axles (0 below the floor), then
+    /// tan²α − tan²α_cr of each (−1 without a sliding limit): the code of the simulation
+    /// before the plant abstraction, bit for bit.
+    #[inline]
+    fn sim_switching(&self, x: &State4, u: &Inputs, g: &mut [f64]) {
+        let tan = self.slip_angle_tangents(x, u);
+        let signed = |t: f64| {
+            if t.abs() <= SLIP_TANGENT_FLOOR {
+                0.0
+            } else {
+                t
+            }
+        };
+        let (cr_f, cr_r) = self.critical_slip_tangents();
+        let cr_t = {
+            let a = self.critical_slip_angles().trailer;
+            if a < std::f64::consts::FRAC_PI_2 {
+                a.tan()
+            } else {
+                f64::INFINITY
+            }
+        };
+        let tans = [tan.front, tan.rear, tan.trailer];
+        let crs = [cr_f, cr_r, cr_t];
+        for k in 0..3 {
+            g[k] = signed(tans[k]);
+            g[3 + k] = if crs[k].is_finite() {
+                tans[k] * tans[k] - crs[k] * crs[k]
+            } else {
+                -1.0
+            };
+        }
+    }
+}
+
+impl<const N: usize> SimPlant<N> for VehicleModel<N> {
+    fn paper_model(&self) -> &Model {
+        self.equivalent_model()
+    }
+
+    fn initial_state(&self, x4: &State4, speed_mps: f64) -> SVector<f64, N> {
+        let mut x = SVector::<f64, N>::from_fn(|i, _| if i < 4 { x4[i] } else { 0.0 });
+        let mut alpha = [0.0; MAX_AXLES];
+        let axles = self.axles();
+        self.slip_angles(
+            &x,
+            &Inputs::constant_speed(speed_mps),
+            &mut alpha[..axles.len()],
+        );
+        for (a, alpha) in axles.iter().zip(alpha) {
+            if let Some(j) = a.state {
+                x[j] = alpha;
+            }
+        }
+        x
+    }
+}
 
 /// What a `yaw_rate_hitch` or `predictor` controller needs at run time.
 #[derive(Debug, Clone)]
@@ -27,59 +143,90 @@ struct LoopCommand {
     e_b: Vector4<f64>,
 }
 
-/// The closed (or open) loop: paper eq. (5)–(7) with V(t), V̇(t) from a [`SpeedProfile`] and
-/// δ(t) from a [`Controller`] (eq. 8). Implements [`OdeProblem`] (δ ≡ 0) and
-/// [`DdeProblem`] (δ = −D·ψ̇(t − τ)) for `N = 4` and `N = 7`, and with a rate-limited
-/// actuator (δ the last state) for `N = 5` and `N = 8`.
+/// The closed (or open) loop: the plant `P` (M reduced states; the paper's eq. 5–7 for
+/// [`Model`]) with V(t), V̇(t) from a [`SpeedProfile`] and δ(t) from a [`Controller`]
+/// (eq. 8), as an `N`-state problem (the layout in the module docs). Implements
+/// [`OdeProblem`] (δ ≡ 0) and [`DdeProblem`] (δ = −D·ψ̇(t − τ)).
 #[derive(Debug, Clone)]
-pub struct Plant<'a, const N: usize> {
-    model: &'a Model,
+pub struct SimProblem<'a, P, const M: usize, const N: usize> {
+    plant: &'a P,
     profile: &'a SpeedProfile,
     controller: Controller,
     /// x\[N − 1\] is the steering angle δ (rate-limited actuator)
     actuator_state: bool,
-    /// the kinematic states ψ, x_H, y_H are x\[4..7\]
+    /// the kinematic states ψ, x_H, y_H are x\[M..M + 3\]
     kinematics: bool,
+    /// number of the plant's switching functions (the controller's two follow)
+    plant_switching: usize,
     delays: Vec<f64>,
     breakpoints: Vec<f64>,
     /// the constant initial function x(t) = x0 for t ≤ 0
     history: SVector<f64, N>,
-    /// tan α_cr of the front, rear and trailer tyres (+∞ without a sliding limit)
-    tan_critical: [f64; 3],
     /// `yaw_rate_hitch` and `predictor`
     loop_command: Option<LoopCommand>,
 }
+
+/// The paper's model as a simulation problem (the name of [`SimProblem`] before it took any
+/// plant).
+#[deprecated(note = "use `SimProblem<'a, Model, 4, N>`")]
+pub type Plant<'a, const N: usize> = SimProblem<'a, Model, 4, N>;
 
 /// |tan α| below which a slip counts as zero for the switching functions (a kink of that size
 /// changes the brush force by φ₂·tan²α ≈ 1e-18 of its scale).
 pub const SLIP_TANGENT_FLOOR: f64 = 1e-9;
 
-/// Number of switching functions of a [`Plant`] (see [`Plant::switching_functions`]).
+/// Number of switching functions of a [`SimProblem`] of the paper's model (see
+/// [`SimProblem::switching_functions`]).
 pub const SWITCHING_FUNCTIONS: usize = 8;
 
-/// The reduced state \[σ1, σ2, σ3, θ\] of a 4- or 7-state vector.
+/// The reduced state \[σ1, σ2, σ3, θ\] of the paper's model: the first four states.
 #[inline]
 pub fn reduced<const N: usize>(x: &SVector<f64, N>) -> State4 {
     State4::new(x[0], x[1], x[2], x[3])
 }
 
-impl<'a, const N: usize> Plant<'a, N> {
-    /// A plant starting from `x0` (also the history for t ≤ 0). With a rate-limited
-    /// controller ([`Controller::has_actuator_state`]) `N` must be 5 or 8 and `x0[N − 1]` is
-    /// δ(0); with a predictor `N` is 8 or 11 and `x0[N − 4..]` is z(0); otherwise `N` is 4
-    /// or 7.
+/// The first M states of an N-state vector (the reduced state of an M-state plant).
+#[inline]
+pub fn reduced_state<const M: usize, const N: usize>(x: &SVector<f64, N>) -> SVector<f64, M> {
+    SVector::<f64, M>::from_fn(|i, _| x[i])
+}
+
+impl<'a, P: SimPlant<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> {
+    /// A problem starting from `x0` (also the history for t ≤ 0). `N` is M (+ 3 for the
+    /// kinematic states) + the controller's states ([`Controller::extra_states`]): with a
+    /// rate-limited controller ([`Controller::has_actuator_state`]) `x0[N − 1]` is δ(0), with a
+    /// predictor `x0[N − 4..]` is z(0).
     ///
     /// # Errors
-    /// [`SwayError::Numerical`] if a predictor's model (the vehicle with its
-    /// [`crate::sim::ModelError`]) is not a valid vehicle or its linearisation is not finite.
+    /// [`SwayError::Numerical`] if `N` fits neither layout, or if a predictor's model (the
+    /// vehicle with its [`crate::sim::ModelError`]) is not a valid vehicle or its
+    /// linearisation is not finite.
     pub fn new(
-        model: &'a Model,
+        plant: &'a P,
         profile: &'a SpeedProfile,
         controller: Controller,
         x0: SVector<f64, N>,
     ) -> Result<Self, SwayError> {
+        let extra = controller.extra_states();
+        let kinematics = match N.checked_sub(extra) {
+            Some(s) if s == M => false,
+            Some(s) if s == M + 3 => true,
+            _ => {
+                return Err(SwayError::numerical(
+                    format!(
+                        "simulation problem with {N} states for a {M}-state plant and \
+                         {extra} controller states"
+                    ),
+                    std::io::Error::other(format!(
+                        "expected {} or {} states",
+                        M + extra,
+                        M + 3 + extra
+                    )),
+                ));
+            }
+        };
         let loop_command = match controller.loop_law() {
-            Some(law) => Some(loop_command(model, profile, law)?),
+            Some(law) => Some(loop_command(plant.paper_model(), profile, law)?),
             None => None,
         };
         let mut breakpoints = profile.breakpoints();
@@ -94,31 +241,22 @@ impl<'a, const N: usize> Plant<'a, N> {
             (d, _) => d.into_iter().collect(),
         };
         Ok(Self {
-            model,
+            plant,
             profile,
             controller,
             actuator_state,
-            kinematics: N - controller.extra_states() == 7,
+            kinematics,
+            plant_switching: plant.switching_count(),
             delays,
             breakpoints,
             history: x0,
-            tan_critical: {
-                let a = model.critical_slip_angles();
-                [a.front, a.rear, a.trailer].map(|a| {
-                    if a < std::f64::consts::FRAC_PI_2 {
-                        a.tan()
-                    } else {
-                        f64::INFINITY
-                    }
-                })
-            },
             loop_command,
         })
     }
 
-    /// The model.
-    pub fn model(&self) -> &Model {
-        self.model
+    /// The plant.
+    pub fn plant(&self) -> &P {
+        self.plant
     }
 
     /// The controller.
@@ -136,9 +274,21 @@ impl<'a, const N: usize> Plant<'a, N> {
         self.actuator_state
     }
 
+    /// Whether the kinematic states ψ, x_H, y_H are x\[M..M + 3\].
+    pub fn has_kinematics(&self) -> bool {
+        self.kinematics
+    }
+
+    /// The plant's reduced state of x.
+    #[inline]
+    fn xr(x: &SVector<f64, N>) -> SVector<f64, M> {
+        reduced_state::<M, N>(x)
+    }
+
     /// The command of a `yaw_rate_hitch` or `predictor` loop at time t before saturation
     /// \[rad or N m\], from x(t − τ) (`delayed`) and, for the predictor, z(t) (`current`):
-    /// −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ), or −(K e^{Âτ} x(t − τ) + K z(t)); 0 while off.
+    /// −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ), or −(K e^{Âτ} x(t − τ) + K z(t)); 0 while off. The
+    /// predictor's model is the paper's model of the vehicle: it reads the first four states.
     #[inline]
     fn loop_raw(
         &self,
@@ -150,21 +300,21 @@ impl<'a, const N: usize> Plant<'a, N> {
         if !c.law.is_on(t) {
             return 0.0;
         }
-        let xd = reduced(delayed);
         match c.law.structure {
             Structure::Predictor => {
+                let xd = reduced(delayed);
                 let z = Vector4::from_fn(|i, _| current[N - 4 + i]);
                 -((c.k_e * xd)[(0, 0)] + (c.k * z)[(0, 0)])
             }
             _ => {
+                let xd = Self::xr(delayed);
                 let g = &c.law.gains;
-                -(g.yaw_rate * self.model.yaw_rate(&xd)
+                -(g.yaw_rate * self.plant.yaw_rate(&xd)
                     + g.hitch_angle * xd[trailer_model::HITCH_ANGLE]
-                    + g.hitch_rate * self.model.hitch_angle_rate(&xd))
+                    + g.hitch_rate * self.plant.hitch_angle_rate(&xd))
             }
         }
     }
-
     /// The command u(t) applied by a loop \[rad or N m\] (saturated for braking) and its
     /// raw value.
     #[inline]
@@ -211,7 +361,7 @@ impl<'a, const N: usize> Plant<'a, N> {
         match x_delayed.first() {
             Some(xd) => self
                 .controller
-                .steering_angle(t, self.model.yaw_rate(&reduced(xd))),
+                .steering_angle(t, self.plant.yaw_rate(&Self::xr(xd))),
             None => 0.0,
         }
     }
@@ -238,57 +388,32 @@ impl<'a, const N: usize> Plant<'a, N> {
         }
     }
 
-    /// Slip angles at (t, x) with the delayed states for δ.
-    pub fn slip_angles(
-        &self,
-        t: f64,
-        x: &SVector<f64, N>,
-        x_delayed: &[SVector<f64, N>],
-    ) -> SlipAngles {
-        self.model
-            .slip_angles(&reduced(x), &self.inputs(t, x, x_delayed))
-    }
-
     /// The places where the right-hand side is continuous but not smooth, as the sign
-    /// changes of eight functions: tan α of each axle (the brush law's tan α·|tan α|, eq. 14),
-    /// tan²α − tan²α_cr of each axle (the onset of full sliding), and with actuator limits
-    /// δ_raw² − δ_max² (saturation) and r² − δ̇_max² (rate limit); for a braking
-    /// `yaw_rate_hitch` or `predictor` loop the last two are u_raw(t)² − M_max² and (the
+    /// changes of the plant's switching functions ([`SimPlant::sim_switching`]; for the
+    /// paper's model tan α of each axle, the brush law's tan α·|tan α| of eq. 14, and
+    /// tan²α − tan²α_cr of each axle, the onset of full sliding) followed by two of the
+    /// controller: with actuator limits δ_raw² − δ_max² (saturation) and r² − δ̇_max² (rate
+    /// limit); for a braking `yaw_rate_hitch` or `predictor` loop u_raw(t)² − M_max² and (the
     /// predictor's ż uses u(t − τ)) u_raw(t − τ)² − M_max². A function that cannot change
-    /// sign (no sliding limit, no actuator limit) is −1.
+    /// sign (no sliding limit, no actuator limit) is −1. `g` has
+    /// [`SimProblem::switching_count`] entries.
     pub fn switching_functions(
         &self,
         t: f64,
         x: &SVector<f64, N>,
         x_delayed: &[SVector<f64, N>],
-    ) -> [f64; SWITCHING_FUNCTIONS] {
+        g: &mut [f64],
+    ) {
         let u = self.inputs(t, x, x_delayed);
-        let tan = self.model.slip_angle_tangents(&reduced(x), &u);
-        // below the floor a slip has no sign: near straight running all three hover at
-        // round-off level, where sign flips are noise and landing on them would never end
-        let signed = |t: f64| {
-            if t.abs() <= SLIP_TANGENT_FLOOR {
-                0.0
-            } else {
-                t
-            }
-        };
-        let tans = [tan.front, tan.rear, tan.trailer];
-        let sliding = |k: usize| {
-            let cr = self.tan_critical[k];
-            if cr.is_finite() {
-                tans[k] * tans[k] - cr * cr
-            } else {
-                -1.0
-            }
-        };
+        let k = self.plant_switching;
+        self.plant.sim_switching(&Self::xr(x), &u, &mut g[..k]);
         let (saturation, rate) = if let Some(c) = &self.loop_command {
             self.loop_switches(c, t, x, x_delayed)
         } else {
             let actuator = self.controller.actuator();
             let delayed_yaw_rate = x_delayed
                 .first()
-                .map_or(0.0, |xd| self.model.yaw_rate(&reduced(xd)));
+                .map_or(0.0, |xd| self.plant.yaw_rate(&Self::xr(xd)));
             let raw = self.controller.raw_steering_angle(t, delayed_yaw_rate);
             let rate = if self.actuator_state {
                 actuator.rate_switch(self.command(t, x_delayed), x[N - 1])
@@ -297,16 +422,33 @@ impl<'a, const N: usize> Plant<'a, N> {
             };
             (actuator.saturation_switch(raw), rate)
         };
-        [
-            signed(tans[0]),
-            signed(tans[1]),
-            signed(tans[2]),
-            sliding(0),
-            sliding(1),
-            sliding(2),
-            saturation,
-            rate,
-        ]
+        g[k] = saturation;
+        g[k + 1] = rate;
+    }
+
+    /// Number of switching functions: the plant's and two of the controller
+    /// ([`SWITCHING_FUNCTIONS`] for the paper's model).
+    pub fn switching_count(&self) -> usize {
+        self.plant_switching + 2
+    }
+
+    /// The validity guard's conditions at (t, x) ([`trailer_model::Plant::guard_values`]), each
+    /// tripped when > 0.
+    #[inline]
+    pub fn guard_values(
+        &self,
+        t: f64,
+        x: &SVector<f64, N>,
+        x_delayed: &[SVector<f64, N>],
+    ) -> [f64; 5] {
+        let u = self.inputs(t, x, x_delayed);
+        self.plant.guard_values(&Self::xr(x), &u)
+    }
+
+    /// The hitch-angle rate θ̇ \[rad/s\] at x.
+    #[inline]
+    pub fn hitch_angle_rate(&self, x: &SVector<f64, N>) -> f64 {
+        self.plant.hitch_angle_rate(&Self::xr(x))
     }
 
     /// The braking limit's switching functions of a loop: u_raw(t)² − M_max² and (predictor)
@@ -335,27 +477,44 @@ impl<'a, const N: usize> Plant<'a, N> {
 
     #[inline]
     fn eval(&self, u: &Inputs, yaw_moment: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
-        let x4 = reduced(x);
+        let xr = Self::xr(x);
         let r = if yaw_moment == 0.0 {
-            self.model.rhs4(&x4, u)
+            self.plant.rhs(&xr, u)
         } else {
-            self.model.rhs4_with_yaw_moment(&x4, u, yaw_moment)
+            self.plant.rhs_with_yaw_moment(&xr, u, yaw_moment)
         };
-        dx[0] = r[0];
-        dx[1] = r[1];
-        dx[2] = r[2];
-        dx[3] = r[3];
+        for i in 0..M {
+            dx[i] = r[i];
+        }
         if self.kinematics {
             // ψ̇, ẋ_H = V cos ψ − σ1 sin ψ, ẏ_H = V sin ψ + σ1 cos ψ (eq. 5)
-            let (sp, cp) = x[4].sin_cos();
-            dx[4] = self.model.yaw_rate(&x4);
-            dx[5] = u.speed * cp - x[0] * sp;
-            dx[6] = u.speed * sp + x[0] * cp;
+            let (sp, cp) = x[M].sin_cos();
+            dx[M] = self.plant.yaw_rate(&xr);
+            dx[M + 1] = u.speed * cp - x[0] * sp;
+            dx[M + 2] = u.speed * sp + x[0] * cp;
         }
     }
 }
 
-impl<const N: usize> OdeProblem<N> for Plant<'_, N> {
+impl<const N: usize> SimProblem<'_, Model, 4, N> {
+    /// The model.
+    pub fn model(&self) -> &Model {
+        self.plant
+    }
+
+    /// Slip angles at (t, x) with the delayed states for δ.
+    pub fn slip_angles(
+        &self,
+        t: f64,
+        x: &SVector<f64, N>,
+        x_delayed: &[SVector<f64, N>],
+    ) -> SlipAngles {
+        self.plant
+            .slip_angles(&reduced(x), &self.inputs(t, x, x_delayed))
+    }
+}
+
+impl<P: SimPlant<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem<'_, P, M, N> {
     #[inline]
     fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
         let u = self.inputs(t, x, &[]);
@@ -378,14 +537,14 @@ impl<const N: usize> OdeProblem<N> for Plant<'_, N> {
         &self.breakpoints
     }
     fn switching_count(&self) -> usize {
-        SWITCHING_FUNCTIONS
+        SimProblem::switching_count(self)
     }
     fn switching(&self, t: f64, x: &SVector<f64, N>, g: &mut [f64]) {
-        g.copy_from_slice(&self.switching_functions(t, x, &[]));
+        self.switching_functions(t, x, &[], g);
     }
 }
 
-impl<const N: usize> DdeProblem<N> for Plant<'_, N> {
+impl<P: SimPlant<M>, const M: usize, const N: usize> DdeProblem<N> for SimProblem<'_, P, M, N> {
     fn delays(&self) -> &[f64] {
         &self.delays
     }
@@ -427,10 +586,10 @@ impl<const N: usize> DdeProblem<N> for Plant<'_, N> {
         &self.breakpoints
     }
     fn switching_count(&self) -> usize {
-        SWITCHING_FUNCTIONS
+        SimProblem::switching_count(self)
     }
     fn switching(&self, t: f64, x: &SVector<f64, N>, x_delayed: &[SVector<f64, N>], g: &mut [f64]) {
-        g.copy_from_slice(&self.switching_functions(t, x, x_delayed));
+        self.switching_functions(t, x, x_delayed, g);
     }
 }
 

@@ -7,13 +7,12 @@ use dde::{
 };
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
-use trailer_model::{HITCH_ANGLE, Model, State4};
+use trailer_model::{AnyVehicleModel, HITCH_ANGLE, Model, State4};
 
-use super::classify::{SwayClass, Window, Windows, classify};
-use super::plant::{Plant, reduced};
+use super::classify::{MetricSettings, SwayClass, Window, Windows, classify};
+use super::plant::{SimPlant, SimProblem, reduced_state};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
-use crate::config::Positive;
 
 /// The Runge–Kutta pair of the simulations (`method = "auto"`, `"dop853"` or `"dopri5"` in
 /// a `[solver]` table).
@@ -47,7 +46,7 @@ impl IntegrationMethod {
 
 /// How steps land on the kinks of the right-hand side (`kink_landing = "auto"`, `"once"`
 /// or `"exact"` in a `[solver]` table; the kinks are
-/// [`crate::sim::Plant::switching_functions`], the rules [`dde::KinkLanding`]).
+/// [`crate::sim::SimProblem::switching_functions`], the rules [`dde::KinkLanding`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum KinkLandingMode {
@@ -215,35 +214,6 @@ impl Outcome {
     }
 }
 
-/// Settings of the metrics.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MetricSettings {
-    /// |θ| below this counts as settled \[deg\]
-    pub settle_threshold_deg: Positive,
-    /// `final_amplitude_deg` is max |θ| over the last this many seconds \[s\]; the
-    /// classification compares this window with the one before it
-    pub final_window_s: Positive,
-    /// θ oscillates when θ − mean crosses zero at least this often in the final window
-    /// (classification, see [`crate::sim::classify`])
-    pub min_crossings: usize,
-    /// an oscillation is `decaying` when its amplitude, from the window before the final one
-    /// to the final one, shrinks faster than by this fraction per window length; otherwise
-    /// it is sustained sway
-    pub decay_tolerance: Positive,
-}
-
-impl Default for MetricSettings {
-    fn default() -> Self {
-        Self {
-            settle_threshold_deg: Positive::literal(1.0),
-            final_window_s: Positive::literal(5.0),
-            min_crossings: 2,
-            decay_tolerance: Positive::literal(1e-3),
-        }
-    }
-}
-
 /// The headline numbers of one run (field names as in the summaries and sweep CSVs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
@@ -342,8 +312,8 @@ pub struct SimResult<const N: usize> {
 /// fast mode ≈ 15; more only reallocate once).
 const TURNING_POINTS_RESERVED: usize = 64;
 
-struct MetricObserver<'p, 'm, const N: usize> {
-    plant: &'p Plant<'m, N>,
+struct MetricObserver<'p, 'm, P, const M: usize, const N: usize> {
+    plant: &'p SimProblem<'m, P, M, N>,
     action_s: f64,
     final_from: f64,
     /// start of the window before the final one
@@ -359,7 +329,7 @@ struct MetricObserver<'p, 'm, const N: usize> {
     delayed_at_end: Option<SVector<f64, N>>,
 }
 
-impl<const N: usize> MetricObserver<'_, '_, N> {
+impl<P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'_, '_, P, M, N> {
     #[inline]
     fn update(&mut self, t: f64, abs_theta: f64) {
         if t >= self.action_s {
@@ -397,7 +367,9 @@ impl<const N: usize> MetricObserver<'_, '_, N> {
     }
 }
 
-impl<const N: usize> Observer<N> for MetricObserver<'_, '_, N> {
+impl<P: SimPlant<M>, const M: usize, const N: usize> Observer<N>
+    for MetricObserver<'_, '_, P, M, N>
+{
     fn on_step(&mut self, step: &StepView<'_, N>) -> Flow {
         let (t0, t1) = (step.t_start(), step.t_end());
         if let Some(tau) = self.plant.controller().delay() {
@@ -458,12 +430,13 @@ impl<const N: usize> Observer<N> for MetricObserver<'_, '_, N> {
     }
 }
 
-/// Runs one scenario from the state `x0` at t = 0 (4 states, or 7 to get the path).
-/// Open loop uses the ODE solver; with a controller the DDE solver (history: x ≡ x0 for t ≤ 0).
-/// With a rate-limited actuator the steering angle is an extra state, starting at δ(0) = 0
-/// (see [`crate::sim::ActuatorLimits`]), with a predictor its integral z, starting at
-/// z(0) = 0 ([`Controller::Predictor`]); the result has `N` states all the same, and the
-/// recorded `steering_angle` is the applied steering angle (0 under differential braking).
+/// Runs one scenario of the paper's model from the state `x0` at t = 0 (4 states, or 7 to
+/// get the path). Open loop uses the ODE solver; with a controller the DDE solver (history:
+/// x ≡ x0 for t ≤ 0). With a rate-limited actuator the steering angle is an extra state,
+/// starting at δ(0) = 0 (see [`crate::sim::ActuatorLimits`]), with a predictor its integral z,
+/// starting at z(0) = 0 ([`Controller::Predictor`]); the result has `N` states all the same,
+/// and the recorded `steering_angle` is the applied steering angle (0 under differential
+/// braking). [`simulate_plant`] for any plant, [`simulate_any`] for a vehicle file's model.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails (step-size underflow, non-finite state,
@@ -473,156 +446,261 @@ pub fn simulate<const N: usize>(
     spec: &SimSpec,
     x0: SVector<f64, N>,
     recording: Recording,
-) -> Result<SimResult<N>, SwayError> {
-    match (spec.controller.extra_states(), N) {
-        (0, _) => simulate_plant::<N>(model, spec, x0, recording),
-        (1, 4) => with_actuator_state::<N, 5>(model, spec, x0, recording),
-        (1, 7) => with_actuator_state::<N, 8>(model, spec, x0, recording),
-        (4, 4) => with_actuator_state::<N, 8>(model, spec, x0, recording),
-        (4, 7) => with_actuator_state::<N, 11>(model, spec, x0, recording),
-        (extra, _) => Err(SwayError::numerical(
-            format!("simulation with {extra} controller states and {N} vehicle states"),
-            std::io::Error::other("expected 4 or 7 states"),
-        )),
-    }
+) -> Result<SimResult<N>, SwayError>
+where
+    Layout<N>: ControllerStates<N>,
+{
+    simulate_plant::<Model, 4, N>(model, spec, x0, recording)
 }
 
-/// Runs the `M`-state plant (the controller's states last: δ(0) = 0 or z(0) = 0) and drops
+/// [`simulate`] for any plant with M reduced states: `x0` has the M reduced states, or
+/// M + 3 with the kinematic states \[ψ, x_H, y_H\] last; the controller's states are added
+/// (and dropped from the result) here.
+///
+/// # Errors
+/// As [`simulate`]; [`SwayError::Numerical`] when `N` is neither M nor M + 3.
+pub fn simulate_plant<P: SimPlant<M>, const M: usize, const N: usize>(
+    plant: &P,
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    recording: Recording,
+) -> Result<SimResult<N>, SwayError>
+where
+    Layout<N>: ControllerStates<N>,
+{
+    <Layout<N> as ControllerStates<N>>::run(plant, spec, x0, recording)
+}
+
+/// The state counts of a simulation problem: `Layout<N>` (N plant states, with the kinematic
+/// ones if any) knows the counts with the controller's states added (1 for a rate-limited
+/// actuator, 4 for a predictor), as literals for the fixed-size solver.
+#[derive(Debug, Clone, Copy)]
+pub struct Layout<const N: usize>;
+
+/// Runs an N-state plant problem with the controller's states appended (see [`Layout`]).
+pub trait ControllerStates<const N: usize> {
+    /// [`simulate_plant`] with the controller's states.
+    ///
+    /// # Errors
+    /// As [`simulate_plant`].
+    fn run<P: SimPlant<M>, const M: usize>(
+        plant: &P,
+        spec: &SimSpec,
+        x0: SVector<f64, N>,
+        recording: Recording,
+    ) -> Result<SimResult<N>, SwayError>;
+}
+
+macro_rules! layouts {
+    ($($n:literal => $actuator:literal, $predictor:literal;)*) => {$(
+        impl ControllerStates<$n> for Layout<$n> {
+            fn run<P: SimPlant<M>, const M: usize>(
+                plant: &P,
+                spec: &SimSpec,
+                x0: SVector<f64, $n>,
+                recording: Recording,
+            ) -> Result<SimResult<$n>, SwayError> {
+                match spec.controller.extra_states() {
+                    0 => run_problem::<P, M, $n>(plant, spec, x0, recording),
+                    1 => with_controller_states::<P, M, $n, $actuator>(plant, spec, x0, recording),
+                    4 => with_controller_states::<P, M, $n, $predictor>(plant, spec, x0, recording),
+                    extra => Err(SwayError::numerical(
+                        format!("simulation with {extra} controller states"),
+                        std::io::Error::other("expected 0, 1 or 4"),
+                    )),
+                }
+            }
+        }
+    )*};
+}
+
+// N = M or M + 3 for M = 4 … 10 (trailer_model::MAX_STATES)
+layouts! {
+    4 => 5, 8;
+    5 => 6, 9;
+    6 => 7, 10;
+    7 => 8, 11;
+    8 => 9, 12;
+    9 => 10, 13;
+    10 => 11, 14;
+    11 => 12, 15;
+    12 => 13, 16;
+    13 => 14, 17;
+}
+
+/// Runs the `S`-state problem (the controller's states last: δ(0) = 0 or z(0) = 0) and drops
 /// them from the states.
-fn with_actuator_state<const N: usize, const M: usize>(
-    model: &Model,
+fn with_controller_states<P: SimPlant<M>, const M: usize, const N: usize, const S: usize>(
+    plant: &P,
     spec: &SimSpec,
     x0: SVector<f64, N>,
     recording: Recording,
 ) -> Result<SimResult<N>, SwayError> {
-    let x0m = SVector::<f64, M>::from_fn(|i, _| if i < N { x0[i] } else { 0.0 });
-    let r = simulate_plant::<M>(model, spec, x0m, recording)?;
-    let drop = |x: &SVector<f64, M>| SVector::<f64, N>::from_fn(|i, _| x[i]);
-    Ok(SimResult {
-        metrics: r.metrics,
-        trajectory: r
-            .trajectory
-            .iter()
-            .map(|s| Sample {
-                t: s.t,
-                x: drop(&s.x),
-                speed: s.speed,
-                steering_angle: s.steering_angle,
-            })
-            .collect(),
-        t_end: r.t_end,
-        x_end: drop(&r.x_end),
-        stats: r.stats,
+    let x0s = SVector::<f64, S>::from_fn(|i, _| if i < N { x0[i] } else { 0.0 });
+    let r = run_problem::<P, M, S>(plant, spec, x0s, recording)?;
+    Ok(r.map_states(|x| SVector::<f64, N>::from_fn(|i, _| x[i])))
+}
+
+impl<const N: usize> SimResult<N> {
+    /// The result with every state vector mapped by `f` (the trajectory's samples and the end
+    /// state).
+    pub fn map_states<const K: usize>(
+        self,
+        f: impl Fn(&SVector<f64, N>) -> SVector<f64, K>,
+    ) -> SimResult<K> {
+        SimResult {
+            metrics: self.metrics,
+            trajectory: self
+                .trajectory
+                .iter()
+                .map(|s| Sample {
+                    t: s.t,
+                    x: f(&s.x),
+                    speed: s.speed,
+                    steering_angle: s.steering_angle,
+                })
+                .collect(),
+            t_end: self.t_end,
+            x_end: f(&self.x_end),
+            stats: self.stats,
+        }
+    }
+}
+
+/// [`simulate`] for the model of a vehicle file: the paper's [`Model`] as [`simulate`] (bit
+/// for bit), a [`trailer_model::VehicleModel`] through [`simulate_plant`]. `x0` and the result
+/// are in the paper's layout (`N` = 4: \[σ1, σ2, σ3, θ\]; 7: with \[ψ, x_H, y_H\]); the plant's
+/// own states start in steady state of the tyres ([`SimPlant::initial_state`] at V(0)) and
+/// are dropped from the result.
+///
+/// # Errors
+/// As [`simulate`]; [`SwayError::Numerical`] when `N` is neither 4 nor 7.
+pub fn simulate_any<const N: usize>(
+    vehicle: &AnyVehicleModel,
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    recording: Recording,
+) -> Result<SimResult<N>, SwayError>
+where
+    Layout<N>: ControllerStates<N>,
+{
+    macro_rules! lifted {
+        ($m:expr, $states:literal) => {
+            if N == 7 {
+                lifted::<_, $states, N, { $states + 3 }>($m, spec, x0, recording)
+            } else {
+                lifted::<_, $states, N, $states>($m, spec, x0, recording)
+            }
+        };
+    }
+    match vehicle {
+        AnyVehicleModel::Paper(m) => simulate(m, spec, x0, recording),
+        AnyVehicleModel::N4(m) => lifted!(m, 4),
+        AnyVehicleModel::N5(m) => lifted!(m, 5),
+        AnyVehicleModel::N6(m) => lifted!(m, 6),
+        AnyVehicleModel::N7(m) => lifted!(m, 7),
+        AnyVehicleModel::N8(m) => lifted!(m, 8),
+        AnyVehicleModel::N9(m) => lifted!(m, 9),
+        AnyVehicleModel::N10(m) => lifted!(m, 10),
+    }
+}
+
+/// The paper-layout state `x` (4 or 7 states) in the layout of an M-state plant (M or M + 3
+/// states): the plant's own states from [`SimPlant::initial_state`] at `speed_mps`.
+pub fn lift_state<P: SimPlant<M>, const M: usize, const N: usize, const S: usize>(
+    plant: &P,
+    x: &SVector<f64, N>,
+    speed_mps: f64,
+) -> SVector<f64, S> {
+    let xr = plant.initial_state(&State4::new(x[0], x[1], x[2], x[3]), speed_mps);
+    SVector::<f64, S>::from_fn(|i, _| match i {
+        i if i < M => xr[i],
+        i if N == 7 => x[4 + i - M],
+        _ => 0.0,
     })
 }
 
-fn simulate_plant<const N: usize>(
-    model: &Model,
+/// The paper-layout state (4 or 7 states) of an M- or (M + 3)-state vector.
+pub fn paper_layout<const M: usize, const S: usize, const N: usize>(
+    x: &SVector<f64, S>,
+) -> SVector<f64, N> {
+    SVector::<f64, N>::from_fn(|i, _| if i < 4 { x[i] } else { x[M + i - 4] })
+}
+
+fn lifted<P: SimPlant<M>, const M: usize, const N: usize, const S: usize>(
+    plant: &P,
     spec: &SimSpec,
     x0: SVector<f64, N>,
     recording: Recording,
-) -> Result<SimResult<N>, SwayError> {
-    let plant = Plant::<N>::new(model, &spec.profile, spec.controller, x0)?;
-    let (tan_cr_front, tan_cr_rear) = model.critical_slip_tangents();
-    let th_s = spec
-        .settings
-        .metrics
-        .settle_threshold_deg
-        .get()
-        .to_radians();
-    let f = model.params().tractor.front_axle;
-    let pl = &plant;
-    let mut events: Vec<Event<'_, N>> = vec![
-        // 0: extrema of θ (θ̇ = 0, eq. 5)
-        Event::new(
-            move |_t, x| model.hitch_angle_rate(&reduced(x)),
-            Direction::Either,
-            EventAction::Continue,
-        ),
-        // 1: |θ| crossing the settle threshold
-        Event::new(
-            move |_t, x| x[HITCH_ANGLE] * x[HITCH_ANGLE] - th_s * th_s,
-            Direction::Either,
-            EventAction::Continue,
-        ),
-    ];
-    // the five validity conditions, each "tripped when > 0"; one event on their maximum
-    // (continuous, and zero exactly when the first of them reaches zero) costs one slip
-    // evaluation per call instead of five events. The sliding conditions |α| > α_cr are
-    // checked as |tan α| > tan α_cr (the same zero set, without inverse trigonometry), and
-    // at δ = 0 the front wheel's speed is V without calls: the check runs once per step.
-    let guard_values = move |t: f64, x: &SVector<f64, N>, xd: &[SVector<f64, N>]| -> [f64; 5] {
-        let u = pl.inputs(t, x, xd);
-        let x4 = reduced(x);
-        let (tan_front, tan_rear) = model.axle_slip_tangents(&x4, &u);
-        let front_wheel_speed = if u.steering_angle == 0.0 {
-            u.speed
-        } else {
-            let lateral_front = x4[0] + model.yaw_rate(&x4) * f;
-            let (sd, cd) = u.steering_angle.sin_cos();
-            u.speed * cd + lateral_front * sd
-        };
-        [
-            tan_front - tan_cr_front,
-            tan_rear - tan_cr_rear,
-            // longitudinal speed of the front wheel: V cos δ + (σ1 + f ψ̇) sin δ
-            -front_wheel_speed,
-            -u.speed,
-            -model.trailer_wheel_speed(&x4, u.speed),
-        ]
-    };
-    let which = |v: [f64; 5]| {
-        let k = (0..5).fold(0, |b, k| if v[k] > v[b] { k } else { b });
-        LossOfControl::ALL[k]
-    };
-    let x0_delayed: Vec<SVector<f64, N>> =
-        spec.controller.delay().map(|_| x0).into_iter().collect();
-    if spec.settings.guard == ValidityGuard::Stop {
-        let v0 = guard_values(0.0, &x0, &x0_delayed);
-        if v0.iter().any(|&g| g >= 0.0) {
-            return Ok(lost_at_start(spec, x0, which(v0)));
-        }
-        events.push(Event::with_delays(
-            move |t, x, xd| {
-                guard_values(t, x, xd)
-                    .into_iter()
-                    .fold(f64::NEG_INFINITY, f64::max)
-            },
-            Direction::Rising,
-            EventAction::Stop,
+) -> Result<SimResult<N>, SwayError>
+where
+    Layout<S>: ControllerStates<S>,
+{
+    if !(N == 4 || N == 7) || S != if N == 7 { M + 3 } else { M } {
+        return Err(SwayError::numerical(
+            format!("simulation of a {M}-state plant from {N} states"),
+            std::io::Error::other("expected 4 or 7 states"),
         ));
     }
+    let x0s = lift_state::<P, M, N, S>(plant, &x0, spec.profile.speed(0.0));
+    let r = simulate_plant::<P, M, S>(plant, spec, x0s, recording)?;
+    Ok(r.map_states(paper_layout::<M, S, N>))
+}
 
-    let window_s = spec.settings.metrics.final_window_s.get();
-    let final_from = (spec.horizon_s - window_s).max(0.0);
-    let mut obs = MetricObserver {
-        plant: &plant,
-        action_s: spec.action_s,
-        final_from,
-        previous_from: (spec.horizon_s - 2.0 * window_s).max(0.0),
-        windows: Windows {
-            previous: Window::with_capacity(TURNING_POINTS_RESERVED),
-            last: Window::with_capacity(TURNING_POINTS_RESERVED),
+/// Events of a run: 0 the extrema of θ (θ̇ = 0, eq. 5), 1 |θ| crossing the settle threshold
+/// `theta_settle` \[rad\]; the validity guard is added by [`guard_event`].
+fn metric_events<'e, P: SimPlant<M>, const M: usize, const N: usize>(
+    problem: &'e SimProblem<'_, P, M, N>,
+    theta_settle: f64,
+) -> Vec<Event<'e, N>> {
+    vec![
+        Event::new(
+            move |_t, x| problem.hitch_angle_rate(x),
+            Direction::Either,
+            EventAction::Continue,
+        ),
+        Event::new(
+            move |_t, x| x[HITCH_ANGLE] * x[HITCH_ANGLE] - theta_settle * theta_settle,
+            Direction::Either,
+            EventAction::Continue,
+        ),
+    ]
+}
+
+/// The validity guard as one terminal event: the five conditions of
+/// [`trailer_model::Plant::guard_values`], each "tripped when > 0"; one event on their maximum
+/// (continuous, and zero exactly when the first of them reaches zero) costs one slip
+/// evaluation per call instead of five events.
+fn guard_event<'e, P: SimPlant<M>, const M: usize, const N: usize>(
+    problem: &'e SimProblem<'_, P, M, N>,
+) -> Event<'e, N> {
+    Event::with_delays(
+        move |t, x, xd| {
+            problem
+                .guard_values(t, x, xd)
+                .into_iter()
+                .fold(f64::NEG_INFINITY, f64::max)
         },
-        peak: None,
-        final_amp: 0.0,
-        last_fall: None,
-        rec_step: match recording {
-            Recording::None => None,
-            Recording::Every { step_s } => Some(step_s),
-        },
-        next_k: 1,
-        trajectory: Vec::new(),
-        delayed_at_end: None,
-    };
-    obs.update(0.0, x0[HITCH_ANGLE].abs());
-    if let Some(w) = obs.window(0.0) {
-        w.start(x0[HITCH_ANGLE]);
-    }
-    if obs.rec_step.is_some() {
-        let s = obs.sample(0.0, x0, x0_delayed.first().copied());
-        obs.trajectory.push(s);
-    }
+        Direction::Rising,
+        EventAction::Stop,
+    )
+}
+
+/// Which condition of the guard tripped: the largest value.
+fn tripped(v: [f64; 5]) -> LossOfControl {
+    let k = (0..5).fold(0, |b, k| if v[k] > v[b] { k } else { b });
+    LossOfControl::ALL[k]
+}
+
+/// Integrates the problem to the horizon (ODE in open loop, DDE with a delay): status, end
+/// time, end state and the solver's counters.
+fn integrate<P: SimPlant<M>, const M: usize, const N: usize>(
+    problem: &SimProblem<'_, P, M, N>,
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    events: &[Event<'_, N>],
+    obs: &mut MetricObserver<'_, '_, P, M, N>,
+) -> Result<(Status<N>, f64, SVector<f64, N>, Stats), SwayError> {
     let opts = spec.settings.solver.options(&spec.controller);
     let context = || {
         format!(
@@ -630,34 +708,32 @@ fn simulate_plant<const N: usize>(
             spec.profile, spec.controller, spec.horizon_s
         )
     };
-    let (status, t_end, x_end, stats) = if spec.controller.delay().is_none() {
-        let mut s = OdeSolver::new(&plant, 0.0, x0, opts)
+    if spec.controller.delay().is_none() {
+        let mut s = OdeSolver::new(problem, 0.0, x0, opts)
             .map_err(|e| SwayError::numerical(context(), e))?;
         let st = s
-            .integrate(&plant, spec.horizon_s, &events, &mut obs)
+            .integrate(problem, spec.horizon_s, events, obs)
             .map_err(|e| SwayError::numerical(context(), e))?;
-        (st, s.t(), *s.state(), s.stats())
+        Ok((st, s.t(), *s.state(), s.stats()))
     } else {
         let mut s =
-            DdeSolver::new(&plant, 0.0, opts).map_err(|e| SwayError::numerical(context(), e))?;
+            DdeSolver::new(problem, 0.0, opts).map_err(|e| SwayError::numerical(context(), e))?;
         let st = s
-            .integrate(&plant, spec.horizon_s, &events, &mut obs)
+            .integrate(problem, spec.horizon_s, events, obs)
             .map_err(|e| SwayError::numerical(context(), e))?;
-        (st, s.t(), *s.state(), s.stats())
-    };
-    let delayed_at_end = obs.delayed_at_end;
-    let lost = match status {
-        Status::Event(hit) if hit.index == 2 => {
-            // which condition: the largest guard value at the event (the others are < 0)
-            let xd: Vec<SVector<f64, N>> = match spec.controller.delay() {
-                Some(_) => vec![delayed_at_end.unwrap_or(hit.x)],
-                None => Vec::new(),
-            };
-            Some((hit.t, which(guard_values(hit.t, &hit.x, &xd))))
-        }
-        _ => None,
-    };
-    let metrics = match lost {
+        Ok((st, s.t(), *s.state(), s.stats()))
+    }
+}
+
+/// The metrics at the end of a run that reached the horizon, or lost control at `lost`.
+fn final_metrics<P: SimPlant<M>, const M: usize, const N: usize>(
+    obs: &mut MetricObserver<'_, '_, P, M, N>,
+    spec: &SimSpec,
+    x_end: &SVector<f64, N>,
+    theta_settle: f64,
+    lost: Option<(f64, LossOfControl)>,
+) -> Metrics {
+    match lost {
         Some((t, cond)) => Metrics {
             peak_theta_deg_after_action: obs.peak.map(f64::to_degrees),
             final_amplitude_deg: None,
@@ -669,7 +745,7 @@ fn simulate_plant<const N: usize>(
             decay_rate_per_s: None,
         },
         None => {
-            let settled = x_end[HITCH_ANGLE].abs() < th_s;
+            let settled = x_end[HITCH_ANGLE].abs() < theta_settle;
             obs.windows.last.last = Some(x_end[HITCH_ANGLE]);
             let verdict = classify(&obs.windows, &spec.settings.metrics);
             Metrics {
@@ -686,7 +762,48 @@ fn simulate_plant<const N: usize>(
                 decay_rate_per_s: verdict.decay_rate_per_s,
             }
         }
+    }
+}
+
+/// One run of an N-state problem (controller states included): build the problem, its
+/// events and the metric observer, integrate, and read the metrics.
+fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
+    plant: &P,
+    spec: &SimSpec,
+    x0: SVector<f64, N>,
+    recording: Recording,
+) -> Result<SimResult<N>, SwayError> {
+    let problem = SimProblem::<P, M, N>::new(plant, &spec.profile, spec.controller, x0)?;
+    let th_s = spec
+        .settings
+        .metrics
+        .settle_threshold_deg
+        .get()
+        .to_radians();
+    let mut events = metric_events(&problem, th_s);
+    let x0_delayed: Vec<SVector<f64, N>> =
+        spec.controller.delay().map(|_| x0).into_iter().collect();
+    if spec.settings.guard == ValidityGuard::Stop {
+        let v0 = problem.guard_values(0.0, &x0, &x0_delayed);
+        if v0.iter().any(|&g| g >= 0.0) {
+            return Ok(lost_at_start(spec, x0, tripped(v0)));
+        }
+        events.push(guard_event(&problem));
+    }
+    let mut obs = MetricObserver::start(&problem, spec, recording, x0, &x0_delayed);
+    let (status, t_end, x_end, stats) = integrate(&problem, spec, x0, &events, &mut obs)?;
+    let lost = match status {
+        Status::Event(hit) if hit.index == 2 => {
+            // which condition: the largest guard value at the event (the others are < 0)
+            let xd: Vec<SVector<f64, N>> = match spec.controller.delay() {
+                Some(_) => vec![obs.delayed_at_end.unwrap_or(hit.x)],
+                None => Vec::new(),
+            };
+            Some((hit.t, tripped(problem.guard_values(hit.t, &hit.x, &xd))))
+        }
+        _ => None,
     };
+    let metrics = final_metrics(&mut obs, spec, &x_end, th_s, lost);
     Ok(SimResult {
         metrics,
         trajectory: obs.trajectory,
@@ -694,6 +811,49 @@ fn simulate_plant<const N: usize>(
         x_end,
         stats,
     })
+}
+
+impl<'p, 'm, P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'p, 'm, P, M, N> {
+    /// The observer of a run from `x0` at t = 0 (its first values seen, the first sample
+    /// recorded).
+    fn start(
+        problem: &'p SimProblem<'m, P, M, N>,
+        spec: &SimSpec,
+        recording: Recording,
+        x0: SVector<f64, N>,
+        x0_delayed: &[SVector<f64, N>],
+    ) -> Self {
+        let window_s = spec.settings.metrics.final_window_s.get();
+        let mut obs = MetricObserver {
+            plant: problem,
+            action_s: spec.action_s,
+            final_from: (spec.horizon_s - window_s).max(0.0),
+            previous_from: (spec.horizon_s - 2.0 * window_s).max(0.0),
+            windows: Windows {
+                previous: Window::with_capacity(TURNING_POINTS_RESERVED),
+                last: Window::with_capacity(TURNING_POINTS_RESERVED),
+            },
+            peak: None,
+            final_amp: 0.0,
+            last_fall: None,
+            rec_step: match recording {
+                Recording::None => None,
+                Recording::Every { step_s } => Some(step_s),
+            },
+            next_k: 1,
+            trajectory: Vec::new(),
+            delayed_at_end: None,
+        };
+        obs.update(0.0, x0[HITCH_ANGLE].abs());
+        if let Some(w) = obs.window(0.0) {
+            w.start(x0[HITCH_ANGLE]);
+        }
+        if obs.rec_step.is_some() {
+            let s = obs.sample(0.0, x0, x0_delayed.first().copied());
+            obs.trajectory.push(s);
+        }
+        obs
+    }
 }
 
 fn lost_at_start<const N: usize>(
@@ -733,13 +893,47 @@ pub fn settle(
     settle_s: f64,
     solver: &SolverSettings,
 ) -> Result<State4, SwayError> {
+    settle_plant(model, speed_mps, theta0_rad, settle_s, solver)
+}
+
+/// [`settle`] for any plant: the reduced state where the open loop ends (the plant's own
+/// states start in steady state of the tyres, [`SimPlant::initial_state`]).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the solver fails.
+pub fn settle_plant<P: SimPlant<M>, const M: usize>(
+    plant: &P,
+    speed_mps: f64,
+    theta0_rad: f64,
+    settle_s: f64,
+    solver: &SolverSettings,
+) -> Result<SVector<f64, M>, SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
-    let x0 = State4::new(0.0, 0.0, 0.0, theta0_rad);
-    let plant = Plant::<4>::new(model, &profile, Controller::None, x0)?;
+    let x0 = plant.initial_state(&State4::new(0.0, 0.0, 0.0, theta0_rad), speed_mps);
+    let problem = SimProblem::<P, M, M>::new(plant, &profile, Controller::None, x0)?;
     let context = || format!("settling on the sway cycle at V = {speed_mps} m/s for {settle_s} s");
-    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options(&Controller::None))
+    let mut s = OdeSolver::new(&problem, 0.0, x0, solver.options(&Controller::None))
         .map_err(|e| SwayError::numerical(context(), e))?;
-    s.integrate(&plant, settle_s, &[], &mut NoObserver)
+    s.integrate(&problem, settle_s, &[], &mut NoObserver)
         .map_err(|e| SwayError::numerical(context(), e))?;
     Ok(*s.state())
+}
+
+/// [`settle`] for the model of a vehicle file, in the paper's four states (the plant's own
+/// states, the lagged slips, are dropped: a run started from this state restarts them in
+/// steady state of the tyres, off the cycle by the tyres' lag, which dies out within a few
+/// σ/V).
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the solver fails.
+pub fn settle_any(
+    vehicle: &AnyVehicleModel,
+    speed_mps: f64,
+    theta0_rad: f64,
+    settle_s: f64,
+    solver: &SolverSettings,
+) -> Result<State4, SwayError> {
+    trailer_model::with_plant!(vehicle, m => {
+        settle_plant(m, speed_mps, theta0_rad, settle_s, solver).map(|x| reduced_state(&x))
+    })
 }

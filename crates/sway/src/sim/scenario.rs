@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use trailer_model::{Model, State4, State7};
+use trailer_model::{AnyVehicleModel, Model, State4, State7};
 
-use super::run::{RunSettings, SimSpec, SolverSettings, settle};
+use super::run::{RunSettings, SimSpec, SolverSettings, settle, settle_any};
 use super::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
@@ -103,6 +103,26 @@ impl InitialCondition {
         model: &Model,
         solver: &SolverSettings,
     ) -> Result<(State4, f64), SwayError> {
+        self.resolve_with(|v, th, t| settle(model, v, th, t, solver))
+    }
+
+    /// [`InitialCondition::resolve`] for the model of a vehicle file (the sway cycle of a
+    /// model variant by [`settle_any`]).
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] if settling fails.
+    pub fn resolve_any(
+        &self,
+        vehicle: &AnyVehicleModel,
+        solver: &SolverSettings,
+    ) -> Result<(State4, f64), SwayError> {
+        self.resolve_with(|v, th, t| settle_any(vehicle, v, th, t, solver))
+    }
+
+    fn resolve_with(
+        &self,
+        settle: impl Fn(f64, f64, f64) -> Result<State4, SwayError>,
+    ) -> Result<(State4, f64), SwayError> {
         match *self {
             InitialCondition::State {
                 sigma1_mps,
@@ -123,7 +143,7 @@ impl InitialCondition {
                 speed_mps,
                 settle_s,
                 theta0_rad,
-            } => Ok((settle(model, speed_mps, theta0_rad, settle_s, solver)?, 0.0)),
+            } => Ok((settle(speed_mps, theta0_rad, settle_s)?, 0.0)),
         }
     }
 
@@ -133,6 +153,22 @@ impl InitialCondition {
     /// As [`InitialCondition::resolve`].
     pub fn state7(&self, model: &Model, solver: &SolverSettings) -> Result<State7, SwayError> {
         let (x4, psi0) = self.resolve(model, solver)?;
+        Ok(State7::from_column_slice(&[
+            x4[0], x4[1], x4[2], x4[3], psi0, 0.0, 0.0,
+        ]))
+    }
+
+    /// [`InitialCondition::state7`] for the model of a vehicle file (the paper's layout; see
+    /// [`crate::sim::simulate_any`]).
+    ///
+    /// # Errors
+    /// As [`InitialCondition::resolve_any`].
+    pub fn state7_any(
+        &self,
+        vehicle: &AnyVehicleModel,
+        solver: &SolverSettings,
+    ) -> Result<State7, SwayError> {
+        let (x4, psi0) = self.resolve_any(vehicle, solver)?;
         Ok(State7::from_column_slice(&[
             x4[0], x4[1], x4[2], x4[3], psi0, 0.0, 0.0,
         ]))

@@ -22,7 +22,8 @@ use trailer_model::Model;
 
 use crate::SwayError;
 use crate::ranging::{
-    Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, open_loop_references,
+    OpenLoopStability, Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec,
+    open_loop_references,
 };
 
 /// A speed as a config type holds it: `f64` (resolved, m/s) or [`SpeedSpec`] (as written).
@@ -288,4 +289,67 @@ pub fn check_change<S: SpeedValue>(s: &S, key: &str) -> Result<(), (String, Stri
         ));
     }
     Ok(())
+}
+
+/// The open-loop critical speed of any plant, as [`crate::ranging::open_loop_critical_speed`]
+/// computes it for the paper's model (the same scan and bisection on the spectral abscissa,
+/// [`trailer_model::Plant::critical_speed_search`]).
+///
+/// # Errors
+/// [`SwayError::Model`] when the search fails.
+pub fn plant_critical_speed<P: trailer_model::Plant<M>, const M: usize>(
+    plant: &P,
+    limits: &SpeedLimits,
+) -> Result<OpenLoopStability, SwayError> {
+    Ok(
+        match plant.critical_speed_search(&limits.critical_speed_options())? {
+            Some(c) => OpenLoopStability::Critical {
+                v_crit_mps: c.v_crit_mps,
+                hopf_omega_rad_s: c.hopf_omega_rad_s,
+            },
+            None => OpenLoopStability::StableUpTo {
+                stable_up_to_mps: limits.max_speed_mps,
+            },
+        },
+    )
+}
+
+/// Why a model variant has no fold of cycles to refer to (yet).
+pub const VARIANT_FOLD_REASON: &str = "the fold of cycles (in_bistable speeds) is computed for \
+     the paper's form of a vehicle only; this vehicle file has model variants (issue 21)";
+
+/// [`resolve_speeds`] for the model of a vehicle file: the paper's [`Model`] exactly as
+/// [`resolve_speeds`]; a model variant refers `of_v_crit` speeds to its own V_crit
+/// ([`plant_critical_speed`]) and leaves `in_bistable` speeds unresolved with
+/// [`VARIANT_FOLD_REASON`].
+///
+/// # Errors
+/// When computing a reference fails numerically (an unresolvable speed is not an error).
+pub fn resolve_speeds_any<C: ResolveSpeeds>(
+    vehicle: &trailer_model::AnyVehicleModel,
+    limits: &SpeedLimits,
+    cfg: &C,
+) -> Result<Resolution<C::Resolved>, SwayError> {
+    if let trailer_model::AnyVehicleModel::Paper(model) = vehicle {
+        return resolve_speeds(model, limits, cfg);
+    }
+    let refs = match cfg.needs().reference() {
+        None => SpeedReferences::default(),
+        Some(need) => {
+            let stability =
+                trailer_model::with_plant!(vehicle, m => plant_critical_speed(m, limits))?;
+            match stability.v_crit() {
+                None => SpeedReferences {
+                    reason: stability.summary().reason,
+                    ..Default::default()
+                },
+                Some(v_crit) => SpeedReferences {
+                    v_crit_mps: Some(v_crit),
+                    v_fold_mps: None,
+                    reason: (need == Reference::Fold).then(|| VARIANT_FOLD_REASON.to_string()),
+                },
+            }
+        }
+    };
+    Ok(resolve_against(&refs, cfg))
 }

@@ -17,9 +17,9 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use trailer_model::{Model, State4, VehicleParams};
+use trailer_model::{AnyVehicleModel, Model, State4, VehicleParams, VehicleSpec};
 
-use super::run::{Metrics, RunSettings, SimSpec, simulate};
+use super::run::{Metrics, RunSettings, SimSpec, simulate, simulate_any};
 use super::scenario::{
     InitialCondition, default_action_time, ensure_name, validate_parts, validate_spec_parts,
     with_run_fields,
@@ -38,10 +38,12 @@ pub mod threshold;
 
 pub use analysis::{
     AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed, hopf_fold_speeds, linear_critical_speed,
-    open_loop_critical_speed,
+    linear_critical_speed_any, open_loop_critical_speed,
 };
 pub use axis::{Axis, AxisParameter, SweepParameter, VEHICLE_FILE, VehicleField};
-pub use threshold::{CycleReference, Theta0Threshold, ThresholdSearch};
+pub use threshold::{
+    CycleReference, Theta0Threshold, ThresholdSearch, theta0_threshold, theta0_threshold_any,
+};
 
 fn default_horizon() -> Positive {
     Positive::literal(60.0)
@@ -499,8 +501,33 @@ fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(), S
     Ok(())
 }
 
-/// The model (borrowed when no vehicle field varies) and the scenario of one point.
-type PointSetup<'a> = (Cow<'a, Model>, BaseScenario);
+/// The model of one point: the paper's (borrowed when no vehicle field varies), or the plant
+/// of a vehicle with model variants.
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one per point, on the stack of its run
+pub(crate) enum PointModel<'a> {
+    /// the paper's model
+    Paper(Cow<'a, Model>),
+    /// a vehicle with model variants ([`Sweep::with_vehicle_spec`])
+    Variant(Cow<'a, AnyVehicleModel>),
+}
+
+impl PointModel<'_> {
+    /// Simulates scenario `s` to `horizon_s` ([`simulate_point`], [`simulate_point_any`]).
+    pub(crate) fn simulate(
+        &self,
+        s: &BaseScenario,
+        horizon_s: f64,
+    ) -> Result<(Metrics, usize), String> {
+        match self {
+            PointModel::Paper(m) => simulate_point(m, s, horizon_s),
+            PointModel::Variant(v) => simulate_point_any(v, s, horizon_s),
+        }
+    }
+}
+
+/// The model and the scenario of one point.
+type PointSetup<'a> = (PointModel<'a>, BaseScenario);
 
 /// A sweep ready to run: the config, its vehicles and models, the axis values and the
 /// sampler, built once; [`Sweep::run_point`] then needs nothing else.
@@ -523,6 +550,8 @@ pub struct Sweep {
     references: usize,
     /// the limits of the ranges derived from the vehicle (`--max-speed`)
     pub(crate) limits: SpeedLimits,
+    /// the vehicle file and its plant when it has model variants (no fleet axis)
+    variant: Option<(VehicleSpec, AnyVehicleModel)>,
 }
 
 impl Sweep {
@@ -590,7 +619,32 @@ impl Sweep {
             thresholds,
             references,
             limits: SpeedLimits::default(),
+            variant: None,
         })
+    }
+
+    /// The same sweep on the vehicle file `spec` itself when it has model variants (tyre
+    /// relaxation, axle lists, tyre laws, hitch torque): simulations run on its plant
+    /// ([`simulate_any`]), vehicle fields and samples change it by
+    /// [`VehicleSpec::with_parameter`]. A vehicle of the paper's form (or a sweep with a
+    /// fleet axis) is left on the paper's model, bit for bit.
+    ///
+    /// # Errors
+    /// [`SwayError::Model`] for an invalid vehicle.
+    pub fn with_vehicle_spec(self, spec: &VehicleSpec) -> Result<Self, SwayError> {
+        if !self.cfg.fleet_files().is_empty() || !spec.has_variants()? {
+            return Ok(self);
+        }
+        let plant = AnyVehicleModel::new(spec)?;
+        Ok(Self {
+            variant: Some((spec.clone(), plant)),
+            ..self
+        })
+    }
+
+    /// Whether the sweep runs on a vehicle with model variants.
+    pub fn has_variants(&self) -> bool {
+        self.variant.is_some()
     }
 
     /// The same sweep with other [`SpeedLimits`] (`--max-speed`): the ranges of the
@@ -687,31 +741,52 @@ impl Sweep {
         if let Some(e) = err {
             return (values, Err(e));
         }
+        if let Some((spec, plant)) = &self.variant {
+            let model = variant_point(spec, plant, &self.cfg.axes, &values, &self.sampled_fields);
+            return (values, model.map(|m| (m, scenario)));
+        }
         let model = match params {
             None => Ok(Cow::Borrowed(&self.models[fleet])),
             Some(p) => Model::new(p)
                 .map(Cow::Owned)
                 .map_err(|e| format!("vehicle: {e}")),
         };
-        (values, model.map(|m| (m, scenario)))
+        (values, model.map(|m| (PointModel::Paper(m), scenario)))
     }
 
     fn run_grid_point(&self, k: usize) -> PointResult {
         let (values, setup) = self.setup(k);
-        let result = setup.and_then(|(model, s)| match self.cfg.kind {
-            PointKind::Simulation => simulate_point(&model, &s, s.horizon_s.get())
+        let result = setup.and_then(|(model, s)| match (self.cfg.kind, &model) {
+            (PointKind::Simulation, _) => model
+                .simulate(&s, s.horizon_s.get())
                 .map(|(m, steps)| (PointOutput::Simulation(m), steps)),
-            PointKind::LinearCriticalSpeed => analysis::linear_critical_speed(
-                &model,
-                &s.controller,
-                &self.cfg.analysis,
-                &self.limits,
-            )
-            .map(|r| (PointOutput::LinearCriticalSpeed(r), 0)),
-            PointKind::HopfFoldSpeeds => {
-                analysis::hopf_fold_speeds(&model, &s.controller, &self.cfg.analysis, &self.limits)
+            (PointKind::LinearCriticalSpeed, PointModel::Paper(model)) => {
+                analysis::linear_critical_speed(
+                    model,
+                    &s.controller,
+                    &self.cfg.analysis,
+                    &self.limits,
+                )
+                .map(|r| (PointOutput::LinearCriticalSpeed(r), 0))
+            }
+            (PointKind::LinearCriticalSpeed, PointModel::Variant(v)) => {
+                analysis::linear_critical_speed_any(
+                    v,
+                    &s.controller,
+                    &self.cfg.analysis,
+                    &self.limits,
+                )
+                .map(|r| (PointOutput::LinearCriticalSpeed(r), 0))
+            }
+            (PointKind::HopfFoldSpeeds, PointModel::Paper(model)) => {
+                analysis::hopf_fold_speeds(model, &s.controller, &self.cfg.analysis, &self.limits)
                     .map(|r| (PointOutput::HopfFoldSpeeds(r), 0))
             }
+            (PointKind::HopfFoldSpeeds, PointModel::Variant(_)) => Err(
+                "Hopf and fold-of-cycles speeds of a vehicle with model variants are not \
+                 available in sweeps yet (issue 21)"
+                    .to_string(),
+            ),
         });
         match result {
             Ok((output, steps)) => PointResult {
@@ -731,6 +806,35 @@ impl Sweep {
     pub(crate) fn base_model(&self) -> &Model {
         &self.models[0]
     }
+}
+
+/// The plant of a point of a sweep over a vehicle with model variants: the vehicle fields of
+/// the axes and the sampled fields set by [`VehicleSpec::with_parameter`] (a sampled draw is
+/// applied to the field's value in the equivalent paper-form vehicle); the base plant
+/// borrowed when nothing changes.
+fn variant_point<'a>(
+    spec: &VehicleSpec,
+    plant: &'a AnyVehicleModel,
+    axes: &[Axis],
+    values: &[f64],
+    sampled: &[(VehicleField, About)],
+) -> Result<PointModel<'a>, String> {
+    let vehicle_err = |e: trailer_model::ModelError| format!("vehicle: {e}");
+    let mut changed: Option<VehicleSpec> = None;
+    for (a, &v) in axes.iter().zip(values) {
+        if let AxisParameter::Vehicle(f) = a.parameter {
+            let base = changed.as_ref().unwrap_or(spec);
+            changed = Some(base.with_parameter(f.index(), v).map_err(vehicle_err)?);
+        }
+    }
+    for ((f, _), &v) in sampled.iter().zip(&values[axes.len().min(values.len())..]) {
+        let base = changed.as_ref().unwrap_or(spec);
+        changed = Some(base.with_parameter(f.index(), v).map_err(vehicle_err)?);
+    }
+    Ok(match changed {
+        None => PointModel::Variant(Cow::Borrowed(plant)),
+        Some(s) => PointModel::Variant(Cow::Owned(AnyVehicleModel::new(&s).map_err(vehicle_err)?)),
+    })
 }
 
 /// Simulates scenario `s` on the 4-state model (θ and the guard do not depend on ψ, x_H,
@@ -754,6 +858,34 @@ pub(crate) fn simulate_point(
         settings: s.settings,
     };
     let r = simulate::<4>(model, &spec, State4::from(x0), Recording::None)
+        .map_err(|e| e.to_string())?;
+    Ok((r.metrics, r.stats.accepted))
+}
+
+/// [`simulate_point`] on the model of a vehicle file ([`simulate_any`]; the paper's model
+/// exactly as [`simulate_point`]).
+pub(crate) fn simulate_point_any(
+    vehicle: &AnyVehicleModel,
+    s: &BaseScenario,
+    horizon_s: f64,
+) -> Result<(Metrics, usize), String> {
+    if let AnyVehicleModel::Paper(model) = vehicle {
+        return simulate_point(model, s, horizon_s);
+    }
+    let (x0, _psi0) = s
+        .initial
+        .resolve_any(vehicle, &s.settings.solver)
+        .map_err(|e| e.to_string())?;
+    let spec = SimSpec {
+        action_s: s
+            .action_s
+            .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
+        profile: s.speed.clone(),
+        controller: s.controller,
+        horizon_s,
+        settings: s.settings,
+    };
+    let r = simulate_any::<4>(vehicle, &spec, State4::from(x0), Recording::None)
         .map_err(|e| e.to_string())?;
     Ok((r.metrics, r.stats.accepted))
 }

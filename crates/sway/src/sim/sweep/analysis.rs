@@ -187,9 +187,63 @@ pub fn open_loop_critical_speed(
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<Option<f64>, String> {
+    open_loop_scan(|v| critical_pair(model, v).0, o, limits)
+}
+
+/// The rightmost eigenvalue's real part and |imaginary part| of any plant's A(V).
+fn plant_critical_pair<P: trailer_model::Plant<M>, const M: usize>(
+    plant: &P,
+    v: f64,
+) -> (f64, f64) {
+    let ev = trailer_model::sorted_spectrum(&plant.plant_linearization(v).a);
+    (ev[0].re, ev[0].im.abs())
+}
+
+/// [`linear_critical_speed`] for the model of a vehicle file: the paper's [`Model`] as there;
+/// a model variant in open loop by the same scan and regula falsi on its own spectral
+/// abscissa (the closed loop of a variant is refused with a message).
+///
+/// # Errors
+/// A message naming the failing step.
+pub fn linear_critical_speed_any(
+    vehicle: &trailer_model::AnyVehicleModel,
+    controller: &Controller,
+    o: &AnalysisOptions,
+    limits: &SpeedLimits,
+) -> Result<LinearCriticalSpeed, String> {
+    if let trailer_model::AnyVehicleModel::Paper(model) = vehicle {
+        return linear_critical_speed(model, controller, o, limits);
+    }
+    if feedback(controller)?.gain_d_s != 0.0 {
+        return Err(
+            "the closed-loop critical speed of a vehicle with model variants is not \
+             available in sweeps (open loop only, issue 21)"
+                .into(),
+        );
+    }
+    let (v, omega) = trailer_model::with_plant!(vehicle, m => {
+        match open_loop_scan(|v| plant_critical_pair(m, v).0, o, limits)? {
+            Some(v) => (Some(v), Some(plant_critical_pair(m, v).1)),
+            None => (None, None),
+        }
+    });
+    Ok(LinearCriticalSpeed {
+        v_crit_mps: v,
+        hopf_omega_rad_s: omega,
+        hopf_frequency_hz: omega.map(|w| w / std::f64::consts::TAU),
+    })
+}
+
+/// The scan and regula falsi of [`open_loop_critical_speed`] on the spectral abscissa
+/// `abscissa(V)` \[1/s\].
+fn open_loop_scan(
+    abscissa: impl Fn(f64) -> f64,
+    o: &AnalysisOptions,
+    limits: &SpeedLimits,
+) -> Result<Option<f64>, String> {
     let (v_min, v_max) = o.range(limits);
     let f = |v: f64| {
-        let a = critical_pair(model, v).0;
+        let a = abscissa(v);
         if a.is_finite() {
             Ok(a)
         } else {

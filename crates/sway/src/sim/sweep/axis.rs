@@ -89,6 +89,12 @@ impl VehicleField {
             })
     }
 
+    /// The index of the field in [`PARAMETERS`] (as [`trailer_model::VehicleSpec::with_parameter`]
+    /// takes it).
+    pub fn index(&self) -> usize {
+        self.0
+    }
+
     /// The key path.
     pub fn key(&self) -> &'static str {
         PARAMETERS[self.0].0

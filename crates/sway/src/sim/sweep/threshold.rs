@@ -18,7 +18,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{AxisParameter, PointOutput, PointResult, SweepConfig, SweepParameter, simulate_point};
+use super::{AxisParameter, PointModel, PointOutput, PointResult, SweepConfig, SweepParameter};
 use super::{BaseScenario, PointKind, Sweep};
 use crate::SwayError;
 use crate::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
@@ -26,7 +26,8 @@ use crate::config::{Positive, ensure};
 use crate::ranging::SpeedLimits;
 use crate::sim::classify::SwayClass;
 use crate::sim::{Controller, InitialCondition, SpeedProfile};
-use trailer_model::Model;
+use std::borrow::Cow;
+use trailer_model::{AnyVehicleModel, Model};
 
 fn default_horizon() -> Positive {
     Positive::literal(240.0)
@@ -175,14 +176,14 @@ fn failed(values: Vec<f64>, e: String) -> PointResult {
 
 /// One simulation of the column: class and steps at θ(0) = `theta0` \[deg\].
 fn class_at(
-    model: &Model,
+    model: &PointModel<'_>,
     base: &BaseScenario,
     theta0: f64,
     horizon: f64,
 ) -> Result<(SwayClass, usize), String> {
     let mut s = base.clone();
     super::set_scenario(&mut s, SweepParameter::Theta0Deg, theta0)?;
-    let (m, steps) = simulate_point(model, &s, horizon)?;
+    let (m, steps) = model.simulate(&s, horizon)?;
     Ok((m.class, steps))
 }
 
@@ -211,7 +212,7 @@ pub(super) fn run_threshold_point(sweep: &Sweep, i: usize) -> PointResult {
 /// [`bisect`] at the search's horizon, redone with a doubled horizon while the check fails
 /// (at most `max_doublings` times); the simulations and steps of every attempt are counted.
 fn search_with_doubling(
-    model: &Model,
+    model: &PointModel<'_>,
     base: &BaseScenario,
     column: &[f64],
     search: &ThresholdSearch,
@@ -234,7 +235,7 @@ fn search_with_doubling(
 
 /// The scan of the grid column, the bisection and the horizon check, at horizon `h` \[s\].
 fn bisect(
-    model: &Model,
+    model: &PointModel<'_>,
     base: &BaseScenario,
     column: &[f64],
     search: &ThresholdSearch,
@@ -295,6 +296,14 @@ fn bisect(
 /// The reference point: the bifurcation diagram of the base vehicle (open loop) and its
 /// cycles at every speed of axis 1.
 pub(super) fn run_reference_point(sweep: &Sweep) -> PointResult {
+    if sweep.has_variants() {
+        return failed(
+            Vec::new(),
+            "the cycles of the bifurcation diagram of a vehicle with model variants are not \
+             available in sweeps yet (issue 21)"
+                .into(),
+        );
+    }
     let opts = sweep
         .cfg
         .threshold
@@ -378,5 +387,26 @@ pub fn theta0_threshold(
     search: &ThresholdSearch,
     speed: f64,
 ) -> Result<Theta0Threshold, String> {
-    search_with_doubling(model, base, column, search, speed).map(|(t, _)| t)
+    let model = PointModel::Paper(Cow::Borrowed(model));
+    search_with_doubling(&model, base, column, search, speed).map(|(t, _)| t)
+}
+
+/// [`theta0_threshold`] for the model of a vehicle file, any model variant (the paper's
+/// model exactly as [`theta0_threshold`]): the smallest kick θ(0) that triggers sustained
+/// sway at `speed` \[m/s\].
+///
+/// # Errors
+/// A message when a simulation fails.
+pub fn theta0_threshold_any(
+    vehicle: &AnyVehicleModel,
+    base: &BaseScenario,
+    column: &[f64],
+    search: &ThresholdSearch,
+    speed: f64,
+) -> Result<Theta0Threshold, String> {
+    let model = match vehicle {
+        AnyVehicleModel::Paper(m) => PointModel::Paper(Cow::Borrowed(m)),
+        v => PointModel::Variant(Cow::Borrowed(v)),
+    };
+    search_with_doubling(&model, base, column, search, speed).map(|(t, _)| t)
 }

@@ -353,9 +353,8 @@ fn bordered_lu<S: ContinuationSystem>(
     bordered_jacobian(sys, u, border, entries)?;
     let order = sys.column_order();
     let factorisation = match determinant {
-        _ if sys.banded() => Factorisation::Banded(order.as_deref()),
-        NeedsDeterminant::No => Factorisation::Fast(order.as_deref()),
-        NeedsDeterminant::Yes => Factorisation::WithDeterminant(order.as_deref()),
+        NeedsDeterminant::No if !sys.banded() => Factorisation::Fast(order.as_deref()),
+        _ => Factorisation::WithDeterminant(order.as_deref()),
     };
     let structure = sys.mesh_structure();
     SparseLu::structured(nu, entries, factorisation, structure.as_ref(), what)
@@ -608,11 +607,7 @@ impl Continuation {
         let mut entries = Vec::new();
         bordered_jacobian(sys, u, &border(w, t), &mut entries)?;
         let order = sys.column_order();
-        let f = if sys.banded() {
-            Factorisation::Banded(order.as_deref())
-        } else {
-            Factorisation::WithDeterminant(order.as_deref())
-        };
+        let f = Factorisation::WithDeterminant(order.as_deref());
         SparseLu::new(u.len(), &entries, f, "branch-point test")?
             .determinant()
             .ok_or(Error::SingularSystem {

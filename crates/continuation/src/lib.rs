@@ -95,7 +95,6 @@
 //! # }
 //! ```
 
-mod banded;
 mod codim2;
 mod collocation;
 mod cycle_curve;

@@ -353,8 +353,9 @@ fn bordered_lu<S: ContinuationSystem>(
     bordered_jacobian(sys, u, border, entries)?;
     let order = sys.column_order();
     let factorisation = match determinant {
-        NeedsDeterminant::No if !sys.banded() => Factorisation::Fast(order.as_deref()),
-        _ => Factorisation::WithDeterminant(order.as_deref()),
+        _ if sys.banded() => Factorisation::Banded(order.as_deref()),
+        NeedsDeterminant::No => Factorisation::Fast(order.as_deref()),
+        NeedsDeterminant::Yes => Factorisation::WithDeterminant(order.as_deref()),
     };
     let structure = sys.mesh_structure();
     SparseLu::structured(nu, entries, factorisation, structure.as_ref(), what)
@@ -607,7 +608,11 @@ impl Continuation {
         let mut entries = Vec::new();
         bordered_jacobian(sys, u, &border(w, t), &mut entries)?;
         let order = sys.column_order();
-        let f = Factorisation::WithDeterminant(order.as_deref());
+        let f = if sys.banded() {
+            Factorisation::Banded(order.as_deref())
+        } else {
+            Factorisation::WithDeterminant(order.as_deref())
+        };
         SparseLu::new(u.len(), &entries, f, "branch-point test")?
             .determinant()
             .ok_or(Error::SingularSystem {

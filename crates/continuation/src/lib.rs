@@ -95,6 +95,7 @@
 //! # }
 //! ```
 
+mod banded;
 mod codim2;
 mod collocation;
 mod cycle_curve;

@@ -3,6 +3,7 @@
 //! factorised by sparse LU, the delayed couplings by GMRES with that factorisation as its
 //! preconditioner.
 
+use crate::banded::BandedLu;
 use crate::error::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
@@ -43,6 +44,10 @@ pub(crate) enum Factorisation<'o> {
     /// the cycle and fold-of-cycles systems of the delayed closed loop at τ = 0.4 s (COLAMD
     /// beat the systems' band orders there by ~10 %). No determinant.
     Fast(Option<&'o [usize]>),
+    /// The bordered band solver ([`BandedLu`]) where the matrix is a narrow band up to a
+    /// border and a periodic wrap in the given column order (an ODE's collocation: cost
+    /// linear in the mesh, with the determinant); else as [`Self::WithDeterminant`].
+    Banded(Option<&'o [usize]>),
 }
 
 /// Smallest system factorised with supernodes by [`Factorisation::Fast`].
@@ -76,7 +81,7 @@ pub(crate) struct Determinant {
 }
 
 /// sign (±1) of a permutation given as its forward index array
-fn permutation_sign(fwd: &[usize]) -> f64 {
+pub(crate) fn permutation_sign(fwd: &[usize]) -> f64 {
     let mut seen = vec![false; fwd.len()];
     let mut sign = 1.0;
     for start in 0..fwd.len() {
@@ -137,7 +142,7 @@ impl DirectLu {
         let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, entries)
             .map_err(|_| singular())?;
         let (order, supernodes) = match factorisation {
-            Factorisation::WithDeterminant(order) => (order, false),
+            Factorisation::WithDeterminant(order) | Factorisation::Banded(order) => (order, false),
             Factorisation::Fast(_) if n >= SUPERNODAL_MIN_SIZE => (None, true),
             Factorisation::Fast(order) => (order, false),
         };
@@ -477,7 +482,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 struct KrylovLu {
     n: usize,
     /// LU of P
-    precond: DirectLu,
+    precond: Box<SparseLu>,
     /// E = J − P
     coupling: Csr,
     /// J itself, for the true residual
@@ -537,7 +542,7 @@ impl KrylovLu {
         while k < kmax {
             // w = J P⁻¹ v_k = v_k + E P⁻¹ v_k
             z.copy_from_slice(&basis[k]);
-            self.precond.solve_raw(&mut z);
+            self.precond.solve_unchecked(&mut z);
             let mut w = basis[k].clone();
             self.coupling.mul_add(&z, &mut w);
             let mut col = vec![0.0; k + 2];
@@ -588,7 +593,7 @@ impl KrylovLu {
         for (yi, v) in y.iter().zip(&basis) {
             z.iter_mut().zip(v).for_each(|(a, b)| *a += yi * b);
         }
-        self.precond.solve_raw(&mut z);
+        self.precond.solve_unchecked(&mut z);
         x.iter_mut().zip(&z).for_each(|(a, b)| *a += b);
     }
 
@@ -622,16 +627,28 @@ pub(crate) struct SparseLu {
 enum Kind {
     Direct(Box<DirectLu>),
     Krylov(Box<KrylovLu>),
+    /// a bordered band matrix ([`BandedLu`]: ODE collocation, cost linear in the mesh)
+    Banded(Box<BandedLu>),
 }
 
 impl SparseLu {
-    /// factorise the `n × n` matrix given by triplets (duplicates are summed)
+    /// factorise the `n × n` matrix given by triplets (duplicates are summed): the band
+    /// solver for [`Factorisation::Banded`] where the matrix has that shape, else the sparse
+    /// LU.
     pub(crate) fn new(
         n: usize,
         entries: &[Entry],
         factorisation: Factorisation<'_>,
         what: &str,
     ) -> Result<Self> {
+        if let Factorisation::Banded(order) = factorisation
+            && let Some(lu) = BandedLu::new(n, entries, order)
+        {
+            return Ok(Self {
+                kind: Kind::Banded(Box::new(lu)),
+                n,
+            });
+        }
         Ok(Self {
             kind: Kind::Direct(Box::new(DirectLu::new(n, entries, factorisation, what)?)),
             n,
@@ -652,20 +669,22 @@ impl SparseLu {
             return Self::new(n, entries, factorisation, what);
         };
         let order = match factorisation {
-            Factorisation::WithDeterminant(o) | Factorisation::Fast(o) => o,
+            Factorisation::WithDeterminant(o)
+            | Factorisation::Fast(o)
+            | Factorisation::Banded(o) => o,
         };
         let (p, e) = structure.split(entries);
         if e.is_empty() {
-            let lu = DirectLu::new(n, &p, Factorisation::WithDeterminant(order), what)?;
-            return Ok(Self {
-                kind: Kind::Direct(Box::new(lu)),
-                n,
-            });
+            let exact = match factorisation {
+                Factorisation::Banded(_) => factorisation,
+                _ => Factorisation::WithDeterminant(order),
+            };
+            return Self::new(n, &p, exact, what);
         }
-        if let Factorisation::WithDeterminant(_) = factorisation {
+        if let Factorisation::WithDeterminant(_) | Factorisation::Banded(_) = factorisation {
             return Self::new(n, entries, factorisation, what);
         }
-        let precond = match DirectLu::new(n, &p, Factorisation::WithDeterminant(order), what) {
+        let precond = match Self::new(n, &p, Factorisation::WithDeterminant(order), what) {
             Ok(lu) => lu,
             // P singular: the whole system directly
             Err(_) => return Self::new(n, entries, Factorisation::Fast(None), what),
@@ -673,7 +692,7 @@ impl SparseLu {
         Ok(Self {
             kind: Kind::Krylov(Box::new(KrylovLu {
                 n,
-                precond,
+                precond: Box::new(precond),
                 coupling: Csr::new(n, &e),
                 matrix: Csr::new(n, entries),
                 entries: entries.to_vec(),
@@ -683,20 +702,27 @@ impl SparseLu {
         })
     }
 
+    /// solve in place for one right-hand side without checking the result
+    fn solve_unchecked(&self, rhs: &mut [f64]) {
+        match &self.kind {
+            Kind::Direct(lu) => lu.solve_raw(rhs),
+            Kind::Krylov(k) => k.solve_raw(rhs),
+            Kind::Banded(lu) => lu.solve(rhs),
+        }
+    }
+
     /// det A (None unless direct factors made with [`Factorisation::WithDeterminant`])
     pub(crate) fn determinant(&self) -> Option<Determinant> {
         match &self.kind {
             Kind::Direct(lu) => lu.determinant(),
             Kind::Krylov(_) => None,
+            Kind::Banded(lu) => Some(lu.determinant()),
         }
     }
 
     /// solve in place for one right-hand side; fails on non-finite results (singular matrix)
     pub(crate) fn solve(&self, rhs: &mut [f64], what: &str) -> Result<()> {
-        match &self.kind {
-            Kind::Direct(lu) => lu.solve_raw(rhs),
-            Kind::Krylov(k) => k.solve_raw(rhs),
-        }
+        self.solve_unchecked(rhs);
         if rhs.iter().all(|v| v.is_finite()) {
             Ok(())
         } else {
@@ -711,6 +737,11 @@ impl SparseLu {
     pub(crate) fn solve_mat(&self, b: &mut Mat<f64>, what: &str) -> Result<()> {
         match &self.kind {
             Kind::Direct(lu) => lu.solve_inplace(b.as_mut()),
+            Kind::Banded(lu) => {
+                for j in 0..b.ncols() {
+                    lu.solve(b.col_as_slice_mut(j));
+                }
+            }
             Kind::Krylov(k) => {
                 let mut col = vec![0.0; self.n];
                 for j in 0..b.ncols() {

@@ -342,6 +342,44 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         self.base.periodic_system(u)
     }
 
+    /// The point u carried to a mesh of `intervals` intervals adapted to its cycle
+    /// ([`PeriodicOrbitSystem::adapted_mesh`]: the error density equidistributed, the
+    /// cycle's kinks on mesh points): the system on that mesh (same problem, parameters,
+    /// options and linear solver) and u interpolated there (cycle and null vector, null
+    /// vector renormalised), with the references set. Correct the returned guess with p2
+    /// fixed to get the fold on the adapted mesh; a second round from that fold puts the
+    /// mesh points on its own kinks (they move by the first round's correction, ≲ 1e-4 of
+    /// the period).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] if the adapted mesh is degenerate.
+    pub fn adapted(&self, u: &[f64], intervals: usize) -> Result<(Self, Vec<f64>)> {
+        let np = self.np();
+        let po = &self.base.po;
+        let mut at = self.periodic_system(u)?;
+        let mesh = at.adapted_mesh(self.orbit(u), intervals);
+        let collocation = po.options.clone();
+        let mut base = CycleCurve::new(
+            po.problem,
+            self.parameters(u),
+            (po.ip, self.base.ip2),
+            mesh,
+            collocation,
+        )?;
+        base.po.set_linear_solver(po.linear_solver());
+        let mut sys = Self::on(base, self.options.clone());
+        let target = &sys.base.po;
+        let orbit = po.remesh(self.orbit(u), target);
+        // the null vector (v, v_T) as a profile with a dummy parameter entry
+        let mut null = self.null_vector(u).to_vec();
+        null.push(0.0);
+        let mut null = po.remesh(&null, target);
+        null.pop();
+        let guess = sys.unknowns(&orbit, u[np + 2], &null)?;
+        sys.accept(&guess);
+        Ok((sys, guess))
+    }
+
     /// How the bordered Newton systems are solved (default: that of the cycle system the
     /// curve was started from, [`crate::LinearSolver::Auto`] unless set there).
     pub fn set_linear_solver(&mut self, solver: crate::LinearSolver) {

@@ -35,6 +35,18 @@ const KINK_GENERATIONS: usize = 2;
 /// point (otherwise the kink is inserted as a new mesh point).
 const KINK_MOVE: f64 = 0.5;
 
+/// How the mesh of a periodic orbit is chosen where a caller refines a point (issue 23
+/// item 2; see [`PeriodicOrbitSystem::adapted_mesh`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeshAdaptation {
+    /// the mesh as given (uniform unless the caller passes one)
+    Fixed,
+    /// the error density equidistributed and the cycle's kinks on mesh points
+    #[default]
+    Adapted,
+}
+
 /// Discretisation of periodic orbits.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CollocationOptions {
@@ -673,6 +685,71 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         out
     }
 
+    /// A mesh of `intervals` intervals adapted to the cycle u (issue 23 item 2): the
+    /// collocation error of degree m on an interval of length h is ≈ C·h^(m+1)·|x^(m+1)|,
+    /// so the mesh equidistributes the error density |x^(m+1)(s)|^(1/(m+1)) (estimated
+    /// from the jumps of the piecewise constant m-th derivative between neighbouring
+    /// intervals, each component scaled by its amplitude, as AUTO and DDE-Biftool do), with
+    /// a floor of a fifth of its mean so that no interval grows beyond ~5× the uniform one;
+    /// then the cycle's kink times (switching times and, for a delay equation, their images
+    /// along the delays, see [`PeriodicOrbitSystem::floquet_multipliers`]) are made mesh
+    /// points (the nearest point moved there, or one inserted: the mesh may end with a few
+    /// more intervals than asked for). On such a mesh a piecewise-smooth cycle keeps the
+    /// collocation's order.
+    pub fn adapted_mesh(&mut self, u: &[f64], intervals: usize) -> Vec<f64> {
+        let density = self.error_density(u);
+        let mesh = equidistributed(&self.mesh, &density, intervals.max(1));
+        let kinks = self.kink_times(u, KINK_GENERATIONS);
+        Self::mesh_with_points(&mesh, &kinks)
+    }
+
+    /// The error density |x^(m+1)|^(1/(m+1)) per mesh interval (see
+    /// [`PeriodicOrbitSystem::adapted_mesh`]), largest over the components scaled by their
+    /// amplitude.
+    fn error_density(&self, u: &[f64]) -> Vec<f64> {
+        let (n, m, l) = (self.dim(), self.degree(), self.intervals());
+        let np = self.period_index();
+        let scale: Vec<f64> = (0..n)
+            .map(|k| {
+                let a = u[k..np].iter().step_by(n).fold(0.0f64, |a, x| a.max(x.abs()));
+                if a > 0.0 { a } else { 1.0 }
+            })
+            .collect();
+        // the m-th derivative on interval i: m^m Δ^m x / h^m (equispaced nodes j/m)
+        let mut binomial = vec![1.0; m + 1];
+        for j in 1..=m {
+            binomial[j] = binomial[j - 1] * (m + 1 - j) as f64 / j as f64;
+        }
+        let h: Vec<f64> = self.mesh.windows(2).map(|w| w[1] - w[0]).collect();
+        let derivative: Vec<f64> = (0..l)
+            .flat_map(|i| {
+                let factor = (m as f64 / h[i]).powi(m as i32);
+                let (binomial, scale) = (&binomial, &scale);
+                (0..n).map(move |k| {
+                    let diff: f64 = (0..=m)
+                        .map(|j| {
+                            let sign = if (m - j) % 2 == 0 { 1.0 } else { -1.0 };
+                            sign * binomial[j] * u[self.node(i, j) * n + k]
+                        })
+                        .sum();
+                    factor * diff / scale[k]
+                })
+            })
+            .collect();
+        (0..l)
+            .map(|i| {
+                let (prev, next) = ((i + l - 1) % l, (i + 1) % l);
+                let slope = |a: usize, b: usize, k: usize| {
+                    (derivative[b * n + k] - derivative[a * n + k]).abs() / (0.5 * (h[a] + h[b]))
+                };
+                let d = (0..n)
+                    .map(|k| 0.5 * (slope(prev, i, k) + slope(i, next, k)))
+                    .fold(0.0f64, f64::max);
+                d.powf(1.0 / (m + 1) as f64)
+            })
+            .collect()
+    }
+
     /// The cycle u corrected on a mesh with points at its kinks: the orbit mesh with the
     /// kink times of u resolved ([`PeriodicOrbitSystem::kink_times`],
     /// [`PeriodicOrbitSystem::mesh_with_points`]), the cycle interpolated there and corrected
@@ -1075,4 +1152,35 @@ impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
             _ => None,
         })
     }
+}
+
+/// The mesh of `intervals` intervals on which the piecewise constant `density` (one value
+/// per interval of `mesh`, floored at a fifth of its mean) has equal integrals.
+fn equidistributed(mesh: &[f64], density: &[f64], intervals: usize) -> Vec<f64> {
+    let h: Vec<f64> = mesh.windows(2).map(|w| w[1] - w[0]).collect();
+    let mean: f64 = density.iter().zip(&h).map(|(d, h)| d * h).sum();
+    let floor = 0.2 * mean;
+    let phi: Vec<f64> = density
+        .iter()
+        .map(|&d| if d.is_finite() { d.max(floor) } else { floor })
+        .collect();
+    let total: f64 = phi.iter().zip(&h).map(|(p, h)| p * h).sum();
+    if !(total > 0.0 && total.is_finite()) {
+        return (0..=intervals).map(|i| i as f64 / intervals as f64).collect();
+    }
+    let mut out = Vec::with_capacity(intervals + 1);
+    out.push(0.0);
+    let (mut i, mut below) = (0, 0.0);
+    for k in 1..intervals {
+        let target = total * k as f64 / intervals as f64;
+        while i + 1 < h.len() && below + phi[i] * h[i] < target {
+            below += phi[i] * h[i];
+            i += 1;
+        }
+        let s = mesh[i] + (target - below) / phi[i];
+        out.push(s.clamp(mesh[i], mesh[i + 1]));
+    }
+    out.push(1.0);
+    out.dedup_by(|a, b| *a - *b <= 1e-12);
+    out
 }

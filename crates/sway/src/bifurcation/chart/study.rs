@@ -18,7 +18,7 @@ use crate::charts::auto_range::{
     summary_gains,
 };
 use crate::charts::fig4a_charts;
-use continuation::NewtonUpdate;
+use continuation::{MeshAdaptation, NewtonUpdate};
 
 /// The `[chart]` table of a config: [`ChartOptions`] with the box and the seeds optional
 /// (derived from the vehicle where omitted).
@@ -66,6 +66,8 @@ pub struct ChartConfig {
     pub fold_min_amplitude: f64,
     /// the cycles (their speed range is replaced by the box's)
     pub cycles: DiagramOptions,
+    /// see [`ChartOptions::fold_mesh`]
+    pub fold_mesh: MeshAdaptation,
 }
 
 impl Default for ChartConfig {
@@ -97,6 +99,7 @@ impl ChartConfig {
             criticality_cycle_points: o.criticality_cycle_points,
             fold_min_amplitude: o.fold_min_amplitude,
             cycles: o.cycles.clone(),
+            fold_mesh: o.fold_mesh,
         }
     }
 
@@ -131,6 +134,7 @@ impl ChartConfig {
             criticality_cycle_points: self.criticality_cycle_points,
             fold_min_amplitude: self.fold_min_amplitude,
             cycles: self.cycles.clone(),
+            fold_mesh: self.fold_mesh,
         }
     }
 

@@ -691,15 +691,20 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     /// from the jumps of the piecewise constant m-th derivative between neighbouring
     /// intervals, each component scaled by its amplitude, as AUTO and DDE-Biftool do), with
     /// a floor of a fifth of its mean so that no interval grows beyond ~5× the uniform one;
-    /// then the cycle's kink times (switching times and, for a delay equation, their images
-    /// along the delays, see [`PeriodicOrbitSystem::floquet_multipliers`]) are made mesh
-    /// points (the nearest point moved there, or one inserted: the mesh may end with a few
-    /// more intervals than asked for). On such a mesh a piecewise-smooth cycle keeps the
-    /// collocation's order.
+    /// then the cycle's switching times (the kinks of f) are made mesh points (the nearest
+    /// point moved there, or one inserted: the mesh may end with a few more intervals than
+    /// asked for). On such a mesh a piecewise-smooth cycle keeps the collocation's order.
+    ///
+    /// Measured on the fold of cycles of the trailer (degree 4; L = 40 against L = 160,
+    /// both adapted): open loop 9.6e-13 relative (uniform mesh: 1.5e-6); delayed closed
+    /// loop τ = 0.2 s, D = 0.1 s: 5e-10 (equidistribution without the kinks: 6e-7 off).
+    /// The kinks' images along the delays (mesh points at t + τ/T, as the Floquet
+    /// computation uses) are not added: with them the delayed loop's fold moved by 5e-4
+    /// and did not converge with L — unexplained, see the notes.
     pub fn adapted_mesh(&mut self, u: &[f64], intervals: usize) -> Vec<f64> {
         let density = self.error_density(u);
         let mesh = equidistributed(&self.mesh, &density, intervals.max(1));
-        let kinks = self.kink_times(u, KINK_GENERATIONS);
+        let kinks = self.switching_times(u);
         Self::mesh_with_points(&mesh, &kinks)
     }
 
@@ -711,7 +716,10 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         let np = self.period_index();
         let scale: Vec<f64> = (0..n)
             .map(|k| {
-                let a = u[k..np].iter().step_by(n).fold(0.0f64, |a, x| a.max(x.abs()));
+                let a = u[k..np]
+                    .iter()
+                    .step_by(n)
+                    .fold(0.0f64, |a, x| a.max(x.abs()));
                 if a > 0.0 { a } else { 1.0 }
             })
             .collect();
@@ -1166,7 +1174,9 @@ fn equidistributed(mesh: &[f64], density: &[f64], intervals: usize) -> Vec<f64> 
         .collect();
     let total: f64 = phi.iter().zip(&h).map(|(p, h)| p * h).sum();
     if !(total > 0.0 && total.is_finite()) {
-        return (0..=intervals).map(|i| i as f64 / intervals as f64).collect();
+        return (0..=intervals)
+            .map(|i| i as f64 / intervals as f64)
+            .collect();
     }
     let mut out = Vec::with_capacity(intervals + 1);
     out.push(0.0);

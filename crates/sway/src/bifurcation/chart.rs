@@ -675,15 +675,17 @@ fn on_fold_mesh<'a, P: LoopPlant<N>, const N: usize>(
     sys: &FoldSystem<'a, P, N>,
     u: &[f64],
     o: &ChartOptions,
-) -> Result<Option<(FoldSystem<'a, P, N>, Vec<f64>)>, continuation::Error> {
+) -> Result<Option<FoldAt<'a, P, N>>, continuation::Error> {
     if o.fold_mesh == MeshAdaptation::Fixed {
         return Ok(None);
     }
     let (iv, id) = fold_indices(sys);
     let cont = Continuation::default();
-    let mut current: Option<(FoldSystem<'a, P, N>, Vec<f64>)> = None;
+    let mut current: Option<FoldAt<'a, P, N>> = None;
     for _ in 0..FOLD_MESH_ROUNDS {
-        let (from, at) = current.as_ref().map_or((sys, u), |(s, v)| (s, v.as_slice()));
+        let (from, at) = current
+            .as_ref()
+            .map_or((sys, u), |(s, v)| (s, v.as_slice()));
         let (mut next, guess) = from.adapted(at, o.cycles.intervals)?;
         let mut fixed_d = vec![0.0; guess.len()];
         fixed_d[id] = 1.0;
@@ -697,6 +699,9 @@ fn on_fold_mesh<'a, P: LoopPlant<N>, const N: usize>(
     }
     Ok(current)
 }
+
+/// A fold of cycles on its own mesh: the system and the point.
+type FoldAt<'a, P, const N: usize> = (FoldSystem<'a, P, N>, Vec<f64>);
 
 /// Most mesh-adaptation rounds of a fold (see [`on_fold_mesh`]).
 const FOLD_MESH_ROUNDS: usize = 3;

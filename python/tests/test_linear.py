@@ -22,27 +22,30 @@ def test_open_loop_critical_speed_is_the_linear_tasks(table1):
 
 
 def test_closed_loop_critical_speed_is_fig4as(table1):
-    # reference: results/fig4a/summary.json, "v_crit_at_d_0.1_mps" per τ, searched over the
-    # chart's cell centres 0.1 … 60 m/s (300 cells) with tolerance 1e-9 m/s; exact
+    # reference: results/fig4a/summary.json, "v_crit_at_d_<D>_mps" per τ, searched from
+    # the chart's first cell centre to the axis' top at as many speeds as cells, with
+    # tolerance 1e-9 m/s (the ranges the task derived are in the summary); exact
     s = committed("fig4a")
-    step = (60.0 - 0.1) / 299
+    axis, gain = s["ranges"]["speed_mps"], s["ranges"]["gain_for_critical_speed_s"]
+    v_lo = axis["min"] + 0.5 * (axis["max"] - axis["min"]) / axis["cells"]
+    step = (axis["max"] - v_lo) / (axis["cells"] - 1)
     for entry in s["per_tau"]:
         c = ts.critical_speed(
             table1,
-            {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": entry["tau_s"]},
-            v_min_mps=0.1,
-            v_max_mps=60.0,
+            {"kind": "yaw_rate_feedback", "gain_s": gain, "delay_s": entry["tau_s"]},
+            v_min_mps=v_lo,
+            v_max_mps=axis["max"],
             scan_step_mps=step,
             tolerance_mps=1e-9,
         )
-        expected = entry["v_crit_at_d_0.1_mps"]
+        expected = entry[f"v_crit_at_d_{gain:g}_mps"]
         if expected is None:
             assert c.v_crit_mps is None and c.reason == "stable_up_to_max"
-            assert c.stable_up_to_mps == 60.0
+            assert c.stable_up_to_mps == axis["max"]
         else:
             assert c.v_crit_mps == expected, entry["tau_s"]
             # the crossing root is on the imaginary axis (independent: the roots there)
-            r = ts.roots(table1, c.v_crit_mps, 0.1, entry["tau_s"], count=2)
+            r = ts.roots(table1, c.v_crit_mps, gain, entry["tau_s"], count=2)
             assert abs(r[0].real) < 1e-6
             assert math.isclose(c.hopf_omega_rad_s, abs(r[0].imag), rel_tol=1e-9)
 

@@ -49,7 +49,11 @@ def cli_error(*args: str) -> str:
     assert r.returncode != 0, f"xtask {args} accepted the input"
     lines = [l for l in r.stderr.splitlines() if l.startswith("error: ")]
     assert lines, r.stderr
-    return lines[0][len("error: "):]
+    msg = lines[0][len("error: "):]
+    # a refusal during a run is prefixed with the task's name
+    if msg.startswith("task `") and "` failed: " in msg:
+        msg = msg.split("` failed: ", 1)[1]
+    return msg
 
 
 def run_task(task: str, config_text: str | None, tmp: Path, *extra: str) -> Path:

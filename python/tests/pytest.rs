@@ -119,7 +119,9 @@ fn python_package_installs_and_its_pytest_suite_passes() {
         .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
         .arg(manifest.join("tests"))
         // not python/ itself: its source trailer_sway/ would shadow the installed package
-        .current_dir(env!("CARGO_TARGET_TMPDIR"));
+        .current_dir(env!("CARGO_TARGET_TMPDIR"))
+        // where conftest.py looks for (or builds) the xtask binary
+        .env("CARGO_TARGET_DIR", &target);
     let xtask = target.join("debug").join("xtask");
     if xtask.exists() {
         pytest.env("TRAILER_SWAY_XTASK", &xtask);

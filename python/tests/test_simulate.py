@@ -86,16 +86,17 @@ def _bad(tmp_path, text):
         ('horizon_s = 40.0', 'horizon_s = 1e9'),
         ('output_step_s = 0.02', 'output_step_s = 1e-7'),
         ('rtol = 1e-8', 'rtol = -1.0'),
-        ('change_mps = -8.0', 'change_mps = "fast"'),
+        ('final_window_s = 5.0', 'final_window_s = "long"'),
         ('guard = "stop"', 'guard = "stop"\nunknown_key = 1'),
     ],
 )
 def test_bad_scenarios_raise_the_cli_message(table1, tmp_path, replace):
-    # reference: `cargo xtask simulate FILE --check` on the same file
+    # reference: `cargo xtask simulate FILE` on the same file (a run: some checks need
+    # the speeds resolved for the vehicle, which `--check` does not do)
     text = EXAMPLE.read_text()
     assert replace[0] in text
     f = _bad(tmp_path, text.replace(replace[0], replace[1], 1))
-    expected = cli_error("simulate", f, "--check")
+    expected = cli_error("simulate", f, "--results", tmp_path / "results")
     with pytest.raises(ValueError) as e:
         ts.simulate(table1, f)
     assert str(e.value) == expected

@@ -14,11 +14,9 @@ use sway::SwayError;
 use sway::bifurcation::chart::{ChartOptions, critical_speeds};
 use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram as diagram};
 use sway_tasks::config_file::{Configured, TaskConfig};
-use sway_tasks::io::Keyed;
 use sway_tasks::tasks::Prepared;
 use sway_tasks::tasks::chart_nonlinear::{self, ChartNonlinearConfig};
 use sway_tasks::tasks::fig4a::{self, Fig4aConfig};
-use trailer_model::CriticalSpeedOptions;
 
 use sway::charts::auto_range::SpeedBounds;
 use sway::ranging::SpeedLimits;

@@ -10,7 +10,7 @@
 //!
 //! Interrupts: a call whose estimated cost is small runs on the calling thread; a longer
 //! one runs on a worker thread while the calling thread polls Python's signal handlers
-//! ([`interruptible`]), so Ctrl-C raises `KeyboardInterrupt` at once. The sweep checks a
+//! (`interruptible`), so Ctrl-C raises `KeyboardInterrupt` at once. The sweep checks a
 //! cancellation flag between its points; the other pipelines have no cancellation hook,
 //! so their worker finishes in the background and its result is discarded.
 

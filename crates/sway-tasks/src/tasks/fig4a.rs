@@ -12,6 +12,8 @@ pub use sway::charts::fig4a::{
     Fig4a, Fig4aConfig, Fig4aRanges, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig, compute,
 };
 use sway::config::ensure;
+use sway::ranging::SpeedLimits;
+use trailer_model::AnyVehicleModel;
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::{Configured, TaskConfig, check_delays};
@@ -260,6 +262,49 @@ fn delay_entries(r: &Fig4a) -> (Vec<DelayEntry>, Vec<String>) {
     (entries, lines)
 }
 
+/// The task's `summary.json` headline and printed lines of a computed chart set `r` of
+/// `cfg` (the open loop searched on `plant` within `limits`, as `linear` reports it).
+///
+/// # Errors
+/// When the open-loop critical-speed search fails numerically.
+pub fn summarize(
+    plant: &AnyVehicleModel,
+    limits: &SpeedLimits,
+    cfg: &Fig4aConfig,
+    r: &Fig4a,
+) -> Result<(Fig4aSummary, Vec<String>), TaskError> {
+    // the open loop as `linear` reports it (the one V_crit search of every task)
+    let open = open_loop_stability(plant, limits)?.summary();
+    let (per_tau, delay_lines) = delay_entries(r);
+    let mut lines = vec![match (open.v_crit_mps, &open.reason) {
+        (Some(v), _) => format!("open-loop V_crit = {v:.4} m/s"),
+        (None, why) => format!("open loop: {}", why.clone().unwrap_or_default()),
+    }];
+    let rg = &r.ranges;
+    if !rg.derivation.derived_keys.is_empty() {
+        lines.push(format!(
+            "axes V in [{}, {}] m/s, D in [{}, {}] s; summary at D = {} s, V = {} m/s (derived from the vehicle: {})",
+            rg.speed_mps.min,
+            rg.speed_mps.max,
+            rg.gain_s.min,
+            rg.gain_s.max,
+            rg.gain_for_critical_speed_s,
+            rg.speed_for_gain_interval_mps,
+            rg.derivation.derived_keys.join(", ")
+        ));
+    }
+    lines.extend(delay_lines);
+    let summary = Fig4aSummary {
+        open_loop_v_crit_mps: open.v_crit_mps,
+        open_loop_stable_up_to_mps: open.stable_up_to_mps,
+        open_loop_reason: open.reason,
+        ranges: r.ranges.clone(),
+        per_tau,
+        grid_cells_per_tau: cfg.speed.cells * cfg.gain.cells,
+    };
+    Ok((summary, lines))
+}
+
 impl Prepared for Configured<Fig4aConfig> {
     fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
@@ -297,35 +342,7 @@ impl Prepared for Configured<Fig4aConfig> {
             ctx.progress.advance(1);
             draw(out, &r)?;
             ctx.progress.advance(1);
-            // the open loop as `linear` reports it (the one V_crit search of every task)
-            let open = open_loop_stability(&ctx.plant, &ctx.limits)?.summary();
-            let (per_tau, delay_lines) = delay_entries(&r);
-            let mut lines = vec![match (open.v_crit_mps, &open.reason) {
-                (Some(v), _) => format!("open-loop V_crit = {v:.4} m/s"),
-                (None, why) => format!("open loop: {}", why.clone().unwrap_or_default()),
-            }];
-            let rg = &r.ranges;
-            if !rg.derivation.derived_keys.is_empty() {
-                lines.push(format!(
-                    "axes V in [{}, {}] m/s, D in [{}, {}] s; summary at D = {} s, V = {} m/s (derived from the vehicle: {})",
-                    rg.speed_mps.min,
-                    rg.speed_mps.max,
-                    rg.gain_s.min,
-                    rg.gain_s.max,
-                    rg.gain_for_critical_speed_s,
-                    rg.speed_for_gain_interval_mps,
-                    rg.derivation.derived_keys.join(", ")
-                ));
-            }
-            lines.extend(delay_lines);
-            let summary = Fig4aSummary {
-                open_loop_v_crit_mps: open.v_crit_mps,
-                open_loop_stable_up_to_mps: open.stable_up_to_mps,
-                open_loop_reason: open.reason,
-                ranges: r.ranges.clone(),
-                per_tau,
-                grid_cells_per_tau: cfg.speed.cells * cfg.gain.cells,
-            };
+            let (summary, lines) = summarize(&ctx.plant, &ctx.limits, cfg, &r)?;
             Ok((summary, lines))
         })
     }

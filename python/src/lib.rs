@@ -1,0 +1,746 @@
+//! `trailer_sway._native`: the Python bindings of the trailer-sway crates (PyO3).
+//!
+//! A thin layer: every function reads its inputs into the task layer's config types
+//! ([`sway_tasks`]), validates them with the task's own checks and limits (so a bad value
+//! raises `ValueError` with the message `cargo xtask` prints), computes with the library
+//! ([`sway`], [`trailer_model`], [`stability`]) with the GIL released, and returns plain
+//! Python values: numpy arrays built from owned `Vec`s (no second copy), and the
+//! structured results as the JSON the tasks write to `summary.json` (same numbers, bit for
+//! bit). The Python package `trailer_sway` wraps these in typed result classes.
+//!
+//! Interrupts: a call whose estimated cost is small runs on the calling thread; a longer
+//! one runs on a worker thread while the calling thread polls Python's signal handlers
+//! (`interruptible`), so Ctrl-C raises `KeyboardInterrupt` at once. The sweep checks a
+//! cancellation flag between its points; the other pipelines have no cancellation hook,
+//! so their worker finishes in the background and its result is discarded.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use sway::SwayError;
+use sway_tasks::TaskError;
+mod charts;
+mod sweep;
+
+use trailer_model::{CriticalSpeedOptions, Model, ModelError, PARAMETERS, VehicleParams};
+
+// ---------------------------------------------------------------------------------------
+// errors
+
+/// The Python exception of a library error: `OSError` for an unreadable file,
+/// `ValueError` for a bad config or vehicle (the CLI's message), `RuntimeError` for a
+/// numerical failure.
+pub(crate) fn py_err(e: impl Into<TaskError>) -> PyErr {
+    let e: TaskError = e.into();
+    let msg = e.to_string();
+    match e {
+        TaskError::Read { .. } => PyOSError::new_err(msg),
+        TaskError::Config { .. }
+        | TaskError::UnknownTask { .. }
+        | TaskError::Sway(SwayError::Config { .. } | SwayError::Model(_)) => {
+            PyValueError::new_err(msg)
+        }
+        _ => PyRuntimeError::new_err(msg),
+    }
+}
+
+fn json_err(e: serde_json::Error) -> PyErr {
+    PyRuntimeError::new_err(format!("internal: cannot serialise a result: {e}"))
+}
+
+/// A result as JSON text (the package parses it with `json.loads`).
+pub(crate) fn to_json<T: Serialize>(value: &T) -> PyResult<String> {
+    serde_json::to_string(value).map_err(json_err)
+}
+
+// ---------------------------------------------------------------------------------------
+// configs from Python values
+
+/// A Python value (dict, list, tuple, str, bool, int, float, numpy scalar or array) as
+/// TOML; `key` names it in a `TypeError`.
+fn toml_value(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+    let name = || {
+        if key.is_empty() {
+            "<root>".to_string()
+        } else {
+            key.to_string()
+        }
+    };
+    if obj.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(obj.extract()?));
+    }
+    if obj.is_instance_of::<PyInt>() {
+        return match obj.extract::<i64>() {
+            Ok(i) => Ok(toml::Value::Integer(i)),
+            Err(_) => Err(PyValueError::new_err(format!(
+                "`{}`: integer {} out of range",
+                name(),
+                obj.str()?
+            ))),
+        };
+    }
+    if obj.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(obj.extract()?));
+    }
+    if obj.is_instance_of::<PyString>() {
+        return Ok(toml::Value::String(obj.extract()?));
+    }
+    if let Ok(d) = obj.cast::<PyDict>() {
+        let mut t = toml::Table::new();
+        for (k, v) in d.iter() {
+            let k: String = k.extract().map_err(|_| {
+                PyTypeError::new_err(format!("`{}`: dict keys must be str", name()))
+            })?;
+            let sub = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            if v.is_none() {
+                continue; // an absent optional key
+            }
+            t.insert(k, toml_value(&v, &sub)?);
+        }
+        return Ok(toml::Value::Table(t));
+    }
+    if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
+        let items: Vec<Bound<'_, PyAny>> = obj.try_iter()?.collect::<PyResult<_>>()?;
+        let mut a = Vec::with_capacity(items.len());
+        for (i, v) in items.iter().enumerate() {
+            a.push(toml_value(v, &format!("{}[{i}]", name()))?);
+        }
+        return Ok(toml::Value::Array(a));
+    }
+    if obj.hasattr("__fspath__")? {
+        let p: PathBuf = obj.extract()?;
+        return Ok(toml::Value::String(p.display().to_string()));
+    }
+    // numpy scalars and arrays
+    if obj.hasattr("tolist")? {
+        return toml_value(&obj.call_method0("tolist")?, key);
+    }
+    if let Ok(x) = obj.extract::<f64>() {
+        return Ok(toml::Value::Float(x));
+    }
+    Err(PyTypeError::new_err(format!(
+        "`{}`: unsupported type {} (expected dict, list, str, bool, int or float)",
+        name(),
+        obj.get_type().name()?
+    )))
+}
+
+/// A config given as a TOML file path (str or os.PathLike) or as a dict in the file's
+/// shape; `what` names a dict in messages (`<scenario>`). Returns the config and the file
+/// name its messages use. Both go through the CLI's reader (`parse_toml`: unknown keys,
+/// wrong types, key paths, size limits).
+pub(crate) fn load_config<T: DeserializeOwned>(
+    obj: &Bound<'_, PyAny>,
+    what: &str,
+) -> PyResult<(T, PathBuf)> {
+    if obj.is_instance_of::<PyString>() || obj.hasattr("__fspath__")? {
+        let file: PathBuf = obj.extract()?;
+        let cfg = sway_tasks::config_file::load_toml(&file).map_err(py_err)?;
+        return Ok((cfg, file));
+    }
+    if !obj.is_instance_of::<PyDict>() {
+        return Err(PyTypeError::new_err(format!(
+            "{what}: expected a dict in the TOML file's shape or a path to a TOML file, got {}",
+            obj.get_type().name()?
+        )));
+    }
+    let value = toml_value(obj, "")?;
+    let text = toml::to_string(&value)
+        .map_err(|e| PyValueError::new_err(format!("{what}: not representable as TOML: {e}")))?;
+    let file = PathBuf::from(what);
+    let cfg = sway_tasks::config_file::parse_toml(&text, &file).map_err(py_err)?;
+    Ok((cfg, file))
+}
+
+// ---------------------------------------------------------------------------------------
+// running long calls
+
+/// How often a waiting call checks Python's signal handlers.
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+/// Estimated cost \[s\] below which a call runs on the calling thread (no thread start in
+/// a millisecond simulation; Ctrl-C is then seen when it returns).
+const INLINE_BELOW_S: f64 = 0.25;
+
+/// Runs `f` with the GIL released: on the calling thread when `estimated_s` is below
+/// [`INLINE_BELOW_S`], else on a worker thread while this thread polls the signal
+/// handlers. A pending Ctrl-C raises `KeyboardInterrupt` (after setting `cancel`, which
+/// `f` may poll) and the worker's result is discarded.
+pub(crate) fn interruptible<T, F>(
+    py: Python<'_>,
+    estimated_s: f64,
+    cancel: Option<Arc<AtomicBool>>,
+    f: F,
+) -> PyResult<T>
+where
+    T: Send + 'static,
+    F: FnOnce() -> T + Send + 'static,
+{
+    if estimated_s < INLINE_BELOW_S {
+        let r = py.detach(f);
+        py.check_signals()?;
+        return Ok(r);
+    }
+    let (tx, rx) = std::sync::mpsc::sync_channel(1);
+    std::thread::Builder::new()
+        .name("trailer_sway".into())
+        .spawn(move || {
+            // the receiver is gone after an interrupt: the result is dropped
+            let _ = tx.send(f());
+        })
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start a worker thread: {e}")))?;
+    // a Receiver is Send but not Sync: the detached closure borrows it through a Mutex
+    let rx = std::sync::Mutex::new(rx);
+    loop {
+        let got = py.detach(|| match rx.lock() {
+            Ok(r) => r.recv_timeout(SIGNAL_POLL),
+            Err(_) => Err(std::sync::mpsc::RecvTimeoutError::Disconnected),
+        });
+        match got {
+            Ok(r) => return Ok(r),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    if let Some(c) = &cancel {
+                        c.store(true, Ordering::Relaxed);
+                    }
+                    return Err(e);
+                }
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(PyRuntimeError::new_err(
+                    "internal: the worker thread ended without a result (a panic in the library)",
+                ));
+            }
+        }
+    }
+}
+
+/// `KeyboardInterrupt` for a computation stopped through its cancellation flag.
+pub(crate) fn interrupted() -> PyErr {
+    PyKeyboardInterrupt::new_err("interrupted")
+}
+
+// ---------------------------------------------------------------------------------------
+// Vehicle
+
+/// Python name of parameter `i` of [`PARAMETERS`]: its key path with `_` for `.`
+/// (`trailer.mass` → `trailer_mass`).
+fn field_name(i: usize) -> String {
+    PARAMETERS[i].0.replace('.', "_")
+}
+
+fn field_index(name: &str) -> Option<usize> {
+    (0..PARAMETERS.len()).find(|&i| field_name(i) == name)
+}
+
+/// The model of `params`; a failed physical check is the CLI's config error for `file`.
+fn build_model(params: VehicleParams, file: &Path) -> Result<Model, SwayError> {
+    Model::new(params).map_err(|e| match e {
+        ModelError::InvalidParameter {
+            key,
+            value,
+            expected,
+        } => SwayError::config(
+            file,
+            key,
+            format!("{value} is invalid: expected {expected}"),
+        ),
+        other => SwayError::config(file, "<root>", other.to_string()),
+    })
+}
+
+/// A car–trailer combination (paper Table I form), validated.
+#[pyclass(frozen, module = "trailer_sway._native")]
+#[derive(Debug, Clone)]
+pub struct Vehicle {
+    pub(crate) params: VehicleParams,
+    pub(crate) model: Model,
+}
+
+impl Vehicle {
+    fn with_fields(
+        base: VehicleParams,
+        fields: Option<&Bound<'_, PyDict>>,
+        require_all: bool,
+        what: &str,
+    ) -> PyResult<Self> {
+        let mut params = base;
+        let mut given = vec![false; PARAMETERS.len()];
+        if let Some(d) = fields {
+            for (k, v) in d.iter() {
+                let k: String = k.extract()?;
+                let Some(i) = field_index(&k) else {
+                    let known: Vec<String> = (0..PARAMETERS.len()).map(field_name).collect();
+                    return Err(PyTypeError::new_err(format!(
+                        "{what}: unknown field `{k}`; fields: {}",
+                        known.join(", ")
+                    )));
+                };
+                if v.is_instance_of::<PyBool>() {
+                    return Err(PyTypeError::new_err(format!(
+                        "{what}: `{}`: expected a number, got bool",
+                        PARAMETERS[i].0
+                    )));
+                }
+                let x: f64 = v.extract().map_err(|_| {
+                    PyTypeError::new_err(format!(
+                        "{what}: `{}`: expected a number, got {}",
+                        PARAMETERS[i].0,
+                        v.get_type()
+                            .name()
+                            .map(|n| n.to_string())
+                            .unwrap_or_default()
+                    ))
+                })?;
+                params = params.with(i, x);
+                given[i] = true;
+            }
+        }
+        if require_all {
+            // gravity has a default, as in a vehicle file
+            let missing: Vec<String> = (0..PARAMETERS.len())
+                .filter(|&i| !given[i] && PARAMETERS[i].0 != "gravity")
+                .map(field_name)
+                .collect();
+            if !missing.is_empty() {
+                return Err(PyTypeError::new_err(format!(
+                    "{what}: missing field(s) {} (Vehicle.table1().replace(...) starts from Table I)",
+                    missing.join(", ")
+                )));
+            }
+        }
+        let model = build_model(params, Path::new(what)).map_err(py_err)?;
+        Ok(Self { params, model })
+    }
+}
+
+#[pymethods]
+impl Vehicle {
+    /// Vehicle(**fields): every field of Table I by name (`tractor_mass`, …,
+    /// `friction_mu_dynamic`, optional `gravity` = 9.81), SI units.
+    #[new]
+    #[pyo3(signature = (**fields))]
+    fn new(fields: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        Self::with_fields(VehicleParams::default(), fields, true, "Vehicle()")
+    }
+
+    /// The vehicle of paper Table I (μ0 = 0.9, μ = 0.6, g = 9.81 m/s²).
+    #[staticmethod]
+    fn table1() -> PyResult<Self> {
+        let params = VehicleParams::default();
+        let model = build_model(params, Path::new("Table I")).map_err(py_err)?;
+        Ok(Self { params, model })
+    }
+
+    /// A vehicle file (the form of `configs/vehicle.toml`), with the CLI's checks.
+    #[staticmethod]
+    fn from_toml(path: PathBuf) -> PyResult<Self> {
+        let (params, model) = sway_tasks::config_file::load_vehicle(&path).map_err(py_err)?;
+        Ok(Self { params, model })
+    }
+
+    /// A copy with some fields changed, validated.
+    #[pyo3(signature = (**changes))]
+    fn replace(&self, changes: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        Self::with_fields(self.params, changes, false, "Vehicle.replace()")
+    }
+
+    /// The field names, in Table I's order.
+    #[staticmethod]
+    fn fields() -> Vec<String> {
+        (0..PARAMETERS.len()).map(field_name).collect()
+    }
+
+    /// {field: value}.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for i in 0..PARAMETERS.len() {
+            d.set_item(field_name(i), self.params.get(i))?;
+        }
+        Ok(d)
+    }
+
+    /// The vehicle file's text (TOML), readable by `from_toml` and `--vehicle`.
+    fn to_toml(&self) -> PyResult<String> {
+        toml::to_string(&self.params).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    }
+
+    fn __getattr__(&self, name: &str) -> PyResult<f64> {
+        field_index(name)
+            .map(|i| self.params.get(i))
+            .ok_or_else(|| {
+                pyo3::exceptions::PyAttributeError::new_err(format!(
+                    "'Vehicle' object has no attribute '{name}'"
+                ))
+            })
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Vehicle>()
+            .is_ok_and(|o| o.get().params == self.params)
+    }
+
+    fn __repr__(&self) -> String {
+        let f: Vec<String> = (0..PARAMETERS.len())
+            .map(|i| format!("{}={:?}", field_name(i), self.params.get(i)))
+            .collect();
+        format!("Vehicle({})", f.join(", "))
+    }
+
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        let ctor = py.import("trailer_sway")?.getattr("_vehicle_from_dict")?;
+        Ok((ctor, (self.to_dict(py)?,)))
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// critical speed
+
+/// Where straight running loses stability, or that it does not on the scanned range.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+enum CriticalOutcome {
+    /// the spectral abscissa crosses zero at V_crit (a Hopf point when ω > 0)
+    Crossing {
+        v_crit_mps: f64,
+        hopf_frequency_hz: f64,
+        hopf_omega_rad_s: f64,
+    },
+    /// stable at every scanned speed up to the maximum
+    StableUpToMax { stable_up_to_mps: f64 },
+    /// already unstable at the lowest scanned speed
+    UnstableAtMin { v_min_mps: f64 },
+}
+
+/// The V_crit search settings (`[critical_speed]` of `configs/linear.toml`).
+#[derive(Debug, Clone, Copy)]
+struct Search {
+    v_min: f64,
+    v_max: f64,
+    step: f64,
+    tolerance: f64,
+}
+
+/// The one place that turns today's V_crit searches into the "stable up to" outcome
+/// (the library's own version can replace its body): open loop by the model's scan and
+/// bisection of the spectral abscissa (the `linear` task), closed loop by the exact
+/// unstable-root count (the `fig4a` task's `v_crit_at_d`).
+fn critical_outcome(
+    model: &Model,
+    loop_: Option<(f64, f64)>,
+    s: Search,
+) -> Result<CriticalOutcome, SwayError> {
+    match loop_ {
+        None => {
+            let opts = CriticalSpeedOptions {
+                v_min: s.v_min,
+                v_max: s.v_max,
+                scan_step: s.step,
+                tolerance: s.tolerance,
+            };
+            match model.critical_speed(&opts) {
+                Ok(c) => Ok(CriticalOutcome::Crossing {
+                    v_crit_mps: c.v_crit_mps,
+                    hopf_frequency_hz: c.hopf_frequency_hz,
+                    hopf_omega_rad_s: c.hopf_omega_rad_s,
+                }),
+                Err(ModelError::NoCriticalSpeed { detail, .. })
+                    if detail.contains("stays stable up to v_max") =>
+                {
+                    Ok(CriticalOutcome::StableUpToMax {
+                        stable_up_to_mps: s.v_max,
+                    })
+                }
+                Err(ModelError::NoCriticalSpeed { detail, .. })
+                    if detail.contains("already unstable at v_min") =>
+                {
+                    Ok(CriticalOutcome::UnstableAtMin { v_min_mps: s.v_min })
+                }
+                Err(e) => Err(SwayError::Model(e)),
+            }
+        }
+        Some((gain, delay)) => {
+            // samples so that the scan's spacing is at most `step` (the fig4a task scans
+            // its cell centres: spacing (v_max − v_min)/(samples − 1))
+            let samples = ((s.v_max - s.v_min) / s.step - 1e-9).ceil().max(1.0) as usize + 1;
+            let v = sway::charts::critical_speed_at_gain(
+                model,
+                delay,
+                gain,
+                s.v_min,
+                s.v_max,
+                samples,
+                s.tolerance,
+            )?;
+            match v {
+                None => Ok(CriticalOutcome::StableUpToMax {
+                    stable_up_to_mps: s.v_max,
+                }),
+                Some(v) if v <= s.v_min => {
+                    Ok(CriticalOutcome::UnstableAtMin { v_min_mps: s.v_min })
+                }
+                Some(v) => {
+                    // the crossing root: the rightmost root there (ω = 0: a static crossing)
+                    let r = sway::charts::rightmost_roots(model, v, gain, delay, 2)?;
+                    let omega = r.first().map_or(0.0, |l| l.im.abs());
+                    Ok(CriticalOutcome::Crossing {
+                        v_crit_mps: v,
+                        hopf_frequency_hz: omega / (2.0 * std::f64::consts::PI),
+                        hopf_omega_rad_s: omega,
+                    })
+                }
+            }
+        }
+    }
+}
+
+/// critical_speed(vehicle, gain, delay, v_min_mps, v_max_mps, scan_step_mps,
+/// tolerance_mps) → JSON {reason, …}; gain/delay None for the open loop.
+#[pyfunction]
+#[pyo3(signature = (vehicle, gain, delay, v_min_mps, v_max_mps, scan_step_mps, tolerance_mps))]
+fn critical_speed(
+    py: Python<'_>,
+    vehicle: &Vehicle,
+    gain: Option<f64>,
+    delay: Option<f64>,
+    v_min_mps: f64,
+    v_max_mps: f64,
+    scan_step_mps: f64,
+    tolerance_mps: f64,
+) -> PyResult<String> {
+    let file = Path::new("critical_speed()");
+    let check = |ok: bool, key: &str, problem: String| {
+        sway::config::ensure(ok, file, key, || problem).map_err(py_err)
+    };
+    check(
+        v_min_mps.is_finite() && v_min_mps > 0.0 && v_max_mps.is_finite() && v_max_mps > v_min_mps,
+        "v_min_mps",
+        format!("expected 0 < v_min_mps < v_max_mps, got {v_min_mps} and {v_max_mps}"),
+    )?;
+    check(
+        scan_step_mps.is_finite() && scan_step_mps > 0.0,
+        "scan_step_mps",
+        format!("must be positive, got {scan_step_mps}"),
+    )?;
+    let scan_points = (v_max_mps - v_min_mps) / scan_step_mps;
+    sway_tasks::limits::bound(
+        file,
+        "scan_step_mps",
+        scan_points,
+        sway::config::MAX_GRID_POINTS as f64,
+        || format!("{scan_points:.3e} scan points from v_min_mps to v_max_mps, one eigenvalue problem each; use a larger step"),
+    )
+    .map_err(py_err)?;
+    check(
+        tolerance_mps > 0.0 && tolerance_mps < 1e-2,
+        "tolerance_mps",
+        format!("expected 0 < tolerance < 0.01 m/s, got {tolerance_mps}"),
+    )?;
+    let loop_ = match (gain, delay) {
+        (Some(g), Some(t)) => {
+            check(
+                g.is_finite(),
+                "controller.gain_s",
+                format!("expected a finite gain [s], got {g}"),
+            )?;
+            check(
+                t.is_finite() && t >= 0.0,
+                "controller.delay_s",
+                format!("expected a delay ≥ 0 s, got {t}"),
+            )?;
+            Some((g, t))
+        }
+        _ => None,
+    };
+    let model = vehicle.model.clone();
+    let search = Search {
+        v_min: v_min_mps,
+        v_max: v_max_mps,
+        step: scan_step_mps,
+        tolerance: tolerance_mps,
+    };
+    // ≈ 10 µs per open-loop eigenvalue problem, ≈ 1 ms per closed-loop root count
+    let per_point = if loop_.is_some() { 1e-3 } else { 1e-5 };
+    let r = interruptible(py, scan_points * per_point, None, move || {
+        critical_outcome(&model, loop_, search)
+    })?;
+    to_json(&r.map_err(py_err)?)
+}
+
+// ---------------------------------------------------------------------------------------
+// roots
+
+/// The `count` rightmost characteristic roots of eq. (13) at (V, D, τ), as `cargo xtask
+/// roots` computes them (a conjugate pair is never split).
+#[pyfunction]
+#[pyo3(signature = (vehicle, speed, gain, delay, count = 6))]
+fn roots<'py>(
+    py: Python<'py>,
+    vehicle: &Vehicle,
+    speed: f64,
+    gain: f64,
+    delay: f64,
+    count: i64,
+) -> PyResult<Bound<'py, PyArray1<num_complex::Complex64>>> {
+    let count = if count < 0 {
+        return Err(py_err(SwayError::config(
+            "command line",
+            "--count",
+            format!("expected at least 1, got {count}"),
+        )));
+    } else {
+        count as usize
+    };
+    sway_tasks::tasks::roots::validate_args(speed, gain, delay, count).map_err(py_err)?;
+    let model = vehicle.model.clone();
+    let r = interruptible(py, 0.0, None, move || {
+        sway_tasks::tasks::roots::roots(&model, speed, gain, delay, count)
+    })?
+    .map_err(py_err)?;
+    Ok(r.into_pyarray(py))
+}
+
+// ---------------------------------------------------------------------------------------
+// simulate
+
+/// simulate(vehicle, scenario, trajectory) → (arrays dict, summary JSON): the `simulate`
+/// task's run of a scenario (file path or dict), its trajectory columns (t, σ1, σ2, σ3, θ,
+/// ψ, x_H, y_H, V, δ sampled every `output_step_s`; empty without `trajectory`) and its
+/// summary (metrics, class, action_s, t_end_s, steps), as `summary.json` writes them.
+#[pyfunction]
+#[pyo3(signature = (vehicle, scenario, trajectory = true))]
+fn simulate<'py>(
+    py: Python<'py>,
+    vehicle: &Vehicle,
+    scenario: &Bound<'py, PyAny>,
+    trajectory: bool,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use sway::ranging::{SpeedLimits, SpeedSpec};
+    use sway::sim::speeds::resolve_speeds_any;
+    use sway::sim::{Recording, ScenarioConfig, simulate_any};
+    use sway_tasks::config_file::{Configured, TaskConfig};
+    use sway_tasks::tasks::Prepared;
+    use sway_tasks::tasks::series::resolved_check;
+    use sway_tasks::tasks::simulate::{ScenarioRun, ScenarioSummary};
+    use trailer_model::AnyVehicleModel;
+
+    let (config, file): (ScenarioConfig<SpeedSpec>, PathBuf) = load_config(scenario, "<scenario>")?;
+    config.check(&file).map_err(py_err)?;
+    let prepared = Configured { file, config };
+    let plan = prepared.plan().map_err(py_err)?;
+    let Configured { file, config } = prepared;
+    // the CLI's plant of a paper-form vehicle, and its default speed limits (--max-speed)
+    let plant = AnyVehicleModel::Paper(vehicle.model.clone());
+    let run = move || -> Result<_, TaskError> {
+        let limits = SpeedLimits::default();
+        let resolution = resolve_speeds_any(&plant, &limits, &config)?;
+        let cfg = match resolution.outcome {
+            Ok(c) => c,
+            Err(u) => {
+                return Err(TaskError::config(
+                    &file,
+                    u.key,
+                    format!("no scenario for this vehicle: {}", u.reason),
+                ));
+            }
+        };
+        resolved_check(cfg.validate(&file).map_err(Into::into), &resolution.speeds)?;
+        let x0 = cfg.initial.state7_any(&plant, &cfg.settings.solver)?;
+        let spec = cfg.spec();
+        let recording = if trajectory {
+            Recording::Every {
+                step_s: cfg.output_step_s.get(),
+            }
+        } else {
+            Recording::None
+        };
+        let r = simulate_any::<7>(&plant, &spec, x0, recording)?;
+        let summary = ScenarioSummary {
+            name: cfg.name.clone(),
+            run: sway_tasks::tasks::series::RunEntry {
+                metrics: r.metrics,
+                about: ScenarioRun {
+                    action_s: spec.action_s,
+                    t_end_s: r.t_end,
+                    accepted_steps: r.stats.accepted,
+                    rejected_steps: r.stats.rejected,
+                },
+            },
+        };
+        // one pass over the samples into owned arrays (handed to numpy without a copy):
+        // t, the states row-major (n × 7), V, δ
+        let n = r.trajectory.len();
+        let (mut t, mut x): (Vec<f64>, Vec<f64>) =
+            (Vec::with_capacity(n), Vec::with_capacity(7 * n));
+        let (mut v, mut delta) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for s in &r.trajectory {
+            t.push(s.t);
+            x.extend(s.x.iter());
+            v.push(s.speed);
+            delta.push(s.steering_angle);
+        }
+        let json = serde_json::to_string(&summary)
+            .map_err(|e| TaskError::numerical("serialising the summary", e))?;
+        Ok(((t, x, v, delta), json))
+    };
+    let ((t, x, v, delta), json) = interruptible(py, plan.time_s, None, run)?.map_err(py_err)?;
+    let n = t.len();
+    let d = PyDict::new(py);
+    d.set_item("t", t.into_pyarray(py))?;
+    d.set_item("states", x.into_pyarray(py).reshape([n, 7])?)?;
+    d.set_item("speed", v.into_pyarray(py))?;
+    d.set_item("delta", delta.into_pyarray(py))?;
+    Ok((d, json))
+}
+
+/// to_toml(config) → the TOML text of a config dict (for a file `cargo xtask` reads).
+#[pyfunction]
+fn to_toml(config: &Bound<'_, PyAny>) -> PyResult<String> {
+    if !config.is_instance_of::<PyDict>() {
+        return Err(PyTypeError::new_err("to_toml: expected a dict"));
+    }
+    toml::to_string(&toml_value(config, "")?)
+        .map_err(|e| PyValueError::new_err(format!("not representable as TOML: {e}")))
+}
+
+// ---------------------------------------------------------------------------------------
+// the module
+
+/// Sets the number of rayon threads of every later call (once, before the first parallel
+/// call; `RAYON_NUM_THREADS` does the same from the environment).
+#[pyfunction]
+fn set_num_threads(n: usize) -> PyResult<()> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot set the thread count: {e}")))
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Vehicle>()?;
+    m.add_function(wrap_pyfunction!(critical_speed, m)?)?;
+    m.add_function(wrap_pyfunction!(roots, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(set_num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(to_toml, m)?)?;
+    charts::register(m)?;
+    sweep::register(m)?;
+    Ok(())
+}

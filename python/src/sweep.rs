@@ -1,0 +1,192 @@
+//! `sweep`: a study of `cargo xtask sweep FILE.toml` (a file path or a dict of its shape),
+//! validated and planned as the task does, its grid points computed in parallel on rayon
+//! ([`sway::sim::sweep::Sweep::run_point`], the task's own point function: the same
+//! numbers whatever the thread count), checking a cancellation flag between points.
+//! Returned as columns in the order of the task's `sweep.csv` header.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use numpy::IntoPyArray;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use rayon::prelude::*;
+use serde_json::Value;
+use sway::ranging::{SpeedLimits, SpeedSpec};
+use sway::sim::sweep::{AxisParameter, PointOutput, PointResult, SweepConfig};
+use sway_tasks::TaskError;
+use sway_tasks::config_file::{Configured, TaskConfig};
+use sway_tasks::tasks::sweep::{header, prepare_run};
+use sway_tasks::tasks::{Prepared, TaskContext};
+use trailer_model::{AnyVehicleModel, VehicleSpec};
+
+use crate::{Vehicle, interrupted, interruptible, load_config, py_err};
+
+/// A column: numbers (null → NaN) or text (null → None).
+enum Column {
+    Numbers(Vec<f64>),
+    Text(Vec<Option<String>>),
+}
+
+/// The result fields of a point as JSON values (the names of `sweep.csv`'s columns).
+fn output_fields(r: &PointResult) -> Option<serde_json::Map<String, Value>> {
+    let v = match &r.output {
+        Ok(PointOutput::Simulation(m)) => serde_json::to_value(m),
+        Ok(PointOutput::LinearCriticalSpeed(l)) => serde_json::to_value(l),
+        Ok(PointOutput::HopfFoldSpeeds(h)) => serde_json::to_value(h),
+        _ => return None,
+    };
+    match v {
+        Ok(Value::Object(m)) => Some(m),
+        _ => None,
+    }
+}
+
+/// sweep(vehicle, config) → (name, kind, columns, column names): the grid points of the
+/// study, one entry per `sweep.csv` row.
+#[pyfunction]
+fn sweep<'py>(
+    py: Python<'py>,
+    vehicle: &Vehicle,
+    config: &Bound<'py, PyAny>,
+) -> PyResult<(String, String, Bound<'py, PyDict>, Bound<'py, PyList>)> {
+    let (spec, file): (SweepConfig<SpeedSpec>, PathBuf) = load_config(config, "<sweep>")?;
+    spec.check(&file).map_err(py_err)?;
+    let prepared = Configured { file, config: spec };
+    let plan = prepared.plan().map_err(py_err)?;
+    let (file, spec) = (prepared.file, prepared.config);
+    // the task's context for a paper-form vehicle (no files are read or written: the
+    // directories are never used by `prepare_run`), with the CLI's default limits
+    let ctx = TaskContext {
+        vehicle_file: PathBuf::from("<vehicle>"),
+        vehicle: vehicle.params,
+        model: vehicle.model.clone(),
+        spec: VehicleSpec::from(vehicle.params),
+        plant: AnyVehicleModel::Paper(vehicle.model.clone()),
+        variant_key: None,
+        configs_dir: PathBuf::from("."),
+        results_dir: PathBuf::from("."),
+        progress: &sway::progress::NoProgress,
+        limits: SpeedLimits::default(),
+    };
+    let run = prepare_run(&ctx, &spec, &file).map_err(py_err)?;
+    let (cfg, sw) = match (run.resolution.outcome, run.sweep) {
+        (Ok(cfg), Some(sw)) => (cfg, sw),
+        (Err(u), _) => {
+            return Err(py_err(TaskError::config(
+                &file,
+                u.key,
+                format!("no sweep for this vehicle: {}", u.reason),
+            )));
+        }
+        (Ok(_), None) => {
+            return Err(py_err(TaskError::config(
+                &file,
+                "<root>",
+                "no sweep points",
+            )));
+        }
+    };
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = cancel.clone();
+    let results = interruptible(py, plan.time_s, Some(cancel), move || {
+        let n = sw.grid_len();
+        let r: Vec<Option<PointResult>> = (0..n)
+            .into_par_iter()
+            .map(|k| (!flag.load(Ordering::Relaxed)).then(|| sw.run_point(k)))
+            .collect();
+        r.into_iter().collect::<Option<Vec<PointResult>>>()
+    })?
+    .ok_or_else(interrupted)?;
+
+    let names = header(&cfg);
+    let n_values = results.first().map_or(0, |r| r.values.len());
+    let n = results.len();
+    let mut columns: Vec<Column> = Vec::with_capacity(names.len());
+    // the axis values (a fleet axis: the vehicle file) and the sampled fields
+    for i in 0..n_values.min(names.len()) {
+        match cfg.axes.get(i) {
+            Some(a) if a.parameter == AxisParameter::VehicleFile => {
+                columns.push(Column::Text(
+                    results
+                        .iter()
+                        .map(|r| {
+                            a.files
+                                .get(r.values[i] as usize)
+                                .map(|f| f.display().to_string())
+                        })
+                        .collect(),
+                ));
+            }
+            _ => columns.push(Column::Numbers(
+                results.iter().map(|r| r.values[i]).collect(),
+            )),
+        }
+    }
+    // the kind's result fields: failed points as the CSV writes them (outcome "error",
+    // class "failed", the rest empty)
+    let fields: Vec<Option<serde_json::Map<String, Value>>> =
+        results.iter().map(output_fields).collect();
+    let result_names = &names[n_values.min(names.len())..names.len().saturating_sub(2)];
+    for name in result_names {
+        let values: Vec<Value> = fields
+            .iter()
+            .map(|f| match f {
+                Some(m) => m.get(name).cloned().unwrap_or(Value::Null),
+                None => match name.as_str() {
+                    "outcome" => Value::String("error".into()),
+                    "class" => Value::String("failed".into()),
+                    _ => Value::Null,
+                },
+            })
+            .collect();
+        let numeric = values.iter().all(|v| v.is_number() || v.is_null())
+            && values.iter().any(|v| v.is_number());
+        columns.push(if numeric {
+            Column::Numbers(
+                values
+                    .iter()
+                    .map(|v| v.as_f64().unwrap_or(f64::NAN))
+                    .collect(),
+            )
+        } else {
+            Column::Text(
+                values
+                    .iter()
+                    .map(|v| match v {
+                        Value::Null => None,
+                        Value::String(s) => Some(s.clone()),
+                        other => Some(other.to_string()),
+                    })
+                    .collect(),
+            )
+        });
+    }
+    let steps: Vec<i64> = results.iter().map(|r| r.steps as i64).collect();
+    let errors: Vec<Option<String>> = results
+        .iter()
+        .map(|r| r.output.as_ref().err().cloned())
+        .collect();
+
+    let d = PyDict::new(py);
+    let order = PyList::empty(py);
+    for (name, col) in names.iter().zip(columns) {
+        match col {
+            Column::Numbers(v) => d.set_item(name, v.into_pyarray(py))?,
+            Column::Text(v) => d.set_item(name, v)?,
+        }
+        order.append(name)?;
+    }
+    debug_assert_eq!(steps.len(), n);
+    d.set_item("accepted_steps", steps.into_pyarray(py))?;
+    d.set_item("error", errors)?;
+    order.append("accepted_steps")?;
+    order.append("error")?;
+    Ok((cfg.name.clone(), cfg.kind.as_str().to_string(), d, order))
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    Ok(())
+}

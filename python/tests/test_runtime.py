@@ -1,0 +1,68 @@
+"""Long calls release the GIL and stop on Ctrl-C with KeyboardInterrupt."""
+
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+
+import trailer_sway as ts
+
+LONG = {
+    "name": "long",
+    "axes": [
+        {"parameter": "speed_mps", "min": 30.0, "max": 38.0, "points": 200},
+        {"parameter": "theta0_deg", "min": 2.0, "max": 12.0, "points": 50},
+    ],
+    "base": {
+        "horizon_s": 200.0,
+        "speed": {"kind": "constant", "speed_mps": 33.0},
+        "initial": {"kind": "state", "theta0_deg": 0.0},
+    },
+}
+
+
+def test_ctrl_c_raises_keyboard_interrupt_promptly(tmp_path):
+    # a 10 000-point study (minutes) interrupted by SIGINT after 1 s: KeyboardInterrupt
+    # within 2 s of the signal, and the interpreter lives on
+    script = tmp_path / "interrupt.py"
+    script.write_text(
+        textwrap.dedent(
+            f"""
+            import os, signal, threading, time
+            import trailer_sway as ts
+            threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+            t0 = time.monotonic()
+            try:
+                ts.sweep({LONG!r})
+                print("finished")
+            except KeyboardInterrupt:
+                print("interrupted", time.monotonic() - t0)
+            print("alive", ts.critical_speed().v_crit_mps > 0)
+            """
+        )
+    )
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    out = r.stdout.split()
+    assert r.returncode == 0, r.stderr
+    assert out[0] == "interrupted", r.stdout
+    assert float(out[1]) < 3.0, r.stdout
+    assert out[2:] == ["alive", "True"]
+
+
+def test_long_calls_release_the_gil():
+    # while a sweep runs on another thread, this thread keeps executing Python code
+    small = dict(LONG, axes=[dict(LONG["axes"][0], points=20), dict(LONG["axes"][1], points=10)])
+    done = threading.Event()
+    th = threading.Thread(target=lambda: (ts.sweep(small), done.set()))
+    t0 = time.monotonic()
+    th.start()
+    ticks = 0
+    while not done.is_set() and time.monotonic() - t0 < 60:
+        ticks += 1
+        time.sleep(0.001)
+    th.join()
+    elapsed = time.monotonic() - t0
+    assert done.is_set()
+    # about one tick per ms of the call (at least a quarter, on a loaded machine)
+    assert ticks > 0.25 * elapsed * 1000 / 1.1, (ticks, elapsed)

@@ -1,0 +1,600 @@
+"""trailer_sway: the nonlinear dynamics of trailer sway from Python.
+
+The functions wrap the Rust crates of this repository (the same code and the same
+numbers as ``cargo xtask <task>``) and return numpy arrays:
+
+- :class:`Vehicle` — the car–trailer parameters (paper Table I), validated;
+- :func:`critical_speed` — V_crit of straight running (open loop or with the delayed
+  yaw-rate feedback), or the speed up to which it stays stable;
+- :func:`roots` — the rightmost characteristic roots of eq. (13);
+- :func:`simulate` — one scenario (a dict in the TOML's shape, or a TOML file);
+- :func:`bifurcation_diagram` — equilibria, cycles, Hopf and fold points over V;
+- :func:`stability_chart` — the linear (V, D) charts of Fig. 4(a);
+- :func:`nonlinear_chart` — Hopf and fold-of-cycles curves, codimension-two points;
+- :func:`sweep` — a parallel study, returned as a :class:`Table` of numpy columns.
+
+Units are SI throughout (speeds in m/s, gains D and delays τ in s, angles in rad unless a
+name says ``_deg``). Long calls release the GIL, run on rayon's threads and stop with
+Ctrl-C (``KeyboardInterrupt``; nothing is returned or written). Bad input raises
+``ValueError`` with the message ``cargo xtask`` prints for the same value.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _native
+from ._native import Vehicle, set_num_threads, to_toml
+
+__all__ = [
+    "Vehicle",
+    "CriticalSpeed",
+    "critical_speed",
+    "roots",
+    "Simulation",
+    "simulate",
+    "BifurcationDiagram",
+    "bifurcation_diagram",
+    "StabilityChart",
+    "stability_chart",
+    "NonlinearChart",
+    "nonlinear_chart",
+    "Table",
+    "sweep",
+    "set_num_threads",
+    "to_toml",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _vehicle_from_dict(fields: Mapping[str, float]) -> Vehicle:
+    """Rebuilds a pickled :class:`Vehicle`."""
+    return Vehicle(**fields)
+
+
+def _vehicle(v: Optional[Vehicle]) -> Vehicle:
+    if v is None:
+        return Vehicle.table1()
+    if not isinstance(v, Vehicle):
+        raise TypeError(f"expected a trailer_sway.Vehicle, got {type(v).__name__}")
+    return v
+
+
+# ---------------------------------------------------------------------------------------
+# critical speed
+
+
+@dataclass(frozen=True)
+class CriticalSpeed:
+    """Where straight running loses stability.
+
+    Attributes:
+        v_crit_mps: V_crit [m/s], or None when straight running is stable on the whole
+            scanned range (then ``stable_up_to_mps`` is its end) or already unstable at
+            its start.
+        hopf_frequency_hz: frequency of the critical pair Im λ / 2π at V_crit [Hz]
+            (0 for a static crossing; None without a crossing).
+        hopf_omega_rad_s: its angular frequency ω [rad/s].
+        stable_up_to_mps: the speed up to which straight running is stable [m/s]:
+            V_crit, or the end of the scanned range; None if unstable at its start.
+        reason: ``"crossing"`` (a Hopf point, or a static one when ω = 0),
+            ``"stable_up_to_max"`` or ``"unstable_at_min"``.
+    """
+
+    v_crit_mps: Optional[float]
+    hopf_frequency_hz: Optional[float]
+    hopf_omega_rad_s: Optional[float]
+    stable_up_to_mps: Optional[float]
+    reason: str
+
+
+def _controller_gain_delay(controller: Any) -> tuple[Optional[float], Optional[float]]:
+    if controller is None:
+        return None, None
+    if not isinstance(controller, Mapping):
+        raise TypeError(
+            "controller: expected None or a dict like "
+            "{'kind': 'yaw_rate_feedback', 'gain_s': 0.1, 'delay_s': 0.2}, "
+            f"got {type(controller).__name__}"
+        )
+    kind = controller.get("kind", "yaw_rate_feedback")
+    if kind == "none":
+        return None, None
+    if kind != "yaw_rate_feedback":
+        raise ValueError(
+            f"controller: `kind`: unknown variant `{kind}`, expected `none` or `yaw_rate_feedback`"
+        )
+    missing = [k for k in ("gain_s", "delay_s") if k not in controller]
+    if missing:
+        raise ValueError(f"controller: missing field `{missing[0]}`")
+    gain, delay = controller["gain_s"], controller["delay_s"]
+    for k, x in (("gain_s", gain), ("delay_s", delay)):
+        if isinstance(x, bool) or not isinstance(x, (int, float, np.number)):
+            raise TypeError(f"controller: `{k}`: expected a number, got {type(x).__name__}")
+    return float(gain), float(delay)
+
+
+def critical_speed(
+    vehicle: Optional[Vehicle] = None,
+    controller: Optional[Mapping[str, Any]] = None,
+    *,
+    v_min_mps: float = 1.0,
+    v_max_mps: float = 100.0,
+    scan_step_mps: float = 0.5,
+    tolerance_mps: Optional[float] = None,
+) -> CriticalSpeed:
+    """V_crit of straight running, or the "stable up to" outcome.
+
+    Open loop (``controller=None``): the lowest speed where the spectral abscissa of
+    Ã(V) (eq. 9–11) changes sign, by a scan every ``scan_step_mps`` from ``v_min_mps``
+    to ``v_max_mps`` and bisection to ``tolerance_mps`` (default 1e-11 m/s) — the
+    ``linear`` task's search (``configs/linear.toml``).
+
+    Closed loop (``controller={"kind": "yaw_rate_feedback", "gain_s": D, "delay_s": τ}``,
+    the TOML's shape; only D [s] and τ [s] enter the linear analysis): the lowest speed
+    at which eq. (13) has a root with Re λ > 0, by the exact unstable-root count at
+    speeds at most ``scan_step_mps`` apart and bisection to ``tolerance_mps`` (default
+    1e-9 m/s) — the ``fig4a`` task's ``v_crit_at_d``.
+    """
+    v = _vehicle(vehicle)
+    gain, delay = _controller_gain_delay(controller)
+    if tolerance_mps is None:
+        tolerance_mps = 1e-11 if gain is None else 1e-9
+    raw = json.loads(
+        _native.critical_speed(
+            v,
+            gain,
+            delay,
+            float(v_min_mps),
+            float(v_max_mps),
+            float(scan_step_mps),
+            float(tolerance_mps),
+        )
+    )
+    reason = raw["reason"]
+    if reason == "crossing":
+        return CriticalSpeed(
+            raw["v_crit_mps"],
+            raw["hopf_frequency_hz"],
+            raw["hopf_omega_rad_s"],
+            raw["v_crit_mps"],
+            reason,
+        )
+    if reason == "stable_up_to_max":
+        return CriticalSpeed(None, None, None, raw["stable_up_to_mps"], reason)
+    return CriticalSpeed(None, None, None, None, reason)
+
+
+# ---------------------------------------------------------------------------------------
+# roots
+
+
+def roots(
+    vehicle: Optional[Vehicle],
+    speed: float,
+    gain: float,
+    delay: float,
+    count: int = 6,
+) -> np.ndarray:
+    """The ``count`` rightmost characteristic roots λ [1/s] of eq. (13) at speed V [m/s],
+    gain D [s] and delay τ [s], as ``cargo xtask roots`` prints them: a complex128
+    array sorted by decreasing real part, conjugates listed separately (a pair is never
+    split, so ``count + 1`` roots may come back), Newton-polished (relative accuracy
+    ~1e-14). ``count`` ≤ 200."""
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)):
+        raise TypeError(f"count: expected an int, got {type(count).__name__}")
+    return _native.roots(_vehicle(vehicle), float(speed), float(gain), float(delay), int(count))
+
+
+# ---------------------------------------------------------------------------------------
+# simulate
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """One simulated scenario (the 7-state model, paper eq. 5–7).
+
+    Arrays are sampled every ``output_step_s`` (empty with ``trajectory=False``):
+    ``t`` [s], ``states`` (n × 7: σ1 [m/s], σ2 [1/s], σ3 [1/s], θ [rad], ψ [rad],
+    x_H [m], y_H [m]), ``theta`` [rad] (a view of ``states[:, 3]``), ``speed`` V [m/s],
+    ``delta`` δ [rad]. Each array is the Rust result handed over without a copy.
+
+    ``metrics`` are the run's metrics as ``summary.json`` names them
+    (``peak_theta_deg_after_action``, ``final_amplitude_deg``, ``settle_time_s``,
+    ``outcome``, ``loss_of_control_time_s``, ``loss_of_control_condition``, ``class``,
+    ``decay_rate_per_s``); ``sway_class`` is ``metrics["class"]``.
+    """
+
+    t: np.ndarray
+    states: np.ndarray
+    theta: np.ndarray
+    speed: np.ndarray
+    delta: np.ndarray
+    metrics: dict
+    sway_class: str
+    action_s: float
+    t_end_s: float
+    accepted_steps: int
+    rejected_steps: int
+    name: str
+
+    @property
+    def theta_deg(self) -> np.ndarray:
+        """θ [deg]."""
+        return np.degrees(self.theta)
+
+
+_METRIC_KEYS = (
+    "peak_theta_deg_after_action",
+    "final_amplitude_deg",
+    "settle_time_s",
+    "outcome",
+    "loss_of_control_time_s",
+    "loss_of_control_condition",
+    "class",
+    "decay_rate_per_s",
+)
+
+
+def simulate(
+    vehicle: Optional[Vehicle],
+    scenario: Union[Mapping[str, Any], PathLike],
+    *,
+    trajectory: bool = True,
+) -> Simulation:
+    """Simulates a scenario as ``cargo xtask simulate FILE.toml`` does.
+
+    ``scenario`` is a TOML file path or a dict of the file's shape (see
+    ``configs/scenario_example.toml``), e.g.::
+
+        {"name": "s1", "horizon_s": 60.0,
+         "speed": {"kind": "constant", "speed_mps": 33.0},
+         "initial": {"kind": "state", "theta0_deg": 5.0}}
+
+    ``name`` may be omitted in a dict. With ``trajectory=False`` only the metrics are
+    computed (no samples are recorded).
+    """
+    if isinstance(scenario, Mapping) and "name" not in scenario:
+        scenario = {"name": "python", **scenario}
+    arrays, summary = _native.simulate(_vehicle(vehicle), scenario, bool(trajectory))
+    s = json.loads(summary)
+    states = arrays["states"]
+    return Simulation(
+        t=arrays["t"],
+        states=states,
+        theta=states[:, 3],
+        speed=arrays["speed"],
+        delta=arrays["delta"],
+        metrics={k: s[k] for k in _METRIC_KEYS},
+        sway_class=s["class"],
+        action_s=s["action_s"],
+        t_end_s=s["t_end_s"],
+        accepted_steps=s["accepted_steps"],
+        rejected_steps=s["rejected_steps"],
+        name=s["name"],
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# bifurcation diagram
+
+#: the closed-loop diagrams' continuation settings (``configs/fig4b.toml``)
+_CLOSED_LOOP_CONTINUATION = {"v_min_mps": 25.0, "v_max_mps": 60.0, "intervals": 40, "max_step": 0.5}
+
+
+@dataclass(frozen=True)
+class BifurcationDiagram:
+    """Straight running and the sway cycles over the speed V (paper Fig. 3a / 4b).
+
+    ``equilibria``: ``v_mps`` [m/s], ``stable`` (bool), ``max_re_lambda_per_s`` (the
+    rightmost characteristic root's real part [1/s]) along straight running.
+    ``cycles``: ``v_mps``, ``amplitude_deg`` (max |θ| [deg]), ``period_s`` [s],
+    ``stable`` (bool), ``max_multiplier`` (largest nontrivial Floquet multiplier modulus).
+    ``hopf_v_mps``, ``hopf_omega_rad_s``, ``criticality``, ``fold_v_mps``,
+    ``fold_amplitude_deg``, ``fold_period_s``, ``bistable_range_mps``: as located on the
+    branches (``cargo xtask fig3a``'s numbers). ``corrected``: the Hopf and fold speeds
+    corrected on their defining systems (``cargo xtask fig4b``'s ``pairs`` entries), or
+    None with ``correct=False``.
+    """
+
+    equilibria: dict
+    cycles: dict
+    hopf_v_mps: float
+    hopf_omega_rad_s: float
+    hopf_period_s: float
+    criticality: str
+    fold_v_mps: Optional[float]
+    fold_amplitude_deg: Optional[float]
+    fold_period_s: Optional[float]
+    bistable_range_mps: Optional[tuple]
+    cycle_points: int
+    corrected: Optional[dict]
+
+
+def bifurcation_diagram(
+    vehicle: Optional[Vehicle] = None,
+    controller: Optional[Mapping[str, Any]] = None,
+    *,
+    continuation: Optional[Mapping[str, Any]] = None,
+    correct: bool = True,
+) -> BifurcationDiagram:
+    """The bifurcation diagram over V for the open loop (``controller=None``, as
+    ``cargo xtask fig3a``) or the delayed yaw-rate feedback (``{"kind":
+    "yaw_rate_feedback", "gain_s": D, "delay_s": τ}``, as ``cargo xtask fig4b``).
+
+    ``continuation`` takes the keys of ``[diagram.continuation]`` in
+    ``configs/fig3a.toml`` (``v_min_mps``, ``v_max_mps``, ``intervals``, ``degree``,
+    ``hopf_amplitude``, ``initial_step``, ``max_step``, ``max_cycle_points``,
+    ``root_degree``, ``cycle_branch_points``); the defaults are fig3a's for the open loop
+    and fig4b's (25–60 m/s, L = 40, largest step 0.5) with a controller.
+    """
+    v = _vehicle(vehicle)
+    gain, delay = _controller_gain_delay(controller)
+    opts: dict = {} if gain is None else dict(_CLOSED_LOOP_CONTINUATION)
+    if continuation is not None:
+        if not isinstance(continuation, Mapping):
+            raise TypeError(f"continuation: expected a dict, got {type(continuation).__name__}")
+        opts.update(continuation)
+    raw, arrays = _native.bifurcation_diagram(
+        v, gain or 0.0, delay or 0.0, opts, bool(correct)
+    )
+    s = json.loads(raw)
+    d = s["diagram"]
+    return BifurcationDiagram(
+        equilibria=arrays["equilibria"],
+        cycles=arrays["cycles"],
+        hopf_v_mps=d["hopf_v_mps"],
+        hopf_omega_rad_s=d["hopf_omega_rad_s"],
+        hopf_period_s=d["hopf_period_s"],
+        criticality=d["criticality"],
+        fold_v_mps=d["fold_v_mps"],
+        fold_amplitude_deg=d["fold_amplitude_deg"],
+        fold_period_s=d["fold_period_s"],
+        bistable_range_mps=None if d["bistable_range_mps"] is None else tuple(d["bistable_range_mps"]),
+        cycle_points=d["cycle_points"],
+        corrected=s["corrected"],
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# stability charts
+
+
+@dataclass(frozen=True)
+class StabilityChart:
+    """The linear stability chart of one delay τ in the (V, D) plane (paper Fig. 4a).
+
+    ``v_mps`` [m/s] and ``d_s`` [s] are the cell centres; ``unstable_roots`` (nv × nd,
+    int; -1 where a count failed) is the exact number of characteristic roots of eq. (13)
+    with Re λ > 0, ``spectral_abscissa_per_s`` (nv × nd) max Re λ [1/s];
+    ``static_boundary`` and ``dynamic_boundary`` are the D-subdivision curves (λ = 0 and
+    λ = ±iω) as rows (branch, V [m/s], D [s], ω [rad/s]); ``summary`` is this delay's
+    ``per_tau`` entry of ``cargo xtask fig4a``'s ``summary.json``.
+    """
+
+    tau_s: float
+    v_mps: np.ndarray
+    d_s: np.ndarray
+    unstable_roots: np.ndarray
+    spectral_abscissa_per_s: np.ndarray
+    static_boundary: np.ndarray
+    dynamic_boundary: np.ndarray
+    summary: dict
+    failures: list
+
+    @property
+    def stable(self) -> np.ndarray:
+        """nv × nd booleans: straight running is asymptotically stable."""
+        return self.unstable_roots == 0
+
+
+@dataclass(frozen=True)
+class StabilityCharts:
+    """One :class:`StabilityChart` per delay (``charts``, in the given order) and the
+    summary of ``cargo xtask fig4a`` (``summary``: ``open_loop_v_crit_mps``,
+    ``per_tau``, ``grid_cells_per_tau``)."""
+
+    charts: list
+    summary: dict
+
+    def __getitem__(self, i: int) -> StabilityChart:
+        return self.charts[i]
+
+    def __len__(self) -> int:
+        return len(self.charts)
+
+    def __iter__(self):
+        return iter(self.charts)
+
+
+def _pair(x: Any, what: str) -> tuple[float, float]:
+    try:
+        a, b = x
+    except (TypeError, ValueError):
+        raise TypeError(f"{what}: expected a pair (min, max), got {x!r}") from None
+    return a, b
+
+
+def stability_chart(
+    vehicle: Optional[Vehicle] = None,
+    delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
+    speed_range: tuple[float, float] = (0.0, 60.0),
+    gain_range: tuple[float, float] = (-0.5, 0.5),
+    *,
+    speed_cells: int = 300,
+    gain_cells: int = 200,
+    gain_for_critical_speed_s: float = 0.1,
+    speed_for_gain_interval_mps: float = 35.0,
+    speed_tolerance_mps: float = 1e-9,
+    reseed_interval: int = 8,
+    tracked_roots: int = 8,
+) -> StabilityCharts:
+    """Stability charts of the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) in the
+    (V, D) plane, one per delay τ [s] in ``delays``, over ``speed_range`` [m/s] ×
+    ``gain_range`` [s] in ``speed_cells`` × ``gain_cells`` cells — ``cargo xtask fig4a``
+    with these values as its config (the defaults are ``configs/fig4a.toml``)."""
+    v = _vehicle(vehicle)
+    (v0, v1), (d0, d1) = _pair(speed_range, "speed_range"), _pair(gain_range, "gain_range")
+    config = {
+        "speed": {"min_mps": v0, "max_mps": v1, "cells": speed_cells},
+        "gain": {"min_s": d0, "max_s": d1, "cells": gain_cells},
+        "delays_s": list(delays) if not isinstance(delays, (int, float)) else [delays],
+        "summary": {
+            "gain_for_critical_speed_s": gain_for_critical_speed_s,
+            "speed_for_gain_interval_mps": speed_for_gain_interval_mps,
+            "speed_tolerance_mps": speed_tolerance_mps,
+        },
+        "numerics": {"reseed_interval": reseed_interval, "tracked_roots": tracked_roots},
+    }
+    raw, charts = _native.stability_chart(v, config)
+    summary = json.loads(raw)
+    out = [
+        StabilityChart(
+            tau_s=c["tau_s"],
+            v_mps=c["v_mps"],
+            d_s=c["d_s"],
+            unstable_roots=c["unstable_roots"],
+            spectral_abscissa_per_s=c["spectral_abscissa_per_s"],
+            static_boundary=c["static_boundary"],
+            dynamic_boundary=c["dynamic_boundary"],
+            summary=entry,
+            failures=c["failures"],
+        )
+        for c, entry in zip(charts, summary["per_tau"])
+    ]
+    return StabilityCharts(out, summary)
+
+
+@dataclass(frozen=True)
+class NonlinearChart:
+    """The nonlinear stability chart of one delay τ: ``hopf_curves`` (each a dict of
+    arrays ``d_s`` [s], ``v_mps`` [m/s], ``omega_rad_s`` [rad/s], ``subcritical`` (1, 0,
+    NaN unknown), and its ``seed_d_s``), ``fold_curves`` (``d_s``, ``v_mps``,
+    ``period_s`` [s], ``amplitude_deg`` (max |θ| [deg])), ``codim2_points`` (kind, D, V,
+    ω) and ``summary``: this delay's ``per_tau`` entry of ``cargo xtask
+    chart_nonlinear``'s ``summary.json`` (``curves``, ``codim2_points``,
+    ``bistable_width_mps``, ``notes``)."""
+
+    tau_s: float
+    hopf_curves: list
+    fold_curves: list
+    codim2_points: list
+    summary: dict
+
+
+def nonlinear_chart(
+    vehicle: Optional[Vehicle] = None,
+    delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
+    *,
+    summary_gains_s: Sequence[float] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25),
+    bistable_gain_s: float = 0.1,
+    chart: Optional[Mapping[str, Any]] = None,
+    regions: Optional[Mapping[str, Any]] = None,
+) -> list:
+    """Hopf and fold-of-cycles curves in the (V, D) plane and their codimension-two
+    points, one :class:`NonlinearChart` per delay τ [s] — ``cargo xtask chart_nonlinear``
+    with these values as its config. ``chart`` takes the keys of ``[chart]`` in
+    ``configs/chart_nonlinear.toml`` (box, seeds, steps, ``cycles`` mesh), ``regions`` its
+    ``speed_cells``/``gain_cells``; absent keys take the file's defaults. Expensive: about
+    15 s per delay on 2 cores with the defaults."""
+    v = _vehicle(vehicle)
+    config: dict = {
+        "delays_s": list(delays) if not isinstance(delays, (int, float)) else [delays],
+        "summary_gains_s": list(summary_gains_s),
+        "bistable_gain_s": bistable_gain_s,
+    }
+    if chart is not None:
+        config["chart"] = dict(chart)
+    if regions is not None:
+        config["regions"] = dict(regions)
+    raw, charts = _native.nonlinear_chart(v, config)
+    summary = json.loads(raw)
+    return [
+        NonlinearChart(
+            tau_s=c["tau_s"],
+            hopf_curves=c["hopf_curves"],
+            fold_curves=c["fold_curves"],
+            codim2_points=entry["codim2_points"],
+            summary=entry,
+        )
+        for c, entry in zip(charts, summary["per_tau"])
+    ]
+
+
+# ---------------------------------------------------------------------------------------
+# sweeps
+
+
+class Table:
+    """A result table without pandas: ordered columns of equal length, numeric ones as
+    float64/int64 numpy arrays (NaN where a value is absent), text ones as numpy object
+    arrays (None where absent). ``table["v_crit_mps"]``, ``table.columns``,
+    ``len(table)``, ``table.to_dict()``, ``table.to_pandas()`` (if pandas is installed).
+    """
+
+    def __init__(self, columns: Mapping[str, Any], order: Sequence[str], name: str = "", kind: str = ""):
+        self._cols = {}
+        for k in order:
+            c = columns[k]
+            self._cols[k] = c if isinstance(c, np.ndarray) else np.array(c, dtype=object)
+        self.name = name
+        self.kind = kind
+
+    @property
+    def columns(self) -> list:
+        """The column names, in ``sweep.csv``'s order."""
+        return list(self._cols)
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self._cols[key]
+
+    def __contains__(self, key: str) -> bool:
+        return key in self._cols
+
+    def __len__(self) -> int:
+        return len(next(iter(self._cols.values()))) if self._cols else 0
+
+    def __repr__(self) -> str:
+        return f"Table({self.name!r}, kind={self.kind!r}, {len(self)} rows, columns={self.columns})"
+
+    def to_dict(self) -> dict:
+        """{column: numpy array}."""
+        return dict(self._cols)
+
+    def to_pandas(self):
+        """A pandas DataFrame of the columns (requires pandas)."""
+        try:
+            import pandas as pd
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise ImportError("Table.to_pandas() needs pandas: pip install pandas") from e
+        return pd.DataFrame(self._cols)
+
+    def counts(self, column: str = "class") -> dict:
+        """{value: rows} of a text column (e.g. the simulation classes)."""
+        values, n = np.unique(np.array([str(x) for x in self._cols[column]]), return_counts=True)
+        return {str(v): int(k) for v, k in zip(values, n)}
+
+
+def sweep(
+    config: Union[Mapping[str, Any], PathLike],
+    vehicle: Optional[Vehicle] = None,
+) -> Table:
+    """A parallel study, as ``cargo xtask sweep FILE.toml``: ``config`` is a sweep file
+    or a dict of its shape (``configs/sweep_threshold.toml``); ``vehicle`` (default
+    Table I) is ``--vehicle``. Returns one row per grid point (× uncertainty sample), the
+    columns of the task's ``sweep.csv``: the axis values (named by parameter), sampled
+    fields, the kind's results (a simulation's metrics and class; V_crit and the Hopf
+    frequency; the Hopf and fold speeds), ``accepted_steps`` and ``error`` (None for a
+    point that succeeded). Runs on rayon's threads; the θ(0) threshold bisection and the
+    figures of the task are not computed. ``name`` may be omitted in a dict."""
+    if isinstance(config, Mapping) and "name" not in config:
+        config = {"name": "python", **config}
+    name, kind, columns, order = _native.sweep(_vehicle(vehicle), config)
+    return Table(columns, order, name, kind)

@@ -1,0 +1,88 @@
+"""Type hints of the extension module (the Rust layer; use the functions of
+``trailer_sway`` rather than these)."""
+
+from os import PathLike
+from typing import Any, Mapping, Optional, Union
+
+import numpy as np
+
+class Vehicle:
+    """A car–trailer combination (paper Table I form), validated: positive masses,
+    inertias and stiffnesses, 0 < c < f, 0 < d < f, 0 < μ ≤ μ0, g > 0 (``ValueError``
+    with the CLI's message otherwise). Lengths in m, masses in kg, inertias in kg m²,
+    cornering stiffnesses in N/rad, g in m/s²."""
+
+    tractor_mass: float
+    tractor_yaw_inertia: float
+    tractor_front_axle: float
+    tractor_cog: float
+    tractor_rear_axle: float
+    tractor_front_cornering_stiffness: float
+    tractor_rear_cornering_stiffness: float
+    trailer_mass: float
+    trailer_yaw_inertia: float
+    trailer_cog: float
+    trailer_axle: float
+    trailer_cornering_stiffness: float
+    friction_mu_static: float
+    friction_mu_dynamic: float
+    gravity: float
+    def __init__(
+        self,
+        *,
+        tractor_mass: float,
+        tractor_yaw_inertia: float,
+        tractor_front_axle: float,
+        tractor_cog: float,
+        tractor_rear_axle: float,
+        tractor_front_cornering_stiffness: float,
+        tractor_rear_cornering_stiffness: float,
+        trailer_mass: float,
+        trailer_yaw_inertia: float,
+        trailer_cog: float,
+        trailer_axle: float,
+        trailer_cornering_stiffness: float,
+        friction_mu_static: float,
+        friction_mu_dynamic: float,
+        gravity: float = 9.81,
+    ) -> None: ...
+    @staticmethod
+    def table1() -> Vehicle:
+        """Paper Table I (μ0 = 0.9, μ = 0.6, g = 9.81 m/s²)."""
+    @staticmethod
+    def from_toml(path: Union[str, PathLike[str]]) -> Vehicle:
+        """A vehicle file (the form of ``configs/vehicle.toml``)."""
+    def replace(self, **changes: float) -> Vehicle:
+        """A copy with some fields changed, validated."""
+    @staticmethod
+    def fields() -> list[str]: ...
+    def to_dict(self) -> dict[str, float]: ...
+    def to_toml(self) -> str:
+        """The vehicle file's text."""
+    def __eq__(self, other: object) -> bool: ...
+
+def critical_speed(
+    vehicle: Vehicle,
+    gain: Optional[float],
+    delay: Optional[float],
+    v_min_mps: float,
+    v_max_mps: float,
+    scan_step_mps: float,
+    tolerance_mps: float,
+) -> str: ...
+def roots(
+    vehicle: Vehicle, speed: float, gain: float, delay: float, count: int = 6
+) -> np.ndarray: ...
+def simulate(
+    vehicle: Vehicle, scenario: Any, trajectory: bool = True
+) -> tuple[dict[str, np.ndarray], str]: ...
+def stability_chart(vehicle: Vehicle, config: Mapping[str, Any]) -> tuple[str, list[dict[str, Any]]]: ...
+def nonlinear_chart(vehicle: Vehicle, config: Mapping[str, Any]) -> tuple[str, list[dict[str, Any]]]: ...
+def bifurcation_diagram(
+    vehicle: Vehicle, gain: float, delay: float, continuation: Mapping[str, Any], correct: bool
+) -> tuple[str, dict[str, dict[str, np.ndarray]]]: ...
+def sweep(vehicle: Vehicle, config: Any) -> tuple[str, str, dict[str, Any], list[str]]: ...
+def set_num_threads(n: int) -> None:
+    """The number of rayon threads of every later call (once, before the first call)."""
+def to_toml(config: Mapping[str, Any]) -> str:
+    """The TOML text of a config dict (a file ``cargo xtask`` reads)."""

@@ -488,7 +488,11 @@ fn variants_task_moves_the_headline_numbers_with_relaxation() {
     assert!((v_crit[2] - 30.3).abs() < 0.05, "{}", v_crit[2]);
     // the fold at σ = 0.3 m: 29.757448 m/s on a mesh of L = 80 (29.757452 at L = 20: the
     // mesh error is < 1e-5 m/s), so 1e-4
-    assert!((num(&rows[1], "v_fold_mps") - 29.757448).abs() < 1e-4, "{}", rows[1]);
+    assert!(
+        (num(&rows[1], "v_fold_mps") - 29.757448).abs() < 1e-4,
+        "{}",
+        rows[1]
+    );
     assert_eq!(rows[0]["states"].as_u64(), Some(4));
     assert_eq!(rows[1]["states"].as_u64(), Some(7));
     // the σ curve of the figure falls, and its fold stays below V_crit
@@ -517,9 +521,16 @@ fn variants_task_moves_the_headline_numbers_with_relaxation() {
     for r in rows {
         assert!(num(r, "v_crit_at_d_opt_mps") > num(r, "v_crit_mps"), "{r}");
         let w = num(r, "bistable_width_mps");
-        assert!((w - (num(r, "v_crit_mps") - num(r, "v_fold_mps"))).abs() < 1e-12, "{r}");
+        assert!(
+            (w - (num(r, "v_crit_mps") - num(r, "v_fold_mps"))).abs() < 1e-12,
+            "{r}"
+        );
     }
-    for f in ["variants.csv", "v_crit_v_fold_vs_sigma.png", "v_crit_v_fold_vs_sigma.svg"] {
+    for f in [
+        "variants.csv",
+        "v_crit_v_fold_vs_sigma.png",
+        "v_crit_v_fold_vs_sigma.svg",
+    ] {
         assert!(dir.path().join("results/variants").join(f).exists(), "{f}");
     }
 }
@@ -583,7 +594,10 @@ fn chart_nonlinear_runs_on_a_model_variant_and_keeps_the_papers_numbers() {
         assert_eq!(t["v_hopf_mps"].as_f64(), c.v_hopf_mps);
         assert_eq!(t["v_fold_mps"].as_f64(), c.v_fold_mps);
     }
-    assert_eq!(a["per_tau"][0]["bistable_width_mps"].as_f64(), d.bistable_width_mps);
+    assert_eq!(
+        a["per_tau"][0]["bistable_width_mps"].as_f64(),
+        d.bistable_width_mps
+    );
 }
 
 #[test]
@@ -595,9 +609,15 @@ fn fleet_takes_a_vehicle_file_with_model_variants() {
     let relaxation = configs_dir().join("vehicles/relaxation.toml");
     let toml = variants_config()
         .replace("relaxation_lengths_m = [0.0, 0.3, 0.6]\n", "")
-        .replace("curve_relaxation_lengths_m = { min = 0.0, max = 0.6, points = 3 }\n", "")
+        .replace(
+            "curve_relaxation_lengths_m = { min = 0.0, max = 0.6, points = 3 }\n",
+            "",
+        )
         .replace("vehicle_files = [", "files = [")
-        .replace(&format!("{:?}", configs_dir().join("vehicles/magic_formula.toml")), &format!("{relaxation:?}"));
+        .replace(
+            &format!("{:?}", configs_dir().join("vehicles/magic_formula.toml")),
+            &format!("{relaxation:?}"),
+        );
     let vehicle = configs_dir().join("vehicle.toml");
     let s = run("fleet", &toml, &vehicle, dir.path()).expect("fleet runs");
     let r = &s["vehicles"][0];
@@ -624,7 +644,8 @@ fn loading_maps_a_model_variant_on_its_own_plant() {
         })
         .expect("V_crit")
         .v_crit_mps;
-        let s = run("loading", LOADING, &vehicle, dir.path()).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let s =
+            run("loading", LOADING, &vehicle, dir.path()).unwrap_or_else(|e| panic!("{file}: {e}"));
         let v = s["v_crit_table_i_mps"].as_f64().expect("V_crit");
         assert!((v - v_crit).abs() < 1e-5, "{file}: {v} vs {v_crit}");
         let top = s["v_range_mps"][1].as_f64().expect("range");

@@ -8,7 +8,9 @@
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use trailer_model::{AnyVehicleModel, CriticalSpeedOptions, Model, Plant, VehicleParams, VehicleSpec};
+use trailer_model::{
+    AnyVehicleModel, CriticalSpeedOptions, Model, Plant, VehicleParams, VehicleSpec,
+};
 
 /// How the trailer's yaw inertia follows its mass on the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]

@@ -314,7 +314,6 @@ pub fn plant_critical_speed<P: trailer_model::Plant<M>, const M: usize>(
     )
 }
 
-
 /// [`resolve_speeds`] for the model of a vehicle file: the paper's [`Model`] exactly as
 /// [`resolve_speeds`]; a model variant refers `of_v_crit` speeds to its own V_crit and
 /// `in_bistable` speeds to its own fold of cycles ([`open_loop_references`] on its plant).

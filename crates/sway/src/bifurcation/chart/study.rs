@@ -5,11 +5,11 @@
 //! ([`crate::charts::auto_range`]). Also the `[chart]` table that `corners` and
 //! `gain_design` share ([`ChartConfig`]).
 
+use crate::bifurcation::LoopPlant;
+use crate::control::LoopModel;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
-use crate::bifurcation::LoopPlant;
-use crate::control::LoopModel;
 
 use super::{ChartOptions, NonlinearChart, nonlinear_chart};
 use crate::SwayError;

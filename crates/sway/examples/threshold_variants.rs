@@ -5,56 +5,16 @@
 //! vehicle (33.01 m/s for Table I) and at 33 m/s where that is below its V_crit.
 //!
 //! `cargo run --release -p sway --example threshold_variants`
+//!
+//! The threshold search is `sway::sim::fleet::threshold_at` with `FleetOptions`' defaults
+//! (θ(0) from 0.5° to 15° in 16 steps, bisected to 0.01°, 240 s horizon); the task
+//! `cargo xtask variants` reports it with the other headline numbers of each variant.
 
-use sway::config::Positive;
-use sway::sim::sweep::{
-    Axis, AxisParameter, BaseScenario, SweepParameter, ThresholdSearch, theta0_threshold_any,
-};
-use sway::sim::{
-    Controller, InitialCondition, MetricSettings, RunSettings, SolverSettings, SpeedProfile,
-};
+use sway::sim::fleet::{FleetOptions, threshold_at};
 use trailer_model::{AnyVehicleModel, CriticalSpeedOptions, Plant, VehicleSpec, with_plant};
 
 fn threshold(vehicle: &AnyVehicleModel, v: f64) -> Option<f64> {
-    let base = BaseScenario {
-        horizon_s: Positive::literal(240.0),
-        action_s: Some(0.0),
-        speed: SpeedProfile::Constant { speed_mps: v },
-        controller: Controller::None,
-        initial: InitialCondition::State {
-            sigma1_mps: 0.0,
-            sigma2_per_s: 0.0,
-            sigma3_per_s: 0.0,
-            theta0_deg: 0.0,
-            psi0_deg: 0.0,
-        },
-        settings: RunSettings {
-            solver: SolverSettings {
-                rtol: 1e-6,
-                atol: 1e-8,
-                ..SolverSettings::default()
-            },
-            metrics: MetricSettings::default(),
-            ..RunSettings::default()
-        },
-    };
-    let column = Axis::range(
-        AxisParameter::Scenario(SweepParameter::Theta0Deg),
-        0.5,
-        15.0,
-        16,
-    )
-    .values();
-    let search = ThresholdSearch {
-        horizon_s: Positive::literal(240.0),
-        tolerance_deg: Positive::literal(0.01),
-        max_doublings: 3,
-        compare_cycles: false,
-        cycles: Default::default(),
-    };
-    theta0_threshold_any(vehicle, &base, &column, &search, v)
-        .expect("threshold")
-        .theta0_threshold_deg
+    threshold_at(vehicle, v, &FleetOptions::default()).expect("threshold")
 }
 
 fn main() {

@@ -34,11 +34,13 @@ impl Default for SpeedLimits {
     }
 }
 
-use trailer_model::{CriticalSpeedOptions, Model};
+use trailer_model::{CriticalSpeedOptions, Plant};
 
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
+use crate::bifurcation::{
+    CycleExtent, DiagramOptions, Feedback, LoopPlant, bifurcation_diagram_until,
+};
 
 impl SpeedLimits {
     /// The options of the open-loop critical-speed scan over \[min, max\] speed.
@@ -138,13 +140,14 @@ pub struct CriticalSpeedSummary {
 
 /// The open-loop critical speed: the one search every task and sweep uses (a scan of the
 /// spectral abscissa of Ã(V) from `min_speed_mps` in `scan_step_mps`, then bisection of
-/// the bracket to `tolerance_mps`, [`Model::critical_speed_search`]).
+/// the bracket to `tolerance_mps`, [`Plant::critical_speed_search`]; for the paper's
+/// [`trailer_model::Model`] its own search, so its numbers do not move). Any plant.
 ///
 /// # Errors
 /// [`SwayError::Model`] when straight running is already unstable at the lowest speed or
 /// the eigenvalues are not finite (a vehicle outside the model's range).
-pub fn open_loop_critical_speed(
-    model: &Model,
+pub fn open_loop_critical_speed<P: Plant<N>, const N: usize>(
+    model: &P,
     limits: &SpeedLimits,
 ) -> Result<OpenLoopStability, SwayError> {
     Ok(
@@ -340,8 +343,8 @@ impl<'de> Deserialize<'de> for SpeedSpec {
 /// # Errors
 /// A numerical failure of the critical-speed search (a failure of the cycle continuation
 /// leaves the fold null, with the reason).
-pub fn open_loop_references(
-    model: &Model,
+pub fn open_loop_references<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     limits: &SpeedLimits,
     need: Reference,
 ) -> Result<SpeedReferences, SwayError> {
@@ -388,8 +391,8 @@ pub fn open_loop_references(
 ///
 /// # Errors
 /// A numerical failure of the continuation.
-pub fn open_loop_fold(
-    model: &Model,
+pub fn open_loop_fold<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     v_crit: f64,
     limits: &SpeedLimits,
 ) -> Result<Result<f64, String>, SwayError> {
@@ -416,7 +419,7 @@ pub fn open_loop_fold(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use trailer_model::VehicleParams;
+    use trailer_model::{Model, VehicleParams};
 
     #[derive(Debug, Deserialize)]
     struct Holder {

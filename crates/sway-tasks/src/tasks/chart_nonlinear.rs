@@ -37,7 +37,8 @@ pub const TASK: Task = Task::configured::<ChartNonlinearConfig>(
     "chart_nonlinear",
     "nonlinear stability chart: Hopf and fold-of-cycles curves in (V, D), bistable band, codim-2 points",
     "chart_nonlinear.toml",
-);
+)
+.any_model();
 
 /// Checks the keys (the derived ones are checked once derived).
 ///
@@ -558,7 +559,8 @@ impl Prepared for Configured<ChartNonlinearConfig> {
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         ctx.run_staged(TASK.name, "chart_nonlinear: curves per delay", cfg.delays_s.len() as u64, cfg, &self.file, |out| {
-        let study = compute(&ctx.model, cfg, &SpeedBounds::from(&ctx.limits), ctx.progress)?;
+        let bounds = SpeedBounds::from(&ctx.limits);
+        let study = trailer_model::with_plant!(&ctx.plant, m => compute(m, cfg, &bounds, ctx.progress))?;
         let (res, results) = (&study.resolved, &study.delays);
         let bistable = res.bistable_gain_s;
         let mut lines = Vec::new();

@@ -3,25 +3,27 @@
 //! width of the bistable range, the best gain D\* at τ = 0.2 s and the θ(0) threshold of
 //! sway at the middle of the bistable range. `summary.json`: `"vehicles"` (one entry per
 //! file, every null with its reason), `fleet.csv` (one row per file) and `fleet.md` (the
-//! table of the README).
+//! table of the README). A file may be a vehicle with model variants (issue 21): its
+//! numbers are those of its own plant.
 
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sway::sim::fleet::{FleetEntry, FleetOptions, fleet_entry};
-use trailer_model::Model;
+use trailer_model::AnyVehicleModel;
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
-use crate::config_file::{Configured, TaskConfig, load_vehicle};
+use crate::config_file::{Configured, TaskConfig, load_vehicle_spec};
 
 /// The task.
 pub const TASK: Task = Task::configured::<FleetConfig>(
     "fleet",
     "headline numbers of every task (V_crit, fold, bistable width, D* at τ = 0.2 s, threshold) for each vehicle file of configs/fleet/",
     "fleet.toml",
-);
+)
+.any_model();
 
 /// `configs/fleet.toml`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -141,8 +143,8 @@ impl Prepared for Configured<FleetConfig> {
         let models = cfg
             .files
             .iter()
-            .map(|f| load_vehicle(&dir.join(f)).map(|(_, m)| m))
-            .collect::<Result<Vec<Model>, _>>()?;
+            .map(|f| load_vehicle_spec(&dir.join(f)).map(|v| v.plant))
+            .collect::<Result<Vec<AnyVehicleModel>, _>>()?;
         let steps = models.len() as u64;
         ctx.run_staged(TASK.name, "fleet: headline numbers per vehicle file", steps, cfg, &self.file, |out| {
             let entries: Vec<Result<FleetEntry, sway::SwayError>> = models

@@ -6,13 +6,10 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use crate::TaskError;
 use sway::config::{Grid, ensure};
-use sway::loading::{
-    InertiaScaling, LoadingMap, loading_map, tongue_load_fraction, v_crit_at_tongue_load,
-    v_crit_of,
-};
+use sway::loading::{InertiaScaling, LoadingBase, LoadingMap, loading_map, v_crit_at_tongue_load};
 use sway::ranging::{Reference, SpeedLimits, SpeedSpec, open_loop_references};
 use sway::sim::speeds::SpeedValue;
-use trailer_model::{CriticalSpeedOptions, Model, VehicleParams};
+use trailer_model::{AnyVehicleModel, CriticalSpeedOptions, VehicleSpec};
 
 use crate::limits::{
     BYTES_PER_ROW, LOADING_SECONDS_PER_CELL, MAX_SIMULATIONS, Plan, bound, human_seconds,
@@ -28,7 +25,7 @@ pub const TASK: Task = Task {
     about: "V_crit vs trailer mass and centre of gravity, tongue-load lines (beyond the paper)",
     config: "loading.toml",
     prepare,
-    models: super::Models::Paper,
+    models: super::Models::Any,
 };
 
 /// `configs/loading.toml`.
@@ -82,14 +79,14 @@ const SCAN_STEP_MPS: f64 = 0.5;
 /// (a relative end of a vehicle without V_crit falls back to the limits).
 fn v_range(
     cfg: &LoadingConfig,
-    model: &Model,
+    vehicle: &AnyVehicleModel,
     limits: &SpeedLimits,
 ) -> Result<([f64; 2], Option<String>), TaskError> {
     let Some([a, b]) = cfg.v_range_mps else {
         return Ok(([limits.min_speed_mps, limits.max_speed_mps], None));
     };
     let need = a.needs().max(b.needs());
-    let refs = open_loop_references(model, limits, need)?;
+    let refs = trailer_model::with_plant!(vehicle, m => open_loop_references(m, limits, need))?;
     let fallback = [limits.min_speed_mps, limits.max_speed_mps];
     match (a.resolve(&refs), b.resolve(&refs)) {
         (Ok(lo), Ok(hi)) => Ok(([lo, hi], None)),
@@ -246,13 +243,14 @@ fn edges(v: &[f64]) -> Vec<f64> {
 fn draw(
     out: &OutputDir,
     cfg: &LoadingConfig,
-    base: &VehicleParams,
+    base: &VehicleSpec,
+    who: &str,
     m: &LoadingMap,
     opts: &CriticalSpeedOptions,
 ) -> Result<(), TaskError> {
     let (lo, hi) = m.range;
     let (masses, cogs, map, cut) = (&m.masses, &m.cogs, &m.map, &m.cut);
-    let l = base.trailer.axle;
+    let l = base.trailer_axle();
     let mut map_panel = Panel::new(
         "Critical speed of straight running vs trailer loading",
         "trailer mass m2 [kg]",
@@ -282,7 +280,6 @@ fn draw(
             ));
         }
     }
-    let who = if base.is_table_i() { "Table I" } else { "this vehicle" };
     map_panel.layers.push(Layer::markers(
         vec![(base.trailer.mass, base.trailer.cog)],
         Rgb::RED,
@@ -300,7 +297,7 @@ fn draw(
         Some("V_crit"),
     ))
     .with(Layer::markers(
-        vec![(100.0 * tongue_load_fraction(base), v_crit_of(base, opts))],
+        vec![(100.0 * base.tongue_load_fraction(), base.v_crit(opts))],
         Rgb::RED,
         Some(who),
     ))
@@ -334,9 +331,16 @@ impl Prepared for LoadingTask {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let base = &ctx.vehicle;
-        let l = base.trailer.axle;
-        let ([v_min, v_max], v_range_reason) = v_range(cfg, &ctx.model, &ctx.limits)?;
+        // the map varies the file's trailer (any model variant: its own plant in every cell;
+        // a tandem's l is the mean position of its axles, where their load acts)
+        let base = &ctx.spec;
+        let l = base.trailer_axle();
+        let who = if ctx.variant_key.is_none() && ctx.vehicle.is_table_i() {
+            "Table I"
+        } else {
+            "this vehicle"
+        };
+        let ([v_min, v_max], v_range_reason) = v_range(cfg, &ctx.plant, &ctx.limits)?;
         let opts = CriticalSpeedOptions {
             v_min,
             v_max,
@@ -354,11 +358,11 @@ impl Prepared for LoadingTask {
                 &|| ctx.progress.advance(1),
             );
             write_tables(out, &m, l)?;
-            draw(out, cfg, base, &m, &opts)?;
+            draw(out, cfg, base, who, &m, &opts)?;
             let at = |q: f64| v_crit_at_tongue_load(base, q, cfg.inertia, &opts);
             let summary = LoadingSummary {
-                tongue_load_pct_table_i: 100.0 * tongue_load_fraction(base),
-                v_crit_table_i_mps: v_crit_of(base, &opts),
+                tongue_load_pct_table_i: 100.0 * base.tongue_load_fraction(),
+                v_crit_table_i_mps: base.v_crit(&opts),
                 v_crit_at_tongue_load_0pct_mps: at(0.0),
                 v_crit_at_tongue_load_5pct_mps: at(5.0),
                 v_crit_at_tongue_load_10pct_mps: at(10.0),

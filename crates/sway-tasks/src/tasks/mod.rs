@@ -47,6 +47,7 @@ registry! {
     mitigation => [TASK],
     sweep => [TASK, BRAKE_TIMING, UNCERTAINTY, FLEET],
     fleet => [TASK],
+    variants => [TASK],
 }
 
 pub mod fig3a_diagram;

@@ -8,9 +8,9 @@
 //! a reason next to it.
 
 use serde::{Deserialize, Serialize};
-use trailer_model::Model;
+use trailer_model::{AnyVehicleModel, with_plant};
 
-use super::sweep::threshold::{ThresholdSearch, theta0_threshold};
+use super::sweep::threshold::{ThresholdSearch, theta0_threshold_any};
 use super::sweep::{Axis, AxisParameter, BaseScenario, SweepParameter};
 use super::{Controller, InitialCondition, SpeedProfile};
 use crate::SwayError;
@@ -90,17 +90,22 @@ pub struct FleetEntry {
     pub reasons: Vec<String>,
 }
 
-/// The headline numbers of `model`.
+/// The headline numbers of the plant of a vehicle file, any model variant (the paper's
+/// [`trailer_model::Model`] for a vehicle of the paper's form: the same calls, so the
+/// same numbers): V_crit and the fold of cycles on the plant itself
+/// ([`open_loop_references`]), D\* on its own linearisation ([`linear_optimum`] through
+/// [`crate::control::LoopModel`]) and the threshold by simulating it
+/// ([`theta0_threshold_any`]).
 ///
 /// # Errors
 /// [`SwayError::Numerical`] when a computation fails (a missing reference is not an error).
 pub fn fleet_entry(
-    model: &Model,
+    vehicle: &AnyVehicleModel,
     limits: &SpeedLimits,
     o: &FleetOptions,
 ) -> Result<FleetEntry, SwayError> {
     let mut reasons = Vec::new();
-    let stability = open_loop_critical_speed(model, limits)?;
+    let stability = with_plant!(vehicle, m => open_loop_critical_speed(m, limits))?;
     let (v_crit, freq, stable_up_to) = match stability {
         OpenLoopStability::Critical {
             v_crit_mps,
@@ -119,7 +124,7 @@ pub fn fleet_entry(
     };
     let fold = match v_crit {
         Some(_) => {
-            let r = open_loop_references(model, limits, Reference::Fold)?;
+            let r = with_plant!(vehicle, m => open_loop_references(m, limits, Reference::Fold))?;
             if r.v_fold_mps.is_none() {
                 reasons.push(format!(
                     "no bistable range, no threshold: {}",
@@ -139,7 +144,7 @@ pub fn fleet_entry(
         v_max_mps: limits.max_speed_mps,
         ..o.gain_search.clone()
     };
-    let (d_opt, v_at_d_opt) = match linear_optimum(model, o.delay_s, &search) {
+    let (d_opt, v_at_d_opt) = match linear_optimum(vehicle, o.delay_s, &search) {
         Ok(opt) if opt.v_crit_max_mps < search.v_max_mps => {
             (Some(opt.d_opt_s), Some(opt.v_crit_max_mps))
         }
@@ -160,7 +165,7 @@ pub fn fleet_entry(
         .map(|(c, f)| f + o.threshold_in_bistable * (c - f));
     let theta0 = match threshold_speed {
         Some(v) => {
-            let (t, failed) = match threshold_at(model, v, o) {
+            let (t, failed) = match threshold_at(vehicle, v, o) {
                 Ok(t) => (t, false),
                 Err(e) => {
                     reasons.push(format!("the θ(0) threshold at {v} m/s failed: {e}"));
@@ -192,8 +197,17 @@ pub fn fleet_entry(
     })
 }
 
-/// The bisected θ(0) threshold at constant speed `v` (open loop, state start).
-fn threshold_at(model: &Model, v: f64, o: &FleetOptions) -> Result<Option<f64>, SwayError> {
+/// The bisected θ(0) threshold \[deg\] at constant speed `v` \[m/s\] (open loop, state
+/// start, other states 0; the plant's own states in the tyres' steady state) over the scan
+/// `o.theta0_deg`, None when no θ(0) of the scan ends in sustained sway.
+///
+/// # Errors
+/// [`SwayError::Numerical`] when a simulation fails.
+pub fn threshold_at(
+    vehicle: &AnyVehicleModel,
+    v: f64,
+    o: &FleetOptions,
+) -> Result<Option<f64>, SwayError> {
     let base = BaseScenario {
         horizon_s: o.threshold.horizon_s,
         action_s: Some(0.0),
@@ -220,7 +234,7 @@ fn threshold_at(model: &Model, v: f64, o: &FleetOptions) -> Result<Option<f64>, 
         points.max(1.0) as usize,
     )
     .values();
-    theta0_threshold(model, &base, &column, &o.threshold, v)
+    theta0_threshold_any(vehicle, &base, &column, &o.threshold, v)
         .map(|t| t.theta0_threshold_deg)
         .map_err(|e| {
             SwayError::numerical(

@@ -314,14 +314,9 @@ pub fn plant_critical_speed<P: trailer_model::Plant<M>, const M: usize>(
     )
 }
 
-/// Why a model variant has no fold of cycles to refer to (yet).
-pub const VARIANT_FOLD_REASON: &str = "the fold of cycles (in_bistable speeds) is computed for \
-     the paper's form of a vehicle only; this vehicle file has model variants (issue 21)";
-
 /// [`resolve_speeds`] for the model of a vehicle file: the paper's [`Model`] exactly as
-/// [`resolve_speeds`]; a model variant refers `of_v_crit` speeds to its own V_crit
-/// ([`plant_critical_speed`]) and leaves `in_bistable` speeds unresolved with
-/// [`VARIANT_FOLD_REASON`].
+/// [`resolve_speeds`]; a model variant refers `of_v_crit` speeds to its own V_crit and
+/// `in_bistable` speeds to its own fold of cycles ([`open_loop_references`] on its plant).
 ///
 /// # Errors
 /// When computing a reference fails numerically (an unresolvable speed is not an error).
@@ -336,19 +331,7 @@ pub fn resolve_speeds_any<C: ResolveSpeeds>(
     let refs = match cfg.needs().reference() {
         None => SpeedReferences::default(),
         Some(need) => {
-            let stability =
-                trailer_model::with_plant!(vehicle, m => plant_critical_speed(m, limits))?;
-            match stability.v_crit() {
-                None => SpeedReferences {
-                    reason: stability.summary().reason,
-                    ..Default::default()
-                },
-                Some(v_crit) => SpeedReferences {
-                    v_crit_mps: Some(v_crit),
-                    v_fold_mps: None,
-                    reason: (need == Reference::Fold).then(|| VARIANT_FOLD_REASON.to_string()),
-                },
-            }
+            trailer_model::with_plant!(vehicle, m => open_loop_references(m, limits, need))?
         }
     };
     Ok(resolve_against(&refs, cfg))

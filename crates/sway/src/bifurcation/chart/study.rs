@@ -5,10 +5,11 @@
 //! ([`crate::charts::auto_range`]). Also the `[chart]` table that `corners` and
 //! `gain_design` share ([`ChartConfig`]).
 
+use crate::bifurcation::LoopPlant;
+use crate::control::LoopModel;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
-use trailer_model::Model;
 
 use super::{ChartOptions, NonlinearChart, nonlinear_chart};
 use crate::SwayError;
@@ -143,9 +144,9 @@ impl ChartConfig {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] from the derivation.
-    pub fn resolve(
+    pub fn resolve<M: LoopModel + ?Sized>(
         &self,
-        model: &Model,
+        model: &M,
         delays: &[f64],
         b: &SpeedBounds,
         prefix: &str,
@@ -239,7 +240,11 @@ impl ChartNonlinearConfig {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] from the derivation.
-    pub fn resolve(&self, model: &Model, b: &SpeedBounds) -> Result<ResolvedChart, SwayError> {
+    pub fn resolve<M: LoopModel + ?Sized>(
+        &self,
+        model: &M,
+        b: &SpeedBounds,
+    ) -> Result<ResolvedChart, SwayError> {
         let (options, mut der) = self.chart.resolve(model, &self.delays_s, b, "chart.")?;
         let gains = (options.d_min_s, options.d_max_s);
         let summary_gains_s = self.summary_gains_s.clone().unwrap_or_else(|| {
@@ -308,7 +313,11 @@ pub fn grid_axes(r: &ResolvedChart) -> (Axis, Axis) {
     )
 }
 
-fn speeds_at(model: &Model, chart: &NonlinearChart, d: f64) -> Result<CurvesAtGain, SwayError> {
+fn speeds_at<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    chart: &NonlinearChart,
+    d: f64,
+) -> Result<CurvesAtGain, SwayError> {
     let o = &chart.options;
     let v_hopf_mps = chart.hopf_speed_at(model, d)?;
     let v_fold_mps = chart.fold_speed_at(model, d)?;
@@ -333,11 +342,17 @@ fn speeds_at(model: &Model, chart: &NonlinearChart, d: f64) -> Result<CurvesAtGa
     })
 }
 
-/// The whole computation of one delay (no I/O).
+/// The whole computation of one delay (no I/O), on any plant (the paper's
+/// [`trailer_model::Model`] or a model variant: the curves on its own closed loop, the
+/// shading on its own linearisation).
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn compute_delay(model: &Model, r: &ResolvedChart, tau: f64) -> Result<DelayResult, SwayError> {
+pub fn compute_delay<P: LoopPlant<N> + LoopModel, const N: usize>(
+    model: &P,
+    r: &ResolvedChart,
+    tau: f64,
+) -> Result<DelayResult, SwayError> {
     // the curves and the linear chart side by side, then the speeds at every summary gain
     // and at the bistable gain (the last entry) in parallel; each piece is deterministic
     let (chart, linear) = rayon::join(
@@ -385,7 +400,11 @@ pub fn compute_delay(model: &Model, r: &ResolvedChart, tau: f64) -> Result<Delay
 }
 
 /// fig4a's linear chart of delay τ on the shading grid (exact counts of unstable roots).
-fn linear_chart(model: &Model, r: &ResolvedChart, tau: f64) -> Result<StabilityChart, SwayError> {
+fn linear_chart<M: LoopModel + ?Sized>(
+    model: &M,
+    r: &ResolvedChart,
+    tau: f64,
+) -> Result<StabilityChart, SwayError> {
     let (sa, ga) = grid_axes(r);
     fig4a_charts(model, &[tau], sa, ga, &stability::ChartOptions::default())?
         .into_iter()
@@ -412,8 +431,8 @@ pub struct ChartStudy {
 ///
 /// # Errors
 /// The first failing delay's error (in config order).
-pub fn compute(
-    model: &Model,
+pub fn compute<P: LoopPlant<N> + LoopModel, const N: usize>(
+    model: &P,
     cfg: &ChartNonlinearConfig,
     b: &SpeedBounds,
     progress: &dyn crate::progress::Progress,
@@ -427,8 +446,8 @@ pub fn compute(
 ///
 /// # Errors
 /// The first failing delay's error.
-pub fn compute_resolved(
-    model: &Model,
+pub fn compute_resolved<P: LoopPlant<N> + LoopModel, const N: usize>(
+    model: &P,
     r: &ResolvedChart,
     delays: &[f64],
     progress: &dyn crate::progress::Progress,

@@ -1,0 +1,440 @@
+//! `cargo xtask variants` (issue 21, item 7): how the paper's conclusions move when its
+//! simplifications are lifted. For Table I with tyre relaxation σ on every axle
+//! ([`VehicleSpec::table_i_with_relaxation`]) and for the example vehicles of
+//! `configs/vehicles/` (Magic Formula tyres, a tandem trailer axle, hitch friction): the
+//! open-loop V_crit, the fold of cycles V_fold (the cycle branch continued from the Hopf
+//! point on the variant's own plant and corrected on the fold-of-cycles system), the width
+//! of the bistable range V_crit − V_fold, the best gain D\*(τ) with its V_crit (on the
+//! variant's own linearisation) and the θ(0) threshold of sway, each the headline numbers
+//! of the `fleet` task ([`sway::sim::fleet::fleet_entry`]), plus the threshold at one
+//! speed common to all variants. A number a variant does not have is null with its reason.
+//! The figure: V_crit and V_fold against σ on a finer grid.
+//!
+//! Outputs: `summary.json` (`"variants"`: one entry per row; `"relaxation_curve"`: the
+//! figure's points), `variants.csv`, `v_crit_v_fold_vs_sigma.csv` and
+//! `v_crit_v_fold_vs_sigma.{svg,png}`.
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sway::config::Grid;
+use sway::ranging::{Reference, open_loop_references};
+use sway::sim::fleet::{FleetEntry, FleetOptions, fleet_entry, threshold_at};
+use trailer_model::{AnyVehicleModel, VehicleSpec, with_plant};
+
+use super::{Prepared, Report, Task, TaskContext};
+use crate::TaskError;
+use crate::config_file::{Configured, TaskConfig, load_vehicle_spec};
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Shape, Stroke};
+
+/// The task.
+pub const TASK: Task = Task::configured::<VariantsConfig>(
+    "variants",
+    "model variants (issue 21): V_crit, fold, bistable width, D* at τ = 0.2 s and threshold for Table I with tyre relaxation, Magic Formula tyres, a tandem axle, hitch friction",
+    "variants.toml",
+)
+.any_model();
+
+fn default_sigmas() -> Vec<f64> {
+    vec![0.0, 0.3, 0.6]
+}
+
+fn default_curve() -> Grid {
+    Grid {
+        min: 0.0,
+        max: 0.6,
+        points: 13,
+    }
+}
+
+/// `configs/variants.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VariantsConfig {
+    /// rows of Table I with this relaxation length σ on every axle \[m\] (0: the paper's model)
+    #[serde(default = "default_sigmas")]
+    pub relaxation_lengths_m: Vec<f64>,
+    /// further rows: vehicle files, relative to this file's directory
+    #[serde(default)]
+    pub vehicle_files: Vec<PathBuf>,
+    /// the figure's σ grid \[m\] (V_crit and V_fold only)
+    #[serde(default = "default_curve")]
+    pub curve_relaxation_lengths_m: Grid,
+    /// the θ(0) threshold also at this speed, the same for every row \[m/s\] (below the
+    /// row's V_crit; omitted: not computed)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub common_speed_mps: Option<f64>,
+    /// what is computed for each row (as `fleet`'s `[headline]`)
+    #[serde(default)]
+    pub headline: FleetOptions,
+}
+
+impl TaskConfig for VariantsConfig {
+    fn check(&self, file: &Path) -> Result<(), TaskError> {
+        let sigma_ok = |s: &f64| s.is_finite() && (0.0..=5.0).contains(s);
+        if self.relaxation_lengths_m.is_empty() && self.vehicle_files.is_empty() {
+            return Err(TaskError::config(
+                file,
+                "relaxation_lengths_m",
+                "expected at least one row (a relaxation length or a vehicle file)",
+            ));
+        }
+        if !self.relaxation_lengths_m.iter().all(sigma_ok) {
+            return Err(TaskError::config(
+                file,
+                "relaxation_lengths_m",
+                format!(
+                    "expected lengths 0 ≤ σ ≤ 5 m, got {:?}",
+                    self.relaxation_lengths_m
+                ),
+            ));
+        }
+        let g = &self.curve_relaxation_lengths_m;
+        if !(sigma_ok(&g.min) && sigma_ok(&g.max)) {
+            return Err(TaskError::config(
+                file,
+                "curve_relaxation_lengths_m",
+                format!("expected 0 ≤ min < max ≤ 5 m, got {g:?}"),
+            ));
+        }
+        if let Some(v) = self.common_speed_mps
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(TaskError::config(
+                file,
+                "common_speed_mps",
+                format!("expected a positive speed, got {v}"),
+            ));
+        }
+        let h = &self.headline;
+        let [min, max, points] = h.theta0_deg;
+        if !(min > 0.0 && max > min && max < 90.0 && (2.0..=200.0).contains(&points)) {
+            return Err(TaskError::config(
+                file,
+                "headline.theta0_deg",
+                format!(
+                    "expected [min, max, points] with 0 < min < max < 90 deg and 2 to 200 points, got {:?}",
+                    h.theta0_deg
+                ),
+            ));
+        }
+        if !(h.delay_s.is_finite() && h.delay_s >= 0.0) {
+            return Err(TaskError::config(
+                file,
+                "headline.delay_s",
+                format!("expected a delay ≥ 0 s, got {}", h.delay_s),
+            ));
+        }
+        if !h.threshold_in_bistable.is_finite() {
+            return Err(TaskError::config(
+                file,
+                "headline.threshold_in_bistable",
+                "expected a finite number",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One row of the table.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VariantRow {
+    /// what differs from Table I (`"Table I"`, `"σ = 0.3 m on every axle"`, the file)
+    pub variant: String,
+    /// the relaxation length on every axle \[m\] (rows of `relaxation_lengths_m`)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relaxation_length_m: Option<f64>,
+    /// the vehicle file (rows of `vehicle_files`), as written in the config
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vehicle_file: Option<String>,
+    /// reduced states of its plant (4: the paper's model)
+    pub states: usize,
+    /// the headline numbers (V_crit, V_fold, bistable width, D\*, threshold; `reasons`)
+    #[serde(flatten)]
+    pub entry: FleetEntry,
+    /// the θ(0) threshold at `common_speed_mps` \[deg\] (null: see `reasons`)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub theta0_threshold_at_common_speed_deg: Option<f64>,
+}
+
+/// One point of the figure (a row of `v_crit_v_fold_vs_sigma.csv`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct CurvePoint {
+    /// σ on every axle \[m\]
+    pub relaxation_length_m: f64,
+    /// open-loop V_crit \[m/s\]
+    pub v_crit_mps: Option<f64>,
+    /// fold of cycles \[m/s\]
+    pub v_fold_mps: Option<f64>,
+    /// V_crit − V_fold \[m/s\]
+    pub bistable_width_mps: Option<f64>,
+    /// why a number is null (null: none is)
+    pub reason: Option<String>,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VariantsSummary {
+    /// one entry per row: the σ rows, then the files, in the config's order
+    pub variants: Vec<VariantRow>,
+    /// the speed of `theta0_threshold_at_common_speed_deg` \[m/s\]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub common_speed_mps: Option<f64>,
+    /// V_crit and V_fold over the σ grid of the figure
+    pub relaxation_curve: Vec<CurvePoint>,
+}
+
+/// One row of `variants.csv`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+struct CsvRow {
+    variant: String,
+    states: usize,
+    v_crit_mps: Option<f64>,
+    v_fold_mps: Option<f64>,
+    bistable_width_mps: Option<f64>,
+    d_opt_s: Option<f64>,
+    v_crit_at_d_opt_mps: Option<f64>,
+    threshold_speed_mps: Option<f64>,
+    theta0_threshold_deg: Option<f64>,
+    theta0_threshold_at_common_speed_deg: Option<f64>,
+    reasons: String,
+}
+
+/// A row to compute: its name, σ or file, and plant.
+struct Row {
+    variant: String,
+    sigma: Option<f64>,
+    file: Option<String>,
+    plant: AnyVehicleModel,
+}
+
+/// The plant of Table I with σ on every axle.
+fn relaxed(sigma: f64) -> Result<AnyVehicleModel, TaskError> {
+    AnyVehicleModel::new(&VehicleSpec::table_i_with_relaxation(sigma))
+        .map_err(|e| TaskError::numerical(format!("Table I with σ = {sigma} m"), e))
+}
+
+fn row_name(sigma: f64) -> String {
+    if sigma == 0.0 {
+        "Table I (paper's model)".into()
+    } else {
+        format!("σ = {sigma} m on every axle")
+    }
+}
+
+/// The headline numbers of one row, with the threshold at the common speed.
+fn compute_row(
+    row: &Row,
+    cfg: &VariantsConfig,
+    ctx: &TaskContext<'_>,
+) -> Result<VariantRow, TaskError> {
+    let mut entry = fleet_entry(&row.plant, &ctx.limits, &cfg.headline)?;
+    let mut common = None;
+    if let Some(v) = cfg.common_speed_mps {
+        match entry.v_crit_mps {
+            Some(vc) if v >= vc => entry.reasons.push(format!(
+                "the common speed {v} m/s is not below V_crit: straight running is unstable there, no threshold"
+            )),
+            _ => {
+                common = threshold_at(&row.plant, v, &cfg.headline)?;
+                if common.is_none() {
+                    entry.reasons.push(format!(
+                        "no θ(0) up to {}° ends in sustained sway at the common speed {v} m/s",
+                        cfg.headline.theta0_deg[1]
+                    ));
+                }
+            }
+        }
+    }
+    ctx.progress.advance(1);
+    Ok(VariantRow {
+        variant: row.variant.clone(),
+        relaxation_length_m: row.sigma,
+        vehicle_file: row.file.clone(),
+        states: row.plant.states(),
+        entry,
+        theta0_threshold_at_common_speed_deg: common,
+    })
+}
+
+/// V_crit and V_fold of Table I with σ on every axle.
+fn curve_point(sigma: f64, ctx: &TaskContext<'_>) -> Result<CurvePoint, TaskError> {
+    let plant = relaxed(sigma)?;
+    let r = with_plant!(&plant, m => open_loop_references(m, &ctx.limits, Reference::Fold))?;
+    ctx.progress.advance(1);
+    Ok(CurvePoint {
+        relaxation_length_m: sigma,
+        v_crit_mps: r.v_crit_mps,
+        v_fold_mps: r.v_fold_mps,
+        bistable_width_mps: r.v_crit_mps.zip(r.v_fold_mps).map(|(c, f)| c - f),
+        reason: r.reason,
+    })
+}
+
+fn cell(v: Option<f64>, digits: usize) -> String {
+    v.map_or("–".into(), |v| format!("{v:.digits$}"))
+}
+
+/// The figure: V_crit and V_fold against σ, the bistable range between them.
+fn figure(curve: &[CurvePoint], rows: &[VariantRow]) -> Panel {
+    let pts = |f: fn(&CurvePoint) -> Option<f64>| -> Vec<(f64, f64)> {
+        curve
+            .iter()
+            .map(|p| (p.relaxation_length_m, f(p).unwrap_or(f64::NAN)))
+            .collect()
+    };
+    let crit = pts(|p| p.v_crit_mps);
+    let fold = pts(|p| p.v_fold_mps);
+    let rects: Vec<[f64; 4]> = curve
+        .windows(2)
+        .filter_map(|w| {
+            let lo = w[0].v_fold_mps?.max(w[1].v_fold_mps?);
+            let hi = w[0].v_crit_mps?.min(w[1].v_crit_mps?);
+            (hi > lo).then_some([w[0].relaxation_length_m, w[1].relaxation_length_m, lo, hi])
+        })
+        .collect();
+    let table = |f: fn(&FleetEntry) -> Option<f64>| -> Vec<(f64, f64)> {
+        rows.iter()
+            .filter_map(|r| Some((r.relaxation_length_m?, f(&r.entry)?)))
+            .collect()
+    };
+    let mut p = Panel::new(
+        "Table I with tyre relaxation σ on every axle: open-loop V_crit and fold of cycles",
+        "relaxation length σ [m]",
+        "speed V [m/s]",
+    )
+    .legend(Legend::UpperRight);
+    p.layers.push(Layer::Rects {
+        rects,
+        color: Rgb::ORANGE,
+        opacity: 0.2,
+        label: Some("bistable range (V_fold < V < V_crit)".into()),
+    });
+    p.layers.push(Layer::line(
+        crit,
+        Rgb::RED,
+        Stroke::Solid,
+        Some("V_crit (Hopf point of straight running)"),
+    ));
+    p.layers.push(Layer::line(
+        fold,
+        Rgb::BLUE,
+        Stroke::Dashed,
+        Some("V_fold (fold of the sway cycles)"),
+    ));
+    p.layers.push(Layer::Markers {
+        points: table(|e| e.v_crit_mps)
+            .into_iter()
+            .chain(table(|e| e.v_fold_mps))
+            .collect(),
+        color: Rgb::BLACK,
+        shape: Shape::Circle,
+        size: 5,
+        label: Some("rows of the table".into()),
+    });
+    p
+}
+
+impl Prepared for Configured<VariantsConfig> {
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
+        let cfg = &self.config;
+        let dir = self.file.parent().unwrap_or(Path::new("."));
+        let mut rows = Vec::new();
+        for &sigma in &cfg.relaxation_lengths_m {
+            rows.push(Row {
+                variant: row_name(sigma),
+                sigma: Some(sigma),
+                file: None,
+                plant: relaxed(sigma)?,
+            });
+        }
+        for f in &cfg.vehicle_files {
+            rows.push(Row {
+                variant: f
+                    .file_stem()
+                    .map_or_else(|| f.display().to_string(), |s| s.to_string_lossy().into()),
+                sigma: None,
+                file: Some(f.display().to_string()),
+                plant: load_vehicle_spec(&dir.join(f))?.plant,
+            });
+        }
+        let sigmas = cfg.curve_relaxation_lengths_m.values();
+        let steps = (rows.len() + sigmas.len()) as u64;
+        ctx.run_staged(
+            TASK.name,
+            "variants: headline numbers per model variant",
+            steps,
+            cfg,
+            &self.file,
+            |out| {
+                let (table, curve) = rayon::join(
+                    || {
+                        rows.par_iter()
+                            .map(|r| compute_row(r, cfg, ctx))
+                            .collect::<Vec<_>>()
+                    },
+                    || {
+                        sigmas
+                            .par_iter()
+                            .map(|&s| curve_point(s, ctx))
+                            .collect::<Vec<_>>()
+                    },
+                );
+                let table = table.into_iter().collect::<Result<Vec<_>, _>>()?;
+                let curve = curve.into_iter().collect::<Result<Vec<_>, _>>()?;
+                out.write_table(
+                    "variants.csv",
+                    table.iter().map(|r| CsvRow {
+                        variant: r.variant.clone(),
+                        states: r.states,
+                        v_crit_mps: r.entry.v_crit_mps,
+                        v_fold_mps: r.entry.v_fold_mps,
+                        bistable_width_mps: r.entry.bistable_width_mps,
+                        d_opt_s: r.entry.d_opt_s,
+                        v_crit_at_d_opt_mps: r.entry.v_crit_at_d_opt_mps,
+                        threshold_speed_mps: r.entry.threshold_speed_mps,
+                        theta0_threshold_deg: r.entry.theta0_threshold_deg,
+                        theta0_threshold_at_common_speed_deg: r
+                            .theta0_threshold_at_common_speed_deg,
+                        reasons: r.entry.reasons.join("; "),
+                    }),
+                )?;
+                out.write_table("v_crit_v_fold_vs_sigma.csv", curve.iter().cloned())?;
+                Figure::single(figure(&curve, &table))
+                    .render(&out.path("v_crit_v_fold_vs_sigma"))?;
+                let lines = table
+                    .iter()
+                    .map(|r| {
+                        let e = &r.entry;
+                        let mut l = format!(
+                            "{}: V_crit {}, V_fold {}, bistable width {}, D* {} s (V_crit {}), θ(0) threshold {}°",
+                            r.variant,
+                            cell(e.v_crit_mps, 4),
+                            cell(e.v_fold_mps, 4),
+                            cell(e.bistable_width_mps, 3),
+                            cell(e.d_opt_s, 4),
+                            cell(e.v_crit_at_d_opt_mps, 2),
+                            cell(e.theta0_threshold_deg, 2)
+                        );
+                        if let Some(v) = cfg.common_speed_mps {
+                            l.push_str(&format!(
+                                " ({}° at {v} m/s)",
+                                cell(r.theta0_threshold_at_common_speed_deg, 2)
+                            ));
+                        }
+                        l
+                    })
+                    .collect();
+                Ok((
+                    VariantsSummary {
+                        variants: table,
+                        common_speed_mps: cfg.common_speed_mps,
+                        relaxation_curve: curve,
+                    },
+                    lines,
+                ))
+            },
+        )
+    }
+}

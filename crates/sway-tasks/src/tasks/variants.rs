@@ -239,8 +239,12 @@ fn compute_row(
             _ => {
                 common = threshold_at(&row.plant, v, &cfg.headline)?;
                 if common.is_none() {
+                    let below = match entry.v_fold_mps {
+                        Some(f) if v < f => format!(" (below its fold of cycles V_fold = {f:.4} m/s: no sway cycle there)"),
+                        _ => String::new(),
+                    };
                     entry.reasons.push(format!(
-                        "no θ(0) up to {}° ends in sustained sway at the common speed {v} m/s",
+                        "no θ(0) up to {}° ends in sustained sway at the common speed {v} m/s{below}",
                         cfg.headline.theta0_deg[1]
                     ));
                 }
@@ -286,13 +290,23 @@ fn figure(curve: &[CurvePoint], rows: &[VariantRow]) -> Panel {
     };
     let crit = pts(|p| p.v_crit_mps);
     let fold = pts(|p| p.v_fold_mps);
+    // the band between the two polylines, in thin slices (linear between the grid points)
+    const SLICES: usize = 16;
     let rects: Vec<[f64; 4]> = curve
         .windows(2)
         .filter_map(|w| {
-            let lo = w[0].v_fold_mps?.max(w[1].v_fold_mps?);
-            let hi = w[0].v_crit_mps?.min(w[1].v_crit_mps?);
-            (hi > lo).then_some([w[0].relaxation_length_m, w[1].relaxation_length_m, lo, hi])
+            let (f0, f1) = (w[0].v_fold_mps?, w[1].v_fold_mps?);
+            let (c0, c1) = (w[0].v_crit_mps?, w[1].v_crit_mps?);
+            let (s0, s1) = (w[0].relaxation_length_m, w[1].relaxation_length_m);
+            let at = |a: f64, b: f64, t: f64| a + (b - a) * t;
+            Some((0..SLICES).filter_map(move |k| {
+                let (t0, t1) = (k as f64 / SLICES as f64, (k + 1) as f64 / SLICES as f64);
+                let lo = at(f0, f1, t0).max(at(f0, f1, t1));
+                let hi = at(c0, c1, t0).min(at(c0, c1, t1));
+                (hi > lo).then_some([at(s0, s1, t0), at(s0, s1, t1), lo, hi])
+            }))
         })
+        .flatten()
         .collect();
     let table = |f: fn(&FleetEntry) -> Option<f64>| -> Vec<(f64, f64)> {
         rows.iter()

@@ -33,7 +33,7 @@ mod study;
 mod tests;
 
 pub use design::{
-    DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness, VehicleUncertainty,
+    CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness, VehicleUncertainty,
     delay_budget, design, designs_over_delays, robust_critical_speed, robust_critical_speed_spec,
 };
 pub use study::{

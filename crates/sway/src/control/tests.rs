@@ -356,6 +356,55 @@ fn one_gain_design_is_gain_design() {
 }
 
 #[test]
+fn perfect_predictor_design_sits_at_the_physical_gain_limit() {
+    // With a perfect model the predictor's loop is the delay-free one, whose V_crit rises
+    // with D: the design is the largest gain the actuator allows, D = u_max/ψ̇_ref.
+    // References: u_max of braking from Table I by hand, μ0·(F_zF + F_zR)·w/4 with the
+    // static axle loads (tolerance 1e-9 relative: the same arithmetic in another order), and
+    // V_crit of the design against the delay-free paper loop at that D
+    // (charts::critical_speed_at_gain at τ = 0, an independent crossing count; 1e-6 m/s,
+    // the bisection tolerance).
+    let m = table_i();
+    let limits = CommandLimits {
+        yaw_rate_amplitude_rad_s: 0.2,
+        steering_rad: 0.1,
+        track_width_m: 1.6,
+    };
+    let p = m.params();
+    let (t, tr) = (&p.tractor, &p.trailer);
+    // trailer: tongue load F_h = m₂ g (l − h)/l on the hitch; tractor: moments about each axle
+    let f_hitch = tr.mass * p.gravity * (tr.axle - tr.cog) / tr.axle;
+    let wheelbase = t.front_axle - t.rear_axle;
+    let f_front = t.mass * p.gravity * (t.cog - t.rear_axle) / wheelbase
+        - f_hitch * t.rear_axle / wheelbase;
+    let f_rear = t.mass * p.gravity + f_hitch - f_front;
+    let m_max = p.friction.mu_static * (f_front + f_rear) * 1.6 / 4.0;
+    let by_hand = m_max / 0.2;
+    let braking = limits.max_yaw_rate_gain(Actuator::DifferentialBraking, &m);
+    assert!(
+        (braking - by_hand).abs() <= 1e-9 * by_hand,
+        "{braking} vs {by_hand} N m s/rad"
+    );
+    let o = DesignSearch {
+        gain_samples: 11,
+        limits: Some(limits),
+        speed: SpeedSearch {
+            tolerance_mps: 1e-7,
+            ..SpeedSearch::default()
+        },
+        ..DesignSearch::default()
+    };
+    let d = design(&m, Structure::Predictor, Actuator::Steering, 0.6, None, None, &o).unwrap();
+    assert_eq!(d.gains.yaw_rate, 0.1 / 0.2);
+    let free = critical_speed_at_gain(&m, 0.0, 0.5, 1.0, 100.0, 100, 1e-9)
+        .unwrap()
+        .unwrap();
+    assert!((d.v_crit_mps - free).abs() <= 1e-6, "{} vs {free}", d.v_crit_mps);
+    // the rightmost roots at V_crit are confirmed now (the delay-free loop's four)
+    assert!(d.second_pair.is_some(), "{:?}", d.second_pair_note);
+}
+
+#[test]
 fn hitch_sensor_design_beats_the_yaw_rate_design_and_is_confirmed_by_the_roots() {
     // the yaw_rate_hitch search starts from the yaw_rate optimum, so it can only be at least
     // as good; its V_crit is checked independently by the rightmost roots (Re < 0 just

@@ -577,15 +577,12 @@ impl LinearLoop {
                 .map(|z| z * s)
                 .collect())
         };
-        if self.spurious.len() <= 4 {
-            // the paper's model predicting: its four spurious roots asked for with the others
-            let roots = roots_of(count + self.spurious.len())?;
-            return Ok(predictor::without_spurious(roots, &self.spurious, count));
-        }
-        // a model with more states (tyre relaxation) has spurious roots far in the left
-        // half-plane (−V/σ), where the cleared function is ill-conditioned (its delayed
-        // term, cancelling only up to round-off, is weighted by e^{−Re λ·τ}): ask only for as
-        // many more roots as spurious ones turned up among the rightmost
+        // the spurious roots (the model's eigenvalues) are asked for only when they turn up
+        // among the rightmost: a stable model's lie left of the loop's rightmost roots, and
+        // a model with more states (tyre relaxation) has them far in the left half-plane
+        // (−V/σ), where the cleared function is ill-conditioned (its delayed term,
+        // cancelling only up to round-off, is weighted by e^{−Re λ·τ}); each round asks for
+        // as many more roots as spurious ones were found
         let mut want = count;
         loop {
             let roots = roots_of(want)?;

@@ -33,8 +33,9 @@ mod study;
 mod tests;
 
 pub use design::{
-    CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness, VehicleUncertainty,
-    delay_budget, design, designs_over_delays, robust_critical_speed, robust_critical_speed_spec,
+    CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness,
+    VehicleUncertainty, delay_budget, design, designs_over_delays, robust_critical_speed,
+    robust_critical_speed_spec,
 };
 pub use study::{
     AwayFromCorner, CheckedDesign, Combination, ControlStudy, DesignFold, StudySettings,

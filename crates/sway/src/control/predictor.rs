@@ -248,7 +248,10 @@ fn scaled(c: &[f64], s: f64, degree: usize) -> Vec<f64> {
 /// [`cleared_loop`] vanishes identically — p̂ = p and adj(λI − A) commutes with e^{Aτ},
 /// so P₁ = p·K (e^{Aτ} adj(λI − A) − adj(λI − A) e^{Aτ}) B = 0 — and P₀ = p·(p + K adj B):
 /// the loop's roots are the eigenvalues of A − B K (finite spectrum assignment).
-pub fn is_perfect_model(plant: &super::LoopLinearization, model: &super::LoopLinearization) -> bool {
+pub fn is_perfect_model(
+    plant: &super::LoopLinearization,
+    model: &super::LoopLinearization,
+) -> bool {
     plant.a.shape() == model.a.shape()
         && plant.a == model.a
         && plant.b == model.b

@@ -375,8 +375,8 @@ fn perfect_predictor_design_sits_at_the_physical_gain_limit() {
     // trailer: tongue load F_h = m₂ g (l − h)/l on the hitch; tractor: moments about each axle
     let f_hitch = tr.mass * p.gravity * (tr.axle - tr.cog) / tr.axle;
     let wheelbase = t.front_axle - t.rear_axle;
-    let f_front = t.mass * p.gravity * (t.cog - t.rear_axle) / wheelbase
-        - f_hitch * t.rear_axle / wheelbase;
+    let f_front =
+        t.mass * p.gravity * (t.cog - t.rear_axle) / wheelbase - f_hitch * t.rear_axle / wheelbase;
     let f_rear = t.mass * p.gravity + f_hitch - f_front;
     let m_max = p.friction.mu_static * (f_front + f_rear) * 1.6 / 4.0;
     let by_hand = m_max / 0.2;
@@ -394,12 +394,25 @@ fn perfect_predictor_design_sits_at_the_physical_gain_limit() {
         },
         ..DesignSearch::default()
     };
-    let d = design(&m, Structure::Predictor, Actuator::Steering, 0.6, None, None, &o).unwrap();
+    let d = design(
+        &m,
+        Structure::Predictor,
+        Actuator::Steering,
+        0.6,
+        None,
+        None,
+        &o,
+    )
+    .unwrap();
     assert_eq!(d.gains.yaw_rate, 0.1 / 0.2);
     let free = critical_speed_at_gain(&m, 0.0, 0.5, 1.0, 100.0, 100, 1e-9)
         .unwrap()
         .unwrap();
-    assert!((d.v_crit_mps - free).abs() <= 1e-6, "{} vs {free}", d.v_crit_mps);
+    assert!(
+        (d.v_crit_mps - free).abs() <= 1e-6,
+        "{} vs {free}",
+        d.v_crit_mps
+    );
     // the rightmost roots at V_crit are confirmed now (the delay-free loop's four)
     assert!(d.second_pair.is_some(), "{:?}", d.second_pair_note);
 }

@@ -23,8 +23,8 @@ use serde::{Deserialize, Serialize};
 use sway::bifurcation::chart::ChartOptions;
 use sway::config::{Grid, ensure, ensure_positive};
 use sway::control::{
-    Actuator, AwayFromCorner, CheckedDesign, Combination, ControlStudy, Design, DesignSearch,
-    Gains, SpeedSearch,
+    Actuator, AwayFromCorner, CheckedDesign, Combination, CommandLimits, ControlStudy, Design, DesignSearch,
+    GainName, Gains, SpeedSearch,
     Structure, StudySettings, VehicleUncertainty, control_study,
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
@@ -317,6 +317,15 @@ impl TaskConfig for ControlDesignConfig {
                 format!("expected finite lo ≤ hi, got [{}, {}]", b.lo, b.hi)
             })?;
         }
+        if let Some(l) = &s.limits {
+            ensure_positive(
+                l.yaw_rate_amplitude_rad_s,
+                file,
+                "search.limits.yaw_rate_amplitude_rad_s",
+                "a yaw rate > 0 rad/s",
+            )?;
+            ensure_positive(l.steering_rad, file, "search.limits.steering_rad", "an angle > 0 rad")?;
+        }
         s.optimiser
             .validate()
             .map_err(|(key, problem)| TaskError::config(file, format!("search.optimiser.{key}"), problem))?;
@@ -379,7 +388,13 @@ impl ControlDesignConfig {
             delays_s: self.delays_s.values(),
             structures: self.structures.clone(),
             actuators: self.actuators.clone(),
-            search: self.search.clone(),
+            search: DesignSearch {
+                limits: self.search.limits.map(|l| CommandLimits {
+                    track_width_m: self.track_width_m,
+                    ..l
+                }),
+                ..self.search.clone()
+            },
             budget_rise_fraction: self.budget.rise_fraction,
             budget_tau_tolerance_s: self.budget.tau_tolerance_s,
             checked_delays_s: self.robustness.delays_s.clone(),
@@ -479,6 +494,9 @@ struct Summary {
     budget_rise_fraction: f64,
     open_loop_v_crit_mps: f64,
     yaw_moment_limit_nm: Option<f64>,
+    /// the upper end of the yaw-rate gain's search per actuator (actuator units), from
+    /// `search.limits` (u_max/ψ̇_ref) or `search.bounds`
+    yaw_rate_gain_max: BTreeMap<String, f64>,
     track_width_m: f64,
     checked_delays_s: Vec<f64>,
     simulation_check: SimulationOutcome,
@@ -820,6 +838,15 @@ impl Prepared for Configured<ControlDesignConfig> {
                     open_loop_v_crit_mps: r.open_loop_v_crit_mps,
                     yaw_moment_limit_nm: Actuator::DifferentialBraking
                         .limit(&ctx.model, cfg.track_width_m),
+                    yaw_rate_gain_max: cfg
+                        .actuators
+                        .iter()
+                        .map(|&a| {
+                            let search = cfg.settings().search;
+                            let b = search.gain_bound(GainName::YawRate, a, &ctx.model);
+                            (a.as_str().to_string(), b.hi)
+                        })
+                        .collect(),
                     track_width_m: cfg.track_width_m,
                     checked_delays_s: cfg.robustness.delays_s.clone(),
                     simulation_check: simulation,

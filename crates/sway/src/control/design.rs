@@ -65,6 +65,51 @@ impl GainBounds {
     }
 }
 
+/// The physical limit of the yaw-rate gain D: the linear design holds only while the
+/// actuator is not saturated, so the command D·ψ̇ at the largest tractor yaw-rate amplitude
+/// ψ̇_ref the controller must handle linearly stays within the actuator's limit u_max:
+/// D ≤ u_max/ψ̇_ref. u_max is the steering authority δ_max \[rad\] for steering and the
+/// yaw moment of braking one side of the tractor to the friction limit,
+/// μ0·(F_zF + F_zR)·w/4 \[N m\] ([`Actuator::limit`]), for differential braking.
+///
+/// Without it the critical speed of some loops keeps rising with D (the delay-free loop,
+/// so the perfectly predicted `predictor` at every τ, and `yaw_rate` at τ ≲ 0.1 s), and the
+/// optimum is whatever end of the range was configured.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommandLimits {
+    /// ψ̇_ref: the tractor yaw-rate amplitude up to which the command must stay within the
+    /// actuator's limit \[rad/s\]
+    pub yaw_rate_amplitude_rad_s: f64,
+    /// δ_max: the steering authority of the controller at the road wheels \[rad\]
+    pub steering_rad: f64,
+    /// the tow vehicle's track width w \[m\] of the braking limit (set by the task from its
+    /// `track_width_m`)
+    #[serde(skip, default = "default_track_width")]
+    pub track_width_m: f64,
+}
+
+fn default_track_width() -> f64 {
+    1.6
+}
+
+impl CommandLimits {
+    /// u_max: the largest command of `actuator` (steering: rad; braking: N m).
+    pub fn max_command(&self, actuator: Actuator, model: &Model) -> f64 {
+        match actuator {
+            Actuator::Steering => self.steering_rad,
+            Actuator::DifferentialBraking => actuator
+                .limit(model, self.track_width_m)
+                .unwrap_or(f64::INFINITY),
+        }
+    }
+
+    /// The largest yaw-rate gain, u_max/ψ̇_ref (steering: s; braking: N m s/rad).
+    pub fn max_yaw_rate_gain(&self, actuator: Actuator, model: &Model) -> f64 {
+        self.max_command(actuator, model) / self.yaw_rate_amplitude_rad_s
+    }
+}
+
 /// Settings of the design search.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -76,6 +121,9 @@ pub struct DesignSearch {
     pub search_tolerance_mps: f64,
     /// the gain ranges (steering units)
     pub bounds: GainBounds,
+    /// the physical limit of the yaw-rate gain: where given, it replaces the upper end of
+    /// `bounds.yaw_rate` by u_max/ψ̇_ref in the actuator's units
+    pub limits: Option<CommandLimits>,
     /// gains of the coarse scan of one-gain structures (≥ 3)
     pub gain_samples: usize,
     /// tolerance of an optimal gain and of the band ends (steering units: s)
@@ -97,6 +145,7 @@ impl Default for DesignSearch {
             speed: SpeedSearch::default(),
             search_tolerance_mps: 1e-6,
             bounds: GainBounds::default(),
+            limits: None,
             gain_samples: 101,
             gain_tolerance: 1e-6,
             band_fraction: 0.01,
@@ -109,6 +158,18 @@ impl Default for DesignSearch {
                 initial_step: 0.3,
             },
             double_hopf_tolerance_per_s: 1e-3,
+        }
+    }
+}
+
+impl DesignSearch {
+    /// The search range of one gain with `actuator` in its units: `bounds` × the actuator's
+    /// scale, the yaw-rate gain's upper end from `limits` where given.
+    pub fn gain_bound(&self, name: GainName, actuator: Actuator, model: &Model) -> Bound {
+        let b = self.bounds.get(name, actuator.scale(model));
+        match (name, self.limits) {
+            (GainName::YawRate, Some(l)) => Bound::new(b.lo, l.max_yaw_rate_gain(actuator, model)),
+            _ => b,
         }
     }
 }
@@ -249,7 +310,7 @@ fn one_gain<M: LoopModel + ?Sized>(
     scale: f64,
     o: &DesignSearch,
 ) -> Result<Found, SwayError> {
-    let bound = o.bounds.get(GainName::YawRate, scale);
+    let bound = o.gain_bound(GainName::YawRate, actuator, model.paper_model());
     let g = GainSearch {
         d_min_s: bound.lo,
         d_max_s: bound.hi,
@@ -339,7 +400,10 @@ fn several_gains<M: LoopModel + ?Sized>(
         tau,
         prediction,
         names,
-        bounds: names.iter().map(|&n| o.bounds.get(n, scale)).collect(),
+        bounds: names
+            .iter()
+            .map(|&n| o.gain_bound(n, actuator, model.paper_model()))
+            .collect(),
         search: SpeedSearch {
             tolerance_mps: o.search_tolerance_mps,
             ..o.speed

@@ -33,8 +33,9 @@ mod study;
 mod tests;
 
 pub use design::{
-    DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness, VehicleUncertainty,
-    delay_budget, design, designs_over_delays, robust_critical_speed, robust_critical_speed_spec,
+    CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness,
+    VehicleUncertainty, delay_budget, design, designs_over_delays, robust_critical_speed,
+    robust_critical_speed_spec,
 };
 pub use study::{
     AwayFromCorner, CheckedDesign, Combination, ControlStudy, DesignFold, StudySettings,
@@ -437,6 +438,11 @@ pub struct LinearLoop {
     /// predictor of a plant or model with more than 4 states, whose cleared function is
     /// balanced so, [`predictor::cleared_loop_dyn`])
     pub time_scale: f64,
+    /// the predictor with a perfect model ((Â, B̂, C̃) = (A, B, C̃)): the delayed terms
+    /// cancel identically and `feedback` is the delay-free loop p + q_K, whose roots are the
+    /// eigenvalues of A − B K whatever `delay` (finite spectrum assignment, [`predictor`]);
+    /// counts and roots are then taken at τ = 0
+    pub delay_free: bool,
 }
 
 impl LinearLoop {
@@ -484,20 +490,30 @@ impl LinearLoop {
         let b = controller.actuator.loop_input_column(lin);
         let built = match controller.structure {
             Structure::YawRate => RankOneFeedback::from_state_space(&lin.a, b, &lin.c)
-                .map(|f| (f, controller.gains.yaw_rate, Vec::new(), 1.0)),
+                .map(|f| (f, controller.gains.yaw_rate, Vec::new(), 1.0, false)),
             Structure::YawRateHitch => {
                 let k = loop_output_row(lin, controller.structure, &controller.gains);
-                RankOneFeedback::from_state_space(&lin.a, b, &k).map(|f| (f, 1.0, Vec::new(), 1.0))
+                RankOneFeedback::from_state_space(&lin.a, b, &k)
+                    .map(|f| (f, 1.0, Vec::new(), 1.0, false))
             }
             Structure::Predictor => {
                 let model_lin = prediction.unwrap_or(lin);
                 let b_model = controller.actuator.loop_input_column(model_lin);
                 let k = &model_lin.c * controller.gains.yaw_rate;
-                predictor::cleared_loop_dyn(&lin.a, b, &model_lin.a, b_model, &k, delay)
-                    .map(|(f, spurious, s)| (f, 1.0, spurious, s))
+                if predictor::is_perfect_model(lin, model_lin) {
+                    // P₁ ≡ 0 analytically (finite spectrum assignment): the loop is
+                    // p + K adj(λI − A) B, the delay-free loop. Building the cleared form
+                    // instead leaves a round-off remainder of P₁ (≈ 1e-16 relative) whose
+                    // e^{−λτ}-weighted roots far in the left half-plane are artefacts
+                    RankOneFeedback::from_state_space(&lin.a, b, &k)
+                        .map(|f| (f, 1.0, Vec::new(), 1.0, true))
+                } else {
+                    predictor::cleared_loop_dyn(&lin.a, b, &model_lin.a, b_model, &k, delay)
+                        .map(|(f, spurious, s)| (f, 1.0, spurious, s, false))
+                }
             }
         };
-        let (feedback, gain, spurious, time_scale) =
+        let (feedback, gain, spurious, time_scale, delay_free) =
             built.map_err(|e| SwayError::numerical(context(), e))?;
         Ok(Self {
             feedback,
@@ -505,7 +521,18 @@ impl LinearLoop {
             spurious,
             delay,
             time_scale,
+            delay_free,
         })
+    }
+
+    /// The delay of `feedback` in its own time variable: s·τ, or 0 for the delay-free loop
+    /// of a perfectly predicted predictor.
+    fn feedback_delay(&self) -> f64 {
+        if self.delay_free {
+            0.0
+        } else {
+            self.delay * self.time_scale
+        }
     }
 
     /// Number of roots of the loop with Re λ > 0 (exact crossing count; the predictor's
@@ -516,7 +543,7 @@ impl LinearLoop {
     pub fn unstable_root_count(&self) -> Result<usize, StabilityError> {
         let n = self
             .feedback
-            .unstable_root_count(self.gain, self.delay * self.time_scale)?;
+            .unstable_root_count(self.gain, self.feedback_delay())?;
         let spurious = self.spurious.iter().filter(|z| z.re > 0.0).count();
         Ok(n.saturating_sub(spurious))
     }
@@ -542,23 +569,21 @@ impl LinearLoop {
         // the feedback is in μ = λ/s with the delay s·τ (s = 1 but for a predictor with
         // more than four states)
         let s = self.time_scale;
+        let tau = self.feedback_delay();
         let roots_of = |want: usize| -> Result<Vec<Complex64>, StabilityError> {
             Ok(self
                 .feedback
-                .rightmost_roots(self.gain, self.delay * s, want, &options)?
+                .rightmost_roots(self.gain, tau, want, &options)?
                 .into_iter()
                 .map(|z| z * s)
                 .collect())
         };
-        if self.spurious.len() <= 4 {
-            // the paper's model predicting: its four spurious roots asked for with the others
-            let roots = roots_of(count + self.spurious.len())?;
-            return Ok(predictor::without_spurious(roots, &self.spurious, count));
-        }
-        // a model with more states (tyre relaxation) has spurious roots far in the left
-        // half-plane (−V/σ), where the cleared function is ill-conditioned (its delayed
-        // term, cancelling only up to round-off, is weighted by e^{−Re λ·τ}): ask only for as
-        // many more roots as spurious ones turned up among the rightmost
+        // the spurious roots (the model's eigenvalues) are asked for only when they turn up
+        // among the rightmost: a stable model's lie left of the loop's rightmost roots, and
+        // a model with more states (tyre relaxation) has them far in the left half-plane
+        // (−V/σ), where the cleared function is ill-conditioned (its delayed term,
+        // cancelling only up to round-off, is weighted by e^{−Re λ·τ}); each round asks for
+        // as many more roots as spurious ones were found
         let mut want = count;
         loop {
             let roots = roots_of(want)?;

@@ -30,7 +30,11 @@
 //!
 //! **Closed form.** With a perfect model (Â, B̂) = (A, B) the two delayed terms cancel and
 //! the loop's roots are the eigenvalues of A − B K, whatever τ: the spectrum of the delay-free
-//! loop (tested). The integral must be computed as the finite integral it is (a quadrature
+//! loop (tested against eig(A − B K)). [`super::LinearLoop`] builds that delay-free loop
+//! directly when the model is the plant ([`is_perfect_model`]): the cleared form would carry
+//! P₁ as a round-off remainder (≈ 1e-16 of P₀'s coefficients) instead of 0, and
+//! ε·e^{−λτ}P₁ has infinitely many roots near Re λ ≈ ln ε/τ that no spectral discretisation
+//! resolves — asking it for more than the loop's n roots then fails. The integral must be computed as the finite integral it is (a quadrature
 //! of the stored commands): realised as the ODE ż = Âz + B̂u − e^{Âτ}B̂u(t − τ) it would
 //! carry the unstable eigenvalues of Â as hidden modes.
 
@@ -237,6 +241,22 @@ fn scaled(c: &[f64], s: f64, degree: usize) -> Vec<f64> {
         .enumerate()
         .map(|(k, x)| x * s.powi(k as i32 - degree as i32))
         .collect()
+}
+
+/// The prediction model is the plant itself: the same A, B, B_M and C bit for bit (the
+/// vehicle's own linearisation, or a model file equal to the vehicle). Then P₁ of
+/// [`cleared_loop`] vanishes identically — p̂ = p and adj(λI − A) commutes with e^{Aτ},
+/// so P₁ = p·K (e^{Aτ} adj(λI − A) − adj(λI − A) e^{Aτ}) B = 0 — and P₀ = p·(p + K adj B):
+/// the loop's roots are the eigenvalues of A − B K (finite spectrum assignment).
+pub fn is_perfect_model(
+    plant: &super::LoopLinearization,
+    model: &super::LoopLinearization,
+) -> bool {
+    plant.a.shape() == model.a.shape()
+        && plant.a == model.a
+        && plant.b == model.b
+        && plant.b_yaw_moment == model.b_yaw_moment
+        && plant.c == model.c
 }
 
 /// `roots` (sorted rightmost first) without one root near each spurious one (within

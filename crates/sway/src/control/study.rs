@@ -185,8 +185,10 @@ fn combination(
         None,
         &s.search,
     )?;
+    // one continuation per design, each a pure function of its design: in parallel (the
+    // combinations alone, six on two cores, leave the slow yaw_rate_hitch ones last)
     let folds = designs
-        .iter()
+        .par_iter()
         .map(|d| design_fold(model, d, s))
         .collect::<Result<Vec<_>, _>>()?;
     let mut checked = Vec::new();

@@ -226,19 +226,31 @@ fn eigenvalues(a: &Matrix4<f64>) -> Vec<Complex64> {
 #[test]
 fn predictor_with_a_perfect_model_has_the_delay_free_spectrum() {
     // reference (closed form): with (Â, B̂) = (A, B) the roots are the eigenvalues of
-    // A − B·D·C̃ for every τ; tolerance 1e-8 relative (Newton-polished roots of a degree-8
-    // quasi-polynomial against a 4×4 eigensolver). Also at speeds where the open loop is
-    // unstable (40 m/s): its eigenvalues are the cleared function's spurious roots.
+    // A − B·D·C̃ for every τ. Checked on the general cleared quasi-polynomial
+    // (predictor::cleared_loop, built without knowing the model is perfect): tolerance 1e-8
+    // relative (Newton-polished roots of a degree-8 quasi-polynomial against a 4×4
+    // eigensolver); its P₁, zero analytically, must be round-off: ≤ 1e-12 of P₀'s largest
+    // coefficient. And on LinearLoop, which builds the delay-free loop for a perfect model:
+    // its n = 4 roots are the eigenvalues to 1e-10 (two 4×4 eigensolvers). Also at speeds
+    // where the open loop is unstable (40 m/s): its eigenvalues are the cleared function's
+    // spurious roots.
     let m = table_i();
     for &(v, d, tau) in &[(30.0, 0.2, 0.3), (40.0, 0.3, 1.0), (45.0, 0.4, 2.0)] {
         let lin = m.linearize(v);
         let expected = eigenvalues(&(lin.a4 - lin.b4 * lin.c4 * d));
-        let c = Controller {
-            structure: Structure::Predictor,
-            ..Controller::paper(d)
-        };
-        let l = LinearLoop::new(&m, &c, v, tau, None).unwrap();
-        let roots = l.rightmost_roots(4).unwrap();
+        let (cleared, spurious) =
+            predictor::cleared_loop(&lin.a4, &lin.b4, &lin.a4, &lin.b4, &(lin.c4 * d), tau)
+                .unwrap();
+        let p0_max = cleared.p().iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let p1_max = cleared.q().iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        assert!(p1_max <= 1e-12 * p0_max, "P₁ {p1_max:e} vs P₀ {p0_max:e}");
+        let roots = predictor::without_spurious(
+            cleared
+                .rightmost_roots(1.0, tau, 8, &stability::RootOptions::default())
+                .unwrap(),
+            &spurious,
+            4,
+        );
         // the roots that decide stability; roots far in the left half plane are
         // ill-conditioned in the cleared form (its delayed term, which cancels only up to
         // round-off, is weighted by e^{−Re λ·τ}: 4e11 at λ = −13.4, τ = 2 s)
@@ -252,9 +264,27 @@ fn predictor_with_a_perfect_model_has_the_delay_free_spectrum() {
                 "{r} vs {e} (V = {v})"
             );
         }
-        assert!((roots[0] - expected[0]).norm() <= 1e-8 * expected[0].norm().max(1.0));
         let unstable = expected.iter().filter(|z| z.re > 0.0).count();
-        assert_eq!(l.unstable_root_count().unwrap(), unstable, "V = {v}");
+        let cleared_count = cleared
+            .unstable_root_count(1.0, tau)
+            .unwrap()
+            .saturating_sub(spurious.iter().filter(|z| z.re > 0.0).count());
+        assert_eq!(cleared_count, unstable, "cleared form, V = {v}");
+        // LinearLoop, with the vehicle as its own model and with an equal model file
+        let c = Controller {
+            structure: Structure::Predictor,
+            ..Controller::paper(d)
+        };
+        for prediction in [None, Some(&m as &dyn LoopModel)] {
+            let l = LinearLoop::new(&m, &c, v, tau, prediction).unwrap();
+            assert!(l.delay_free);
+            let roots = l.rightmost_roots(6).unwrap();
+            assert_eq!(roots.len(), 4, "a perfect predictor's loop has n = 4 roots");
+            for (r, e) in roots.iter().zip(&expected) {
+                assert!((r - e).norm() <= 1e-10 * e.norm().max(1.0), "{r} vs {e}");
+            }
+            assert_eq!(l.unstable_root_count().unwrap(), unstable, "V = {v}");
+        }
     }
     // so its critical speed is the delay-free loop's, at any delay
     let s = SpeedSearch::default();
@@ -323,6 +353,68 @@ fn one_gain_design_is_gain_design() {
     assert_eq!(ours.gains.yaw_rate, theirs.d_opt_s);
     assert_eq!(ours.v_crit_mps, theirs.v_crit_max_mps);
     assert_eq!([ours.bands[0].lo, ours.bands[0].hi], theirs.band_s);
+}
+
+#[test]
+fn perfect_predictor_design_sits_at_the_physical_gain_limit() {
+    // With a perfect model the predictor's loop is the delay-free one, whose V_crit rises
+    // with D: the design is the largest gain the actuator allows, D = u_max/ψ̇_ref.
+    // References: u_max of braking from Table I by hand, μ0·(F_zF + F_zR)·w/4 with the
+    // static axle loads (tolerance 1e-9 relative: the same arithmetic in another order), and
+    // V_crit of the design against the delay-free paper loop at that D
+    // (charts::critical_speed_at_gain at τ = 0, an independent crossing count; 1e-6 m/s,
+    // the bisection tolerance).
+    let m = table_i();
+    let limits = CommandLimits {
+        yaw_rate_amplitude_rad_s: 0.2,
+        steering_rad: 0.1,
+        track_width_m: 1.6,
+    };
+    let p = m.params();
+    let (t, tr) = (&p.tractor, &p.trailer);
+    // trailer: tongue load F_h = m₂ g (l − h)/l on the hitch; tractor: moments about each axle
+    let f_hitch = tr.mass * p.gravity * (tr.axle - tr.cog) / tr.axle;
+    let wheelbase = t.front_axle - t.rear_axle;
+    let f_front =
+        t.mass * p.gravity * (t.cog - t.rear_axle) / wheelbase - f_hitch * t.rear_axle / wheelbase;
+    let f_rear = t.mass * p.gravity + f_hitch - f_front;
+    let m_max = p.friction.mu_static * (f_front + f_rear) * 1.6 / 4.0;
+    let by_hand = m_max / 0.2;
+    let braking = limits.max_yaw_rate_gain(Actuator::DifferentialBraking, &m);
+    assert!(
+        (braking - by_hand).abs() <= 1e-9 * by_hand,
+        "{braking} vs {by_hand} N m s/rad"
+    );
+    let o = DesignSearch {
+        gain_samples: 11,
+        limits: Some(limits),
+        speed: SpeedSearch {
+            tolerance_mps: 1e-7,
+            ..SpeedSearch::default()
+        },
+        ..DesignSearch::default()
+    };
+    let d = design(
+        &m,
+        Structure::Predictor,
+        Actuator::Steering,
+        0.6,
+        None,
+        None,
+        &o,
+    )
+    .unwrap();
+    assert_eq!(d.gains.yaw_rate, 0.1 / 0.2);
+    let free = critical_speed_at_gain(&m, 0.0, 0.5, 1.0, 100.0, 100, 1e-9)
+        .unwrap()
+        .unwrap();
+    assert!(
+        (d.v_crit_mps - free).abs() <= 1e-6,
+        "{} vs {free}",
+        d.v_crit_mps
+    );
+    // the rightmost roots at V_crit are confirmed now (the delay-free loop's four)
+    assert!(d.second_pair.is_some(), "{:?}", d.second_pair_note);
 }
 
 #[test]

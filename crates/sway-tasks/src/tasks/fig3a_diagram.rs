@@ -35,7 +35,7 @@ fn default_stable() -> Vec<SpeedSpec> {
 /// V_crit), as this diagram locates them.
 fn default_unstable() -> Vec<SpeedSpec> {
     vec![SpeedSpec::Relative(RelativeSpeed::InBistable(
-        0.4580336789870148,
+        0.4580338136231522,
     ))]
 }
 

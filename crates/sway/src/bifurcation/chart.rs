@@ -381,11 +381,16 @@ fn curve_points_at<S: ContinuationSystem>(
     let mut out = Vec::new();
     for b in branches {
         for w in b.points.windows(2) {
+            // a point within rounding of `value` counts as on it (a curve's seed at D = 0
+            // comes out of the corrector as ±1e-18 or so): taken as the start of its
+            // window, skipped as the end of one
             let (a, c) = (w[0].u[index], w[1].u[index]);
-            if (a - value) * (c - value) > 0.0 || a == c || c == value {
+            let tol = 1e-12 * value.abs().max(1.0);
+            let (at_a, at_c) = ((a - value).abs() <= tol, (c - value).abs() <= tol);
+            if at_c || a == c || (!at_a && (a - value) * (c - value) > 0.0) {
                 continue;
             }
-            let t = (value - a) / (c - a);
+            let t = if at_a { 0.0 } else { (value - a) / (c - a) };
             let guess: Vec<f64> = w[0]
                 .u
                 .iter()
@@ -670,34 +675,45 @@ type FoldSystem<'a, P, const N: usize> = FoldOfCyclesSystem<'a, ClosedLoop<'a, P
 /// to its cycle ([`FoldOfCyclesSystem::adapted`], as many intervals as `o.cycles`): up to
 /// [`FOLD_MESH_ROUNDS`] rounds, until V moves by less than 1e-12 relative (the second round
 /// puts the mesh points on the kinks of the first round's fold). The system on the last
-/// mesh and the fold there; None with [`MeshAdaptation::Fixed`].
+/// mesh and the fold there; None with [`MeshAdaptation::Fixed`] or when the first round
+/// fails (a refinement that does not converge keeps the uniform mesh's fold: the caller's
+/// value stands, to its mesh's accuracy).
 fn on_fold_mesh<'a, P: LoopPlant<N>, const N: usize>(
     sys: &FoldSystem<'a, P, N>,
     u: &[f64],
     o: &ChartOptions,
-) -> Result<Option<FoldAt<'a, P, N>>, continuation::Error> {
+) -> Option<FoldAt<'a, P, N>> {
     if o.fold_mesh == MeshAdaptation::Fixed {
-        return Ok(None);
+        return None;
     }
-    let (iv, id) = fold_indices(sys);
     let cont = Continuation::default();
     let mut current: Option<FoldAt<'a, P, N>> = None;
     for _ in 0..FOLD_MESH_ROUNDS {
         let (from, at) = current
             .as_ref()
             .map_or((sys, u), |(s, v)| (s, v.as_slice()));
-        let (mut next, guess) = from.adapted(at, o.cycles.intervals)?;
-        let mut fixed_d = vec![0.0; guess.len()];
-        fixed_d[id] = 1.0;
-        let fold = cont.start(&mut next, &guess, &fixed_d)?.points.remove(0).u;
-        let moved = (fold[iv] - at[iv]).abs();
-        let converged = moved <= 1e-12 * fold[iv].abs();
+        // V and D sit after the profile: their indices move with the mesh's size
+        let v_before = at[fold_indices(from).0];
+        let round = from
+            .adapted(at, o.cycles.intervals)
+            .and_then(|(mut next, guess)| {
+                let (_, id) = fold_indices(&next);
+                let mut fixed_d = vec![0.0; guess.len()];
+                fixed_d[id] = 1.0;
+                let fold = cont.start(&mut next, &guess, &fixed_d)?.points.remove(0).u;
+                Ok((next, fold))
+            });
+        let Ok((next, fold)) = round else {
+            break;
+        };
+        let v = fold[fold_indices(&next).0];
+        let converged = (v - v_before).abs() <= 1e-12 * v.abs();
         current = Some((next, fold));
         if converged {
             break;
         }
     }
-    Ok(current)
+    current
 }
 
 /// A fold of cycles on its own mesh: the system and the point.
@@ -791,7 +807,7 @@ pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
     let fold = match corrected_fold(&problem, diagram, o)? {
         Some(f) => {
             let ctx = || "fold of cycles".to_string();
-            let point = match on_fold_mesh(&f.sys, &f.u, o).map_err(num(ctx()))? {
+            let point = match on_fold_mesh(&f.sys, &f.u, o) {
                 Some((sys, u)) => fold_curve_point(&sys, &u),
                 None => fold_curve_point(&f.sys, &f.u),
             };
@@ -1152,9 +1168,9 @@ impl NonlinearChart {
             for u in pts {
                 let u = corrected_in_canonical_phase(&Continuation::default(), &mut sys, &u, id)
                     .map_err(num(ctx()))?;
+                // the adapted mesh may have more intervals: its own indices
                 let v = on_fold_mesh(&sys, &u, o)
-                    .map_err(num(ctx()))?
-                    .map_or(u[iv], |(_, adapted)| adapted[iv]);
+                    .map_or(u[iv], |(adapted, w)| w[fold_indices(&adapted).0]);
                 if v >= o.v_min_mps && v <= o.v_max_mps {
                     best = Some(best.map_or(v, |b: f64| b.min(v)));
                 }

@@ -637,7 +637,7 @@ fn simulate<'py>(
     use sway_tasks::config_file::{Configured, TaskConfig};
     use sway_tasks::tasks::Prepared;
     use sway_tasks::tasks::series::resolved_check;
-    use sway_tasks::tasks::simulate::{ScenarioRun, ScenarioSummary};
+    use sway_tasks::tasks::simulate::ScenarioSummary;
     use trailer_model::AnyVehicleModel;
 
     let (config, file): (ScenarioConfig<SpeedSpec>, PathBuf) = load_config(scenario, "<scenario>")?;
@@ -671,18 +671,7 @@ fn simulate<'py>(
             Recording::None
         };
         let r = simulate_any::<7>(&plant, &spec, x0, recording)?;
-        let summary = ScenarioSummary {
-            name: cfg.name.clone(),
-            run: sway_tasks::tasks::series::RunEntry {
-                metrics: r.metrics,
-                about: ScenarioRun {
-                    action_s: spec.action_s,
-                    t_end_s: r.t_end,
-                    accepted_steps: r.stats.accepted,
-                    rejected_steps: r.stats.rejected,
-                },
-            },
-        };
+        let summary = ScenarioSummary::of_run(&cfg.name, spec.action_s, &r);
         // one pass over the samples into owned arrays (handed to numpy without a copy):
         // t, the states row-major (n × 7), V, δ
         let n = r.trajectory.len();

@@ -52,6 +52,24 @@ pub struct ScenarioSummary {
     pub run: RunEntry<ScenarioRun>,
 }
 
+impl ScenarioSummary {
+    /// The summary of the run `r` of scenario `name` (action at `action_s` \[s\]).
+    pub fn of_run<const N: usize>(name: &str, action_s: f64, r: &sway::sim::SimResult<N>) -> Self {
+        Self {
+            name: name.to_string(),
+            run: RunEntry {
+                metrics: r.metrics,
+                about: ScenarioRun {
+                    action_s,
+                    t_end_s: r.t_end,
+                    accepted_steps: r.stats.accepted,
+                    rejected_steps: r.stats.rejected,
+                },
+            },
+        }
+    }
+}
+
 impl TaskConfig for ScenarioConfig<SpeedSpec> {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
         Ok(self.validate_spec(file)?)
@@ -154,18 +172,7 @@ impl Prepared for Configured<ScenarioConfig<SpeedSpec>> {
             )?;
             ctx.progress.advance(1);
             figure(cfg, spec.action_s, &r).render(&out.path("trajectory"))?;
-            let summary = ScenarioSummary {
-                name: cfg.name.clone(),
-                run: RunEntry {
-                    metrics: r.metrics,
-                    about: ScenarioRun {
-                        action_s: spec.action_s,
-                        t_end_s: r.t_end,
-                        accepted_steps: r.stats.accepted,
-                        rejected_steps: r.stats.rejected,
-                    },
-                },
-            };
+            let summary = ScenarioSummary::of_run(&cfg.name, spec.action_s, &r);
             let lines = vec![line(&cfg.name, &r), class_line(&cfg.name, &r)];
             let summary = WithSpeeds {
                 headline: summary,

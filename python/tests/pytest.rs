@@ -1,13 +1,19 @@
-//! The Python package's tests from `cargo test --workspace`: builds `trailer_sway` with
-//! `pip install ./python` into a virtual environment under the target directory (created
-//! once: `python3 -m venv`, then numpy, pytest and maturin from PyPI) and runs its pytest
-//! suite (`python/tests/test_*.py`, which also runs `python/examples/*.py`).
+//! The Python package's tests from `cargo test --workspace`: puts the package
+//! `trailer_sway` together from this build and runs its pytest suite
+//! (`python/tests/test_*.py`, which also runs `python/examples/*.py`) in a virtual
+//! environment under the target directory (created once: `python3 -m venv`, then numpy and
+//! pytest from PyPI).
 //!
-//! The package is built with the dev profile (`MATURIN_PEP517_ARGS=--profile dev`), so it
-//! reuses the dependencies `cargo test` has just compiled; the suite compares its numbers
-//! with the `xtask` binary of the same build (`TRAILER_SWAY_XTASK`) and with the
-//! committed `results/`. Without a usable `python3` (with `venv` and `pip`) the test fails
-//! and says what to install; `TRAILER_SWAY_PYTHON` names another interpreter.
+//! The package is what `pip install ./python` installs: the Python sources of
+//! `python/trailer_sway/` and the extension module `_native`. The extension is the cdylib
+//! this very `cargo test` has just linked (`<target>/<profile>/lib_native.so`, the crate
+//! `trailer-sway-py`), copied in as `_native.abi3.so`, so the test compiles nothing twice
+//! (maturin's own build resolves the dependencies' features for this crate alone and would
+//! rebuild all of them). `TRAILER_SWAY_PIP_INSTALL=1` runs the real `pip install ./python`
+//! (maturin, dev profile) instead. The suite compares its numbers with the `xtask` binary
+//! of the same build (`TRAILER_SWAY_XTASK`) and with the committed `results/`. Without a
+//! usable `python3` (with `venv` and `pip`) the test fails and says what to install;
+//! `TRAILER_SWAY_PYTHON` names another interpreter.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -30,11 +36,19 @@ fn python() -> String {
     std::env::var("TRAILER_SWAY_PYTHON").unwrap_or_else(|_| "python3".into())
 }
 
+fn pip_install_requested() -> bool {
+    std::env::var("TRAILER_SWAY_PIP_INSTALL").is_ok_and(|v| v == "1")
+}
+
 /// The venv under the target directory, created (and its tools installed) once.
 fn venv(target: &Path) -> PathBuf {
     let dir = target.join("python-venv");
     let py = dir.join("bin").join("python");
-    let ready = dir.join(".tools-installed");
+    let mut tools = vec!["pytest", "numpy"];
+    if pip_install_requested() {
+        tools.push("maturin>=1.16,<2");
+    }
+    let ready = dir.join(format!(".tools-installed-{}", tools.len()));
     if ready.exists() && py.exists() {
         return py;
     }
@@ -48,30 +62,25 @@ fn venv(target: &Path) -> PathBuf {
              TRAILER_SWAY_PYTHON=/path/to/python"
         ),
     }
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = Command::new(&interpreter)
-        .args(["-m", "venv"])
-        .arg(&dir)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {interpreter} -m venv: {e}"));
-    assert!(
-        out.status.success(),
-        "`{interpreter} -m venv` failed — install the venv module (Debian/Ubuntu: apt-get \
-         install python3-venv):\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    if !py.exists() {
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = Command::new(&interpreter)
+            .args(["-m", "venv"])
+            .arg(&dir)
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run {interpreter} -m venv: {e}"));
+        assert!(
+            out.status.success(),
+            "`{interpreter} -m venv` failed — install the venv module (Debian/Ubuntu: \
+             apt-get install python3-venv):\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
     run(
-        Command::new(&py).args([
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--disable-pip-version-check",
-            "maturin>=1.16,<2",
-            "pytest",
-            "numpy",
-        ]),
-        "installing maturin, pytest and numpy from PyPI into the test venv",
+        Command::new(&py)
+            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check"])
+            .args(&tools),
+        "installing the test tools from PyPI into the test venv",
     );
     std::fs::write(&ready, "").expect("marking the venv ready");
     py
@@ -86,6 +95,43 @@ fn path_with(dir: &Path) -> std::ffi::OsString {
     std::env::join_paths(dirs).expect("PATH")
 }
 
+/// `<target>/<profile>`: where cargo put this test's own build (the test binary runs from
+/// `<target>/<profile>/deps/`).
+fn profile_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    exe.parent()
+        .and_then(Path::parent)
+        .expect("<target>/<profile>/deps/<test binary>")
+        .to_path_buf()
+}
+
+/// `python/trailer_sway/` and this build's extension module, copied into
+/// `<target>/python-package/trailer_sway/`; returns the directory to put on `PYTHONPATH`.
+fn assemble_package(manifest: &Path, target: &Path) -> PathBuf {
+    let extension = profile_dir().join("lib_native.so");
+    assert!(
+        extension.exists(),
+        "{} is missing: `cargo test` builds the crate trailer-sway-py's cdylib before its \
+         tests run (run `cargo test -p trailer-sway-py`)",
+        extension.display()
+    );
+    let root = target.join("python-package");
+    let package = root.join("trailer_sway");
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&package).expect("creating the package directory");
+    let sources = manifest.join("trailer_sway");
+    for entry in std::fs::read_dir(&sources).expect("python/trailer_sway/") {
+        let path = entry.expect("a package file").path();
+        if path.is_file() {
+            let name = path.file_name().expect("a file name");
+            std::fs::copy(&path, package.join(name)).expect("copying a package file");
+        }
+    }
+    std::fs::copy(&extension, package.join("_native.abi3.so"))
+        .expect("copying the extension module");
+    root
+}
+
 #[test]
 fn python_package_installs_and_its_pytest_suite_passes() {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -95,34 +141,44 @@ fn python_package_installs_and_its_pytest_suite_passes() {
         .expect("target directory")
         .to_path_buf();
     let py = venv(&target);
-    run(
-        Command::new(&py)
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-                "--no-build-isolation",
-                "--force-reinstall",
-                "--no-deps",
-            ])
-            .arg(manifest)
-            .env("MATURIN_PEP517_ARGS", "--profile dev")
-            // the build backend runs the venv's `maturin` executable from PATH
-            .env("PATH", path_with(py.parent().expect("venv bin")))
-            .env("CARGO_TARGET_DIR", &target),
-        "pip install ./python",
-    );
     let mut pytest = Command::new(&py);
+    if pip_install_requested() {
+        run(
+            Command::new(&py)
+                .args([
+                    "-m",
+                    "pip",
+                    "install",
+                    "--quiet",
+                    "--disable-pip-version-check",
+                    "--no-build-isolation",
+                    "--force-reinstall",
+                    "--no-deps",
+                ])
+                .arg(manifest)
+                .env("MATURIN_PEP517_ARGS", "--profile dev")
+                // the build backend runs the venv's `maturin` executable from PATH
+                .env("PATH", path_with(py.parent().expect("venv bin")))
+                .env("CARGO_TARGET_DIR", &target),
+            "pip install ./python",
+        );
+    } else {
+        run(
+            Command::new(&py)
+                .args(["-m", "pip", "uninstall", "--quiet", "--yes"])
+                .arg("trailer_sway"),
+            "removing an installed trailer_sway from the test venv",
+        );
+        pytest.env("PYTHONPATH", assemble_package(manifest, &target));
+    }
     pytest
         .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
         .arg(manifest.join("tests"))
-        // not python/ itself: its source trailer_sway/ would shadow the installed package
+        // not python/ itself: its source trailer_sway/ would shadow the package under test
         .current_dir(env!("CARGO_TARGET_TMPDIR"))
         // where conftest.py looks for (or builds) the xtask binary
         .env("CARGO_TARGET_DIR", &target);
-    let xtask = target.join("debug").join("xtask");
+    let xtask = profile_dir().join("xtask");
     if xtask.exists() {
         pytest.env("TRAILER_SWAY_XTASK", &xtask);
     }

@@ -78,7 +78,13 @@ fn venv(target: &Path) -> PathBuf {
     }
     run(
         Command::new(&py)
-            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check"])
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check",
+            ])
             .args(&tools),
         "installing the test tools from PyPI into the test venv",
     );

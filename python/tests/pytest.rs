@@ -6,8 +6,8 @@
 //!
 //! The package is what `pip install ./python` installs: the Python sources of
 //! `python/trailer_sway/` and the extension module `_native`. The extension is the cdylib
-//! this very `cargo test` has just linked (`<target>/<profile>/lib_native.so`, the crate
-//! `trailer-sway-py`), copied in as `_native.abi3.so`, so the test compiles nothing twice
+//! this very `cargo test` has just linked (`<target>/<profile>/deps/lib_native.so`, the
+//! crate `trailer-sway-py`), copied in as `_native.abi3.so`, so the test compiles nothing twice
 //! (maturin's own build resolves the dependencies' features for this crate alone and would
 //! rebuild all of them). `TRAILER_SWAY_PIP_INSTALL=1` runs the real `pip install ./python`
 //! (maturin, dev profile) instead. The suite compares its numbers with the `xtask` binary
@@ -114,13 +114,19 @@ fn profile_dir() -> PathBuf {
 /// `python/trailer_sway/` and this build's extension module, copied into
 /// `<target>/python-package/trailer_sway/`; returns the directory to put on `PYTHONPATH`.
 fn assemble_package(manifest: &Path, target: &Path) -> PathBuf {
-    let extension = profile_dir().join("lib_native.so");
-    assert!(
-        extension.exists(),
-        "{} is missing: `cargo test` builds the crate trailer-sway-py's cdylib before its \
-         tests run (run `cargo test -p trailer-sway-py`)",
-        extension.display()
-    );
+    // a library built for a test stays in deps/ (`cargo build` copies it up a level)
+    let profile = profile_dir();
+    let extension = [profile.join("deps"), profile]
+        .iter()
+        .map(|dir| dir.join("lib_native.so"))
+        .find(|p| p.exists())
+        .unwrap_or_else(|| {
+            panic!(
+                "lib_native.so is missing under {}: `cargo test` links the crate \
+                 trailer-sway-py's cdylib (crate-type cdylib + rlib) before its tests run",
+                profile_dir().display()
+            )
+        });
     let root = target.join("python-package");
     let package = root.join("trailer_sway");
     let _ = std::fs::remove_dir_all(&root);

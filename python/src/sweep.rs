@@ -13,13 +13,12 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
 use serde_json::Value;
-use sway::ranging::{SpeedLimits, SpeedSpec};
+use sway::ranging::SpeedSpec;
 use sway::sim::sweep::{AxisParameter, PointOutput, PointResult, SweepConfig};
 use sway_tasks::TaskError;
 use sway_tasks::config_file::{Configured, TaskConfig};
 use sway_tasks::tasks::sweep::{header, prepare_run};
-use sway_tasks::tasks::{Prepared, TaskContext};
-use trailer_model::{AnyVehicleModel, VehicleSpec};
+use sway_tasks::tasks::Prepared;
 
 use crate::{Vehicle, interrupted, interruptible, load_config, py_err};
 
@@ -56,20 +55,9 @@ fn sweep<'py>(
     let prepared = Configured { file, config: spec };
     let plan = prepared.plan().map_err(py_err)?;
     let (file, spec) = (prepared.file, prepared.config);
-    // the task's context for a paper-form vehicle (no files are read or written: the
-    // directories are never used by `prepare_run`), with the CLI's default limits
-    let ctx = TaskContext {
-        vehicle_file: PathBuf::from("<vehicle>"),
-        vehicle: vehicle.params,
-        model: vehicle.model.clone(),
-        spec: VehicleSpec::from(vehicle.params),
-        plant: AnyVehicleModel::Paper(vehicle.model.clone()),
-        variant_key: None,
-        configs_dir: PathBuf::from("."),
-        results_dir: PathBuf::from("."),
-        progress: &sway::progress::NoProgress,
-        limits: SpeedLimits::default(),
-    };
+    // the task's context for the vehicle (no files are read or written through it), with
+    // the CLI's default limits
+    let ctx = vehicle.context(&sway::progress::NoProgress);
     let run = prepare_run(&ctx, &spec, &file).map_err(py_err)?;
     let (cfg, sw) = match (run.resolution.outcome, run.sweep) {
         (Ok(cfg), Some(sw)) => (cfg, sw),

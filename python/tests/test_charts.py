@@ -150,13 +150,20 @@ def test_open_loop_diagram_is_fig3as(table1):
     assert abs(d.hopf_v_mps - ts.critical_speed(table1).v_crit_mps) < 1e-6
 
 
-def test_closed_loop_diagram_is_fig4bs(table1):
-    # reference: results/fig4b/summary.json, the pair τ = 0.1 s, D = 0.1 s with
-    # configs/fig4b.toml's continuation (the closed-loop defaults); exact
-    pair = [p for p in committed("fig4b")["pairs"] if (p["tau_s"], p["d_s"]) == (0.1, 0.1)][0]
-    d = ts.bifurcation_diagram(table1, {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": 0.1})
+def test_closed_loop_diagram_is_fig4bs(table1, tmp_path):
+    # reference: `cargo xtask fig4b` on one pair, τ = 0.1 s, D = 0.1 s, with a small
+    # continuation (the shipped one takes a minute); its "pairs" entry, exact
+    cont = {"intervals": 12, "degree": 3, "max_cycle_points": 60}
+    cfg = {"pairs": [{"delay_s": 0.1, "gain_s": 0.1}], "continuation": cont}
+    pair = _summary(run_task("fig4b", ts.to_toml(cfg), tmp_path), "fig4b")["pairs"][0]
+    d = ts.bifurcation_diagram(table1, {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": 0.1}, continuation=cont)
     assert d.summary == pair
     assert d.cycle_points == pair["cycle_points"] == len(d.cycles["v_mps"])
+    assert d.hopf_v_mps == pair["hopf_v_mps"] and d.criticality == pair["criticality"]
+    # independent of the CLI: the Hopf point is the closed loop's linear critical speed
+    # (the exact root count along V; 1e-6 m/s)
+    c = ts.critical_speed(table1, {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": 0.1})
+    assert abs(d.hopf_v_mps - c.v_crit_mps) < 1e-6
 
 
 def test_diagram_bad_options(table1):

@@ -115,31 +115,28 @@ def test_simulate(relaxed, tmp_path):
     assert not np.array_equal(p.theta, r.theta)
 
 
-SMALL_CONTINUATION = {"intervals": 16, "degree": 3, "max_cycle_points": 80, "max_step": 0.5}
+SMALL_CONTINUATION = {"intervals": 12, "degree": 3, "max_cycle_points": 40, "max_step": 0.5, "beyond_hopf": 0.1}
 
 
-def test_bifurcation_diagrams(relaxed, tmp_path):
-    # reference: `cargo xtask fig3a` (the diagram) and `cargo xtask fig4b` (one pair) with
-    # `--vehicle relaxation.toml` on the same small settings; exact
+def test_bifurcation_diagram(relaxed, tmp_path):
+    # reference: `cargo xtask fig3a` (the diagram) with `--vehicle relaxation.toml` on the
+    # same small settings; exact (the closed loop goes through fig4b's one function for any
+    # plant: test_charts.py compares it on Table I)
     fig3a = {
         "panels": {"speed_mps": 30.0, "theta0_deg": [2.0], "horizon_s": 2.0},
         "diagram": {"continuation": SMALL_CONTINUATION, "stable_speeds_mps": [34.0], "unstable_speeds_mps": []},
     }
-    s = _summary(run_task("fig3a", ts.to_toml(fig3a), tmp_path / "a", "--vehicle", RELAXATION), "fig3a")
+    s = _summary(run_task("fig3a", ts.to_toml(fig3a), tmp_path, "--vehicle", RELAXATION), "fig3a")
     d = ts.bifurcation_diagram(relaxed, continuation=SMALL_CONTINUATION, stable_speeds_mps=[34.0], unstable_speeds_mps=[])
     for k, v in d.summary.items():
         assert s[k] == v, k
     assert d.hopf_v_mps == s["hopf_v_mps"] and len(d.cycles["v_mps"]) == s["cycle_points"]
-    _, eq = _csv(tmp_path / "a" / "results" / "fig3a" / "equilibria.csv")
+    _, eq = _csv(tmp_path / "results" / "fig3a" / "equilibria.csv")
     np.testing.assert_array_equal(eq[:, 0], d.equilibria["v_mps"])
     np.testing.assert_array_equal(eq[:, 2], d.equilibria["max_re_lambda_per_s"])
     # the Hopf point is the linear V_crit (independent: eigenvalues; 1e-6 m/s)
     assert abs(d.hopf_v_mps - ts.critical_speed(relaxed).v_crit_mps) < 1e-6
 
-    fig4b = {"pairs": [{"delay_s": 0.1, "gain_s": 0.1}], "continuation": SMALL_CONTINUATION}
-    s = _summary(run_task("fig4b", ts.to_toml(fig4b), tmp_path / "b", "--vehicle", RELAXATION), "fig4b")
-    c = ts.bifurcation_diagram(relaxed, {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": 0.1}, continuation=SMALL_CONTINUATION)
-    assert c.summary == s["pairs"][0]
 
 
 def test_stability_chart(relaxed, tmp_path):
@@ -160,23 +157,24 @@ def test_stability_chart(relaxed, tmp_path):
 
 def test_nonlinear_chart(relaxed, tmp_path):
     # reference: `cargo xtask chart_nonlinear --vehicle relaxation.toml`, small; exact
+    cycles = {k: v for k, v in SMALL_CONTINUATION.items() if k != "beyond_hopf"}
     c = {
-        "delays_s": [0.1],
-        "summary_gains_s": [0.1],
-        "bistable_gain_s": 0.1,
+        "delays_s": [0.0],
+        "summary_gains_s": [0.0],
+        "bistable_gain_s": 0.0,
         "chart": {
-            "hopf_max_points": 30,
-            "fold_max_points": 20,
+            "hopf_max_points": 12,
+            "fold_max_points": 6,
             "criticality_samples": 2,
             "criticality_cycle_points": 2,
-            "seed_gains_s": [0.1],
-            "cycles": SMALL_CONTINUATION,
+            "seed_gains_s": [0.0],
+            "cycles": cycles,
         },
-        "regions": {"speed_cells": 6, "gain_cells": 4},
+        "regions": {"speed_cells": 4, "gain_cells": 3},
     }
     s = _summary(run_task("chart_nonlinear", ts.to_toml(c), tmp_path, "--vehicle", RELAXATION), "chart_nonlinear")
     charts = ts.nonlinear_chart(
-        relaxed, c["delays_s"], summary_gains_s=c["summary_gains_s"], bistable_gain_s=0.1, chart=c["chart"], regions=c["regions"]
+        relaxed, c["delays_s"], summary_gains_s=c["summary_gains_s"], bistable_gain_s=c["bistable_gain_s"], chart=c["chart"], regions=c["regions"]
     )
     assert [ch.summary for ch in charts] == s["per_tau"]
 
@@ -204,3 +202,48 @@ def test_sweep(relaxed, tmp_path):
         else:
             want = np.array([float(x) if x else np.nan for x in cells])
             np.testing.assert_array_equal(col.astype(float), want, err_msg=name)
+
+
+# ---------------------------------------------------------------------------------------
+# outcomes, not exceptions: a vehicle stable at every speed (the trailer's centre of gravity
+# 1.3 m ahead of its axle: V_crit above the 100 m/s maximum)
+
+@pytest.fixture(scope="module")
+def stable_vehicle():
+    return ts.Vehicle.table1().replace(trailer_cog=1.5)
+
+
+def test_stable_vehicle_outcomes(stable_vehicle, tmp_path):
+    # reference: `cargo xtask linear` and `cargo xtask fig3a` with `--vehicle` that file:
+    # their summaries say "stable up to" with a reason instead of failing
+    f = tmp_path / "stable.toml"
+    f.write_text(stable_vehicle.to_toml())
+    lin = _summary(run_task("linear", None, tmp_path, "--vehicle", f), "linear")
+    c = ts.critical_speed(stable_vehicle)
+    assert lin["v_crit_mps"] is None and c.v_crit_mps is None
+    assert c.reason == "stable_up_to_max" and c.stable_up_to_mps == lin["stable_up_to_mps"] == 100.0
+    assert c.message.startswith("straight running is stable at every speed up to 100 m/s")
+    fig3a = {"panels": {"speed_mps": 30.0, "theta0_deg": [2.0], "horizon_s": 1.0}, "diagram": {}}
+    s = _summary(run_task("fig3a", ts.to_toml(fig3a), tmp_path, "--vehicle", f), "fig3a")
+    d = ts.bifurcation_diagram(stable_vehicle)
+    assert s["hopf_v_mps"] is None and d.hopf_v_mps is None and d.fold_v_mps is None
+    for k, v in d.summary.items():
+        assert s[k] == v, k
+    assert d.reason == s["hopf_reason"] and d.stable_up_to_mps == s["stable_up_to_mps"]
+    assert len(d.equilibria["v_mps"]) == 0 and len(d.cycles["v_mps"]) == 0
+    # the closed loop: fig4b's entry with its reason
+    cl = ts.bifurcation_diagram(stable_vehicle, {"kind": "yaw_rate_feedback", "gain_s": 0.0, "delay_s": 0.0})
+    assert cl.hopf_v_mps is None and cl.reason and cl.summary["stable_up_to_mps"] == cl.stable_up_to_mps
+
+
+def test_stable_vehicle_nonlinear_chart(stable_vehicle, tmp_path):
+    # reference: `cargo xtask chart_nonlinear --vehicle` that file: no Hopf curve, said in
+    # the summary; Python returns the same entry with its reasons
+    c = {"delays_s": [0.0], "chart": {"hopf_max_points": 10, "fold_max_points": 4}, "regions": {"speed_cells": 4, "gain_cells": 3}}
+    f = tmp_path / "stable.toml"
+    f.write_text(stable_vehicle.to_toml())
+    s = _summary(run_task("chart_nonlinear", ts.to_toml(c), tmp_path, "--vehicle", f), "chart_nonlinear")
+    charts = ts.nonlinear_chart(stable_vehicle, [0.0], chart=c["chart"], regions=c["regions"])
+    assert [ch.summary for ch in charts] == s["per_tau"]
+    ch = charts[0]
+    assert not ch.hopf_curves and ch.hopf_reason and ch.hopf_reason == s["per_tau"][0].get("hopf_reason")

@@ -471,13 +471,13 @@ def _pair(x: Any, what: str) -> tuple[float, float]:
 def stability_chart(
     vehicle: Optional[Vehicle] = None,
     delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
-    speed_range: tuple[float, float] = (0.0, 60.0),
-    gain_range: tuple[float, float] = (-0.5, 0.5),
+    speed_range: Optional[tuple[Optional[float], Optional[float]]] = None,
+    gain_range: Optional[tuple[Optional[float], Optional[float]]] = None,
     *,
     speed_cells: int = 300,
     gain_cells: int = 200,
-    gain_for_critical_speed_s: float = 0.1,
-    speed_for_gain_interval_mps: float = 35.0,
+    gain_for_critical_speed_s: Optional[float] = None,
+    speed_for_gain_interval_mps: Optional[float] = None,
     speed_tolerance_mps: float = 1e-9,
     reseed_interval: int = 8,
     tracked_roots: int = 8,
@@ -485,9 +485,15 @@ def stability_chart(
     """Stability charts of the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) in the
     (V, D) plane, one per delay τ [s] in ``delays``, over ``speed_range`` [m/s] ×
     ``gain_range`` [s] in ``speed_cells`` × ``gain_cells`` cells — ``cargo xtask fig4a``
-    with these values as its config (the defaults are ``configs/fig4a.toml``)."""
+    with these values as its config (the defaults are ``configs/fig4a.toml``'s). A range
+    (or one end of it) given as None is derived from the vehicle as the task derives it
+    (speeds from 0 to above the largest critical speed, gains ±5·D₁);
+    ``gain_for_critical_speed_s`` (default D₁) and ``speed_for_gain_interval_mps``
+    (default: the first whole m/s above the open-loop V_crit) place the summary's
+    headline numbers."""
     v = _vehicle(vehicle)
-    (v0, v1), (d0, d1) = _pair(speed_range, "speed_range"), _pair(gain_range, "gain_range")
+    (v0, v1) = (None, None) if speed_range is None else _pair(speed_range, "speed_range")
+    (d0, d1) = (None, None) if gain_range is None else _pair(gain_range, "gain_range")
     config = {
         "speed": {"min_mps": v0, "max_mps": v1, "cells": speed_cells},
         "gain": {"min_s": d0, "max_s": d1, "cells": gain_cells},
@@ -550,8 +556,8 @@ def nonlinear_chart(
     vehicle: Optional[Vehicle] = None,
     delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
     *,
-    summary_gains_s: Sequence[float] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25),
-    bistable_gain_s: float = 0.1,
+    summary_gains_s: Optional[Sequence[float]] = None,
+    bistable_gain_s: Optional[float] = None,
     chart: Optional[Mapping[str, Any]] = None,
     regions: Optional[Mapping[str, Any]] = None,
 ) -> list:
@@ -559,12 +565,14 @@ def nonlinear_chart(
     points, one :class:`NonlinearChart` per delay τ [s] — ``cargo xtask chart_nonlinear``
     with these values as its config. ``chart`` takes the keys of ``[chart]`` in
     ``configs/chart_nonlinear.toml`` (box, seeds, steps, ``cycles`` mesh), ``regions`` its
-    ``speed_cells``/``gain_cells``; absent keys take the file's defaults. Expensive: about
-    15 s per delay on 2 cores with the defaults."""
+    ``speed_cells``/``gain_cells``; absent keys take the file's defaults, and the box,
+    seeds, ``summary_gains_s`` and ``bistable_gain_s`` omitted (None) are derived from the
+    vehicle as the task derives them. Expensive: about 15 s per delay on 2 cores with the
+    defaults."""
     v = _vehicle(vehicle)
     config: dict = {
         "delays_s": list(delays) if not isinstance(delays, (int, float)) else [delays],
-        "summary_gains_s": list(summary_gains_s),
+        "summary_gains_s": None if summary_gains_s is None else list(summary_gains_s),
         "bistable_gain_s": bistable_gain_s,
     }
     if chart is not None:

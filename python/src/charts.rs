@@ -9,9 +9,7 @@ use std::path::{Path, PathBuf};
 use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use sway::bifurcation::{
-    CycleExtent, DiagramSettings, Feedback, PairDiagram, closed_loop_diagram,
-};
+use sway::bifurcation::{CycleExtent, DiagramSettings, Feedback, PairDiagram, closed_loop_diagram};
 use sway_tasks::config_file::{Configured, TaskConfig};
 use sway_tasks::tasks::Prepared;
 use sway_tasks::tasks::chart_nonlinear::{self, ChartNonlinearConfig};

@@ -354,7 +354,10 @@ impl Vehicle {
     /// The task context of this vehicle (no files are read or written through it: its
     /// directories are never used by the functions that take it), with the CLI's default
     /// limits (`--max-speed` 100 m/s).
-    pub(crate) fn context<'a>(&self, progress: &'a dyn sway::progress::Progress) -> TaskContext<'a> {
+    pub(crate) fn context<'a>(
+        &self,
+        progress: &'a dyn sway::progress::Progress,
+    ) -> TaskContext<'a> {
         TaskContext {
             vehicle_file: PathBuf::from("<vehicle>"),
             vehicle: self.loaded.params,
@@ -380,10 +383,7 @@ impl Vehicle {
     }
 
     /// Fields given by keyword, type-checked: (parameter index, value).
-    fn changes(
-        fields: Option<&Bound<'_, PyDict>>,
-        what: &str,
-    ) -> PyResult<Vec<(usize, f64)>> {
+    fn changes(fields: Option<&Bound<'_, PyDict>>, what: &str) -> PyResult<Vec<(usize, f64)>> {
         let mut out = Vec::new();
         let Some(d) = fields else {
             return Ok(out);
@@ -488,10 +488,8 @@ impl Vehicle {
     #[staticmethod]
     fn from_toml_str(text: &str) -> PyResult<Self> {
         let file = Path::new("<vehicle>");
-        let spec: VehicleSpec =
-            sway_tasks::config_file::parse_toml(text, file).map_err(py_err)?;
-        let loaded =
-            sway_tasks::config_file::vehicle_from_spec(spec, file).map_err(py_err)?;
+        let spec: VehicleSpec = sway_tasks::config_file::parse_toml(text, file).map_err(py_err)?;
+        let loaded = sway_tasks::config_file::vehicle_from_spec(spec, file).map_err(py_err)?;
         Ok(Self { loaded })
     }
 

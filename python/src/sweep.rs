@@ -17,8 +17,8 @@ use sway::ranging::SpeedSpec;
 use sway::sim::sweep::{AxisParameter, PointOutput, PointResult, SweepConfig};
 use sway_tasks::TaskError;
 use sway_tasks::config_file::{Configured, TaskConfig};
-use sway_tasks::tasks::sweep::{header, prepare_run};
 use sway_tasks::tasks::Prepared;
+use sway_tasks::tasks::sweep::{header, prepare_run};
 
 use crate::{Vehicle, interrupted, interruptible, load_config, py_err};
 

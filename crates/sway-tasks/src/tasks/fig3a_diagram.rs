@@ -386,7 +386,10 @@ pub fn run_diagram(
 ///
 /// # Errors
 /// Numerical failures with context.
-pub fn compute_diagram(ctx: &TaskContext<'_>, cfg: &DiagramConfig) -> Result<DiagramRun, TaskError> {
+pub fn compute_diagram(
+    ctx: &TaskContext<'_>,
+    cfg: &DiagramConfig,
+) -> Result<DiagramRun, TaskError> {
     trailer_model::with_plant!(&ctx.plant, m => compute_diagram_on(m, ctx, cfg))
 }
 

@@ -28,13 +28,25 @@ repeats = int(sys.argv[1]) if len(sys.argv) > 1 else 2000
 v = ts.Vehicle.table1()
 r = ts.simulate(v, S1, trajectory=False)
 print("S1:", r.sway_class, r.accepted_steps, "accepted,", r.rejected_steps, "rejected steps")
-for _ in range(50):
-    ts.simulate(v, S1, trajectory=False)
-times = []
-for _ in range(repeats):
-    t0 = time.perf_counter()
-    ts.simulate(v, S1, trajectory=False)
-    times.append(time.perf_counter() - t0)
+
+
+def timed(scenario, n):
+    for _ in range(50):
+        ts.simulate(v, scenario, trajectory=False)
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        ts.simulate(v, scenario, trajectory=False)
+        times.append(time.perf_counter() - t0)
+    return times
+
+
+times = timed(S1, repeats)
 q = statistics.quantiles(times, n=10)
 print(f"simulate from Python: median {statistics.median(times) * 1e3:.4f} ms "
-      f"(p10 {q[0] * 1e3:.4f}, p90 {q[-1] * 1e3:.4f}; {repeats} calls)")
+      f"(min {min(times) * 1e3:.4f}, p10 {q[0] * 1e3:.4f}, p90 {q[-1] * 1e3:.4f}; {repeats} calls)")
+# the same call on a 1 ms horizon (two solver steps): what the call costs besides the
+# integration (config reading and checks, the summary, the Python objects)
+tiny = dict(S1, horizon_s=1e-3, output_step_s=1e-3)
+t = timed(tiny, repeats)
+print(f"the call alone (1 ms horizon): median {statistics.median(t) * 1e6:.1f} µs (min {min(t) * 1e6:.1f} µs)")

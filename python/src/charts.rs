@@ -9,21 +9,18 @@ use std::path::{Path, PathBuf};
 use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use serde::Serialize;
-use sway::SwayError;
-use sway::bifurcation::chart::{ChartOptions, critical_speeds};
-use sway::bifurcation::{Diagram, DiagramOptions, Feedback, bifurcation_diagram as diagram};
+use sway::bifurcation::{CycleExtent, DiagramSettings, Feedback, PairDiagram, closed_loop_diagram};
 use sway_tasks::config_file::{Configured, TaskConfig};
 use sway_tasks::tasks::Prepared;
 use sway_tasks::tasks::chart_nonlinear::{self, ChartNonlinearConfig};
+use sway_tasks::tasks::fig3a_diagram::{DiagramConfig, compute_diagram, validate_settings};
 use sway_tasks::tasks::fig4a::{self, Fig4aConfig};
 
 use sway::charts::auto_range::SpeedBounds;
 use sway::ranging::SpeedLimits;
 use sway_tasks::TaskError;
-use trailer_model::AnyVehicleModel;
 
-use crate::{Vehicle, interruptible, load_config, py_err, to_json};
+use crate::{Vehicle, interruptible, load_config, load_config_over, py_err, to_json};
 
 /// Points of boundary polylines as rows (branch, V \[m/s\], D \[s\], ω \[rad/s\]), n × 4.
 fn boundary_rows<'py>(
@@ -53,8 +50,8 @@ fn stability_chart<'py>(
     let prepared = Configured { file, config: cfg };
     let plan = prepared.plan().map_err(py_err)?;
     let cfg = prepared.config;
-    // the CLI's plant of a paper-form vehicle and its default speed limits (--max-speed)
-    let plant = AnyVehicleModel::Paper(vehicle.model.clone());
+    // the vehicle's plant and the CLI's default speed limits (--max-speed)
+    let plant = vehicle.plant().clone();
     let (charts, summary) = interruptible(py, plan.time_s, None, move || {
         let limits = SpeedLimits::default();
         let r = fig4a::compute(&plant, &cfg, &SpeedBounds::from(&limits))?;
@@ -112,15 +109,12 @@ fn nonlinear_chart<'py>(
     let prepared = Configured { file, config: cfg };
     let plan = prepared.plan().map_err(py_err)?;
     let cfg = prepared.config;
-    let model = vehicle.model.clone();
+    let plant = vehicle.plant().clone();
     let (summary, results) = interruptible(py, plan.time_s, None, move || {
         let limits = SpeedLimits::default();
-        let study = chart_nonlinear::compute(
-            &model,
-            &cfg,
-            &SpeedBounds::from(&limits),
-            &sway::progress::NoProgress,
-        )?;
+        let bounds = SpeedBounds::from(&limits);
+        let progress = sway::progress::NoProgress;
+        let study = trailer_model::with_plant!(&plant, m => chart_nonlinear::compute(m, &cfg, &bounds, &progress))?;
         // the task's summary, from the same public pieces its run uses
         let summary = chart_nonlinear::ChartNonlinearSummary {
             per_tau: study
@@ -183,118 +177,75 @@ fn nonlinear_chart<'py>(
     Ok((to_json(&summary)?, out))
 }
 
-/// The diagram's own numbers (the fields of fig3a's diagram summary that need no extra
-/// continuation).
-#[derive(Debug, Serialize)]
-struct DiagramNumbers {
-    hopf_v_mps: f64,
-    hopf_omega_rad_s: f64,
-    hopf_period_s: f64,
-    criticality: String,
-    fold_v_mps: Option<f64>,
-    fold_amplitude_deg: Option<f64>,
-    fold_period_s: Option<f64>,
-    bistable_range_mps: Option<[f64; 2]>,
-    cycle_points: usize,
-}
-
-/// The corrected Hopf and fold speeds, as fig4b's `"pairs"` entries.
-#[derive(Debug, Serialize)]
-struct Corrected {
-    hopf_v_mps: f64,
-    hopf_omega_rad_s: f64,
-    criticality: String,
-    fold_v_mps: Option<f64>,
-    fold_amplitude_deg: Option<f64>,
-    fold_period_s: Option<f64>,
-    bistable_range_mps: Option<[f64; 2]>,
-}
-
-#[derive(Debug, Serialize)]
-struct DiagramJson {
-    diagram: DiagramNumbers,
-    corrected: Option<Corrected>,
-}
-
-fn numbers(d: &Diagram) -> DiagramNumbers {
-    let fold = d.fold;
-    DiagramNumbers {
-        hopf_v_mps: d.hopf.parameter,
-        hopf_omega_rad_s: d.hopf.omega,
-        hopf_period_s: 2.0 * std::f64::consts::PI / d.hopf.omega,
-        criticality: d.criticality.to_string(),
-        fold_v_mps: fold.map(|f| f.speed_mps),
-        fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
-        fold_period_s: fold.map(|f| f.period_s),
-        bistable_range_mps: d.bistable_range().map(|(a, b)| [a, b]),
-        cycle_points: d.cycle_summary.len(),
-    }
-}
-
-/// bifurcation_diagram(vehicle, gain, delay, continuation, correct) → (JSON, arrays): the
-/// diagram of straight running and the sway cycles over V (fig3a's open loop, fig4b's
-/// pairs), with `correct` the Hopf and fold speeds corrected as fig4b reports them.
+/// bifurcation_diagram(vehicle, gain, delay, settings) → (summary JSON, arrays or None):
+/// the diagram of straight running and the sway cycles over V on the vehicle's plant.
+/// Open loop (gain and delay None): the `fig3a` task's diagram ([`compute_diagram`], what
+/// its `run_diagram` writes) on a dict of the `[diagram]` section's shape; the summary is
+/// fig3a's diagram fields. Closed loop: one pair of the `fig4b` task
+/// ([`closed_loop_diagram`]) on a dict of its `[continuation]` section's shape (absent keys:
+/// fig4b's defaults); the summary is its `"pairs"` entry. Without a Hopf point the summary
+/// says why and there are no arrays.
 #[pyfunction]
-#[pyo3(signature = (vehicle, gain, delay, continuation, correct))]
+#[pyo3(signature = (vehicle, gain, delay, settings))]
 fn bifurcation_diagram<'py>(
     py: Python<'py>,
     vehicle: &Vehicle,
-    gain: f64,
-    delay: f64,
-    continuation: &Bound<'py, PyAny>,
-    correct: bool,
-) -> PyResult<(String, Bound<'py, PyDict>)> {
+    gain: Option<f64>,
+    delay: Option<f64>,
+    settings: &Bound<'py, PyAny>,
+) -> PyResult<(String, Option<Bound<'py, PyDict>>)> {
     let what = "bifurcation_diagram()";
-    let (options, file): (DiagramOptions, PathBuf) = load_config(continuation, what)?;
-    sway_tasks::tasks::fig3a_diagram::validate_options(&options, &file, "continuation")
-        .map_err(py_err)?;
-    let check = |ok: bool, key: &str, problem: String| {
-        sway::config::ensure(ok, Path::new(what), key, || problem).map_err(py_err)
+    let (json, d) = match (gain, delay) {
+        (Some(gain), Some(delay)) => {
+            let file = Path::new(what);
+            let check = |ok: bool, key: &str, problem: String| {
+                sway::config::ensure(ok, file, key, || problem).map_err(py_err)
+            };
+            // fig4b's checks of a pair
+            check(
+                delay.is_finite() && delay >= 0.0,
+                "controller.delay_s",
+                format!("expected a delay τ ≥ 0 s, got {delay}"),
+            )?;
+            check(
+                gain.is_finite() && gain.abs() <= 5.0,
+                "controller.gain_s",
+                format!("expected a finite gain |D| ≤ 5 s, got {gain}"),
+            )?;
+            let (s, file): (DiagramSettings, PathBuf) =
+                load_config_over(settings, what, &DiagramSettings::closed_loop())?;
+            validate_settings(&s, &file, "continuation").map_err(py_err)?;
+            let plant = vehicle.plant().clone();
+            let fb = Feedback {
+                gain_d_s: gain,
+                delay_s: delay,
+            };
+            let pd = interruptible(py, 1.0, None, move || {
+                let limits = SpeedLimits::default();
+                trailer_model::with_plant!(&plant, m => closed_loop_diagram(m, fb, &s, &limits, CycleExtent::WholeRange))
+            })?
+            .map_err(py_err)?;
+            let json = to_json(&pd.summary(fb))?;
+            let d = match pd {
+                PairDiagram::Computed { diagram, .. } => Some(diagram),
+                PairDiagram::NoHopf { .. } => None,
+            };
+            (json, d)
+        }
+        _ => {
+            let (cfg, file): (DiagramConfig, PathBuf) = load_config(settings, what)?;
+            cfg.validate(&file, "diagram").map_err(py_err)?;
+            let v = vehicle.clone();
+            let run = interruptible(py, 1.0, None, move || {
+                compute_diagram(&v.context(&sway::progress::NoProgress), &cfg)
+            })?
+            .map_err(py_err)?;
+            (to_json(&run.summary)?, run.diagram)
+        }
     };
-    check(
-        gain.is_finite(),
-        "controller.gain_s",
-        format!("expected a finite gain [s], got {gain}"),
-    )?;
-    check(
-        delay.is_finite() && delay >= 0.0,
-        "controller.delay_s",
-        format!("expected a delay ≥ 0 s, got {delay}"),
-    )?;
-    let model = vehicle.model.clone();
-    let fb = Feedback {
-        gain_d_s: gain,
-        delay_s: delay,
+    let Some(d) = d else {
+        return Ok((json, None));
     };
-    let (d, corrected) = interruptible(py, 1.0, None, move || {
-        let d = diagram(&model, fb, &options)?;
-        let corrected = if correct {
-            let cs = critical_speeds(&model, &d, &ChartOptions::correcting(&options))?;
-            let fold = cs.fold;
-            Some(Corrected {
-                hopf_v_mps: cs.hopf_v_mps,
-                hopf_omega_rad_s: cs.hopf_omega_rad_s,
-                criticality: cs.criticality.to_string(),
-                fold_v_mps: fold.map(|f| f.v_mps),
-                fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
-                fold_period_s: fold.map(|f| f.period_s),
-                bistable_range_mps: match (cs.criticality, fold) {
-                    (continuation::Criticality::Subcritical, Some(f)) => {
-                        Some([f.v_mps, cs.hopf_v_mps])
-                    }
-                    _ => None,
-                },
-            })
-        } else {
-            None
-        };
-        Ok::<_, SwayError>((d, corrected))
-    })?
-    .map_err(py_err)?;
-    let json = to_json(&DiagramJson {
-        diagram: numbers(&d),
-        corrected,
-    })?;
     let out = PyDict::new(py);
     // straight running: as equilibria.csv (V, stable, max Re λ)
     let eq = &d.equilibria.points;
@@ -326,7 +277,7 @@ fn bifurcation_diagram<'py>(
     let st: Vec<bool> = cs.iter().map(|p| p.stable).collect();
     c.set_item("stable", st.into_pyarray(py))?;
     out.set_item("cycles", c)?;
-    Ok((json, out))
+    Ok((json, Some(out)))
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -30,7 +30,14 @@ use sway_tasks::TaskError;
 mod charts;
 mod sweep;
 
-use trailer_model::{CriticalSpeedOptions, Model, ModelError, PARAMETERS, VehicleParams};
+use sway::control::LoopModel;
+use sway::ranging::SpeedLimits;
+use sway_tasks::config_file::LoadedVehicle;
+use sway_tasks::tasks::TaskContext;
+use trailer_model::{
+    AnyVehicleModel, CriticalSpeedOptions, Model, ModelError, PARAMETERS, VehicleParams,
+    VehicleSpec,
+};
 
 // ---------------------------------------------------------------------------------------
 // errors
@@ -164,6 +171,41 @@ pub(crate) fn load_config<T: DeserializeOwned>(
     Ok((cfg, file))
 }
 
+/// [`load_config`] of a dict whose absent keys take their values from `base` (a section
+/// whose defaults differ from its type's `Default`, e.g. fig4b's `[continuation]`): the
+/// dict's keys replace `base`'s, table by table.
+pub(crate) fn load_config_over<T: Serialize + DeserializeOwned>(
+    obj: &Bound<'_, PyAny>,
+    what: &str,
+    base: &T,
+) -> PyResult<(T, PathBuf)> {
+    if !obj.is_instance_of::<PyDict>() {
+        return load_config(obj, what);
+    }
+    fn merge(into: &mut toml::Table, from: toml::Table) {
+        for (k, v) in from {
+            match (into.get_mut(&k), v) {
+                (Some(toml::Value::Table(a)), toml::Value::Table(b)) => merge(a, b),
+                (_, v) => {
+                    into.insert(k, v);
+                }
+            }
+        }
+    }
+    let internal = |e: &dyn std::fmt::Display| {
+        PyRuntimeError::new_err(format!("internal: the defaults of {what}: {e}"))
+    };
+    let mut table = toml::Table::try_from(base).map_err(|e| internal(&e))?;
+    if let toml::Value::Table(given) = toml_value(obj, "")? {
+        merge(&mut table, given);
+    }
+    let text = toml::to_string(&table)
+        .map_err(|e| PyValueError::new_err(format!("{what}: not representable as TOML: {e}")))?;
+    let file = PathBuf::from(what);
+    let cfg = sway_tasks::config_file::parse_toml(&text, &file).map_err(py_err)?;
+    Ok((cfg, file))
+}
+
 // ---------------------------------------------------------------------------------------
 // running long calls
 
@@ -261,15 +303,121 @@ fn build_model(params: VehicleParams, file: &Path) -> Result<Model, SwayError> {
     })
 }
 
-/// A car–trailer combination (paper Table I form), validated.
+/// Parameter `index` of [`PARAMETERS`] in a vehicle file with model variants: None where
+/// the key does not exist there (an axle key of a unit given as a list of axles), as
+/// [`VehicleSpec::with_parameter`] reads the keys.
+fn spec_parameter(spec: &VehicleSpec, index: usize) -> Option<f64> {
+    let (t, r) = (&spec.tractor, &spec.trailer);
+    match index {
+        0 => Some(t.mass),
+        1 => Some(t.yaw_inertia),
+        2 => t.front_axle,
+        3 => Some(t.cog),
+        4 => t.rear_axle,
+        5 => t.front_cornering_stiffness,
+        6 => t.rear_cornering_stiffness,
+        7 => Some(r.mass),
+        8 => Some(r.yaw_inertia),
+        9 => Some(r.cog),
+        10 => r.axle,
+        11 => r.cornering_stiffness,
+        12 => Some(spec.friction.mu_static),
+        13 => Some(spec.friction.mu_dynamic),
+        _ => Some(spec.gravity),
+    }
+}
+
+/// A car–trailer combination, validated: the paper's form (Table I's keys) or a vehicle
+/// file with model variants (tyre relaxation, axle lists, tyre laws, hitch torque).
 #[pyclass(frozen, module = "trailer_sway._native")]
 #[derive(Debug, Clone)]
 pub struct Vehicle {
-    pub(crate) params: VehicleParams,
-    pub(crate) model: Model,
+    /// the vehicle as the CLI loads a vehicle file: its spec, plant, paper-form parameters
+    pub(crate) loaded: LoadedVehicle,
 }
 
 impl Vehicle {
+    /// A vehicle of the paper's form (no variants): the paper's model, as the CLI's plant of
+    /// such a file ([`AnyVehicleModel::Paper`]: results bit for bit as before).
+    fn paper(params: VehicleParams, model: Model) -> Self {
+        Self {
+            loaded: LoadedVehicle {
+                spec: VehicleSpec::from(params),
+                plant: AnyVehicleModel::Paper(model.clone()),
+                params,
+                paper_model: model,
+                variant_key: None,
+            },
+        }
+    }
+
+    /// The task context of this vehicle (no files are read or written through it: its
+    /// directories are never used by the functions that take it), with the CLI's default
+    /// limits (`--max-speed` 100 m/s).
+    pub(crate) fn context<'a>(
+        &self,
+        progress: &'a dyn sway::progress::Progress,
+    ) -> TaskContext<'a> {
+        TaskContext {
+            vehicle_file: PathBuf::from("<vehicle>"),
+            vehicle: self.loaded.params,
+            model: self.loaded.paper_model.clone(),
+            spec: self.loaded.spec.clone(),
+            plant: self.loaded.plant.clone(),
+            variant_key: self.loaded.variant_key.clone(),
+            configs_dir: PathBuf::from("."),
+            results_dir: PathBuf::from("."),
+            progress,
+            limits: SpeedLimits::default(),
+        }
+    }
+
+    /// The plant of every function (the paper's model for a vehicle of the paper's form).
+    pub(crate) fn plant(&self) -> &AnyVehicleModel {
+        &self.loaded.plant
+    }
+
+    /// The first key that makes the vehicle differ from the paper's model.
+    fn variant(&self) -> Option<&str> {
+        self.loaded.variant_key.as_deref()
+    }
+
+    /// Fields given by keyword, type-checked: (parameter index, value).
+    fn changes(fields: Option<&Bound<'_, PyDict>>, what: &str) -> PyResult<Vec<(usize, f64)>> {
+        let mut out = Vec::new();
+        let Some(d) = fields else {
+            return Ok(out);
+        };
+        for (k, v) in d.iter() {
+            let k: String = k.extract()?;
+            let Some(i) = field_index(&k) else {
+                let known: Vec<String> = (0..PARAMETERS.len()).map(field_name).collect();
+                return Err(PyTypeError::new_err(format!(
+                    "{what}: unknown field `{k}`; fields: {}",
+                    known.join(", ")
+                )));
+            };
+            if v.is_instance_of::<PyBool>() {
+                return Err(PyTypeError::new_err(format!(
+                    "{what}: `{}`: expected a number, got bool",
+                    PARAMETERS[i].0
+                )));
+            }
+            let x: f64 = v.extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "{what}: `{}`: expected a number, got {}",
+                    PARAMETERS[i].0,
+                    v.get_type()
+                        .name()
+                        .map(|n| n.to_string())
+                        .unwrap_or_default()
+                ))
+            })?;
+            out.push((i, x));
+        }
+        Ok(out)
+    }
+
     fn with_fields(
         base: VehicleParams,
         fields: Option<&Bound<'_, PyDict>>,
@@ -278,35 +426,9 @@ impl Vehicle {
     ) -> PyResult<Self> {
         let mut params = base;
         let mut given = vec![false; PARAMETERS.len()];
-        if let Some(d) = fields {
-            for (k, v) in d.iter() {
-                let k: String = k.extract()?;
-                let Some(i) = field_index(&k) else {
-                    let known: Vec<String> = (0..PARAMETERS.len()).map(field_name).collect();
-                    return Err(PyTypeError::new_err(format!(
-                        "{what}: unknown field `{k}`; fields: {}",
-                        known.join(", ")
-                    )));
-                };
-                if v.is_instance_of::<PyBool>() {
-                    return Err(PyTypeError::new_err(format!(
-                        "{what}: `{}`: expected a number, got bool",
-                        PARAMETERS[i].0
-                    )));
-                }
-                let x: f64 = v.extract().map_err(|_| {
-                    PyTypeError::new_err(format!(
-                        "{what}: `{}`: expected a number, got {}",
-                        PARAMETERS[i].0,
-                        v.get_type()
-                            .name()
-                            .map(|n| n.to_string())
-                            .unwrap_or_default()
-                    ))
-                })?;
-                params = params.with(i, x);
-                given[i] = true;
-            }
+        for (i, x) in Self::changes(fields, what)? {
+            params = params.with(i, x);
+            given[i] = true;
         }
         if require_all {
             // gravity has a default, as in a vehicle file
@@ -322,7 +444,17 @@ impl Vehicle {
             }
         }
         let model = build_model(params, Path::new(what)).map_err(py_err)?;
-        Ok(Self { params, model })
+        Ok(Self::paper(params, model))
+    }
+
+    /// The `ValueError` of a paper-form field that a vehicle with model variants lacks.
+    fn not_in_variant(&self, index: usize, what: &str) -> PyErr {
+        PyValueError::new_err(format!(
+            "{what}: `{}` is not a key of this vehicle: its units' axles are lists (`axles`); \
+             the vehicle has model variants (first: `{}`), change its file (to_toml()) instead",
+            PARAMETERS[index].0,
+            self.variant().unwrap_or_default()
+        ))
     }
 }
 
@@ -341,20 +473,45 @@ impl Vehicle {
     fn table1() -> PyResult<Self> {
         let params = VehicleParams::default();
         let model = build_model(params, Path::new("Table I")).map_err(py_err)?;
-        Ok(Self { params, model })
+        Ok(Self::paper(params, model))
     }
 
-    /// A vehicle file (the form of `configs/vehicle.toml`), with the CLI's checks.
+    /// A vehicle file (the form of `configs/vehicle.toml`, or with model variants as in
+    /// `configs/vehicles/*.toml`), with the CLI's checks (`--vehicle FILE`).
     #[staticmethod]
     fn from_toml(path: PathBuf) -> PyResult<Self> {
-        let (params, model) = sway_tasks::config_file::load_vehicle(&path).map_err(py_err)?;
-        Ok(Self { params, model })
+        let loaded = sway_tasks::config_file::load_vehicle_spec(&path).map_err(py_err)?;
+        Ok(Self { loaded })
     }
 
-    /// A copy with some fields changed, validated.
+    /// A vehicle file's text (TOML), with the CLI's checks; `<vehicle>` names it in messages.
+    #[staticmethod]
+    fn from_toml_str(text: &str) -> PyResult<Self> {
+        let file = Path::new("<vehicle>");
+        let spec: VehicleSpec = sway_tasks::config_file::parse_toml(text, file).map_err(py_err)?;
+        let loaded = sway_tasks::config_file::vehicle_from_spec(spec, file).map_err(py_err)?;
+        Ok(Self { loaded })
+    }
+
+    /// A copy with some fields changed, validated. On a vehicle with model variants the
+    /// paper's keys that its file has can be changed (masses, inertias, centres of gravity,
+    /// friction, gravity; the axle keys of a unit with one axle per group); an axle key of
+    /// a unit whose axles are a list raises `ValueError`.
     #[pyo3(signature = (**changes))]
     fn replace(&self, changes: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        Self::with_fields(self.params, changes, false, "Vehicle.replace()")
+        let what = "Vehicle.replace()";
+        if self.variant().is_none() {
+            return Self::with_fields(self.loaded.params, changes, false, what);
+        }
+        let mut spec = self.loaded.spec.clone();
+        for (i, x) in Self::changes(changes, what)? {
+            spec = spec
+                .with_parameter(i, x)
+                .map_err(|_| self.not_in_variant(i, what))?;
+        }
+        let loaded =
+            sway_tasks::config_file::vehicle_from_spec(spec, Path::new(what)).map_err(py_err)?;
+        Ok(Self { loaded })
     }
 
     /// The field names, in Table I's order.
@@ -363,49 +520,103 @@ impl Vehicle {
         (0..PARAMETERS.len()).map(field_name).collect()
     }
 
-    /// {field: value}.
+    /// Whether the vehicle has the paper's form (no model variants).
+    #[getter]
+    fn is_paper_form(&self) -> bool {
+        self.variant().is_none()
+    }
+
+    /// The first key that makes the vehicle differ from the paper's model (None for the
+    /// paper's form), e.g. `tractor.front_relaxation_length_m`.
+    #[getter]
+    fn variant_key(&self) -> Option<String> {
+        self.loaded.variant_key.clone()
+    }
+
+    /// Number of states of the model (4 for the paper's model, one more per relaxing axle).
+    #[getter]
+    fn states(&self) -> usize {
+        self.loaded.plant.states()
+    }
+
+    /// {field: value} (the paper's form only: a vehicle with model variants raises
+    /// `ValueError`, its fields are read one by one or written with to_toml()).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        if let Some(k) = self.variant() {
+            return Err(PyValueError::new_err(format!(
+                "Vehicle.to_dict(): the vehicle has model variants (first: `{k}`), not the \
+                 paper's 15 fields; to_toml() writes its file"
+            )));
+        }
         let d = PyDict::new(py);
         for i in 0..PARAMETERS.len() {
-            d.set_item(field_name(i), self.params.get(i))?;
+            d.set_item(field_name(i), self.loaded.params.get(i))?;
         }
         Ok(d)
     }
 
     /// The vehicle file's text (TOML), readable by `from_toml` and `--vehicle`.
     fn to_toml(&self) -> PyResult<String> {
-        toml::to_string(&self.params).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+        let text = if self.variant().is_none() {
+            toml::to_string(&self.loaded.params)
+        } else {
+            toml::to_string(&self.loaded.spec)
+        };
+        text.map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
 
     fn __getattr__(&self, name: &str) -> PyResult<f64> {
-        field_index(name)
-            .map(|i| self.params.get(i))
-            .ok_or_else(|| {
-                pyo3::exceptions::PyAttributeError::new_err(format!(
-                    "'Vehicle' object has no attribute '{name}'"
-                ))
-            })
+        let Some(i) = field_index(name) else {
+            return Err(pyo3::exceptions::PyAttributeError::new_err(format!(
+                "'Vehicle' object has no attribute '{name}'"
+            )));
+        };
+        if self.variant().is_none() {
+            return Ok(self.loaded.params.get(i));
+        }
+        spec_parameter(&self.loaded.spec, i).ok_or_else(|| self.not_in_variant(i, "Vehicle"))
     }
 
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
-        other
-            .cast::<Vehicle>()
-            .is_ok_and(|o| o.get().params == self.params)
+        other.cast::<Vehicle>().is_ok_and(|o| {
+            let (a, b) = (&self.loaded, &o.get().loaded);
+            match (&a.variant_key, &b.variant_key) {
+                (None, None) => a.params == b.params,
+                _ => a.spec == b.spec,
+            }
+        })
     }
 
     fn __repr__(&self) -> String {
-        let f: Vec<String> = (0..PARAMETERS.len())
-            .map(|i| format!("{}={:?}", field_name(i), self.params.get(i)))
-            .collect();
-        format!("Vehicle({})", f.join(", "))
+        match self.variant() {
+            None => {
+                let f: Vec<String> = (0..PARAMETERS.len())
+                    .map(|i| format!("{}={:?}", field_name(i), self.loaded.params.get(i)))
+                    .collect();
+                format!("Vehicle({})", f.join(", "))
+            }
+            Some(k) => format!(
+                "<Vehicle with model variants (first: `{k}`), {} states>",
+                self.loaded.plant.states()
+            ),
+        }
     }
 
     fn __reduce__<'py>(
         &self,
         py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
-        let ctor = py.import("trailer_sway")?.getattr("_vehicle_from_dict")?;
-        Ok((ctor, (self.to_dict(py)?,)))
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyAny>,))> {
+        let m = py.import("trailer_sway")?;
+        if self.variant().is_none() {
+            let ctor = m.getattr("_vehicle_from_dict")?;
+            Ok((ctor, (self.to_dict(py)?.into_any(),)))
+        } else {
+            let ctor = py
+                .import("trailer_sway._native")?
+                .getattr("Vehicle")?
+                .getattr("from_toml_str")?;
+            Ok((ctor, (PyString::new(py, &self.to_toml()?).into_any(),)))
+        }
     }
 }
 
@@ -442,7 +653,7 @@ struct Search {
 /// bisection of the spectral abscissa (the `linear` task), closed loop by the exact
 /// unstable-root count (the `fig4a` task's `v_crit_at_d`).
 fn critical_outcome(
-    model: &Model,
+    model: &AnyVehicleModel,
     loop_: Option<(f64, f64)>,
     s: Search,
 ) -> Result<CriticalOutcome, SwayError> {
@@ -454,19 +665,15 @@ fn critical_outcome(
                 scan_step: s.step,
                 tolerance: s.tolerance,
             };
-            match model.critical_speed(&opts) {
-                Ok(c) => Ok(CriticalOutcome::Crossing {
+            match LoopModel::critical_speed_search(model, &opts) {
+                Ok(Some(c)) => Ok(CriticalOutcome::Crossing {
                     v_crit_mps: c.v_crit_mps,
                     hopf_frequency_hz: c.hopf_frequency_hz,
                     hopf_omega_rad_s: c.hopf_omega_rad_s,
                 }),
-                Err(ModelError::NoCriticalSpeed { detail, .. })
-                    if detail.contains("stays stable up to v_max") =>
-                {
-                    Ok(CriticalOutcome::StableUpToMax {
-                        stable_up_to_mps: s.v_max,
-                    })
-                }
+                Ok(None) => Ok(CriticalOutcome::StableUpToMax {
+                    stable_up_to_mps: s.v_max,
+                }),
                 Err(ModelError::NoCriticalSpeed { detail, .. })
                     if detail.contains("already unstable at v_min") =>
                 {
@@ -568,7 +775,7 @@ fn critical_speed(
         }
         _ => None,
     };
-    let model = vehicle.model.clone();
+    let model = vehicle.plant().clone();
     let search = Search {
         v_min: v_min_mps,
         v_max: v_max_mps,
@@ -608,7 +815,7 @@ fn roots<'py>(
         count as usize
     };
     sway_tasks::tasks::roots::validate_args(speed, gain, delay, count).map_err(py_err)?;
-    let model = vehicle.model.clone();
+    let model = vehicle.plant().clone();
     let r = interruptible(py, 0.0, None, move || {
         sway_tasks::tasks::roots::roots(&model, speed, gain, delay, count)
     })?
@@ -631,14 +838,13 @@ fn simulate<'py>(
     scenario: &Bound<'py, PyAny>,
     trajectory: bool,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
-    use sway::ranging::{SpeedLimits, SpeedSpec};
+    use sway::ranging::SpeedSpec;
     use sway::sim::speeds::resolve_speeds_any;
     use sway::sim::{Recording, ScenarioConfig, simulate_any};
     use sway_tasks::config_file::{Configured, TaskConfig};
     use sway_tasks::tasks::Prepared;
     use sway_tasks::tasks::series::resolved_check;
     use sway_tasks::tasks::simulate::ScenarioSummary;
-    use trailer_model::AnyVehicleModel;
 
     let (config, file): (ScenarioConfig<SpeedSpec>, PathBuf) = load_config(scenario, "<scenario>")?;
     config.check(&file).map_err(py_err)?;
@@ -646,7 +852,7 @@ fn simulate<'py>(
     let plan = prepared.plan().map_err(py_err)?;
     let Configured { file, config } = prepared;
     // the CLI's plant of a paper-form vehicle, and its default speed limits (--max-speed)
-    let plant = AnyVehicleModel::Paper(vehicle.model.clone());
+    let plant = vehicle.plant().clone();
     let run = move || -> Result<_, TaskError> {
         let limits = SpeedLimits::default();
         let resolution = resolve_speeds_any(&plant, &limits, &config)?;

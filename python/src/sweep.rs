@@ -13,13 +13,12 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
 use serde_json::Value;
-use sway::ranging::{SpeedLimits, SpeedSpec};
+use sway::ranging::SpeedSpec;
 use sway::sim::sweep::{AxisParameter, PointOutput, PointResult, SweepConfig};
 use sway_tasks::TaskError;
 use sway_tasks::config_file::{Configured, TaskConfig};
+use sway_tasks::tasks::Prepared;
 use sway_tasks::tasks::sweep::{header, prepare_run};
-use sway_tasks::tasks::{Prepared, TaskContext};
-use trailer_model::{AnyVehicleModel, VehicleSpec};
 
 use crate::{Vehicle, interrupted, interruptible, load_config, py_err};
 
@@ -29,7 +28,29 @@ enum Column {
     Text(Vec<Option<String>>),
 }
 
-/// The result fields of a point as JSON values (the names of `sweep.csv`'s columns).
+/// The leaves of a JSON value under the names `sweep.csv` gives them
+/// ([`sway_tasks::io::row_cells`]: an object's fields by their own names, an array's
+/// entries as the key followed by the index).
+fn leaves(key: &str, v: Value, out: &mut serde_json::Map<String, Value>) {
+    match v {
+        Value::Object(m) => {
+            for (k, x) in m {
+                leaves(&k, x, out);
+            }
+        }
+        Value::Array(a) => {
+            for (i, x) in a.into_iter().enumerate() {
+                leaves(&format!("{key}{i}"), x, out);
+            }
+        }
+        leaf => {
+            out.insert(key.to_string(), leaf);
+        }
+    }
+}
+
+/// The result fields of a point by the names of `sweep.csv`'s columns; None for a point
+/// the CSV writes as failed.
 fn output_fields(r: &PointResult) -> Option<serde_json::Map<String, Value>> {
     let v = match &r.output {
         Ok(PointOutput::Simulation(m)) => serde_json::to_value(m),
@@ -37,10 +58,9 @@ fn output_fields(r: &PointResult) -> Option<serde_json::Map<String, Value>> {
         Ok(PointOutput::HopfFoldSpeeds(h)) => serde_json::to_value(h),
         _ => return None,
     };
-    match v {
-        Ok(Value::Object(m)) => Some(m),
-        _ => None,
-    }
+    let mut out = serde_json::Map::new();
+    leaves("", v.ok()?, &mut out);
+    (!out.is_empty()).then_some(out)
 }
 
 /// sweep(vehicle, config) → (name, kind, columns, column names): the grid points of the
@@ -56,20 +76,9 @@ fn sweep<'py>(
     let prepared = Configured { file, config: spec };
     let plan = prepared.plan().map_err(py_err)?;
     let (file, spec) = (prepared.file, prepared.config);
-    // the task's context for a paper-form vehicle (no files are read or written: the
-    // directories are never used by `prepare_run`), with the CLI's default limits
-    let ctx = TaskContext {
-        vehicle_file: PathBuf::from("<vehicle>"),
-        vehicle: vehicle.params,
-        model: vehicle.model.clone(),
-        spec: VehicleSpec::from(vehicle.params),
-        plant: AnyVehicleModel::Paper(vehicle.model.clone()),
-        variant_key: None,
-        configs_dir: PathBuf::from("."),
-        results_dir: PathBuf::from("."),
-        progress: &sway::progress::NoProgress,
-        limits: SpeedLimits::default(),
-    };
+    // the task's context for the vehicle (no files are read or written through it), with
+    // the CLI's default limits
+    let ctx = vehicle.context(&sway::progress::NoProgress);
     let run = prepare_run(&ctx, &spec, &file).map_err(py_err)?;
     let (cfg, sw) = match (run.resolution.outcome, run.sweep) {
         (Ok(cfg), Some(sw)) => (cfg, sw),
@@ -163,10 +172,20 @@ fn sweep<'py>(
             )
         });
     }
-    let steps: Vec<i64> = results.iter().map(|r| r.steps as i64).collect();
+    // a failed point: 0 steps and its message on one line, as the CSV writes them
+    let steps: Vec<i64> = results
+        .iter()
+        .zip(&fields)
+        .map(|(r, f)| if f.is_some() { r.steps as i64 } else { 0 })
+        .collect();
     let errors: Vec<Option<String>> = results
         .iter()
-        .map(|r| r.output.as_ref().err().cloned())
+        .zip(&fields)
+        .map(|(r, f)| match (&r.output, f) {
+            (_, Some(_)) => None,
+            (Err(e), None) => Some(e.replace(['\n', '\r'], " ")),
+            (Ok(_), None) => Some("unexpected point output".into()),
+        })
         .collect();
 
     let d = PyDict::new(py);

@@ -128,19 +128,16 @@ def test_nonlinear_chart_is_chart_nonlinears(table1, tmp_path):
     assert abs(at0["v_hopf_mps"] - vc) < 1e-6
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="bifurcation_diagram calls the library's diagram directly; the fig3a/fig4b tasks now "
-    "run fig3a_diagram::run_diagram on the plant (Hopf speed differs in the last bits, "
-    "cycle point counts differ): to be routed through run_diagram",
-)
 def test_open_loop_diagram_is_fig3as(table1):
-    # reference: results/fig3a/summary.json (configs/fig3a.toml's [diagram.continuation]
-    # = the defaults); deterministic, so exact
+    # reference: results/fig3a/summary.json (configs/fig3a.toml's [diagram] = the
+    # defaults); deterministic, so exact: every diagram field of the summary
     s = committed("fig3a")
-    d = ts.bifurcation_diagram(table1, correct=False)
+    d = ts.bifurcation_diagram(table1)
+    assert d.summary and d.reason is None
+    for k, v in d.summary.items():
+        assert v == s[k], k
     for k in ("hopf_v_mps", "fold_v_mps", "fold_amplitude_deg", "criticality", "hopf_omega_rad_s",
-              "hopf_period_s", "fold_period_s", "cycle_points"):
+              "fold_period_s", "cycle_points"):
         assert getattr(d, k) == s[k], k
     assert list(d.bistable_range_mps) == s["bistable_range_mps"]
     # the equilibria lose stability at the Hopf point, the cycle branch starts there
@@ -148,26 +145,25 @@ def test_open_loop_diagram_is_fig3as(table1):
     assert np.all(eq["stable"][eq["v_mps"] < d.hopf_v_mps - 1e-6])
     assert not np.any(eq["stable"][eq["v_mps"] > d.hopf_v_mps + 1e-6])
     assert abs(d.cycles["v_mps"][0] - d.hopf_v_mps) < 0.1
+    assert len(d.cycles["v_mps"]) == d.cycle_points
     # the Hopf point is the linear V_crit (independent: eigenvalues, 1e-6 m/s)
     assert abs(d.hopf_v_mps - ts.critical_speed(table1).v_crit_mps) < 1e-6
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="bifurcation_diagram calls the library's diagram directly; the fig3a/fig4b tasks now "
-    "run fig3a_diagram::run_diagram on the plant (Hopf speed differs in the last bits, "
-    "cycle point counts differ): to be routed through run_diagram",
-)
-def test_closed_loop_diagram_is_fig4bs(table1):
-    # reference: results/fig4b/summary.json, the pair τ = 0.1 s, D = 0.1 s with
-    # configs/fig4b.toml's continuation (the closed-loop defaults); exact
-    pair = [p for p in committed("fig4b")["pairs"] if (p["tau_s"], p["d_s"]) == (0.1, 0.1)][0]
-    d = ts.bifurcation_diagram(table1, {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": 0.1})
-    c = d.corrected
-    for k in ("hopf_v_mps", "fold_v_mps", "criticality", "fold_amplitude_deg", "fold_period_s",
-              "hopf_omega_rad_s", "bistable_range_mps"):
-        assert c[k] == pair[k], k
-    assert d.cycle_points == pair["cycle_points"]
+def test_closed_loop_diagram_is_fig4bs(table1, tmp_path):
+    # reference: `cargo xtask fig4b` on one pair, τ = 0.1 s, D = 0.1 s, with a small
+    # continuation (the shipped one takes a minute); its "pairs" entry, exact
+    cont = {"intervals": 12, "degree": 3, "max_cycle_points": 60}
+    cfg = {"pairs": [{"delay_s": 0.1, "gain_s": 0.1}], "continuation": cont}
+    pair = _summary(run_task("fig4b", ts.to_toml(cfg), tmp_path), "fig4b")["pairs"][0]
+    d = ts.bifurcation_diagram(table1, {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": 0.1}, continuation=cont)
+    assert d.summary == pair
+    assert d.cycle_points == pair["cycle_points"] == len(d.cycles["v_mps"])
+    assert d.hopf_v_mps == pair["hopf_v_mps"] and d.criticality == pair["criticality"]
+    # independent of the CLI: the Hopf point is the closed loop's linear critical speed
+    # (the exact root count along V; 1e-6 m/s)
+    c = ts.critical_speed(table1, {"kind": "yaw_rate_feedback", "gain_s": 0.1, "delay_s": 0.1})
+    assert abs(d.hopf_v_mps - c.v_crit_mps) < 1e-6
 
 
 def test_diagram_bad_options(table1):

@@ -85,7 +85,12 @@ class CriticalSpeed:
         stable_up_to_mps: the speed up to which straight running is stable [m/s]:
             V_crit, or the end of the scanned range; None if unstable at its start.
         reason: ``"crossing"`` (a Hopf point, or a static one when ω = 0),
-            ``"stable_up_to_max"`` or ``"unstable_at_min"``.
+            ``"stable_up_to_max"`` or ``"unstable_at_min"``: outcomes, not errors.
+        loss_of_stability: at a crossing, ``"hopf"`` (a complex pair: sway starts) or
+            ``"divergence"`` (a real root, ω = 0: a static divergence), as the ``linear``
+            task's summary; None without a crossing.
+        message: the outcome in words (``"straight running is stable at every speed up
+            to 100 m/s …"``); None at a crossing.
     """
 
     v_crit_mps: Optional[float]
@@ -93,6 +98,8 @@ class CriticalSpeed:
     hopf_omega_rad_s: Optional[float]
     stable_up_to_mps: Optional[float]
     reason: str
+    loss_of_stability: Optional[str] = None
+    message: Optional[str] = None
 
 
 def _controller_gain_delay(controller: Any) -> tuple[Optional[float], Optional[float]]:
@@ -166,10 +173,18 @@ def critical_speed(
             raw["hopf_omega_rad_s"],
             raw["v_crit_mps"],
             reason,
+            "divergence" if raw["hopf_omega_rad_s"] == 0.0 else "hopf",
         )
     if reason == "stable_up_to_max":
-        return CriticalSpeed(None, None, None, raw["stable_up_to_mps"], reason)
-    return CriticalSpeed(None, None, None, None, reason)
+        up = raw["stable_up_to_mps"]
+        return CriticalSpeed(
+            None, None, None, up, reason, None,
+            f"straight running is stable at every speed up to {up:g} m/s (the maximum speed, v_max_mps)",
+        )
+    return CriticalSpeed(
+        None, None, None, None, reason, None,
+        f"straight running is already unstable at the lowest speed, {raw['v_min_mps']:g} m/s (v_min_mps)",
+    )
 
 
 # ---------------------------------------------------------------------------------------
@@ -285,37 +300,49 @@ def simulate(
 # ---------------------------------------------------------------------------------------
 # bifurcation diagram
 
-#: the closed-loop diagrams' continuation settings (``configs/fig4b.toml``)
-_CLOSED_LOOP_CONTINUATION = {"v_min_mps": 25.0, "v_max_mps": 60.0, "intervals": 40, "max_step": 0.5}
-
-
 @dataclass(frozen=True)
 class BifurcationDiagram:
     """Straight running and the sway cycles over the speed V (paper Fig. 3a / 4b).
 
     ``equilibria``: ``v_mps`` [m/s], ``stable`` (bool), ``max_re_lambda_per_s`` (the
-    rightmost characteristic root's real part [1/s]) along straight running.
-    ``cycles``: ``v_mps``, ``amplitude_deg`` (max |θ| [deg]), ``period_s`` [s],
-    ``stable`` (bool), ``max_multiplier`` (largest nontrivial Floquet multiplier modulus).
-    ``hopf_v_mps``, ``hopf_omega_rad_s``, ``criticality``, ``fold_v_mps``,
-    ``fold_amplitude_deg``, ``fold_period_s``, ``bistable_range_mps``: as located on the
-    branches (``cargo xtask fig3a``'s numbers). ``corrected``: the Hopf and fold speeds
-    corrected on their defining systems (``cargo xtask fig4b``'s ``pairs`` entries), or
-    None with ``correct=False``.
+    rightmost characteristic root's real part [1/s]) along straight running, as the task's
+    ``equilibria.csv``. ``cycles``: ``v_mps``, ``amplitude_deg`` (max |θ| [deg]),
+    ``period_s`` [s], ``stable`` (bool), ``max_multiplier`` (largest nontrivial Floquet
+    multiplier modulus), as ``cycles.csv``. Both are empty without a Hopf point.
+
+    ``hopf_v_mps`` (V_crit [m/s]), ``hopf_omega_rad_s``, ``criticality``
+    (``"subcritical"``/``"supercritical"``), ``fold_v_mps``, ``fold_amplitude_deg``,
+    ``fold_period_s``, ``bistable_range_mps`` (fold → Hopf [m/s]), ``cycle_points``: the
+    Hopf point and the fold of cycles corrected on their defining systems, as the task
+    reports them; None where the vehicle has none, with ``reason`` saying why (e.g.
+    ``"straight running is stable …"``: no Hopf point; a supercritical Hopf point: no
+    fold). ``stable_up_to_mps``: without a Hopf point, the speed up to which straight
+    running is stable. ``summary``: the task's numbers as they are in its
+    ``summary.json`` (open loop: ``cargo xtask fig3a``'s diagram fields, with the cycle
+    amplitudes at the configured speeds; closed loop: the ``pairs`` entry of
+    ``cargo xtask fig4b``).
     """
 
     equilibria: dict
     cycles: dict
-    hopf_v_mps: float
-    hopf_omega_rad_s: float
-    hopf_period_s: float
-    criticality: str
+    hopf_v_mps: Optional[float]
+    hopf_omega_rad_s: Optional[float]
+    criticality: Optional[str]
     fold_v_mps: Optional[float]
     fold_amplitude_deg: Optional[float]
     fold_period_s: Optional[float]
     bistable_range_mps: Optional[tuple]
     cycle_points: int
-    corrected: Optional[dict]
+    stable_up_to_mps: Optional[float]
+    reason: Optional[str]
+    summary: dict
+
+
+def _empty_branches() -> tuple[dict, dict]:
+    f, b = np.empty(0), np.empty(0, dtype=bool)
+    eq = {"v_mps": f, "stable": b, "max_re_lambda_per_s": f}
+    cy = {"v_mps": f, "amplitude_deg": f, "period_s": f, "max_multiplier": f, "stable": b}
+    return eq, cy
 
 
 def bifurcation_diagram(
@@ -323,43 +350,62 @@ def bifurcation_diagram(
     controller: Optional[Mapping[str, Any]] = None,
     *,
     continuation: Optional[Mapping[str, Any]] = None,
-    correct: bool = True,
+    stable_speeds_mps: Optional[Sequence[Any]] = None,
+    unstable_speeds_mps: Optional[Sequence[Any]] = None,
 ) -> BifurcationDiagram:
-    """The bifurcation diagram over V for the open loop (``controller=None``, as
-    ``cargo xtask fig3a``) or the delayed yaw-rate feedback (``{"kind":
-    "yaw_rate_feedback", "gain_s": D, "delay_s": τ}``, as ``cargo xtask fig4b``).
+    """The bifurcation diagram over V for the open loop (``controller=None``: the diagram
+    of ``cargo xtask fig3a``) or the delayed yaw-rate feedback (``{"kind":
+    "yaw_rate_feedback", "gain_s": D, "delay_s": τ}``: one pair of ``cargo xtask fig4b``),
+    on the vehicle's model (any vehicle file, model variants included).
 
     ``continuation`` takes the keys of ``[diagram.continuation]`` in
-    ``configs/fig3a.toml`` (``v_min_mps``, ``v_max_mps``, ``intervals``, ``degree``,
-    ``hopf_amplitude``, ``initial_step``, ``max_step``, ``max_cycle_points``,
-    ``root_degree``, ``cycle_branch_points``); the defaults are fig3a's for the open loop
-    and fig4b's (25–60 m/s, L = 40, largest step 0.5) with a controller.
+    ``configs/fig3a.toml`` (open loop) or ``[continuation]`` in ``configs/fig4b.toml``
+    (closed loop): ``v_min_mps``, ``v_max_mps`` (omitted: derived from the vehicle),
+    ``beyond_hopf``, ``intervals``, ``degree``, ``hopf_amplitude``, ``initial_step``,
+    ``max_step``, ``max_cycle_points``, ``root_degree``, ``cycle_branch_points``; absent
+    keys take that file's defaults. Open loop only: ``stable_speeds_mps`` and
+    ``unstable_speeds_mps`` (numbers [m/s] or ``{"of_v_crit": f}`` / ``{"in_bistable":
+    f}``), the speeds at which ``summary`` reports the cycle amplitudes (default: fig3a's).
+
+    A vehicle without a Hopf point is a result, not an error: ``hopf_v_mps`` None,
+    ``reason`` and ``stable_up_to_mps`` set, empty branches.
     """
     v = _vehicle(vehicle)
     gain, delay = _controller_gain_delay(controller)
-    opts: dict = {} if gain is None else dict(_CLOSED_LOOP_CONTINUATION)
-    if continuation is not None:
-        if not isinstance(continuation, Mapping):
-            raise TypeError(f"continuation: expected a dict, got {type(continuation).__name__}")
-        opts.update(continuation)
-    raw, arrays = _native.bifurcation_diagram(
-        v, gain or 0.0, delay or 0.0, opts, bool(correct)
-    )
+    if continuation is not None and not isinstance(continuation, Mapping):
+        raise TypeError(f"continuation: expected a dict, got {type(continuation).__name__}")
+    cont = dict(continuation or {})
+    if gain is None:
+        settings: dict = {"continuation": cont}
+        if stable_speeds_mps is not None:
+            settings["stable_speeds_mps"] = list(stable_speeds_mps)
+        if unstable_speeds_mps is not None:
+            settings["unstable_speeds_mps"] = list(unstable_speeds_mps)
+    else:
+        if stable_speeds_mps is not None or unstable_speeds_mps is not None:
+            raise TypeError(
+                "stable_speeds_mps / unstable_speeds_mps: only for the open loop (fig3a's diagram)"
+            )
+        settings = cont
+    raw, arrays = _native.bifurcation_diagram(v, gain, delay, settings)
     s = json.loads(raw)
-    d = s["diagram"]
+    eq, cy = (arrays["equilibria"], arrays["cycles"]) if arrays is not None else _empty_branches()
+    reason = s.get("reason") or s.get("hopf_reason") or s.get("fold_reason")
+    br = s.get("bistable_range_mps")
     return BifurcationDiagram(
-        equilibria=arrays["equilibria"],
-        cycles=arrays["cycles"],
-        hopf_v_mps=d["hopf_v_mps"],
-        hopf_omega_rad_s=d["hopf_omega_rad_s"],
-        hopf_period_s=d["hopf_period_s"],
-        criticality=d["criticality"],
-        fold_v_mps=d["fold_v_mps"],
-        fold_amplitude_deg=d["fold_amplitude_deg"],
-        fold_period_s=d["fold_period_s"],
-        bistable_range_mps=None if d["bistable_range_mps"] is None else tuple(d["bistable_range_mps"]),
-        cycle_points=d["cycle_points"],
-        corrected=s["corrected"],
+        equilibria=eq,
+        cycles=cy,
+        hopf_v_mps=s.get("hopf_v_mps"),
+        hopf_omega_rad_s=s.get("hopf_omega_rad_s"),
+        criticality=s.get("criticality"),
+        fold_v_mps=s.get("fold_v_mps"),
+        fold_amplitude_deg=s.get("fold_amplitude_deg"),
+        fold_period_s=s.get("fold_period_s"),
+        bistable_range_mps=None if br is None else tuple(br),
+        cycle_points=s.get("cycle_points", 0),
+        stable_up_to_mps=s.get("stable_up_to_mps"),
+        reason=reason,
+        summary=s,
     )
 
 
@@ -425,13 +471,13 @@ def _pair(x: Any, what: str) -> tuple[float, float]:
 def stability_chart(
     vehicle: Optional[Vehicle] = None,
     delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
-    speed_range: tuple[float, float] = (0.0, 60.0),
-    gain_range: tuple[float, float] = (-0.5, 0.5),
+    speed_range: Optional[tuple[Optional[float], Optional[float]]] = None,
+    gain_range: Optional[tuple[Optional[float], Optional[float]]] = None,
     *,
     speed_cells: int = 300,
     gain_cells: int = 200,
-    gain_for_critical_speed_s: float = 0.1,
-    speed_for_gain_interval_mps: float = 35.0,
+    gain_for_critical_speed_s: Optional[float] = None,
+    speed_for_gain_interval_mps: Optional[float] = None,
     speed_tolerance_mps: float = 1e-9,
     reseed_interval: int = 8,
     tracked_roots: int = 8,
@@ -439,9 +485,15 @@ def stability_chart(
     """Stability charts of the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) in the
     (V, D) plane, one per delay τ [s] in ``delays``, over ``speed_range`` [m/s] ×
     ``gain_range`` [s] in ``speed_cells`` × ``gain_cells`` cells — ``cargo xtask fig4a``
-    with these values as its config (the defaults are ``configs/fig4a.toml``)."""
+    with these values as its config (the defaults are ``configs/fig4a.toml``'s). A range
+    (or one end of it) given as None is derived from the vehicle as the task derives it
+    (speeds from 0 to above the largest critical speed, gains ±5·D₁);
+    ``gain_for_critical_speed_s`` (default D₁) and ``speed_for_gain_interval_mps``
+    (default: the first whole m/s above the open-loop V_crit) place the summary's
+    headline numbers."""
     v = _vehicle(vehicle)
-    (v0, v1), (d0, d1) = _pair(speed_range, "speed_range"), _pair(gain_range, "gain_range")
+    (v0, v1) = (None, None) if speed_range is None else _pair(speed_range, "speed_range")
+    (d0, d1) = (None, None) if gain_range is None else _pair(gain_range, "gain_range")
     config = {
         "speed": {"min_mps": v0, "max_mps": v1, "cells": speed_cells},
         "gain": {"min_s": d0, "max_s": d1, "cells": gain_cells},
@@ -480,21 +532,32 @@ class NonlinearChart:
     ``period_s`` [s], ``amplitude_deg`` (max |θ| [deg])), ``codim2_points`` (kind, D, V,
     ω) and ``summary``: this delay's ``per_tau`` entry of ``cargo xtask
     chart_nonlinear``'s ``summary.json`` (``curves``, ``codim2_points``,
-    ``bistable_width_mps``, ``notes``)."""
+    ``bistable_width_mps``, ``notes``).
+
+    Nothing to show is a result, not an error: ``hopf_reason`` says why there is no Hopf
+    curve (e.g. straight running stable in the whole box), ``fold_reason`` why there is
+    no fold-of-cycles curve, ``bistable_reason`` why ``bistable_width_mps`` (V_hopf −
+    V_fold at the bistable gain [m/s]) is None, ``safe_reason`` that the chart is all
+    safe; each None when it does not apply."""
 
     tau_s: float
     hopf_curves: list
     fold_curves: list
     codim2_points: list
     summary: dict
+    bistable_width_mps: Optional[float] = None
+    hopf_reason: Optional[str] = None
+    fold_reason: Optional[str] = None
+    bistable_reason: Optional[str] = None
+    safe_reason: Optional[str] = None
 
 
 def nonlinear_chart(
     vehicle: Optional[Vehicle] = None,
     delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
     *,
-    summary_gains_s: Sequence[float] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25),
-    bistable_gain_s: float = 0.1,
+    summary_gains_s: Optional[Sequence[float]] = None,
+    bistable_gain_s: Optional[float] = None,
     chart: Optional[Mapping[str, Any]] = None,
     regions: Optional[Mapping[str, Any]] = None,
 ) -> list:
@@ -502,12 +565,14 @@ def nonlinear_chart(
     points, one :class:`NonlinearChart` per delay τ [s] — ``cargo xtask chart_nonlinear``
     with these values as its config. ``chart`` takes the keys of ``[chart]`` in
     ``configs/chart_nonlinear.toml`` (box, seeds, steps, ``cycles`` mesh), ``regions`` its
-    ``speed_cells``/``gain_cells``; absent keys take the file's defaults. Expensive: about
-    15 s per delay on 2 cores with the defaults."""
+    ``speed_cells``/``gain_cells``; absent keys take the file's defaults, and the box,
+    seeds, ``summary_gains_s`` and ``bistable_gain_s`` omitted (None) are derived from the
+    vehicle as the task derives them. Expensive: about 15 s per delay on 2 cores with the
+    defaults."""
     v = _vehicle(vehicle)
     config: dict = {
         "delays_s": list(delays) if not isinstance(delays, (int, float)) else [delays],
-        "summary_gains_s": list(summary_gains_s),
+        "summary_gains_s": None if summary_gains_s is None else list(summary_gains_s),
         "bistable_gain_s": bistable_gain_s,
     }
     if chart is not None:
@@ -523,6 +588,11 @@ def nonlinear_chart(
             fold_curves=c["fold_curves"],
             codim2_points=entry["codim2_points"],
             summary=entry,
+            bistable_width_mps=entry.get("bistable_width_mps"),
+            hopf_reason=entry.get("hopf_reason"),
+            fold_reason=entry.get("fold_reason"),
+            bistable_reason=entry.get("bistable_reason"),
+            safe_reason=entry.get("safe_reason"),
         )
         for c, entry in zip(charts, summary["per_tau"])
     ]

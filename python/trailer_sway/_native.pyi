@@ -7,10 +7,14 @@ from typing import Any, Mapping, Optional, Union
 import numpy as np
 
 class Vehicle:
-    """A car–trailer combination (paper Table I form), validated: positive masses,
-    inertias and stiffnesses, 0 < c < f, 0 < d < f, 0 < μ ≤ μ0, g > 0 (``ValueError``
-    with the CLI's message otherwise). Lengths in m, masses in kg, inertias in kg m²,
-    cornering stiffnesses in N/rad, g in m/s²."""
+    """A car–trailer combination, validated: positive masses, inertias and stiffnesses,
+    0 < c < f, 0 < d < f, 0 < μ ≤ μ0, g > 0 (``ValueError`` with the CLI's message
+    otherwise). Lengths in m, masses in kg, inertias in kg m², cornering stiffnesses in
+    N/rad, g in m/s². Either the paper's form (Table I's 15 fields) or a vehicle file with
+    model variants (tyre relaxation, axle lists, tyre laws, hitch torque:
+    ``configs/vehicles/*.toml``), read with ``from_toml``; on such a vehicle a paper
+    field that its file lacks (an axle key of a unit whose axles are a list) raises
+    ``ValueError``, and ``to_dict`` raises ``ValueError``."""
 
     tractor_mass: float
     tractor_yaw_inertia: float
@@ -51,12 +55,25 @@ class Vehicle:
         """Paper Table I (μ0 = 0.9, μ = 0.6, g = 9.81 m/s²)."""
     @staticmethod
     def from_toml(path: Union[str, PathLike[str]]) -> Vehicle:
-        """A vehicle file (the form of ``configs/vehicle.toml``)."""
+        """A vehicle file (``configs/vehicle.toml``'s form, or with model variants)."""
+    @staticmethod
+    def from_toml_str(text: str) -> Vehicle:
+        """A vehicle file's text."""
     def replace(self, **changes: float) -> Vehicle:
-        """A copy with some fields changed, validated."""
+        """A copy with some fields changed, validated (on a vehicle with model variants:
+        the paper's keys its file has)."""
     @staticmethod
     def fields() -> list[str]: ...
-    def to_dict(self) -> dict[str, float]: ...
+    @property
+    def is_paper_form(self) -> bool: ...
+    @property
+    def variant_key(self) -> Optional[str]:
+        """The first key that makes the vehicle differ from the paper's model."""
+    @property
+    def states(self) -> int:
+        """Number of states of the model (4 + one per relaxing axle)."""
+    def to_dict(self) -> dict[str, float]:
+        """{field: value}; ``ValueError`` on a vehicle with model variants."""
     def to_toml(self) -> str:
         """The vehicle file's text."""
     def __eq__(self, other: object) -> bool: ...
@@ -79,8 +96,8 @@ def simulate(
 def stability_chart(vehicle: Vehicle, config: Mapping[str, Any]) -> tuple[str, list[dict[str, Any]]]: ...
 def nonlinear_chart(vehicle: Vehicle, config: Mapping[str, Any]) -> tuple[str, list[dict[str, Any]]]: ...
 def bifurcation_diagram(
-    vehicle: Vehicle, gain: float, delay: float, continuation: Mapping[str, Any], correct: bool
-) -> tuple[str, dict[str, dict[str, np.ndarray]]]: ...
+    vehicle: Vehicle, gain: Optional[float], delay: Optional[float], settings: Mapping[str, Any]
+) -> tuple[str, Optional[dict[str, dict[str, np.ndarray]]]]: ...
 def sweep(vehicle: Vehicle, config: Any) -> tuple[str, str, dict[str, Any], list[str]]: ...
 def set_num_threads(n: int) -> None:
     """The number of rayon threads of every later call (once, before the first call)."""

@@ -208,7 +208,15 @@ fn vehicle_error(file: &Path, e: ModelError) -> TaskError {
 /// As [`load_toml`], plus [`TaskError::Config`] naming the key when a physical check
 /// fails (positive masses, 0 < c < f, overlapping axles, a bad tyre law, …).
 pub fn load_vehicle_spec(file: &Path) -> Result<LoadedVehicle, TaskError> {
-    let spec: VehicleSpec = load_toml(file)?;
+    vehicle_from_spec(load_toml(file)?, file)
+}
+
+/// A vehicle given as a [`VehicleSpec`] (read from `file`, or built in memory and named
+/// `file` in messages), validated as [`load_vehicle_spec`] validates a file, with its plant.
+///
+/// # Errors
+/// [`TaskError::Config`] naming the key when a physical check fails.
+pub fn vehicle_from_spec(spec: VehicleSpec, file: &Path) -> Result<LoadedVehicle, TaskError> {
     let checked = || -> Result<LoadedVehicle, ModelError> {
         spec.validate()?;
         let params = spec.equivalent_params()?;

@@ -306,6 +306,20 @@ pub struct DiagramSummary {
 /// What [`run_diagram`] returns: summary fields, the figure panel, printed lines.
 pub type DiagramParts = (DiagramSummary, Panel, Vec<String>);
 
+/// What [`compute_diagram`] returns: everything [`run_diagram`] reports, and the diagram
+/// whose branches it writes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiagramRun {
+    /// the summary fields
+    pub summary: DiagramSummary,
+    /// the diagram (None: straight running has no Hopf point, `summary` says why)
+    pub diagram: Option<Box<Diagram>>,
+    /// the figure panel
+    pub panel: Panel,
+    /// printed lines
+    pub lines: Vec<String>,
+}
+
 /// Summary key of a speed: `35` for 35.0, `35.5` for 35.5; a resolved relative speed is
 /// rounded to 1e-9 m/s first (Table I's `{ of_v_crit = 1.00725443747214 }` is `35`).
 pub fn speed_key(v: f64) -> String {
@@ -362,17 +376,30 @@ pub fn run_diagram(
     cfg: &DiagramConfig,
     out: &OutputDir,
 ) -> Result<DiagramParts, TaskError> {
-    trailer_model::with_plant!(&ctx.plant, m => run_diagram_on(m, ctx, cfg, out))
+    let run = compute_diagram(ctx, cfg)?;
+    write_branches(run.diagram.as_deref(), out)?;
+    Ok((run.summary, run.panel, run.lines))
 }
 
-/// [`run_diagram`] on the concrete plant of the vehicle (any model variant; the paper's
+/// What [`run_diagram`] computes, without writing anything: the summary fields, the
+/// diagram, the figure panel and printed lines (the Python package's diagram).
+///
+/// # Errors
+/// Numerical failures with context.
+pub fn compute_diagram(
+    ctx: &TaskContext<'_>,
+    cfg: &DiagramConfig,
+) -> Result<DiagramRun, TaskError> {
+    trailer_model::with_plant!(&ctx.plant, m => compute_diagram_on(m, ctx, cfg))
+}
+
+/// [`compute_diagram`] on the concrete plant of the vehicle (any model variant; the paper's
 /// [`trailer_model::Model`] for a vehicle of the paper's form).
-fn run_diagram_on<P: LoopPlant<N>, const N: usize>(
+fn compute_diagram_on<P: LoopPlant<N>, const N: usize>(
     model: &P,
     ctx: &TaskContext<'_>,
     cfg: &DiagramConfig,
-    out: &OutputDir,
-) -> Result<DiagramParts, TaskError> {
+) -> Result<DiagramRun, TaskError> {
     let outcome = vehicle_diagram(
         model,
         Feedback::OPEN_LOOP,
@@ -382,9 +409,8 @@ fn run_diagram_on<P: LoopPlant<N>, const N: usize>(
     )?;
     let d = match outcome {
         DiagramOutcome::Computed(d) => d,
-        DiagramOutcome::NoHopf(n) => return no_hopf_diagram(cfg, &n, out),
+        DiagramOutcome::NoHopf(n) => return Ok(no_hopf_diagram(cfg, &n)),
     };
-    write_branches(&d, out)?;
     // the Hopf point and the fold corrected on their defining systems, as fig4b and the
     // nonlinear chart report them (one number per vehicle across the tasks)
     let cs = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))?;
@@ -483,15 +509,19 @@ fn run_diagram_on<P: LoopPlant<N>, const N: usize>(
         (None, Some(r)) => lines.push(format!("fig3a diagram: no fold of cycles: {r}")),
         (None, None) => {}
     }
-    Ok((summary, panel, lines))
+    Ok(DiagramRun {
+        summary,
+        diagram: Some(d),
+        panel,
+        lines,
+    })
 }
 
-/// `equilibria.csv` and `cycles.csv` of a diagram.
-fn write_branches(d: &Diagram, out: &OutputDir) -> Result<(), TaskError> {
+/// `equilibria.csv` and `cycles.csv` of a diagram (without one: the headers only).
+fn write_branches(d: Option<&Diagram>, out: &OutputDir) -> Result<(), TaskError> {
     let eq_rows: Vec<[f64; 3]> = d
-        .equilibria
-        .points
         .iter()
+        .flat_map(|d| &d.equilibria.points)
         .map(|p| {
             let st = p.stability.as_ref();
             [
@@ -506,7 +536,10 @@ fn write_branches(d: &Diagram, out: &OutputDir) -> Result<(), TaskError> {
         &["v_mps", "stable", "max_re_lambda_per_s"],
         &eq_rows,
     )?;
-    out.write_table("cycles.csv", d.cycle_summary.iter().map(CycleRow::from))?;
+    out.write_table(
+        "cycles.csv",
+        d.iter().flat_map(|d| &d.cycle_summary).map(CycleRow::from),
+    )?;
     Ok(())
 }
 
@@ -529,18 +562,8 @@ fn resolve_or_note(
 
 /// The outcome without a Hopf point: straight running only, said in the summary, the
 /// console and the figure.
-fn no_hopf_diagram(
-    cfg: &DiagramConfig,
-    n: &sway::bifurcation::NoHopf,
-    out: &OutputDir,
-) -> Result<DiagramParts, TaskError> {
+fn no_hopf_diagram(cfg: &DiagramConfig, n: &sway::bifurcation::NoHopf) -> DiagramRun {
     let hi = n.stable_up_to_mps.unwrap_or(n.searched_from_mps);
-    out.write_csv(
-        "equilibria.csv",
-        &["v_mps", "stable", "max_re_lambda_per_s"],
-        Vec::<[f64; 3]>::new(),
-    )?;
-    out.write_table("cycles.csv", std::iter::empty::<CycleRow>())?;
     let mut reasons = Keyed::default();
     for spec in cfg.stable_speeds_mps.iter().chain(&cfg.unstable_speeds_mps) {
         let key = serde_json::to_string(spec).unwrap_or_else(|_| format!("{spec:?}"));
@@ -598,7 +621,12 @@ fn no_hopf_diagram(
         None,
     ));
     let lines = vec![format!("fig3a diagram: {}", n.reason)];
-    Ok((summary, panel, lines))
+    DiagramRun {
+        summary,
+        diagram: None,
+        panel,
+        lines,
+    }
 }
 
 /// An empty panel of cycle amplitudes max |θ| \[deg\] against V \[m/s\] over the speed range

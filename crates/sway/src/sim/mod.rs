@@ -51,7 +51,8 @@ pub use profile::{RampShape, SpeedProfile};
 pub use run::{
     ControllerStates, IntegrationMethod, KinkLandingMode, Layout, LossOfControl, Metrics, Outcome,
     Recording, RunSettings, Sample, SimResult, SimSpec, SolverSettings, ValidityGuard, lift_state,
-    paper_layout, settle, settle_any, settle_plant, simulate, simulate_any, simulate_plant,
+    SimulateOwn, paper_layout, settle, settle_any, settle_plant, simulate, simulate_any,
+    simulate_plant,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, validate_parts,

@@ -516,11 +516,18 @@ fn corners_and_mitigation_run_on_model_variants() {
             for w in [num("omega1_rad_s"), num("omega2_rad_s")] {
                 let r = characteristic_residual(plant, v, d, tau, w);
                 eprintln!("{file}: V = {v}, D = {d}, ω = {w}: residual {r:e}");
-                assert!(r < 1e-8, "{file}: residual {r} at V = {v}, D = {d}, ω = {w}");
+                assert!(
+                    r < 1e-8,
+                    "{file}: residual {r} at V = {v}, D = {d}, ω = {w}"
+                );
             }
         }
         let runs = corners["simulations"].as_array().expect("simulations");
-        assert_eq!(runs.len(), 4 * points.len(), "{file}: one run per sector probe");
+        assert_eq!(
+            runs.len(),
+            4 * points.len(),
+            "{file}: one run per sector probe"
+        );
 
         let s = run_on("mitigation", mitigation_cfg, &vehicle, tmp.path());
         let v_crit = trailer_model::with_plant!(plant, m => trailer_model::Plant::critical_speed(
@@ -541,7 +548,10 @@ fn corners_and_mitigation_run_on_model_variants() {
             (period - reference).abs() < 1e-5,
             "{file}: period {period} s vs {reference} s"
         );
-        assert!(s["optimum"]["worst_case_peak_deg"].as_f64().is_some(), "{file}");
+        assert!(
+            s["optimum"]["worst_case_peak_deg"].as_f64().is_some(),
+            "{file}"
+        );
     }
 }
 
@@ -567,8 +577,8 @@ fn period_by_simulation(
         settings,
     };
     let x0 = trailer_model::State4::new(0.0, 0.0, 0.0, theta0);
-    let r = simulate_any::<4>(plant, &spec, x0, Recording::Every { step_s: 1e-3 })
-        .expect("simulation");
+    let r =
+        simulate_any::<4>(plant, &spec, x0, Recording::Every { step_s: 1e-3 }).expect("simulation");
     let up: Vec<f64> = r
         .trajectory
         .windows(2)

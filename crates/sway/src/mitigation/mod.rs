@@ -64,7 +64,12 @@ impl<const M: usize> SwayCycle<M> {
             speed_mps: self.speed_mps,
             period_s: self.period_s,
             amplitude_deg: self.amplitude_deg,
-            anchor: State4::new(self.anchor[0], self.anchor[1], self.anchor[2], self.anchor[3]),
+            anchor: State4::new(
+                self.anchor[0],
+                self.anchor[1],
+                self.anchor[2],
+                self.anchor[3],
+            ),
         }
     }
 }

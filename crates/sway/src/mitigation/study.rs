@@ -573,7 +573,10 @@ fn refinement_entry<const M: usize>(r: &MitigationResult<M>, setting: &Setting) 
 }
 
 /// The summary of a study.
-pub fn summary<const M: usize>(r: &MitigationResult<M>, cfg: &MitigationConfig) -> MitigationSummary {
+pub fn summary<const M: usize>(
+    r: &MitigationResult<M>,
+    cfg: &MitigationConfig,
+) -> MitigationSummary {
     let setting = cfg.setting(cfg.settings.solver);
     let phases = &r.starts.phases;
     let o = &r.optimum_eval;

@@ -22,8 +22,7 @@ use trailer_model::Model;
 
 use crate::SwayError;
 use crate::ranging::{
-    Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec,
-    open_loop_references,
+    Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, open_loop_references,
 };
 
 /// A speed as a config type holds it: `f64` (resolved, m/s) or [`SpeedSpec`] (as written).

@@ -40,9 +40,9 @@ use trailer_model::{HITCH_ANGLE, State4};
 
 use self::motion::{MotionClass, MotionEvidence, MotionOptions, Spectrum};
 use super::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
+use super::closed_loop::LoopPlant;
 use crate::SwayError;
 use crate::charts::{closed_loop, fig4a_charts, rightmost_roots};
-use super::closed_loop::LoopPlant;
 use crate::control::LoopModel;
 use crate::sim::{Controller, Outcome, Recording, RunSettings, SimSpec, SimulateOwn, SpeedProfile};
 
@@ -1188,7 +1188,12 @@ pub fn probe_points(p: &DoubleHopfPoint, o: &CornerOptions) -> Vec<(f64, f64)> {
 }
 
 /// The unstable root pairs' frequencies at (V, D).
-fn unstable_modes<L: LoopModel + ?Sized>(model: &L, tau: f64, v: f64, d: f64) -> Result<Vec<f64>, SwayError> {
+fn unstable_modes<L: LoopModel + ?Sized>(
+    model: &L,
+    tau: f64,
+    v: f64,
+    d: f64,
+) -> Result<Vec<f64>, SwayError> {
     let roots = rightmost_roots(model, v, d, tau, 12)?;
     Ok(roots
         .iter()

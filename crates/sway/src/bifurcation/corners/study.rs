@@ -8,11 +8,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{CornerOptions, CornerPlant, CornerStudy, corner_study};
-use crate::control::LoopModel;
 use crate::SwayError;
 use crate::bifurcation::chart::ChartOptions;
 use crate::bifurcation::chart::study::ChartConfig;
 use crate::charts::auto_range::{Derivation, SpeedBounds, chart_gains, vehicle_scale};
+use crate::control::LoopModel;
 
 fn default_delays() -> Vec<f64> {
     vec![0.2, 0.4]
@@ -67,7 +67,11 @@ impl CornersConfig {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] from the derivation.
-    pub fn resolve<L: LoopModel + ?Sized>(&self, model: &L, b: &SpeedBounds) -> Result<ResolvedCorners, SwayError> {
+    pub fn resolve<L: LoopModel + ?Sized>(
+        &self,
+        model: &L,
+        b: &SpeedBounds,
+    ) -> Result<ResolvedCorners, SwayError> {
         let (chart, mut der) = self.chart.resolve(model, &self.delays_s, b, "chart.")?;
         let mut corners = self.corners.clone();
         if corners.beyond_gain_s.is_none() {

@@ -126,7 +126,7 @@ fn open_loop<P: SimulateOwn<M>, const M: usize>(
 }
 
 /// Settles on the sway cycle (open loop at `speed_mps` for `settle_s` from θ(0) =
-/// `theta0_rad`, as [`settle`]), then finds its period from three upward zero crossings of θ
+/// `theta0_rad`, as [`settle_plant`]), then finds its period from three upward zero crossings of θ
 /// (within `search_s` seconds).
 ///
 /// # Errors

@@ -406,3 +406,185 @@ fn linear_fig4a_and_gain_design_run_on_a_relaxed_vehicle() {
         assert!(delay_free_abscissa(&ctx.plant, v + 1e-6, d) > 0.0);
     }
 }
+
+/// A small `corners` config: τ = 0.2 s, a coarse scan and zoom, one probe radius and kick,
+/// short runs, no torus scan or torus curves, nothing beyond the box.
+const CORNERS_SMALL: &str = "\
+delays_s = [0.2]
+[chart]
+hopf_step = 0.2
+hopf_max_step = 2.0
+hopf_max_points = 40
+fold_step = 0.2
+fold_max_step = 2.0
+fold_max_points = 3
+criticality_samples = 2
+criticality_cycle_points = 2
+[chart.cycles]
+intervals = 10
+degree = 3
+max_cycle_points = 40
+[corners]
+v_samples = 27
+beyond_gain_s = 0.0
+zoom_curve_samples = 9
+zoom_cells = 4
+probe_radii = [0.5]
+[corners.simulation]
+transient_s = 4.0
+window_s = 4.0
+sample_step_s = 0.05
+kicks_deg = [0.5]
+[corners.torus_scan]
+speed_offsets_mps = []
+[corners.torus_curves]
+max_points = 0
+";
+
+/// |1 + D·e^{−iωτ}·C(iωI − A)⁻¹B|: the characteristic function of the loop δ = −D·ψ̇(t − τ)
+/// (eq. 8) at s = iω, from the plant's linearisation at V (an LU solve, independent of the
+/// D-subdivision's phase condition that located the point).
+fn characteristic_residual(
+    plant: &trailer_model::AnyVehicleModel,
+    v: f64,
+    d: f64,
+    tau: f64,
+    omega: f64,
+) -> f64 {
+    use nalgebra::{Complex, DMatrix, DVector};
+    use sway::control::LoopModel;
+    let lin = plant.loop_linearization(v);
+    let n = lin.a.nrows();
+    let s = Complex::new(0.0, omega);
+    let m = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
+        let diag = if i == j { s } else { Complex::new(0.0, 0.0) };
+        diag - Complex::new(lin.a[(i, j)], 0.0)
+    });
+    let b = DVector::<Complex<f64>>::from_fn(n, |i, _| Complex::new(lin.b[i], 0.0));
+    let x = m.lu().solve(&b).expect("iω is no eigenvalue of A");
+    let cx: Complex<f64> = (0..n).map(|i| x[i] * lin.c[i]).sum();
+    (Complex::new(1.0, 0.0) + (-s * tau).exp() * d * cx).norm()
+}
+
+#[test]
+fn corners_and_mitigation_run_on_model_variants() {
+    // issue 21: both take any plant. On the relaxation vehicle (σ = 0.3 m on every axle, 7
+    // states) and the tandem vehicle (4 states, two trailer axles). References:
+    // - corners: each double-Hopf point is a root of the loop's characteristic function at
+    //   both frequencies, evaluated directly from the plant's linearisation (the point was
+    //   located on the D-subdivision's phase condition to 1e-12 in V; measured ≤ 6e-11): |residual| ≤ 1e-8;
+    // - mitigation: V0 is the config's fraction of the variant's own V_crit
+    //   (Plant::critical_speed, same scan: 1e-9 relative), and the sway cycle's period
+    //   (events on θ = 0 in the plant's own layout) against upward zero crossings of θ
+    //   interpolated on a 1 ms grid of an independent `simulate_any` run in the paper's
+    //   layout (same settle and search windows): 1e-5 s (solver rtol 1e-6, interpolation
+    //   ~1e-7 s).
+    let mitigation_cfg = "phases = 2\nrefinement = 1\nhorizon_s = 4.0\ndelay_s = 0.2\n\
+         peak_limit_deg = 45.0\nmin_final_speed_mps = { of_v_crit = 0.7194674553372917 }\n\
+         output_step_s = 0.1\n\
+         [start]\nspeed_mps = { of_v_crit = 1.0072544374722083 }\nsettle_s = 10.0\ntheta0_rad = 0.1\n\
+         [bounds]\nspeed_change_mps = { lo = -100.0, hi = 0.0 }\nduration_s = { lo = 1.0, hi = 3.0 }\n\
+         gain_s = { lo = 0.0, hi = 0.5 }\non_s = { lo = 0.0, hi = 1.0 }\n\
+         on_duration_s = { lo = 2.0, hi = 4.0 }\n\
+         [paper]\nspeed_change_mps = { of_v_crit = -0.2877869821349167 }\nduration_s = 2.0\n\
+         gain_s = 0.1\n\
+         [optimiser]\nseed = 1\nrandom_starts = 0\nmax_iters = 2\n\
+         [search_solver]\nrtol = 1e-5\natol = 1e-7\n[solver]\nrtol = 1e-6\natol = 1e-8\n";
+    for (file, states) in [("relaxation.toml", 7), ("tandem.toml", 4)] {
+        let tmp = tempfile::tempdir().expect("tempdir");
+        let vehicle = root().join("configs/vehicles").join(file);
+        let ctx = TaskContext::new(
+            &vehicle,
+            &root().join("configs"),
+            &tmp.path().join("results"),
+            &NoProgress,
+        )
+        .expect("vehicle loads");
+        assert_eq!(ctx.plant.states(), states, "{file}");
+        let plant = &ctx.plant;
+
+        let corners = run_on("corners", CORNERS_SMALL, &vehicle, tmp.path());
+        let points = corners["double_hopf"].as_array().expect("double_hopf");
+        let per_tau = &corners["per_tau"][0];
+        eprintln!("{file}: {} double-Hopf points; {per_tau}", points.len());
+        if points.is_empty() {
+            assert!(per_tau["reason"].as_str().is_some(), "{file}: {per_tau}");
+        }
+        for p in points {
+            let num = |k: &str| p[k].as_f64().unwrap_or_else(|| panic!("{k}: {p}"));
+            let (v, d, tau) = (num("v_mps"), num("d_s"), num("tau_s"));
+            for w in [num("omega1_rad_s"), num("omega2_rad_s")] {
+                let r = characteristic_residual(plant, v, d, tau, w);
+                eprintln!("{file}: V = {v}, D = {d}, ω = {w}: residual {r:e}");
+                assert!(
+                    r < 1e-8,
+                    "{file}: residual {r} at V = {v}, D = {d}, ω = {w}"
+                );
+            }
+        }
+        let runs = corners["simulations"].as_array().expect("simulations");
+        assert_eq!(
+            runs.len(),
+            4 * points.len(),
+            "{file}: one run per sector probe"
+        );
+
+        let s = run_on("mitigation", mitigation_cfg, &vehicle, tmp.path());
+        let v_crit = trailer_model::with_plant!(plant, m => trailer_model::Plant::critical_speed(
+            m,
+            &trailer_model::CriticalSpeedOptions::default()
+        ))
+        .expect("V_crit")
+        .v_crit_mps;
+        let cycle = &s["cycle"];
+        let v0 = cycle["speed_mps"].as_f64().expect("V0");
+        assert!(
+            (v0 - 1.0072544374722083 * v_crit).abs() < 1e-9 * v0,
+            "{file}: V0 {v0} vs V_crit {v_crit}"
+        );
+        let period = cycle["period_s"].as_f64().expect("period");
+        let reference = period_by_simulation(plant, v0, 0.1, 10.0);
+        assert!(
+            (period - reference).abs() < 1e-5,
+            "{file}: period {period} s vs {reference} s"
+        );
+        assert!(
+            s["optimum"]["worst_case_peak_deg"].as_f64().is_some(),
+            "{file}"
+        );
+    }
+}
+
+/// The period of the open-loop sway cycle at V: θ(0) = θ0, settle for `settle_s`, then the
+/// time between the second and third upward zero crossings of θ (as
+/// `sway::mitigation::find_sway_cycle` counts them), located by linear interpolation on a
+/// 1 ms grid of a [`sway::sim::simulate_any`] run in the paper's layout.
+fn period_by_simulation(
+    plant: &trailer_model::AnyVehicleModel,
+    v: f64,
+    theta0: f64,
+    settle_s: f64,
+) -> f64 {
+    use sway::sim::{Controller, Recording, RunSettings, SimSpec, SpeedProfile, simulate_any};
+    let mut settings = RunSettings::default();
+    settings.solver.rtol = 1e-6;
+    settings.solver.atol = 1e-8;
+    let spec = SimSpec {
+        profile: SpeedProfile::Constant { speed_mps: v },
+        controller: Controller::None,
+        horizon_s: settle_s + sway::mitigation::study::CYCLE_SEARCH_S,
+        action_s: 0.0,
+        settings,
+    };
+    let x0 = trailer_model::State4::new(0.0, 0.0, 0.0, theta0);
+    let r =
+        simulate_any::<4>(plant, &spec, x0, Recording::Every { step_s: 1e-3 }).expect("simulation");
+    let up: Vec<f64> = r
+        .trajectory
+        .windows(2)
+        .filter(|w| w[0].t >= settle_s && w[0].x[3] < 0.0 && w[1].x[3] >= 0.0)
+        .map(|w| w[0].t - w[0].x[3] * (w[1].t - w[0].t) / (w[1].x[3] - w[0].x[3]))
+        .collect();
+    assert!(up.len() >= 3, "{} upward crossings", up.len());
+    up[2] - up[1]
+}

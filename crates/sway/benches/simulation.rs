@@ -3,7 +3,14 @@
 //!   (target ≤ 1.1 ms on the machine where it took 1.58 ms with Dormand–Prince 5(4));
 //! - S3: closed loop, V = 35 m/s, D = 0.1 s, τ = 0.2 s, 40 s, same tolerances (≤ 5 ms);
 //! - S1 on Table I with tyre relaxation σ = 0.3 m on the three axles (issue 21: 10 states
-//!   instead of 7; target ≤ 1.6× S1);
+//!   instead of 7; target ≤ 1.6× S1). Measured 2026-12-03 (2 cores, load ≈ 10): S1 2.21 ms
+//!   (812 steps, 11 915 right-hand sides), relaxed 8.43 ms (2661 steps, 34 583): 3.3× the
+//!   steps at 1.3× the cost per right-hand side. The steps are accuracy-limited, not the
+//!   relaxation's stiffness (Dopri5 needs 2.65× the paper's steps with 2 rejections): each
+//!   tyre kink (148 landings) excites the lag modes λ ≈ −V/σ ≈ −109 1/s, whose transient
+//!   takes ≈ 18 steps to resolve at rtol 1e-8 where the paper's model needs ≈ 4 per kink. Not
+//!   the larger cycle (27.5° against 8.2°: V = 33 m/s is above the relaxed V_crit): the
+//!   paper's model on its 27.9° cycle at 35 m/s takes 772 steps;
 //! - the threshold sweep of `configs/sweep_threshold.toml` (64 × 16 points, 60 s each) on
 //!   1 and 2 threads (≤ 3 s on 2 cores, ≥ 1.8× faster on 2 threads).
 

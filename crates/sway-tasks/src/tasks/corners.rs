@@ -15,6 +15,10 @@
 //! `simulations.csv` holds the same rows; `hopf_near_corner_tau_<τ in ms>ms_<k>_omega_<100ω>.csv`
 //! the traced Hopf curves; figures `corner_tau_<τ in ms>ms_<k>` (the zoom) and
 //! `evidence_tau_<τ in ms>ms_<k>` (spectra and sections).
+//!
+//! Any vehicle file: the D-subdivision, the curves, the torus continuation and the
+//! simulations run on the vehicle's plant (relaxation, tyre laws, axle lists, hitch torque;
+//! issue 21); a vehicle of the paper's form gives the paper model's numbers bit for bit.
 
 use std::path::Path;
 
@@ -40,7 +44,8 @@ pub const TASK: Task = Task::configured::<CornersConfig>(
     "corners",
     "corners of the chart: double-Hopf points, torus curves, quasi-periodic sway (spectra, Poincaré sections)",
     "corners.toml",
-);
+)
+.any_model();
 
 /// Checks the keys (the derived ones are checked once derived).
 ///
@@ -873,7 +878,8 @@ impl Prepared for Configured<CornersConfig> {
         let cfg = &self.config;
         let stage = "corners: double-Hopf points, curves, simulations";
         ctx.run_staged(TASK.name, stage, cfg.delays_s.len() as u64, cfg, &self.file, |out| {
-        let c = compute(&ctx.model, cfg, &SpeedBounds::from(&ctx.limits))?;
+        let bounds = SpeedBounds::from(&ctx.limits);
+        let c = trailer_model::with_plant!(&ctx.plant, m => compute(m, cfg, &bounds))?;
         ctx.progress.advance(cfg.delays_s.len() as u64);
         for d in &c.delays {
             render(out, &d.study)?;

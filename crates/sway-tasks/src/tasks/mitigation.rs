@@ -16,6 +16,11 @@
 //! `"steering"`, `"braking"`, `"combined"`: `worst_case_settle_time_s`,
 //! `lost_control_phases`, …), `"ranking"` (best first), `"phase_refinement"` (the
 //! worst case at refinement × N phases against its bound), `"cycle"`.
+//!
+//! Any vehicle file: the cycle, the phase starts and every run are of the vehicle's plant
+//! (relaxation, tyre laws, axle lists, hitch torque; issue 21), with relative speeds referred
+//! to its own V_crit and fold; a vehicle of the paper's form gives the paper model's numbers
+//! bit for bit.
 
 use std::path::Path;
 
@@ -26,8 +31,9 @@ use sway::mitigation::study::{
 };
 use sway::mitigation::{Evaluation, Setting, settled};
 use sway::ranging::SpeedSpec;
-use sway::sim::{RampShape, resolve_speeds};
-use trailer_model::Model;
+use sway::progress::Progress;
+use sway::sim::speeds::resolve_speeds_any;
+use sway::sim::{RampShape, ResolvedSpeed, SimulateOwn};
 
 use super::series::{WithSpeeds, nothing_to_show, resolved_check};
 use super::{Prepared, Report, Task, TaskContext};
@@ -42,7 +48,8 @@ pub const TASK: Task = Task::configured::<MitigationConfig<SpeedSpec>>(
     "mitigation",
     "optimal braking + steering from any phase of the sway (worst case over phase) vs the paper's strategies",
     "mitigation.toml",
-);
+)
+.any_model();
 
 /// mitigation: the most phases N (default 16).
 pub const MAX_PHASES: usize = 4096;
@@ -125,7 +132,7 @@ pub struct ThetaRow {
     pub theta_combined_deg: f64,
 }
 
-fn phase_rows(r: &MitigationResult, setting: &Setting) -> Vec<PhaseRow> {
+fn phase_rows<const M: usize>(r: &MitigationResult<M>, setting: &Setting) -> Vec<PhaseRow> {
     let mut all: Vec<(&str, &Evaluation)> = vec![("optimum", &r.optimum_eval)];
     all.extend(r.strategies.iter().map(|(k, _, e)| (*k, e)));
     all.into_iter()
@@ -142,7 +149,7 @@ fn phase_rows(r: &MitigationResult, setting: &Setting) -> Vec<PhaseRow> {
         .collect()
 }
 
-fn search_rows(r: &MitigationResult) -> Vec<SearchRow> {
+fn search_rows<const M: usize>(r: &MitigationResult<M>) -> Vec<SearchRow> {
     r.optimum
         .minimum
         .runs
@@ -163,7 +170,7 @@ fn search_rows(r: &MitigationResult) -> Vec<SearchRow> {
 
 const STRATEGY_COLORS: [Rgb; 4] = [Rgb::RED, Rgb::BLUE, Rgb::ORANGE, Rgb::GREEN];
 
-fn settle_panel(r: &MitigationResult, cfg: &MitigationConfig) -> Panel {
+fn settle_panel<const M: usize>(r: &MitigationResult<M>, cfg: &MitigationConfig) -> Panel {
     let setting = cfg.setting(cfg.settings.solver);
     let h = cfg.horizon_s.get();
     let phases = &r.starts.phases;
@@ -227,10 +234,10 @@ fn settle_panel(r: &MitigationResult, cfg: &MitigationConfig) -> Panel {
     p
 }
 
-fn theta_panel(
+fn theta_panel<const M: usize>(
     optimum: &[(f64, f64)],
     combined: &[(f64, f64)],
-    r: &MitigationResult,
+    r: &MitigationResult<M>,
     cfg: &MitigationConfig,
 ) -> Panel {
     let iv = &r.optimum.intervention;
@@ -272,10 +279,10 @@ fn theta_panel(
     ))
 }
 
-fn write_figures(
+fn write_figures<P: SimulateOwn<M>, const M: usize>(
     out: &OutputDir,
-    model: &Model,
-    r: &MitigationResult,
+    model: &P,
+    r: &MitigationResult<M>,
     cfg: &MitigationConfig,
 ) -> Result<(), TaskError> {
     let opt = theta_at_phase(
@@ -329,6 +336,42 @@ fn headline(s: &MitigationSummary) -> Vec<String> {
         r.bound_s.map_or("–".into(), |b| format!("{b:.3} s")),
     ));
     lines
+}
+
+/// The study on the plant `model` and its files (phases, search, figures): the headline of
+/// `summary.json` and the report lines.
+fn study<P: SimulateOwn<M>, const M: usize>(
+    out: &OutputDir,
+    model: &P,
+    cfg: &MitigationConfig,
+    speeds: &[ResolvedSpeed],
+    progress: &dyn Progress,
+) -> Result<(Headline, Vec<String>), TaskError> {
+    let r = match run_mitigation(model, cfg, progress)? {
+        MitigationOutcome::Mitigated(r) => r,
+        MitigationOutcome::NoSway { reason } => {
+            let lines = vec![format!(
+                "{}: nothing to show for this vehicle — {reason}",
+                TASK.name
+            )];
+            let s = NoSwaySummary {
+                reason,
+                speed_mps: cfg.speed(),
+            };
+            return Ok((Headline::NoSway(s), lines));
+        }
+    };
+    let setting = cfg.setting(cfg.settings.solver);
+    out.write_table("phases.csv", phase_rows(&r, &setting))?;
+    out.write_table("search.csv", search_rows(&r))?;
+    write_figures(out, model, &r, cfg)?;
+    let s = summary(&r, cfg);
+    let lines = headline(&s);
+    let s = WithSpeeds {
+        headline: s,
+        resolved_speeds: speeds.to_vec(),
+    };
+    Ok((Headline::Mitigated(Box::new(s)), lines))
 }
 
 impl Prepared for Configured<MitigationConfig<SpeedSpec>> {
@@ -394,7 +437,7 @@ impl Prepared for Configured<MitigationConfig<SpeedSpec>> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = TASK.name;
-        let resolution = resolve_speeds(&ctx.model, &ctx.limits, &self.config)?;
+        let resolution = resolve_speeds_any(&ctx.plant, &ctx.limits, &self.config)?;
         let cfg = match &resolution.outcome {
             Ok(c) => c,
             Err(u) => {
@@ -412,28 +455,8 @@ impl Prepared for Configured<MitigationConfig<SpeedSpec>> {
         resolved_check(cfg.validate(&self.file).map_err(Into::into), &resolution.speeds)?;
         let stage = "mitigation: strategies, optimisation, check";
         ctx.run_staged(name, stage, 3, &self.config, &self.file, |out| {
-            let r = match run_mitigation(&ctx.model, cfg, ctx.progress)? {
-                MitigationOutcome::Mitigated(r) => r,
-                MitigationOutcome::NoSway { reason } => {
-                    let lines = vec![format!("{name}: nothing to show for this vehicle — {reason}")];
-                    let s = NoSwaySummary {
-                        reason,
-                        speed_mps: cfg.speed(),
-                    };
-                    return Ok((Headline::NoSway(s), lines));
-                }
-            };
-            let setting = cfg.setting(cfg.settings.solver);
-            out.write_table("phases.csv", phase_rows(&r, &setting))?;
-            out.write_table("search.csv", search_rows(&r))?;
-            write_figures(out, &ctx.model, &r, cfg)?;
-            let s = summary(&r, cfg);
-            let lines = headline(&s);
-            let s = WithSpeeds {
-                headline: s,
-                resolved_speeds: resolution.speeds.clone(),
-            };
-            Ok((Headline::Mitigated(Box::new(s)), lines))
+            let speeds = &resolution.speeds;
+            trailer_model::with_plant!(&ctx.plant, m => study(out, m, cfg, speeds, ctx.progress))
         })
     }
 }

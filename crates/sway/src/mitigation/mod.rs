@@ -30,45 +30,65 @@ pub mod optimise;
 pub mod study;
 
 use dde::{Direction, Event, EventAction, EventHit, Observer, OdeSolver};
+use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Model, State4};
 
 use crate::SwayError;
 use crate::sim::{
     ActuatorLimits, Controller, Metrics, Outcome, RampShape, Recording, RunSettings, SimProblem,
-    SimResult, SimSpec, SolverSettings, SpeedProfile, settle, simulate,
+    SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle_plant,
 };
 use optimise::{Bound, Minimum, MixedProblem, OptimiserSettings, minimise, worst_case};
 
-/// The open-loop sway cycle at constant speed.
+/// The open-loop sway cycle at constant speed, of a plant with M reduced states (4: the
+/// paper's model).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct SwayCycle {
+pub struct SwayCycle<const M: usize = 4> {
     /// V0 \[m/s\]
     pub speed_mps: f64,
     /// period P \[s\] between upward zero crossings of θ
     pub period_s: f64,
     /// max |θ| over one period \[deg\]
     pub amplitude_deg: f64,
-    /// the state at an upward zero crossing of θ (phase 0)
+    /// the state at an upward zero crossing of θ (phase 0), in the plant's layout
     #[serde(skip)]
-    pub anchor: State4,
+    pub anchor: SVector<f64, M>,
+}
+
+impl<const M: usize> SwayCycle<M> {
+    /// The same cycle with the anchor's first four states \[σ1, σ2, σ3, θ\] (the paper's
+    /// layout; a plant's own states dropped): what `summary.json` reports.
+    pub fn paper_form(&self) -> SwayCycle {
+        SwayCycle {
+            speed_mps: self.speed_mps,
+            period_s: self.period_s,
+            amplitude_deg: self.amplitude_deg,
+            anchor: State4::new(
+                self.anchor[0],
+                self.anchor[1],
+                self.anchor[2],
+                self.anchor[3],
+            ),
+        }
+    }
 }
 
 /// Records upward zero crossings of θ and the largest |θ| at step ends.
-struct Crossings {
+struct Crossings<const M: usize> {
     times: Vec<f64>,
-    states: Vec<State4>,
+    states: Vec<SVector<f64, M>>,
     peak: f64,
 }
 
-impl Observer<4> for Crossings {
-    fn on_step(&mut self, step: &dde::StepView<'_, 4>) -> dde::Flow {
+impl<const M: usize> Observer<M> for Crossings<M> {
+    fn on_step(&mut self, step: &dde::StepView<'_, M>) -> dde::Flow {
         if !self.times.is_empty() {
             self.peak = self.peak.max(step.x()[HITCH_ANGLE].abs());
         }
         dde::Flow::Continue
     }
-    fn on_event(&mut self, hit: &EventHit<4>) {
+    fn on_event(&mut self, hit: &EventHit<M>) {
         self.times.push(hit.t);
         self.states.push(hit.x);
     }
@@ -76,15 +96,15 @@ impl Observer<4> for Crossings {
 
 /// Integrates the open loop at constant `speed_mps` from `x0` for `duration_s`, recording
 /// the upward zero crossings of θ.
-fn open_loop(
-    model: &Model,
+fn open_loop<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
     speed_mps: f64,
-    x0: State4,
+    x0: SVector<f64, M>,
     duration_s: f64,
     solver: &SolverSettings,
-) -> Result<(State4, Crossings), SwayError> {
+) -> Result<(SVector<f64, M>, Crossings<M>), SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
-    let plant = SimProblem::<Model, 4, 4>::new(model, &profile, Controller::None, x0)?;
+    let plant = SimProblem::<P, M, M>::new(model, &profile, Controller::None, x0)?;
     let context = || format!("the sway cycle at V = {speed_mps} m/s over {duration_s} s");
     let mut obs = Crossings {
         times: Vec::new(),
@@ -92,7 +112,7 @@ fn open_loop(
         peak: 0.0,
     };
     let events = [Event::new(
-        |_t, x: &State4| x[HITCH_ANGLE],
+        |_t, x: &SVector<f64, M>| x[HITCH_ANGLE],
         Direction::Rising,
         EventAction::Continue,
     )];
@@ -106,20 +126,20 @@ fn open_loop(
 }
 
 /// Settles on the sway cycle (open loop at `speed_mps` for `settle_s` from θ(0) =
-/// `theta0_rad`, as [`settle`]), then finds its period from three upward zero crossings of θ
+/// `theta0_rad`, as [`settle_plant`]), then finds its period from three upward zero crossings of θ
 /// (within `search_s` seconds).
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails or θ does not cross zero upwards three times
 /// within `search_s` (no sway at this speed).
-pub fn sway_cycle(
-    model: &Model,
+pub fn sway_cycle<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
     speed_mps: f64,
     theta0_rad: f64,
     settle_s: f64,
     search_s: f64,
     solver: &SolverSettings,
-) -> Result<SwayCycle, SwayError> {
+) -> Result<SwayCycle<M>, SwayError> {
     find_sway_cycle(model, speed_mps, theta0_rad, settle_s, search_s, solver)?.map_err(|m| {
         SwayError::numerical(
             format!("the sway cycle at V = {speed_mps} m/s"),
@@ -133,15 +153,15 @@ pub fn sway_cycle(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails.
-pub fn find_sway_cycle(
-    model: &Model,
+pub fn find_sway_cycle<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
     speed_mps: f64,
     theta0_rad: f64,
     settle_s: f64,
     search_s: f64,
     solver: &SolverSettings,
-) -> Result<Result<SwayCycle, String>, SwayError> {
-    let x = settle(model, speed_mps, theta0_rad, settle_s, solver)?;
+) -> Result<Result<SwayCycle<M>, String>, SwayError> {
+    let x = settle_plant(model, speed_mps, theta0_rad, settle_s, solver)?;
     let (_, c) = open_loop(model, speed_mps, x, search_s, solver)?;
     if c.times.len() < 3 {
         return Ok(Err(format!(
@@ -167,25 +187,26 @@ pub fn find_sway_cycle(
 /// from φ and has the same settle time and peak. With span = ½ the N runs therefore
 /// sample the whole period at spacing 1/(2N).
 #[derive(Debug, Clone, PartialEq)]
-pub struct PhaseStarts {
+pub struct PhaseStarts<const M: usize = 4> {
     /// φ ∈ \[0, span)
     pub phases: Vec<f64>,
-    /// the state where each run starts (lead-in before the intervention)
-    pub states: Vec<State4>,
+    /// the state where each run starts (lead-in before the intervention), in the plant's
+    /// layout
+    pub states: Vec<SVector<f64, M>>,
     /// lead-in \[s\]: the intervention starts this long after each run's start
     pub lead_in_s: f64,
 }
 
-impl PhaseStarts {
+impl<const M: usize> PhaseStarts<M> {
     /// N phases equally spaced over `span` (1: the whole period, ½: half of it, the other
     /// half by mirror symmetry) with the given lead-in (≥ the feedback delay τ, so that
     /// the controller reads the cycle's past).
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if the solver fails.
-    pub fn new(
-        model: &Model,
-        cycle: &SwayCycle,
+    pub fn new<P: SimulateOwn<M>>(
+        model: &P,
+        cycle: &SwayCycle<M>,
         n: usize,
         span: f64,
         lead_in_s: f64,
@@ -212,12 +233,12 @@ impl PhaseStarts {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails.
-pub fn cycle_state(
-    model: &Model,
-    cycle: &SwayCycle,
+pub fn cycle_state<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
+    cycle: &SwayCycle<M>,
     t_s: f64,
     solver: &SolverSettings,
-) -> Result<State4, SwayError> {
+) -> Result<SVector<f64, M>, SwayError> {
     open_loop(model, cycle.speed_mps, cycle.anchor, t_s, solver).map(|(x, _)| x)
 }
 
@@ -296,15 +317,15 @@ impl Setting {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if the solver fails.
-    pub fn run(
+    pub fn run<P: SimulateOwn<M>, const M: usize>(
         &self,
-        model: &Model,
+        model: &P,
         iv: &Intervention,
-        x0: State4,
+        x0: SVector<f64, M>,
         lead_in_s: f64,
         recording: Recording,
-    ) -> Result<SimResult<4>, SwayError> {
-        simulate::<4>(model, &self.spec(iv, lead_in_s), x0, recording)
+    ) -> Result<SimResult<M>, SwayError> {
+        model.simulate_own(&self.spec(iv, lead_in_s), x0, recording)
     }
 }
 
@@ -367,10 +388,10 @@ pub struct Evaluation {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a run's solver fails (the first failing phase).
-pub fn evaluate(
-    model: &Model,
+pub fn evaluate<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
     setting: &Setting,
-    starts: &PhaseStarts,
+    starts: &PhaseStarts<M>,
     iv: &Intervention,
 ) -> Result<Evaluation, SwayError> {
     let lead = starts.lead_in_s;
@@ -463,18 +484,18 @@ pub fn decision_vector(iv: &Intervention, horizon_s: f64) -> Vec<f64> {
 /// The mitigation problem for [`optimise::minimise`]: choices are the ramp shapes
 /// ([`RampShape::ALL`]), the cost the worst case over the phases.
 #[derive(Debug)]
-pub struct MitigationProblem<'a> {
-    /// the vehicle
-    pub model: &'a Model,
+pub struct MitigationProblem<'a, P = Model, const M: usize = 4> {
+    /// the vehicle (any plant: the paper's [`Model`] or a vehicle with model variants)
+    pub model: &'a P,
     /// speed, hardware, horizon, limits
     pub setting: Setting,
     /// the phase starts
-    pub starts: &'a PhaseStarts,
+    pub starts: &'a PhaseStarts<M>,
     /// the bounds in decision-vector order
     pub bounds: [Bound; 5],
 }
 
-impl MixedProblem for MitigationProblem<'_> {
+impl<P: SimulateOwn<M>, const M: usize> MixedProblem for MitigationProblem<'_, P, M> {
     fn bounds(&self) -> &[Bound] {
         &self.bounds
     }
@@ -501,8 +522,8 @@ pub struct Optimum {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a run's solver or the optimiser fails.
-pub fn optimise(
-    problem: &MitigationProblem<'_>,
+pub fn optimise<P: SimulateOwn<M>, const M: usize>(
+    problem: &MitigationProblem<'_, P, M>,
     starts: &[Intervention],
     settings: &OptimiserSettings,
 ) -> Result<Optimum, SwayError> {

@@ -12,7 +12,6 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use trailer_model::Model;
 
 use super::optimise::OptimiserSettings;
 use super::{
@@ -24,7 +23,8 @@ use crate::config::{Positive, ensure};
 use crate::progress::Progress;
 use crate::sim::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed, check_change};
 use crate::sim::{
-    ActuatorLimits, Outcome, RampShape, Recording, RunSettings, SolverSettings, SwayStart,
+    ActuatorLimits, Outcome, RampShape, Recording, RunSettings, SimulateOwn, SolverSettings,
+    SwayStart,
 };
 
 /// The paper's strategies (Fig. 4c): braking ΔV over T (linear), steering gain D.
@@ -301,13 +301,13 @@ impl MitigationConfig {
     }
 }
 
-/// Everything the study computes.
+/// Everything the study computes, for a plant with M reduced states (4: the paper's model).
 #[derive(Debug, Clone)]
-pub struct MitigationResult {
+pub struct MitigationResult<const M: usize = 4> {
     /// the cycle
-    pub cycle: SwayCycle,
+    pub cycle: SwayCycle<M>,
     /// the N phase starts
-    pub starts: PhaseStarts,
+    pub starts: PhaseStarts<M>,
     /// the optimiser's result
     pub optimum: Optimum,
     /// the optimum at `[solver]`
@@ -317,14 +317,14 @@ pub struct MitigationResult {
     /// the paper's strategies at `[solver]`
     pub strategies: Vec<(&'static str, Intervention, Evaluation)>,
     /// the optimum at refinement × N phases
-    pub refined: (PhaseStarts, Evaluation),
+    pub refined: (PhaseStarts<M>, Evaluation),
 }
 
 /// The study's result, or why there is nothing to mitigate.
 #[derive(Debug, Clone)]
-pub enum MitigationOutcome {
+pub enum MitigationOutcome<const M: usize = 4> {
     /// the study
-    Mitigated(Box<MitigationResult>),
+    Mitigated(Box<MitigationResult<M>>),
     /// no sway at V0: nothing to mitigate
     NoSway {
         /// why (the amplitude or crossings of θ after settling)
@@ -336,11 +336,11 @@ pub enum MitigationOutcome {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a solver or the optimiser fails.
-pub fn run_mitigation(
-    model: &Model,
+pub fn run_mitigation<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
     cfg: &MitigationConfig,
     progress: &dyn Progress,
-) -> Result<MitigationOutcome, SwayError> {
+) -> Result<MitigationOutcome<M>, SwayError> {
     let solver = cfg.settings.solver;
     let s = &cfg.start;
     let cycle = match find_sway_cycle(
@@ -431,10 +431,10 @@ pub fn refinement_bound(e: &Evaluation, setting: &Setting, period_s: f64) -> Opt
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails.
-pub fn theta_at_phase(
-    model: &Model,
+pub fn theta_at_phase<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
     cfg: &MitigationConfig,
-    starts: &PhaseStarts,
+    starts: &PhaseStarts<M>,
     iv: &Intervention,
     k: usize,
 ) -> Result<Vec<(f64, f64)>, SwayError> {
@@ -558,7 +558,7 @@ pub struct MitigationSummary {
     pub phase_span: f64,
 }
 
-fn refinement_entry(r: &MitigationResult, setting: &Setting) -> RefinementEntry {
+fn refinement_entry<const M: usize>(r: &MitigationResult<M>, setting: &Setting) -> RefinementEntry {
     let coarse = r.optimum_eval.worst_settle_time_s;
     let fine = r.refined.1.worst_settle_time_s;
     let change = coarse.zip(fine).map(|(c, f)| f - c);
@@ -573,7 +573,10 @@ fn refinement_entry(r: &MitigationResult, setting: &Setting) -> RefinementEntry 
 }
 
 /// The summary of a study.
-pub fn summary(r: &MitigationResult, cfg: &MitigationConfig) -> MitigationSummary {
+pub fn summary<const M: usize>(
+    r: &MitigationResult<M>,
+    cfg: &MitigationConfig,
+) -> MitigationSummary {
     let setting = cfg.setting(cfg.settings.solver);
     let phases = &r.starts.phases;
     let o = &r.optimum_eval;
@@ -602,7 +605,7 @@ pub fn summary(r: &MitigationResult, cfg: &MitigationConfig) -> MitigationSummar
         strategies,
         ranking: ranked.into_iter().map(|(k, _)| k).collect(),
         phase_refinement: refinement_entry(r, &setting),
-        cycle: r.cycle,
+        cycle: r.cycle.paper_form(),
         phases: cfg.phases,
         phase_span: cfg.span(),
     }

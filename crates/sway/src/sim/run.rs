@@ -471,6 +471,39 @@ where
     <Layout<N> as ControllerStates<N>>::run(plant, spec, x0, recording)
 }
 
+/// A plant that [`simulate_plant`] runs in its own reduced layout (M states, no kinematic
+/// ones), with the state counts of every controller known: every plant of
+/// [`trailer_model::AnyVehicleModel`]. Generic code that simulates takes `P: SimulateOwn<M>`
+/// instead of carrying the bound `Layout<M>: ControllerStates<M>` through every signature.
+pub trait SimulateOwn<const M: usize>: SimPlant<M> {
+    /// [`simulate_plant`] from the reduced state `x0` (M states; the controller's states are
+    /// added and dropped there). For the paper's [`Model`] this is [`simulate`] with 4 states,
+    /// bit for bit.
+    ///
+    /// # Errors
+    /// As [`simulate_plant`].
+    fn simulate_own(
+        &self,
+        spec: &SimSpec,
+        x0: SVector<f64, M>,
+        recording: Recording,
+    ) -> Result<SimResult<M>, SwayError>;
+}
+
+impl<P: SimPlant<M>, const M: usize> SimulateOwn<M> for P
+where
+    Layout<M>: ControllerStates<M>,
+{
+    fn simulate_own(
+        &self,
+        spec: &SimSpec,
+        x0: SVector<f64, M>,
+        recording: Recording,
+    ) -> Result<SimResult<M>, SwayError> {
+        simulate_plant::<P, M, M>(self, spec, x0, recording)
+    }
+}
+
 /// The state counts of a simulation problem: `Layout<N>` (N plant states, with the kinematic
 /// ones if any) knows the counts with the controller's states added (1 for a rate-limited
 /// actuator, 4 for a predictor), as literals for the fixed-size solver.

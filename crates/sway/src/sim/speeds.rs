@@ -22,8 +22,7 @@ use trailer_model::Model;
 
 use crate::SwayError;
 use crate::ranging::{
-    OpenLoopStability, Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec,
-    open_loop_references,
+    Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, open_loop_references,
 };
 
 /// A speed as a config type holds it: `f64` (resolved, m/s) or [`SpeedSpec`] (as written).
@@ -289,29 +288,6 @@ pub fn check_change<S: SpeedValue>(s: &S, key: &str) -> Result<(), (String, Stri
         ));
     }
     Ok(())
-}
-
-/// The open-loop critical speed of any plant, as [`crate::ranging::open_loop_critical_speed`]
-/// computes it for the paper's model (the same scan and bisection on the spectral abscissa,
-/// [`trailer_model::Plant::critical_speed_search`]).
-///
-/// # Errors
-/// [`SwayError::Model`] when the search fails.
-pub fn plant_critical_speed<P: trailer_model::Plant<M>, const M: usize>(
-    plant: &P,
-    limits: &SpeedLimits,
-) -> Result<OpenLoopStability, SwayError> {
-    Ok(
-        match plant.critical_speed_search(&limits.critical_speed_options())? {
-            Some(c) => OpenLoopStability::Critical {
-                v_crit_mps: c.v_crit_mps,
-                hopf_omega_rad_s: c.hopf_omega_rad_s,
-            },
-            None => OpenLoopStability::StableUpTo {
-                stable_up_to_mps: limits.max_speed_mps,
-            },
-        },
-    )
 }
 
 /// [`resolve_speeds`] for the model of a vehicle file: the paper's [`Model`] exactly as

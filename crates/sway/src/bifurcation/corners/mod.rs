@@ -36,13 +36,26 @@ use continuation::Criticality;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
-use trailer_model::{HITCH_ANGLE, Model, State4};
+use trailer_model::{HITCH_ANGLE, State4};
 
 use self::motion::{MotionClass, MotionEvidence, MotionOptions, Spectrum};
 use super::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
+use super::closed_loop::LoopPlant;
 use crate::SwayError;
 use crate::charts::{closed_loop, fig4a_charts, rightmost_roots};
-use crate::sim::{Controller, Outcome, Recording, RunSettings, SimSpec, SpeedProfile, simulate};
+use crate::control::LoopModel;
+use crate::sim::{Controller, Outcome, Recording, RunSettings, SimSpec, SimulateOwn, SpeedProfile};
+
+/// What the corner analysis needs of a plant (issue 21: any plant, the paper's [`Model`] or a
+/// [`trailer_model::VehicleModel`] of a vehicle file with variants): its closed loop for the
+/// continuations ([`LoopPlant`]), its linearisation for the D-subdivision and the
+/// characteristic roots ([`LoopModel`]) and its simulation in its own layout
+/// ([`SimulateOwn`]). Implemented for every type that has the three.
+///
+/// [`Model`]: trailer_model::Model
+pub trait CornerPlant<const N: usize>: LoopPlant<N> + LoopModel + SimulateOwn<N> {}
+
+impl<P: LoopPlant<N> + LoopModel + SimulateOwn<N>, const N: usize> CornerPlant<N> for P {}
 
 /// Settings of the simulations at the probe points.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -193,8 +206,8 @@ fn num(context: String) -> impl FnOnce(stability::StabilityError) -> SwayError {
 }
 
 /// The dynamic crossings (ω > 0) with |D| ≤ `d_lim` at speed V, sorted by ω.
-fn dynamic_crossings(
-    model: &Model,
+fn dynamic_crossings<L: LoopModel + ?Sized>(
+    model: &L,
     tau: f64,
     v: f64,
     d_lim: f64,
@@ -230,8 +243,8 @@ fn distinct_modes(w1: f64, w2: f64) -> bool {
 
 /// D_a − D_b at speed V, following the two modes from frequencies (ω_a, ω_b); also returns
 /// the crossings found.
-fn gap(
-    model: &Model,
+fn gap<L: LoopModel + ?Sized>(
+    model: &L,
     tau: f64,
     v: f64,
     d_lim: f64,
@@ -246,8 +259,8 @@ fn gap(
 }
 
 /// Regula falsi (Illinois) in V for D_a(V) = D_b(V) inside [v0, v1].
-fn refine_intersection(
-    model: &Model,
+fn refine_intersection<L: LoopModel + ?Sized>(
+    model: &L,
     tau: f64,
     d_lim: f64,
     (mut v0, mut v1): (f64, f64),
@@ -316,8 +329,8 @@ fn bracketed_intersections(vs: &[f64], cols: &[Vec<Crossing>]) -> Vec<((f64, f64
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the D-subdivision or the root check fails.
-pub fn double_hopf_points(
-    model: &Model,
+pub fn double_hopf_points<L: LoopModel + ?Sized>(
+    model: &L,
     tau: f64,
     v_range: (f64, f64),
     d_range: (f64, f64),
@@ -352,8 +365,8 @@ pub fn double_hopf_points(
 }
 
 /// The double-Hopf point at (V, D) with its slopes and the root check.
-fn checked_point(
-    model: &Model,
+fn checked_point<L: LoopModel + ?Sized>(
+    model: &L,
     tau: f64,
     d_lim: f64,
     v: f64,
@@ -437,7 +450,8 @@ pub struct TorusPoint {
     /// an attracting torus can be born there); None when not computed
     pub other_unstable_multipliers: Option<usize>,
     /// the cycle's state at its first mesh node \[σ1 m/s, σ2 1/s, σ3 1/s, θ rad\] (a
-    /// start on the cycle for simulations; not written to files)
+    /// start on the cycle for simulations, [`run_from`]; a plant's own states beyond these
+    /// four are left out; not written to files)
     #[serde(skip)]
     pub cycle_state: [f64; 4],
 }
@@ -700,8 +714,8 @@ impl Default for TorusContinuation {
 /// `window`, reaches a strong resonance or `max_points`; each also continued backwards to
 /// its end at the double-Hopf point ([`TorusCurve::end`]). A family whose continuation
 /// fails is reported in the notes (second value) instead of failing the analysis.
-pub fn continued_torus_curves(
-    model: &Model,
+pub fn continued_torus_curves<P: LoopPlant<N>, const N: usize>(
+    model: &P,
     p: &DoubleHopfPoint,
     window: [f64; 4],
     o: &TorusContinuation,
@@ -731,8 +745,8 @@ pub fn continued_torus_curves(
 }
 
 /// One torus curve from the double-Hopf point (family 0: the ω1 cycles, 1: the ω2 cycles).
-fn torus_curve(
-    problem: &super::ClosedLoop<'_>,
+fn torus_curve<P: LoopPlant<N>, const N: usize>(
+    problem: &super::ClosedLoop<'_, P, N>,
     p: &DoubleHopfPoint,
     family: usize,
     w: [f64; 4],
@@ -745,7 +759,7 @@ fn torus_curve(
     let hh = continuation::DoubleHopfPoint::new(
         problem,
         problem.parameters(p.v_mps),
-        vec![0.0; 4],
+        vec![0.0; N],
         [p.omega1_rad_s, p.omega2_rad_s],
     )?;
     let colloc = CollocationOptions {
@@ -883,8 +897,8 @@ pub fn compare_torus(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage.
-pub fn corner_study(
-    model: &Model,
+pub fn corner_study<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     chart: &ChartOptions,
     o: &CornerOptions,
@@ -936,8 +950,8 @@ pub fn corner_study(
 }
 
 /// The double-Hopf points with |D| ≤ `beyond_gain_s` outside the chart's gain range.
-fn beyond(
-    model: &Model,
+fn beyond<L: LoopModel + ?Sized>(
+    model: &L,
     tau: f64,
     v_range: (f64, f64),
     d_range: (f64, f64),
@@ -954,8 +968,8 @@ fn beyond(
 }
 
 /// The analysis near one double-Hopf point.
-fn corner(
-    model: &Model,
+fn corner<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     nl: &NonlinearChart,
     p: &DoubleHopfPoint,
     o: &CornerOptions,
@@ -1047,8 +1061,8 @@ fn continuation_offset(nl: &NonlinearChart, p: &DoubleHopfPoint) -> Option<f64> 
 
 /// The Hopf curve of frequency ω through the corner, traced on the D-subdivision across
 /// the window's speeds (outwards from the corner, following ω).
-fn mode_curve(
-    model: &Model,
+fn mode_curve<L: LoopModel + ?Sized>(
+    model: &L,
     nl: &NonlinearChart,
     p: &DoubleHopfPoint,
     w: f64,
@@ -1104,8 +1118,8 @@ fn criticality_near(nl: &NonlinearChart, p: &DoubleHopfPoint, w: f64) -> Option<
 }
 
 /// The linear chart (exact unstable-root counts) on the window.
-fn window_chart(
-    model: &Model,
+fn window_chart<L: LoopModel + ?Sized>(
+    model: &L,
     tau: f64,
     w: [f64; 4],
     cells: usize,
@@ -1174,7 +1188,12 @@ pub fn probe_points(p: &DoubleHopfPoint, o: &CornerOptions) -> Vec<(f64, f64)> {
 }
 
 /// The unstable root pairs' frequencies at (V, D).
-fn unstable_modes(model: &Model, tau: f64, v: f64, d: f64) -> Result<Vec<f64>, SwayError> {
+fn unstable_modes<L: LoopModel + ?Sized>(
+    model: &L,
+    tau: f64,
+    v: f64,
+    d: f64,
+) -> Result<Vec<f64>, SwayError> {
     let roots = rightmost_roots(model, v, d, tau, 12)?;
     Ok(roots
         .iter()
@@ -1184,8 +1203,8 @@ fn unstable_modes(model: &Model, tau: f64, v: f64, d: f64) -> Result<Vec<f64>, S
 }
 
 /// The simulations at one probe point.
-fn probe(
-    model: &Model,
+fn probe<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     v: f64,
     d: f64,
@@ -1208,8 +1227,8 @@ fn probe(
 }
 
 /// The class of the run at (V, D) from the kick \[deg\].
-fn class_at(
-    model: &Model,
+fn class_at<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     p: &DoubleHopfPoint,
     (v, d): (f64, f64),
     kick: f64,
@@ -1221,8 +1240,8 @@ fn class_at(
 /// The torus boundary at speed V: the first periodic → quasi-periodic change of the
 /// coarse scan in D, bisected; with the probes flanking it (periodic below, quasi-periodic
 /// above). None if the scan shows no such change.
-fn torus_boundary_at(
-    model: &Model,
+fn torus_boundary_at<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     p: &DoubleHopfPoint,
     v: f64,
     kick: f64,
@@ -1276,11 +1295,12 @@ fn torus_boundary_at(
     Ok(Some((point, [below, above])))
 }
 
-/// One closed-loop simulation at (V, D, τ) from θ(t ≤ 0) = kick, classified; a run still
+/// One closed-loop simulation at (V, D, τ) of the plant `model` (in its own layout, the
+/// paper's model bit for bit as before) from θ(t ≤ 0) = kick, classified; a run still
 /// growing at the end of the window (without loss of control) is repeated with a
 /// transient three times as long, so that the class is that of where the motion settles.
-pub fn run_at(
-    model: &Model,
+pub fn run_at<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     v: f64,
     d: f64,
@@ -1294,9 +1314,11 @@ pub fn run_at(
 }
 
 /// As [`run_at`], from the constant history x(t ≤ 0) = `x0` \[σ1 m/s, σ2 1/s, σ3 1/s,
-/// θ rad\] (e.g. a state of a cycle; the run's `kick_deg` is θ0 in degrees).
-pub fn run_from(
-    model: &Model,
+/// θ rad\] (e.g. a state of a cycle; the run's `kick_deg` is θ0 in degrees). A plant's own
+/// states (the lagged slips of relaxing axles) start in steady state of the tyres
+/// ([`crate::sim::SimPlant::initial_state`] at V).
+pub fn run_from<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     v: f64,
     d: f64,
@@ -1314,8 +1336,8 @@ pub fn run_from(
     run_once(model, tau, v, d, x0, &longer)
 }
 
-fn run_once(
-    model: &Model,
+fn run_once<P: CornerPlant<N>, const N: usize>(
+    model: &P,
     tau: f64,
     v: f64,
     d: f64,
@@ -1337,11 +1359,12 @@ fn run_once(
         action_s: 0.0,
         settings: s.settings,
     };
-    let x0 = State4::new(x[0], x[1], x[2], x[3]);
+    // a plant's own states (lagged slips) start in steady state of the tyres
+    let x0 = model.initial_state(&State4::new(x[0], x[1], x[2], x[3]), v);
     let rec = Recording::Every {
         step_s: s.sample_step_s,
     };
-    let r = simulate(model, &spec, x0, rec)?;
+    let r = model.simulate_own(&spec, x0, rec)?;
     let from = s.transient_s - 1e-9;
     let tail: Vec<_> = r.trajectory.iter().filter(|p| p.t >= from).collect();
     let theta: Vec<f64> = tail.iter().map(|p| p.x[HITCH_ANGLE]).collect();

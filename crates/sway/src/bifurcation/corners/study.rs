@@ -6,13 +6,13 @@
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use trailer_model::Model;
 
-use super::{CornerOptions, CornerStudy, corner_study};
+use super::{CornerOptions, CornerPlant, CornerStudy, corner_study};
 use crate::SwayError;
 use crate::bifurcation::chart::ChartOptions;
 use crate::bifurcation::chart::study::ChartConfig;
 use crate::charts::auto_range::{Derivation, SpeedBounds, chart_gains, vehicle_scale};
+use crate::control::LoopModel;
 
 fn default_delays() -> Vec<f64> {
     vec![0.2, 0.4]
@@ -67,7 +67,11 @@ impl CornersConfig {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] from the derivation.
-    pub fn resolve(&self, model: &Model, b: &SpeedBounds) -> Result<ResolvedCorners, SwayError> {
+    pub fn resolve<L: LoopModel + ?Sized>(
+        &self,
+        model: &L,
+        b: &SpeedBounds,
+    ) -> Result<ResolvedCorners, SwayError> {
         let (chart, mut der) = self.chart.resolve(model, &self.delays_s, b, "chart.")?;
         let mut corners = self.corners.clone();
         if corners.beyond_gain_s.is_none() {
@@ -87,11 +91,16 @@ impl CornersConfig {
     }
 }
 
-/// All delays (in parallel, results in config order; each delay is deterministic).
+/// All delays (in parallel, results in config order; each delay is deterministic), for any
+/// plant ([`CornerPlant`]: the paper's model or a vehicle with model variants, issue 21).
 ///
 /// # Errors
 /// The first failing delay's error.
-pub fn compute(model: &Model, cfg: &CornersConfig, b: &SpeedBounds) -> Result<Corners, SwayError> {
+pub fn compute<P: CornerPlant<N>, const N: usize>(
+    model: &P,
+    cfg: &CornersConfig,
+    b: &SpeedBounds,
+) -> Result<Corners, SwayError> {
     let resolved = cfg.resolve(model, b)?;
     let (c, o) = (&resolved.chart, &resolved.corners);
     let delays = cfg

@@ -2,7 +2,7 @@
 
 use super::*;
 use std::sync::OnceLock;
-use trailer_model::VehicleParams;
+use trailer_model::{Model, VehicleParams};
 
 fn model() -> &'static Model {
     static M: OnceLock<Model> = OnceLock::new();

@@ -183,7 +183,7 @@ enum Done {
 /// `yaw_rate_hitch` ones, which start from them and from the previous delay's optimum,
 /// their Nelder–Mead runs side by side), the chains and the `predictor` in parallel; the
 /// perfectly predicted `predictor`'s loop is the delay-free one at every τ, so its design
-/// is computed once ([`super::design::perfect_predictor_designs`]); then the delay
+/// is computed once; then the delay
 /// budgets, the folds of cycles (one continuation per distinct loop: a design without
 /// feedback is the open loop whatever its actuator) and the robust critical speeds all in
 /// one parallel pass. Every job is a pure function of its inputs and the results are

@@ -25,7 +25,7 @@ use sway::config::{Grid, ensure, ensure_positive};
 use sway::control::{
     Actuator, AwayFromCorner, CheckedDesign, Combination, CommandLimits, ControlStudy, Design, DesignSearch,
     GainName, Gains, SpeedSearch,
-    Structure, StudySettings, VehicleUncertainty, control_study,
+    Structure, StudySettings, StudyVehicle, VehicleUncertainty, control_study,
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
 use sway::sim::{
@@ -45,7 +45,8 @@ pub const TASK: Task = Task::configured::<ControlDesignConfig>(
     "control_design",
     "sway control for longer delays: best gains of each controller structure × actuator per τ, delay budgets, robust V_crit",
     "control_design.toml",
-);
+)
+.any_model();
 
 fn default_delays() -> Grid {
     Grid {
@@ -213,6 +214,40 @@ pub struct ControlDesignConfig {
     /// the simulation check of one design per structure (issue 22, item 7)
     #[serde(default)]
     pub simulation_check: SimulationCheck,
+    /// the predictor's model of the vehicle: a vehicle file (relative to this file's
+    /// directory) the prediction runs on, so that a design is judged with a model that
+    /// differs from the vehicle (absent: the vehicle itself, a perfect prediction model)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction_vehicle: Option<std::path::PathBuf>,
+}
+
+impl ControlDesignConfig {
+    /// The prediction vehicle's file, relative to the config file's directory.
+    fn prediction_file(&self, file: &Path) -> Option<std::path::PathBuf> {
+        self.prediction_vehicle
+            .as_ref()
+            .map(|p| file.parent().unwrap_or(Path::new(".")).join(p))
+    }
+
+    /// The prediction vehicle, loaded and checked.
+    ///
+    /// # Errors
+    /// [`TaskError::Config`] naming this file, `prediction_vehicle` and the problem (the
+    /// vehicle file's own error in it).
+    fn prediction_spec(&self, file: &Path) -> Result<Option<trailer_model::VehicleSpec>, TaskError> {
+        let Some(path) = self.prediction_file(file) else {
+            return Ok(None);
+        };
+        crate::config_file::load_vehicle_spec(&path)
+            .map(|v| Some(v.spec))
+            .map_err(|e| {
+                TaskError::config(
+                    file,
+                    "prediction_vehicle",
+                    format!("the prediction vehicle {} is not valid: {e}", path.display()),
+                )
+            })
+    }
 }
 
 /// The simulation check: at `speed_fraction`·V_crit (open loop) and constant speed, the
@@ -291,6 +326,7 @@ impl TaskConfig for ControlDesignConfig {
         )?;
         check_speed_search(&self.search.speed, file, "search.speed")?;
         check_speed_search(&self.robustness.speed, file, "robustness.speed")?;
+        self.prediction_spec(file)?;
         let s = &self.search;
         ensure(s.gain_samples >= 3, file, "search.gain_samples", || {
             format!("expected at least 3 gains, got {}", s.gain_samples)
@@ -499,7 +535,10 @@ struct Summary {
     yaw_rate_gain_max: BTreeMap<String, f64>,
     track_width_m: f64,
     checked_delays_s: Vec<f64>,
-    simulation_check: SimulationOutcome,
+    /// None for a vehicle with model variants (`simulation_check_reason`)
+    simulation_check: Option<SimulationOutcome>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    simulation_check_reason: Option<String>,
 }
 
 /// The simulation check in `summary.json`.
@@ -783,7 +822,16 @@ impl Prepared for Configured<ControlDesignConfig> {
             cfg,
             &self.file,
             |out: &OutputDir| {
-                let r = control_study(&ctx.model, &ctx.vehicle, &cfg.settings(), ctx.progress)?;
+                let prediction = cfg.prediction_spec(&self.file)?;
+                let vehicle = StudyVehicle {
+                    spec: &ctx.spec,
+                    plant: &ctx.plant,
+                    // a vehicle with model variants: the linear side on its plant, the folds
+                    // of cycles and the simulation check only for the paper's model
+                    paper: ctx.variant_key.is_none().then_some((&ctx.model, &ctx.vehicle)),
+                    prediction: prediction.as_ref(),
+                };
+                let r = control_study(vehicle, &cfg.settings(), ctx.progress)?;
                 let entries: Vec<DesignEntry> = r
                     .combinations
                     .iter()
@@ -810,12 +858,17 @@ impl Prepared for Configured<ControlDesignConfig> {
                     }),
                 )?;
                 figure(&r, cfg).render(&out.path("control_design"))?;
-                let (simulation, curves) =
-                    simulation_check(&ctx.model, &r, &cfg.simulation_check)?;
-                // `simulation_tau_0_6` for τ = 0.6 s: a dot would read as the file's extension
-                let stem = format!("simulation_tau_{}", cfg.simulation_check.delay_s)
-                    .replace('.', "_");
-                simulation_figure(&simulation, &curves).render(&out.path(&stem))?;
+                let simulation = if ctx.variant_key.is_none() {
+                    let (simulation, curves) =
+                        simulation_check(&ctx.model, &r, &cfg.simulation_check)?;
+                    // `simulation_tau_0_6` for τ = 0.6 s: a dot would read as the file's extension
+                    let stem = format!("simulation_tau_{}", cfg.simulation_check.delay_s)
+                        .replace('.', "_");
+                    simulation_figure(&simulation, &curves).render(&out.path(&stem))?;
+                    Some(simulation)
+                } else {
+                    None
+                };
                 let lines = headlines(&r, &entries);
                 let summary = Summary {
                     delay_budget_s: r
@@ -849,6 +902,11 @@ impl Prepared for Configured<ControlDesignConfig> {
                         .collect(),
                     track_width_m: cfg.track_width_m,
                     checked_delays_s: cfg.robustness.delays_s.clone(),
+                    simulation_check_reason: simulation.is_none().then(|| {
+                        "the simulation check runs on the paper's model only: this vehicle has \
+                         model variants"
+                            .to_string()
+                    }),
                     simulation_check: simulation,
                 };
                 Ok((summary, lines))
@@ -942,5 +1000,17 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("structures") && e.contains("control_design.toml"), "{e}");
+        // the prediction vehicle: resolved beside the config file, its problem named
+        let bad = format!("prediction_vehicle = \"vehicles/no_such_vehicle.toml\"\n{text}");
+        let cfg: ControlDesignConfig = parse_toml(&bad, &file).unwrap();
+        let e = cfg.check(&file).unwrap_err().to_string();
+        assert!(
+            e.contains("prediction_vehicle") && e.contains("control_design.toml") && e.contains("no_such_vehicle"),
+            "{e}"
+        );
+        let good = format!("prediction_vehicle = \"vehicles/relaxation.toml\"\n{text}");
+        let cfg: ControlDesignConfig = parse_toml(&good, &file).unwrap();
+        cfg.check(&file).unwrap();
+        assert!(cfg.prediction_spec(&file).unwrap().is_some());
     }
 }

@@ -27,7 +27,9 @@ use super::LoopModel;
 use super::{Actuator, Controller, GainName, Gains, LinearLoop, SpeedSearch, Structure};
 use crate::SwayError;
 use crate::gain_design::{GainSearch, band_end, refine_sampled};
-use crate::mitigation::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
+use crate::mitigation::optimise::{
+    Bound, Minimum, MixedProblem, OptimiserSettings, minimise, starting_points,
+};
 use crate::sampling::{About, Sampler, Sampling, Statistics};
 
 /// Bounds of the gains, in steering units (D, D_θ in s, K_θ in rad/rad); for differential
@@ -250,7 +252,7 @@ pub fn design<M: LoopModel + ?Sized>(
     o: &DesignSearch,
 ) -> Result<Design, SwayError> {
     let scale = actuator.scale(model.paper_model());
-    let (gains, v, bands, evaluations) = match structure {
+    let found = match structure {
         Structure::YawRate | Structure::Predictor => {
             one_gain(model, structure, actuator, tau, prediction, scale, o)?
         }
@@ -262,6 +264,87 @@ pub fn design<M: LoopModel + ?Sized>(
             (g, v, b, n + start.3)
         }
     };
+    finish(model, structure, actuator, tau, prediction, found, o)
+}
+
+/// [`design`] of a several-gain structure (`yaw_rate_hitch`) started from `start`, the
+/// `yaw_rate` design of the same actuator at the same delay (which [`design`] would compute
+/// first): the same result without computing that design twice.
+///
+/// # Errors
+/// As [`design`].
+#[allow(clippy::too_many_arguments)]
+pub(super) fn design_from_start<M: LoopModel + ?Sized>(
+    model: &M,
+    structure: Structure,
+    actuator: Actuator,
+    tau: f64,
+    prediction: Option<&dyn LoopModel>,
+    warm: Option<&Gains>,
+    start: &Design,
+    o: &DesignSearch,
+) -> Result<Design, SwayError> {
+    debug_assert!(
+        start.structure == Structure::YawRate && start.actuator == actuator && start.tau_s == tau
+    );
+    let found = match structure {
+        Structure::YawRate | Structure::Predictor => {
+            let scale = actuator.scale(model.paper_model());
+            one_gain(model, structure, actuator, tau, prediction, scale, o)?
+        }
+        Structure::YawRateHitch => {
+            let (g, v, b, n) = several_gains(
+                model,
+                structure,
+                actuator,
+                tau,
+                prediction,
+                &start.gains,
+                warm,
+                o,
+            )?;
+            (g, v, b, n + start.evaluations)
+        }
+    };
+    finish(model, structure, actuator, tau, prediction, found, o)
+}
+
+/// The designs of the perfectly predicted `predictor` (its model the vehicle itself) at
+/// every delay of `taus`: its loop is the delay-free one whatever τ (finite spectrum
+/// assignment, [`super::predictor`]; [`LinearLoop`] builds it without τ), so the design at
+/// the first delay is the design at every delay, computed once.
+///
+/// # Errors
+/// As [`design`].
+pub(super) fn perfect_predictor_designs<M: LoopModel + ?Sized>(
+    model: &M,
+    actuator: Actuator,
+    taus: &[f64],
+    o: &DesignSearch,
+) -> Result<Vec<Design>, SwayError> {
+    let Some(&first) = taus.first() else {
+        return Ok(Vec::new());
+    };
+    let d = design(model, Structure::Predictor, actuator, first, None, None, o)?;
+    Ok(taus
+        .iter()
+        .map(|&tau| Design {
+            tau_s: tau,
+            ..d.clone()
+        })
+        .collect())
+}
+
+/// The design from the optimum found: the double-Hopf check at V_crit.
+fn finish<M: LoopModel + ?Sized>(
+    model: &M,
+    structure: Structure,
+    actuator: Actuator,
+    tau: f64,
+    prediction: Option<&dyn LoopModel>,
+    (gains, v, bands, evaluations): Found,
+    o: &DesignSearch,
+) -> Result<Design, SwayError> {
     let c = controller(structure, actuator, gains);
     let speed_capped = v >= o.speed.v_max_mps;
     // the rightmost roots at V_crit: a second critical pair marks a double-Hopf corner; where
@@ -414,7 +497,7 @@ fn several_gains<M: LoopModel + ?Sized>(
     if let Some(w) = warm {
         starts.push(as_point(w));
     }
-    let best = minimise(&problem, &starts, &o.optimiser)?;
+    let best = minimise_in_parallel(&problem, &starts, &o.optimiser)?;
     let gains = problem.gains(&best.x);
     let c = controller(structure, actuator, gains);
     let v = v_crit(model, &c, tau, prediction, &o.speed)?;
@@ -442,6 +525,41 @@ fn several_gains<M: LoopModel + ?Sized>(
         bands.push(GainBand { gain: name, lo, hi });
     }
     Ok((gains, v, bands, n))
+}
+
+/// [`minimise`] with its runs (one per starting point: the given ones, then the seeded
+/// random ones) side by side: each run is a pure function of its start, and the best is
+/// picked in the order of the starts (the earliest on ties), so the result is
+/// [`minimise`]'s on any number of threads.
+fn minimise_in_parallel<P: MixedProblem + Sync>(
+    problem: &P,
+    starts: &[Vec<f64>],
+    settings: &OptimiserSettings,
+) -> Result<Minimum, SwayError> {
+    let all = starting_points(problem.bounds(), starts, settings);
+    let single = OptimiserSettings {
+        random_starts: 0,
+        ..*settings
+    };
+    let runs: Vec<Result<Minimum, SwayError>> = all
+        .par_iter()
+        .with_max_len(1)
+        .map(|x0| minimise(problem, std::slice::from_ref(x0), &single))
+        .collect();
+    let mut best: Option<Minimum> = None;
+    let mut evaluations = 0;
+    for r in runs {
+        let r = r?;
+        evaluations += r.evaluations;
+        if best.as_ref().is_none_or(|b| r.cost < b.cost) {
+            best = Some(r);
+        }
+    }
+    let mut best = best.ok_or_else(|| {
+        SwayError::numerical("optimisation", std::io::Error::other("no starting point"))
+    })?;
+    best.evaluations = evaluations;
+    Ok(best)
 }
 
 /// The rightmost root pair at V \[m/s\] whose frequency differs from the critical pair's

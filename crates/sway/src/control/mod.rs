@@ -39,7 +39,7 @@ pub use design::{
 };
 pub use study::{
     AwayFromCorner, CheckedDesign, Combination, ControlStudy, DesignFold, StudySettings,
-    control_study, fold_speed, loop_law,
+    StudyVehicle, control_study, fold_speed, loop_law,
 };
 
 use nalgebra::{DMatrix, DVector, RowDVector, RowVector4, Vector4};

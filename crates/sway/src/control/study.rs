@@ -10,12 +10,13 @@
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use trailer_model::{Model, VehicleParams};
+use trailer_model::{AnyVehicleModel, Model, VehicleParams, VehicleSpec};
 
+use super::design::{design_from_start, perfect_predictor_designs};
 use super::{
-    Actuator, Controller, DelayBudget, Design, DesignSearch, GainName, Gains, Robustness,
-    SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
-    robust_critical_speed,
+    Actuator, Controller, DelayBudget, Design, DesignSearch, GainName, Gains, LoopModel,
+    Robustness, SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
+    robust_critical_speed, robust_critical_speed_spec,
 };
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, critical_speeds};
@@ -123,18 +124,92 @@ pub struct ControlStudy {
     pub combinations: Vec<Combination>,
 }
 
-/// Runs the study: the combinations in parallel (each sequential in τ, so the results do
-/// not depend on the number of threads), one progress step per combination.
+/// The vehicle of a study: its plant (the linear side) and, for a vehicle file of the
+/// paper's form, the paper's model, on which the fold of cycles is computed and whose
+/// parameters the uncertainty samples perturb.
+#[derive(Debug, Clone, Copy)]
+pub struct StudyVehicle<'a> {
+    /// the vehicle file as written (axle lists, tyre laws, relaxation, hitch torque)
+    pub spec: &'a VehicleSpec,
+    /// its plant ([`AnyVehicleModel::Paper`] for a vehicle of the paper's form)
+    pub plant: &'a AnyVehicleModel,
+    /// the paper's model and its parameters, for a vehicle of the paper's form (None for a
+    /// vehicle with model variants: the folds of cycles are then left out with the reason)
+    pub paper: Option<(&'a Model, &'a VehicleParams)>,
+    /// the predictor's model of the vehicle: a separate vehicle file (None: the vehicle
+    /// itself, a perfect prediction model)
+    pub prediction: Option<&'a VehicleSpec>,
+}
+
+impl<'a> StudyVehicle<'a> {
+    /// A vehicle of the paper's form, predicted with itself.
+    pub fn paper(
+        model: &'a Model,
+        params: &'a VehicleParams,
+        spec: &'a VehicleSpec,
+        plant: &'a AnyVehicleModel,
+    ) -> Self {
+        Self {
+            spec,
+            plant,
+            paper: Some((model, params)),
+            prediction: None,
+        }
+    }
+}
+
+/// What the study runs after the designs: one job each, all in one parallel pass.
+enum Job {
+    /// the delay budget of combination `c`
+    Budget { c: usize },
+    /// the fold of cycles of the designs (combination, index) of one loop (identical loops
+    /// share one continuation)
+    Fold { designs: Vec<(usize, usize)> },
+    /// the robust critical speed of combination `c`'s design `d`
+    Robust { c: usize, d: usize },
+}
+
+/// A job's result.
+enum Done {
+    Budget(DelayBudget),
+    Fold(DesignFold),
+    Robust(Robustness),
+}
+
+/// Runs the study (see the module docs) on `vehicle`.
+///
+/// The work is scheduled for the thread pool without changing any number: the designs of
+/// each actuator form one chain (the `yaw_rate` optima at every delay, then the
+/// `yaw_rate_hitch` ones, which start from them and from the previous delay's optimum,
+/// their Nelder–Mead runs side by side), the chains and the `predictor` in parallel; the
+/// perfectly predicted `predictor`'s loop is the delay-free one at every τ, so its design
+/// is computed once; then the delay
+/// budgets, the folds of cycles (one continuation per distinct loop: a design without
+/// feedback is the open loop whatever its actuator) and the robust critical speeds all in
+/// one parallel pass. Every job is a pure function of its inputs and the results are
+/// gathered in the settings' order: the same on any number of threads. One progress step
+/// per combination.
 ///
 /// # Errors
 /// [`SwayError::Numerical`], also when the open loop has no critical speed in the search range
 /// (then nothing is to be raised).
 pub fn control_study(
-    model: &Model,
-    nominal: &VehicleParams,
+    vehicle: StudyVehicle<'_>,
     s: &StudySettings,
     progress: &dyn Progress,
 ) -> Result<ControlStudy, SwayError> {
+    // the linear side on the paper's model itself where the vehicle has its form (the same
+    // numbers as before the plants), else on the plant
+    let model: &dyn LoopModel = match vehicle.paper {
+        Some((m, _)) => m,
+        None => vehicle.plant,
+    };
+    let prediction_model = vehicle
+        .prediction
+        .map(AnyVehicleModel::new)
+        .transpose()
+        .map_err(|e| SwayError::numerical("the predictor's prediction vehicle", e))?;
+    let prediction = prediction_model.as_ref().map(|m| m as &dyn LoopModel);
     let open = super::critical_speed(model, &Controller::paper(0.0), 0.0, None, &s.search.speed)?
         .ok_or_else(|| {
         SwayError::numerical(
@@ -151,83 +226,280 @@ pub fn control_study(
         .iter()
         .flat_map(|&st| s.actuators.iter().map(move |&a| (st, a)))
         .collect();
-    let combinations = pairs
+    let designs = all_designs(model, prediction, &pairs, s)?;
+    // the jobs after the designs
+    let mut jobs: Vec<Job> = (0..pairs.len()).map(|c| Job::Budget { c }).collect();
+    let mut folds: Vec<(FoldKey, Vec<(usize, usize)>)> = Vec::new();
+    for (c, ds) in designs.iter().enumerate() {
+        for (d, design) in ds.iter().enumerate() {
+            let key = FoldKey::of(design);
+            match folds.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, list)) => list.push((c, d)),
+                None => folds.push((key, vec![(c, d)])),
+            }
+        }
+    }
+    jobs.extend(
+        folds
+            .into_iter()
+            .map(|(_, list)| Job::Fold { designs: list }),
+    );
+    let checked: Vec<Vec<usize>> = designs
+        .iter()
+        .map(|ds| checked_designs(ds, &s.checked_delays_s))
+        .collect();
+    for (c, list) in checked.iter().enumerate() {
+        jobs.extend(list.iter().map(|&d| Job::Robust { c, d }));
+    }
+    let done: Vec<Result<Done, SwayError>> = jobs
         .par_iter()
-        .map(|&(structure, actuator)| {
-            let r = combination(model, nominal, structure, actuator, open, s);
-            progress.advance(1);
-            r
+        .with_max_len(1)
+        .map(|job| match *job {
+            Job::Budget { c } => {
+                let (structure, _) = pairs[c];
+                let p = (structure == Structure::Predictor)
+                    .then_some(prediction)
+                    .flatten();
+                delay_budget(
+                    model,
+                    &designs[c],
+                    open,
+                    s.budget_rise_fraction,
+                    s.budget_tau_tolerance_s,
+                    p,
+                    &s.search,
+                )
+                .map(Done::Budget)
+            }
+            Job::Fold { designs: ref list } => {
+                let (c, d) = list[0];
+                design_fold(vehicle.paper.map(|(m, _)| m), &designs[c][d], s).map(Done::Fold)
+            }
+            Job::Robust { c, d } => {
+                let design = &designs[c][d];
+                let controller = Controller {
+                    structure: design.structure,
+                    actuator: design.actuator,
+                    gains: design.gains,
+                };
+                match (vehicle.paper, vehicle.prediction) {
+                    (Some((_, params)), None) => robust_critical_speed(
+                        params,
+                        &controller,
+                        design.tau_s,
+                        &s.uncertainty,
+                        &s.robustness_speed,
+                    ),
+                    _ => robust_critical_speed_spec(
+                        vehicle.spec,
+                        vehicle.prediction,
+                        &controller,
+                        design.tau_s,
+                        &s.uncertainty,
+                        &s.robustness_speed,
+                    ),
+                }
+                .map(Done::Robust)
+            }
         })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .collect::<Result<Vec<_>, _>>()?;
+        .collect();
+    // gather in the order of the jobs
+    let mut budgets: Vec<Option<DelayBudget>> = vec![None; pairs.len()];
+    let mut fold_of: Vec<Vec<Option<DesignFold>>> =
+        designs.iter().map(|ds| vec![None; ds.len()]).collect();
+    let mut robust_of: Vec<Vec<Option<Robustness>>> =
+        designs.iter().map(|ds| vec![None; ds.len()]).collect();
+    for (job, r) in jobs.iter().zip(done) {
+        match (job, r?) {
+            (Job::Budget { c }, Done::Budget(b)) => budgets[*c] = Some(b),
+            (Job::Fold { designs: list }, Done::Fold(f)) => {
+                for &(c, d) in list {
+                    fold_of[c][d] = Some(DesignFold {
+                        tau_s: designs[c][d].tau_s,
+                        ..f.clone()
+                    });
+                }
+            }
+            (Job::Robust { c, d }, Done::Robust(r)) => robust_of[*c][*d] = Some(r),
+            _ => unreachable!("a job's result is of its kind"),
+        }
+    }
+    let mut combinations = Vec::with_capacity(pairs.len());
+    for (c, (&(structure, actuator), designs)) in pairs.iter().zip(designs).enumerate() {
+        let folds: Vec<DesignFold> = fold_of[c]
+            .iter_mut()
+            .map(|f| f.take().expect("every design has its fold job"))
+            .collect();
+        let budget = budgets[c].take().expect("a budget job per combination");
+        let checked = checked[c]
+            .iter()
+            .map(|&d| CheckedDesign {
+                tau_s: designs[d].tau_s,
+                robustness: robust_of[c][d]
+                    .take()
+                    .expect("a robust job per checked design"),
+                v_fold_mps: folds[d].v_fold_mps,
+                v_fold_reason: folds[d].v_fold_reason.clone(),
+            })
+            .collect();
+        combinations.push(Combination {
+            structure,
+            actuator,
+            designs,
+            budget,
+            checked,
+            folds,
+        });
+        progress.advance(1);
+    }
     Ok(ControlStudy {
         open_loop_v_crit_mps: open,
         combinations,
     })
 }
 
-fn combination(
-    model: &Model,
-    nominal: &VehicleParams,
-    structure: Structure,
-    actuator: Actuator,
-    v_open: f64,
-    s: &StudySettings,
-) -> Result<Combination, SwayError> {
-    let designs = designs_over_delays(model, structure, actuator, &s.delays_s, None, &s.search)?;
-    let budget = delay_budget(
-        model,
-        &designs,
-        v_open,
-        s.budget_rise_fraction,
-        s.budget_tau_tolerance_s,
-        None,
-        &s.search,
-    )?;
-    // one continuation per design, each a pure function of its design: in parallel (the
-    // combinations alone, six on two cores, leave the slow yaw_rate_hitch ones last)
-    let folds = designs
-        .par_iter()
-        .map(|d| design_fold(model, d, s))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut checked = Vec::new();
-    for &tau in &s.checked_delays_s {
-        let Some(d) = designs
-            .iter()
-            .min_by(|a, b| (a.tau_s - tau).abs().total_cmp(&(b.tau_s - tau).abs()))
-        else {
-            continue;
-        };
-        let c = Controller {
-            structure,
-            actuator,
-            gains: d.gains,
-        };
-        let robustness =
-            robust_critical_speed(nominal, &c, d.tau_s, &s.uncertainty, &s.robustness_speed)?;
-        let fold = designs
-            .iter()
-            .zip(&folds)
-            .find(|(e, _)| e.tau_s == d.tau_s)
-            .map(|(_, f)| f);
-        let (v_fold_mps, v_fold_reason) =
-            fold.map_or((None, None), |f| (f.v_fold_mps, f.v_fold_reason.clone()));
-        checked.push(CheckedDesign {
-            tau_s: d.tau_s,
-            robustness,
-            v_fold_mps,
-            v_fold_reason,
-        });
+/// The indices of the designs checked at `delays` (each snapped to the nearest grid delay),
+/// in the order of `delays` (repeats kept, as the table lists them).
+fn checked_designs(designs: &[Design], delays: &[f64]) -> Vec<usize> {
+    delays
+        .iter()
+        .filter_map(|&tau| {
+            designs
+                .iter()
+                .enumerate()
+                .min_by(|(_, a), (_, b)| (a.tau_s - tau).abs().total_cmp(&(b.tau_s - tau).abs()))
+                .map(|(i, _)| i)
+        })
+        .collect()
+}
+
+/// Which continuation a design's fold of cycles is: designs with the same key have the
+/// same loop. Without feedback (every gain 0) the loop is the open loop whatever the
+/// structure and actuator (u ≡ 0), at the design's delay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum FoldKey {
+    /// no feedback at delay τ (bits of τ)
+    OpenLoop { tau_bits: u64 },
+    /// a design of its own
+    Own {
+        structure: Structure,
+        actuator: Actuator,
+        gains: [u64; 3],
+        tau_bits: u64,
+    },
+}
+
+impl FoldKey {
+    fn of(d: &Design) -> Self {
+        let g = d.gains;
+        if d.structure != Structure::Predictor && g == Gains::default() {
+            return Self::OpenLoop {
+                tau_bits: d.tau_s.to_bits(),
+            };
+        }
+        Self::Own {
+            structure: d.structure,
+            actuator: d.actuator,
+            gains: [
+                g.yaw_rate.to_bits(),
+                g.hitch_angle.to_bits(),
+                g.hitch_rate.to_bits(),
+            ],
+            tau_bits: d.tau_s.to_bits(),
+        }
     }
-    Ok(Combination {
-        structure,
-        actuator,
-        designs,
-        budget,
-        checked,
-        folds,
-    })
+}
+
+/// The designs of every combination, in the order of `pairs`: one chain per actuator
+/// (`yaw_rate` at every delay, then `yaw_rate_hitch` from those optima), the predictor's
+/// designs beside them.
+fn all_designs(
+    model: &dyn LoopModel,
+    prediction: Option<&dyn LoopModel>,
+    pairs: &[(Structure, Actuator)],
+    s: &StudySettings,
+) -> Result<Vec<Vec<Design>>, SwayError> {
+    let mut actuators: Vec<Actuator> = Vec::new();
+    for &(st, a) in pairs {
+        if st != Structure::Predictor && !actuators.contains(&a) {
+            actuators.push(a);
+        }
+    }
+    enum Chain {
+        Output(Actuator),
+        Predictor(Actuator),
+    }
+    let mut chains: Vec<Chain> = actuators.iter().map(|&a| Chain::Output(a)).collect();
+    chains.extend(
+        pairs
+            .iter()
+            .filter(|(st, _)| *st == Structure::Predictor)
+            .map(|&(_, a)| Chain::Predictor(a)),
+    );
+    type ChainResult = Vec<((Structure, Actuator), Vec<Design>)>;
+    let computed: Vec<Result<ChainResult, SwayError>> = chains
+        .par_iter()
+        .with_max_len(1)
+        .map(|chain| match *chain {
+            Chain::Output(a) => {
+                let yaw = designs_over_delays(
+                    model,
+                    Structure::YawRate,
+                    a,
+                    &s.delays_s,
+                    None,
+                    &s.search,
+                )?;
+                let mut out = vec![((Structure::YawRate, a), yaw)];
+                if pairs.contains(&(Structure::YawRateHitch, a)) {
+                    let mut hitch: Vec<Design> = Vec::with_capacity(s.delays_s.len());
+                    for (i, &tau) in s.delays_s.iter().enumerate() {
+                        let warm = hitch.last().map(|d| d.gains);
+                        hitch.push(design_from_start(
+                            model,
+                            Structure::YawRateHitch,
+                            a,
+                            tau,
+                            None,
+                            warm.as_ref(),
+                            &out[0].1[i],
+                            &s.search,
+                        )?);
+                    }
+                    out.push(((Structure::YawRateHitch, a), hitch));
+                }
+                Ok(out)
+            }
+            Chain::Predictor(a) => {
+                let ds = match prediction {
+                    None => perfect_predictor_designs(model, a, &s.delays_s, &s.search)?,
+                    Some(p) => designs_over_delays(
+                        model,
+                        Structure::Predictor,
+                        a,
+                        &s.delays_s,
+                        Some(p),
+                        &s.search,
+                    )?,
+                };
+                Ok(vec![((Structure::Predictor, a), ds)])
+            }
+        })
+        .collect();
+    let mut by_pair: Vec<((Structure, Actuator), Vec<Design>)> = Vec::new();
+    for r in computed {
+        by_pair.extend(r?);
+    }
+    Ok(pairs
+        .iter()
+        .map(|p| {
+            let i = by_pair
+                .iter()
+                .position(|(q, _)| q == p)
+                .expect("every pair has a chain");
+            by_pair[i].1.clone()
+        })
+        .collect())
 }
 
 /// The law of the continuation problem of a controller: None for the predictor.
@@ -246,8 +518,25 @@ pub fn loop_law(c: &Controller) -> Option<LoopLaw> {
     }
 }
 
-/// The fold of one optimum and, at a double-Hopf corner, the best gains away from it.
-fn design_fold(model: &Model, d: &Design, s: &StudySettings) -> Result<DesignFold, SwayError> {
+/// The fold of one optimum and, at a double-Hopf corner, the best gains away from it; for
+/// a vehicle with model variants (no paper `model`) none, with the reason.
+fn design_fold(
+    model: Option<&Model>,
+    d: &Design,
+    s: &StudySettings,
+) -> Result<DesignFold, SwayError> {
+    let Some(model) = model else {
+        return Ok(DesignFold {
+            tau_s: d.tau_s,
+            v_fold_mps: None,
+            v_fold_reason: Some(
+                "the fold of cycles is computed for the paper's model only: this vehicle has \
+                 model variants, whose nonlinear chart is not wired into control_design yet"
+                    .into(),
+            ),
+            away_from_corner: None,
+        });
+    };
     let c = Controller {
         structure: d.structure,
         actuator: d.actuator,
@@ -277,35 +566,57 @@ fn away_from_corner(
     };
     let d0 = d.gains.yaw_rate;
     let n = s.away_from_corner_samples;
-    let mut best: Option<AwayFromCorner> = None;
-    let mut tried = 0;
-    for k in 1..=n {
-        let f = k as f64 / n as f64;
-        for gain in [d0 - f * (d0 - band.lo), d0 + f * (band.hi - d0)] {
-            if gain == d0 {
-                continue;
-            }
+    // the gains in the order they are judged (nearest the corner first, below then above);
+    // their folds side by side, the best picked in that order (the first on ties)
+    let gains: Vec<Gains> = (1..=n)
+        .flat_map(|k| {
+            let f = k as f64 / n as f64;
+            [d0 - f * (d0 - band.lo), d0 + f * (band.hi - d0)]
+        })
+        .filter(|&g| g != d0)
+        .map(|g| d.gains.with(GainName::YawRate, g))
+        .collect();
+    let folds: Vec<Result<Option<f64>, SwayError>> = gains
+        .par_iter()
+        .with_max_len(1)
+        .map(|&gains| {
             let c = Controller {
                 structure: d.structure,
                 actuator: d.actuator,
-                gains: d.gains.with(GainName::YawRate, gain),
+                gains,
             };
-            let (Some(v), _) = fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)? else {
-                continue;
-            };
-            tried += 1;
-            if best.as_ref().is_none_or(|b| v > b.v_fold_mps) {
-                let v_crit = super::critical_speed(model, &c, d.tau_s, None, &s.search.speed)?
-                    .unwrap_or(s.search.speed.v_max_mps);
-                best = Some(AwayFromCorner {
-                    gains: c.gains,
-                    v_fold_mps: v,
-                    v_crit_mps: v_crit,
-                    tried: 0,
-                });
-            }
+            fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed).map(|(v, _)| v)
+        })
+        .collect();
+    let mut best: Option<(Gains, f64)> = None;
+    let mut tried = 0;
+    for (&gains, v) in gains.iter().zip(folds) {
+        let Some(v) = v? else {
+            continue;
+        };
+        tried += 1;
+        if best.is_none_or(|(_, b)| v > b) {
+            best = Some((gains, v));
         }
     }
+    let best = match best {
+        Some((gains, v_fold_mps)) => {
+            let c = Controller {
+                structure: d.structure,
+                actuator: d.actuator,
+                gains,
+            };
+            let v_crit = super::critical_speed(model, &c, d.tau_s, None, &s.search.speed)?
+                .unwrap_or(s.search.speed.v_max_mps);
+            Some(AwayFromCorner {
+                gains,
+                v_fold_mps,
+                v_crit_mps: v_crit,
+                tried: 0,
+            })
+        }
+        None => None,
+    };
     Ok(best.map(|b| AwayFromCorner { tried, ..b }))
 }
 

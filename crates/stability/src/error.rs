@@ -91,6 +91,23 @@ pub enum StabilityError {
         /// number of points
         count: usize,
     },
+    /// The crossings of a rank-one loop are not bounded in frequency for gains up to the
+    /// limit: the feedback's transfer function does not roll off faster than the plant's
+    /// (deg q ≥ deg p, a loop of neutral type, or a gain limit above the high-frequency
+    /// ratio), so crossing curves reach arbitrarily high frequencies.
+    #[error(
+        "no frequency bound for the crossings with |D| ≤ {d_lim} (plant degree {degree_p}, \
+         feedback degree {degree_q}): the loop keeps gain at high frequency (neutral type); \
+         lower the gain limit or use a feedback that rolls off"
+    )]
+    UnboundedCrossings {
+        /// the gain limit of the search
+        d_lim: f64,
+        /// degree of the plant polynomial p
+        degree_p: usize,
+        /// degree of the feedback polynomial q
+        degree_q: usize,
+    },
     /// The user's system closure failed at parameter `v`.
     #[error("system at parameter V = {v}: {message}")]
     System {

@@ -414,20 +414,28 @@ impl RankOneFeedback {
     }
 
     /// Upper bound of the frequencies at which a crossing with |D| ≤ `d_lim` can occur.
-    fn omega_bound(&self, d_lim: f64) -> f64 {
+    ///
+    /// # Errors
+    /// [`StabilityError::UnboundedCrossings`] when no ω up to 2^60 times the roots' radius
+    /// bounds them (|p| does not outgrow d_lim·|q|: the loop keeps gain at high frequency).
+    fn omega_bound(&self, d_lim: f64) -> Result<f64> {
         let rz = self.p_roots.iter().map(|z| z.norm()).fold(0.0, f64::max);
         let rw = self.q_roots.iter().map(|z| z.norm()).fold(0.0, f64::max);
         let lead = self.q.last().map_or(0.0, |x| x.abs());
         let mut w = 2.0 * rz.max(rw).max(1.0);
-        for _ in 0..200 {
+        for _ in 0..60 {
             let lower_p: f64 = self.p_roots.iter().map(|z| w - z.norm()).product();
             let upper_q: f64 = lead * self.q_roots.iter().map(|z| w + z.norm()).product::<f64>();
             if lower_p > d_lim * upper_q {
-                return w;
+                return Ok(w);
             }
             w *= 2.0;
         }
-        w
+        Err(StabilityError::UnboundedCrossings {
+            d_lim,
+            degree_p: self.p_roots.len(),
+            degree_q: self.q_roots.len(),
+        })
     }
 
     /// All crossings with |D| ≤ `d_lim` (static one included), sorted by D.
@@ -445,14 +453,24 @@ impl RankOneFeedback {
         if let Some(s) = self.static_crossing(tau).filter(|s| s.d.abs() <= d_lim) {
             out.push(s);
         }
-        let w_max = self.omega_bound(d_lim);
+        let w_max = self.omega_bound(d_lim)?;
         // sample grid: uniform plus refinement around every root's imaginary part
         let base = if tau > 0.0 {
             (std::f64::consts::PI / (4.0 * tau)).min(w_max / 256.0)
         } else {
             w_max / 256.0
         };
-        let nb = (w_max / base).ceil() as usize;
+        // a quarter period of e^{-iωτ} per sample: beyond a million samples the bound is
+        // no bound (a loop that keeps its gain far beyond the roots' frequencies)
+        let nb = (w_max / base).ceil();
+        if nb > 1e6 {
+            return Err(StabilityError::UnboundedCrossings {
+                d_lim,
+                degree_p: self.p_roots.len(),
+                degree_q: self.q_roots.len(),
+            });
+        }
+        let nb = nb as usize;
         let mut samples: Vec<f64> = (0..=nb).map(|i| (i as f64 * base).min(w_max)).collect();
         const OFFS: [f64; 13] = [
             -8.0, -4.0, -2.0, -1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0,

@@ -364,3 +364,21 @@ fn quasi_polynomial_from_coefficients_equals_the_state_space_loop() {
     assert!(RankOneFeedback::from_polynomials(&[1.0, 1.0], &[0.0, 1.0]).is_err());
     assert!(RankOneFeedback::from_polynomials(&[1.0, 2.0], &[0.5]).is_err()); // not monic
 }
+
+#[test]
+fn crossings_without_a_usable_frequency_bound_are_an_error_not_an_allocation() {
+    // p(s) = s + 1e7: the crossing search's frequency bound is ~2e7 rad/s, which at τ = 1 s
+    // (a sample every quarter period of e^{-iωτ}) would take ~2.5e7 samples; such a bound is
+    // no bound (seen on a predictor with a mismatched model, where it asked for 1.7e15
+    // bytes): a typed error naming the degrees
+    let sys = RankOneFeedback::from_polynomials(&[1e7, 1.0], &[1.0]).expect("p, q");
+    match sys.crossings(1.0, 1.0) {
+        Err(stability::StabilityError::UnboundedCrossings {
+            degree_p, degree_q, ..
+        }) => assert_eq!((degree_p, degree_q), (1, 0)),
+        other => panic!("expected UnboundedCrossings, got {other:?}"),
+    }
+    // the same loop with a delay that needs few samples still has its crossing:
+    // |p(iω)| = |q| · D at D = 1 has none (|iω + 1e7| > 1), so the search is empty
+    assert!(sys.crossings(1e-7, 1.0).expect("bounded").is_empty());
+}

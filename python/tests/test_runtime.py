@@ -31,6 +31,9 @@ def test_ctrl_c_raises_keyboard_interrupt_promptly(tmp_path):
             f"""
             import os, signal, threading, time
             import trailer_sway as ts
+            # a process started in the background by a non-interactive shell inherits
+            # SIGINT ignored, and Python then keeps it ignored: install Python's handler
+            signal.signal(signal.SIGINT, signal.default_int_handler)
             threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
             t0 = time.monotonic()
             try:

@@ -596,8 +596,8 @@ fn control_design_runs_on_a_relaxed_vehicle() {
     // A − B·D·C, an eigensolver; to 1e-5 m/s, ten bisection tolerances); the folds and the
     // simulation check are left out with their reasons (paper's model only). The predictor
     // is left out: its robustness samples on a relaxed plant (a prediction model that
-    // differs from the sampled vehicle, the cleared quasi-polynomial of degree 14) abort
-    // with an allocation failure in the root count, a bug reported to the lead
+    // differs from the sampled vehicle) fail with `UnboundedCrossings` in the root count
+    // (they asked for 1.7e15 bytes before), so its robust V_crit has no number yet
     let tmp = tempfile::tempdir().expect("tempdir");
     let results = tmp.path().join("results");
     let ctx = relaxed_context(&results);

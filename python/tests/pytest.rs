@@ -77,19 +77,24 @@ fn venv(target: &Path) -> PathBuf {
         );
     }
     run(
-        Command::new(&py)
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-            ])
-            .args(&tools),
+        pip_install(&py).args(&tools),
         "installing the test tools from PyPI into the test venv",
     );
     std::fs::write(&ready, "").expect("marking the venv ready");
     py
+}
+
+/// `python -m pip install`, quiet, with the venv's interpreter `py`.
+fn pip_install(py: &Path) -> Command {
+    let mut cmd = Command::new(py);
+    cmd.args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--disable-pip-version-check",
+    ]);
+    cmd
 }
 
 /// PATH with `dir` first.
@@ -156,17 +161,8 @@ fn python_package_installs_and_its_pytest_suite_passes() {
     let mut pytest = Command::new(&py);
     if pip_install_requested() {
         run(
-            Command::new(&py)
-                .args([
-                    "-m",
-                    "pip",
-                    "install",
-                    "--quiet",
-                    "--disable-pip-version-check",
-                    "--no-build-isolation",
-                    "--force-reinstall",
-                    "--no-deps",
-                ])
+            pip_install(&py)
+                .args(["--no-build-isolation", "--force-reinstall", "--no-deps"])
                 .arg(manifest)
                 .env("MATURIN_PEP517_ARGS", "--profile dev")
                 // the build backend runs the venv's `maturin` executable from PATH

@@ -251,20 +251,7 @@ pub fn design<M: LoopModel + ?Sized>(
     warm: Option<&Gains>,
     o: &DesignSearch,
 ) -> Result<Design, SwayError> {
-    let scale = actuator.scale(model.paper_model());
-    let found = match structure {
-        Structure::YawRate | Structure::Predictor => {
-            one_gain(model, structure, actuator, tau, prediction, scale, o)?
-        }
-        Structure::YawRateHitch => {
-            let start = one_gain(model, Structure::YawRate, actuator, tau, None, scale, o)?;
-            let (g, v, b, n) = several_gains(
-                model, structure, actuator, tau, prediction, &start.0, warm, o,
-            )?;
-            (g, v, b, n + start.3)
-        }
-    };
-    finish(model, structure, actuator, tau, prediction, found, o)
+    designed(model, structure, actuator, tau, prediction, warm, None, o)
 }
 
 /// [`design`] of a several-gain structure (`yaw_rate_hitch`) started from `start`, the
@@ -287,23 +274,57 @@ pub(super) fn design_from_start<M: LoopModel + ?Sized>(
     debug_assert!(
         start.structure == Structure::YawRate && start.actuator == actuator && start.tau_s == tau
     );
+    let start = (&start.gains, start.evaluations);
+    designed(
+        model,
+        structure,
+        actuator,
+        tau,
+        prediction,
+        warm,
+        Some(start),
+        o,
+    )
+}
+
+/// [`design`], the `yaw_rate_hitch` search started from `start` (the `yaw_rate` optimum's
+/// gains and its evaluations) when given, else from that optimum computed here.
+#[allow(clippy::too_many_arguments)]
+fn designed<M: LoopModel + ?Sized>(
+    model: &M,
+    structure: Structure,
+    actuator: Actuator,
+    tau: f64,
+    prediction: Option<&dyn LoopModel>,
+    warm: Option<&Gains>,
+    start: Option<(&Gains, usize)>,
+    o: &DesignSearch,
+) -> Result<Design, SwayError> {
+    let scale = actuator.scale(model.paper_model());
     let found = match structure {
         Structure::YawRate | Structure::Predictor => {
-            let scale = actuator.scale(model.paper_model());
             one_gain(model, structure, actuator, tau, prediction, scale, o)?
         }
         Structure::YawRateHitch => {
+            let computed;
+            let (start_gains, start_evaluations) = match start {
+                Some(s) => s,
+                None => {
+                    computed = one_gain(model, Structure::YawRate, actuator, tau, None, scale, o)?;
+                    (&computed.0, computed.3)
+                }
+            };
             let (g, v, b, n) = several_gains(
                 model,
                 structure,
                 actuator,
                 tau,
                 prediction,
-                &start.gains,
+                start_gains,
                 warm,
                 o,
             )?;
-            (g, v, b, n + start.evaluations)
+            (g, v, b, n + start_evaluations)
         }
     };
     finish(model, structure, actuator, tau, prediction, found, o)

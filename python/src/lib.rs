@@ -163,12 +163,17 @@ pub(crate) fn load_config<T: DeserializeOwned>(
             obj.get_type().name()?
         )));
     }
-    let value = toml_value(obj, "")?;
-    let text = toml::to_string(&value)
-        .map_err(|e| PyValueError::new_err(format!("{what}: not representable as TOML: {e}")))?;
     let file = PathBuf::from(what);
-    let cfg = sway_tasks::config_file::parse_toml(&text, &file).map_err(py_err)?;
+    let cfg = sway_tasks::config_file::parse_table(document(obj, what)?, &file).map_err(py_err)?;
     Ok((cfg, file))
+}
+
+/// The TOML document of a config dict (its keys strings, its values TOML's types).
+fn document(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<toml::Table> {
+    match toml_value(obj, "")? {
+        toml::Value::Table(t) => Ok(t),
+        _ => Err(PyTypeError::new_err(format!("{what}: expected a dict"))),
+    }
 }
 
 /// [`load_config`] of a dict whose absent keys take their values from `base` (a section
@@ -196,13 +201,9 @@ pub(crate) fn load_config_over<T: Serialize + DeserializeOwned>(
         PyRuntimeError::new_err(format!("internal: the defaults of {what}: {e}"))
     };
     let mut table = toml::Table::try_from(base).map_err(|e| internal(&e))?;
-    if let toml::Value::Table(given) = toml_value(obj, "")? {
-        merge(&mut table, given);
-    }
-    let text = toml::to_string(&table)
-        .map_err(|e| PyValueError::new_err(format!("{what}: not representable as TOML: {e}")))?;
+    merge(&mut table, document(obj, what)?);
     let file = PathBuf::from(what);
-    let cfg = sway_tasks::config_file::parse_toml(&text, &file).map_err(py_err)?;
+    let cfg = sway_tasks::config_file::parse_table(table, &file).map_err(py_err)?;
     Ok((cfg, file))
 }
 

@@ -95,31 +95,62 @@ pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, Tas
     };
     let syntax =
         |e: toml::de::Error| TaskError::config(file, "<syntax>", located(e.message(), e.span()));
-    let document: toml::Table = toml::from_str(text).map_err(syntax)?;
-    check_sizes(&toml::Value::Table(document), "", file)?;
+    let document = toml::Value::Table(toml::from_str(text).map_err(syntax)?);
+    check_sizes(&document, "", file)?;
     let de = toml::de::Deserializer::parse(text).map_err(syntax)?;
     serde_path_to_error::deserialize(de).map_err(|e| {
-        let key = e.path().to_string();
-        let inner = e.into_inner();
-        if let Some((inside, problem)) = run_settings_error(text)
-            && (key == "." || inside.starts_with(&format!("{key}.")))
-        {
-            return TaskError::config(file, inside, problem);
-        }
-        let key = if key == "." {
-            "<root>".to_string()
-        } else {
-            key
-        };
-        TaskError::config(file, key, located(inner.message(), inner.span()))
+        config_error(e, &document, file, |inner| {
+            located(inner.message(), inner.span())
+        })
     })
+}
+
+/// Deserialises a TOML document already in memory (a table built by a program, e.g. the
+/// Python package's dicts) with the checks and messages of [`parse_toml`], without its
+/// text: the messages name the key path but no line.
+///
+/// # Errors
+/// [`TaskError::Config`] naming the key path and the problem.
+pub fn parse_table<T: DeserializeOwned>(
+    document: toml::Table,
+    file: &Path,
+) -> Result<T, TaskError> {
+    let value = toml::Value::Table(document);
+    check_sizes(&value, "", file)?;
+    serde_path_to_error::deserialize(value.clone())
+        .map_err(|e| config_error(e, &value, file, |inner| inner.message().trim().to_string()))
+}
+
+/// The [`TaskError::Config`] of a deserialisation error at key path `e.path()` of
+/// `document`; a bad value inside flattened run settings is found again by
+/// [`run_settings_error`]. `message` renders the inner error (with a line where the text
+/// is known).
+fn config_error(
+    e: serde_path_to_error::Error<toml::de::Error>,
+    document: &toml::Value,
+    file: &Path,
+    message: impl Fn(&toml::de::Error) -> String,
+) -> TaskError {
+    let key = e.path().to_string();
+    let inner = e.into_inner();
+    if let Some((inside, problem)) = run_settings_error(document)
+        && (key == "." || inside.starts_with(&format!("{key}.")))
+    {
+        return TaskError::config(file, inside, problem);
+    }
+    let key = if key == "." {
+        "<root>".to_string()
+    } else {
+        key
+    };
+    TaskError::config(file, key, message(&inner))
 }
 
 /// The key path and problem of a bad value inside the run settings (`guard`, `[solver]`,
 /// `[metrics]`) of any table of the document. Configs flatten [`RunSettings`] into their
 /// tables, and serde reads flattened fields from a buffer that has lost the key path; this
 /// reads each table that has such keys as `RunSettings` alone to find it again.
-fn run_settings_error(text: &str) -> Option<(String, String)> {
+fn run_settings_error(document: &toml::Value) -> Option<(String, String)> {
     fn walk(table: &toml::Table, prefix: &str) -> Option<(String, String)> {
         if ["guard", "solver", "metrics"]
             .iter()
@@ -142,7 +173,7 @@ fn run_settings_error(text: &str) -> Option<(String, String)> {
             _ => None,
         })
     }
-    walk(&toml::from_str(text).ok()?, "")
+    walk(document.as_table()?, "")
 }
 
 /// A vehicle file read in its general form ([`VehicleSpec`]: axle lists, tyre laws,

@@ -3,7 +3,15 @@
 //!   (target ≤ 1.1 ms on the machine where it took 1.58 ms with Dormand–Prince 5(4));
 //! - S3: closed loop, V = 35 m/s, D = 0.1 s, τ = 0.2 s, 40 s, same tolerances (≤ 5 ms);
 //! - S1 on Table I with tyre relaxation σ = 0.3 m on the three axles (issue 21: 10 states
-//!   instead of 7; target ≤ 1.6× S1). Measured MEASURED_LINE
+//!   instead of 7; target ≤ 1.6× S1). Measured 2026-12-04 in a quiet spell (2 cores,
+//!   criterion's estimates of five runs alternating with the build of 5071c0c): S1 0.86 ms
+//!   (812 steps, 68 rejected, 11 915 right-hand sides), relaxed 3.26 ms (2661 steps, 128
+//!   rejected, 34 583): 3.8×, 2.9× the right-hand sides at 1.3× the cost each (under load
+//!   ≈ 10 the pair took 2.21 / 8.43 ms). S3 1.42 ms (1847 steps, 11 089 right-hand sides).
+//!   The paper's model against 5071c0c (before `trailer_model::Plant`), same runs: S1 0.86
+//!   against 0.88 ms, S3 1.42 against 1.44 ms; callgrind (deterministic): S1 +2.0 %, S3
+//!   +2.7 % instructions, the switching functions' extra layer (+6.5 % and +5.8 % before
+//!   the critical slip tangents were cached).
 //!   Not met, and not within reach of an explicit pair. The step history (DOP853, rtol 1e-8)
 //!   shows the steps set by the lag modes λ ≈ −V/σ ≈ −110 1/s everywhere, not by the 148 tyre
 //!   kinks: between two landings h·|λ| stays at 2–3.5 (median step 22 ms against 80 ms for

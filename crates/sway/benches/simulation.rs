@@ -3,14 +3,34 @@
 //!   (target ≤ 1.1 ms on the machine where it took 1.58 ms with Dormand–Prince 5(4));
 //! - S3: closed loop, V = 35 m/s, D = 0.1 s, τ = 0.2 s, 40 s, same tolerances (≤ 5 ms);
 //! - S1 on Table I with tyre relaxation σ = 0.3 m on the three axles (issue 21: 10 states
-//!   instead of 7; target ≤ 1.6× S1). Measured 2026-12-03 (2 cores, load ≈ 10): S1 2.21 ms
-//!   (812 steps, 11 915 right-hand sides), relaxed 8.43 ms (2661 steps, 34 583): 3.3× the
-//!   steps at 1.3× the cost per right-hand side. The steps are accuracy-limited, not the
-//!   relaxation's stiffness (Dopri5 needs 2.65× the paper's steps with 2 rejections): each
-//!   tyre kink (148 landings) excites the lag modes λ ≈ −V/σ ≈ −109 1/s, whose transient
-//!   takes ≈ 18 steps to resolve at rtol 1e-8 where the paper's model needs ≈ 4 per kink. Not
-//!   the larger cycle (27.5° against 8.2°: V = 33 m/s is above the relaxed V_crit): the
-//!   paper's model on its 27.9° cycle at 35 m/s takes 772 steps;
+//!   instead of 7; target ≤ 1.6× S1). Measured 2026-12-04 in a quiet spell (2 cores,
+//!   criterion's estimates of five runs alternating with the build of 5071c0c): S1 0.86 ms
+//!   (812 steps, 68 rejected, 11 915 right-hand sides), relaxed 3.26 ms (2661 steps, 128
+//!   rejected, 34 583): 3.8×, 2.9× the right-hand sides at 1.3× the cost each (under load
+//!   ≈ 10 the pair took 2.21 / 8.43 ms). S3 1.42 ms (1847 steps, 11 089 right-hand sides).
+//!   The paper's model against 5071c0c (before `trailer_model::Plant`), same runs: S1 0.86
+//!   against 0.88 ms, S3 1.42 against 1.44 ms; callgrind (deterministic): S1 +2.0 %, S3
+//!   +2.7 % instructions, the switching functions' extra layer (+6.5 % and +5.8 % before
+//!   the critical slip tangents were cached).
+//!   Not met, and not within reach of an explicit pair. The step history (DOP853, rtol 1e-8)
+//!   shows the steps set by the lag modes λ ≈ −V/σ ≈ −110 1/s everywhere, not by the 148 tyre
+//!   kinks: between two landings h·|λ| stays at 2–3.5 (median step 22 ms against 80 ms for
+//!   the paper's model; 60 s at 22 ms alone are 2730 steps) and a landing costs about one
+//!   short step. At h·|λ| ≈ 2–4 an explicit pair's local error on a stiffly forced component
+//!   (σ·α̇′ + V·α′ = V·α) is not O(h⁹) of the smooth solution but grows with (h·λ)ᵏ (the
+//!   scalar y′ = λ(y − sin ωt) + ω cos ωt, ω = 2.5 1/s, λ = −110 1/s, h = 20 ms: DOP853's
+//!   local error 1.4e-8, with λ = 0 1e-16), so the steps are accuracy-limited: they grow as
+//!   rtol^(−1/7) (2661 → 6993 from rtol 1e-8 to 1e-11); only at rtol ≳ 1e-6 does the stability
+//!   bound (h·|λ| ≤ 6.4 on DOP853's real axis) take over, with hundreds of rejections. Damped,
+//!   those local errors hardly accumulate: at rtol 1e-8 the relaxed run with exact kink
+//!   landing is 1.3e-9 from a converged run (with the default `once` landing 1.2e-6, see
+//!   `relaxed_s1_at_bench_settings_matches_a_converged_run`), the paper's S1 1.6e-7; the
+//!   relaxed run (exact landing) reaches that accuracy at rtol 1e-6 with 24 464 right-hand
+//!   sides (2.05× S1's), still ≈ 2.7× its time. At the stability bound alone an explicit
+//!   DOP853 needs 60 s · 110/6.4 ≈ 1030 steps ≈ 12 400 right-hand sides (1.04× S1's) at 1.3×
+//!   the cost each: ≥ 1.35× S1 with no rejection and no kink, so the target needs an implicit
+//!   or exponential treatment of the lag modes (e.g. a linearly implicit or IMEX pair whose
+//!   stiff part is a diagonal −V/σ the problem declares), not a better restart after kinks;
 //! - the threshold sweep of `configs/sweep_threshold.toml` (64 × 16 points, 60 s each) on
 //!   1 and 2 threads (≤ 3 s on 2 cores, ≥ 1.8× faster on 2 threads).
 

@@ -698,3 +698,46 @@ fn relaxation_length_to_zero_converges_to_the_paper_trajectory() {
     assert!((ratio - 2.0).abs() < 0.2, "d(2 cm) / d(1 cm) = {ratio}");
     assert!(d1 < 0.02 * size, "d(1 cm) = {d1}, size {size}");
 }
+
+#[test]
+fn relaxed_s1_at_bench_settings_matches_a_converged_run() {
+    // issue 21's performance case (the `S1_relaxation_0.3m…` bench: Table I with σ = 0.3 m on
+    // the three axles, 33 m/s, θ(0) = 0.1 rad, 60 s, rtol 1e-8 / atol 1e-10, the default
+    // solver) against the same run converged: DOP853 at rtol 1e-12 with exact kink landing
+    // (at rtol 1e-10 it is already 6e-13 from the run at 1e-13). Measured 1.2e-6 (relative,
+    // largest over the seven states); the bound 5e-6 keeps any cheaper treatment of the stiff
+    // lag modes (λ ≈ −V/σ ≈ −110 1/s) honest. The run grows from 0.1 rad onto a 27° cycle
+    // (33 m/s is above the relaxed V_crit ≈ 32.6 m/s), which amplifies every early error; the
+    // paper's model at the same settings is 1.6e-7 from its converged run.
+    let any = trailer_model::AnyVehicleModel::new(
+        &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
+    )
+    .unwrap();
+    let s1 = spec(
+        SpeedProfile::Constant { speed_mps: 33.0 },
+        Controller::None,
+        60.0,
+        1e-8,
+    );
+    let mut converged = spec(
+        SpeedProfile::Constant { speed_mps: 33.0 },
+        Controller::None,
+        60.0,
+        1e-12,
+    );
+    converged.settings.solver.method = sway::sim::IntegrationMethod::Dop853;
+    converged.settings.solver.kink_landing = sway::sim::KinkLandingMode::Exact;
+    let x0 = State7::from_column_slice(&[0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0]);
+    let r = sway::sim::simulate_any::<7>(&any, &s1, x0, Recording::None).unwrap();
+    let c = sway::sim::simulate_any::<7>(&any, &converged, x0, Recording::None).unwrap();
+    let err = (0..7)
+        .map(|i| (r.x_end[i] - c.x_end[i]).abs() / c.x_end[i].abs().max(1.0))
+        .fold(0.0, f64::max);
+    assert!(err < 5e-6, "relative error {err:e} after 60 s");
+    // on the 27° cycle (the paper's model sways at 8°)
+    assert!(
+        r.metrics.final_amplitude_deg.unwrap() > 25.0,
+        "{:?}",
+        r.metrics
+    );
+}

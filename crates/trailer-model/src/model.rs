@@ -83,6 +83,9 @@ pub struct Model {
     pub(crate) k: Derived,
     /// [`Model::critical_slip_tangents`], cached for the validity guard
     pub(crate) critical_tangents: (f64, f64),
+    /// tan α_cr of the trailer axle (∞ without a sliding limit), cached for the switching
+    /// functions of the simulation ([`Model::critical_slip_angle_tangents`])
+    critical_tangent_trailer: f64,
 }
 
 /// Products of the constants of eq. (6)–(7) that do not depend on the state, computed
@@ -198,8 +201,13 @@ impl Model {
             p,
             k,
             critical_tangents: (f64::INFINITY, f64::INFINITY),
+            critical_tangent_trailer: f64::INFINITY,
         };
         model.critical_tangents = model.critical_slip_tangents();
+        let trailer = model.critical_slip_angles().trailer;
+        if trailer < std::f64::consts::FRAC_PI_2 {
+            model.critical_tangent_trailer = trailer.tan();
+        }
         Ok(model)
     }
 
@@ -328,6 +336,17 @@ impl Model {
             }
         };
         (tan(a.front), tan(a.rear))
+    }
+
+    /// tan α_cr of the front, rear and trailer axles (∞ for a tyre that never fully slides),
+    /// computed once at construction: [`Model::critical_slip_tangents`] with the trailer's.
+    /// The simulation's switching functions read them at every step.
+    pub fn critical_slip_angle_tangents(&self) -> SlipAngles<f64> {
+        SlipAngles {
+            front: self.critical_tangents.0,
+            rear: self.critical_tangents.1,
+            trailer: self.critical_tangent_trailer,
+        }
     }
 
     /// The yaw rate and the slip ratios of the tractor's axles do not depend on θ: the

@@ -84,17 +84,9 @@ impl SimPlant<4> for Model {
                 t
             }
         };
-        let (cr_f, cr_r) = self.critical_slip_tangents();
-        let cr_t = {
-            let a = self.critical_slip_angles().trailer;
-            if a < std::f64::consts::FRAC_PI_2 {
-                a.tan()
-            } else {
-                f64::INFINITY
-            }
-        };
+        let cr = self.critical_slip_angle_tangents();
         let tans = [tan.front, tan.rear, tan.trailer];
-        let crs = [cr_f, cr_r, cr_t];
+        let crs = [cr.front, cr.rear, cr.trailer];
         for k in 0..3 {
             g[k] = signed(tans[k]);
             g[3 + k] = if crs[k].is_finite() {

@@ -268,7 +268,7 @@ impl DiagramOutcome {
 
 /// How straight running first loses stability on the searched range.
 #[derive(Debug, Clone, PartialEq)]
-enum FirstLoss {
+pub(super) enum FirstLoss {
     /// a complex pair crosses: the Hopf point where the sway cycles start
     Hopf(HopfPoint),
     /// a real eigenvalue crosses zero (static divergence) at this speed \[m/s\]
@@ -281,7 +281,7 @@ enum FirstLoss {
 /// stability (or to `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch
 /// and that first loss: a Hopf point, or a real eigenvalue through zero (a vehicle can
 /// diverge statically before it sways).
-fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
+pub(super) fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (v_lo, v_hi): (f64, f64),
@@ -390,8 +390,9 @@ fn locate_hopf<S: continuation::CharacteristicRoots, P: continuation::Problem>(
     let dv = b[ip] - a[ip];
     let transversality = if dv != 0.0 { (gb - ga) / dv } else { 1.0 };
     if ga * gb > 0.0 {
-        // no sign change of the rightmost complex root: keep the detected point
-        return Ok((b.to_vec(), transversality));
+        // no sign change of the rightmost complex root: keep the detected point (with the
+        // engine's default transversality, as before)
+        return Ok((b.to_vec(), 1.0));
     }
     let (mut s0, mut g0, mut s1, mut g1) = (0.0_f64, ga, 1.0_f64, gb);
     let mut side = 0i8;

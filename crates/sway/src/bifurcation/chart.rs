@@ -804,7 +804,40 @@ pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
     let problem = ClosedLoop::with_law(model, diagram.feedback, diagram.law);
     let d = diagram.feedback.gain_d_s;
     let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
-    let fold = match corrected_fold(&problem, diagram, o)? {
+    let fold = fold_on(&problem, diagram, o)?;
+    Ok(CriticalSpeeds {
+        located_hopf: diagram.hopf.clone(),
+        hopf_v_mps: hopf_v(&hu),
+        hopf_omega_rad_s: hopf_omega(&hu),
+        criticality: diagram.criticality,
+        fold,
+    })
+}
+
+/// The fold of cycles of a one-parameter diagram as [`critical_speeds`] reads it off the
+/// fold-of-cycles system at the diagram's fixed D (on its adapted mesh), without the Hopf
+/// point's correction: for callers that need the fold only (`control_design`'s V_fold).
+/// None if the cycle branch has no fold.
+///
+/// # Errors
+/// [`SwayError::Numerical`] naming the failing stage.
+pub fn fold_of_cycles<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    diagram: &Diagram,
+    o: &ChartOptions,
+) -> Result<Option<FoldCurvePoint>, SwayError> {
+    let problem = ClosedLoop::with_law(model, diagram.feedback, diagram.law);
+    fold_on(&problem, diagram, o)
+}
+
+/// The corrected fold of `diagram`'s cycle branch on `problem` (its loop), on the fold's
+/// adapted mesh.
+fn fold_on<'a, P: LoopPlant<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
+    diagram: &Diagram,
+    o: &ChartOptions,
+) -> Result<Option<FoldCurvePoint>, SwayError> {
+    Ok(match corrected_fold(problem, diagram, o)? {
         Some(f) => {
             let ctx = || "fold of cycles".to_string();
             let point = match on_fold_mesh(&f.sys, &f.u, o) {
@@ -814,13 +847,6 @@ pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
             Some(point.map_err(num(ctx()))?)
         }
         None => None,
-    };
-    Ok(CriticalSpeeds {
-        located_hopf: diagram.hopf.clone(),
-        hopf_v_mps: hopf_v(&hu),
-        hopf_omega_rad_s: hopf_omega(&hu),
-        criticality: diagram.criticality,
-        fold,
     })
 }
 

@@ -38,7 +38,7 @@ pub use closed_loop_diagrams::{
 };
 pub use ranged::{
     BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, MARGIN_BELOW, NoHopf,
-    cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
+    cycle_diagram_with_law, cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
 };
 
 /// Options of the bifurcation diagram of one feedback setting.

@@ -16,7 +16,7 @@
 
 use continuation::{
     Branch, Continuation, ContinuationOptions, Criticality, Decision, EquilibriumSystem, HopfPoint,
-    PeriodicOrbitSystem, SpecialKind, Stop, criticality,
+    Location, PeriodicOrbitSystem, SpecialKind, Stop, criticality,
 };
 use serde::{Deserialize, Serialize};
 
@@ -268,7 +268,7 @@ impl DiagramOutcome {
 
 /// How straight running first loses stability on the searched range.
 #[derive(Debug, Clone, PartialEq)]
-enum FirstLoss {
+pub(super) enum FirstLoss {
     /// a complex pair crosses: the Hopf point where the sway cycles start
     Hopf(HopfPoint),
     /// a real eigenvalue crosses zero (static divergence) at this speed \[m/s\]
@@ -281,7 +281,7 @@ enum FirstLoss {
 /// stability (or to `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch
 /// and that first loss: a Hopf point, or a real eigenvalue through zero (a vehicle can
 /// diverge statically before it sways).
-fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
+pub(super) fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (v_lo, v_hi): (f64, f64),
@@ -325,6 +325,25 @@ fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
         .special_points()
         .find(|(_, sp)| loses_stability(sp.kind))
     {
+        Some((ih, sp)) if sp.kind == SpecialKind::Hopf && sp.location == Location::Located => {
+            FirstLoss::Hopf(
+                eq.hopf_point(&branch.points[ih].u, sp.transversality.unwrap_or(1.0))
+                    .map_err(num(format!("{ctx}: Hopf point")))?,
+            )
+        }
+        // only detected (the engine's test function, the complex pair nearest the axis,
+        // followed another pair: a second pair close to the axis, as near a double-Hopf
+        // corner): the grid point lies up to one step (0.5 m/s) past the crossing, where
+        // a subcritical branch has no small cycle. Locate it on the spectrum.
+        Some((ih, sp)) if sp.kind == SpecialKind::Hopf && ih > 0 => {
+            let (a, b) = (&branch.points[ih - 1].u, &branch.points[ih].u);
+            let (u, transversality) =
+                locate_hopf(&mut eq, a, b).map_err(num(format!("{ctx}: Hopf point")))?;
+            FirstLoss::Hopf(
+                eq.hopf_point(&u, transversality)
+                    .map_err(num(format!("{ctx}: Hopf point")))?,
+            )
+        }
         Some((ih, sp)) if sp.kind == SpecialKind::Hopf => FirstLoss::Hopf(
             eq.hopf_point(&branch.points[ih].u, sp.transversality.unwrap_or(1.0))
                 .map_err(num(format!("{ctx}: Hopf point")))?,
@@ -333,6 +352,73 @@ fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
         None => FirstLoss::None,
     };
     Ok((branch, loss))
+}
+
+/// Relative tolerance on the speed of a Hopf point located by [`locate_hopf`].
+const HOPF_LOCATION_TOLERANCE: f64 = 1e-12;
+
+/// The rightmost real part of the complex characteristic roots (Im λ > 0) at `u` \[1/s\]:
+/// the Hopf test function that follows the crossing pair (whichever pair is rightmost)
+/// rather than the pair nearest the imaginary axis.
+fn complex_abscissa<S: continuation::CharacteristicRoots, P: continuation::Problem>(
+    eq: &mut EquilibriumSystem<'_, P, S>,
+    u: &[f64],
+) -> continuation::Result<f64> {
+    eq.spectrum(u)?
+        .iter()
+        .filter(|z| z.im > 1e-8)
+        .map(|z| z.re)
+        .max_by(f64::total_cmp)
+        .ok_or_else(|| {
+            continuation::Error::InvalidInput("no complex characteristic root to locate".into())
+        })
+}
+
+/// The Hopf point of straight running between its points `a` (stable) and `b` (a complex
+/// pair past the axis), located on the speed where the rightmost complex root crosses the
+/// axis (Illinois regula falsi on the speed, to [`HOPF_LOCATION_TOLERANCE`]·V; the states
+/// interpolated linearly, x = 0 for the symmetric vehicle). Returns the point u = (x, V*)
+/// and the transversality d Re λ/dV across [a, b] \[1/m\].
+fn locate_hopf<S: continuation::CharacteristicRoots, P: continuation::Problem>(
+    eq: &mut EquilibriumSystem<'_, P, S>,
+    a: &[f64],
+    b: &[f64],
+) -> continuation::Result<(Vec<f64>, f64)> {
+    let ip = a.len() - 1;
+    let at = |s: f64| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x + s * (y - x)).collect() };
+    let (ga, gb) = (complex_abscissa(eq, a)?, complex_abscissa(eq, b)?);
+    let dv = b[ip] - a[ip];
+    let transversality = if dv != 0.0 { (gb - ga) / dv } else { 1.0 };
+    if ga * gb > 0.0 {
+        // no sign change of the rightmost complex root: keep the detected point (with the
+        // engine's default transversality, as before)
+        return Ok((b.to_vec(), 1.0));
+    }
+    let (mut s0, mut g0, mut s1, mut g1) = (0.0_f64, ga, 1.0_f64, gb);
+    let mut side = 0i8;
+    for _ in 0..100 {
+        if (s1 - s0).abs() * dv.abs() <= HOPF_LOCATION_TOLERANCE * b[ip].abs() {
+            break;
+        }
+        let s = s1 - g1 * (s1 - s0) / (g1 - g0);
+        let g = complex_abscissa(eq, &at(s))?;
+        if g == 0.0 {
+            return Ok((at(s), transversality));
+        }
+        if g * g1 < 0.0 {
+            (s0, g0) = (s1, g1);
+            side = 0;
+        } else {
+            if side == 1 {
+                g0 *= 0.5;
+            }
+            side = 1;
+        }
+        (s1, g1) = (s, g);
+    }
+    // the end of the last bracket nearer the axis
+    let s = if g0.abs() < g1.abs() { s0 } else { s1 };
+    Ok((at(s), transversality))
 }
 
 /// Special points of an equilibrium branch where an eigenvalue crosses the imaginary axis.
@@ -431,10 +517,18 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
     // a second system on the same (fixed) mesh evaluates the profiles for the guard
     let guard_sys =
         PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
-    let (guess, dir) = po.hopf_guess(hopf, o.hopf_amplitude);
-    let mut cycles = cont
-        .start(&mut po, &guess, &dir)
-        .map_err(num(format!("{ctx}: first cycle")))?;
+    // the first cycle at the configured amplitude; where Newton does not converge from it
+    // (a branch that bends sharply: the normal form's guess is good only closer to the
+    // Hopf point), again at a tenth and a hundredth of it
+    let mut first = Err(continuation::Error::InvalidInput(String::new()));
+    for shrink in [1.0, 0.1, 0.01] {
+        let (guess, dir) = po.hopf_guess(hopf, shrink * o.hopf_amplitude);
+        first = cont.start(&mut po, &guess, &dir);
+        if first.is_ok() {
+            break;
+        }
+    }
+    let mut cycles = first.map_err(num(format!("{ctx}: first cycle")))?;
     let mut end = None;
     let mut rules = |b: &Branch| {
         let Some(last) = b.points.last() else {
@@ -525,6 +619,35 @@ pub fn vehicle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
     limits: &SpeedLimits,
     extent: CycleExtent,
 ) -> Result<DiagramOutcome, SwayError> {
+    diagram_with_law(model, feedback, law, settings, limits, extent, true)
+}
+
+/// [`vehicle_diagram_with_law`] for a caller that needs the cycle branch only (its fold):
+/// straight running ends just past its first loss of stability instead of being continued
+/// to the figure's end (the diagram's `equilibria` are not drawn).
+///
+/// # Errors
+/// As [`vehicle_diagram`].
+pub fn cycle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    feedback: Feedback,
+    law: LoopLaw,
+    settings: &DiagramSettings,
+    limits: &SpeedLimits,
+    extent: CycleExtent,
+) -> Result<DiagramOutcome, SwayError> {
+    diagram_with_law(model, feedback, law, settings, limits, extent, false)
+}
+
+fn diagram_with_law<P: LoopPlant<N>, const N: usize>(
+    model: &P,
+    feedback: Feedback,
+    law: LoopLaw,
+    settings: &DiagramSettings,
+    limits: &SpeedLimits,
+    extent: CycleExtent,
+    figure_equilibria: bool,
+) -> Result<DiagramOutcome, SwayError> {
     if let (Some(lo), Some(hi)) = (settings.v_min_mps, settings.v_max_mps) {
         let d = super::bifurcation_diagram_with_law(
             model,
@@ -609,7 +732,7 @@ pub fn vehicle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
         .v_max_mps
         .unwrap_or_else(|| v_high.max(1.1 * vh).min(hi));
     // straight running on to the figure's end (equilibria.csv)
-    if plot_hi > vh {
+    if figure_equilibria && plot_hi > vh {
         let cont = equilibrium_continuation(lo, plot_hi);
         let mut p = params.clone();
         p[SPEED] = vh;

@@ -584,7 +584,10 @@ impl LinearLoop {
         // (−V/σ), where the cleared function is ill-conditioned (its delayed term,
         // cancelling only up to round-off, is weighted by e^{−Re λ·τ}); each round asks for
         // as many more roots as spurious ones were found
-        let mut want = count;
+        // an unstable model's eigenvalues are the rightmost roots of the cleared function
+        // whenever the loop's own are stable: asked for at once (each round is a new
+        // collocation, the cost of one evaluation)
+        let mut want = count + self.spurious.iter().filter(|z| z.re > 0.0).count();
         loop {
             let roots = roots_of(want)?;
             let found = roots.len();

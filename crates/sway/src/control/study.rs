@@ -19,9 +19,9 @@ use super::{
     robust_critical_speed, robust_critical_speed_spec,
 };
 use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, critical_speeds};
+use crate::bifurcation::chart::{ChartOptions, fold_of_cycles};
 use crate::bifurcation::{
-    CycleExtent, DiagramOutcome, DiagramSettings, Feedback, LoopLaw, vehicle_diagram_with_law,
+    CycleExtent, DiagramOutcome, DiagramSettings, Feedback, LoopLaw, cycle_diagram_with_law,
 };
 use crate::progress::Progress;
 use crate::ranging::SpeedLimits;
@@ -375,11 +375,13 @@ fn checked_designs(designs: &[Design], delays: &[f64]) -> Vec<usize> {
 
 /// Which continuation a design's fold of cycles is: designs with the same key have the
 /// same loop. Without feedback (every gain 0) the loop is the open loop whatever the
-/// structure and actuator (u ≡ 0), at the design's delay.
+/// structure, actuator and delay (u ≡ 0): its fold is computed once, at the delay of the
+/// first such design (the delayed form of the same loop, whose fold agrees with the
+/// undelayed one's to ~1e-14 m/s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum FoldKey {
-    /// no feedback at delay τ (bits of τ)
-    OpenLoop { tau_bits: u64 },
+    /// no feedback
+    OpenLoop,
     /// a design of its own
     Own {
         structure: Structure,
@@ -393,9 +395,7 @@ impl FoldKey {
     fn of(d: &Design) -> Self {
         let g = d.gains;
         if d.structure != Structure::Predictor && g == Gains::default() {
-            return Self::OpenLoop {
-                tau_bits: d.tau_s.to_bits(),
-            };
+            return Self::OpenLoop;
         }
         Self::Own {
             structure: d.structure,
@@ -624,7 +624,7 @@ fn away_from_corner(
 /// ([`crate::bifurcation::ClosedLoop`] with the controller's [`LoopLaw`]: u = −(D·ψ̇ +
 /// K_θ·θ + D_θ·θ̇)(t − τ) on steering or a yaw moment), corrected on the fold-of-cycles
 /// system as the nonlinear chart does. The diagram's speed range is derived from the vehicle
-/// ([`vehicle_diagram_with_law`]: from the lowest speed of `search` past the Hopf point)
+/// ([`cycle_diagram_with_law`]: from the lowest speed of `search` past the Hopf point)
 /// unless `chart.cycles` gives both ends. Otherwise, without a Hopf point (a stable loop, a
 /// static divergence), without a fold, for the predictor or when the continuation fails,
 /// None with the reason (one design's failure does not stop the study).
@@ -658,7 +658,7 @@ pub fn fold_speed(
     };
     let settings = DiagramSettings::from_options(&chart.cycles, None);
     let failed = |e: SwayError| (None, Some(format!("the continuation failed: {e}")));
-    let diagram = match vehicle_diagram_with_law(
+    let diagram = match cycle_diagram_with_law(
         model,
         feedback,
         law,
@@ -670,8 +670,8 @@ pub fn fold_speed(
         Ok(DiagramOutcome::NoHopf(n)) => return Ok((None, Some(n.reason))),
         Err(e) => return Ok(failed(e)),
     };
-    let fold = match critical_speeds(model, &diagram, chart) {
-        Ok(cs) => cs.fold.map(|f| f.v_mps),
+    let fold = match fold_of_cycles(model, &diagram, chart) {
+        Ok(f) => f.map(|f| f.v_mps),
         Err(e) => return Ok(failed(e)),
     };
     Ok(match fold {

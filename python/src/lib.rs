@@ -847,7 +847,9 @@ fn simulate<'py>(
     use sway_tasks::tasks::series::resolved_check;
     use sway_tasks::tasks::simulate::ScenarioSummary;
 
-    let (config, file): (ScenarioConfig<SpeedSpec>, PathBuf) = load_config(scenario, "<scenario>")?;
+    let (mut config, file): (ScenarioConfig<SpeedSpec>, PathBuf) =
+        load_config(scenario, "<scenario>")?;
+    config.load_named_files(&file).map_err(py_err)?;
     config.check(&file).map_err(py_err)?;
     let prepared = Configured { file, config };
     let plan = prepared.plan().map_err(py_err)?;

@@ -71,7 +71,8 @@ fn sweep<'py>(
     vehicle: &Vehicle,
     config: &Bound<'py, PyAny>,
 ) -> PyResult<(String, String, Bound<'py, PyDict>, Bound<'py, PyList>)> {
-    let (spec, file): (SweepConfig<SpeedSpec>, PathBuf) = load_config(config, "<sweep>")?;
+    let (mut spec, file): (SweepConfig<SpeedSpec>, PathBuf) = load_config(config, "<sweep>")?;
+    spec.load_named_files(&file).map_err(py_err)?;
     spec.check(&file).map_err(py_err)?;
     let prepared = Configured { file, config: spec };
     let plan = prepared.plan().map_err(py_err)?;

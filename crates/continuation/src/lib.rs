@@ -129,7 +129,9 @@ pub use hopf_curve::HopfCurveSystem;
 pub use linalg::{Entry, KRYLOV_MIN_SIZE, KRYLOV_TOLERANCE, LinearSolver, MeshStructure};
 pub use normal_form::{DoubleHopfCase, DoubleHopfNormalForm, HopfNormalForm};
 pub use period_doubling::{PeriodDoublingCurveSystem, PeriodDoublingOptions};
-pub use periodic::{ArclengthWeights, CollocationOptions, MeshAdaptation, PeriodicOrbitSystem};
+pub use periodic::{
+    ArclengthWeights, CollocationOptions, FloquetMultipliers, MeshAdaptation, PeriodicOrbitSystem,
+};
 pub use problem::{
     Problem, Smoothness, fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative,
     fd_third_derivative,

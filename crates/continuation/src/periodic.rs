@@ -47,6 +47,24 @@ pub enum MeshAdaptation {
     Adapted,
 }
 
+/// When the Floquet multipliers of a branch's cycles are computed.
+///
+/// They cost a dense eigenvalue problem of the size of the discretised monodromy operator
+/// (n·(Q·m + 1) for a delay that reaches Q mesh intervals back) at every point: for a
+/// delay of the order of the period, most of a branch's cost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FloquetMultipliers {
+    /// at every point of a branch: its stability, period-doubling and torus points
+    #[default]
+    EveryPoint,
+    /// only when asked ([`PeriodicOrbitSystem::floquet_multipliers`]): the branch's
+    /// points carry no stability and no period-doubling or torus points are detected;
+    /// folds (from the tangent) and branch points (from the determinant) are. For a
+    /// search that needs only the branch's shape, such as the speed of a fold of cycles.
+    OnRequest,
+}
+
 /// Discretisation of periodic orbits.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CollocationOptions {
@@ -58,6 +76,9 @@ pub struct CollocationOptions {
     pub weights: ArclengthWeights,
     /// how many Floquet multipliers (largest modulus) to keep per point
     pub multipliers_kept: usize,
+    /// whether the multipliers are computed at every point of a branch
+    #[serde(default)]
+    pub floquet_multipliers: FloquetMultipliers,
 }
 
 impl Default for CollocationOptions {
@@ -67,6 +88,7 @@ impl Default for CollocationOptions {
             degree: 4,
             weights: ArclengthWeights::default(),
             multipliers_kept: 12,
+            floquet_multipliers: FloquetMultipliers::EveryPoint,
         }
     }
 }
@@ -1142,6 +1164,9 @@ impl<P: Problem> ContinuationSystem for PeriodicOrbitSystem<'_, P> {
     }
 
     fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
+        if self.options.floquet_multipliers == FloquetMultipliers::OnRequest {
+            return Ok(None);
+        }
         Ok(Some(Stability::from_multipliers(
             self.floquet_multipliers(u)?,
         )))

@@ -281,6 +281,62 @@ pub trait TaskConfig: DeserializeOwned + Send + 'static {
     /// # Errors
     /// [`TaskError::Config`] naming the key.
     fn check(&self, file: &Path) -> Result<(), TaskError>;
+
+    /// Reads the files the config names (paths relative to `file`'s directory, e.g. a
+    /// predictor's `prediction_vehicle`) into it; called after parsing, before
+    /// [`Self::check`]. Nothing to read by default.
+    ///
+    /// # Errors
+    /// [`TaskError::Config`] naming `file`, the key and the named file's problem.
+    fn load_named_files(&mut self, _file: &Path) -> Result<(), TaskError> {
+        Ok(())
+    }
+}
+
+/// A vehicle file named under `key` of the config `file` (`relative` to its directory),
+/// loaded and validated; its problems become the config's error under `key`.
+///
+/// # Errors
+/// [`TaskError::Config`] naming `file`, `key` and the vehicle file's own error.
+pub fn load_named_vehicle(
+    file: &Path,
+    key: &str,
+    relative: &Path,
+) -> Result<LoadedVehicle, TaskError> {
+    let path = file.parent().unwrap_or(Path::new(".")).join(relative);
+    load_vehicle_spec(&path).map_err(|e| {
+        TaskError::config(
+            file,
+            key,
+            format!(
+                "the prediction vehicle {} is not valid: {e}",
+                path.display()
+            ),
+        )
+    })
+}
+
+/// Loads the `prediction_vehicle` of a predictor (`controller` under `key` of the config
+/// `file`) as [`sway::sim::PredictionVehicle::loaded`]: the paper-form parameters of the
+/// file's equivalent single-axle vehicle. Other controllers, and a predictor without
+/// one, are left as they are.
+///
+/// # Errors
+/// As [`load_named_vehicle`] under `key.prediction_vehicle`.
+pub fn load_prediction_vehicle(
+    controller: &mut sway::sim::Controller,
+    file: &Path,
+    key: &str,
+) -> Result<(), TaskError> {
+    if let sway::sim::Controller::Predictor {
+        prediction_vehicle: Some(p),
+        ..
+    } = controller
+    {
+        let loaded = load_named_vehicle(file, &format!("{key}.prediction_vehicle"), &p.file)?;
+        p.params = Some(loaded.params);
+    }
+    Ok(())
 }
 
 /// Checks a list of delays τ \[s\] under `key`: at least one, each finite and ≥ 0.
@@ -324,7 +380,8 @@ pub fn prepare_config<C: TaskConfig>(
 where
     Configured<C>: Prepared,
 {
-    let config: C = load_toml(file)?;
+    let mut config: C = load_toml(file)?;
+    config.load_named_files(file)?;
     config.check(file)?;
     Ok(Box::new(Configured {
         file: file.to_path_buf(),

@@ -102,3 +102,80 @@ fn errors_inside_the_flattened_run_settings_name_their_key() {
         .to_string();
     assert!(e.contains("`base.metrics.settle_threshold_deg`"), "{e}");
 }
+
+#[test]
+fn a_predictor_reads_its_prediction_vehicle_beside_the_scenario() {
+    // the `prediction_vehicle` of a predictor in a scenario (`controller`) and a sweep
+    // (`base.controller`) is a vehicle file relative to the config's directory: loaded
+    // into the controller as the file's paper-form parameters; a missing or invalid file
+    // is an error naming the config, the key and the vehicle file
+    use sway_tasks::config_file::{TaskConfig, load_toml};
+    let dir = tempfile::tempdir().unwrap();
+    let configs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
+    let heavier = std::fs::read_to_string(configs.join("vehicle.toml"))
+        .unwrap()
+        .replace("mass = 985.0", "mass = 1083.5");
+    assert!(heavier.contains("mass = 1083.5"));
+    std::fs::create_dir(dir.path().join("vehicles")).unwrap();
+    std::fs::write(dir.path().join("vehicles/heavier.toml"), heavier).unwrap();
+    let scenario = |vehicle: &str| {
+        format!(
+            "name = \"p\"\nspeed = {{ kind = \"constant\", speed_mps = 30.0 }}\n\
+             initial = {{ kind = \"state\", theta0_deg = 2.0 }}\n\
+             controller = {{ kind = \"predictor\", delay_s = 0.6, gains = {{ yaw_rate = 0.05 }}, \
+             prediction_vehicle = \"{vehicle}\" }}\n"
+        )
+    };
+    let file = dir.path().join("scenario.toml");
+    std::fs::write(&file, scenario("vehicles/heavier.toml")).unwrap();
+    let mut c: ScenarioConfig<SpeedSpec> = load_toml(&file).unwrap();
+    c.load_named_files(&file).unwrap();
+    c.check(&file).unwrap();
+    let sway::sim::Controller::Predictor {
+        prediction_vehicle: Some(p),
+        ..
+    } = &c.controller
+    else {
+        panic!("{:?}", c.controller)
+    };
+    let mut expected = trailer_model::VehicleParams::default();
+    expected.trailer.mass = 1083.5;
+    assert_eq!(p.params, Some(expected));
+    // written back as the path it was given
+    let json = serde_json::to_value(&c.controller).unwrap();
+    assert_eq!(json["prediction_vehicle"], "vehicles/heavier.toml");
+
+    std::fs::write(&file, scenario("vehicles/no_such.toml")).unwrap();
+    let mut c: ScenarioConfig<SpeedSpec> = load_toml(&file).unwrap();
+    let e = c.load_named_files(&file).unwrap_err().to_string();
+    assert!(
+        e.contains("scenario.toml")
+            && e.contains("controller.prediction_vehicle")
+            && e.contains("no_such.toml"),
+        "{e}"
+    );
+
+    let sweep = dir.path().join("sweep.toml");
+    let base = std::fs::read_to_string(configs.join("sweep_threshold.toml")).unwrap();
+    let mut s: SweepConfig<SpeedSpec> = toml::from_str(&base).unwrap();
+    s.base.controller = sway::sim::Controller::Predictor {
+        gains: sway::control::Gains::yaw_rate(0.05),
+        delay_s: 0.6,
+        actuator: sway::control::Actuator::Steering,
+        on_s: 0.0,
+        off_s: None,
+        limit: Default::default(),
+        model_error: Default::default(),
+        prediction_vehicle: Some(sway::sim::PredictionVehicle::new("vehicles/bad.toml")),
+    };
+    std::fs::write(dir.path().join("vehicles/bad.toml"), "gravity = -1.0\n").unwrap();
+    std::fs::write(&sweep, toml::to_string(&s).unwrap()).unwrap();
+    let mut s: SweepConfig<SpeedSpec> = load_toml(&sweep).unwrap();
+    let e = s.load_named_files(&sweep).unwrap_err().to_string();
+    assert!(
+        e.contains("sweep.toml")
+            && e.contains("base.controller.prediction_vehicle")
+            && e.contains("bad.toml"),
+        "{e}"
+    );
+}

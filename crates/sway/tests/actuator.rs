@@ -182,6 +182,7 @@ fn loop_controller(
             off_s: None,
             limit: CommandLimit::default(),
             model_error,
+            prediction_vehicle: None,
         },
         _ => Controller::YawRateHitch {
             gains,
@@ -399,10 +400,87 @@ fn braking_is_saturated_at_the_friction_limit() {
     );
     let profile = SpeedProfile::Constant { speed_mps: 35.0 };
     let x = on_the_cycle();
-    let plant = sway::sim::SimProblem::<_, 4, 4>::new(&model, &profile, c, x).unwrap();
+    let plant = sway::sim::SimProblem::<_, 4, 4>::new(&model, &profile, c.clone(), x).unwrap();
     let mz = plant.yaw_moment(1.0, &x, &[x]);
     assert_eq!(mz.abs(), limit, "M_z = {mz}, limit {limit}");
     let spec = common::spec(profile, c, 10.0, 1e-8);
     let r = simulate::<4>(&model, &spec, x, Recording::None).unwrap();
     assert!(r.t_end > 0.0);
+}
+
+#[test]
+fn a_prediction_vehicle_is_the_model_the_predictor_predicts_with() {
+    // reference: the same prediction model given two ways — the vehicle with the factor
+    // `trailer_mass_factor = 1.1`, and a prediction vehicle whose trailer mass is 1.1 times
+    // the vehicle's — builds the same matrices Â, B̂, Ĉ, so the runs agree bit for bit;
+    // the vehicle's own parameters as the prediction vehicle reproduce the perfect model
+    let model = common::model();
+    let off = ModelError {
+        trailer_mass_factor: 1.1,
+        ..ModelError::default()
+    };
+    let profile = SpeedProfile::Constant { speed_mps: 30.0 };
+    let x = on_the_cycle();
+    let run = |c: Controller| {
+        let spec = common::spec(profile.clone(), c, 5.0, 1e-8);
+        simulate::<4>(&model, &spec, x, Recording::Every { step_s: 0.1 }).unwrap()
+    };
+    let with_vehicle = |params, error| match loop_controller(
+        Structure::Predictor,
+        Actuator::Steering,
+        Gains::yaw_rate(0.05),
+        0.6,
+        error,
+    ) {
+        Controller::Predictor {
+            gains,
+            delay_s,
+            actuator,
+            on_s,
+            off_s,
+            limit,
+            model_error,
+            ..
+        } => Controller::Predictor {
+            gains,
+            delay_s,
+            actuator,
+            on_s,
+            off_s,
+            limit,
+            model_error,
+            prediction_vehicle: Some(sway::sim::PredictionVehicle::loaded("heavier.toml", params)),
+        },
+        _ => unreachable!(),
+    };
+    let factor = run(loop_controller(
+        Structure::Predictor,
+        Actuator::Steering,
+        Gains::yaw_rate(0.05),
+        0.6,
+        off,
+    ));
+    let file = run(with_vehicle(
+        off.apply(model.params()),
+        ModelError::default(),
+    ));
+    assert_eq!(factor.trajectory, file.trajectory);
+    let perfect = run(loop_controller(
+        Structure::Predictor,
+        Actuator::Steering,
+        Gains::yaw_rate(0.05),
+        0.6,
+        ModelError::default(),
+    ));
+    let itself = run(with_vehicle(*model.params(), ModelError::default()));
+    assert_eq!(perfect.trajectory, itself.trajectory);
+    assert_ne!(perfect.trajectory, factor.trajectory);
+    // a file nobody loaded is an error naming it, not the vehicle silently
+    let unloaded: Controller = toml::from_str(
+        "kind = \"predictor\"\ndelay_s = 0.6\ngains = { yaw_rate = 0.05 }\nprediction_vehicle = \"heavier.toml\"\n",
+    )
+    .unwrap();
+    let spec = common::spec(profile.clone(), unloaded, 5.0, 1e-8);
+    let e = simulate::<4>(&model, &spec, x, Recording::None).unwrap_err();
+    assert!(e.to_string().contains("heavier.toml"), "{e}");
 }

@@ -106,7 +106,7 @@ fn refinement_errors(
     let run = |rtol: f64| {
         let s = spec(
             SpeedProfile::Constant { speed_mps },
-            controller,
+            controller.clone(),
             horizon_s,
             rtol,
         );
@@ -507,6 +507,7 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         off_s: None,
         limit: Default::default(),
         model_error: Default::default(),
+        prediction_vehicle: None,
     };
     let braking = Controller::YawRateHitch {
         gains: sway::control::Gains::yaw_rate(2e4),

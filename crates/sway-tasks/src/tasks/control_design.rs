@@ -29,6 +29,7 @@ use sway::control::{
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
 use sway::sim::{
+    PredictionVehicle,
     Controller, Recording, RunSettings, SimSpec, SpeedProfile, SwayClass, simulate,
 };
 use trailer_model::State4;
@@ -222,31 +223,16 @@ pub struct ControlDesignConfig {
 }
 
 impl ControlDesignConfig {
-    /// The prediction vehicle's file, relative to the config file's directory.
-    fn prediction_file(&self, file: &Path) -> Option<std::path::PathBuf> {
-        self.prediction_vehicle
-            .as_ref()
-            .map(|p| file.parent().unwrap_or(Path::new(".")).join(p))
-    }
-
     /// The prediction vehicle, loaded and checked.
     ///
     /// # Errors
     /// [`TaskError::Config`] naming this file, `prediction_vehicle` and the problem (the
     /// vehicle file's own error in it).
-    fn prediction_spec(&self, file: &Path) -> Result<Option<trailer_model::VehicleSpec>, TaskError> {
-        let Some(path) = self.prediction_file(file) else {
-            return Ok(None);
-        };
-        crate::config_file::load_vehicle_spec(&path)
-            .map(|v| Some(v.spec))
-            .map_err(|e| {
-                TaskError::config(
-                    file,
-                    "prediction_vehicle",
-                    format!("the prediction vehicle {} is not valid: {e}", path.display()),
-                )
-            })
+    fn prediction(&self, file: &Path) -> Result<Option<crate::config_file::LoadedVehicle>, TaskError> {
+        self.prediction_vehicle
+            .as_ref()
+            .map(|p| crate::config_file::load_named_vehicle(file, "prediction_vehicle", p))
+            .transpose()
     }
 }
 
@@ -326,7 +312,7 @@ impl TaskConfig for ControlDesignConfig {
         )?;
         check_speed_search(&self.search.speed, file, "search.speed")?;
         check_speed_search(&self.robustness.speed, file, "robustness.speed")?;
-        self.prediction_spec(file)?;
+        self.prediction(file)?;
         let s = &self.search;
         ensure(s.gain_samples >= 3, file, "search.gain_samples", || {
             format!("expected at least 3 gains, got {}", s.gain_samples)
@@ -566,8 +552,15 @@ struct SimulatedDesign {
     class: SwayClass,
 }
 
-/// The scenario controller of a design (steering `yaw_rate`: the paper's kind).
-fn sim_controller(structure: Structure, actuator: Actuator, gains: Gains, tau: f64) -> Controller {
+/// The scenario controller of a design (steering `yaw_rate`: the paper's kind); the
+/// predictor predicts with `prediction` (the vehicle itself when `None`).
+fn sim_controller(
+    structure: Structure,
+    actuator: Actuator,
+    gains: Gains,
+    tau: f64,
+    prediction: Option<PredictionVehicle>,
+) -> Controller {
     match (structure, actuator) {
         (Structure::YawRate, Actuator::Steering) => Controller::YawRateFeedback {
             gain_s: gains.yaw_rate,
@@ -584,6 +577,7 @@ fn sim_controller(structure: Structure, actuator: Actuator, gains: Gains, tau: f
             off_s: None,
             limit: Default::default(),
             model_error: Default::default(),
+            prediction_vehicle: prediction,
         },
         _ => Controller::YawRateHitch {
             gains,
@@ -598,11 +592,13 @@ fn sim_controller(structure: Structure, actuator: Actuator, gains: Gains, tau: f
 
 type Curve = (String, Vec<(f64, f64)>);
 
-/// Runs the simulation check: the outcome and the θ(t) curves (open loop first).
+/// Runs the simulation check: the outcome and the θ(t) curves (open loop first); the
+/// predictor predicts with `prediction` (the vehicle itself when `None`).
 fn simulation_check(
     model: &trailer_model::Model,
     r: &ControlStudy,
     sc: &SimulationCheck,
+    prediction: Option<&PredictionVehicle>,
 ) -> Result<(SimulationOutcome, Vec<Curve>), TaskError> {
     let speed = sc.speed_fraction * r.open_loop_v_crit_mps;
     let run = |controller: Controller, kick_deg: f64| {
@@ -649,7 +645,14 @@ fn simulation_check(
         let Some(d) = c.designs.iter().find(|d| (d.tau_s - sc.delay_s).abs() < 1e-9) else {
             continue;
         };
-        let res = run(sim_controller(c.structure, c.actuator, d.gains, d.tau_s), kick_deg)?;
+        let controller = sim_controller(
+            c.structure,
+            c.actuator,
+            d.gains,
+            d.tau_s,
+            prediction.cloned(),
+        );
+        let res = run(controller, kick_deg)?;
         curves.push(curve(
             format!("{} + {}", c.structure.as_str(), c.actuator.as_str()),
             &res,
@@ -822,14 +825,14 @@ impl Prepared for Configured<ControlDesignConfig> {
             cfg,
             &self.file,
             |out: &OutputDir| {
-                let prediction = cfg.prediction_spec(&self.file)?;
+                let prediction = cfg.prediction(&self.file)?;
                 let vehicle = StudyVehicle {
                     spec: &ctx.spec,
                     plant: &ctx.plant,
                     // a vehicle with model variants: the linear side on its plant, the folds
                     // of cycles and the simulation check only for the paper's model
                     paper: ctx.variant_key.is_none().then_some((&ctx.model, &ctx.vehicle)),
-                    prediction: prediction.as_ref(),
+                    prediction: prediction.as_ref().map(|p| &p.spec),
                 };
                 let r = control_study(vehicle, &cfg.settings(), ctx.progress)?;
                 let entries: Vec<DesignEntry> = r
@@ -859,8 +862,17 @@ impl Prepared for Configured<ControlDesignConfig> {
                 )?;
                 figure(&r, cfg).render(&out.path("control_design"))?;
                 let simulation = if ctx.variant_key.is_none() {
-                    let (simulation, curves) =
-                        simulation_check(&ctx.model, &r, &cfg.simulation_check)?;
+                    let sim_prediction = cfg
+                        .prediction_vehicle
+                        .as_ref()
+                        .zip(prediction.as_ref())
+                        .map(|(file, p)| PredictionVehicle::loaded(file, p.params));
+                    let (simulation, curves) = simulation_check(
+                        &ctx.model,
+                        &r,
+                        &cfg.simulation_check,
+                        sim_prediction.as_ref(),
+                    )?;
                     // `simulation_tau_0_6` for τ = 0.6 s: a dot would read as the file's extension
                     let stem = format!("simulation_tau_{}", cfg.simulation_check.delay_s)
                         .replace('.', "_");
@@ -1011,6 +1023,6 @@ mod tests {
         let good = format!("prediction_vehicle = \"vehicles/relaxation.toml\"\n{text}");
         let cfg: ControlDesignConfig = parse_toml(&good, &file).unwrap();
         cfg.check(&file).unwrap();
-        assert!(cfg.prediction_spec(&file).unwrap().is_some());
+        assert!(cfg.prediction(&file).unwrap().is_some());
     }
 }

@@ -74,6 +74,10 @@ impl TaskConfig for ScenarioConfig<SpeedSpec> {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
         Ok(self.validate_spec(file)?)
     }
+
+    fn load_named_files(&mut self, file: &Path) -> Result<(), TaskError> {
+        crate::config_file::load_prediction_vehicle(&mut self.controller, file, "controller")
+    }
 }
 
 /// θ(t) with the action time and the loss of control, V(t), and the hitch's path.

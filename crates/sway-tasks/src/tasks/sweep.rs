@@ -96,6 +96,14 @@ impl TaskConfig for SweepConfig<SpeedSpec> {
         self.validate_spec(file)?;
         self.check_options(file)
     }
+
+    fn load_named_files(&mut self, file: &Path) -> Result<(), TaskError> {
+        crate::config_file::load_prediction_vehicle(
+            &mut self.base.controller,
+            file,
+            "base.controller",
+        )
+    }
 }
 
 /// The continuation settings of a sweep (any speed type).

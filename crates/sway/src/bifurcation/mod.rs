@@ -19,8 +19,8 @@
 
 use continuation::{
     ArclengthWeights, Branch, ChebyshevRoots, CollocationOptions, Continuation,
-    ContinuationOptions, Criticality, EquilibriumSystem, HopfPoint, PeriodicOrbitSystem,
-    Refinement, SpecialKind, criticality, points_at_parameter,
+    ContinuationOptions, Criticality, EquilibriumSystem, FloquetMultipliers, HopfPoint,
+    PeriodicOrbitSystem, Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
 use trailer_model::HITCH_ANGLE;
@@ -68,6 +68,11 @@ pub struct DiagramOptions {
     /// transcritical): "watch" (default) or "ignore" (cheaper: the engine then factorises
     /// with supernodes, which give no determinant)
     pub cycle_branch_points: BranchPointTest,
+    /// whether the cycles' Floquet multipliers (their stability) are computed at every
+    /// point: "every_point" (default) or "on_request" (for a search that needs only the
+    /// branch's shape, e.g. a fold-of-cycles speed: no stability, much cheaper at long
+    /// delays)
+    pub floquet_multipliers: FloquetMultipliers,
 }
 
 /// Whether a branch watches the sign of the bordered determinant for branch points.
@@ -108,6 +113,7 @@ impl Default for DiagramOptions {
             max_cycle_points: 600,
             root_degree: 24,
             cycle_branch_points: BranchPointTest::Watch,
+            floquet_multipliers: FloquetMultipliers::EveryPoint,
         }
     }
 }
@@ -198,6 +204,7 @@ fn collocation(o: &DiagramOptions) -> CollocationOptions {
         degree: o.degree,
         weights: ArclengthWeights::default(),
         multipliers_kept: 12,
+        floquet_multipliers: o.floquet_multipliers,
     }
 }
 

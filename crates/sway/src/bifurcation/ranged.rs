@@ -69,6 +69,8 @@ pub struct DiagramSettings {
     pub root_degree: usize,
     /// "watch" or "ignore" branch points of cycles
     pub cycle_branch_points: BranchPointTest,
+    /// "every_point" or "on_request": the cycles' Floquet multipliers
+    pub floquet_multipliers: continuation::FloquetMultipliers,
 }
 
 impl Default for DiagramSettings {
@@ -112,6 +114,7 @@ impl DiagramSettings {
             max_cycle_points: o.max_cycle_points,
             root_degree: o.root_degree,
             cycle_branch_points: o.cycle_branch_points,
+            floquet_multipliers: o.floquet_multipliers,
         }
     }
 
@@ -128,6 +131,7 @@ impl DiagramSettings {
             max_cycle_points: self.max_cycle_points,
             root_degree: self.root_degree,
             cycle_branch_points: self.cycle_branch_points,
+            floquet_multipliers: self.floquet_multipliers,
         }
     }
 

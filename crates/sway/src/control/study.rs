@@ -656,7 +656,12 @@ pub fn fold_speed(
         max_speed_mps: search.v_max_mps,
         ..SpeedLimits::default()
     };
-    let settings = DiagramSettings::from_options(&chart.cycles, None);
+    // the fold's speed needs the branch's shape only (the fold from the tangent, the
+    // criticality from the branch's direction): no Floquet multipliers on the way
+    let settings = DiagramSettings {
+        floquet_multipliers: continuation::FloquetMultipliers::OnRequest,
+        ..DiagramSettings::from_options(&chart.cycles, None)
+    };
     let failed = |e: SwayError| (None, Some(format!("the continuation failed: {e}")));
     let diagram = match cycle_diagram_with_law(
         model,

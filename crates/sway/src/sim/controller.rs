@@ -147,7 +147,7 @@ impl ActuatorLimits {
 }
 
 /// The steering law.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Controller {
     /// δ ≡ 0 (open loop).
@@ -216,10 +216,66 @@ pub enum Controller {
         /// the braking limit (ignored for steering)
         #[serde(default, skip_serializing_if = "CommandLimit::is_default")]
         limit: CommandLimit,
-        /// how the prediction model differs from the vehicle (default: a perfect model)
+        /// how the prediction model differs from the vehicle (default: a perfect model);
+        /// with `prediction_vehicle`, the factors apply to that vehicle
         #[serde(default, skip_serializing_if = "ModelError::is_default")]
         model_error: ModelError,
+        /// the prediction model as a vehicle file of its own (default: the vehicle itself)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        prediction_vehicle: Option<PredictionVehicle>,
     },
+}
+
+/// The predictor's model given as a vehicle file (`prediction_vehicle`, a path relative to
+/// the scenario or sweep file): the prediction runs on it instead of the vehicle, so a
+/// simulation shows what a prediction model that differs from the vehicle does.
+///
+/// The predictor's realisation is four-state (module [`crate::control::predictor`]): it
+/// predicts with the paper-form linearisation of the file's equivalent single-axle vehicle
+/// ([`trailer_model::VehicleSpec::equivalent_params`]), as it does with the vehicle itself;
+/// tyre relaxation in the file does not enter the prediction.
+///
+/// It (de)serialises as the path; the caller that reads files loads it
+/// ([`Self::params`] is `None` until then, and a simulation refuses an unloaded one).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictionVehicle {
+    /// the file, as written in the scenario
+    pub file: std::path::PathBuf,
+    /// its equivalent paper-form parameters, once loaded
+    pub params: Option<trailer_model::VehicleParams>,
+}
+
+impl PredictionVehicle {
+    /// The vehicle file `file`, not yet loaded.
+    pub fn new(file: impl Into<std::path::PathBuf>) -> Self {
+        Self {
+            file: file.into(),
+            params: None,
+        }
+    }
+
+    /// The file, loaded with `params`.
+    pub fn loaded(
+        file: impl Into<std::path::PathBuf>,
+        params: trailer_model::VehicleParams,
+    ) -> Self {
+        Self {
+            file: file.into(),
+            params: Some(params),
+        }
+    }
+}
+
+impl Serialize for PredictionVehicle {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.file.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for PredictionVehicle {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        std::path::PathBuf::deserialize(d).map(Self::new)
+    }
 }
 
 fn default_loop_actuator() -> Actuator {
@@ -347,7 +403,7 @@ impl ModelError {
 
 /// The loop law of a `yaw_rate_hitch` or `predictor` controller, as [`Controller::loop_law`]
 /// gives it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct LoopLaw {
     /// `yaw_rate_hitch` or `predictor`
     pub structure: crate::control::Structure,
@@ -365,6 +421,9 @@ pub struct LoopLaw {
     pub limit: CommandLimit,
     /// the predictor's model error (perfect for `yaw_rate_hitch`)
     pub model_error: ModelError,
+    /// the predictor's model when it is not the vehicle: the loaded `prediction_vehicle`
+    /// (`Err` with its file while it is not loaded)
+    pub prediction: Result<Option<trailer_model::VehicleParams>, std::path::PathBuf>,
 }
 
 impl LoopLaw {
@@ -389,7 +448,7 @@ impl Controller {
     /// The law of a `yaw_rate_hitch` or `predictor` controller (`None` for the others).
     pub fn loop_law(&self) -> Option<LoopLaw> {
         use crate::control::Structure;
-        match *self {
+        match self.clone() {
             Controller::None | Controller::YawRateFeedback { .. } => None,
             Controller::YawRateHitch {
                 gains,
@@ -407,6 +466,7 @@ impl Controller {
                 off_s,
                 limit,
                 model_error: ModelError::default(),
+                prediction: Ok(None),
             }),
             Controller::Predictor {
                 gains,
@@ -416,6 +476,7 @@ impl Controller {
                 off_s,
                 limit,
                 model_error,
+                prediction_vehicle,
             } => Some(LoopLaw {
                 structure: Structure::Predictor,
                 gains,
@@ -425,6 +486,13 @@ impl Controller {
                 off_s,
                 limit,
                 model_error,
+                prediction: match prediction_vehicle {
+                    None => Ok(None),
+                    Some(PredictionVehicle {
+                        params: Some(p), ..
+                    }) => Ok(Some(p)),
+                    Some(PredictionVehicle { file, params: None }) => Err(file),
+                },
             }),
         }
     }

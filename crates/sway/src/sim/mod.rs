@@ -41,7 +41,9 @@ pub mod speeds;
 pub mod sweep;
 
 pub use classify::{MetricSettings, SwayClass};
-pub use controller::{ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError};
+pub use controller::{
+    ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError, PredictionVehicle,
+};
 #[allow(deprecated)]
 pub use plant::Plant;
 pub use plant::{

@@ -806,7 +806,7 @@ fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
     x0: SVector<f64, N>,
     recording: Recording,
 ) -> Result<SimResult<N>, SwayError> {
-    let problem = SimProblem::<P, M, N>::new(plant, &spec.profile, spec.controller, x0)?;
+    let problem = SimProblem::<P, M, N>::new(plant, &spec.profile, spec.controller.clone(), x0)?;
     let th_s = spec
         .settings
         .metrics

@@ -367,7 +367,7 @@ impl<S: SpeedValue> ResolveSpeeds for ScenarioConfig<S> {
             output_step_s: self.output_step_s,
             action_s: self.action_s,
             speed: self.speed.resolve_speeds("speed", r)?,
-            controller: self.controller,
+            controller: self.controller.clone(),
             initial: self.initial.resolve_speeds("initial", r)?,
             settings: self.settings,
         })
@@ -435,7 +435,7 @@ impl ScenarioConfig {
     pub fn spec(&self) -> SimSpec {
         SimSpec {
             profile: self.speed.clone(),
-            controller: self.controller,
+            controller: self.controller.clone(),
             horizon_s: self.horizon_s.get(),
             action_s: self
                 .action_s

@@ -169,7 +169,7 @@ impl<S: SpeedValue> ResolveSpeeds for BaseScenario<S> {
             horizon_s: self.horizon_s,
             action_s: self.action_s,
             speed: self.speed.resolve_speeds("base.speed", r)?,
-            controller: self.controller,
+            controller: self.controller.clone(),
             initial: self.initial.resolve_speeds("base.initial", r)?,
             settings: self.settings,
         })
@@ -853,7 +853,7 @@ pub(crate) fn simulate_point(
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
         profile: s.speed.clone(),
-        controller: s.controller,
+        controller: s.controller.clone(),
         horizon_s,
         settings: s.settings,
     };
@@ -881,7 +881,7 @@ pub(crate) fn simulate_point_any(
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
         profile: s.speed.clone(),
-        controller: s.controller,
+        controller: s.controller.clone(),
         horizon_s,
         settings: s.settings,
     };

@@ -38,8 +38,8 @@ pub use design::{
     robust_critical_speed_spec,
 };
 pub use study::{
-    AwayFromCorner, CheckedDesign, Combination, ControlStudy, DesignFold, StudySettings,
-    StudyVehicle, control_study, fold_speed, loop_law,
+    AwayFromCorner, CheckedDesign, Combination, ControlStudy, DesignFold, LoopHopfFold,
+    StudySettings, StudyVehicle, control_study, fold_speed, hopf_and_fold, loop_law,
 };
 
 use nalgebra::{DMatrix, DVector, RowDVector, RowVector4, Vector4};

@@ -427,6 +427,28 @@ pub struct LoopLaw {
 }
 
 impl LoopLaw {
+    /// The parameters of the predictor's model for a vehicle with `params`: the loaded
+    /// `prediction_vehicle` (else the vehicle) with `model_error`'s factors applied.
+    ///
+    /// # Errors
+    /// A message naming a `prediction_vehicle` that was not loaded.
+    pub fn prediction_params(
+        &self,
+        params: &trailer_model::VehicleParams,
+    ) -> Result<trailer_model::VehicleParams, String> {
+        let base = match &self.prediction {
+            Ok(p) => p.unwrap_or(*params),
+            Err(file) => {
+                return Err(format!(
+                    "the prediction vehicle {} was not loaded (the caller that reads the \
+                     scenario loads it: PredictionVehicle::loaded)",
+                    file.display()
+                ));
+            }
+        };
+        Ok(self.model_error.apply(&base))
+    }
+
     /// Whether the controller acts at time t (t_on ≤ t < t_off).
     #[inline]
     pub fn is_on(&self, t: f64) -> bool {

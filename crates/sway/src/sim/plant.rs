@@ -606,21 +606,10 @@ fn loop_command(
     if law.structure == Structure::Predictor {
         let speed = profile.speed(0.0);
         let context = || format!("the predictor's model at V = {speed} m/s");
-        let base = match &law.prediction {
-            Ok(p) => p.unwrap_or(*model.params()),
-            Err(file) => {
-                return Err(SwayError::numerical(
-                    context(),
-                    std::io::Error::other(format!(
-                        "the prediction vehicle {} was not loaded (the caller that reads \
-                         the scenario loads it: PredictionVehicle::loaded)",
-                        file.display()
-                    )),
-                ));
-            }
-        };
-        let prediction = Model::new(law.model_error.apply(&base))
-            .map_err(|e| SwayError::numerical(context(), e))?;
+        let params = law
+            .prediction_params(model.params())
+            .map_err(|e| SwayError::numerical(context(), std::io::Error::other(e)))?;
+        let prediction = Model::new(params).map_err(|e| SwayError::numerical(context(), e))?;
         let lin = prediction.linearize(speed);
         let e = (lin.a4 * law.delay_s).exp();
         c.a_hat = lin.a4;

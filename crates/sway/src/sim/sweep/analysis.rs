@@ -14,6 +14,7 @@ use crate::bifurcation::{CycleExtent, Feedback};
 use crate::bifurcation::{DiagramOutcome, DiagramSettings, vehicle_diagram};
 use crate::charts::{critical_speed_at_gain, rightmost_roots};
 use crate::config::ensure;
+use crate::control;
 use crate::ranging::SpeedLimits;
 use crate::sim::Controller;
 
@@ -140,13 +141,139 @@ pub struct HopfFoldSpeeds {
     pub reason: Option<String>,
 }
 
+/// A `yaw_rate_hitch` or `predictor` controller as a loop of [`crate::control`]: its
+/// structure, actuator and gains, the delay τ \[s\] and, for the predictor, the model it
+/// predicts with ([`crate::sim::LoopLaw::prediction_params`]).
+struct AnalysedLoop {
+    controller: control::Controller,
+    delay_s: f64,
+    prediction: Option<Model>,
+}
+
+impl AnalysedLoop {
+    /// The loop of `controller` on `model`; None for the open loop and `yaw_rate_feedback`.
+    fn of(model: &Model, controller: &Controller) -> Result<Option<Self>, String> {
+        let Some(law) = controller.loop_law() else {
+            return Ok(None);
+        };
+        let prediction = if law.structure == control::Structure::Predictor {
+            let params = law.prediction_params(model.params())?;
+            Some(Model::new(params).map_err(|e| format!("the predictor's model: {e}"))?)
+        } else {
+            None
+        };
+        Ok(Some(Self {
+            controller: control::Controller {
+                structure: law.structure,
+                actuator: law.actuator,
+                gains: law.gains,
+            },
+            delay_s: law.delay_s,
+            prediction,
+        }))
+    }
+
+    fn prediction(&self) -> Option<&dyn control::LoopModel> {
+        self.prediction
+            .as_ref()
+            .map(|m| m as &dyn control::LoopModel)
+    }
+
+    /// V_crit by the loop's exact unstable-root count ([`control::critical_speed`]: the
+    /// scan of `closed_loop_samples` speeds and bisection to `tolerance_mps`) and ω of its
+    /// rightmost root there.
+    fn critical_speed(
+        &self,
+        model: &Model,
+        (v_min_mps, v_max_mps): (f64, f64),
+        o: &AnalysisOptions,
+    ) -> Result<LinearCriticalSpeed, String> {
+        let search = control::SpeedSearch {
+            v_min_mps,
+            v_max_mps,
+            samples: o.closed_loop_samples,
+            tolerance_mps: o.tolerance_mps,
+        };
+        let v = control::critical_speed(
+            model,
+            &self.controller,
+            self.delay_s,
+            self.prediction(),
+            &search,
+        )
+        .map_err(|e| e.to_string())?;
+        let omega = match v {
+            Some(v) => {
+                let roots = control::LinearLoop::new(
+                    model,
+                    &self.controller,
+                    v,
+                    self.delay_s,
+                    self.prediction(),
+                )
+                .and_then(|l| {
+                    l.rightmost_roots(2)
+                        .map_err(|e| SwayError::numerical(format!("the roots at V = {v} m/s"), e))
+                })
+                .map_err(|e| e.to_string())?;
+                roots.first().map(|r| r.im.abs())
+            }
+            None => None,
+        };
+        Ok(LinearCriticalSpeed {
+            v_crit_mps: v,
+            hopf_omega_rad_s: omega,
+            hopf_frequency_hz: omega.map(|w| w / std::f64::consts::TAU),
+        })
+    }
+}
+
+impl AnalysedLoop {
+    /// The Hopf and fold speeds of the loop ([`control::hopf_and_fold`]: the Hopf point
+    /// located on the spectrum, the fold corrected at fixed gains) on the speed range of
+    /// `[analysis.diagram]` (derived from `limits` where it gives none); the predictor's,
+    /// and any failure, null with the reason.
+    fn hopf_fold_speeds(
+        &self,
+        model: &Model,
+        o: &AnalysisOptions,
+        limits: &SpeedLimits,
+    ) -> HopfFoldSpeeds {
+        let (lo, hi) = o.diagram.searched(limits);
+        let search = control::SpeedSearch {
+            v_min_mps: lo,
+            v_max_mps: hi,
+            ..control::SpeedSearch::default()
+        };
+        let chart = ChartOptions::correcting(&o.diagram.options(lo, hi));
+        match control::hopf_and_fold(model, &self.controller, self.delay_s, &chart, &search) {
+            Ok(r) => HopfFoldSpeeds {
+                hopf_v_mps: r.hopf.map(|h| h.0),
+                hopf_omega_rad_s: r.hopf.map(|h| h.1),
+                criticality: r.hopf.map(|h| h.2),
+                fold_v_mps: r.fold.map(|f| f.v_mps),
+                fold_amplitude_deg: r.fold.map(|f| f.amplitude_deg),
+                reason: r.reason,
+            },
+            Err(e) => HopfFoldSpeeds {
+                hopf_v_mps: None,
+                hopf_omega_rad_s: None,
+                criticality: None,
+                fold_v_mps: None,
+                fold_amplitude_deg: None,
+                reason: Some(e.to_string()),
+            },
+        }
+    }
+}
+
 /// The feedback (D, τ) of a controller for the linear and bifurcation analyses (open loop:
 /// D = τ = 0); a rate-limited or saturated actuator is nonlinear and refused.
 fn feedback(controller: &Controller) -> Result<Feedback, String> {
     match *controller {
         Controller::None => Ok(Feedback::OPEN_LOOP),
         Controller::YawRateHitch { .. } | Controller::Predictor { .. } => Err(
-            "the linear and bifurcation kinds of sweeps take the open loop or a yaw_rate_feedback controller; yaw_rate_hitch and predictor are simulated only".into(),
+            "a vehicle with model variants takes the open loop or a yaw_rate_feedback controller in the linear and bifurcation kinds of sweeps; yaw_rate_hitch and predictor are analysed on the paper's model (or simulated)".into(),
         ),
         Controller::YawRateFeedback {
             gain_s,
@@ -300,7 +427,8 @@ fn open_loop_scan(
 
 /// V_crit and the Hopf frequency of `model` with `controller`'s feedback: open loop by the
 /// sign change of max Re λ(Ã(V)) ([`open_loop_critical_speed`]); closed loop by the exact
-/// unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and its rightmost root.
+/// unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and its rightmost root;
+/// `yaw_rate_hitch` and `predictor` by the count of their loop ([`control::critical_speed`]).
 ///
 /// # Errors
 /// A message naming the failing step.
@@ -310,8 +438,11 @@ pub fn linear_critical_speed(
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<LinearCriticalSpeed, String> {
-    let fb = feedback(controller)?;
     let (v_min, v_max) = o.range(limits);
+    if let Some(l) = AnalysedLoop::of(model, controller)? {
+        return l.critical_speed(model, (v_min, v_max), o);
+    }
+    let fb = feedback(controller)?;
     let (v, omega) = if fb.gain_d_s == 0.0 {
         match open_loop_critical_speed(model, o, limits)? {
             Some(v) => (Some(v), Some(critical_pair(model, v).1)),
@@ -348,8 +479,9 @@ pub fn linear_critical_speed(
 /// The Hopf and fold speeds of `model` with `controller`'s feedback: the bifurcation diagram
 /// up to its first fold (on the range derived from the vehicle unless `[analysis.diagram]`
 /// gives it, [`vehicle_diagram`]), corrected on the two-parameter defining systems at fixed
-/// D ([`critical_speeds`], as `fig4b` reports them). No Hopf point below the maximum speed
-/// is an outcome: all fields null, with the reason.
+/// D ([`critical_speeds`], as `fig4b` reports them); a `yaw_rate_hitch` loop as
+/// [`control::hopf_and_fold`] computes them (the predictor: null, with the reason). No Hopf
+/// point below the maximum speed is an outcome: all fields null, with the reason.
 ///
 /// # Errors
 /// A message naming the failing stage.
@@ -359,6 +491,9 @@ pub fn hopf_fold_speeds(
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<HopfFoldSpeeds, String> {
+    if let Some(l) = AnalysedLoop::of(model, controller)? {
+        return Ok(l.hopf_fold_speeds(model, o, limits));
+    }
     let fb = feedback(controller)?;
     let outcome = vehicle_diagram(model, fb, &o.diagram, limits, CycleExtent::FirstFold)
         .map_err(|e| e.to_string())?;

@@ -385,3 +385,62 @@ max = {max:?}
         assert!((1.71..=2.09 + 1e-12).contains(&h), "{h}");
     }
 }
+
+#[test]
+fn loop_controllers_are_analysed_as_the_paper_controller_they_contain() {
+    // reference: the paper's controller through the `yaw_rate_feedback` path (the charts'
+    // quasi-polynomial of eq. 13 and its unstable-root count; the diagram with Floquet
+    // multipliers and the Hopf point corrected on its defining system). The same loop as a
+    // `yaw_rate_hitch` with zero hitch gains goes through `control` (the LinearLoop's own
+    // quasi-polynomial and count; the Hopf point located on the spectrum, the cycle branch
+    // without multipliers): V_crit to 1e-8 m/s (both bisect to the tolerance), ω to 1e-6
+    // rad/s, the Hopf speed to 1e-8 and the fold of cycles to 1e-5 m/s (corrected on the
+    // same fold-of-cycles system, seeded from branches whose points differ).
+    let model = Model::new(VehicleParams::default()).unwrap();
+    let (d, tau) = (0.1, 0.2);
+    let paper = Controller::YawRateFeedback {
+        gain_s: d,
+        delay_s: tau,
+        on_s: 0.0,
+        off_s: None,
+        actuator: Default::default(),
+    };
+    let hitch = Controller::YawRateHitch {
+        gains: crate::control::Gains::yaw_rate(d),
+        delay_s: tau,
+        actuator: crate::control::Actuator::Steering,
+        on_s: 0.0,
+        off_s: None,
+        limit: Default::default(),
+    };
+    // a coarser mesh than fig3a's (L = 30): both paths use it
+    let mut o = AnalysisOptions {
+        v_max_mps: Some(60.0),
+        ..AnalysisOptions::default()
+    };
+    o.diagram.intervals = 30;
+    let limits = SpeedLimits::default();
+    let a = analysis::linear_critical_speed(&model, &paper, &o, &limits).unwrap();
+    let b = analysis::linear_critical_speed(&model, &hitch, &o, &limits).unwrap();
+    let (va, vb) = (a.v_crit_mps.unwrap(), b.v_crit_mps.unwrap());
+    assert!((va - vb).abs() < 1e-8, "{va} vs {vb}");
+    let (wa, wb) = (a.hopf_omega_rad_s.unwrap(), b.hopf_omega_rad_s.unwrap());
+    assert!((wa - wb).abs() < 1e-6, "{wa} vs {wb}");
+
+    let a = analysis::hopf_fold_speeds(&model, &paper, &o, &limits).unwrap();
+    let b = analysis::hopf_fold_speeds(&model, &hitch, &o, &limits).unwrap();
+    let (ha, hb) = (a.hopf_v_mps.unwrap(), b.hopf_v_mps.unwrap());
+    assert!((ha - hb).abs() < 1e-8, "{ha} vs {hb}");
+    assert_eq!(a.criticality, b.criticality);
+    let (fa, fb) = (a.fold_v_mps.unwrap(), b.fold_v_mps.unwrap());
+    assert!((fa - fb).abs() < 1e-5, "{fa} vs {fb}");
+
+    // the predictor: its V_crit through its own loop; no continuation problem (a reason)
+    let predictor: Controller =
+        toml::from_str("kind = \"predictor\"\ndelay_s = 0.6\ngains = { yaw_rate = 0.05 }\n")
+            .unwrap();
+    let p = analysis::linear_critical_speed(&model, &predictor, &o, &limits).unwrap();
+    assert!(p.v_crit_mps.is_some_and(|v| v > 34.7), "{p:?}");
+    let p = analysis::hopf_fold_speeds(&model, &predictor, &o, &limits).unwrap();
+    assert!(p.fold_v_mps.is_none() && p.reason.is_some_and(|r| r.contains("predictor")));
+}

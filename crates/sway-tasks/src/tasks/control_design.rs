@@ -9,7 +9,9 @@
 //!
 //! `summary.json`: `"designs"`, an array of `{"structure", "actuator", "tau_s", "gains",
 //! "v_crit_mps", "v_fold_mps", "v_crit_p05_mps", "at_double_hopf",
-//! "v_fold_away_from_corner", …}` (the fold of every design, null with `v_fold_reason` for
+//! "v_fold_away_from_corner", …}` (`v_crit_mps` checked for windows of instability between
+//! the scan's samples, [`sway::control::verified_critical_speed`], with the scan's value as
+//! `v_crit_scan_mps` where they differ; the fold of every design, null with `v_fold_reason` for
 //! the predictor and where there is none; the robust speed at the checked delays, null with
 //! a `…_reason` elsewhere; `v_fold_away_from_corner` = `{"gains", "v_fold_mps",
 //! "v_crit_mps", "tried"}` at a double-Hopf optimum, else null), and
@@ -436,6 +438,9 @@ struct DesignEntry {
     tau_s: f64,
     gains: Gains,
     v_crit_mps: f64,
+    /// the scan's V_crit where a narrower window of instability lies below it
+    #[serde(skip_serializing_if = "Option::is_none")]
+    v_crit_scan_mps: Option<f64>,
     speed_capped: bool,
     v_fold_mps: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -484,6 +489,7 @@ fn entry(c: &Combination, d: &Design) -> DesignEntry {
         tau_s: d.tau_s,
         gains: d.gains,
         v_crit_mps: d.v_crit_mps,
+        v_crit_scan_mps: d.v_crit_scan_mps,
         speed_capped: d.speed_capped,
         v_fold_mps: fold.and_then(|f| f.v_fold_mps),
         v_fold_reason: fold.and_then(|f| f.v_fold_reason.clone()),

@@ -201,6 +201,10 @@ pub struct Design {
     pub gains: Gains,
     /// the maximal linear critical speed \[m/s\] (the top of the speed range if capped)
     pub v_crit_mps: f64,
+    /// the scan's critical speed where a narrower window of instability was found below it
+    /// ([`super::verified_critical_speed`]; `v_crit_mps` is the window's start) \[m/s\]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub v_crit_scan_mps: Option<f64>,
     /// stable up to the top of the speed range: the true critical speed is higher
     pub speed_capped: bool,
     /// the near-optimal band of each gain of the structure
@@ -367,6 +371,15 @@ fn finish<M: LoopModel + ?Sized>(
     o: &DesignSearch,
 ) -> Result<Design, SwayError> {
     let c = controller(structure, actuator, gains);
+    // the several-gain search can push a pair to graze the axis between the scan's
+    // samples: its optimum's V_crit is checked for such a window below it
+    let scan_v_crit = v;
+    let v = if structure == Structure::YawRateHitch {
+        let scan = (v < o.speed.v_max_mps).then_some(v);
+        super::verified_critical_speed(model, &c, tau, prediction, &o.speed, scan)?.unwrap_or(v)
+    } else {
+        v
+    };
     let speed_capped = v >= o.speed.v_max_mps;
     // the rightmost roots at V_crit: a second critical pair marks a double-Hopf corner; where
     // the roots cannot be confirmed (the predictor's cleared quasi-polynomial of degree 2n is
@@ -392,6 +405,7 @@ fn finish<M: LoopModel + ?Sized>(
         tau_s: tau,
         gains,
         v_crit_mps: v,
+        v_crit_scan_mps: (v != scan_v_crit).then_some(scan_v_crit),
         speed_capped,
         bands,
         at_double_hopf: second_pair

@@ -654,6 +654,143 @@ pub fn critical_speed<M: LoopModel + ?Sized>(
     first_unstable(search, unstable)
 }
 
+/// Spectral abscissa \[1/s\] within which an interval of [`verified_critical_speed`]'s scan
+/// is searched for a narrow window of instability.
+const WINDOW_MARGIN_PER_S: f64 = 0.05;
+
+/// Sub-samples of such an interval.
+const WINDOW_SUBSAMPLES: usize = 64;
+
+/// Golden-section steps on a sampled local maximum of the spectral abscissa (the bracket
+/// shrinks by 0.618 each: 40 steps resolve a spacing of 1/64 m/s to ~1e-10 m/s).
+const WINDOW_GOLDEN_STEPS: usize = 40;
+
+/// [`critical_speed`]'s value `v_crit` checked for windows of instability narrower than its
+/// scan's spacing below it: a root pair that touches the imaginary axis and returns between
+/// two samples, which a search over several gains can push a loop into (the bisection
+/// inside a bracket then finds the window's far end, or the scan misses it). Each interval
+/// of the scan below `v_crit` (the last ending at `v_crit`) whose spectral abscissa comes
+/// within 0.05 1/s of zero at an end is sampled 64 times,
+/// the sampled local maxima of the abscissa are refined by golden section, and the first
+/// speed found with an unstable root is bracketed and bisected to `search.tolerance_mps`.
+/// Returns the lowest unstable speed so found (`v_crit` when there is no window). A window
+/// shallower than the golden section resolves (max Re λ ≲ 1e-12 1/s) can still be missed.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a loop cannot be built, counted or its roots confirmed.
+pub fn verified_critical_speed<M: LoopModel + ?Sized>(
+    model: &M,
+    controller: &Controller,
+    delay: f64,
+    prediction_model: Option<&dyn LoopModel>,
+    search: &SpeedSearch,
+    v_crit: Option<f64>,
+) -> Result<Option<f64>, SwayError> {
+    let at = |v: f64| LinearLoop::new(model, controller, v, delay, prediction_model);
+    let context = |v: f64| {
+        format!(
+            "the {} loop at V = {v} m/s, τ = {delay} s (window check)",
+            controller.structure.as_str()
+        )
+    };
+    let abscissa = |v: f64| -> Result<f64, SwayError> {
+        let roots = at(v)?
+            .rightmost_roots(1)
+            .map_err(|e| SwayError::numerical(context(v), e))?;
+        Ok(roots.first().map_or(f64::NEG_INFINITY, |z| z.re))
+    };
+    let unstable = |v: f64| -> Result<bool, SwayError> {
+        at(v)?
+            .unstable_root_count()
+            .map(|n| n > 0)
+            .map_err(|e| SwayError::numerical(context(v), e))
+    };
+    // the first unstable speed in (a, b], a stable and b unstable: bisection
+    let first_in = |mut a: f64, mut b: f64| -> Result<f64, SwayError> {
+        while b - a > search.tolerance_mps {
+            let m = 0.5 * (a + b);
+            if m <= a || m >= b {
+                break;
+            }
+            if unstable(m)? { b = m } else { a = m }
+        }
+        Ok(0.5 * (a + b))
+    };
+    let hi = v_crit.unwrap_or(search.v_max_mps);
+    let n = search.samples.max(2);
+    let mut grid: Vec<f64> = (0..n)
+        .map(|i| {
+            search.v_min_mps + (search.v_max_mps - search.v_min_mps) * i as f64 / (n - 1) as f64
+        })
+        .filter(|&v| v < hi)
+        .collect();
+    grid.push(hi);
+    // the abscissa at the grid; at v_crit it is the crossing's, zero
+    let mut alpha = grid[..grid.len() - 1]
+        .iter()
+        .map(|&v| abscissa(v))
+        .collect::<Result<Vec<_>, _>>()?;
+    alpha.push(if v_crit.is_some() { 0.0 } else { abscissa(hi)? });
+    for (k, w) in grid.windows(2).enumerate() {
+        let (a, b) = (w[0], w[1]);
+        if alpha[k].max(alpha[k + 1]) < -WINDOW_MARGIN_PER_S {
+            continue;
+        }
+        let h = (b - a) / WINDOW_SUBSAMPLES as f64;
+        let subs: Vec<f64> = (0..WINDOW_SUBSAMPLES).map(|j| a + h * j as f64).collect();
+        let sub_alpha = subs
+            .iter()
+            .map(|&v| abscissa(v))
+            .collect::<Result<Vec<_>, _>>()?;
+        for j in 1..subs.len() {
+            if sub_alpha[j] >= 0.0 && unstable(subs[j])? {
+                return first_in(subs[j - 1], subs[j]).map(Some);
+            }
+        }
+        for j in 1..subs.len() - 1 {
+            let (l, c, r) = (sub_alpha[j - 1], sub_alpha[j], sub_alpha[j + 1]);
+            if !(c >= l && c >= r && c > -WINDOW_MARGIN_PER_S) {
+                continue;
+            }
+            if let Some(v) = golden_unstable(&abscissa, &unstable, subs[j - 1], subs[j + 1])? {
+                return first_in(subs[j - 1], v).map(Some);
+            }
+        }
+    }
+    Ok(v_crit)
+}
+
+/// Golden-section maximisation of `abscissa` on \[a, b\]; the first point met where it is
+/// ≥ 0 and `unstable` confirms it, if any.
+fn golden_unstable(
+    abscissa: &impl Fn(f64) -> Result<f64, SwayError>,
+    unstable: &impl Fn(f64) -> Result<bool, SwayError>,
+    mut a: f64,
+    mut b: f64,
+) -> Result<Option<f64>, SwayError> {
+    const INV_PHI: f64 = 0.618_033_988_749_894_8;
+    let mut x1 = b - INV_PHI * (b - a);
+    let mut x2 = a + INV_PHI * (b - a);
+    let (mut f1, mut f2) = (abscissa(x1)?, abscissa(x2)?);
+    for _ in 0..WINDOW_GOLDEN_STEPS {
+        for (x, f) in [(x1, f1), (x2, f2)] {
+            if f >= 0.0 && unstable(x)? {
+                return Ok(Some(x));
+            }
+        }
+        if f1 >= f2 {
+            (b, x2, f2) = (x2, x1, f1);
+            x1 = b - INV_PHI * (b - a);
+            f1 = abscissa(x1)?;
+        } else {
+            (a, x1, f1) = (x1, x2, f2);
+            x2 = a + INV_PHI * (b - a);
+            f2 = abscissa(x2)?;
+        }
+    }
+    Ok(None)
+}
+
 /// The lowest v in the search range where `unstable(v)`: scan, then bisection.
 fn first_unstable(
     s: &SpeedSearch,

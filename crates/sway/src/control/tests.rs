@@ -717,3 +717,54 @@ fn fold_of_a_design_whose_hopf_point_lies_between_the_grid_speeds() {
         "fold {coarse} (L = 20) vs {fine} (L = 40)"
     );
 }
+
+#[test]
+fn a_window_of_instability_between_scan_samples_is_found() {
+    // the yaw_rate_hitch + steering optimum of control_design at τ = 2 s: a root pair
+    // touches the axis on ≈ 51.03–51.06 m/s and returns, between the scan's samples (1 m/s
+    // apart); the scan and bisection report the far crossing ≈ 51.07 m/s. Reference: the
+    // exact unstable-root count on a 1 mm/s grid over [50.9, 51.1] m/s, the first unstable
+    // speed to 1e-3 m/s (the verified value is bisected to 1e-9 m/s)
+    let m = table_i();
+    let c = Controller {
+        structure: Structure::YawRateHitch,
+        actuator: Actuator::Steering,
+        gains: Gains {
+            yaw_rate: 0.03884622882829494,
+            hitch_angle: 0.00865474295029367,
+            hitch_rate: -0.010301524962843644,
+        },
+    };
+    let tau = 2.0;
+    let s = SpeedSearch::default();
+    let scan = critical_speed(&m, &c, tau, None, &s).unwrap().unwrap();
+    let verified = verified_critical_speed(&m, &c, tau, None, &s, Some(scan))
+        .unwrap()
+        .unwrap();
+    let unstable = |v: f64| {
+        LinearLoop::new(&m, &c, v, tau, None)
+            .unwrap()
+            .unstable_root_count()
+            .unwrap()
+            > 0
+    };
+    let reference = (0..=200)
+        .map(|i| 50.9 + 1e-3 * i as f64)
+        .find(|&v| unstable(v))
+        .expect("an unstable speed below 51.1 m/s");
+    assert!(
+        scan - reference > 0.01,
+        "scan {scan}, reference {reference}"
+    );
+    assert!(
+        verified <= reference && reference - verified <= 1e-3,
+        "verified {verified}, reference {reference}"
+    );
+    // no window: the paper's loop at D = 0.1 s, τ = 0.2 s keeps its critical speed
+    let paper = Controller::paper(0.1);
+    let v = critical_speed(&m, &paper, 0.2, None, &s).unwrap();
+    assert_eq!(
+        verified_critical_speed(&m, &paper, 0.2, None, &s, v).unwrap(),
+        v
+    );
+}

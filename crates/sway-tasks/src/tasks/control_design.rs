@@ -443,6 +443,8 @@ struct DesignEntry {
     v_crit_scan_mps: Option<f64>,
     speed_capped: bool,
     v_fold_mps: Option<f64>,
+    /// the Hopf point the fold's cycle branch starts from
+    v_fold_hopf_mps: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     v_fold_reason: Option<String>,
     v_crit_p05_mps: Option<f64>,
@@ -492,6 +494,7 @@ fn entry(c: &Combination, d: &Design) -> DesignEntry {
         v_crit_scan_mps: d.v_crit_scan_mps,
         speed_capped: d.speed_capped,
         v_fold_mps: fold.and_then(|f| f.v_fold_mps),
+        v_fold_hopf_mps: fold.and_then(|f| f.hopf_v_mps),
         v_fold_reason: fold.and_then(|f| f.v_fold_reason.clone()),
         v_crit_p05_mps: checked.and_then(|k| k.robustness.v_crit_p05_mps),
         v_crit_p05_reason: match checked {

@@ -64,6 +64,11 @@ pub struct DesignFold {
     pub v_fold_mps: Option<f64>,
     /// why `v_fold_mps` is null, where it is
     pub v_fold_reason: Option<String>,
+    /// the Hopf point of straight running the cycle branch starts from \[m/s\] (located on
+    /// the spectrum; the first one the straight-running continuation meets, which can lie
+    /// past a window of instability below it: compare the design's V_crit)
+    #[serde(default)]
+    pub hopf_v_mps: Option<f64>,
     /// where the optimum is a double-Hopf corner: the gains a little away from it with the
     /// largest fold speed
     pub away_from_corner: Option<AwayFromCorner>,
@@ -534,6 +539,7 @@ fn design_fold(
                  model variants, whose nonlinear chart is not wired into control_design yet"
                     .into(),
             ),
+            hopf_v_mps: None,
             away_from_corner: None,
         });
     };
@@ -542,7 +548,8 @@ fn design_fold(
         actuator: d.actuator,
         gains: d.gains,
     };
-    let (v_fold_mps, v_fold_reason) = fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
+    let r = hopf_and_fold(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
+    let v_fold_mps = r.fold.map(|f| f.v_mps);
     let away_from_corner = match (d.at_double_hopf, v_fold_mps) {
         (true, Some(_)) if s.away_from_corner_samples > 0 => away_from_corner(model, d, s)?,
         _ => None,
@@ -550,7 +557,8 @@ fn design_fold(
     Ok(DesignFold {
         tau_s: d.tau_s,
         v_fold_mps,
-        v_fold_reason,
+        v_fold_reason: r.reason,
+        hopf_v_mps: r.hopf.map(|h| h.0),
         away_from_corner,
     })
 }

@@ -425,53 +425,33 @@ fn a_prediction_vehicle_is_the_model_the_predictor_predicts_with() {
         let spec = common::spec(profile.clone(), c, 5.0, 1e-8);
         simulate::<4>(&model, &spec, x, Recording::Every { step_s: 0.1 }).unwrap()
     };
-    let with_vehicle = |params, error| match loop_controller(
-        Structure::Predictor,
-        Actuator::Steering,
-        Gains::yaw_rate(0.05),
-        0.6,
-        error,
-    ) {
-        Controller::Predictor {
-            gains,
-            delay_s,
-            actuator,
-            on_s,
-            off_s,
-            limit,
-            model_error,
-            ..
-        } => Controller::Predictor {
-            gains,
-            delay_s,
-            actuator,
-            on_s,
-            off_s,
-            limit,
-            model_error,
-            prediction_vehicle: Some(sway::sim::PredictionVehicle::loaded("heavier.toml", params)),
-        },
-        _ => unreachable!(),
+    let predictor = |error| {
+        loop_controller(
+            Structure::Predictor,
+            Actuator::Steering,
+            Gains::yaw_rate(0.05),
+            0.6,
+            error,
+        )
     };
-    let factor = run(loop_controller(
-        Structure::Predictor,
-        Actuator::Steering,
-        Gains::yaw_rate(0.05),
-        0.6,
-        off,
-    ));
+    let with_vehicle = |params, error| {
+        let mut c = predictor(error);
+        if let Controller::Predictor {
+            prediction_vehicle, ..
+        } = &mut c
+        {
+            *prediction_vehicle =
+                Some(sway::sim::PredictionVehicle::loaded("heavier.toml", params));
+        }
+        c
+    };
+    let factor = run(predictor(off));
     let file = run(with_vehicle(
         off.apply(model.params()),
         ModelError::default(),
     ));
     assert_eq!(factor.trajectory, file.trajectory);
-    let perfect = run(loop_controller(
-        Structure::Predictor,
-        Actuator::Steering,
-        Gains::yaw_rate(0.05),
-        0.6,
-        ModelError::default(),
-    ));
+    let perfect = run(predictor(ModelError::default()));
     let itself = run(with_vehicle(*model.params(), ModelError::default()));
     assert_eq!(perfect.trajectory, itself.trajectory);
     assert_ne!(perfect.trajectory, factor.trajectory);

@@ -71,9 +71,11 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for &l in &[20usize, 40, 80, 160] {
         let (mut sys, u, t) = fold_start(&problem, l, false);
-        // the default solver (LinearSolver::Auto) and the sparse LU of the whole system
+        // the default solver (LinearSolver::Auto: block elimination), GMRES preconditioned
+        // by the delay-free part, and the sparse LU of the whole system
         for (solver, suffix) in [
             (LinearSolver::Auto, ""),
+            (LinearSolver::Krylov, "_krylov"),
             (LinearSolver::SparseLu, "_sparse_lu"),
         ] {
             sys.set_linear_solver(solver);

@@ -96,6 +96,7 @@
 //! ```
 
 mod banded;
+mod block_forward;
 mod codim2;
 mod collocation;
 mod cycle_curve;

@@ -4,6 +4,7 @@
 //! preconditioner.
 
 use crate::banded::BandedLu;
+use crate::block_forward::PeriodicForwardLu;
 use crate::error::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
@@ -340,11 +341,18 @@ pub enum LinearSolver {
     /// with [`LinearSolver::SparseLu`]. Where the engine needs the determinant (the
     /// branch-point test of one-parameter branches) and E ≠ 0, the direct LU is used.
     Krylov,
-    /// [`LinearSolver::Krylov`] for systems of at least [`KRYLOV_MIN_SIZE`] unknowns,
-    /// [`LinearSolver::SparseLu`] below (measured, benches/fold_cycles.rs on the coupled
-    /// delayed Bautin oscillators, fold-of-cycles Newton step, medians on a loaded 2-core
-    /// machine: the direct LU wins at 1285 unknowns, L = 40, 37 ms vs 61 ms; GMRES wins
-    /// at 2565, L = 80, 130 ms vs 246 ms, and at 5125, L = 160, 239 ms vs 1.78 s)
+    /// Block elimination of a delay equation's collocation (`block_forward.rs`): the
+    /// collocation integrated forward interval by interval (dense LU of each interval's
+    /// block, no fill), the periodic wrap and the delayed history of the first τ/T of the
+    /// period reached ahead carried by K ≈ (τ/T·L + 1)·m·n border unknowns, whose Schur
+    /// complement is factorised densely. Exact, with the determinant; cost
+    /// O(K·(nnz + L·(m·n)²) + K³). Systems it does not fit (ODEs: the band solver; an
+    /// extended system without mesh blocks) get the sparse LU.
+    BlockForward,
+    /// [`LinearSolver::BlockForward`] where the system fits it, else
+    /// [`LinearSolver::Krylov`] for systems of at least [`KRYLOV_MIN_SIZE`] unknowns and
+    /// [`LinearSolver::SparseLu`] below (ODEs: the band solver; see `benches/fold_cycles.rs`
+    /// and `crates/sway/benches/closed_loop_mesh.rs` for the measured costs)
     #[default]
     Auto,
 }
@@ -371,8 +379,10 @@ pub struct MeshStructure {
     pub(crate) intervals: usize,
     pub(crate) column_blocks: Vec<usize>,
     pub(crate) row_blocks: Vec<usize>,
-    /// smaller systems are factorised directly
+    /// smaller systems are factorised directly (by [`LinearSolver::Krylov`]'s split)
     pub(crate) min_size: usize,
+    /// the block-forward solver first ([`LinearSolver::Auto`], [`LinearSolver::BlockForward`])
+    pub(crate) block_forward: bool,
     /// ℓ_j(ξ_c) at the collocation points, row c: `basis[c * (m + 1) + j]`
     pub(crate) basis: Vec<f64>,
 }
@@ -428,14 +438,15 @@ impl MeshStructure {
 
 /// compressed sparse rows (duplicates summed)
 #[derive(Debug)]
-struct Csr {
+pub(crate) struct Csr {
     ptr: Vec<usize>,
     idx: Vec<usize>,
     val: Vec<f64>,
 }
 
 impl Csr {
-    fn new(n: usize, entries: &[Entry]) -> Self {
+    /// `n` rows of the triplets `entries` (duplicates summed)
+    pub(crate) fn new(n: usize, entries: &[Entry]) -> Self {
         let mut sorted: Vec<(usize, usize, f64)> =
             entries.iter().map(|e| (e.row, e.col, e.val)).collect();
         sorted.sort_by_key(|a| (a.0, a.1));
@@ -461,8 +472,38 @@ impl Csr {
         Self { ptr, idx, val }
     }
 
+    /// `n` rows of the triplets `entries` by a counting sort: O(nnz), duplicates kept
+    /// (products sum them)
+    pub(crate) fn by_rows(n: usize, entries: &[(usize, usize, f64)]) -> Self {
+        let mut ptr = vec![0; n + 1];
+        for &(r, _, _) in entries {
+            ptr[r + 1] += 1;
+        }
+        for r in 0..n {
+            ptr[r + 1] += ptr[r];
+        }
+        let mut next = ptr.clone();
+        let mut idx = vec![0; entries.len()];
+        let mut val = vec![0.0; entries.len()];
+        for &(r, c, v) in entries {
+            idx[next[r]] = c;
+            val[next[r]] = v;
+            next[r] += 1;
+        }
+        Self { ptr, idx, val }
+    }
+
+    /// the (column, value) pairs of row r
+    pub(crate) fn row(&self, r: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let q = self.ptr[r]..self.ptr[r + 1];
+        self.idx[q.clone()]
+            .iter()
+            .copied()
+            .zip(self.val[q].iter().copied())
+    }
+
     /// y += A x
-    fn mul_add(&self, x: &[f64], y: &mut [f64]) {
+    pub(crate) fn mul_add(&self, x: &[f64], y: &mut [f64]) {
         for (r, yr) in y.iter_mut().enumerate() {
             let mut s = 0.0;
             for q in self.ptr[r]..self.ptr[r + 1] {
@@ -492,114 +533,140 @@ struct KrylovLu {
     fallback: OnceCell<Option<DirectLu>>,
 }
 
-impl KrylovLu {
-    /// x = J⁻¹ b by restarted, right-preconditioned GMRES (modified Gram–Schmidt, Givens
-    /// rotations); false if the residual did not reach the tolerance
-    fn gmres(&self, b: &[f64], x: &mut [f64]) -> bool {
-        let n = self.n;
-        x.iter_mut().for_each(|v| *v = 0.0);
-        let bnorm = dot(b, b).sqrt();
-        if bnorm == 0.0 {
+/// A linear operator for [`gmres`]: x = A⁻¹ b with a right preconditioner M.
+pub(crate) trait KrylovOperator {
+    /// the size of A
+    fn dim(&self) -> usize;
+    /// w = A M⁻¹ v
+    fn apply_preconditioned(&self, v: &[f64], w: &mut [f64]);
+    /// z ← M⁻¹ z
+    fn precondition(&self, z: &mut [f64]);
+    /// r = b − A x
+    fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64]);
+}
+
+/// x = A⁻¹ b by restarted, right-preconditioned GMRES (modified Gram–Schmidt twice,
+/// Givens rotations) to the relative residual [`KRYLOV_TOLERANCE`], checked with the true
+/// residual; false if it was not reached in [`KRYLOV_MAX_CYCLES`] cycles
+pub(crate) fn gmres<O: KrylovOperator>(op: &O, b: &[f64], x: &mut [f64]) -> bool {
+    x.iter_mut().for_each(|v| *v = 0.0);
+    let bnorm = dot(b, b).sqrt();
+    if bnorm == 0.0 {
+        return true;
+    }
+    let tol = KRYLOV_TOLERANCE * bnorm;
+    let mut r = b.to_vec();
+    for cycle in 0..KRYLOV_MAX_CYCLES {
+        if cycle > 0 {
+            op.residual(b, x, &mut r);
+        }
+        let rnorm = dot(&r, &r).sqrt();
+        if !rnorm.is_finite() {
+            return false;
+        }
+        if rnorm <= tol {
             return true;
         }
-        let tol = KRYLOV_TOLERANCE * bnorm;
-        let mut r = b.to_vec();
-        let mut z = vec![0.0; n];
-        for cycle in 0..KRYLOV_MAX_CYCLES {
-            if cycle > 0 {
-                // true residual r = b − J x
-                r.copy_from_slice(b);
-                z.iter_mut().zip(x.iter()).for_each(|(z, x)| *z = -x);
-                self.matrix.mul_add(&z, &mut r);
+        gmres_cycle(op, &r, rnorm, tol, x);
+    }
+    op.residual(b, x, &mut r);
+    dot(&r, &r).sqrt() <= tol
+}
+
+/// one GMRES cycle on A M⁻¹ d' = r (‖r‖ = rnorm) from d' = 0; x += M⁻¹ d'
+fn gmres_cycle<O: KrylovOperator>(op: &O, r: &[f64], rnorm: f64, tol: f64, x: &mut [f64]) {
+    let n = op.dim();
+    let kmax = KRYLOV_MAX_ITERATIONS.min(n);
+    let mut basis: Vec<Vec<f64>> = vec![r.iter().map(|v| v / rnorm).collect()];
+    let mut h: Vec<Vec<f64>> = Vec::with_capacity(kmax);
+    let (mut cs, mut sn): (Vec<f64>, Vec<f64>) =
+        (Vec::with_capacity(kmax), Vec::with_capacity(kmax));
+    let mut g = vec![0.0; kmax + 1];
+    g[0] = rnorm;
+    let mut k = 0;
+    while k < kmax {
+        let mut w = vec![0.0; n];
+        op.apply_preconditioned(&basis[k], &mut w);
+        let mut col = vec![0.0; k + 2];
+        for _ in 0..2 {
+            // Gram–Schmidt twice (keeps the basis orthogonal to rounding)
+            for (i, v) in basis.iter().enumerate() {
+                let hij = dot(&w, v);
+                col[i] += hij;
+                w.iter_mut().zip(v).for_each(|(a, b)| *a -= hij * b);
             }
-            let rnorm = dot(&r, &r).sqrt();
-            if !rnorm.is_finite() {
-                return false;
-            }
-            if rnorm <= tol {
-                return true;
-            }
-            self.cycle(&r, rnorm, tol, x);
         }
-        r.copy_from_slice(b);
-        z.iter_mut().zip(x.iter()).for_each(|(z, x)| *z = -x);
-        self.matrix.mul_add(&z, &mut r);
-        dot(&r, &r).sqrt() <= tol
+        let hnext = dot(&w, &w).sqrt();
+        col[k + 1] = hnext;
+        for i in 0..k {
+            let t = cs[i] * col[i] + sn[i] * col[i + 1];
+            col[i + 1] = -sn[i] * col[i] + cs[i] * col[i + 1];
+            col[i] = t;
+        }
+        let rho = (col[k] * col[k] + col[k + 1] * col[k + 1]).sqrt();
+        let (c, s) = if rho == 0.0 {
+            (1.0, 0.0)
+        } else {
+            (col[k] / rho, col[k + 1] / rho)
+        };
+        cs.push(c);
+        sn.push(s);
+        col[k] = rho;
+        col[k + 1] = 0.0;
+        g[k + 1] = -s * g[k];
+        g[k] *= c;
+        h.push(col);
+        k += 1;
+        if g[k].abs() <= tol || hnext == 0.0 || !hnext.is_finite() {
+            break;
+        }
+        basis.push(w.iter().map(|v| v / hnext).collect());
+    }
+    // y from the triangular system, d = M⁻¹ (V y)
+    let mut y = vec![0.0; k];
+    for i in (0..k).rev() {
+        let mut s = g[i];
+        for j in i + 1..k {
+            s -= h[j][i] * y[j];
+        }
+        y[i] = if h[i][i] != 0.0 { s / h[i][i] } else { 0.0 };
+    }
+    let mut z = vec![0.0; n];
+    for (yi, v) in y.iter().zip(&basis) {
+        z.iter_mut().zip(v).for_each(|(a, b)| *a += yi * b);
+    }
+    op.precondition(&mut z);
+    x.iter_mut().zip(&z).for_each(|(a, b)| *a += b);
+}
+
+impl KrylovOperator for KrylovLu {
+    fn dim(&self) -> usize {
+        self.n
     }
 
-    /// one GMRES cycle on J d = r (‖r‖ = rnorm) from d = 0; x += d
-    fn cycle(&self, r: &[f64], rnorm: f64, tol: f64, x: &mut [f64]) {
-        let n = self.n;
-        let kmax = KRYLOV_MAX_ITERATIONS.min(n);
-        let mut basis: Vec<Vec<f64>> = vec![r.iter().map(|v| v / rnorm).collect()];
-        let mut h: Vec<Vec<f64>> = Vec::with_capacity(kmax);
-        let (mut cs, mut sn): (Vec<f64>, Vec<f64>) =
-            (Vec::with_capacity(kmax), Vec::with_capacity(kmax));
-        let mut g = vec![0.0; kmax + 1];
-        g[0] = rnorm;
-        let mut z = vec![0.0; n];
-        let mut k = 0;
-        while k < kmax {
-            // w = J P⁻¹ v_k = v_k + E P⁻¹ v_k
-            z.copy_from_slice(&basis[k]);
-            self.precond.solve_unchecked(&mut z);
-            let mut w = basis[k].clone();
-            self.coupling.mul_add(&z, &mut w);
-            let mut col = vec![0.0; k + 2];
-            for _ in 0..2 {
-                // Gram–Schmidt twice (keeps the basis orthogonal to rounding)
-                for (i, v) in basis.iter().enumerate() {
-                    let hij = dot(&w, v);
-                    col[i] += hij;
-                    w.iter_mut().zip(v).for_each(|(a, b)| *a -= hij * b);
-                }
-            }
-            let hnext = dot(&w, &w).sqrt();
-            col[k + 1] = hnext;
-            for i in 0..k {
-                let t = cs[i] * col[i] + sn[i] * col[i + 1];
-                col[i + 1] = -sn[i] * col[i] + cs[i] * col[i + 1];
-                col[i] = t;
-            }
-            let rho = (col[k] * col[k] + col[k + 1] * col[k + 1]).sqrt();
-            let (c, s) = if rho == 0.0 {
-                (1.0, 0.0)
-            } else {
-                (col[k] / rho, col[k + 1] / rho)
-            };
-            cs.push(c);
-            sn.push(s);
-            col[k] = rho;
-            col[k + 1] = 0.0;
-            g[k + 1] = -s * g[k];
-            g[k] *= c;
-            h.push(col);
-            k += 1;
-            if g[k].abs() <= tol || hnext == 0.0 || !hnext.is_finite() {
-                break;
-            }
-            basis.push(w.iter().map(|v| v / hnext).collect());
-        }
-        // y from the triangular system, d = P⁻¹ (V y)
-        let mut y = vec![0.0; k];
-        for i in (0..k).rev() {
-            let mut s = g[i];
-            for j in i + 1..k {
-                s -= h[j][i] * y[j];
-            }
-            y[i] = if h[i][i] != 0.0 { s / h[i][i] } else { 0.0 };
-        }
-        z.iter_mut().for_each(|v| *v = 0.0);
-        for (yi, v) in y.iter().zip(&basis) {
-            z.iter_mut().zip(v).for_each(|(a, b)| *a += yi * b);
-        }
+    /// w = J P⁻¹ v = v + E P⁻¹ v
+    fn apply_preconditioned(&self, v: &[f64], w: &mut [f64]) {
+        let mut z = v.to_vec();
         self.precond.solve_unchecked(&mut z);
-        x.iter_mut().zip(&z).for_each(|(a, b)| *a += b);
+        w.copy_from_slice(v);
+        self.coupling.mul_add(&z, w);
     }
 
+    fn precondition(&self, z: &mut [f64]) {
+        self.precond.solve_unchecked(z);
+    }
+
+    fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64]) {
+        r.copy_from_slice(b);
+        let minus_x: Vec<f64> = x.iter().map(|v| -v).collect();
+        self.matrix.mul_add(&minus_x, r);
+    }
+}
+
+impl KrylovLu {
     fn solve_raw(&self, rhs: &mut [f64]) {
         let b = rhs.to_vec();
-        if self.gmres(&b, rhs) {
+        if gmres(self, &b, rhs) {
             return;
         }
         let direct = self.fallback.get_or_init(|| {
@@ -629,6 +696,8 @@ enum Kind {
     Krylov(Box<KrylovLu>),
     /// a bordered band matrix ([`BandedLu`]: ODE collocation, cost linear in the mesh)
     Banded(Box<BandedLu>),
+    /// block elimination of a delay equation's collocation ([`PeriodicForwardLu`])
+    Forward(Box<PeriodicForwardLu>),
 }
 
 impl SparseLu {
@@ -665,6 +734,20 @@ impl SparseLu {
         structure: Option<&MeshStructure>,
         what: &str,
     ) -> Result<Self> {
+        if let Some(st) = structure.filter(|s| s.block_forward)
+            && !matches!(factorisation, Factorisation::Banded(_))
+            && let Some(lu) = PeriodicForwardLu::new(
+                n,
+                entries,
+                st,
+                matches!(factorisation, Factorisation::WithDeterminant(_)),
+            )
+        {
+            return Ok(Self {
+                kind: Kind::Forward(Box::new(lu)),
+                n,
+            });
+        }
         let Some(structure) = structure.filter(|s| n >= s.min_size) else {
             return Self::new(n, entries, factorisation, what);
         };
@@ -708,6 +791,7 @@ impl SparseLu {
             Kind::Direct(lu) => lu.solve_raw(rhs),
             Kind::Krylov(k) => k.solve_raw(rhs),
             Kind::Banded(lu) => lu.solve(rhs),
+            Kind::Forward(lu) => lu.solve(rhs),
         }
     }
 
@@ -717,6 +801,7 @@ impl SparseLu {
             Kind::Direct(lu) => lu.determinant(),
             Kind::Krylov(_) => None,
             Kind::Banded(lu) => Some(lu.determinant()),
+            Kind::Forward(lu) => lu.determinant(),
         }
     }
 
@@ -738,6 +823,11 @@ impl SparseLu {
         match &self.kind {
             Kind::Direct(lu) => lu.solve_inplace(b.as_mut()),
             Kind::Banded(lu) => {
+                for j in 0..b.ncols() {
+                    lu.solve(b.col_as_slice_mut(j));
+                }
+            }
+            Kind::Forward(lu) => {
                 for j in 0..b.ncols() {
                     lu.solve(b.col_as_slice_mut(j));
                 }

@@ -13,6 +13,7 @@
 //! delayed value x(s − τ_j/T) moves along the profile, and the Jacobian column of p contains
 //! ∂τ_j/∂p · J_j(s) x'(s − τ_j/T) besides −T ∂f/∂p.
 
+use crate::block_forward::BlockLowerTriangular;
 use crate::collocation::{Basis, MAX_DEGREE, lagrange};
 use crate::engine::ContinuationSystem;
 use crate::equilibrium::HopfPoint;
@@ -242,10 +243,11 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         column_blocks: Vec<usize>,
         row_blocks: Vec<usize>,
     ) -> Option<MeshStructure> {
-        let min_size = match self.linear_solver {
+        let (min_size, block_forward) = match self.linear_solver {
             LinearSolver::SparseLu => return None,
-            LinearSolver::Krylov => 0,
-            LinearSolver::Auto => crate::linalg::KRYLOV_MIN_SIZE,
+            LinearSolver::Krylov => (0, false),
+            LinearSolver::BlockForward => (usize::MAX, true),
+            LinearSolver::Auto => (crate::linalg::KRYLOV_MIN_SIZE, true),
         };
         Some(MeshStructure {
             n: self.dim(),
@@ -254,6 +256,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
             column_blocks,
             row_blocks,
             min_size,
+            block_forward,
             basis: self.basis.val.clone(),
         })
     }
@@ -918,18 +921,42 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                 parameter: u[u.len() - 1],
             });
         }
-        // an ODE's initial-value collocation is block bidiagonal in the natural order: the
-        // simplicial LU in that order (no fill); a delay equation's: supernodes
-        let natural: Vec<usize>;
-        let factorisation = if k == 0 {
-            natural = (0..n * np).collect();
-            Factorisation::WithDeterminant(Some(&natural))
-        } else {
-            Factorisation::Fast(None)
+        // the initial-value collocation is block lower triangular in the natural order (each
+        // interval's rows against its own nodes, earlier nodes and the history): block
+        // forward substitution, no fill; the sparse LU if a block is singular
+        let (size, dim) = (n * np, n * nh);
+        let solved = match BlockLowerTriangular::new(
+            size,
+            m * n,
+            ap.iter().map(|e| (e.row, e.col, e.val)),
+        ) {
+            Some(lu) => {
+                let mut x = vec![0.0; size * dim];
+                for (r, row) in x.chunks_exact_mut(dim).enumerate() {
+                    for (c, v) in row.iter_mut().enumerate() {
+                        *v = ah[(r, c)];
+                    }
+                }
+                lu.solve_rows(&mut x, dim);
+                if !x.iter().all(|v| v.is_finite()) {
+                    return Err(Error::SingularSystem {
+                        size,
+                        what: "monodromy (collocation)".into(),
+                    });
+                }
+                x
+            }
+            None => {
+                let lu = SparseLu::new(
+                    size,
+                    &ap,
+                    Factorisation::Fast(None),
+                    "monodromy (collocation)",
+                )?;
+                lu.solve_mat(&mut ah, "monodromy (collocation)")?;
+                (0..size * dim).map(|q| ah[(q / dim, q % dim)]).collect()
+            }
         };
-        let lu = SparseLu::new(n * np, &ap, factorisation, "monodromy (collocation)")?;
-        lu.solve_mat(&mut ah, "monodromy (collocation)")?;
-        let dim = n * nh;
         let mut mono = Mat::<f64>::zeros(dim, dim);
         for e_new in 0..nh {
             let e_old = e_new + np;
@@ -939,7 +966,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                 } else {
                     let row = (e_old - nh) * n + r;
                     for col in 0..dim {
-                        mono[(e_new * n + r, col)] = ah[(row, col)];
+                        mono[(e_new * n + r, col)] = solved[row * dim + col];
                     }
                 }
             }

@@ -735,7 +735,6 @@ impl SparseLu {
         what: &str,
     ) -> Result<Self> {
         if let Some(st) = structure.filter(|s| s.block_forward)
-            && !matches!(factorisation, Factorisation::Banded(_))
             && let Some(lu) = PeriodicForwardLu::new(
                 n,
                 entries,

@@ -855,16 +855,17 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         let np = l * m; // nodes solved for
         let ext = |q: i64, j: usize| -> usize { ((q + qh) as usize) * m + j };
         let mut ap: Vec<Entry> = Vec::new();
-        let mut ah = Mat::<f64>::zeros(n * np, n * nh);
+        // the history's coupling, moved to the right-hand side: (row, history column, value)
+        let mut ah: Vec<(usize, usize, f64)> = Vec::new();
         let nc = n * (k + 1);
         let mut l_d = [0.0; MAX_DEGREE + 1];
         let mut dl_d = [0.0; MAX_DEGREE + 1];
         let mut x = vec![0.0; n];
         let mut dx = vec![0.0; n];
         let push =
-            |row: usize, e: usize, kk: usize, v: f64, ap: &mut Vec<Entry>, ah: &mut Mat<f64>| {
+            |row: usize, e: usize, kk: usize, v: f64, ap: &mut Vec<Entry>, ah: &mut Vec<_>| {
                 if e < nh {
-                    ah[(row, e * n + kk)] -= v; // moved to the right-hand side
+                    ah.push((row, e * n + kk, -v));
                 } else {
                     ap.push(Entry::new(row, (e - nh) * n + kk, v));
                 }
@@ -921,59 +922,17 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                 parameter: u[u.len() - 1],
             });
         }
-        // the initial-value collocation is block lower triangular in the natural order (each
-        // interval's rows against its own nodes, earlier nodes and the history): block
-        // forward substitution, no fill; the sparse LU if a block is singular
-        let (size, dim) = (n * np, n * nh);
-        let solved = match BlockLowerTriangular::new(
-            size,
-            m * n,
-            ap.iter().map(|e| (e.row, e.col, e.val)),
-        ) {
-            Some(lu) => {
-                let mut x = vec![0.0; size * dim];
-                for (r, row) in x.chunks_exact_mut(dim).enumerate() {
-                    for (c, v) in row.iter_mut().enumerate() {
-                        *v = ah[(r, c)];
-                    }
-                }
-                lu.solve_rows(&mut x, dim);
-                if !x.iter().all(|v| v.is_finite()) {
-                    return Err(Error::SingularSystem {
-                        size,
-                        what: "monodromy (collocation)".into(),
-                    });
-                }
-                x
-            }
-            None => {
-                let lu = SparseLu::new(
-                    size,
-                    &ap,
-                    Factorisation::Fast(None),
-                    "monodromy (collocation)",
-                )?;
-                lu.solve_mat(&mut ah, "monodromy (collocation)")?;
-                (0..size * dim).map(|q| ah[(q / dim, q % dim)]).collect()
-            }
+        let monodromy = Monodromy::new(n, m, np, nh, ap, ah);
+        let kept = self.options.multipliers_kept.max(n);
+        let mut mu = if monodromy.dim() < ARNOLDI_MIN_SIZE {
+            eigenvalues(&monodromy.dense()?)?
+        } else {
+            crate::linalg::dominant_eigenvalues(monodromy.dim(), kept, |v, w| {
+                monodromy.apply(v, w)
+            })?
         };
-        let mut mono = Mat::<f64>::zeros(dim, dim);
-        for e_new in 0..nh {
-            let e_old = e_new + np;
-            for r in 0..n {
-                if e_old < nh {
-                    mono[(e_new * n + r, e_old * n + r)] = 1.0;
-                } else {
-                    let row = (e_old - nh) * n + r;
-                    for col in 0..dim {
-                        mono[(e_new * n + r, col)] = solved[row * dim + col];
-                    }
-                }
-            }
-        }
-        let mut mu = eigenvalues(&mono)?;
         mu.sort_by(|a, b| b.norm().total_cmp(&a.norm()));
-        mu.truncate(self.options.multipliers_kept.max(n));
+        mu.truncate(kept);
         Ok(mu)
     }
 
@@ -1245,4 +1204,117 @@ fn equidistributed(mesh: &[f64], density: &[f64], intervals: usize) -> Vec<f64> 
     out.push(1.0);
     out.dedup_by(|a, b| *a - *b <= 1e-12);
     out
+}
+
+/// Monodromy matrices of at least this size are not formed: their dominant eigenvalues come
+/// from Arnoldi's method on the operator (one block forward solve per product), so the cost
+/// grows linearly in the mesh for a fixed τ/T instead of cubically.
+const ARNOLDI_MIN_SIZE: usize = 128;
+
+/// The monodromy operator of a cycle's collocation: the history (nh nodes of n components
+/// on [−τ_max/T, 0]) carried over one period by the initial-value collocation (np nodes
+/// after the history, block lower triangular in the natural order).
+struct Monodromy {
+    n: usize,
+    np: usize,
+    nh: usize,
+    /// the collocation, factorised by blocks (None if a block is singular)
+    lu: Option<BlockLowerTriangular>,
+    /// the collocation's triplets (for the sparse fallback where a block is singular)
+    ap: Vec<Entry>,
+    /// the history's coupling on the right-hand side, by rows
+    history: crate::linalg::Csr,
+}
+
+impl Monodromy {
+    fn new(
+        n: usize,
+        m: usize,
+        np: usize,
+        nh: usize,
+        ap: Vec<Entry>,
+        history: Vec<(usize, usize, f64)>,
+    ) -> Self {
+        let size = n * np;
+        let lu = BlockLowerTriangular::new(size, m * n, ap.iter().map(|e| (e.row, e.col, e.val)));
+        Self {
+            n,
+            np,
+            nh,
+            lu,
+            ap,
+            history: crate::linalg::Csr::by_rows(size, &history),
+        }
+    }
+
+    /// the size of the history: n·nh
+    fn dim(&self) -> usize {
+        self.n * self.nh
+    }
+
+    /// the new history from the solved profile x and the old history h (both row-major,
+    /// `cols` columns side by side): the nodes still inside the old history shift
+    fn new_history(&self, x: &[f64], h: &[f64], cols: usize, out: &mut [f64]) {
+        let n = self.n;
+        for e_new in 0..self.nh {
+            let e_old = e_new + self.np;
+            for r in 0..n {
+                let dst = &mut out[(e_new * n + r) * cols..(e_new * n + r + 1) * cols];
+                let src = if e_old < self.nh {
+                    &h[(e_old * n + r) * cols..(e_old * n + r + 1) * cols]
+                } else {
+                    let row = (e_old - self.nh) * n + r;
+                    &x[row * cols..(row + 1) * cols]
+                };
+                dst.copy_from_slice(src);
+            }
+        }
+    }
+
+    /// w = M v: one block forward solve (NaN if a block is singular)
+    fn apply(&self, v: &[f64], w: &mut [f64]) {
+        let mut x = vec![0.0; self.n * self.np];
+        self.history.mul_add(v, &mut x);
+        match &self.lu {
+            Some(lu) => lu.solve_rows(&mut x, 1),
+            None => x.iter_mut().for_each(|v| *v = f64::NAN),
+        }
+        self.new_history(&x, v, 1, w);
+    }
+
+    /// the dense monodromy matrix
+    fn dense(&self) -> Result<Mat<f64>> {
+        let (size, dim) = (self.n * self.np, self.dim());
+        let what = "monodromy (collocation)";
+        let mut x = vec![0.0; size * dim];
+        for r in 0..size {
+            for (c, v) in self.history.row(r) {
+                x[r * dim + c] += v;
+            }
+        }
+        match &self.lu {
+            Some(lu) => lu.solve_rows(&mut x, dim),
+            None => {
+                // a singular block: the sparse LU of the whole collocation
+                let lu = SparseLu::new(size, &self.ap, Factorisation::Fast(None), what)?;
+                let mut b = Mat::<f64>::from_fn(size, dim, |r, c| x[r * dim + c]);
+                lu.solve_mat(&mut b, what)?;
+                x.iter_mut()
+                    .enumerate()
+                    .for_each(|(q, v)| *v = b[(q / dim, q % dim)]);
+            }
+        }
+        if !x.iter().all(|v| v.is_finite()) {
+            return Err(Error::SingularSystem {
+                size,
+                what: what.into(),
+            });
+        }
+        let identity: Vec<f64> = (0..dim * dim)
+            .map(|q| f64::from(u8::from(q / dim == q % dim)))
+            .collect();
+        let mut rows = vec![0.0; dim * dim];
+        self.new_history(&x, &identity, dim, &mut rows);
+        Ok(Mat::<f64>::from_fn(dim, dim, |r, c| rows[r * dim + c]))
+    }
 }

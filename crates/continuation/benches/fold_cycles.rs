@@ -2,6 +2,17 @@
 //! number of mesh intervals L, and of a whole curve of 80 points, on a 4-dimensional delayed
 //! problem: two coupled Bautin oscillators with delayed cubic terms (the in-phase rotating
 //! waves have folds of cycles).
+//!
+//! Issue 23 item 1 (criterion medians, release, 2-core machine at load 2–4 from a parallel
+//! build): one fold-of-cycles Newton step at L = 20 / 40 / 80 / 160 —
+//! - block-forward solver (`LinearSolver::Auto`, GMRES on the Schur complement from K ≥ 80
+//!   border unknowns): 1.4 / 3.1 / 5.4 / 12.4 ms: L = 160 costs 4.0× L = 40 (target ≤ 5×);
+//! - the dense Schur complement throughout: 2.0 / 3.4 / 10.7 / 40.4 ms (11.9×: K grows
+//!   with L, the Z = A⁻¹C columns with it);
+//! - the sparse LU of the whole system: 6.8 / 33.6 / 215 / 1647 ms; GMRES preconditioned
+//!   by the delay-free part (`LinearSolver::Krylov`): 20.5 / 49.1 / 110 / 225 ms.
+//!
+//! The issue's starting point was 6.1 / 22.8 / 137 / 757 ms.
 use continuation::*;
 use continuation_textbook::DelayedBautin;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};

@@ -1,8 +1,14 @@
 //! Issue 23 performance (release, medians): the closed-loop bifurcation diagram at
 //! τ = 0.2 s, D = 0.1 s (fig4b's settings, `DiagramOptions::closed_loop`) on L = 40 and
 //! L = 120 mesh intervals (target: L = 120 at most 3× L = 40), with the cycle branch's
-//! branch-point test on (the default: the bordered determinant needs the direct sparse LU)
-//! and off (the Newton systems by the default structured solver).
+//! branch-point test on (the default: the determinant from the block-forward solver's dense
+//! Schur complement) and off (GMRES on the Schur complement where the border is large).
+//!
+//! Measured (criterion medians, load 3–4 from a parallel build): with the branch-point test
+//! 1.25 s at L = 40 and 3.42 s at L = 120 (2.7×); without 1.36 / 3.11 s (2.3×). Before the
+//! block-forward solver and the Arnoldi multipliers: 3.9 s / 36.6 s (issue 23's numbers);
+//! with the block-forward solver but the dense monodromy eigenvalues: 1.28 / 5.76 s (4.5×,
+//! the O(L³) eigenvalue problem of the monodromy matrix was 26 % of the L = 120 profile).
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;

@@ -165,7 +165,7 @@ impl BlockLowerTriangular {
         s: usize,
         entries: impl IntoIterator<Item = (usize, usize, f64)>,
     ) -> Option<Self> {
-        if s == 0 || n % s != 0 {
+        if s == 0 || !n.is_multiple_of(s) {
             return None;
         }
         let mut diag = vec![0.0; n * s];
@@ -483,7 +483,11 @@ impl PeriodicForwardLu {
             }
             perm
         };
-        let copies_sign = if copied.len() % 2 == 0 { 1.0 } else { -1.0 };
+        let copies_sign = if copied.len().is_multiple_of(2) {
+            1.0
+        } else {
+            -1.0
+        };
         let sign = permutation_sign(&order(row_slot))
             * permutation_sign(&order(col_slot))
             * copies_sign

@@ -545,6 +545,21 @@ pub(crate) trait KrylovOperator {
     fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64]);
 }
 
+/// w ← w minus its projection on the orthonormal `basis`, by modified Gram–Schmidt twice
+/// (keeps the basis orthogonal to rounding); the projection coefficients, with room for
+/// one more (the new vector's norm)
+fn orthogonalise(basis: &[Vec<f64>], w: &mut [f64]) -> Vec<f64> {
+    let mut col = vec![0.0; basis.len() + 1];
+    for _ in 0..2 {
+        for (i, v) in basis.iter().enumerate() {
+            let hij = dot(w, v);
+            col[i] += hij;
+            w.iter_mut().zip(v).for_each(|(a, b)| *a -= hij * b);
+        }
+    }
+    col
+}
+
 /// x = A⁻¹ b by restarted, right-preconditioned GMRES (modified Gram–Schmidt twice,
 /// Givens rotations) to the relative residual [`KRYLOV_TOLERANCE`], checked with the true
 /// residual; false if it was not reached in [`KRYLOV_MAX_CYCLES`] cycles
@@ -587,15 +602,7 @@ fn gmres_cycle<O: KrylovOperator>(op: &O, r: &[f64], rnorm: f64, tol: f64, x: &m
     while k < kmax {
         let mut w = vec![0.0; n];
         op.apply_preconditioned(&basis[k], &mut w);
-        let mut col = vec![0.0; k + 2];
-        for _ in 0..2 {
-            // Gram–Schmidt twice (keeps the basis orthogonal to rounding)
-            for (i, v) in basis.iter().enumerate() {
-                let hij = dot(&w, v);
-                col[i] += hij;
-                w.iter_mut().zip(v).for_each(|(a, b)| *a -= hij * b);
-            }
-        }
+        let mut col = orthogonalise(&basis, &mut w);
         let hnext = dot(&w, &w).sqrt();
         col[k + 1] = hnext;
         for i in 0..k {
@@ -892,14 +899,7 @@ pub(crate) fn dominant_eigenvalues(
             return Err(fail("the operator gave non-finite values"));
         }
         let scale = dot(&w, &w).sqrt();
-        let mut col = vec![0.0; j + 2];
-        for _ in 0..2 {
-            for (i, v) in basis.iter().enumerate() {
-                let hij = dot(&w, v);
-                col[i] += hij;
-                w.iter_mut().zip(v).for_each(|(a, b)| *a -= hij * b);
-            }
-        }
+        let mut col = orthogonalise(&basis, &mut w);
         let next = dot(&w, &w).sqrt();
         col[j + 1] = next;
         h.push(col);

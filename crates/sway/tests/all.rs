@@ -1,0 +1,48 @@
+//! The integration tests of this crate in one test binary (`autotests = false` in
+//! Cargo.toml): each `tests/<name>.rs` is the module `<name>`, so a test is
+//! `cargo test -p <crate> --test all <name>::<test>`. One binary links the dependency
+//! graph once instead of once per file, and its tests share one pool of test threads
+//! (issue 23: the time of `cargo test --workspace`). `#[path]` makes each file a mod-rs
+//! module, so that its own `mod common;` still finds `tests/common/mod.rs`.
+
+#[path = "actuator.rs"]
+mod actuator;
+#[path = "linear.rs"]
+mod linear;
+#[path = "loading.rs"]
+mod loading;
+#[path = "mitigation.rs"]
+mod mitigation;
+#[path = "optimise.rs"]
+mod optimise;
+#[path = "scenario_speeds.rs"]
+mod scenario_speeds;
+#[path = "simulation.rs"]
+mod simulation;
+#[path = "trivial_multiplier.rs"]
+mod trivial_multiplier;
+
+/// `autotests = false` runs no `tests/*.rs` on its own: a new file must be a module above
+/// (or its own `[[test]]` in Cargo.toml) or its tests would silently never run.
+#[test]
+fn every_test_file_is_a_module_of_this_binary() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let all = std::fs::read_to_string(dir.join("all.rs")).expect("tests/all.rs");
+    let own_binaries: [&str; 0] = [];
+    for entry in std::fs::read_dir(&dir).expect("tests/") {
+        let name = entry
+            .expect("an entry")
+            .file_name()
+            .into_string()
+            .expect("UTF-8");
+        if let Some(module) = name.strip_suffix(".rs")
+            && name != "all.rs"
+            && !own_binaries.contains(&name.as_str())
+        {
+            assert!(
+                all.contains(&format!("\nmod {module};\n")),
+                "tests/{name} is not a module of tests/all.rs"
+            );
+        }
+    }
+}

@@ -1,4 +1,4 @@
-//! Benchmarks: rightmost roots at a point, chart cost versus grid size, semi-discretisation and
+//! Benchmarks: rightmost roots at a point, polynomial roots versus degree, chart cost versus grid size, semi-discretisation and
 //! collocation cost versus resolution. The test loop is a synthetic 4-state single-input system
 //! (this crate knows nothing about trailers; the full Fig. 4(a) bench lives in the app crate).
 
@@ -6,7 +6,8 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use stability::{
-    Axis, ChartOptions, ChebyshevCollocation, RootOptions, SemiDiscretisation, stability_charts,
+    Axis, ChartOptions, ChebyshevCollocation, RootOptions, SemiDiscretisation, polynomial_roots,
+    stability_charts,
 };
 
 #[path = "../tests/common/mod.rs"]
@@ -27,6 +28,46 @@ fn point(c: &mut Criterion) {
     g.bench_function("unstable_count_tau_0.2", |b| {
         b.iter(|| sys.unstable_root_count(black_box(0.3), 0.2).unwrap())
     });
+    g.finish();
+}
+
+/// Roots of a degree-n polynomial with known, well-separated roots (the crossing search's
+/// companion matrices are of degree ≤ ~40): this crate's small-matrix QR
+/// ([`polynomial_roots`]) against faer's general eigensolver on the same companion matrix.
+fn polynomial_degree(c: &mut Criterion) {
+    let mut g = c.benchmark_group("polynomial_roots_degree");
+    for n in [4usize, 8, 16, 32, 64] {
+        // Π (z − r_k), r_k = −1 − k/n ± i·k: a stable, lightly damped spectrum
+        let mut coeffs = vec![1.0];
+        for k in 0..n / 2 {
+            let (re, im) = (-1.0 - k as f64 / n as f64, k as f64 + 1.0);
+            let quad = [re * re + im * im, -2.0 * re, 1.0];
+            let mut next = vec![0.0; coeffs.len() + 2];
+            for (i, a) in coeffs.iter().enumerate() {
+                for (j, b) in quad.iter().enumerate() {
+                    next[i + j] += a * b;
+                }
+            }
+            coeffs = next;
+        }
+        g.bench_with_input(BenchmarkId::new("small_qr", n), &coeffs, |b, c| {
+            b.iter(|| polynomial_roots(black_box(c)).unwrap())
+        });
+        g.bench_with_input(BenchmarkId::new("faer", n), &coeffs, |b, c| {
+            b.iter(|| {
+                let m = faer::Mat::from_fn(n, n, |i, j| {
+                    if i == 0 {
+                        -c[n - 1 - j] / c[n]
+                    } else if i == j + 1 {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                });
+                m.eigenvalues().unwrap()
+            })
+        });
+    }
     g.finish();
 }
 
@@ -85,5 +126,5 @@ fn charts(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, point, resolution, charts);
+criterion_group!(benches, point, polynomial_degree, resolution, charts);
 criterion_main!(benches);

@@ -60,6 +60,7 @@ pub mod error;
 pub mod rank_one;
 pub mod roots;
 pub mod semi_discretisation;
+mod small_eigen;
 pub mod spectral;
 
 pub use chart::{

@@ -697,16 +697,21 @@ pub fn polynomial_roots(c: &[f64]) -> Result<Vec<Complex64>> {
     }
     let n = c.len() - 1;
     let lead = c[n];
-    let m = faer::Mat::from_fn(n, n, |i, j| {
-        if i == 0 {
-            -c[n - 1 - j] / lead
-        } else if i == j + 1 {
-            1.0
-        } else {
-            0.0
-        }
-    });
-    let mut r = eigenvalues(&m)?;
+    // companion matrix, row-major: first row −c_{n−1−j}/c_n, ones on the subdiagonal (upper
+    // Hessenberg already: the QR iteration starts at once)
+    let mut m = vec![0.0; n * n];
+    for j in 0..n {
+        m[j] = -c[n - 1 - j] / lead;
+    }
+    for i in 1..n {
+        m[i * n + i - 1] = 1.0;
+    }
+    let mut r = Vec::with_capacity(n);
+    if n <= crate::small_eigen::SMALL_EIGEN_MAX {
+        crate::small_eigen::small_eigenvalues(&mut m, n, &mut r)?;
+    } else {
+        r = eigenvalues(&faer::Mat::from_fn(n, n, |i, j| m[i * n + j]))?;
+    }
     sort_rightmost(&mut r);
     Ok(r)
 }

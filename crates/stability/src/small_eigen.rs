@@ -200,7 +200,7 @@ impl RowMajor<'_> {
                 });
             }
             iterations += 1;
-            let (x, y, w) = if iterations % 10 == 0 {
+            let (x, y, w) = if iterations.is_multiple_of(10) {
                 // exceptional shifts (LAPACK's dlahqr) break the cycles the standard shifts
                 // can fall into on symmetric spectra (±λ pairs of an even polynomial): a
                 // double shift about the top, then the bottom, of the active block

@@ -87,6 +87,18 @@ fn atan_approx(x: f64) -> f64 {
     }
 }
 
+/// ⌊x⌋ for |x| < 2⁶² by truncation (`f64::floor` is a library call on baseline x86-64,
+/// and the crossing search takes two per sample); NaN and larger |x| go to `f64::floor`.
+#[inline]
+fn floor_small(x: f64) -> f64 {
+    const LIMIT: f64 = 4.611_686_018_427_388e18; // 2^62
+    if !(x.abs() < LIMIT) {
+        return x.floor();
+    }
+    let t = x as i64 as f64; // toward zero
+    if t > x { t - 1.0 } else { t }
+}
+
 /// Evaluates a real polynomial (ascending coefficients) and its derivative at a complex point.
 #[inline]
 fn horner2(c: &[f64], z: Complex64) -> (Complex64, Complex64) {
@@ -169,6 +181,9 @@ impl PhaseTerm {
         (lo, hi)
     }
 }
+
+/// Intervals of the crossing search's uniform grid at least (more where τ asks for them).
+const UNIFORM_SAMPLES: f64 = 32.0;
 
 /// Bisections of one interval of the partition before a point where φ' and φ'' both vanish
 /// (a degenerate extremum) is taken as a sample as it stands: 2^-60 of the interval.
@@ -485,8 +500,8 @@ impl RankOneFeedback {
             term(w, -1.0);
         }
         let bound = terms as f64 * ATAN_APPROX_ERROR + 1e-9 * (1.0 + approx.abs());
-        let lo = ((approx - bound) / PI).floor();
-        if lo == ((approx + bound) / PI).floor() {
+        let lo = floor_small((approx - bound) / PI);
+        if lo == floor_small((approx + bound) / PI) {
             return (lo, lo + 1.0);
         }
         let (phi, _) = self.phase(omega, tau);
@@ -592,9 +607,12 @@ impl RankOneFeedback {
             } else {
                 0.0
             };
-            z.re.hypot(u)
+            (z.re * z.re + u * u).sqrt()
         };
-        let farthest = |z: &Complex64| z.re.hypot((l - z.im).abs().max((r - z.im).abs()));
+        let farthest = |z: &Complex64| {
+            let u = (l - z.im).abs().max((r - z.im).abs());
+            (z.re * z.re + u * u).sqrt()
+        };
         let num: f64 = self.p_roots.iter().map(nearest).product();
         let den: f64 = self.q_roots.iter().map(farthest).product::<f64>()
             * self.q.last().map_or(0.0, |x| x.abs());
@@ -725,14 +743,16 @@ impl RankOneFeedback {
         Ok(out)
     }
 
-    /// The sample frequencies of the crossing search on [0, `w_max`], sorted: a uniform grid
-    /// (a quarter period of e^{−iωτ}, ≥ 256 intervals), points around every root's imaginary
-    /// part at its damping's scale, and every extremum of φ between those.
+    /// The sample frequencies of the crossing search on [0, `w_max`], sorted: points around
+    /// every root's imaginary part at its damping's scale, every extremum of φ between those
+    /// (φ is monotone between samples from these alone), and a uniform grid of
+    /// [`UNIFORM_SAMPLES`] intervals or half a period of e^{−iωτ}, whichever is finer, which
+    /// keeps each level's bracket short and the gain bound that skips it tight.
     fn phase_samples(&self, tau: f64, w_max: f64, d_lim: f64) -> Result<Vec<f64>> {
         let base = if tau > 0.0 {
-            (std::f64::consts::PI / (4.0 * tau)).min(w_max / 256.0)
+            (std::f64::consts::PI / (2.0 * tau)).min(w_max / UNIFORM_SAMPLES)
         } else {
-            w_max / 256.0
+            w_max / UNIFORM_SAMPLES
         };
         // beyond a million samples the bound is no bound (a loop that keeps its gain far
         // beyond the roots' frequencies)
@@ -762,14 +782,22 @@ impl RankOneFeedback {
         samples.dedup();
         let extrema = self.phase_extrema(tau, &samples);
         samples.extend(extrema);
-        samples.extend(
-            (1..nb as usize)
-                .map(|i| i as f64 * base)
-                .filter(|&w| w < w_max),
-        );
         samples.sort_by(f64::total_cmp);
-        samples.dedup();
-        Ok(samples)
+        // merged with the (sorted) uniform grid
+        let uniform = (1..nb as usize)
+            .map(|i| i as f64 * base)
+            .take_while(|&w| w < w_max);
+        let mut merged = Vec::with_capacity(samples.len() + nb as usize);
+        let mut rest = samples.into_iter().peekable();
+        for w in uniform {
+            while let Some(x) = rest.next_if(|&x| x <= w) {
+                merged.push(x);
+            }
+            merged.push(w);
+        }
+        merged.extend(rest);
+        merged.dedup();
+        Ok(merged)
     }
 
     /// The crossing at a level point ω > 0 with gain d: its direction Re(dλ/dD).
@@ -909,6 +937,42 @@ pub fn polynomial_roots(c: &[f64]) -> Result<Vec<Complex64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_small_is_floor() {
+        // reference: f64::floor, on integers, their neighbours, halves, negatives, the limits
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+            1e300,
+        ];
+        for k in [
+            1.0f64,
+            2.0,
+            3.0,
+            1e6,
+            4.5e15,
+            9.007_199_254_740_992e15,
+            4.6e18,
+            5e18,
+        ] {
+            for x in [k, -k] {
+                xs.extend([x, x.next_up(), x.next_down(), x + 0.5, x - 0.5]);
+            }
+        }
+        for x in xs {
+            let (got, want) = (floor_small(x), x.floor());
+            assert!(
+                got == want || (got.is_nan() && want.is_nan()),
+                "{x}: {got} vs {want}"
+            );
+        }
+    }
 
     #[test]
     fn atan_approx_is_within_its_stated_error() {

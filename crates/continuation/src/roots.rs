@@ -60,7 +60,8 @@ fn roots_error(size: usize, e: StabilityError) -> Error {
 }
 
 /// the linear DDE with A0 = `a[0]` and the terms `a[j]` at delay `delays[j − 1]`
-/// (zero delays are merged into A0)
+/// (zero delays are merged into A0; each term factored by its numerical rank, so that the
+/// collocated generator is as small as the feedback allows)
 fn linear_dde(a: &[DMatrix<f64>], delays: &[f64]) -> Result<LinearDde> {
     let n = a.first().map_or(0, |m| m.nrows());
     let Some((a0, delayed)) = a.split_first() else {
@@ -78,7 +79,7 @@ fn linear_dde(a: &[DMatrix<f64>], delays: &[f64]) -> Result<LinearDde> {
     let mut dde = LinearDde::new(a0.clone()).map_err(|e| roots_error(n, e))?;
     for (aj, &tau) in delayed.iter().zip(delays) {
         dde = dde
-            .with_delay(tau, aj.clone())
+            .with_delay_by_rank(tau, aj.clone())
             .map_err(|e| roots_error(n, e))?;
     }
     Ok(dde)

@@ -35,6 +35,11 @@ pub struct LinearDde {
     delayed: Vec<DelayedTerm>,
 }
 
+/// Singular values of a delayed coefficient below this fraction of the largest are dropped by
+/// [`LinearDde::with_delay_by_rank`]: rounding level of a product of factors (a rank-one
+/// B·D·C computed in floating point has the others near 1e-16·σ_max).
+pub const DELAY_RANK_TOLERANCE: f64 = 1e-13;
+
 fn check_finite(m: &DMatrix<f64>, what: &'static str) -> Result<()> {
     if m.iter().all(|x| x.is_finite()) {
         Ok(())
@@ -66,6 +71,50 @@ impl LinearDde {
     pub fn with_delay(self, tau: f64, a_k: DMatrix<f64>) -> Result<Self> {
         let n = self.dim();
         self.with_low_rank_delay(tau, a_k, DMatrix::identity(n, n))
+    }
+
+    /// Adds `A_k·x(t − τ)` factored by its numerical rank r: `A_k = B·C` with B = U_r·Σ_r and
+    /// C = V_rᵀ from the singular value decomposition, keeping the singular values above
+    /// [`DELAY_RANK_TOLERANCE`]·σ_max (a zero A_k adds no term). The characteristic function
+    /// is that of [`LinearDde::with_delay`] up to rounding, but the collocated generator of
+    /// [`crate::ChebyshevCollocation`] has n + N·r rows instead of n + N·n: for delayed
+    /// feedback through one input (r = 1) and n = 4 at N = 24, 28 instead of 100.
+    pub fn with_delay_by_rank(self, tau: f64, a_k: DMatrix<f64>) -> Result<Self> {
+        let n = self.dim();
+        if a_k.nrows() != n || a_k.ncols() != n {
+            return Err(StabilityError::DimensionMismatch {
+                what: "A_k (delayed coefficient)",
+                rows: a_k.nrows(),
+                cols: a_k.ncols(),
+                expected_rows: n,
+                expected_cols: n,
+            });
+        }
+        check_finite(&a_k, "A_k")?;
+        let svd = a_k.clone().svd(true, true);
+        let sigma_max = svd.singular_values.max();
+        let rank = svd
+            .singular_values
+            .iter()
+            .filter(|&&s| s > DELAY_RANK_TOLERANCE * sigma_max)
+            .count();
+        match (rank, svd.u, svd.v_t) {
+            (0, _, _) => {
+                if !(tau.is_finite() && tau >= 0.0) {
+                    return Err(StabilityError::InvalidDelay { tau });
+                }
+                Ok(self)
+            }
+            (r, Some(u), Some(v_t)) if r < n => {
+                // singular values come sorted, largest first
+                let mut b = u.columns(0, r).into_owned();
+                for (j, mut col) in b.column_iter_mut().enumerate() {
+                    col *= svd.singular_values[j];
+                }
+                self.with_low_rank_delay(tau, b, v_t.rows(0, r).into_owned())
+            }
+            _ => self.with_delay(tau, a_k),
+        }
     }
 
     /// Adds the term `B·C·x(t − τ)` with B n×m and C m×n (m = 1 for single-input feedback).

@@ -17,7 +17,7 @@ use num_complex::Complex64;
 use crate::error::{Result, StabilityError};
 
 /// Largest size solved here; larger matrices go to faer's blocked multishift QR.
-pub(crate) const SMALL_EIGEN_MAX: usize = 64;
+pub(crate) const SMALL_EIGEN_MAX: usize = 256;
 
 /// Iterations allowed per deflation, × max(10, n), before the QR iteration gives up (LAPACK's
 /// `dlahqr` limit; exceptional shifts every 10 iterations).

@@ -382,3 +382,40 @@ fn crossings_without_a_usable_frequency_bound_are_an_error_not_an_allocation() {
     // |p(iω)| = |q| · D at D = 1 has none (|iω + 1e7| > 1), so the search is empty
     assert!(sys.crossings(1e-7, 1.0).expect("bounded").is_empty());
 }
+
+#[test]
+fn delayed_terms_factored_by_rank_have_the_same_roots() {
+    // reference: the same DDE with the full n×n delayed term (`with_delay`); the factored one
+    // (`with_delay_by_rank`) has a rank-one term and a generator of 4 + N rows instead of
+    // 4 + 4N. Its rightmost roots (polished on det Δ, the same function up to rounding of
+    // B·C) agree to 1e-12 relative; a zero term is dropped, a full-rank one kept whole.
+    let (a, b, c) = test_loop(5.0);
+    let a0 = DMatrix::from_fn(4, 4, |i, j| a[(i, j)]);
+    for (d, tau) in [(0.3, 0.2), (-0.8, 1.1)] {
+        let a1 = DMatrix::from_fn(4, 4, |i, j| -d * b[i] * c[j]);
+        let full = LinearDde::new(a0.clone())
+            .unwrap()
+            .with_delay(tau, a1.clone())
+            .unwrap();
+        let factored = LinearDde::new(a0.clone())
+            .unwrap()
+            .with_delay_by_rank(tau, a1)
+            .unwrap();
+        assert_eq!(factored.delayed_terms()[0].c.nrows(), 1);
+        let want = rightmost_roots(&full, 6, &RootOptions::default()).unwrap();
+        let got = rightmost_roots(&factored, 6, &RootOptions::default()).unwrap();
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).norm() <= 1e-12 * w.norm().max(1.0), "{g} vs {w}");
+        }
+    }
+    let zero = LinearDde::new(a0.clone())
+        .unwrap()
+        .with_delay_by_rank(0.5, DMatrix::zeros(4, 4))
+        .unwrap();
+    assert!(zero.delayed_terms().is_empty());
+    let whole = LinearDde::new(a0.clone())
+        .unwrap()
+        .with_delay_by_rank(0.5, DMatrix::identity(4, 4))
+        .unwrap();
+    assert_eq!(whole.delayed_terms()[0].c.nrows(), 4);
+}

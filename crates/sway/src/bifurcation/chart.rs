@@ -280,7 +280,8 @@ pub struct Codim2 {
     pub d_s: f64,
     /// speed V \[m/s\]
     pub v_mps: f64,
-    /// the critical frequencies \[rad/s\] (both at a double-Hopf point)
+    /// the critical frequencies \[rad/s\] (both at a double-Hopf point), ascending: the
+    /// same point found on either of its two Hopf curves reads the same
     pub omega_rad_s: Vec<f64>,
 }
 
@@ -977,10 +978,16 @@ fn hopf_codim2<P: LoopPlant<N>, const N: usize>(
                 kind: Codim2Kind::from_special(c.kind)?,
                 d_s: c.p1,
                 v_mps: c.p2,
-                omega_rad_s: c.omegas.iter().map(|w| w.abs()).collect(),
+                omega_rad_s: ascending(c.omegas.iter().map(|w| w.abs()).collect()),
             })
         })
         .collect()
+}
+
+/// `v` sorted ascending.
+fn ascending(mut v: Vec<f64>) -> Vec<f64> {
+    v.sort_by(f64::total_cmp);
+    v
 }
 
 /// Drops repeated points (the same kind within 1e-3 s and 1e-2 m/s: found on two curves

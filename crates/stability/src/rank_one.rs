@@ -92,7 +92,7 @@ fn atan_approx(x: f64) -> f64 {
 #[inline]
 fn floor_small(x: f64) -> f64 {
     const LIMIT: f64 = 4.611_686_018_427_388e18; // 2^62
-    if !(x.abs() < LIMIT) {
+    if x.is_nan() || x.abs() >= LIMIT {
         return x.floor();
     }
     let t = x as i64 as f64; // toward zero

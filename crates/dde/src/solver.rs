@@ -190,26 +190,56 @@ impl<const N: usize, P: OdeProblem<N>> Rhs<N> for OdeRhs<'_, P> {
 struct Past<const N: usize> {
     segs: VecDeque<Segment<N>>,
     span: f64,
+    /// the segment of the last lookup: the stages of consecutive steps query t − τ in
+    /// increasing order, so the next answer is almost always this one or the next
+    cursor: Cell<usize>,
 }
 
 impl<const N: usize> Past<N> {
+    fn new(span: f64) -> Self {
+        Self {
+            segs: VecDeque::with_capacity(64),
+            span,
+            cursor: Cell::new(0),
+        }
+    }
+
     fn push(&mut self, seg: &Segment<N>) {
         self.segs.push_back(*seg);
         // queries (stages and observers) reach back to t_start - span at most
         let keep_from = seg.t_start - self.span;
         while self.segs.len() > 1 && self.segs[0].t_end < keep_from {
             self.segs.pop_front();
+            self.cursor.set(self.cursor.get().saturating_sub(1));
         }
+    }
+
+    /// The first segment ending at or after `t` (the last one if none does): checked at
+    /// the cursor and the segment after it, else found by bisection.
+    #[inline]
+    fn index(&self, t: f64) -> usize {
+        let n = self.segs.len();
+        let ends_before = |i: usize| self.segs[i].t_end < t;
+        let is_answer =
+            |i: usize| (i == n - 1 || !ends_before(i)) && (i == 0 || ends_before(i - 1));
+        let c = self.cursor.get().min(n - 1);
+        let i = if is_answer(c) {
+            c
+        } else if c + 1 < n && is_answer(c + 1) {
+            c + 1
+        } else {
+            self.segs.partition_point(|s| s.t_end < t).min(n - 1)
+        };
+        self.cursor.set(i);
+        i
     }
 
     #[inline]
     fn lookup(&self, t: f64) -> Option<SV<N>> {
-        let n = self.segs.len();
-        if n == 0 {
+        if self.segs.is_empty() {
             return None;
         }
-        let i = self.segs.partition_point(|s| s.t_end < t).min(n - 1);
-        Some(self.segs[i].eval(t))
+        Some(self.segs[self.index(t)].eval(t))
     }
 }
 
@@ -1384,10 +1414,7 @@ impl<const N: usize> DdeSolver<N> {
         Ok(DdeSolver {
             core,
             t0,
-            past: Past {
-                segs: VecDeque::with_capacity(64),
-                span,
-            },
+            past: Past::new(span),
             delayed: RefCell::new(vec![SV::<N>::zeros(); delays.len()]),
             delays,
         })

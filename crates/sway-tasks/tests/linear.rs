@@ -570,6 +570,7 @@ fn period_by_simulation(
     settings.solver.rtol = 1e-6;
     settings.solver.atol = 1e-8;
     let spec = SimSpec {
+        early_stop: sway::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: v },
         controller: Controller::None,
         horizon_s: settle_s + sway::mitigation::study::CYCLE_SEARCH_S,

@@ -36,6 +36,7 @@ fn overhead(c: &mut Criterion) {
     let sweep = Sweep::new(&VehicleParams::default(), &[], &cfg).unwrap();
     let model = Model::new(VehicleParams::default()).unwrap();
     let spec = SimSpec {
+        early_stop: sway::sim::EarlyStop::Never,
         profile: cfg.base.speed.clone(),
         controller: cfg.base.controller,
         horizon_s: 60.0,

@@ -4,12 +4,14 @@
 
 mod common;
 
+use sway::mitigation::optimise::Bounded;
 use sway::mitigation::{
-    Intervention, PhaseStarts, Setting, SwayCycle, cycle_state, evaluate, phase_cost, settled,
-    sway_cycle,
+    Intervention, PhaseStarts, Setting, SwayCycle, cycle_state, evaluate, evaluate_unless_above,
+    phase_cost, settled, sway_cycle,
 };
 use sway::sim::{
-    ActuatorLimits, Metrics, Outcome, RampShape, Recording, RunSettings, SolverSettings,
+    ActuatorLimits, EarlyStop, Metrics, Outcome, RampShape, Recording, RunSettings, SimulateOwn,
+    SolverSettings,
 };
 use trailer_model::Model;
 
@@ -144,4 +146,59 @@ fn every_infeasible_phase_costs_more_than_every_feasible_one() {
     assert_eq!(peak, 41.0);
     let lost = phase_cost(&metrics(Outcome::LossOfControl, None, None, 60.0), 0.2, &s);
     assert!((lost - (80.0 + 30.0 + 15.0)).abs() < 1e-12, "{lost}");
+}
+
+#[test]
+fn evaluations_cut_short_agree_with_the_full_ones() {
+    // reference: the full evaluation ([`evaluate`]) — below or at its cost the answer is
+    // that cost bit for bit, above it `Above`; a run stopped early by a settle-time bound
+    // settles later than the bound (or never) in its full run, a run not stopped has the
+    // full run's metrics. Designs: the paper's combined strategy (settles after ≈ 13 s) and
+    // no action at all (sways on, cost above the horizon).
+    let model = common::model();
+    let c = cycle(&model);
+    let solver = SolverSettings::default();
+    let starts = PhaseStarts::new(&model, &c, 4, 0.5, 0.2, &solver).unwrap();
+    let s = setting();
+    let idle = Intervention {
+        speed_change_mps: 0.0,
+        gain_s: 0.0,
+        ..combined()
+    };
+    for iv in [combined(), idle] {
+        let full = evaluate(&model, &s, &starts, &iv).unwrap();
+        let e = full.cost;
+        for cutoff in [e - 5.0, e - 0.5, e, e + 1.0, 1.5 * s.horizon_s] {
+            let got = evaluate_unless_above(&model, &s, &starts, &iv, cutoff).unwrap();
+            let expected = if e > cutoff {
+                Bounded::Above
+            } else {
+                Bounded::Exact(e)
+            };
+            assert_eq!(got, expected, "cost {e}, cutoff {cutoff}");
+        }
+        // below the worst phase's settle time (or the horizon) its run stops; above the
+        // cost none does
+        for bound in [e.min(s.horizon_s) - 3.0, e + 1.0] {
+            let mut stopped = Vec::new();
+            for (k, x0) in starts.states.iter().enumerate() {
+                let mut spec = s.spec(&iv, starts.lead_in_s);
+                spec.early_stop = EarlyStop::SettleTimeAbove(bound);
+                let r = model.simulate_own(&spec, *x0, Recording::None).unwrap();
+                let settle = settled(&full.phases[k], &s);
+                if r.stopped_early {
+                    stopped.push(k);
+                    assert!(r.t_end < spec.horizon_s);
+                    assert!(settle.is_none_or(|t| t > bound), "phase {k}: {settle:?}");
+                } else {
+                    assert_eq!(r.metrics, full.phases[k], "phase {k}");
+                }
+            }
+            if bound < e {
+                assert!(stopped.contains(&full.worst_phase), "{stopped:?}");
+            } else {
+                assert!(stopped.is_empty(), "{stopped:?}");
+            }
+        }
+    }
 }

@@ -4,7 +4,7 @@
 
 use sway::SwayError;
 use sway::mitigation::optimise::{
-    Bound, MixedProblem, OptimiserSettings, minimise, starting_points, worst_case,
+    Bound, Bounded, MixedProblem, OptimiserSettings, minimise, starting_points, worst_case,
 };
 
 struct Rosenbrock {
@@ -147,4 +147,126 @@ fn the_bound_transform_round_trips() {
         assert!((b.to_bounded(b.to_free(x)) - x).abs() < 1e-12);
     }
     assert_eq!(b.to_bounded(1e6), b.to_bounded(1e6).clamp(-10.0, 0.0));
+}
+
+/// Rosenbrock, answering [`Bounded::Above`] for every trial proven above its cutoff (as a
+/// problem whose evaluation stops early does)
+struct CutShort(Rosenbrock);
+
+impl MixedProblem for CutShort {
+    fn bounds(&self) -> &[Bound] {
+        self.0.bounds()
+    }
+    fn choices(&self) -> usize {
+        1
+    }
+    fn cost(&self, c: usize, x: &[f64]) -> Result<f64, SwayError> {
+        self.0.cost(c, x)
+    }
+    fn cost_unless_above(&self, c: usize, x: &[f64], cutoff: f64) -> Result<Bounded, SwayError> {
+        let f = self.0.cost(c, x)?;
+        Ok(if f > cutoff {
+            Bounded::Above
+        } else {
+            Bounded::Exact(f)
+        })
+    }
+}
+
+#[test]
+fn nelder_mead_follows_argmins_path() {
+    // reference: argmin's NelderMead (an independent implementation of the same method and
+    // decision order) from the same simplex: the same best point and cost, bit for bit, and
+    // the same number of cost evaluations (200 iterations, no spread test)
+    use argmin::core::{CostFunction, Executor, State};
+    struct Free<'a>(&'a Rosenbrock, &'a std::cell::Cell<usize>);
+    impl CostFunction for Free<'_> {
+        type Param = Vec<f64>;
+        type Output = f64;
+        fn cost(&self, z: &Vec<f64>) -> Result<f64, argmin::core::Error> {
+            self.1.set(self.1.get() + 1);
+            let x: Vec<f64> = self
+                .0
+                .bounds
+                .iter()
+                .zip(z)
+                .map(|(b, &z)| b.to_bounded(z))
+                .collect();
+            Ok(self.0.cost(0, &x).unwrap())
+        }
+    }
+    let p = Rosenbrock {
+        bounds: [Bound::new(-2.0, 2.0), Bound::new(-1.0, 3.0)],
+    };
+    let settings = OptimiserSettings {
+        random_starts: 0,
+        max_iters: 200,
+        sd_tolerance: 0.0,
+        initial_step: 0.5,
+        ..tight()
+    };
+    let x0 = [-1.5, 2.0];
+    let ours = minimise(&p, &[x0.to_vec()], &settings).unwrap();
+
+    let z0: Vec<f64> = p
+        .bounds
+        .iter()
+        .zip(&x0)
+        .map(|(b, &x)| b.to_free(x))
+        .collect();
+    let mut simplex = vec![z0.clone()];
+    for i in 0..2 {
+        let mut z = z0.clone();
+        z[i] += if z[i] + 0.5 > std::f64::consts::FRAC_PI_2 {
+            -0.5
+        } else {
+            0.5
+        };
+        simplex.push(z);
+    }
+    let count = std::cell::Cell::new(0);
+    let solver = argmin::solver::neldermead::NelderMead::new(simplex)
+        .with_sd_tolerance(0.0)
+        .unwrap();
+    let theirs = Executor::new(Free(&p, &count), solver)
+        .configure(|s| s.max_iters(200))
+        .run()
+        .unwrap();
+    let z = theirs.state().get_best_param().unwrap();
+    let x: Vec<f64> = p
+        .bounds
+        .iter()
+        .zip(z)
+        .map(|(b, &z)| b.to_bounded(z))
+        .collect();
+    assert_eq!(ours.x, x);
+    assert_eq!(ours.cost, theirs.state().get_best_cost());
+    assert_eq!(ours.evaluations, count.get());
+    assert_eq!(ours.runs[0].cut_short, 0);
+}
+
+#[test]
+fn trials_cut_short_leave_the_path_unchanged() {
+    // reference: the same problem evaluated exactly — the optimum, its cost and the number
+    // of evaluations agree bit for bit, while a good part of the trials were rejected
+    // without their exact cost
+    let bounds = [Bound::new(-2.0, 2.0), Bound::new(-1.0, 3.0)];
+    let s = OptimiserSettings {
+        max_iters: 300,
+        ..tight()
+    };
+    let exact = minimise(&Rosenbrock { bounds }, &[vec![-1.5, 2.0]], &s).unwrap();
+    let cut = minimise(&CutShort(Rosenbrock { bounds }), &[vec![-1.5, 2.0]], &s).unwrap();
+    assert_eq!(
+        (cut.choice, &cut.x, cut.cost),
+        (exact.choice, &exact.x, exact.cost)
+    );
+    assert_eq!(cut.evaluations, exact.evaluations);
+    let rejected: usize = cut.runs.iter().map(|r| r.cut_short).sum();
+    assert!(
+        rejected * 10 > cut.evaluations,
+        "{rejected} of {}",
+        cut.evaluations
+    );
+    assert!(exact.runs.iter().all(|r| r.cut_short == 0));
 }

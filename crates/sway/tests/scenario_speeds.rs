@@ -193,6 +193,7 @@ fn a_nose_heavy_trailer_resolves_to_its_own_speeds_and_runs() {
             factor * vc
         );
         let spec = SimSpec {
+            early_stop: sway::sim::EarlyStop::Never,
             profile: s.speed.clone(),
             controller: Controller::None,
             horizon_s: 20.0,

@@ -371,6 +371,7 @@ fn sweep_is_deterministic_across_thread_counts_and_matches_single_runs() {
     assert_eq!(one[3].values, vec![30.0, 10.0]);
     // the sweep's 4-state run equals a 7-state simulate to tolerance level
     let s = SimSpec {
+        early_stop: sway::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: 35.0 },
         controller: Controller::None,
         horizon_s: 8.0,

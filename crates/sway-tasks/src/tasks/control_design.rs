@@ -612,6 +612,7 @@ fn simulation_check(
     let speed = sc.speed_fraction * r.open_loop_v_crit_mps;
     let run = |controller: Controller, kick_deg: f64| {
         let spec = SimSpec {
+            early_stop: sway::sim::EarlyStop::Never,
             profile: SpeedProfile::Constant { speed_mps: speed },
             controller,
             horizon_s: sc.horizon_s,

@@ -163,6 +163,7 @@ impl PanelsConfig {
     /// The run at constant speed (every panel; they differ in θ(0)).
     pub fn spec(&self) -> SimSpec {
         SimSpec {
+            early_stop: sway::sim::EarlyStop::Never,
             profile: SpeedProfile::Constant {
                 speed_mps: self.speed_mps,
             },

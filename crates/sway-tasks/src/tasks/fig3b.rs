@@ -70,6 +70,7 @@ impl Fig3bConfig {
     /// The run that brakes over `duration_s`.
     pub fn spec(&self, duration_s: f64) -> SimSpec {
         SimSpec {
+            early_stop: sway::sim::EarlyStop::Never,
             profile: SpeedProfile::Ramp {
                 initial_mps: self.start.speed_mps,
                 change_mps: self.speed_change_mps,

@@ -108,6 +108,7 @@ impl Fig4cConfig {
     pub fn spec(&self, braking: bool, steering: bool) -> SimSpec {
         let v0 = self.start.speed_mps;
         SimSpec {
+            early_stop: sway::sim::EarlyStop::Never,
             profile: if braking {
                 SpeedProfile::Ramp {
                     initial_mps: v0,

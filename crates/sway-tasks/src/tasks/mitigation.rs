@@ -119,6 +119,9 @@ pub struct SearchRow {
     pub on_duration_s: f64,
     /// objective evaluations
     pub evaluations: usize,
+    /// of them, trial points rejected as soon as their worst case was proven above the cost
+    /// they were compared with (their runs stopped early)
+    pub cut_short: usize,
 }
 
 /// One row of `theta_worst.csv`.
@@ -164,6 +167,7 @@ fn search_rows<const M: usize>(r: &MitigationResult<M>) -> Vec<SearchRow> {
             on_s: run.x[3],
             on_duration_s: run.x[4],
             evaluations: run.evaluations,
+            cut_short: run.cut_short,
         })
         .collect()
 }

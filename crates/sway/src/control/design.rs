@@ -27,9 +27,7 @@ use super::LoopModel;
 use super::{Actuator, Controller, GainName, Gains, LinearLoop, SpeedSearch, Structure};
 use crate::SwayError;
 use crate::gain_design::{GainSearch, band_end, refine_sampled};
-use crate::mitigation::optimise::{
-    Bound, Minimum, MixedProblem, OptimiserSettings, minimise, starting_points,
-};
+use crate::mitigation::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
 use crate::sampling::{About, Sampler, Sampling, Statistics};
 
 /// Bounds of the gains, in steering units (D, D_θ in s, K_θ in rad/rad); for differential
@@ -532,7 +530,7 @@ fn several_gains<M: LoopModel + ?Sized>(
     if let Some(w) = warm {
         starts.push(as_point(w));
     }
-    let best = minimise_in_parallel(&problem, &starts, &o.optimiser)?;
+    let best = minimise(&problem, &starts, &o.optimiser)?;
     let gains = problem.gains(&best.x);
     let c = controller(structure, actuator, gains);
     let v = v_crit(model, &c, tau, prediction, &o.speed)?;
@@ -560,41 +558,6 @@ fn several_gains<M: LoopModel + ?Sized>(
         bands.push(GainBand { gain: name, lo, hi });
     }
     Ok((gains, v, bands, n))
-}
-
-/// [`minimise`] with its runs (one per starting point: the given ones, then the seeded
-/// random ones) side by side: each run is a pure function of its start, and the best is
-/// picked in the order of the starts (the earliest on ties), so the result is
-/// [`minimise`]'s on any number of threads.
-fn minimise_in_parallel<P: MixedProblem + Sync>(
-    problem: &P,
-    starts: &[Vec<f64>],
-    settings: &OptimiserSettings,
-) -> Result<Minimum, SwayError> {
-    let all = starting_points(problem.bounds(), starts, settings);
-    let single = OptimiserSettings {
-        random_starts: 0,
-        ..*settings
-    };
-    let runs: Vec<Result<Minimum, SwayError>> = all
-        .par_iter()
-        .with_max_len(1)
-        .map(|x0| minimise(problem, std::slice::from_ref(x0), &single))
-        .collect();
-    let mut best: Option<Minimum> = None;
-    let mut evaluations = 0;
-    for r in runs {
-        let r = r?;
-        evaluations += r.evaluations;
-        if best.as_ref().is_none_or(|b| r.cost < b.cost) {
-            best = Some(r);
-        }
-    }
-    let mut best = best.ok_or_else(|| {
-        SwayError::numerical("optimisation", std::io::Error::other("no starting point"))
-    })?;
-    best.evaluations = evaluations;
-    Ok(best)
 }
 
 /// The rightmost root pair at V \[m/s\] whose frequency differs from the critical pair's

@@ -36,10 +36,12 @@ use trailer_model::{HITCH_ANGLE, Model, State4};
 
 use crate::SwayError;
 use crate::sim::{
-    ActuatorLimits, Controller, Metrics, Outcome, RampShape, Recording, RunSettings, SimProblem,
-    SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle_plant,
+    ActuatorLimits, Controller, EarlyStop, Metrics, Outcome, RampShape, Recording, RunSettings,
+    SimProblem, SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle_plant,
 };
-use optimise::{Bound, Minimum, MixedProblem, OptimiserSettings, minimise, worst_case};
+use optimise::{Bound, Bounded, Minimum, MixedProblem, OptimiserSettings, minimise, worst_case};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The open-loop sway cycle at constant speed, of a plant with M reduced states (4: the
 /// paper's model).
@@ -305,6 +307,7 @@ impl Setting {
             }
         };
         SimSpec {
+            early_stop: crate::sim::EarlyStop::Never,
             profile,
             controller,
             horizon_s: lead_in_s + self.horizon_s,
@@ -506,6 +509,65 @@ impl<P: SimulateOwn<M>, const M: usize> MixedProblem for MitigationProblem<'_, P
         let iv = intervention(x, RampShape::ALL[choice], self.setting.horizon_s);
         Ok(evaluate(self.model, &self.setting, self.starts, &iv)?.cost)
     }
+
+    fn cost_unless_above(
+        &self,
+        choice: usize,
+        x: &[f64],
+        cutoff: f64,
+    ) -> Result<Bounded, SwayError> {
+        let iv = intervention(x, RampShape::ALL[choice], self.setting.horizon_s);
+        evaluate_unless_above(self.model, &self.setting, self.starts, &iv, cutoff)
+    }
+}
+
+/// The worst-case cost of `iv` over the phases ([`evaluate`]'s `cost`, bit for bit), or
+/// [`Bounded::Above`] as soon as one phase's cost is proven larger than `cutoff`: a phase's
+/// penalised cost is at least its settle time, so its run stops once the settle time is
+/// proven larger ([`EarlyStop::SettleTimeAbove`]), and the phases not started yet are
+/// skipped. The answer depends on the phases' own runs only, not on their timing: `Above`
+/// exactly when some phase's run alone proves its cost larger than `cutoff`.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if a run's solver fails (the first failing phase) and no phase
+/// proves the cutoff exceeded.
+pub fn evaluate_unless_above<P: SimulateOwn<M>, const M: usize>(
+    model: &P,
+    setting: &Setting,
+    starts: &PhaseStarts<M>,
+    iv: &Intervention,
+    cutoff: f64,
+) -> Result<Bounded, SwayError> {
+    let lead = starts.lead_in_s;
+    let above = AtomicBool::new(false);
+    let mut spec = setting.spec(iv, lead);
+    spec.early_stop = EarlyStop::SettleTimeAbove(cutoff);
+    let costs: Vec<Result<f64, SwayError>> = starts
+        .states
+        .par_iter()
+        .map(|x0| {
+            if above.load(Ordering::Relaxed) {
+                return Ok(f64::INFINITY);
+            }
+            let r = model.simulate_own(&spec, *x0, Recording::None)?;
+            let cost = if r.stopped_early {
+                f64::INFINITY
+            } else {
+                phase_cost(&r.metrics, lead, setting)
+            };
+            if cost > cutoff {
+                above.store(true, Ordering::Relaxed);
+            }
+            Ok(cost)
+        })
+        .collect();
+    if above.into_inner() {
+        return Ok(Bounded::Above);
+    }
+    let costs = costs.into_iter().collect::<Result<Vec<f64>, SwayError>>()?;
+    Ok(Bounded::Exact(
+        costs.into_iter().reduce(f64::max).unwrap_or(f64::INFINITY),
+    ))
 }
 
 /// The optimum of [`optimise()`].

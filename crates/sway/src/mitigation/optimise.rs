@@ -1,4 +1,4 @@
-//! A small generic optimisation layer on top of [`argmin`]'s Nelder–Mead: bounded
+//! A small generic optimisation layer around the Nelder–Mead method: bounded
 //! continuous variables, one discrete choice, seeded multi-start. It knows nothing about
 //! trailers: a problem is a cost `f(choice, x)` to minimise over `x` in a box and a choice
 //! among `n` alternatives.
@@ -10,21 +10,24 @@
 //!   (lowest cost; the first on ties) is returned.
 //! - **Multi-start**: from the caller's starting points (e.g. a known good design) and
 //!   `random_starts` points drawn uniformly in the box from a ChaCha8 generator seeded
-//!   with `seed`; the same starts serve every choice. Starts and runs are sequential, so
-//!   the result depends only on the seed (the cost function may be parallel inside).
+//!   with `seed`; the same starts serve every choice. The runs (one per choice and start)
+//!   go side by side, each a pure function of its start, and the best is picked in their
+//!   order, so the result depends only on the seed, on any number of threads (the cost
+//!   function may be parallel inside).
+//! - **Trials cut short**: Nelder–Mead compares a trial point with one cost only (the
+//!   worst vertex's or the reflected point's), so it asks the problem for the cost *unless
+//!   it is above* that one ([`MixedProblem::cost_unless_above`]); a problem that can stop
+//!   an evaluation early (the mitigation's runs stop once their settle time exceeds it)
+//!   saves that work, and the path of the method does not change.
 //! - **Worst case over samples** ([`worst_case`]): the maximum of per-sample costs
 //!   evaluated in parallel and reduced in sample order.
 //!
 //! Constraints other than bounds are the problem's business (e.g. penalties in its cost).
 
-use argmin::core::{CostFunction, Executor, State};
-use argmin::solver::neldermead::NelderMead;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::SwayError;
 
@@ -79,6 +82,32 @@ pub trait MixedProblem: Sync {
     /// # Errors
     /// Whatever the problem's evaluation can fail with; the optimisation stops with it.
     fn cost(&self, choice: usize, x: &[f64]) -> Result<f64, SwayError>;
+
+    /// The cost, or [`Bounded::Above`] once it is proven larger than `cutoff` (the
+    /// optimiser only compares it with `cutoff` then). The default evaluates it exactly; a
+    /// problem whose evaluation can stop early overrides it. It must answer `Above` only
+    /// when the cost is strictly larger than `cutoff`.
+    ///
+    /// # Errors
+    /// As [`MixedProblem::cost`].
+    fn cost_unless_above(
+        &self,
+        choice: usize,
+        x: &[f64],
+        cutoff: f64,
+    ) -> Result<Bounded, SwayError> {
+        let _ = cutoff;
+        self.cost(choice, x).map(Bounded::Exact)
+    }
+}
+
+/// A cost evaluated against a cutoff ([`MixedProblem::cost_unless_above`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Bounded {
+    /// the cost
+    Exact(f64),
+    /// proven larger than the cutoff (its exact value not computed)
+    Above,
 }
 
 /// Settings of [`minimise`].
@@ -145,6 +174,9 @@ pub struct Run {
     pub cost: f64,
     /// cost evaluations of this run
     pub evaluations: usize,
+    /// of them, trial points rejected as soon as their cost was proven above the one they
+    /// were compared with ([`MixedProblem::cost_unless_above`])
+    pub cut_short: usize,
 }
 
 /// The result of [`minimise`].
@@ -187,8 +219,8 @@ pub fn starting_points(
 /// earliest on ties.
 ///
 /// # Errors
-/// The first error of the problem's cost; [`SwayError::Numerical`] if a start has the wrong
-/// dimension or argmin fails.
+/// The first error of the problem's cost (in the order of the runs); [`SwayError::Numerical`]
+/// if a start has the wrong dimension.
 pub fn minimise<P: MixedProblem>(
     problem: &P,
     starts: &[Vec<f64>],
@@ -203,12 +235,16 @@ pub fn minimise<P: MixedProblem>(
             bounds.len()
         )));
     }
-    let mut runs = Vec::new();
-    for choice in 0..problem.choices() {
-        for (k, x0) in starts.iter().enumerate() {
-            runs.push(nelder_mead(problem, choice, k, x0, settings)?);
-        }
-    }
+    let jobs: Vec<(usize, usize)> = (0..problem.choices())
+        .flat_map(|choice| (0..starts.len()).map(move |k| (choice, k)))
+        .collect();
+    let runs = jobs
+        .par_iter()
+        .with_max_len(1)
+        .map(|&(choice, k)| nelder_mead(problem, choice, k, &starts[k], settings))
+        .collect::<Vec<Result<Run, SwayError>>>()
+        .into_iter()
+        .collect::<Result<Vec<Run>, SwayError>>()?;
     let best = runs
         .iter()
         .fold(None::<&Run>, |b, r| match b {
@@ -229,41 +265,153 @@ fn numerical(message: String) -> SwayError {
     SwayError::numerical("optimisation", std::io::Error::other(message))
 }
 
-/// The cost in free variables, as argmin sees it; remembers the first error (argmin's
-/// Nelder–Mead unwraps the costs of its first simplex, so errors are not passed through it).
-struct FreeCost<'p, P> {
-    problem: &'p P,
-    choice: usize,
-    evaluations: &'p AtomicUsize,
-    error: &'p Mutex<Option<SwayError>>,
-}
-
-impl<P: MixedProblem> CostFunction for FreeCost<'_, P> {
-    type Param = Vec<f64>;
-    type Output = f64;
-
-    fn cost(&self, z: &Self::Param) -> Result<f64, argmin::core::Error> {
-        self.evaluations.fetch_add(1, Ordering::Relaxed);
-        let x = to_bounded(self.problem.bounds(), z);
-        match self.problem.cost(self.choice, &x) {
-            Ok(c) if c.is_finite() => Ok(c),
-            Ok(_) => Ok(f64::MAX),
-            Err(e) => {
-                if let Ok(mut slot) = self.error.lock() {
-                    slot.get_or_insert(e);
-                }
-                Ok(f64::MAX)
-            }
-        }
-    }
-}
-
+/// The bounded variables of the free ones z.
 fn to_bounded(bounds: &[Bound], z: &[f64]) -> Vec<f64> {
     bounds
         .iter()
         .zip(z)
         .map(|(b, &z)| b.to_bounded(z))
         .collect()
+}
+
+/// A vertex of the simplex: free variables and their cost.
+#[derive(Debug, Clone)]
+struct Vertex {
+    z: Vec<f64>,
+    cost: f64,
+}
+
+/// `a + (b − a)·s`, component by component (reflection, expansion, contraction, shrink).
+fn along(a: &[f64], b: &[f64], s: f64) -> Vec<f64> {
+    a.iter().zip(b).map(|(a, b)| a + (b - a) * s).collect()
+}
+
+/// The Nelder–Mead method (Nelder & Mead 1965, with the coefficients and the order of
+/// decisions of argmin's `NelderMead`: reflection α = 1, expansion γ = 2, contraction
+/// ρ = ½, shrink σ = ½; stop when the standard deviation of the simplex's costs falls below
+/// `sd_tolerance` or after `max_iters` iterations) on one choice of a [`MixedProblem`].
+///
+/// A trial point is only ever compared with one cost (the worst vertex, or the reflected
+/// point), so it is evaluated by [`MixedProblem::cost_unless_above`] with that cost as the
+/// cutoff: a trial proven worse is rejected without its exact cost, the path of the method
+/// is the same.
+struct NelderMead<'p, P> {
+    problem: &'p P,
+    choice: usize,
+    simplex: Vec<Vertex>,
+    best: Vertex,
+    evaluations: usize,
+    cut_short: usize,
+}
+
+impl<P: MixedProblem> NelderMead<'_, P> {
+    /// The cost at z, or `None` when it is proven above `cutoff`; a non-finite cost counts
+    /// as `f64::MAX`.
+    fn cost(&mut self, z: &[f64], cutoff: f64) -> Result<Option<f64>, SwayError> {
+        self.evaluations += 1;
+        let x = to_bounded(self.problem.bounds(), z);
+        Ok(
+            match self.problem.cost_unless_above(self.choice, &x, cutoff)? {
+                Bounded::Exact(c) if c.is_finite() => Some(c),
+                Bounded::Exact(_) => Some(f64::MAX),
+                Bounded::Above => {
+                    self.cut_short += 1;
+                    None
+                }
+            },
+        )
+    }
+
+    fn exact_cost(&mut self, z: &[f64]) -> Result<f64, SwayError> {
+        Ok(self.cost(z, f64::INFINITY)?.unwrap_or(f64::MAX))
+    }
+
+    /// Sorts the simplex by cost (stable: ties keep their order).
+    fn sort(&mut self) {
+        self.simplex.sort_by(|a, b| {
+            a.cost
+                .partial_cmp(&b.cost)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+    }
+
+    /// The sample standard deviation of the vertices' costs.
+    fn spread(&self) -> f64 {
+        let n = self.simplex.len() as f64;
+        let mean = self.simplex.iter().map(|v| v.cost).sum::<f64>() / n;
+        let squares: f64 = self.simplex.iter().map(|v| (v.cost - mean).powi(2)).sum();
+        (1.0 / (n - 1.0) * squares).sqrt()
+    }
+
+    /// The centroid of every vertex but the worst.
+    fn centroid(&self) -> Vec<f64> {
+        let m = self.simplex.len() - 1;
+        let mut c = self.simplex[0].z.clone();
+        for v in &self.simplex[1..m] {
+            c.iter_mut().zip(&v.z).for_each(|(c, z)| *c += z);
+        }
+        let scale = 1.0 / m as f64;
+        c.iter_mut().for_each(|c| *c *= scale);
+        c
+    }
+
+    /// Every vertex but the best moved halfway towards it.
+    fn shrink(&mut self) -> Result<(), SwayError> {
+        let best = self.simplex[0].z.clone();
+        for k in 1..self.simplex.len() {
+            let z = along(&best, &self.simplex[k].z, 0.5);
+            let cost = self.exact_cost(&z)?;
+            self.simplex[k] = Vertex { z, cost };
+        }
+        Ok(())
+    }
+
+    /// One iteration: reflect the worst vertex through the centroid of the others, then
+    /// expand, contract or shrink.
+    fn iterate(&mut self) -> Result<(), SwayError> {
+        let n = self.simplex.len();
+        let centroid = self.centroid();
+        let (best, second, worst) = (
+            self.simplex[0].cost,
+            self.simplex[n - 2].cost,
+            self.simplex[n - 1].cost,
+        );
+        let worst_z = self.simplex[n - 1].z.clone();
+        let zr = along(&centroid, &worst_z, -1.0);
+        let replace = match self.cost(&zr, worst)? {
+            Some(fr) if fr < second && fr >= best => Some(Vertex { z: zr, cost: fr }),
+            Some(fr) if fr < best => {
+                let ze = along(&centroid, &zr, 2.0);
+                Some(match self.cost(&ze, fr)? {
+                    Some(fe) if fe < fr => Vertex { z: ze, cost: fe },
+                    _ => Vertex { z: zr, cost: fr },
+                })
+            }
+            Some(fr) if fr < worst => {
+                let zc = along(&centroid, &zr, 0.5);
+                match self.cost(&zc, fr)? {
+                    Some(fc) if fc <= fr => Some(Vertex { z: zc, cost: fc }),
+                    _ => None,
+                }
+            }
+            _ => {
+                let zc = along(&centroid, &worst_z, 0.5);
+                match self.cost(&zc, worst)? {
+                    Some(fc) if fc < worst => Some(Vertex { z: zc, cost: fc }),
+                    _ => None,
+                }
+            }
+        };
+        match replace {
+            Some(v) => self.simplex[n - 1] = v,
+            None => self.shrink()?,
+        }
+        self.sort();
+        if self.simplex[0].cost < self.best.cost {
+            self.best = self.simplex[0].clone();
+        }
+        Ok(())
+    }
 }
 
 /// One Nelder–Mead run from `x0`: the initial simplex is z0 and z0 + h·eᵢ (z0 − h·eᵢ where
@@ -277,7 +425,7 @@ fn nelder_mead<P: MixedProblem>(
 ) -> Result<Run, SwayError> {
     let bounds = problem.bounds();
     let z0: Vec<f64> = bounds.iter().zip(x0).map(|(b, &x)| b.to_free(x)).collect();
-    let mut simplex = vec![z0.clone()];
+    let mut corners = vec![z0.clone()];
     for i in 0..z0.len() {
         let mut z = z0.clone();
         let h = settings.initial_step;
@@ -286,36 +434,37 @@ fn nelder_mead<P: MixedProblem>(
         } else {
             h
         };
-        simplex.push(z);
+        corners.push(z);
     }
-    let (evaluations, error) = (AtomicUsize::new(0), Mutex::new(None));
-    let cost = FreeCost {
+    let mut nm = NelderMead {
         problem,
         choice,
-        evaluations: &evaluations,
-        error: &error,
+        simplex: Vec::with_capacity(corners.len()),
+        best: Vertex {
+            z: z0,
+            cost: f64::INFINITY,
+        },
+        evaluations: 0,
+        cut_short: 0,
     };
-    let solver = NelderMead::new(simplex)
-        .with_sd_tolerance(settings.sd_tolerance)
-        .map_err(|e| numerical(format!("Nelder–Mead settings: {e}")))?;
-    let result = Executor::new(cost, solver)
-        .configure(|state| state.max_iters(settings.max_iters))
-        .run();
-    if let Some(e) = error.lock().ok().and_then(|mut slot| slot.take()) {
-        return Err(e);
+    for z in corners {
+        let cost = nm.exact_cost(&z)?;
+        nm.simplex.push(Vertex { z, cost });
     }
-    let result = result.map_err(|e| numerical(format!("Nelder–Mead: {e}")))?;
-    let state = result.state();
-    let z = state
-        .get_best_param()
-        .cloned()
-        .ok_or_else(|| numerical("Nelder–Mead returned no point".into()))?;
+    nm.sort();
+    nm.best = nm.simplex[0].clone();
+    let mut iterations = 0;
+    while nm.spread() >= settings.sd_tolerance && iterations < settings.max_iters {
+        nm.iterate()?;
+        iterations += 1;
+    }
     Ok(Run {
         choice,
         start,
-        x: to_bounded(bounds, &z),
-        cost: state.get_best_cost(),
-        evaluations: evaluations.load(Ordering::Relaxed),
+        x: to_bounded(bounds, &nm.best.z),
+        cost: nm.best.cost,
+        evaluations: nm.evaluations,
+        cut_short: nm.cut_short,
     })
 }
 

@@ -18,6 +18,7 @@
 //! let model = Model::new(VehicleParams::default()).unwrap();
 //! // V = 33 m/s (bistable range), small hitch-angle perturbation of 2°: it dies out
 //! let spec = SimSpec {
+//!     early_stop: sway::sim::EarlyStop::Never,
 //!     profile: SpeedProfile::Constant { speed_mps: 33.0 },
 //!     controller: Controller::None,
 //!     horizon_s: 30.0,
@@ -51,10 +52,10 @@ pub use plant::{
 };
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{
-    ControllerStates, IntegrationMethod, KinkLandingMode, Layout, LossOfControl, Metrics, Outcome,
-    Recording, RunSettings, Sample, SimResult, SimSpec, SimulateOwn, SolverSettings, ValidityGuard,
-    lift_state, paper_layout, settle, settle_any, settle_plant, simulate, simulate_any,
-    simulate_plant,
+    ControllerStates, EarlyStop, IntegrationMethod, KinkLandingMode, Layout, LossOfControl,
+    Metrics, Outcome, Recording, RunSettings, Sample, SimResult, SimSpec, SimulateOwn,
+    SolverSettings, ValidityGuard, lift_state, paper_layout, settle, settle_any, settle_plant,
+    simulate, simulate_any, simulate_plant,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, validate_parts,

@@ -291,6 +291,23 @@ pub struct SimSpec {
     pub action_s: f64,
     /// guard, tolerances and metric settings
     pub settings: RunSettings,
+    /// whether the run may end before the horizon
+    pub early_stop: EarlyStop,
+}
+
+/// When a run may end before its horizon (besides a loss of control).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum EarlyStop {
+    /// never: the run goes to the horizon
+    #[default]
+    Never,
+    /// as soon as the settle time (from the action start) is proven larger than this \[s\]:
+    /// |θ| is above the settle threshold at a step's end that late, or fell below it for
+    /// the last time so far that late. A run that settles does so at a falling crossing
+    /// after every such moment, so its settle time is larger; one that does not settle
+    /// has none. The metrics of a stopped run cover its time so far only
+    /// ([`SimResult::stopped_early`]).
+    SettleTimeAbove(f64),
 }
 
 /// The result of one run.
@@ -306,6 +323,9 @@ pub struct SimResult<const N: usize> {
     pub x_end: SVector<f64, N>,
     /// solver work
     pub stats: Stats,
+    /// the run was ended at `t_end` by [`SimSpec::early_stop`]: its settle time is proven
+    /// larger than the bound, and its metrics cover \[0, `t_end`\] only
+    pub stopped_early: bool,
 }
 
 /// Turning points reserved per classification window (the sway mode has ≈ 4 per 5 s, the
@@ -327,6 +347,10 @@ struct MetricObserver<'p, 'm, P, const M: usize, const N: usize> {
     trajectory: Vec<Sample<N>>,
     /// x(t_end − τ) of the last step (closed loop), for the guard diagnosis
     delayed_at_end: Option<SVector<f64, N>>,
+    /// |θ| of the settle threshold \[rad\] and the early stop
+    theta_settle: f64,
+    early_stop: EarlyStop,
+    stopped_early: bool,
 }
 
 impl<P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'_, '_, P, M, N> {
@@ -337,6 +361,26 @@ impl<P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'_, '_, P, M
         }
         if t >= self.final_from {
             self.final_amp = self.final_amp.max(abs_theta);
+        }
+    }
+
+    /// Whether the settle time is now proven larger than the early stop's bound (see
+    /// [`EarlyStop::SettleTimeAbove`]), at a step's end `t` with |θ(t)| = `abs_theta`.
+    fn stop_early(&mut self, t: f64, abs_theta: f64) -> Flow {
+        let EarlyStop::SettleTimeAbove(bound) = self.early_stop else {
+            return Flow::Continue;
+        };
+        let unsettled_since = if abs_theta > self.theta_settle {
+            Some(t)
+        } else {
+            self.last_fall
+        };
+        match unsettled_since {
+            Some(s) if s - self.action_s > bound => {
+                self.stopped_early = true;
+                Flow::Stop
+            }
+            _ => Flow::Continue,
         }
     }
 
@@ -410,7 +454,7 @@ impl<P: SimPlant<M>, const M: usize, const N: usize> Observer<N>
                 self.next_k += 1;
             }
         }
-        Flow::Continue
+        self.stop_early(t1, th1.abs())
     }
 
     fn on_event(&mut self, hit: &EventHit<N>) {
@@ -596,6 +640,7 @@ impl<const N: usize> SimResult<N> {
             t_end: self.t_end,
             x_end: f(&self.x_end),
             stats: self.stats,
+            stopped_early: self.stopped_early,
         }
     }
 }
@@ -843,6 +888,7 @@ fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
         t_end,
         x_end,
         stats,
+        stopped_early: obs.stopped_early,
     })
 }
 
@@ -876,6 +922,14 @@ impl<'p, 'm, P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'p, 
             next_k: 1,
             trajectory: Vec::new(),
             delayed_at_end: None,
+            theta_settle: spec
+                .settings
+                .metrics
+                .settle_threshold_deg
+                .get()
+                .to_radians(),
+            early_stop: spec.early_stop,
+            stopped_early: false,
         };
         obs.update(0.0, x0[HITCH_ANGLE].abs());
         if let Some(w) = obs.window(0.0) {
@@ -910,6 +964,7 @@ fn lost_at_start<const N: usize>(
         t_end: 0.0,
         x_end: x0,
         stats: Stats::default(),
+        stopped_early: false,
     }
 }
 

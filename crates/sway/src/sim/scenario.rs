@@ -434,6 +434,7 @@ impl ScenarioConfig {
     /// The run specification.
     pub fn spec(&self) -> SimSpec {
         SimSpec {
+            early_stop: crate::sim::EarlyStop::Never,
             profile: self.speed.clone(),
             controller: self.controller.clone(),
             horizon_s: self.horizon_s.get(),

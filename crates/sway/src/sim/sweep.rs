@@ -849,6 +849,7 @@ pub(crate) fn simulate_point(
         .resolve(model, &s.settings.solver)
         .map_err(|e| e.to_string())?;
     let spec = SimSpec {
+        early_stop: crate::sim::EarlyStop::Never,
         action_s: s
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
@@ -877,6 +878,7 @@ pub(crate) fn simulate_point_any(
         .resolve_any(vehicle, &s.settings.solver)
         .map_err(|e| e.to_string())?;
     let spec = SimSpec {
+        early_stop: crate::sim::EarlyStop::Never,
         action_s: s
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),

@@ -16,6 +16,7 @@ pub fn model() -> Model {
 /// tolerances `rtol` and atol = rtol/100
 pub fn spec(profile: SpeedProfile, controller: Controller, horizon_s: f64, rtol: f64) -> SimSpec {
     SimSpec {
+        early_stop: sway::sim::EarlyStop::Never,
         profile,
         controller,
         horizon_s,

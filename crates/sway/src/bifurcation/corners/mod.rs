@@ -1347,6 +1347,7 @@ fn run_once<P: CornerPlant<N>, const N: usize>(
     let kick_deg = x[3].to_degrees();
     let s = &o.simulation;
     let spec = SimSpec {
+        early_stop: crate::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: v },
         controller: Controller::YawRateFeedback {
             gain_s: d,

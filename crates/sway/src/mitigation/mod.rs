@@ -307,7 +307,7 @@ impl Setting {
             }
         };
         SimSpec {
-            early_stop: crate::sim::EarlyStop::Never,
+            early_stop: EarlyStop::Never,
             profile,
             controller,
             horizon_s: lead_in_s + self.horizon_s,

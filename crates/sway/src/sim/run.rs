@@ -808,7 +808,6 @@ fn final_metrics<P: SimPlant<M>, const M: usize, const N: usize>(
     obs: &mut MetricObserver<'_, '_, P, M, N>,
     spec: &SimSpec,
     x_end: &SVector<f64, N>,
-    theta_settle: f64,
     lost: Option<(f64, LossOfControl)>,
 ) -> Metrics {
     match lost {
@@ -823,7 +822,7 @@ fn final_metrics<P: SimPlant<M>, const M: usize, const N: usize>(
             decay_rate_per_s: None,
         },
         None => {
-            let settled = x_end[HITCH_ANGLE].abs() < theta_settle;
+            let settled = x_end[HITCH_ANGLE].abs() < obs.theta_settle;
             obs.windows.last.last = Some(x_end[HITCH_ANGLE]);
             let verdict = classify(&obs.windows, &spec.settings.metrics);
             Metrics {
@@ -868,7 +867,7 @@ fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
         }
         events.push(guard_event(&problem));
     }
-    let mut obs = MetricObserver::start(&problem, spec, recording, x0, &x0_delayed);
+    let mut obs = MetricObserver::start(&problem, spec, recording, th_s, x0, &x0_delayed);
     let (status, t_end, x_end, stats) = integrate(&problem, spec, x0, &events, &mut obs)?;
     let lost = match status {
         Status::Event(hit) if hit.index == 2 => {
@@ -881,7 +880,7 @@ fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
         }
         _ => None,
     };
-    let metrics = final_metrics(&mut obs, spec, &x_end, th_s, lost);
+    let metrics = final_metrics(&mut obs, spec, &x_end, lost);
     Ok(SimResult {
         metrics,
         trajectory: obs.trajectory,
@@ -894,11 +893,12 @@ fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
 
 impl<'p, 'm, P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'p, 'm, P, M, N> {
     /// The observer of a run from `x0` at t = 0 (its first values seen, the first sample
-    /// recorded).
+    /// recorded), with the settle threshold `theta_settle` \[rad\].
     fn start(
         problem: &'p SimProblem<'m, P, M, N>,
         spec: &SimSpec,
         recording: Recording,
+        theta_settle: f64,
         x0: SVector<f64, N>,
         x0_delayed: &[SVector<f64, N>],
     ) -> Self {
@@ -922,12 +922,7 @@ impl<'p, 'm, P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'p, 
             next_k: 1,
             trajectory: Vec::new(),
             delayed_at_end: None,
-            theta_settle: spec
-                .settings
-                .metrics
-                .settle_threshold_deg
-                .get()
-                .to_radians(),
+            theta_settle,
             early_stop: spec.early_stop,
             stopped_early: false,
         };

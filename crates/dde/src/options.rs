@@ -1,6 +1,7 @@
 //! Solver options.
 
 use crate::Error;
+use crate::scheme::{Dop853, Dopri5, Scheme};
 
 /// How the step size is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,8 +49,8 @@ impl Method {
     /// Order of the method's propagated solution (5 or 8).
     pub fn order(self) -> usize {
         match self {
-            Method::Dopri5 => 5,
-            Method::Dop853 => 8,
+            Method::Dopri5 => <Dopri5<1> as Scheme<1>>::ORDER,
+            Method::Dop853 => <Dop853<1> as Scheme<1>>::ORDER,
         }
     }
 }

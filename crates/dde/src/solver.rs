@@ -9,9 +9,9 @@ use nalgebra::SVector;
 use crate::Error;
 use crate::dense::{Segment, Solution};
 use crate::events::{Event, EventAction, EventHit, locate_root};
-use crate::options::{DenseOutput, KinkLanding, Method, Options, StepController};
+use crate::options::{DenseOutput, KinkLanding, Options, StepController};
 use crate::problem::{DdeProblem, OdeProblem};
-use crate::scheme::{Dop853, Dopri5, Scheme, Tolerances};
+use crate::scheme::{Pair, Tolerances};
 
 type SV<const N: usize> = SVector<f64, N>;
 
@@ -442,15 +442,15 @@ impl<const N: usize> Core<N> {
         events: &[Event<'_, N>],
         obs: &mut O,
     ) -> Result<Status<N>, Error> {
-        match self.opts.method {
-            Method::Dopri5 => self.run_with::<Dopri5<N>, R, O>(rhs, t_end, events, obs),
-            Method::Dop853 => self.run_with::<Dop853<N>, R, O>(rhs, t_end, events, obs),
-        }
+        self.run_with(rhs, t_end, events, obs)
     }
 
     /// Integrates to `t_end`: attempt, judge, accept, record, detect events, advance and
-    /// report, one step of the pair `S` after the other.
-    fn run_with<S: Scheme<N>, R: Rhs<N>, O: Observer<N>>(
+    /// report, one step of the options' pair after the other. The pair is a value
+    /// ([`Pair`]), not a type parameter: one stepping loop is compiled per problem, not one
+    /// per problem and pair (the loop, the events and the kink location are most of the
+    /// solver's code; the per-pair stage arithmetic sits behind one `match` per call).
+    fn run_with<R: Rhs<N>, O: Observer<N>>(
         &mut self,
         rhs: &mut R,
         t_end: f64,
@@ -464,10 +464,11 @@ impl<const N: usize> Core<N> {
             return Ok(Status::Reached);
         }
         self.ensure_fsal(rhs)?;
-        let ctl = self.control::<S, R>(rhs, t_end);
+        let method = self.opts.method;
+        let ctl = self.control(rhs, t_end);
         let mut scratch = EventScratch::new(&*rhs, events, self.t, &self.x);
         let mut attempts = 0usize;
-        let mut previous: Option<Previous<N, S>> = None;
+        let mut previous: Option<Previous<N>> = None;
         loop {
             self.pass_reached_breakpoints();
             if self.t >= t_end {
@@ -482,8 +483,8 @@ impl<const N: usize> Core<N> {
             attempts += 1;
 
             let plan = self.plan_step(&ctl, t_end)?;
-            let stages = S::attempt(&*rhs, &plan);
-            self.stats.rhs_evals += S::EVALS;
+            let stages = Pair::attempt(method, &*rhs, &plan);
+            self.stats.rhs_evals += method.evals();
             if self.switches.crossing(
                 &*rhs,
                 &plan,
@@ -553,7 +554,7 @@ impl<const N: usize> Core<N> {
     }
 
     /// Reads the step-size settings of this call and picks the first step if none is set.
-    fn control<S: Scheme<N>, R: Rhs<N>>(&mut self, rhs: &R, t_end: f64) -> Control {
+    fn control<R: Rhs<N>>(&mut self, rhs: &R, t_end: f64) -> Control {
         let h_cap = self.opts.h_max.min(rhs.h_cap());
         let fixed = match self.opts.controller {
             StepController::Fixed { h } => Some(h),
@@ -566,14 +567,14 @@ impl<const N: usize> Core<N> {
         if self.h == 0.0 {
             self.h = match (fixed, self.opts.h_initial) {
                 (Some(h), _) | (None, Some(h)) => h,
-                (None, None) => self.initial_step(rhs, h_cap, t_end, S::ORDER),
+                (None, None) => self.initial_step(rhs, h_cap, t_end, self.opts.method.order()),
             };
         }
         Control {
             h_cap,
             fixed,
             beta,
-            expo1: S::EXPONENT - S::BETA_WEIGHT * beta,
+            expo1: self.opts.method.exponent() - self.opts.method.beta_weight() * beta,
             safety: self.opts.safety,
             fac_min: self.opts.fac_min,
             fac_max: self.opts.fac_max,
@@ -636,12 +637,7 @@ impl<const N: usize> Core<N> {
 
     /// The scaled error of the step (0 with fixed steps), or `None` after a rejection (the
     /// step size is then reduced); an error once the step cannot shrink any further.
-    fn judge<S: Scheme<N>>(
-        &mut self,
-        ctl: &Control,
-        p: &Plan<N>,
-        s: &S,
-    ) -> Result<Option<f64>, Error> {
+    fn judge(&mut self, ctl: &Control, p: &Plan<N>, s: &Pair<N>) -> Result<Option<f64>, Error> {
         let finite = is_finite(s.x_new()) && is_finite(s.f_new());
         let err = if ctl.fixed.is_some() {
             if finite { 0.0 } else { f64::NAN }
@@ -704,7 +700,7 @@ impl<const N: usize> Core<N> {
 
     /// Stores the continuous extension of the accepted step where it must be kept: in the
     /// past (DDE) and in the kept dense output. (Otherwise it is built only if asked for.)
-    fn record<R: Rhs<N>, S: Scheme<N>>(&mut self, rhs: &mut R, dense: &StepDense<'_, N, S>) {
+    fn record<R: Rhs<N>>(&mut self, rhs: &mut R, dense: &StepDense<'_, N>) {
         if !rhs.keeps_past() && self.solution.is_none() {
             return;
         }
@@ -717,10 +713,10 @@ impl<const N: usize> Core<N> {
 
     /// Ends the step at a terminal event: the past, the dense output and the state are cut
     /// at its time, and `k1` is invalid.
-    fn stop_at_event<R: Rhs<N>, S: Scheme<N>>(
+    fn stop_at_event<R: Rhs<N>>(
         &mut self,
         rhs: &mut R,
-        dense: &mut StepDense<'_, N, S>,
+        dense: &mut StepDense<'_, N>,
         hit: EventHit<N>,
         h_next: f64,
     ) {
@@ -737,11 +733,11 @@ impl<const N: usize> Core<N> {
     }
 
     /// Moves to the end of the step; at a breakpoint `k1` becomes the right limit of `f`.
-    fn advance<R: Rhs<N>, S: Scheme<N>>(
+    fn advance<R: Rhs<N>>(
         &mut self,
         rhs: &R,
         p: &Plan<N>,
-        s: &S,
+        s: &Pair<N>,
         h_next: f64,
     ) -> Result<(), Error> {
         self.t = p.t_new;
@@ -760,11 +756,11 @@ impl<const N: usize> Core<N> {
 
     /// Shows the step and its events to the observer; the final status if the integration
     /// ends here (a terminal event, or the observer's stop).
-    fn report<R: Rhs<N>, S: Scheme<N>, O: Observer<N>>(
+    fn report<R: Rhs<N>, O: Observer<N>>(
         &mut self,
         rhs: &R,
         obs: &mut O,
-        dense: &StepDense<'_, N, S>,
+        dense: &StepDense<'_, N>,
         hits: &[EventHit<N>],
         stop_at: Option<usize>,
     ) -> Option<Status<N>> {
@@ -845,17 +841,17 @@ impl<const N: usize> Plan<N> {
 /// The continuous extension of an accepted step, built at most once and only when
 /// something needs it (the DDE past, the kept output, an event that fires, an observer);
 /// counts the extra right-hand sides that took.
-struct StepDense<'s, const N: usize, S> {
+struct StepDense<'s, const N: usize> {
     plan: &'s Plan<N>,
-    stages: &'s S,
+    stages: &'s Pair<N>,
     /// end of the step as reported (cut at a terminal event)
     t_end: f64,
     segment: OnceCell<Segment<N>>,
     extra_evals: Cell<usize>,
 }
 
-impl<'s, const N: usize, S: Scheme<N>> StepDense<'s, N, S> {
-    fn new(plan: &'s Plan<N>, stages: &'s S) -> Self {
+impl<'s, const N: usize> StepDense<'s, N> {
+    fn new(plan: &'s Plan<N>, stages: &'s Pair<N>) -> Self {
         StepDense {
             plan,
             stages,
@@ -885,13 +881,13 @@ impl<'s, const N: usize, S: Scheme<N>> StepDense<'s, N, S> {
 
 /// The last accepted step, kept for locating the next kink on its continuous extension
 /// (built at most once: reused if the step already built it).
-struct Previous<const N: usize, S> {
+struct Previous<const N: usize> {
     plan: Plan<N>,
-    stages: S,
+    stages: Pair<N>,
     segment: OnceCell<Segment<N>>,
 }
 
-impl<const N: usize, S: Scheme<N>> Previous<N, S> {
+impl<const N: usize> Previous<N> {
     /// The step's continuous extension; extra right-hand sides counted in `stats`.
     fn extension<R: Rhs<N>>(&self, rhs: &R, stats: &mut Stats) -> &Segment<N> {
         self.segment.get_or_init(|| {
@@ -903,12 +899,12 @@ impl<const N: usize, S: Scheme<N>> Previous<N, S> {
 }
 
 /// The step as an observer's [`StepView`] reads it.
-struct Shown<'a, 's, const N: usize, R, S> {
+struct Shown<'a, 's, const N: usize, R> {
     rhs: &'a R,
-    dense: &'a StepDense<'s, N, S>,
+    dense: &'a StepDense<'s, N>,
 }
 
-impl<const N: usize, R: Rhs<N>, S: Scheme<N>> StepSource<N> for Shown<'_, '_, N, R, S> {
+impl<const N: usize, R: Rhs<N>> StepSource<N> for Shown<'_, '_, N, R> {
     fn segment(&self) -> &Segment<N> {
         self.dense.get(self.rhs)
     }
@@ -995,12 +991,12 @@ impl Switches {
     /// accurately than the attempt's own extension, which the kink spoils), or, for the
     /// attempt that lands on a kink but overshoots it, on its own extension (spoiled only
     /// over the overshoot). Extra right-hand sides are counted.
-    fn crossing<const N: usize, R: Rhs<N>, S: Scheme<N>>(
+    fn crossing<const N: usize, R: Rhs<N>>(
         &mut self,
         rhs: &R,
         p: &Plan<N>,
-        s: &S,
-        previous: Option<&Previous<N, S>>,
+        s: &Pair<N>,
+        previous: Option<&Previous<N>>,
         tol: f64,
         stats: &mut Stats,
     ) -> bool {
@@ -1096,10 +1092,10 @@ impl Switches {
     /// far more accurate there than the extension of a step that crossed it) locates the
     /// root, and the next step lands on it — instead of crossing it first and being repeated.
     /// A missed or misplaced prediction is caught by [`Switches::crossing`] as before.
-    fn look_ahead<const N: usize, R: Rhs<N>, S: Scheme<N>>(
+    fn look_ahead<const N: usize, R: Rhs<N>>(
         &mut self,
         rhs: &R,
-        step: &StepDense<'_, N, S>,
+        step: &StepDense<'_, N>,
         h: f64,
         tol: f64,
     ) {
@@ -1232,11 +1228,11 @@ impl<const N: usize> EventScratch<N> {
     /// of the first terminal one, where the hits are cut off. The sign of every `g` is read
     /// at the step's end first; the continuous extension is needed (and built) only if one
     /// changed.
-    fn detect<R: Rhs<N>, S: Scheme<N>>(
+    fn detect<R: Rhs<N>>(
         &mut self,
         rhs: &R,
         events: &[Event<'_, N>],
-        dense: &StepDense<'_, N, S>,
+        dense: &StepDense<'_, N>,
         event_tol: f64,
     ) -> Option<usize> {
         self.hits.clear();

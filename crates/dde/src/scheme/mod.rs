@@ -10,6 +10,7 @@ pub(crate) use dopri5::Dopri5;
 
 use nalgebra::SVector;
 
+use crate::Method;
 use crate::dense::Segment;
 use crate::solver::{Plan, Rhs};
 
@@ -45,6 +46,92 @@ pub(crate) trait Scheme<const N: usize>: Sized {
     /// The continuous extension on `[p.t, p.t_new]` and the number of extra right-hand side
     /// evaluations it took.
     fn dense<R: Rhs<N>>(&self, rhs: &R, p: &Plan<N>) -> (Segment<N>, usize);
+}
+
+/// The stages of one attempted step of the pair the options chose, as a value: the stepping
+/// loop is compiled once per problem and dispatches here (one `match` per call, the
+/// stage arithmetic inside each arm is the pair's own, unchanged).
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Pair<const N: usize> {
+    /// Dormand–Prince 5(4)
+    Dopri5(Dopri5<N>),
+    /// Dormand–Prince 8(5,3)
+    Dop853(Dop853<N>),
+}
+
+impl<const N: usize> Pair<N> {
+    /// [`Scheme::attempt`] of the pair `method`.
+    #[inline]
+    pub(crate) fn attempt<R: Rhs<N>>(method: Method, rhs: &R, p: &Plan<N>) -> Self {
+        match method {
+            Method::Dopri5 => Pair::Dopri5(Dopri5::attempt(rhs, p)),
+            Method::Dop853 => Pair::Dop853(Dop853::attempt(rhs, p)),
+        }
+    }
+
+    /// [`Scheme::x_new`].
+    #[inline]
+    pub(crate) fn x_new(&self) -> &SV<N> {
+        match self {
+            Pair::Dopri5(s) => s.x_new(),
+            Pair::Dop853(s) => s.x_new(),
+        }
+    }
+
+    /// [`Scheme::f_new`].
+    #[inline]
+    pub(crate) fn f_new(&self) -> &SV<N> {
+        match self {
+            Pair::Dopri5(s) => s.f_new(),
+            Pair::Dop853(s) => s.f_new(),
+        }
+    }
+
+    /// [`Scheme::error`].
+    #[inline]
+    pub(crate) fn error(&self, p: &Plan<N>, tol: Tolerances) -> f64 {
+        match self {
+            Pair::Dopri5(s) => s.error(p, tol),
+            Pair::Dop853(s) => s.error(p, tol),
+        }
+    }
+
+    /// [`Scheme::dense`].
+    #[inline]
+    pub(crate) fn dense<R: Rhs<N>>(&self, rhs: &R, p: &Plan<N>) -> (Segment<N>, usize) {
+        match self {
+            Pair::Dopri5(s) => s.dense(rhs, p),
+            Pair::Dop853(s) => s.dense(rhs, p),
+        }
+    }
+}
+
+/// The pair's constants ([`Scheme`]'s) for the method chosen at run time (its order:
+/// [`Method::order`]).
+impl Method {
+    /// [`Scheme::EVALS`]
+    pub(crate) fn evals(self) -> usize {
+        match self {
+            Method::Dopri5 => <Dopri5<1> as Scheme<1>>::EVALS,
+            Method::Dop853 => <Dop853<1> as Scheme<1>>::EVALS,
+        }
+    }
+
+    /// [`Scheme::EXPONENT`]
+    pub(crate) fn exponent(self) -> f64 {
+        match self {
+            Method::Dopri5 => <Dopri5<1> as Scheme<1>>::EXPONENT,
+            Method::Dop853 => <Dop853<1> as Scheme<1>>::EXPONENT,
+        }
+    }
+
+    /// [`Scheme::BETA_WEIGHT`]
+    pub(crate) fn beta_weight(self) -> f64 {
+        match self {
+            Method::Dopri5 => <Dopri5<1> as Scheme<1>>::BETA_WEIGHT,
+            Method::Dop853 => <Dop853<1> as Scheme<1>>::BETA_WEIGHT,
+        }
+    }
 }
 
 /// The first four coefficients of Hairer's nested continuous extension, shared by both

@@ -352,6 +352,24 @@ where
     F: Fn(f64) -> std::result::Result<RankOneFeedback, E> + Sync,
     E: Display,
 {
+    let system = |v: f64| {
+        system(v).map_err(|e| StabilityError::System {
+            v,
+            message: e.to_string(),
+        })
+    };
+    charts_of(&system, taus, v_axis, d_axis, options)
+}
+
+/// [`stability_charts`] with the system behind a `&dyn Fn`: the parallel columns are
+/// compiled once, not once per caller's closure (and per plant of a generic caller).
+fn charts_of(
+    system: &(dyn Fn(f64) -> Result<RankOneFeedback> + Sync),
+    taus: &[f64],
+    v_axis: Axis,
+    d_axis: Axis,
+    options: &ChartOptions,
+) -> Result<Vec<StabilityChart>> {
     v_axis.validate("V")?;
     d_axis.validate("D")?;
     for &t in taus {
@@ -362,15 +380,7 @@ where
     let vs = v_axis.values();
     let ds = d_axis.values();
     // a failing V column is reported in `failures` and the chart goes on
-    let systems: Vec<Result<RankOneFeedback>> = vs
-        .par_iter()
-        .map(|&v| {
-            system(v).map_err(|e| StabilityError::System {
-                v,
-                message: e.to_string(),
-            })
-        })
-        .collect();
+    let systems: Vec<Result<RankOneFeedback>> = vs.par_iter().map(|&v| system(v)).collect();
     let d_lim = options.boundary_margin.max(1.0) * d_axis.min.abs().max(d_axis.max.abs());
     let jobs: Vec<(usize, usize)> = (0..taus.len())
         .flat_map(|t| (0..vs.len()).map(move |i| (t, i)))

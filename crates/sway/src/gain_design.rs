@@ -28,9 +28,9 @@
 //! Everything is deterministic: the scans are sequential per delay and the delays of
 //! [`linear_optima`] are computed in parallel but returned in grid order.
 
+use crate::parallel::{Split, try_map};
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
 use argmin::solver::brent::BrentOpt;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
@@ -384,11 +384,9 @@ pub fn linear_optima<M: LoopModel + ?Sized>(
     taus: &[f64],
     o: &GainSearch,
 ) -> Result<Vec<LinearOptimum>, SwayError> {
-    let results: Vec<Result<LinearOptimum, SwayError>> = taus
-        .par_iter()
-        .map(|&tau| linear_optimum(model, tau, o))
-        .collect();
-    results.into_iter().collect()
+    try_map(taus, Split::Adaptive, &|_, &tau| {
+        linear_optimum(model, tau, o)
+    })
 }
 
 /// What limits the safe speed at the nonlinear optimum.

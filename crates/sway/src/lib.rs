@@ -29,6 +29,7 @@ pub mod gain_design;
 pub mod linear;
 pub mod loading;
 pub mod mitigation;
+pub mod parallel;
 pub mod progress;
 pub mod ranging;
 pub mod sampling;

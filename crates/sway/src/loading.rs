@@ -6,7 +6,7 @@
 //! Fig. 2; Table I has h > l, a negative tongue load, which lifts the hitch). This module
 //! maps V_crit over a grid of trailer mass m2 and centre-of-gravity position h.
 
-use rayon::prelude::*;
+use crate::parallel::{Split, map};
 use serde::{Deserialize, Serialize};
 use trailer_model::{
     AnyVehicleModel, CriticalSpeedOptions, Model, Plant, VehicleParams, VehicleSpec,
@@ -122,16 +122,14 @@ pub fn v_crit_map<B: LoadingBase>(
     opts: &CriticalSpeedOptions,
     progress: &(dyn Fn() + Sync),
 ) -> Vec<Vec<f64>> {
-    cogs.par_iter()
-        .map(|&h| {
-            let row = masses
-                .iter()
-                .map(|&m2| base.loaded(m2, h, inertia).v_crit(opts))
-                .collect();
-            progress();
-            row
-        })
-        .collect()
+    map(cogs, Split::Adaptive, &|_, &h| {
+        let row = masses
+            .iter()
+            .map(|&m2| base.loaded(m2, h, inertia).v_crit(opts))
+            .collect();
+        progress();
+        row
+    })
 }
 
 /// The V_crit map of [`v_crit_map`] with the finer cut along h at the base mass and the

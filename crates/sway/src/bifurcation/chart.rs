@@ -31,7 +31,7 @@ use super::{
     SPEED, bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
-use rayon::prelude::*;
+use crate::parallel::{Split, join, try_map};
 
 /// Options of the nonlinear chart of one delay.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -567,18 +567,15 @@ fn sample_criticality<P: LoopPlant<N>, const N: usize>(
         .map(|j| inside[j * (inside.len() - 1) / (k - 1)])
         .collect();
     picks.dedup();
-    let samples = picks
-        .par_iter()
-        .map(|&i| {
-            let p = curve.points[i];
-            Ok(criticality_at(problem, &p, o)?.map(|c| CriticalitySample {
-                index: i,
-                d_s: p.d_s,
-                v_mps: p.v_mps,
-                criticality: c,
-            }))
-        })
-        .collect::<Result<Vec<_>, SwayError>>()?;
+    let samples = try_map(&picks, Split::Adaptive, &|_, &i| {
+        let p = curve.points[i];
+        Ok::<_, SwayError>(criticality_at(problem, &p, o)?.map(|c| CriticalitySample {
+            index: i,
+            d_s: p.d_s,
+            v_mps: p.v_mps,
+            criticality: c,
+        }))
+    })?;
     Ok(samples.into_iter().flatten().collect())
 }
 
@@ -1099,16 +1096,18 @@ pub fn nonlinear_chart<P: LoopPlant<N>, const N: usize>(
     );
     // the Hopf curves with their criticality and the fold-of-cycles curve are independent:
     // computed side by side (each deterministic, so the result does not depend on threads)
-    let (hopf_stage, fold_stage) = rayon::join(
-        || -> Result<_, SwayError> {
+    let (hopf_stage, fold_stage) = join(
+        &|| -> Result<_, SwayError> {
             let (mut curves, notes) = hopf_curves(model, tau, o)?;
-            curves.par_iter_mut().try_for_each(|c| {
-                c.criticality = sample_criticality(&problem, c, o)?;
-                Ok::<_, SwayError>(())
+            let criticality = try_map(&curves, Split::Adaptive, &|_, c| {
+                sample_criticality(&problem, c, o)
             })?;
+            for (c, samples) in curves.iter_mut().zip(criticality) {
+                c.criticality = samples;
+            }
             Ok((curves, notes))
         },
-        || fold_curve(model, tau, first_seed, o),
+        &|| fold_curve(model, tau, first_seed, o),
     );
     let (hopf_curves, notes) = hopf_stage?;
     let sys = hopf_system(&problem, first_seed, o)?;

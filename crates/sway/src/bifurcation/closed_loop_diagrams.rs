@@ -5,8 +5,8 @@
 //! `chart_nonlinear` and the `hopf_fold_speeds` sweep kind share one implementation.
 
 use super::LoopPlant;
+use crate::parallel::{Split, try_map};
 use continuation::Criticality;
-use rayon::prelude::*;
 use serde::Serialize;
 
 use super::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
@@ -175,15 +175,11 @@ pub fn closed_loop_diagrams<P: LoopPlant<N>, const N: usize>(
     limits: &SpeedLimits,
     progress: &dyn Progress,
 ) -> Result<Vec<PairDiagram>, SwayError> {
-    let results: Vec<Result<PairDiagram, SwayError>> = feedbacks
-        .par_iter()
-        .map(|&fb| {
-            let r = closed_loop_diagram(model, fb, settings, limits, CycleExtent::WholeRange);
-            progress.advance(1);
-            r
-        })
-        .collect();
-    results.into_iter().collect()
+    try_map(feedbacks, Split::Adaptive, &|_, &fb| {
+        let r = closed_loop_diagram(model, fb, settings, limits, CycleExtent::WholeRange);
+        progress.advance(1);
+        r
+    })
 }
 
 /// The speed range \[m/s\] covering every computed diagram's figure range (None: none

@@ -34,7 +34,7 @@
 //! speed axis of `fig4a` (0–75 m/s instead of 0–60 m/s: at τ = 0.1 s and D = 0.5 s straight
 //! running is stable up to 67.9 m/s, above the old axis).
 
-use rayon::prelude::*;
+use crate::parallel::{Split, try_map};
 use serde::{Deserialize, Serialize};
 
 use super::{closed_loop, critical_speed_at_gain};
@@ -232,20 +232,17 @@ pub fn critical_speed_extent<M: LoopModel + ?Sized>(
         .iter()
         .flat_map(|&t| scan_gains(gains).into_iter().map(move |d| (t, d)))
         .collect();
-    let speeds = pairs
-        .par_iter()
-        .map(|&(tau, d)| {
-            critical_speed_at_gain(
-                model,
-                tau,
-                d,
-                b.min_mps,
-                b.max_mps,
-                samples,
-                SCAN_TOLERANCE_MPS,
-            )
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let speeds = try_map(&pairs, Split::Adaptive, &|_, &(tau, d)| {
+        critical_speed_at_gain(
+            model,
+            tau,
+            d,
+            b.min_mps,
+            b.max_mps,
+            samples,
+            SCAN_TOLERANCE_MPS,
+        )
+    })?;
     let value = |v: &Option<f64>| v.unwrap_or(b.max_mps);
     Ok(CriticalSpeedExtent {
         lowest_mps: speeds.iter().map(value).fold(f64::INFINITY, f64::min),

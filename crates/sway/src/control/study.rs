@@ -8,7 +8,7 @@
 //! item 4). The `predictor` has no fold: its distributed delay is not a continuation problem
 //! here.
 
-use rayon::prelude::*;
+use crate::parallel::{Split, map};
 use serde::{Deserialize, Serialize};
 use trailer_model::{AnyVehicleModel, Model, VehicleParams, VehicleSpec};
 
@@ -256,58 +256,54 @@ pub fn control_study(
     for (c, list) in checked.iter().enumerate() {
         jobs.extend(list.iter().map(|&d| Job::Robust { c, d }));
     }
-    let done: Vec<Result<Done, SwayError>> = jobs
-        .par_iter()
-        .with_max_len(1)
-        .map(|job| match *job {
-            Job::Budget { c } => {
-                let (structure, _) = pairs[c];
-                let p = (structure == Structure::Predictor)
-                    .then_some(prediction)
-                    .flatten();
-                delay_budget(
-                    model,
-                    &designs[c],
-                    open,
-                    s.budget_rise_fraction,
-                    s.budget_tau_tolerance_s,
-                    p,
-                    &s.search,
-                )
-                .map(Done::Budget)
+    let done: Vec<Result<Done, SwayError>> = map(&jobs, Split::OnePerTask, &|_, job| match *job {
+        Job::Budget { c } => {
+            let (structure, _) = pairs[c];
+            let p = (structure == Structure::Predictor)
+                .then_some(prediction)
+                .flatten();
+            delay_budget(
+                model,
+                &designs[c],
+                open,
+                s.budget_rise_fraction,
+                s.budget_tau_tolerance_s,
+                p,
+                &s.search,
+            )
+            .map(Done::Budget)
+        }
+        Job::Fold { designs: ref list } => {
+            let (c, d) = list[0];
+            design_fold(vehicle.paper.map(|(m, _)| m), &designs[c][d], s).map(Done::Fold)
+        }
+        Job::Robust { c, d } => {
+            let design = &designs[c][d];
+            let controller = Controller {
+                structure: design.structure,
+                actuator: design.actuator,
+                gains: design.gains,
+            };
+            match (vehicle.paper, vehicle.prediction) {
+                (Some((_, params)), None) => robust_critical_speed(
+                    params,
+                    &controller,
+                    design.tau_s,
+                    &s.uncertainty,
+                    &s.robustness_speed,
+                ),
+                _ => robust_critical_speed_spec(
+                    vehicle.spec,
+                    vehicle.prediction,
+                    &controller,
+                    design.tau_s,
+                    &s.uncertainty,
+                    &s.robustness_speed,
+                ),
             }
-            Job::Fold { designs: ref list } => {
-                let (c, d) = list[0];
-                design_fold(vehicle.paper.map(|(m, _)| m), &designs[c][d], s).map(Done::Fold)
-            }
-            Job::Robust { c, d } => {
-                let design = &designs[c][d];
-                let controller = Controller {
-                    structure: design.structure,
-                    actuator: design.actuator,
-                    gains: design.gains,
-                };
-                match (vehicle.paper, vehicle.prediction) {
-                    (Some((_, params)), None) => robust_critical_speed(
-                        params,
-                        &controller,
-                        design.tau_s,
-                        &s.uncertainty,
-                        &s.robustness_speed,
-                    ),
-                    _ => robust_critical_speed_spec(
-                        vehicle.spec,
-                        vehicle.prediction,
-                        &controller,
-                        design.tau_s,
-                        &s.uncertainty,
-                        &s.robustness_speed,
-                    ),
-                }
-                .map(Done::Robust)
-            }
-        })
-        .collect();
+            .map(Done::Robust)
+        }
+    });
     // gather in the order of the jobs
     let mut budgets: Vec<Option<DelayBudget>> = vec![None; pairs.len()];
     let mut fold_of: Vec<Vec<Option<DesignFold>>> =
@@ -442,10 +438,8 @@ fn all_designs(
             .map(|&(_, a)| Chain::Predictor(a)),
     );
     type ChainResult = Vec<((Structure, Actuator), Vec<Design>)>;
-    let computed: Vec<Result<ChainResult, SwayError>> = chains
-        .par_iter()
-        .with_max_len(1)
-        .map(|chain| match *chain {
+    let computed: Vec<Result<ChainResult, SwayError>> =
+        map(&chains, Split::OnePerTask, &|_, chain| match *chain {
             Chain::Output(a) => {
                 let yaw = designs_over_delays(
                     model,
@@ -489,8 +483,7 @@ fn all_designs(
                 };
                 Ok(vec![((Structure::Predictor, a), ds)])
             }
-        })
-        .collect();
+        });
     let mut by_pair: Vec<((Structure, Actuator), Vec<Design>)> = Vec::new();
     for r in computed {
         by_pair.extend(r?);
@@ -584,18 +577,15 @@ fn away_from_corner(
         .filter(|&g| g != d0)
         .map(|g| d.gains.with(GainName::YawRate, g))
         .collect();
-    let folds: Vec<Result<Option<f64>, SwayError>> = gains
-        .par_iter()
-        .with_max_len(1)
-        .map(|&gains| {
+    let folds: Vec<Result<Option<f64>, SwayError>> =
+        map(&gains, Split::OnePerTask, &|_, &gains| {
             let c = Controller {
                 structure: d.structure,
                 actuator: d.actuator,
                 gains,
             };
             fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed).map(|(v, _)| v)
-        })
-        .collect();
+        });
     let mut best: Option<(Gains, f64)> = None;
     let mut tried = 0;
     for (&gains, v) in gains.iter().zip(folds) {

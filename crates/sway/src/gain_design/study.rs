@@ -4,7 +4,7 @@
 //! `configs/gain_design.toml` omits them ([`crate::charts::auto_range`]); the physical
 //! outcomes (stable up to the maximum speed, no gain that helps, no budget) carry reasons.
 
-use rayon::prelude::*;
+use crate::parallel::{Split, join, map, try_map};
 use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
@@ -363,30 +363,24 @@ pub fn compute_plant<M: LoopModel + ?Sized>(
         ),
         _ => None,
     };
-    let (linear, (fold, v_fold_open)) = rayon::join(
-        || {
-            let r: Vec<Result<LinearOptimum, SwayError>> = delays
-                .par_iter()
-                .map(|&tau| {
-                    let r = linear_optimum(model, tau, o);
-                    progress.advance(1);
-                    r
-                })
-                .collect();
-            r.into_iter().collect::<Result<Vec<_>, _>>()
+    let (linear, (fold, v_fold_open)) = join(
+        &|| {
+            try_map(&delays, Split::Adaptive, &|_, &tau| {
+                let r = linear_optimum(model, tau, o);
+                progress.advance(1);
+                r
+            })
         },
-        || {
-            let r: Vec<Result<FoldResult, SwayError>> = nonlinear
-                .par_iter()
-                .map(|&i| {
+        &|| {
+            let r: Vec<Result<FoldResult, SwayError>> =
+                map(&nonlinear, Split::Adaptive, &|_, &i| {
                     let r = match nonlinear_model {
                         Some(m) => fold_optimum(m, delays[i], o, chart),
                         None => unreachable_fold(),
                     };
                     progress.advance(1);
                     r
-                })
-                .collect();
+                });
             let open = match nonlinear_model {
                 Some(m) if !nonlinear.is_empty() => open_loop_fold_speed(m, chart).or_else(|e| {
                     // no Hopf point of the open loop in the chart's speed range: no fold

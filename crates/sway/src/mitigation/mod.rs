@@ -35,12 +35,12 @@ use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Model, State4};
 
 use crate::SwayError;
+use crate::parallel::{Split, map};
 use crate::sim::{
     ActuatorLimits, Controller, EarlyStop, Metrics, Outcome, RampShape, Recording, RunSettings,
     SimProblem, SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle_plant,
 };
 use optimise::{Bound, Bounded, Minimum, MixedProblem, OptimiserSettings, minimise, worst_case};
-use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The open-loop sway cycle at constant speed, of a plant with M reduced states (4: the
@@ -542,25 +542,21 @@ pub fn evaluate_unless_above<P: SimulateOwn<M>, const M: usize>(
     let above = AtomicBool::new(false);
     let mut spec = setting.spec(iv, lead);
     spec.early_stop = EarlyStop::SettleTimeAbove(cutoff);
-    let costs: Vec<Result<f64, SwayError>> = starts
-        .states
-        .par_iter()
-        .map(|x0| {
-            if above.load(Ordering::Relaxed) {
-                return Ok(f64::INFINITY);
-            }
-            let r = model.simulate_own(&spec, *x0, Recording::None)?;
-            let cost = if r.stopped_early {
-                f64::INFINITY
-            } else {
-                phase_cost(&r.metrics, lead, setting)
-            };
-            if cost > cutoff {
-                above.store(true, Ordering::Relaxed);
-            }
-            Ok(cost)
-        })
-        .collect();
+    let costs: Vec<Result<f64, SwayError>> = map(&starts.states, Split::Adaptive, &|_, x0| {
+        if above.load(Ordering::Relaxed) {
+            return Ok(f64::INFINITY);
+        }
+        let r = model.simulate_own(&spec, *x0, Recording::None)?;
+        let cost = if r.stopped_early {
+            f64::INFINITY
+        } else {
+            phase_cost(&r.metrics, lead, setting)
+        };
+        if cost > cutoff {
+            above.store(true, Ordering::Relaxed);
+        }
+        Ok(cost)
+    });
     if above.into_inner() {
         return Ok(Bounded::Above);
     }

@@ -24,9 +24,9 @@
 //!
 //! Constraints other than bounds are the problem's business (e.g. penalties in its cost).
 
+use crate::parallel::{Split, try_map};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::SwayError;
@@ -238,13 +238,9 @@ pub fn minimise<P: MixedProblem>(
     let jobs: Vec<(usize, usize)> = (0..problem.choices())
         .flat_map(|choice| (0..starts.len()).map(move |k| (choice, k)))
         .collect();
-    let runs = jobs
-        .par_iter()
-        .with_max_len(1)
-        .map(|&(choice, k)| nelder_mead(problem, choice, k, &starts[k], settings))
-        .collect::<Vec<Result<Run, SwayError>>>()
-        .into_iter()
-        .collect::<Result<Vec<Run>, SwayError>>()?;
+    let runs = try_map(&jobs, Split::OnePerTask, &|_, &(choice, k)| {
+        nelder_mead(problem, choice, k, &starts[k], settings)
+    })?;
     let best = runs
         .iter()
         .fold(None::<&Run>, |b, r| match b {
@@ -479,8 +475,7 @@ pub fn worst_case<S: Sync, T: Send, E: Send>(
     f: impl Fn(&S) -> Result<T, E> + Sync + Send,
     value: impl Fn(&T) -> f64,
 ) -> Result<(Vec<T>, Option<usize>), E> {
-    let results: Vec<Result<T, E>> = samples.par_iter().map(f).collect();
-    let values = results.into_iter().collect::<Result<Vec<T>, E>>()?;
+    let values = try_map(samples, Split::Adaptive, &|_, s| f(s))?;
     let worst = (0..values.len()).fold(None::<usize>, |w, k| match w {
         Some(w) if value(&values[w]) >= value(&values[k]) => Some(w),
         _ => Some(k),

@@ -7,7 +7,7 @@
 
 use crate::bifurcation::LoopPlant;
 use crate::control::LoopModel;
-use rayon::prelude::*;
+use crate::parallel::{Split, join, map, try_map};
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
 
@@ -355,17 +355,19 @@ pub fn compute_delay<P: LoopPlant<N> + LoopModel, const N: usize>(
 ) -> Result<DelayResult, SwayError> {
     // the curves and the linear chart side by side, then the speeds at every summary gain
     // and at the bistable gain (the last entry) in parallel; each piece is deterministic
-    let (chart, linear) = rayon::join(
-        || nonlinear_chart(model, tau, &r.options),
-        || linear_chart(model, r, tau),
-    );
+    let (chart, linear) = join(&|| nonlinear_chart(model, tau, &r.options), &|| {
+        linear_chart(model, r, tau)
+    });
     let (chart, linear) = (chart?, linear?);
-    let mut curves = r
+    let gains: Vec<f64> = r
         .summary_gains_s
-        .par_iter()
-        .chain([r.bistable_gain_s].par_iter())
-        .map(|&d| speeds_at(model, &chart, d))
-        .collect::<Result<Vec<_>, _>>()?;
+        .iter()
+        .chain([&r.bistable_gain_s])
+        .copied()
+        .collect();
+    let mut curves = try_map(&gains, Split::Adaptive, &|_, &d| {
+        speeds_at(model, &chart, d)
+    })?;
     let at = curves.pop().ok_or_else(|| {
         SwayError::numerical(
             format!("speeds at D = {} s, τ = {tau} s", r.bistable_gain_s),
@@ -456,14 +458,12 @@ pub fn compute_resolved<P: LoopPlant<N> + LoopModel, const N: usize>(
     // rayon then starts them on separate threads instead of last; results in config order
     let mut order: Vec<usize> = (0..delays.len()).collect();
     order.sort_by(|&a, &b| delays[b].total_cmp(&delays[a]));
-    let mut results: Vec<(usize, Result<DelayResult, SwayError>)> = order
-        .par_iter()
-        .map(|&i| {
+    let mut results: Vec<(usize, Result<DelayResult, SwayError>)> =
+        map(&order, Split::Adaptive, &|_, &i| {
             let res = compute_delay(model, r, delays[i]);
             progress.advance(1);
             (i, res)
-        })
-        .collect();
+        });
     results.sort_by_key(|(i, _)| *i);
     results.into_iter().map(|(_, res)| res).collect()
 }

@@ -33,7 +33,6 @@ pub mod motion;
 pub mod study;
 
 use continuation::Criticality;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
 use trailer_model::{HITCH_ANGLE, State4};
@@ -44,6 +43,7 @@ use super::closed_loop::LoopPlant;
 use crate::SwayError;
 use crate::charts::{closed_loop, fig4a_charts, rightmost_roots};
 use crate::control::LoopModel;
+use crate::parallel::{Split, join, map, try_map};
 use crate::sim::{Controller, Outcome, Recording, RunSettings, SimSpec, SimulateOwn, SpeedProfile};
 
 /// What the corner analysis needs of a plant (issue 21: any plant, the paper's [`Model`] or a
@@ -341,14 +341,14 @@ pub fn double_hopf_points<L: LoopModel + ?Sized>(
     let vs: Vec<f64> = (0..n)
         .map(|i| v_range.0 + (v_range.1 - v_range.0) * i as f64 / (n - 1) as f64)
         .collect();
-    let cols = vs
-        .par_iter()
-        .map(|&v| dynamic_crossings(model, tau, v, d_lim))
-        .collect::<Result<Vec<_>, _>>()?;
-    let refined = bracketed_intersections(&vs, &cols)
-        .par_iter()
-        .map(|&(bracket, modes)| refine_intersection(model, tau, d_lim, bracket, modes))
-        .collect::<Result<Vec<_>, _>>()?;
+    let cols = try_map(&vs, Split::Adaptive, &|_, &v| {
+        dynamic_crossings(model, tau, v, d_lim)
+    })?;
+    let refined = try_map(
+        &bracketed_intersections(&vs, &cols),
+        Split::Adaptive,
+        &|_, &(bracket, modes)| refine_intersection(model, tau, d_lim, bracket, modes),
+    )?;
     let mut out: Vec<DoubleHopfPoint> = Vec::new();
     for (v, a, b) in refined.into_iter().flatten() {
         let d = 0.5 * (a.d + b.d);
@@ -725,10 +725,9 @@ pub fn continued_torus_curves<P: LoopPlant<N>, const N: usize>(
         delay_s: p.tau_s,
     };
     let problem = super::ClosedLoop::new(model, fb);
-    let results: Vec<_> = [0, 1]
-        .par_iter()
-        .map(|&family| (family, torus_curve(&problem, p, family, window, o)))
-        .collect();
+    let results = map(&[0, 1], Split::Adaptive, &|_, &family| {
+        (family, torus_curve(&problem, p, family, window, o))
+    });
     let mut curves = Vec::new();
     let mut notes = Vec::new();
     for (family, r) in results {
@@ -907,9 +906,9 @@ pub fn corner_study<P: CornerPlant<N>, const N: usize>(
         (chart.v_min_mps, chart.v_max_mps),
         (chart.d_min_s, chart.d_max_s),
     );
-    let (points, nl) = rayon::join(
-        || double_hopf_points(model, tau, v_range, d_range, o.v_samples),
-        || nonlinear_chart(model, tau, chart),
+    let (points, nl) = join(
+        &|| double_hopf_points(model, tau, v_range, d_range, o.v_samples),
+        &|| nonlinear_chart(model, tau, chart),
     );
     let double_hopf = points?;
     let nl = match nl {
@@ -989,24 +988,21 @@ fn corner<P: CornerPlant<N>, const N: usize>(
         .map(|(k, dv)| (k, p.v_mps + dv))
         .collect();
     // the continuation (two curves) and the simulations side by side
-    let ((torus_curves, notes), simulated) = rayon::join(
-        || {
+    let ((torus_curves, notes), simulated) = join(
+        &|| {
             if o.torus_curves.max_points > 0 {
                 continued_torus_curves(model, p, window, &o.torus_curves)
             } else {
                 (Vec::new(), Vec::new())
             }
         },
-        || {
-            let probes = probe_points(p, o)
-                .par_iter()
-                .enumerate()
-                .map(|(k, &(v, d))| probe(model, p.tau_s, v, d, format!("sector {k}"), o))
-                .collect::<Result<Vec<_>, _>>()?;
-            let scans = lines
-                .par_iter()
-                .map(|&(k, v)| torus_boundary_at(model, p, v, k, o))
-                .collect::<Result<Vec<_>, _>>()?;
+        &|| {
+            let probes = try_map(&probe_points(p, o), Split::Adaptive, &|k, &(v, d)| {
+                probe(model, p.tau_s, v, d, format!("sector {k}"), o)
+            })?;
+            let scans = try_map(&lines, Split::Adaptive, &|_, &(k, v)| {
+                torus_boundary_at(model, p, v, k, o)
+            })?;
             Ok::<_, SwayError>((probes, scans))
         },
     );
@@ -1074,10 +1070,9 @@ fn mode_curve<L: LoopModel + ?Sized>(
     let vs: Vec<f64> = (0..n)
         .map(|i| window[0] + (window[1] - window[0]) * i as f64 / (n - 1) as f64)
         .collect();
-    let cols = vs
-        .par_iter()
-        .map(|&v| dynamic_crossings(model, p.tau_s, v, d_lim))
-        .collect::<Result<Vec<_>, _>>()?;
+    let cols = try_map(&vs, Split::Adaptive, &|_, &v| {
+        dynamic_crossings(model, p.tau_s, v, d_lim)
+    })?;
     let centre = vs.iter().position(|&v| v >= p.v_mps).unwrap_or(n - 1);
     let mut points = Vec::new();
     for range in [(0..centre).rev().collect::<Vec<_>>(), (centre..n).collect()] {

@@ -4,7 +4,7 @@
 //! ([`crate::charts::auto_range`]); a delay without a double-Hopf point in the box is an
 //! outcome with its reason, not an error.
 
-use rayon::prelude::*;
+use crate::parallel::{Split, try_map};
 use serde::{Deserialize, Serialize};
 
 use super::{CornerOptions, CornerPlant, CornerStudy, corner_study};
@@ -103,19 +103,15 @@ pub fn compute<P: CornerPlant<N>, const N: usize>(
 ) -> Result<Corners, SwayError> {
     let resolved = cfg.resolve(model, b)?;
     let (c, o) = (&resolved.chart, &resolved.corners);
-    let delays = cfg
-        .delays_s
-        .par_iter()
-        .map(|&tau| {
-            let study = corner_study(model, tau, c, o)?;
-            let reason = study.corners.is_empty().then(|| {
-                format!(
-                    "no double-Hopf corner in the box (V in [{}, {}] m/s, D in [{}, {}] s) at τ = {tau} s: no zoom, probes or torus curves",
-                    c.v_min_mps, c.v_max_mps, c.d_min_s, c.d_max_s
-                )
-            });
-            Ok(DelayCorners { study, reason })
-        })
-        .collect::<Result<Vec<_>, SwayError>>()?;
+    let delays = try_map(&cfg.delays_s, Split::Adaptive, &|_, &tau| {
+        let study = corner_study(model, tau, c, o)?;
+        let reason = study.corners.is_empty().then(|| {
+            format!(
+                "no double-Hopf corner in the box (V in [{}, {}] m/s, D in [{}, {}] s) at τ = {tau} s: no zoom, probes or torus curves",
+                c.v_min_mps, c.v_max_mps, c.d_min_s, c.d_max_s
+            )
+        });
+        Ok::<_, SwayError>(DelayCorners { study, reason })
+    })?;
     Ok(Corners { resolved, delays })
 }

@@ -44,9 +44,14 @@ pub fn map<T: Sync, U: Send>(
     split: Split,
     f: &(dyn Fn(usize, &T) -> U + Sync),
 ) -> Vec<U> {
-    let slots: Vec<Mutex<Option<U>>> = items.iter().map(|_| Mutex::new(None)).collect();
-    for_each_index(items.len(), split, &|k| {
-        let u = f(k, &items[k]);
+    map_indices(items.len(), split, &|k| f(k, &items[k]))
+}
+
+/// `f(k)` for k = 0 … n − 1, in parallel; the results in index order.
+pub fn map_indices<U: Send>(n: usize, split: Split, f: &(dyn Fn(usize) -> U + Sync)) -> Vec<U> {
+    let slots: Vec<Mutex<Option<U>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    for_each_index(n, split, &|k| {
+        let u = f(k);
         *lock(&slots[k]) = Some(u);
     });
     slots.into_iter().map(filled).collect()
@@ -116,6 +121,9 @@ mod tests {
                     .unwrap();
                 let got = pool.install(|| map(&items, split, &|k, &x| x * x + 1 + k as u64 - x));
                 assert_eq!(got, expected);
+                let by_index =
+                    pool.install(|| map_indices(items.len(), split, &|k| items[k] * items[k] + 1));
+                assert_eq!(by_index, expected);
                 let failed = pool.install(|| {
                     try_map(&items, split, &|_, &x| {
                         if x % 97 == 13 { Err(x) } else { Ok(x) }

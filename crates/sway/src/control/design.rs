@@ -18,7 +18,7 @@
 //!   the gain box ([`crate::mitigation::optimise::minimise`]); the bands are bisected along
 //!   each gain with the others at the optimum.
 
-use crate::parallel::{Split, map};
+use crate::parallel::{Split, map_indices};
 use serde::{Deserialize, Serialize};
 use trailer_model::{AnyVehicleModel, Model, PARAMETERS, VehicleParams, VehicleSpec};
 
@@ -799,7 +799,7 @@ pub fn robust_critical_speed(
         };
         v_crit(&model, controller, tau, prediction, search).ok()
     };
-    let values: Vec<Option<f64>> = map(&samples(vehicle.len()), Split::Adaptive, &|_, &k| one(k));
+    let values: Vec<Option<f64>> = map_indices(vehicle.len(), Split::Adaptive, &one);
     let failed_samples = values.iter().filter(|v| v.is_none()).count();
     let stats = Statistics::of(values.into_iter().flatten());
     Ok(Robustness {
@@ -865,7 +865,7 @@ pub fn robust_critical_speed_spec(
         };
         v_crit(&model, controller, tau, prediction, search).ok()
     };
-    let values: Vec<Option<f64>> = map(&samples(vehicle.len()), Split::Adaptive, &|_, &k| one(k));
+    let values: Vec<Option<f64>> = map_indices(vehicle.len(), Split::Adaptive, &one);
     let failed_samples = values.iter().filter(|v| v.is_none()).count();
     let stats = Statistics::of(values.into_iter().flatten());
     Ok(Robustness {
@@ -873,9 +873,4 @@ pub fn robust_critical_speed_spec(
         v_crit: stats,
         failed_samples,
     })
-}
-
-/// The sample indices 0 … n − 1 (the items of the parallel map over samples).
-fn samples(n: usize) -> Vec<usize> {
-    (0..n).collect()
 }

@@ -154,15 +154,18 @@ pub(crate) trait Rhs<const N: usize>: PastEval<N> {
     fn switching(&self, t: f64, x: &SV<N>, g: &mut [f64]);
 }
 
-struct OdeRhs<'a, P>(&'a P);
+/// The problem behind a `&dyn`: the stepping loop, its controller and the event machinery
+/// are compiled once per state count N, not once per problem type (one indirect call per
+/// stage is nothing beside a right-hand side).
+struct OdeRhs<'a, const N: usize>(&'a dyn OdeProblem<N>);
 
-impl<const N: usize, P: OdeProblem<N>> PastEval<N> for OdeRhs<'_, P> {
+impl<const N: usize> PastEval<N> for OdeRhs<'_, N> {
     fn eval_past(&self, _t: f64) -> Option<SV<N>> {
         None
     }
 }
 
-impl<const N: usize, P: OdeProblem<N>> Rhs<N> for OdeRhs<'_, P> {
+impl<const N: usize> Rhs<N> for OdeRhs<'_, N> {
     #[inline]
     fn eval(&self, t: f64, x: &SV<N>, dx: &mut SV<N>) {
         self.0.rhs(t, x, dx);
@@ -243,8 +246,9 @@ impl<const N: usize> Past<N> {
     }
 }
 
-struct DdeRhs<'a, const N: usize, P> {
-    p: &'a P,
+struct DdeRhs<'a, const N: usize> {
+    /// the problem behind a `&dyn` (see [`OdeRhs`])
+    p: &'a dyn DdeProblem<N>,
     t0: f64,
     past: &'a mut Past<N>,
     /// scratch for `x(t − τⱼ)` (a cell: evaluation goes through a shared reference)
@@ -252,7 +256,7 @@ struct DdeRhs<'a, const N: usize, P> {
     h_cap: f64,
 }
 
-impl<const N: usize, P: DdeProblem<N>> DdeRhs<'_, N, P> {
+impl<const N: usize> DdeRhs<'_, N> {
     #[inline]
     fn at(&self, s: f64) -> SV<N> {
         if s <= self.t0 {
@@ -266,7 +270,7 @@ impl<const N: usize, P: DdeProblem<N>> DdeRhs<'_, N, P> {
     }
 }
 
-impl<const N: usize, P: DdeProblem<N>> PastEval<N> for DdeRhs<'_, N, P> {
+impl<const N: usize> PastEval<N> for DdeRhs<'_, N> {
     fn eval_past(&self, t: f64) -> Option<SV<N>> {
         if t <= self.t0 {
             return Some(self.p.history(t));
@@ -280,7 +284,7 @@ impl<const N: usize, P: DdeProblem<N>> PastEval<N> for DdeRhs<'_, N, P> {
     }
 }
 
-impl<const N: usize, P: DdeProblem<N>> Rhs<N> for DdeRhs<'_, N, P> {
+impl<const N: usize> Rhs<N> for DdeRhs<'_, N> {
     #[inline]
     fn eval(&self, t: f64, x: &SV<N>, dx: &mut SV<N>) {
         let delays = self.p.delays();
@@ -435,12 +439,12 @@ impl<const N: usize> Core<N> {
     }
 
     /// Integrates to `t_end` with the pair of the options.
-    fn run<R: Rhs<N>, O: Observer<N>>(
+    fn run<R: Rhs<N>>(
         &mut self,
         rhs: &mut R,
         t_end: f64,
         events: &[Event<'_, N>],
-        obs: &mut O,
+        obs: &mut dyn Observer<N>,
     ) -> Result<Status<N>, Error> {
         self.run_with(rhs, t_end, events, obs)
     }
@@ -450,12 +454,12 @@ impl<const N: usize> Core<N> {
     /// ([`Pair`]), not a type parameter: one stepping loop is compiled per problem, not one
     /// per problem and pair (the loop, the events and the kink location are most of the
     /// solver's code; the per-pair stage arithmetic sits behind one `match` per call).
-    fn run_with<R: Rhs<N>, O: Observer<N>>(
+    fn run_with<R: Rhs<N>>(
         &mut self,
         rhs: &mut R,
         t_end: f64,
         events: &[Event<'_, N>],
-        obs: &mut O,
+        obs: &mut dyn Observer<N>,
     ) -> Result<Status<N>, Error> {
         if !t_end.is_finite() || t_end < self.t {
             return Err(Error::InvalidInterval { t: self.t, t_end });
@@ -756,10 +760,10 @@ impl<const N: usize> Core<N> {
 
     /// Shows the step and its events to the observer; the final status if the integration
     /// ends here (a terminal event, or the observer's stop).
-    fn report<R: Rhs<N>, O: Observer<N>>(
+    fn report<R: Rhs<N>>(
         &mut self,
         rhs: &R,
-        obs: &mut O,
+        obs: &mut dyn Observer<N>,
         dense: &StepDense<'_, N>,
         hits: &[EventHit<N>],
         stop_at: Option<usize>,
@@ -1368,7 +1372,12 @@ impl<const N: usize> OdeSolver<N> {
         events: &[Event<'_, N>],
         observer: &mut O,
     ) -> Result<Status<N>, Error> {
-        self.core.run(&mut OdeRhs(p), t_end, events, observer)
+        self.core.run(
+            &mut OdeRhs(p),
+            t_end,
+            events,
+            observer as &mut dyn Observer<N>,
+        )
     }
 
     core_accessors!();
@@ -1391,6 +1400,11 @@ impl<const N: usize> DdeSolver<N> {
     /// `1 ≤ Σkⱼ ≤ breakpoint_order` (the jump of the derivative at t0 travelling along the
     /// delays) and every user breakpoint `b + Σkⱼτⱼ`, `0 ≤ Σkⱼ ≤ breakpoint_order`.
     pub fn new<P: DdeProblem<N>>(p: &P, t0: f64, opts: Options) -> Result<Self, Error> {
+        Self::start(p, t0, opts)
+    }
+
+    /// [`DdeSolver::new`] behind a `&dyn` (compiled once per N, see [`OdeRhs`]).
+    fn start(p: &dyn DdeProblem<N>, t0: f64, opts: Options) -> Result<Self, Error> {
         let delays = p.delays().to_vec();
         check_delays(&delays)?;
         let mut pos: Vec<f64> = delays.iter().copied().filter(|&d| d > 0.0).collect();
@@ -1424,6 +1438,17 @@ impl<const N: usize> DdeSolver<N> {
         t_end: f64,
         events: &[Event<'_, N>],
         observer: &mut O,
+    ) -> Result<Status<N>, Error> {
+        self.integrate_dyn(p, t_end, events, observer)
+    }
+
+    /// [`DdeSolver::integrate`] behind a `&dyn` (compiled once per N, see [`OdeRhs`]).
+    fn integrate_dyn(
+        &mut self,
+        p: &dyn DdeProblem<N>,
+        t_end: f64,
+        events: &[Event<'_, N>],
+        observer: &mut dyn Observer<N>,
     ) -> Result<Status<N>, Error> {
         if p.delays() != self.delays.as_slice() {
             return Err(Error::InvalidProblem {

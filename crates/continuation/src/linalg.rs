@@ -865,6 +865,12 @@ const ARNOLDI_TOLERANCE: f64 = 1e-12;
 /// basis vectors added between two convergence checks
 const ARNOLDI_GROWTH: usize = 8;
 
+/// Decreasing modulus: the order of Floquet multipliers (a `fn` item, so that the sorts of
+/// the problem-generic callers are compiled once).
+pub(crate) fn by_decreasing_modulus(a: &Complex64, b: &Complex64) -> std::cmp::Ordering {
+    b.norm().total_cmp(&a.norm())
+}
+
 /// The `wanted` eigenvalues of largest modulus of the linear operator `apply` (w = A v)
 /// on ℝ^dim, by Arnoldi's method (modified Gram–Schmidt twice, a fixed start vector: the
 /// same numbers on every run): the Krylov space grows until the `wanted` largest Ritz values
@@ -908,7 +914,7 @@ pub(crate) fn dominant_eigenvalues(
         if size == check_at || invariant || size == dim {
             let hm = Mat::<f64>::from_fn(size, size, |r, c| h[c].get(r).copied().unwrap_or(0.0));
             let mut ritz = eigenvalues(&hm)?;
-            ritz.sort_by(|a, b| b.norm().total_cmp(&a.norm()));
+            ritz.sort_by(by_decreasing_modulus);
             ritz.truncate(wanted);
             let tol = ARNOLDI_TOLERANCE * ritz.first().map_or(1.0, |z| z.norm().max(1.0));
             let settled = previous.len() == ritz.len()

@@ -18,7 +18,9 @@ use crate::collocation::{Basis, MAX_DEGREE, lagrange};
 use crate::engine::ContinuationSystem;
 use crate::equilibrium::HopfPoint;
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, Factorisation, LinearSolver, MeshStructure, SparseLu, eigenvalues};
+use crate::linalg::{
+    Entry, Factorisation, LinearSolver, MeshStructure, SparseLu, by_decreasing_modulus, eigenvalues,
+};
 use crate::problem::Problem;
 use crate::stability::{SpecialKind, Stability};
 use faer::Mat;
@@ -931,7 +933,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                 monodromy.apply(v, w)
             })?
         };
-        mu.sort_by(|a, b| b.norm().total_cmp(&a.norm()));
+        mu.sort_by(by_decreasing_modulus);
         mu.truncate(kept);
         Ok(mu)
     }

@@ -252,8 +252,14 @@ fn input_columns<P: Plant<N> + ?Sized, const N: usize>(
 pub fn sorted_spectrum<const N: usize>(a: &SMatrix<f64, N, N>) -> Vec<Complex<f64>> {
     let ev = DMatrix::from_column_slice(N, N, a.as_slice()).complex_eigenvalues();
     let mut out: Vec<Complex<f64>> = ev.iter().copied().collect();
-    out.sort_by(|x, y| y.re.total_cmp(&x.re).then(y.im.total_cmp(&x.im)));
+    out.sort_by(by_decreasing_real_part);
     out
+}
+
+/// The order of [`sorted_spectrum`] (a `fn` item, not a closure: the sort is compiled once,
+/// not once per N).
+fn by_decreasing_real_part(x: &Complex<f64>, y: &Complex<f64>) -> std::cmp::Ordering {
+    y.re.total_cmp(&x.re).then(y.im.total_cmp(&x.im))
 }
 
 /// The paper's model is the plant with N = 4; every method gives exactly what the inherent

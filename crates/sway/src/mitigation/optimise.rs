@@ -324,11 +324,13 @@ impl<P: MixedProblem> NelderMead<'_, P> {
 
     /// Sorts the simplex by cost (stable: ties keep their order).
     fn sort(&mut self) {
-        self.simplex.sort_by(|a, b| {
+        // a `fn` item, not a closure: the sort is compiled once, not once per problem
+        fn by_cost(a: &Vertex, b: &Vertex) -> std::cmp::Ordering {
             a.cost
                 .partial_cmp(&b.cost)
                 .unwrap_or(std::cmp::Ordering::Equal)
-        });
+        }
+        self.simplex.sort_by(by_cost);
     }
 
     /// The sample standard deviation of the vertices' costs.

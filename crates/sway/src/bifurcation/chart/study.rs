@@ -456,14 +456,24 @@ pub fn compute_resolved<P: LoopPlant<N> + LoopModel, const N: usize>(
 ) -> Result<Vec<DelayResult>, SwayError> {
     // the longest delays first (their collocation factors fill most, so they cost most):
     // rayon then starts them on separate threads instead of last; results in config order
-    let mut order: Vec<usize> = (0..delays.len()).collect();
-    order.sort_by(|&a, &b| delays[b].total_cmp(&delays[a]));
+    let order = longest_first(delays);
     let mut results: Vec<(usize, Result<DelayResult, SwayError>)> =
         map(&order, Split::Adaptive, &|_, &i| {
             let res = compute_delay(model, r, delays[i]);
             progress.advance(1);
             (i, res)
         });
-    results.sort_by_key(|(i, _)| *i);
+    // a `fn` item, not a closure: the sort is compiled once, not once per plant
+    fn config_index(r: &(usize, Result<DelayResult, SwayError>)) -> usize {
+        r.0
+    }
+    results.sort_by_key(config_index);
     results.into_iter().map(|(_, res)| res).collect()
+}
+
+/// The indices of `delays`, longest delay first (ties in config order).
+fn longest_first(delays: &[f64]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..delays.len()).collect();
+    order.sort_by(|&a, &b| delays[b].total_cmp(&delays[a]));
+    order
 }

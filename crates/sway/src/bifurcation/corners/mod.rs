@@ -224,7 +224,12 @@ fn dynamic_crossings<L: LoopModel + ?Sized>(
             omega: c.omega,
         })
         .collect();
-    out.sort_by(|a, b| a.omega.total_cmp(&b.omega));
+    // comparators in generic functions are `fn` items, not closures: a closure is a new type
+    // per plant, and so would be the sort compiled for it
+    fn by_frequency(a: &Crossing, b: &Crossing) -> std::cmp::Ordering {
+        a.omega.total_cmp(&b.omega)
+    }
+    out.sort_by(by_frequency);
     Ok(out)
 }
 
@@ -360,7 +365,10 @@ pub fn double_hopf_points<L: LoopModel + ?Sized>(
             out.push(checked_point(model, tau, d_lim, v, d, (a.omega, b.omega))?);
         }
     }
-    out.sort_by(|p, q| p.v_mps.total_cmp(&q.v_mps));
+    fn by_speed(p: &DoubleHopfPoint, q: &DoubleHopfPoint) -> std::cmp::Ordering {
+        p.v_mps.total_cmp(&q.v_mps)
+    }
+    out.sort_by(by_speed);
     Ok(out)
 }
 
@@ -1089,7 +1097,10 @@ fn mode_curve<L: LoopModel + ?Sized>(
             });
         }
     }
-    points.sort_by(|a, b| a.v_mps.total_cmp(&b.v_mps));
+    fn by_speed(a: &ModePoint, b: &ModePoint) -> std::cmp::Ordering {
+        a.v_mps.total_cmp(&b.v_mps)
+    }
+    points.sort_by(by_speed);
     Ok(ModeCurve {
         omega_at_corner_rad_s: w,
         criticality: criticality_near(nl, p, w),

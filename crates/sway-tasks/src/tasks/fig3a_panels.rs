@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use sway::config::{Positive, ensure};
+use sway::parallel::Split;
 use sway::ranging::{SpeedReferences, SpeedSpec};
 use sway::sim::speeds::{
     ResolveSpeeds, ResolvedSpeed, Resolver, SpeedValue, UnresolvedSpeed, resolve_against,
@@ -280,7 +281,8 @@ pub fn run_panels(
     let mut entries = TimePanels::default();
     let mut panels = Vec::new();
     let mut lines = Vec::new();
-    for &th in &cfg.theta0_deg {
+    // the panels' simulations side by side (each writes its own file)
+    let runs = sway::parallel::try_map(&cfg.theta0_deg, Split::OnePerTask, &|_, &th| {
         let x0 = trailer_model::State7::from_column_slice(&[
             0.0,
             0.0,
@@ -290,15 +292,11 @@ pub fn run_panels(
             0.0,
             0.0,
         ]);
+        let file = format!("{}.csv", panel_key(th));
+        run_and_write::<SeriesRow>(ctx, out, &spec, x0, cfg.output_step_s.get(), &file)
+    })?;
+    for (&th, r) in cfg.theta0_deg.iter().zip(runs) {
         let key = panel_key(th);
-        let r = run_and_write::<SeriesRow>(
-            ctx,
-            out,
-            &spec,
-            x0,
-            cfg.output_step_s.get(),
-            &format!("{key}.csv"),
-        )?;
         lines.push(line(&format!("fig3a V = {speed} m/s, θ(0) = {th}°"), &r));
         panels.push(time_panel(cfg, th, &r));
         entries.0.push((

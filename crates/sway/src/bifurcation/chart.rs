@@ -801,8 +801,12 @@ pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
 ) -> Result<CriticalSpeeds, SwayError> {
     let problem = ClosedLoop::with_law(model, diagram.feedback, diagram.law);
     let d = diagram.feedback.gain_d_s;
-    let hu = corrected_hopf(&problem, d, &diagram.hopf, o)?;
-    let fold = fold_on(&problem, diagram, o)?;
+    // the two corrections are independent: side by side
+    let (hu, fold) =
+        crate::parallel::join(&|| corrected_hopf(&problem, d, &diagram.hopf, o), &|| {
+            fold_on(&problem, diagram, o)
+        });
+    let (hu, fold) = (hu?, fold?);
     Ok(CriticalSpeeds {
         located_hopf: diagram.hopf.clone(),
         hopf_v_mps: hopf_v(&hu),

@@ -1,6 +1,8 @@
 //! Prescribed longitudinal speed profiles V(t) (the constraint of paper eq. 3) with their
 //! derivative V̇(t) (which enters eq. 6) and the times where V̇ jumps.
 
+use std::sync::LazyLock;
+
 use serde::{Deserialize, Serialize};
 
 use super::speeds::{Resolver, SpeedValue, UnresolvedSpeed, check_change};
@@ -52,7 +54,7 @@ impl RampShape {
             RampShape::SCurve => u * u * (3.0 - 2.0 * u),
             RampShape::Exponential => {
                 let k = Self::EXPONENTIAL_RATIO;
-                (-(-u / k).exp_m1()) / (-(-1.0 / k).exp_m1())
+                (-(-u / k).exp_m1()) / exponential_norm()
             }
         }
     }
@@ -65,10 +67,17 @@ impl RampShape {
             RampShape::SCurve => 6.0 * u * (1.0 - u),
             RampShape::Exponential => {
                 let k = Self::EXPONENTIAL_RATIO;
-                (-u / k).exp() / (k * -(-1.0 / k).exp_m1())
+                (-u / k).exp() / (k * exponential_norm())
             }
         }
     }
+}
+
+/// 1 − e^(−1/k) of the exponential shape (k = [`RampShape::EXPONENTIAL_RATIO`]): computed
+/// once, not at every evaluation of V(t) and V̇(t) (the same number: the same libm call).
+fn exponential_norm() -> f64 {
+    static NORM: LazyLock<f64> = LazyLock::new(|| -(-1.0 / RampShape::EXPONENTIAL_RATIO).exp_m1());
+    *NORM
 }
 
 /// A prescribed speed V(t) \[m/s\]. V̇ is right-continuous: at a corner it takes the value

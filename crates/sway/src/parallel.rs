@@ -38,6 +38,12 @@ pub enum Split {
     OnePerTask,
 }
 
+/// The number of threads the parallel maps run on (rayon's global pool: the cores, or
+/// `RAYON_NUM_THREADS`).
+pub fn threads() -> usize {
+    rayon::current_num_threads()
+}
+
 /// `f(k, &items[k])` for every item, in parallel; the results in item order.
 pub fn map<T: Sync, U: Send>(
     items: &[T],

@@ -127,6 +127,24 @@ impl<'a> TaskContext<'a> {
         Self { limits, ..self }
     }
 
+    /// A copy of the context that reports to another progress observer (a runner that
+    /// runs tasks side by side gives each its own).
+    #[must_use]
+    pub fn with_progress<'b>(&self, progress: &'b dyn Progress) -> TaskContext<'b> {
+        TaskContext {
+            vehicle_file: self.vehicle_file.clone(),
+            vehicle: self.vehicle,
+            model: self.model.clone(),
+            spec: self.spec.clone(),
+            plant: self.plant.clone(),
+            variant_key: self.variant_key.clone(),
+            configs_dir: self.configs_dir.clone(),
+            results_dir: self.results_dir.clone(),
+            progress,
+            limits: self.limits,
+        }
+    }
+
     /// The skeleton of every task run: creates the staged `results/<name>/`
     /// ([`OutputDir::create`]), starts the progress stage `stage` of `steps` steps, runs
     /// `body` (which computes, writes its files into the staged directory, advances the

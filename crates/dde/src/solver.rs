@@ -1372,12 +1372,7 @@ impl<const N: usize> OdeSolver<N> {
         events: &[Event<'_, N>],
         observer: &mut O,
     ) -> Result<Status<N>, Error> {
-        self.core.run(
-            &mut OdeRhs(p),
-            t_end,
-            events,
-            observer as &mut dyn Observer<N>,
-        )
+        self.core.run(&mut OdeRhs(p), t_end, events, observer)
     }
 
     core_accessors!();

@@ -33,11 +33,22 @@
 //!
 //! det M = det A · det S up to the signs of the row and column permutations and of the
 //! copies, so the branch-point test keeps its determinant.
+//!
+//! The same factorisation gives the Floquet multipliers ([`ForwardMonodromy`]): with the
+//! copies as the history, A is the initial-value collocation over one period, and
+//! x̂ ↦ −P A⁻¹ C x̂ (P: the copied columns) is the discretised monodromy operator.
+//!
+//! Where each entry goes (slots, copies, blocks, the counting sorts of the sparse parts)
+//! depends only on the matrix's nonzero pattern, which repeats from one Newton iteration
+//! and one continuation step to the next: that [`Layout`] is made once per pattern and kept
+//! per thread, so that a factorisation scatters the values and factorises (fig3a's
+//! diagram 516 → 409 ms with the layouts kept).
 
 use crate::linalg::{
     Csr, Determinant, Entry, KrylovOperator, MeshStructure, gmres, permutation_sign,
 };
 use std::cell::OnceCell;
+use std::sync::Arc;
 
 /// Smallest system worth the block-forward solver (below, the sparse LU is as fast).
 pub(crate) const BLOCK_FORWARD_MIN_SIZE: usize = 120;
@@ -181,7 +192,12 @@ impl BlockLowerTriangular {
                 lower.push((r, c, v));
             }
         }
-        let lower = Csr::by_rows(n, &lower);
+        Self::factorised(n, s, diag, Csr::by_rows(n, &lower))
+    }
+
+    /// The matrix of the diagonal blocks `diag` (row-major s × s each, in order) and the
+    /// strictly lower part `lower`, factorised; None if a diagonal block is singular.
+    fn factorised(n: usize, s: usize, mut diag: Vec<f64>, lower: Csr) -> Option<Self> {
         let mut piv = vec![0; n];
         let mut det = Determinant {
             sign: 1.0,
@@ -254,10 +270,8 @@ enum Slot {
 #[derive(Debug)]
 pub(crate) struct PeriodicForwardLu {
     a: BlockLowerTriangular,
-    /// slot of each column of M
-    col_slot: Vec<Slot>,
-    /// slot of each row of M
-    row_slot: Vec<Slot>,
+    /// where M's rows and columns went (shared by every matrix of the same pattern)
+    layout: Arc<Layout>,
     /// K: border unknowns (M's border columns, then the copies)
     k: usize,
     /// C: the forward rows over the K border unknowns
@@ -373,6 +387,289 @@ fn forward_slots(n: usize, st: &MeshStructure) -> Option<(Vec<Slot>, Vec<Slot>, 
     Some((col_slot, row_slot, owner))
 }
 
+/// The sign that det M' carries against det M: M' is M_ext = [M with the ahead entries on
+/// the copies' columns; the copies' rows] with rows and columns permuted, and det M =
+/// (−1)^copies · det M_ext (adding each copy's column to its original's leaves M beside a
+/// −I).
+fn layout_sign(row_slot: &[Slot], col_slot: &[Slot], copies: usize) -> f64 {
+    let n = row_slot.len();
+    let nf = row_slot
+        .iter()
+        .filter(|s| matches!(s, Slot::Forward(_)))
+        .count();
+    let order = |slots: &[Slot]| {
+        let mut perm = vec![0; n + copies];
+        for (x, s) in slots.iter().enumerate() {
+            match *s {
+                Slot::Forward(i) => perm[i] = x,
+                Slot::Border(j) => perm[nf + j] = x,
+            }
+        }
+        for q in 0..copies {
+            perm[n + q] = n + q;
+        }
+        perm
+    };
+    let copies_sign = if copies.is_multiple_of(2) { 1.0 } else { -1.0 };
+    permutation_sign(&order(row_slot)) * permutation_sign(&order(col_slot)) * copies_sign
+}
+
+/// The rows and column indices of a compressed-sparse-rows matrix without its values.
+#[derive(Debug)]
+struct CsrPattern {
+    ptr: Vec<usize>,
+    idx: Vec<usize>,
+}
+
+impl CsrPattern {
+    /// the matrix with these values (in the pattern's order)
+    fn with_values(&self, val: Vec<f64>) -> Csr {
+        Csr::from_parts(self.ptr.clone(), self.idx.clone(), val)
+    }
+}
+
+/// What fills one stored value of M': an entry of M (its number among the nonzero
+/// entries) or a constant (the copies' ties x − x̂ = 0).
+#[derive(Clone, Copy)]
+enum Source {
+    Entry(usize),
+    Constant(f64),
+}
+
+/// The block-forward layout of one sparsity pattern of M (the rows and columns of its
+/// nonzero entries, in order): the slots, the copies, the patterns of A's lower part and
+/// of C, R and D, and where each entry's value goes. The pattern of a mesh's Newton matrix
+/// repeats from one Newton iteration and one continuation step to the next, so the
+/// classification (slots, copies, block divisions, counting sorts) is done once per
+/// pattern and a factorisation only scatters the values: [`cached_layout`].
+#[derive(Debug)]
+pub(crate) struct Layout {
+    n: usize,
+    /// (n, m, L, column blocks, row blocks) of the [`MeshStructure`]
+    structure: (usize, usize, usize, Vec<usize>, Vec<usize>),
+    /// (row, column) of each nonzero entry, in the order given
+    pattern: Vec<(u32, u32)>,
+    /// position of each nonzero entry's value in the flat value buffer
+    dest: Vec<u32>,
+    /// (position, value) of the constants
+    constants: Vec<(u32, f64)>,
+    /// the value buffer's length
+    len: usize,
+    /// where the value buffer's sections start: A's diagonal blocks, A's lower part, C, R,
+    /// D
+    sections: [usize; 5],
+    /// diagonal block size and forward unknowns
+    s: usize,
+    nf: usize,
+    /// border unknowns (M's border columns, then the copies)
+    k: usize,
+    /// slot of each column of M
+    col_slot: Vec<Slot>,
+    /// slot of each row of M
+    row_slot: Vec<Slot>,
+    /// forward index of the column each copy stands for (copy q is border unknown
+    /// K − copies + q)
+    copied_at: Vec<usize>,
+    lower: CsrPattern,
+    c: CsrPattern,
+    r: CsrPattern,
+    d: CsrPattern,
+    /// the sign of det M against det A · det S ([`layout_sign`])
+    sign: f64,
+}
+
+/// The counting sort by rows of `(row, column, source)` (duplicates kept, in the given
+/// order within a row, as [`Csr::by_rows`]): the pattern, and each source's value
+/// position (from `offset`) in `dest` or `constants`.
+fn sorted_by_rows(
+    rows: usize,
+    t: &[(usize, usize, Source)],
+    offset: usize,
+    dest: &mut [u32],
+    constants: &mut Vec<(u32, f64)>,
+) -> CsrPattern {
+    let mut ptr = vec![0; rows + 1];
+    for &(r, _, _) in t {
+        ptr[r + 1] += 1;
+    }
+    for r in 0..rows {
+        ptr[r + 1] += ptr[r];
+    }
+    let mut next = ptr.clone();
+    let mut idx = vec![0; t.len()];
+    for &(r, c, source) in t {
+        idx[next[r]] = c;
+        let at = (offset + next[r]) as u32;
+        match source {
+            Source::Entry(e) => dest[e] = at,
+            Source::Constant(v) => constants.push((at, v)),
+        }
+        next[r] += 1;
+    }
+    CsrPattern { ptr, idx }
+}
+
+impl Layout {
+    /// the key a layout is looked up by, besides its pattern
+    fn structure_key(st: &MeshStructure) -> (usize, usize, usize, Vec<usize>, Vec<usize>) {
+        (
+            st.n,
+            st.m,
+            st.intervals,
+            st.column_blocks.clone(),
+            st.row_blocks.clone(),
+        )
+    }
+
+    /// the layout of the nonzero entries of the n × n matrix `entries` as `structure` says;
+    /// None where it does not fit (see [`PeriodicForwardLu::new`])
+    fn new(n: usize, entries: &[Entry], structure: &MeshStructure) -> Option<Self> {
+        let (col_slot, row_slot, owner) = forward_slots(n, structure)?;
+        let s = structure.column_blocks.len() * structure.m * structure.n;
+        let nf = s * structure.intervals;
+        let nb = n - nf;
+        let nonzero = entries.iter().filter(|e| e.val != 0.0);
+        let pattern: Vec<(u32, u32)> = nonzero
+            .clone()
+            .map(|e| Some((u32::try_from(e.row).ok()?, u32::try_from(e.col).ok()?)))
+            .collect::<Option<_>>()?;
+        let mut dest = vec![0u32; pattern.len()];
+        // columns reached ahead get copies: border index nb + q
+        let mut copy_of = vec![usize::MAX; n];
+        let mut copied: Vec<usize> = Vec::new();
+        let mut diag = Vec::with_capacity(pattern.len());
+        let (mut lower, mut c, mut r, mut d) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (q, e) in nonzero.enumerate() {
+            let source = Source::Entry(q);
+            match (row_slot[e.row], col_slot[e.col]) {
+                (Slot::Forward(i), Slot::Forward(j)) => {
+                    let (bi, bj) = (i / s, owner[e.col]);
+                    if bj == bi {
+                        diag.push((q, bi * s * s + (i % s) * s + j % s));
+                    } else if bj < bi {
+                        lower.push((i, j, source));
+                    } else {
+                        if copy_of[e.col] == usize::MAX {
+                            copy_of[e.col] = nb + copied.len();
+                            copied.push(e.col);
+                        }
+                        c.push((i, copy_of[e.col], source));
+                    }
+                }
+                (Slot::Forward(i), Slot::Border(j)) => c.push((i, j, source)),
+                (Slot::Border(i), Slot::Forward(j)) => r.push((i, j, source)),
+                (Slot::Border(i), Slot::Border(j)) => d.push((i, j, source)),
+            }
+        }
+        let k = nb + copied.len();
+        let mut copied_at = Vec::with_capacity(copied.len());
+        for (q, &col) in copied.iter().enumerate() {
+            let Slot::Forward(j) = col_slot[col] else {
+                return None;
+            };
+            r.push((nb + q, j, Source::Constant(1.0)));
+            d.push((nb + q, nb + q, Source::Constant(-1.0)));
+            copied_at.push(j);
+        }
+        for (q, at) in diag {
+            dest[q] = u32::try_from(at).ok()?;
+        }
+        let mut constants = Vec::new();
+        // the value buffer: A's diagonal blocks, then each part sorted by rows
+        let mut sections = [0; 5];
+        let mut at = nf * s;
+        let parts = [(nf, lower), (nf, c), (k, r), (k, d)];
+        let [lower, c, r, d] = std::array::from_fn(|q| {
+            let (rows, t) = &parts[q];
+            sections[q + 1] = at;
+            let pattern = sorted_by_rows(*rows, t, at, &mut dest, &mut constants);
+            at += t.len();
+            pattern
+        });
+        u32::try_from(at).ok()?;
+        Some(Self {
+            n,
+            structure: Self::structure_key(structure),
+            sign: layout_sign(&row_slot, &col_slot, copied.len()),
+            pattern,
+            dest,
+            constants,
+            len: at,
+            sections,
+            s,
+            nf,
+            k,
+            col_slot,
+            row_slot,
+            copied_at,
+            lower,
+            c,
+            r,
+            d,
+        })
+    }
+
+    /// the value buffer of `entries` (duplicates summed on A's diagonal blocks, kept
+    /// elsewhere), or None if their nonzero pattern is not this layout's
+    fn scatter(&self, entries: &[Entry]) -> Option<Vec<f64>> {
+        let mut values = vec![0.0; self.len];
+        let mut expected = self.pattern.iter().zip(&self.dest);
+        for e in entries.iter().filter(|e| e.val != 0.0) {
+            let (&(r, c), &at) = expected.next()?;
+            if r as usize != e.row || c as usize != e.col {
+                return None;
+            }
+            values[at as usize] += e.val;
+        }
+        if expected.next().is_some() {
+            return None;
+        }
+        for &(at, v) in &self.constants {
+            values[at as usize] = v;
+        }
+        Some(values)
+    }
+}
+
+/// Layouts kept per thread (the continuation mesh's and the kink mesh's patterns of a
+/// cycle, a fold of cycles' doubled system, …); the oldest is dropped.
+const LAYOUTS_KEPT: usize = 4;
+
+thread_local! {
+    /// the layouts of the latest patterns factorised on this thread, newest first
+    static LAYOUTS: std::cell::RefCell<Vec<Arc<Layout>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// The layout of `entries` (a kept one where their pattern matches, else a new one, kept)
+/// and their value buffer. A kept layout equals the one [`Layout::new`] would make, so
+/// the numbers do not depend on what was factorised before on the thread.
+fn cached_layout(
+    n: usize,
+    entries: &[Entry],
+    structure: &MeshStructure,
+) -> Option<(Arc<Layout>, Vec<f64>)> {
+    LAYOUTS.with(|kept| {
+        let mut kept = kept.borrow_mut();
+        let key = Layout::structure_key(structure);
+        let found = kept.iter().enumerate().find_map(|(q, layout)| {
+            if layout.n != n || layout.structure != key {
+                return None;
+            }
+            layout.scatter(entries).map(|values| (q, values))
+        });
+        if let Some((q, values)) = found {
+            let layout = kept.remove(q);
+            kept.insert(0, Arc::clone(&layout));
+            return Some((layout, values));
+        }
+        let layout = Arc::new(Layout::new(n, entries, structure)?);
+        let values = layout.scatter(entries)?;
+        kept.insert(0, Arc::clone(&layout));
+        kept.truncate(LAYOUTS_KEPT);
+        Some((layout, values))
+    })
+}
+
 impl PeriodicForwardLu {
     /// The block-forward solver of the n × n matrix `entries` (duplicates summed) laid out
     /// as `structure` says, or None where it does not fit (no mesh blocks, a coupling
@@ -389,63 +686,30 @@ impl PeriodicForwardLu {
         if n < BLOCK_FORWARD_MIN_SIZE {
             return None;
         }
-        let (col_slot, row_slot, owner) = forward_slots(n, structure)?;
-        let s = structure.column_blocks.len() * structure.m * structure.n;
-        let nf = s * structure.intervals;
-        let nb = n - nf;
-        // columns reached ahead get copies: border index nb + q
-        let mut copy_of = vec![usize::MAX; n];
-        let mut copied: Vec<usize> = Vec::new();
-        let mut a_entries = Vec::with_capacity(entries.len());
-        let mut c_entries = Vec::new();
-        let mut r_entries = Vec::new();
-        let mut d_entries = Vec::new();
-        for e in entries.iter().filter(|e| e.val != 0.0) {
-            match (row_slot[e.row], col_slot[e.col]) {
-                (Slot::Forward(i), Slot::Forward(j)) => {
-                    if owner[e.col] <= i / s {
-                        a_entries.push((i, j, e.val));
-                    } else {
-                        if copy_of[e.col] == usize::MAX {
-                            copy_of[e.col] = nb + copied.len();
-                            copied.push(e.col);
-                        }
-                        c_entries.push((i, copy_of[e.col], e.val));
-                    }
-                }
-                (Slot::Forward(i), Slot::Border(j)) => c_entries.push((i, j, e.val)),
-                (Slot::Border(i), Slot::Forward(j)) => r_entries.push((i, j, e.val)),
-                (Slot::Border(i), Slot::Border(j)) => d_entries.push((i, j, e.val)),
-            }
-        }
-        let k = nb + copied.len();
-        for (q, &col) in copied.iter().enumerate() {
-            let Slot::Forward(j) = col_slot[col] else {
-                return None;
-            };
-            r_entries.push((nb + q, j, 1.0));
-            d_entries.push((nb + q, nb + q, -1.0));
-        }
+        let (layout, mut values) = cached_layout(n, entries, structure)?;
+        let [_, lower_at, c_at, r_at, d_at] = layout.sections;
+        let d = values.split_off(d_at);
+        let r = values.split_off(r_at);
+        let c = values.split_off(c_at);
+        let lower = values.split_off(lower_at);
+        let (s, nf, k) = (layout.s, layout.nf, layout.k);
         let mut lu = Self {
-            a: BlockLowerTriangular::new(nf, s, a_entries)?,
-            c: Csr::by_rows(nf, &c_entries),
-            r: Csr::by_rows(k, &r_entries),
-            d: Csr::by_rows(k, &d_entries),
-            col_slot,
-            row_slot,
+            a: BlockLowerTriangular::factorised(nf, s, values, layout.lower.with_values(lower))?,
+            c: layout.c.with_values(c),
+            r: layout.r.with_values(r),
+            d: layout.d.with_values(d),
+            layout,
             k,
             dense: OnceCell::new(),
             det: None,
         };
         if need_determinant || k < ITERATIVE_MIN_BORDER {
             let dense = DenseSchur::new(&lu)?;
-            let det = Self::determinant_of_m(
-                &lu.row_slot,
-                &lu.col_slot,
-                &copied,
-                lu.a.determinant(),
-                dense.det,
-            );
+            let (det_a, det_s) = (lu.a.determinant(), dense.det);
+            let det = Determinant {
+                sign: lu.layout.sign * det_a.sign * det_s.sign,
+                log_abs: det_a.log_abs + det_s.log_abs,
+            };
             if !det.log_abs.is_finite() {
                 return None;
             }
@@ -453,50 +717,6 @@ impl PeriodicForwardLu {
             lu.dense = OnceCell::from(Some(dense));
         }
         Some(lu)
-    }
-
-    /// det M from det A and det S: M' is M_ext = [M with the ahead entries on the copies'
-    /// columns; the copies' rows] with rows and columns permuted (det M = (−1)^copies ·
-    /// det M_ext: adding each copy's column to its original's leaves M beside a −I)
-    fn determinant_of_m(
-        row_slot: &[Slot],
-        col_slot: &[Slot],
-        copied: &[usize],
-        det_a: Determinant,
-        det_s: Determinant,
-    ) -> Determinant {
-        let n = row_slot.len();
-        let nf = row_slot
-            .iter()
-            .filter(|s| matches!(s, Slot::Forward(_)))
-            .count();
-        let order = |slots: &[Slot]| {
-            let mut perm = vec![0; n + copied.len()];
-            for (x, s) in slots.iter().enumerate() {
-                match *s {
-                    Slot::Forward(i) => perm[i] = x,
-                    Slot::Border(j) => perm[nf + j] = x,
-                }
-            }
-            for q in 0..copied.len() {
-                perm[n + q] = n + q;
-            }
-            perm
-        };
-        let copies_sign = if copied.len().is_multiple_of(2) {
-            1.0
-        } else {
-            -1.0
-        };
-        let sign = permutation_sign(&order(row_slot))
-            * permutation_sign(&order(col_slot))
-            * copies_sign
-            * det_a.sign
-            * det_s.sign;
-        Determinant {
-            sign,
-            log_abs: det_a.log_abs + det_s.log_abs,
-        }
     }
 
     /// det of the matrix (in its original row and column order); None where the Schur
@@ -511,7 +731,7 @@ impl PeriodicForwardLu {
         let (k, nf) = (self.k, self.a.n);
         let mut zf = vec![0.0; nf];
         let mut g = vec![0.0; k];
-        for (r, slot) in self.row_slot.iter().enumerate() {
+        for (r, slot) in self.layout.row_slot.iter().enumerate() {
             match *slot {
                 Slot::Forward(i) => zf[i] = rhs[r],
                 Slot::Border(i) => g[i] = rhs[r],
@@ -539,7 +759,7 @@ impl PeriodicForwardLu {
             rhs.iter_mut().for_each(|v| *v = f64::NAN);
             return;
         }
-        for (c, slot) in self.col_slot.iter().enumerate() {
+        for (c, slot) in self.layout.col_slot.iter().enumerate() {
             rhs[c] = match *slot {
                 Slot::Forward(i) => zf[i],
                 Slot::Border(j) => y[j],
@@ -556,6 +776,87 @@ impl PeriodicForwardLu {
         w.iter_mut().for_each(|x| *x = 0.0);
         self.d.mul_add(v, w);
         self.r.mul_add(&t, w);
+    }
+}
+
+/// The discretised monodromy operator read off a [`PeriodicForwardLu`]: the Floquet
+/// multipliers from the Newton system's own factorisation (issue 23 item 1), as AUTO
+/// reads them off its condensed Jacobian.
+///
+/// The copies x̂ are the values the start of the period reads ahead: x₀ and, for a delay
+/// equation, the profile's last τ/T that the first τ/T reads as its history. Given them,
+/// the forward rows A y = −C_x̂ x̂ are the initial-value collocation over one period (the
+/// period and the parameters, border columns, held), and one period later the copied
+/// columns hold y at the same phases: the map x̂ ↦ P y = −P A⁻¹ C_x̂ x̂ is the monodromy
+/// operator on the history the period reads (P picks the copied columns). This needs
+/// every delay shorter than the period less a mesh interval, so that each value read
+/// before t = 0 is a copy and the forward block never reads a value two periods back;
+/// the caller checks that.
+pub(crate) struct ForwardMonodromy<'a> {
+    lu: &'a PeriodicForwardLu,
+}
+
+impl ForwardMonodromy<'_> {
+    /// border index of the first copy
+    fn first_copy(&self) -> usize {
+        self.lu.k - self.lu.layout.copied_at.len()
+    }
+
+    /// the size of the operator: the number of copies
+    pub(crate) fn dim(&self) -> usize {
+        self.lu.layout.copied_at.len()
+    }
+
+    /// w = M v: one block forward solve
+    pub(crate) fn apply(&self, v: &[f64], w: &mut [f64]) {
+        let first = self.first_copy();
+        let mut t = vec![0.0; self.lu.a.n];
+        for (i, ti) in t.iter_mut().enumerate() {
+            *ti = self
+                .lu
+                .c
+                .row(i)
+                .filter(|&(j, _)| j >= first)
+                .map(|(j, c)| c * v[j - first])
+                .sum();
+        }
+        self.lu.a.solve_rows(&mut t, 1);
+        for (wq, &at) in w.iter_mut().zip(&self.lu.layout.copied_at) {
+            *wq = -t[at];
+        }
+    }
+
+    /// the monodromy matrix, row-major dim × dim: from Z = A⁻¹C where the dense Schur
+    /// complement has it, else by one block forward solve with dim right-hand sides
+    pub(crate) fn dense(&self) -> Vec<f64> {
+        let (dim, first, k) = (self.dim(), self.first_copy(), self.lu.k);
+        let mut m = vec![0.0; dim * dim];
+        if let Some(Some(schur)) = self.lu.dense.get() {
+            for (row, &at) in m.chunks_exact_mut(dim).zip(&self.lu.layout.copied_at) {
+                let z = &schur.z[at * k + first..(at + 1) * k];
+                row.iter_mut().zip(z).for_each(|(mq, zq)| *mq = -zq);
+            }
+            return m;
+        }
+        let mut z = vec![0.0; self.lu.a.n * dim];
+        for (i, row) in z.chunks_exact_mut(dim).enumerate() {
+            for (j, c) in self.lu.c.row(i).filter(|&(j, _)| j >= first) {
+                row[j - first] += c;
+            }
+        }
+        self.lu.a.solve_rows(&mut z, dim);
+        for (row, &at) in m.chunks_exact_mut(dim).zip(&self.lu.layout.copied_at) {
+            let z = &z[at * dim..(at + 1) * dim];
+            row.iter_mut().zip(z).for_each(|(mq, zq)| *mq = -zq);
+        }
+        m
+    }
+}
+
+impl PeriodicForwardLu {
+    /// the monodromy operator of the factorised periodic collocation ([`ForwardMonodromy`])
+    pub(crate) fn monodromy(&self) -> ForwardMonodromy<'_> {
+        ForwardMonodromy { lu: self }
     }
 }
 
@@ -714,6 +1015,46 @@ mod tests {
         let reference = dense(n, &e)
             .lu()
             .solve(&DVector::from_vec(b))
+            .expect("regular");
+        let err = (DVector::from_vec(x) - &reference).amax() / reference.amax();
+        assert!(err < 1e-10, "solution error {err:e}");
+    }
+
+    /// A layout kept from an earlier matrix of the same pattern gives the numbers a new
+    /// one gives (bit for bit: a solve on a fresh thread, whose cache is empty), and a
+    /// matrix of another nonzero pattern (one entry zero) is not given the kept layout
+    /// (solution against nalgebra's dense LU, 1e-10).
+    #[test]
+    fn kept_layouts_give_the_numbers_of_new_ones() {
+        let (n, e, st) = delayed_collocation(3, 4, 12, 2, 1);
+        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.29).cos()).collect();
+        let solve = |e: &[Entry]| {
+            let lu = PeriodicForwardLu::new(n, e, &st, true).expect("block-forward shape");
+            let mut x = b.clone();
+            lu.solve(&mut x);
+            (x, lu.determinant().expect("determinant"))
+        };
+        let scaled: Vec<Entry> = e
+            .iter()
+            .map(|t| Entry::new(t.row, t.col, t.val * 1.5))
+            .collect();
+        let _ = solve(&e);
+        let kept = solve(&scaled);
+        let fresh =
+            std::thread::scope(|scope| scope.spawn(|| solve(&scaled)).join()).expect("thread");
+        assert_eq!(kept.0, fresh.0);
+        assert_eq!(kept.1, fresh.1);
+        // one coupling reaching ahead set to zero: another nonzero pattern, same structure
+        let mut fewer = scaled.clone();
+        let ahead = fewer
+            .iter()
+            .position(|t| t.row < 12 && t.col >= n - 3 - 12)
+            .expect("a coupling of the first rows to the period's end");
+        fewer[ahead].val = 0.0;
+        let (x, _) = solve(&fewer);
+        let reference = dense(n, &fewer)
+            .lu()
+            .solve(&DVector::from_vec(b.clone()))
             .expect("regular");
         let err = (DVector::from_vec(x) - &reference).amax() / reference.amax();
         assert!(err < 1e-10, "solution error {err:e}");

@@ -68,6 +68,14 @@ pub trait ContinuationSystem {
     fn stability(&mut self, _u: &[f64]) -> Result<Option<Stability>> {
         Ok(None)
     }
+    /// stability of the solution `u` given the corrector's factorisation of the bordered
+    /// Newton matrix where it was made within the Newton tolerance of u: a system that can
+    /// read its stability off that factorisation (a periodic orbit's Floquet multipliers,
+    /// issue 23 item 1) overrides this; by default [`ContinuationSystem::stability`]
+    fn stability_from(&mut self, u: &[f64], newton: NewtonMatrix<'_>) -> Result<Option<Stability>> {
+        let _ = newton;
+        self.stability(u)
+    }
     /// which special point, if any, lies between two stabilities
     fn classify(&self, _a: &Stability, _b: &Stability) -> Option<SpecialKind> {
         None
@@ -294,10 +302,31 @@ pub struct Continuation {
 }
 
 /// result of one corrector run
+/// The corrector's factorisation of the bordered Newton matrix [G_u(u); bᵀ] at a point within
+/// the Newton tolerance of the solution u it is handed with (see
+/// [`ContinuationSystem::stability_from`]); empty where the corrector's last factorisation
+/// lies farther (chord iterations) or was not made by this crate's solvers.
+#[derive(Clone, Copy, Default)]
+pub struct NewtonMatrix<'a>(pub(crate) Option<&'a SparseLu>);
+
+impl std::fmt::Debug for NewtonMatrix<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let what = if self.0.is_some() {
+            "factorised"
+        } else {
+            "none"
+        };
+        f.debug_tuple("NewtonMatrix").field(&what).finish()
+    }
+}
+
 struct Corrected {
     u: Vec<f64>,
     tangent: Vec<f64>,
     iterations: usize,
+    /// the factorisation the tangent came from, where it was made within the Newton
+    /// tolerance of u
+    newton: Option<SparseLu>,
     /// determinant of the bordered Jacobian of the last Newton iteration (None when the
     /// engine does not watch this system for branch points)
     determinant: Option<Determinant>,
@@ -526,6 +555,8 @@ impl Continuation {
             NewtonUpdate::Chord { full } => it <= full.max(1),
         };
         let mut kept: Option<SparseLu> = None;
+        // how far u has moved since the factorisation in use was made (max-norm)
+        let mut moved = 0.0;
         // small or banded systems: the one (simplicial) factorisation gives the
         // determinant anyway
         let iteration_determinant = if u.len() < SUPERNODAL_MIN_SIZE || sys.banded() {
@@ -539,35 +570,43 @@ impl Continuation {
                 Some(lu) if !refactorise(it) => {
                     chord_step(sys, &u, constraint, lu, "Newton corrector (chord)")?
                 }
-                _ => bordered_step(
-                    sys,
-                    &u,
-                    &b,
-                    constraint,
-                    &mut entries,
-                    iteration_determinant,
-                    "Newton corrector",
-                )?,
+                _ => {
+                    moved = 0.0;
+                    bordered_step(
+                        sys,
+                        &u,
+                        &b,
+                        constraint,
+                        &mut entries,
+                        iteration_determinant,
+                        "Newton corrector",
+                    )?
+                }
             };
             res_norm = step.residual_norm;
             let upd = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
-            if upd <= self.options.newton_tolerance * (1.0 + u[ip].abs()) {
+            moved += upd;
+            let tolerance = self.options.newton_tolerance * (1.0 + u[ip].abs());
+            if upd <= tolerance {
                 // the iterations use the fast factorisation (supernodal where large); where
                 // the branch-point test needs the determinant, the bordered Jacobian is
                 // factorised once more at the converged point with it (its tangent too)
                 let lu = match (self.needs_determinant(sys), iteration_determinant) {
-                    (NeedsDeterminant::Yes, NeedsDeterminant::No) => bordered_lu(
-                        sys,
-                        &u,
-                        &b,
-                        &mut entries,
-                        NeedsDeterminant::Yes,
-                        "Newton corrector (determinant)",
-                    )?,
+                    (NeedsDeterminant::Yes, NeedsDeterminant::No) => {
+                        moved = 0.0;
+                        bordered_lu(
+                            sys,
+                            &u,
+                            &b,
+                            &mut entries,
+                            NeedsDeterminant::Yes,
+                            "Newton corrector (determinant)",
+                        )?
+                    }
                     _ => step.lu,
                 };
-                return Self::corrected(lu, u, w, it);
+                return Self::corrected(lu, u, w, it, moved <= tolerance);
             }
             kept = Some(step.lu);
             if it > 2 && upd > 2.0 * last_update {
@@ -584,7 +623,14 @@ impl Continuation {
     }
 
     /// the converged corrector's tangent from the same factorisation: [J; w∘t] τ = e_N
-    fn corrected(lu: SparseLu, u: Vec<f64>, w: &[f64], iterations: usize) -> Result<Corrected> {
+    /// (kept for the stability where `at_solution`: made within the Newton tolerance of u)
+    fn corrected(
+        lu: SparseLu,
+        u: Vec<f64>,
+        w: &[f64],
+        iterations: usize,
+        at_solution: bool,
+    ) -> Result<Corrected> {
         let nu = u.len();
         let mut tau = vec![0.0; nu];
         tau[nu - 1] = 1.0;
@@ -595,6 +641,7 @@ impl Continuation {
             tangent: tau,
             iterations,
             determinant: lu.determinant(),
+            newton: at_solution.then_some(lu),
         })
     }
 
@@ -622,7 +669,7 @@ impl Continuation {
     }
 
     fn make_point<S: ContinuationSystem>(&self, sys: &mut S, c: Corrected) -> Result<BranchPoint> {
-        let stability = sys.stability(&c.u)?;
+        let stability = sys.stability_from(&c.u, NewtonMatrix(c.newton.as_ref()))?;
         let ip = sys.parameter_index();
         let secondary_parameter = sys.secondary_parameter_index().map(|i| c.u[i]);
         Ok(BranchPoint {
@@ -1101,41 +1148,63 @@ pub fn newton_step<S: ContinuationSystem>(
 /// factorisation was made at) and renewed otherwise. Converged when the largest update is
 /// at most `tolerance` times max(1, max |u_i|). Used where the same system is corrected
 /// from a close guess many times (the cycles the Floquet computation re-solves on a
-/// kink-resolved mesh).
+/// kink-resolved mesh). Returns the solution and a factorisation of the bordered Jacobian
+/// made within `tolerance` (relative, max-norm) of it: the last one used where the
+/// iterates moved at most that far since it was made, else a new one at the solution (the
+/// Floquet multipliers are read off it, and a Jacobian 1e-4 away moves the trivial
+/// multiplier of the trailer's cycles by as much).
 pub(crate) fn correct_with_chord<S: ContinuationSystem>(
     sys: &mut S,
     u0: &[f64],
     tangent: &[f64],
     tolerance: f64,
     max_iterations: usize,
-) -> Result<Vec<f64>> {
+) -> Result<(Vec<f64>, SparseLu)> {
     let w = sys.weights();
     let b = border(&w, tangent);
     let mut u = u0.to_vec();
     let mut entries = Vec::new();
     let mut kept: Option<SparseLu> = None;
+    // how far u has moved since the kept factorisation was made (max-norm)
+    let mut moved = 0.0;
     let mut last = f64::INFINITY;
     let (mut size, mut residual) = (f64::NAN, f64::NAN);
     for _ in 0..max_iterations {
         let constraint = (0..u.len()).map(|i| b[i] * (u[i] - u0[i])).sum();
         let step = match kept.take() {
             Some(lu) => chord_step(sys, &u, constraint, lu, "Newton (chord)")?,
-            None => bordered_step(
-                sys,
-                &u,
-                &b,
-                constraint,
-                &mut entries,
-                NeedsDeterminant::No,
-                "Newton",
-            )?,
+            None => {
+                moved = 0.0;
+                bordered_step(
+                    sys,
+                    &u,
+                    &b,
+                    constraint,
+                    &mut entries,
+                    NeedsDeterminant::No,
+                    "Newton",
+                )?
+            }
         };
         size = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         residual = step.residual_norm;
         u.iter_mut().zip(&step.update).for_each(|(a, d)| *a += d);
+        moved += size;
         let scale = u.iter().fold(1.0f64, |m, v| m.max(v.abs()));
         if size <= tolerance * scale {
-            return Ok(u);
+            let lu = if moved <= tolerance * scale {
+                step.lu
+            } else {
+                bordered_lu(
+                    sys,
+                    &u,
+                    &b,
+                    &mut entries,
+                    NeedsDeterminant::No,
+                    "Newton (at the solution)",
+                )?
+            };
+            return Ok((u, lu));
         }
         if size <= 0.25 * last {
             kept = Some(step.lu);

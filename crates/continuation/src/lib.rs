@@ -119,7 +119,7 @@ pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
-    Decision, NewtonUpdate, NoObserver, Observer, SpecialPoints, Stop, newton_step,
+    Decision, NewtonMatrix, NewtonUpdate, NoObserver, Observer, SpecialPoints, Stop, newton_step,
     points_at_parameter,
 };
 pub use equilibrium::{EquilibriumSystem, HopfPoint};

@@ -472,6 +472,12 @@ impl Csr {
         Self { ptr, idx, val }
     }
 
+    /// the matrix of the row pointers, column indices and values of its stored entries
+    pub(crate) fn from_parts(ptr: Vec<usize>, idx: Vec<usize>, val: Vec<f64>) -> Self {
+        debug_assert!(idx.len() == val.len() && ptr.last() == Some(&idx.len()));
+        Self { ptr, idx, val }
+    }
+
     /// `n` rows of the triplets `entries` by a counting sort: O(nnz), duplicates kept
     /// (products sum them)
     pub(crate) fn by_rows(n: usize, entries: &[(usize, usize, f64)]) -> Self {
@@ -808,6 +814,16 @@ impl SparseLu {
             Kind::Krylov(_) => None,
             Kind::Banded(lu) => Some(lu.determinant()),
             Kind::Forward(lu) => lu.determinant(),
+        }
+    }
+
+    /// the monodromy operator read off a block-forward factorisation of a periodic
+    /// collocation ([`crate::block_forward::ForwardMonodromy`]; None for the other
+    /// solvers)
+    pub(crate) fn forward_monodromy(&self) -> Option<crate::block_forward::ForwardMonodromy<'_>> {
+        match &self.kind {
+            Kind::Forward(lu) => Some(lu.monodromy()),
+            _ => None,
         }
     }
 

@@ -509,6 +509,75 @@ fn sorted_by_rows(
     CsrPattern { ptr, idx }
 }
 
+/// The slots of M's rows and columns ([`forward_slots`]) and what a split needs besides.
+struct Slots<'a> {
+    col: &'a [Slot],
+    row: &'a [Slot],
+    /// the interval owning each forward column
+    owner: &'a [usize],
+    /// diagonal block size
+    s: usize,
+    /// M's border unknowns (the copies come after them)
+    nb: usize,
+}
+
+/// M's nonzero entries sorted into the parts of M' (module docs): the position of each
+/// diagonal-block entry in the blocks' buffer, the triplets of A's lower part, of C, R and
+/// D (the copies' ties among R's and D's), and the forward index of each copied column.
+struct Parts {
+    diag: Vec<(usize, usize)>,
+    lower: Vec<(usize, usize, Source)>,
+    c: Vec<(usize, usize, Source)>,
+    r: Vec<(usize, usize, Source)>,
+    d: Vec<(usize, usize, Source)>,
+    copied: Vec<usize>,
+}
+
+impl Slots<'_> {
+    /// the parts of the nonzero `entries` (numbered in order): a column that a forward
+    /// row reaches ahead gets a copy, border unknown nb + q, the first time it is reached
+    fn split<'e>(&self, entries: impl Iterator<Item = &'e Entry>) -> Parts {
+        let (s, nb) = (self.s, self.nb);
+        let mut copy_of = vec![usize::MAX; self.col.len()];
+        let mut p = Parts {
+            diag: Vec::new(),
+            lower: Vec::new(),
+            c: Vec::new(),
+            r: Vec::new(),
+            d: Vec::new(),
+            copied: Vec::new(),
+        };
+        for (q, e) in entries.enumerate() {
+            let source = Source::Entry(q);
+            match (self.row[e.row], self.col[e.col]) {
+                (Slot::Forward(i), Slot::Forward(j)) => {
+                    let (bi, bj) = (i / s, self.owner[e.col]);
+                    if bj == bi {
+                        p.diag.push((q, bi * s * s + (i % s) * s + j % s));
+                    } else if bj < bi {
+                        p.lower.push((i, j, source));
+                    } else {
+                        if copy_of[e.col] == usize::MAX {
+                            copy_of[e.col] = nb + p.copied.len();
+                            p.copied.push(j);
+                        }
+                        p.c.push((i, copy_of[e.col], source));
+                    }
+                }
+                (Slot::Forward(i), Slot::Border(j)) => p.c.push((i, j, source)),
+                (Slot::Border(i), Slot::Forward(j)) => p.r.push((i, j, source)),
+                (Slot::Border(i), Slot::Border(j)) => p.d.push((i, j, source)),
+            }
+        }
+        // the copies' ties x − x̂ = 0
+        for (q, &j) in p.copied.iter().enumerate() {
+            p.r.push((nb + q, j, Source::Constant(1.0)));
+            p.d.push((nb + q, nb + q, Source::Constant(-1.0)));
+        }
+        p
+    }
+}
+
 impl Layout {
     /// the key a layout is looked up by, besides its pattern
     fn structure_key(st: &MeshStructure) -> (usize, usize, usize, Vec<usize>, Vec<usize>) {
@@ -534,43 +603,23 @@ impl Layout {
             .map(|e| Some((u32::try_from(e.row).ok()?, u32::try_from(e.col).ok()?)))
             .collect::<Option<_>>()?;
         let mut dest = vec![0u32; pattern.len()];
-        // columns reached ahead get copies: border index nb + q
-        let mut copy_of = vec![usize::MAX; n];
-        let mut copied: Vec<usize> = Vec::new();
-        let mut diag = Vec::with_capacity(pattern.len());
-        let (mut lower, mut c, mut r, mut d) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        for (q, e) in nonzero.enumerate() {
-            let source = Source::Entry(q);
-            match (row_slot[e.row], col_slot[e.col]) {
-                (Slot::Forward(i), Slot::Forward(j)) => {
-                    let (bi, bj) = (i / s, owner[e.col]);
-                    if bj == bi {
-                        diag.push((q, bi * s * s + (i % s) * s + j % s));
-                    } else if bj < bi {
-                        lower.push((i, j, source));
-                    } else {
-                        if copy_of[e.col] == usize::MAX {
-                            copy_of[e.col] = nb + copied.len();
-                            copied.push(e.col);
-                        }
-                        c.push((i, copy_of[e.col], source));
-                    }
-                }
-                (Slot::Forward(i), Slot::Border(j)) => c.push((i, j, source)),
-                (Slot::Border(i), Slot::Forward(j)) => r.push((i, j, source)),
-                (Slot::Border(i), Slot::Border(j)) => d.push((i, j, source)),
-            }
-        }
+        let slots = Slots {
+            col: &col_slot,
+            row: &row_slot,
+            owner: &owner,
+            s,
+            nb,
+        };
+        let Parts {
+            diag,
+            lower,
+            c,
+            r,
+            d,
+            copied,
+        } = slots.split(nonzero);
         let k = nb + copied.len();
-        let mut copied_at = Vec::with_capacity(copied.len());
-        for (q, &col) in copied.iter().enumerate() {
-            let Slot::Forward(j) = col_slot[col] else {
-                return None;
-            };
-            r.push((nb + q, j, Source::Constant(1.0)));
-            d.push((nb + q, nb + q, Source::Constant(-1.0)));
-            copied_at.push(j);
-        }
+        let copied_at = copied;
         for (q, at) in diag {
             dest[q] = u32::try_from(at).ok()?;
         }
@@ -590,7 +639,7 @@ impl Layout {
         Some(Self {
             n,
             structure: Self::structure_key(structure),
-            sign: layout_sign(&row_slot, &col_slot, copied.len()),
+            sign: layout_sign(&row_slot, &col_slot, k - nb),
             pattern,
             dest,
             constants,

@@ -323,9 +323,11 @@ impl DirectLu {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LinearSolver {
-    /// one sparse LU of the whole system (faer, supernodal where large). Exact; for delay
-    /// equations the delayed coupling (reaching τ/T of the period back) and the periodic
-    /// wrap-around fill the factors: the cost grows like L^2.5 to L^3 for a fixed τ/T.
+    /// one sparse LU of the whole system (faer, supernodal where large; an ODE's cycle,
+    /// whose collocation is banded up to the wrap and the borders, by the band solver).
+    /// Exact; for delay equations the delayed coupling (reaching τ/T of the period back)
+    /// and the periodic wrap-around fill the factors: the cost grows like L^2.5 to L^3 for
+    /// a fixed τ/T.
     SparseLu,
     /// The structured solver: the Jacobian split as J = P + E, where P holds the
     /// mesh-local couplings (each collocation row with the nodes of its own interval, the
@@ -346,12 +348,13 @@ pub enum LinearSolver {
     /// block, no fill), the periodic wrap and the delayed history of the first τ/T of the
     /// period reached ahead carried by K ≈ (τ/T·L + 1)·m·n border unknowns, whose Schur
     /// complement is factorised densely. Exact, with the determinant; cost
-    /// O(K·(nnz + L·(m·n)²) + K³). Systems it does not fit (ODEs: the band solver; an
-    /// extended system without mesh blocks) get the sparse LU.
+    /// O(K·(nnz + L·(m·n)²) + K³). An ODE's cycle fits too (x₀ is the only column reached
+    /// ahead: K = n plus the borders). Systems it does not fit (fewer than 120 unknowns,
+    /// an extended system without mesh blocks) get the sparse LU (ODEs: the band solver).
     BlockForward,
     /// [`LinearSolver::BlockForward`] where the system fits it, else
     /// [`LinearSolver::Krylov`] for systems of at least [`KRYLOV_MIN_SIZE`] unknowns and
-    /// [`LinearSolver::SparseLu`] below (ODEs: the band solver; see `benches/fold_cycles.rs`
+    /// [`LinearSolver::SparseLu`] below (see `benches/fold_cycles.rs`
     /// and `crates/sway/benches/closed_loop_mesh.rs` for the measured costs)
     #[default]
     Auto,

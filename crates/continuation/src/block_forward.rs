@@ -838,9 +838,11 @@ impl PeriodicForwardLu {
 /// period and the parameters, border columns, held), and one period later the copied
 /// columns hold y at the same phases: the map x̂ ↦ P y = −P A⁻¹ C_x̂ x̂ is the monodromy
 /// operator on the history the period reads (P picks the copied columns). This needs
-/// every delay shorter than the period less a mesh interval, so that each value read
-/// before t = 0 is a copy and the forward block never reads a value two periods back;
-/// the caller checks that.
+/// every delay shorter than the period less two mesh intervals: a value read before t = 0
+/// then interpolates the nodes of an interval at least two ahead of the reading row's
+/// (the first node of an interval belongs to the one before it), so that it is a copy,
+/// and the forward block never reads a value of the previous period; the caller checks
+/// that.
 pub(crate) struct ForwardMonodromy<'a> {
     lu: &'a PeriodicForwardLu,
 }

@@ -838,7 +838,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     /// Floquet multipliers from the discretised monodromy operator on this system's mesh
     /// (see [`PeriodicOrbitSystem::floquet_multipliers`]): read off `newton`, a block-forward
     /// factorisation of this system's Newton matrix at u, where there is one and every delay
-    /// is shorter than the period less a mesh interval
+    /// is shorter than the period less two of the longest mesh intervals
     /// ([`crate::block_forward::ForwardMonodromy`]), else from the initial-value collocation
     /// assembled here.
     fn monodromy_multipliers(

@@ -301,7 +301,6 @@ pub struct Continuation {
     pub options: ContinuationOptions,
 }
 
-/// result of one corrector run
 /// The corrector's factorisation of the bordered Newton matrix [G_u(u); bᵀ] at a point within
 /// the Newton tolerance of the solution u it is handed with (see
 /// [`ContinuationSystem::stability_from`]); empty where the corrector's last factorisation
@@ -320,6 +319,7 @@ impl std::fmt::Debug for NewtonMatrix<'_> {
     }
 }
 
+/// result of one corrector run
 struct Corrected {
     u: Vec<f64>,
     tangent: Vec<f64>,

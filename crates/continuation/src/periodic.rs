@@ -620,9 +620,10 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     /// monodromy operator (ODE: the monodromy matrix). Where a block-forward factorisation
     /// of the Newton matrix at u exists (the kink-resolved cycle's; on a continuation
     /// branch of a smooth problem the corrector's, through
-    /// [`ContinuationSystem::stability_from`]) and every delay is shorter than the period,
-    /// the operator is read off it (the block-forward solver's copies as the history)
-    /// instead of assembled: the same numbers to rounding (1e-13 on the trailer's cycles).
+    /// [`ContinuationSystem::stability_from`]) and every delay is shorter than the period
+    /// less two mesh intervals, the operator is read off it (the block-forward solver's
+    /// copies as the history) instead of assembled: the same numbers to rounding (1e-13 on
+    /// the trailer's cycles).
     pub fn floquet_multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
         self.floquet_multipliers_from(u, None)
     }
@@ -862,15 +863,11 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
             && delays_fit
         {
             let dim = monodromy.dim();
-            let mut mu = if dim < ARNOLDI_MIN_SIZE {
+            let dense = || {
                 let m = monodromy.dense();
-                eigenvalues(&Mat::<f64>::from_fn(dim, dim, |r, c| m[r * dim + c]))?
-            } else {
-                crate::linalg::dominant_eigenvalues(dim, kept, |v, w| monodromy.apply(v, w))?
+                Ok(Mat::<f64>::from_fn(dim, dim, |r, c| m[r * dim + c]))
             };
-            mu.sort_by(by_decreasing_modulus);
-            mu.truncate(kept);
-            return Ok(mu);
+            return dominant_multipliers(dim, kept, dense, |v, w| monodromy.apply(v, w));
         }
         let n = self.dim();
         let m = self.degree();
@@ -975,17 +972,12 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
             });
         }
         let monodromy = Monodromy::new(n, m, np, nh, ap, ah);
-        let kept = self.options.multipliers_kept.max(n);
-        let mut mu = if monodromy.dim() < ARNOLDI_MIN_SIZE {
-            eigenvalues(&monodromy.dense()?)?
-        } else {
-            crate::linalg::dominant_eigenvalues(monodromy.dim(), kept, |v, w| {
-                monodromy.apply(v, w)
-            })?
-        };
-        mu.sort_by(by_decreasing_modulus);
-        mu.truncate(kept);
-        Ok(mu)
+        dominant_multipliers(
+            monodromy.dim(),
+            kept,
+            || monodromy.dense(),
+            |v, w| monodromy.apply(v, w),
+        )
     }
 
     /// Interpolate the solution `u` of this system onto the mesh of `target`
@@ -1260,6 +1252,25 @@ fn equidistributed(mesh: &[f64], density: &[f64], intervals: usize) -> Vec<f64> 
     out.push(1.0);
     out.dedup_by(|a, b| *a - *b <= 1e-12);
     out
+}
+
+/// The `kept` multipliers of largest modulus of a discretised monodromy operator of size
+/// `dim`, sorted by decreasing modulus: all eigenvalues of its matrix (`dense`) below
+/// [`ARNOLDI_MIN_SIZE`], else Arnoldi's on its products (`apply`).
+fn dominant_multipliers(
+    dim: usize,
+    kept: usize,
+    dense: impl FnOnce() -> Result<Mat<f64>>,
+    apply: impl FnMut(&[f64], &mut [f64]),
+) -> Result<Vec<Complex64>> {
+    let mut mu = if dim < ARNOLDI_MIN_SIZE {
+        eigenvalues(&dense()?)?
+    } else {
+        crate::linalg::dominant_eigenvalues(dim, kept, apply)?
+    };
+    mu.sort_by(by_decreasing_modulus);
+    mu.truncate(kept);
+    Ok(mu)
 }
 
 /// Monodromy matrices of at least this size are not formed: their dominant eigenvalues come

@@ -45,7 +45,7 @@
 //! diagram 516 → 409 ms with the layouts kept).
 
 use crate::linalg::{
-    Csr, Determinant, Entry, KrylovOperator, MeshStructure, gmres, permutation_sign,
+    Csr, Determinant, Entry, KrylovOperator, MeshStructure, gmres, permutation_sign, sorted_by_rows,
 };
 use std::cell::OnceCell;
 use std::sync::Arc;
@@ -481,30 +481,22 @@ pub(crate) struct Layout {
 /// The counting sort by rows of `(row, column, source)` (duplicates kept, in the given
 /// order within a row, as [`Csr::by_rows`]): the pattern, and each source's value
 /// position (from `offset`) in `dest` or `constants`.
-fn sorted_by_rows(
+fn sorted_pattern(
     rows: usize,
     t: &[(usize, usize, Source)],
     offset: usize,
     dest: &mut [u32],
     constants: &mut Vec<(u32, f64)>,
 ) -> CsrPattern {
-    let mut ptr = vec![0; rows + 1];
-    for &(r, _, _) in t {
-        ptr[r + 1] += 1;
-    }
-    for r in 0..rows {
-        ptr[r + 1] += ptr[r];
-    }
-    let mut next = ptr.clone();
+    let (ptr, slots) = sorted_by_rows(rows, t.iter().map(|e| e.0));
     let mut idx = vec![0; t.len()];
-    for &(r, c, source) in t {
-        idx[next[r]] = c;
-        let at = (offset + next[r]) as u32;
+    for (&(_, c, source), &slot) in t.iter().zip(&slots) {
+        idx[slot] = c;
+        let at = (offset + slot) as u32;
         match source {
             Source::Entry(e) => dest[e] = at,
             Source::Constant(v) => constants.push((at, v)),
         }
-        next[r] += 1;
     }
     CsrPattern { ptr, idx }
 }
@@ -631,7 +623,7 @@ impl Layout {
         let [lower, c, r, d] = std::array::from_fn(|q| {
             let (rows, t) = &parts[q];
             sections[q + 1] = at;
-            let pattern = sorted_by_rows(*rows, t, at, &mut dest, &mut constants);
+            let pattern = sorted_pattern(*rows, t, at, &mut dest, &mut constants);
             at += t.len();
             pattern
         });

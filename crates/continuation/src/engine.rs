@@ -435,6 +435,71 @@ fn chord_step<S: ContinuationSystem>(
     solved(lu, residual, what)
 }
 
+/// The Newton iterations of one correction: the bordered Jacobian's border, the triplet
+/// buffer, and how far (max-norm, the sum of the updates) the iterates have travelled
+/// since the factorisation in use was made.
+struct Iterations<'b> {
+    border: &'b [f64],
+    determinant: NeedsDeterminant,
+    what: &'static str,
+    entries: Vec<Entry>,
+    moved: f64,
+}
+
+impl<'b> Iterations<'b> {
+    fn new(border: &'b [f64], determinant: NeedsDeterminant, what: &'static str) -> Self {
+        Self {
+            border,
+            determinant,
+            what,
+            entries: Vec::new(),
+            moved: 0.0,
+        }
+    }
+
+    /// One iteration at `u`: a chord step with `kept` where given, else a step with a new
+    /// factorisation (the distance travelled starts again). Returns the step and its
+    /// update's max-norm.
+    fn step<S: ContinuationSystem>(
+        &mut self,
+        sys: &mut S,
+        u: &[f64],
+        constraint: f64,
+        kept: Option<SparseLu>,
+    ) -> Result<(BorderedStep, f64)> {
+        let step = match kept {
+            Some(lu) => chord_step(sys, u, constraint, lu, &format!("{} (chord)", self.what))?,
+            None => {
+                self.moved = 0.0;
+                bordered_step(
+                    sys,
+                    u,
+                    self.border,
+                    constraint,
+                    &mut self.entries,
+                    self.determinant,
+                    self.what,
+                )?
+            }
+        };
+        let size = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        self.moved += size;
+        Ok((step, size))
+    }
+
+    /// a new factorisation at `u` with `determinant` (the distance travelled starts again)
+    fn factorise<S: ContinuationSystem>(
+        &mut self,
+        sys: &mut S,
+        u: &[f64],
+        determinant: NeedsDeterminant,
+        what: &str,
+    ) -> Result<SparseLu> {
+        self.moved = 0.0;
+        bordered_lu(sys, u, self.border, &mut self.entries, determinant, what)
+    }
+}
+
 /// triplets of the bordered Jacobian [G_u(u); bᵀ] into `entries` (cleared first)
 fn bordered_jacobian<S: ContinuationSystem>(
     sys: &mut S,
@@ -547,7 +612,6 @@ impl Continuation {
         let ip = sys.parameter_index();
         let b = border(w, t);
         let mut u = pred.to_vec();
-        let mut entries = Vec::new();
         let mut last_update = f64::INFINITY;
         let mut res_norm = f64::INFINITY;
         let refactorise = |it: usize| match self.options.newton {
@@ -555,8 +619,6 @@ impl Continuation {
             NewtonUpdate::Chord { full } => it <= full.max(1),
         };
         let mut kept: Option<SparseLu> = None;
-        // how far u has moved since the factorisation in use was made (max-norm)
-        let mut moved = 0.0;
         // small or banded systems: the one (simplicial) factorisation gives the
         // determinant anyway
         let iteration_determinant = if u.len() < SUPERNODAL_MIN_SIZE || sys.banded() {
@@ -564,49 +626,29 @@ impl Continuation {
         } else {
             NeedsDeterminant::No
         };
+        let mut iterations = Iterations::new(&b, iteration_determinant, "Newton corrector");
         for it in 1..=self.options.max_newton_iterations {
             let constraint = (0..u.len()).map(|i| b[i] * (u[i] - pred[i])).sum();
-            let step = match kept.take() {
-                Some(lu) if !refactorise(it) => {
-                    chord_step(sys, &u, constraint, lu, "Newton corrector (chord)")?
-                }
-                _ => {
-                    moved = 0.0;
-                    bordered_step(
-                        sys,
-                        &u,
-                        &b,
-                        constraint,
-                        &mut entries,
-                        iteration_determinant,
-                        "Newton corrector",
-                    )?
-                }
-            };
+            let chord = kept.take().filter(|_| !refactorise(it));
+            let (step, upd) = iterations.step(sys, &u, constraint, chord)?;
             res_norm = step.residual_norm;
-            let upd = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
-            moved += upd;
             let tolerance = self.options.newton_tolerance * (1.0 + u[ip].abs());
             if upd <= tolerance {
                 // the iterations use the fast factorisation (supernodal where large); where
                 // the branch-point test needs the determinant, the bordered Jacobian is
                 // factorised once more at the converged point with it (its tangent too)
                 let lu = match (self.needs_determinant(sys), iteration_determinant) {
-                    (NeedsDeterminant::Yes, NeedsDeterminant::No) => {
-                        moved = 0.0;
-                        bordered_lu(
-                            sys,
-                            &u,
-                            &b,
-                            &mut entries,
-                            NeedsDeterminant::Yes,
-                            "Newton corrector (determinant)",
-                        )?
-                    }
+                    (NeedsDeterminant::Yes, NeedsDeterminant::No) => iterations.factorise(
+                        sys,
+                        &u,
+                        NeedsDeterminant::Yes,
+                        "Newton corrector (determinant)",
+                    )?,
                     _ => step.lu,
                 };
-                return Self::corrected(lu, u, w, it, moved <= tolerance);
+                let at_solution = iterations.moved <= tolerance;
+                return Self::corrected(lu, u, w, it, at_solution);
             }
             kept = Some(step.lu);
             if it > 2 && upd > 2.0 * last_update {
@@ -1163,46 +1205,22 @@ pub(crate) fn correct_with_chord<S: ContinuationSystem>(
     let w = sys.weights();
     let b = border(&w, tangent);
     let mut u = u0.to_vec();
-    let mut entries = Vec::new();
     let mut kept: Option<SparseLu> = None;
-    // how far u has moved since the kept factorisation was made (max-norm)
-    let mut moved = 0.0;
+    let mut iterations = Iterations::new(&b, NeedsDeterminant::No, "Newton");
     let mut last = f64::INFINITY;
     let (mut size, mut residual) = (f64::NAN, f64::NAN);
     for _ in 0..max_iterations {
         let constraint = (0..u.len()).map(|i| b[i] * (u[i] - u0[i])).sum();
-        let step = match kept.take() {
-            Some(lu) => chord_step(sys, &u, constraint, lu, "Newton (chord)")?,
-            None => {
-                moved = 0.0;
-                bordered_step(
-                    sys,
-                    &u,
-                    &b,
-                    constraint,
-                    &mut entries,
-                    NeedsDeterminant::No,
-                    "Newton",
-                )?
-            }
-        };
-        size = step.update.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let step;
+        (step, size) = iterations.step(sys, &u, constraint, kept.take())?;
         residual = step.residual_norm;
         u.iter_mut().zip(&step.update).for_each(|(a, d)| *a += d);
-        moved += size;
         let scale = u.iter().fold(1.0f64, |m, v| m.max(v.abs()));
         if size <= tolerance * scale {
-            let lu = if moved <= tolerance * scale {
+            let lu = if iterations.moved <= tolerance * scale {
                 step.lu
             } else {
-                bordered_lu(
-                    sys,
-                    &u,
-                    &b,
-                    &mut entries,
-                    NeedsDeterminant::No,
-                    "Newton (at the solution)",
-                )?
+                iterations.factorise(sys, &u, NeedsDeterminant::No, "Newton (at the solution)")?
             };
             return Ok((u, lu));
         }

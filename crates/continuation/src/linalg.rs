@@ -439,6 +439,29 @@ impl MeshStructure {
     }
 }
 
+/// The counting sort of items by their rows (`rows` of them, the items' order kept within
+/// a row): the row pointers (row r holds slots `ptr[r]..ptr[r + 1]`) and each item's slot.
+pub(crate) fn sorted_by_rows(
+    rows: usize,
+    row_of: impl Iterator<Item = usize> + Clone,
+) -> (Vec<usize>, Vec<usize>) {
+    let mut ptr = vec![0; rows + 1];
+    for r in row_of.clone() {
+        ptr[r + 1] += 1;
+    }
+    for r in 0..rows {
+        ptr[r + 1] += ptr[r];
+    }
+    let mut next = ptr.clone();
+    let slots = row_of
+        .map(|r| {
+            next[r] += 1;
+            next[r] - 1
+        })
+        .collect();
+    (ptr, slots)
+}
+
 /// compressed sparse rows (duplicates summed)
 #[derive(Debug)]
 pub(crate) struct Csr {
@@ -484,20 +507,12 @@ impl Csr {
     /// `n` rows of the triplets `entries` by a counting sort: O(nnz), duplicates kept
     /// (products sum them)
     pub(crate) fn by_rows(n: usize, entries: &[(usize, usize, f64)]) -> Self {
-        let mut ptr = vec![0; n + 1];
-        for &(r, _, _) in entries {
-            ptr[r + 1] += 1;
-        }
-        for r in 0..n {
-            ptr[r + 1] += ptr[r];
-        }
-        let mut next = ptr.clone();
+        let (ptr, slots) = sorted_by_rows(n, entries.iter().map(|e| e.0));
         let mut idx = vec![0; entries.len()];
         let mut val = vec![0.0; entries.len()];
-        for &(r, c, v) in entries {
-            idx[next[r]] = c;
-            val[next[r]] = v;
-            next[r] += 1;
+        for (&(_, c, v), &at) in entries.iter().zip(&slots) {
+            idx[at] = c;
+            val[at] = v;
         }
         Self { ptr, idx, val }
     }

@@ -855,10 +855,9 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
             .map(|w| w[1] - w[0])
             .fold(0.0, f64::max);
         let period = self.period(u);
-        let delays_fit = self
-            .delays()
-            .iter()
-            .all(|&tau| tau / period < 1.0 - 2.0 * longest_step);
+        let delays = self.delays();
+        let tau_max = delays.iter().fold(0.0f64, |a, &b| a.max(b / period));
+        let delays_fit = delays.is_empty() || tau_max < 1.0 - 2.0 * longest_step;
         if let Some(monodromy) = newton.and_then(SparseLu::forward_monodromy)
             && delays_fit
         {
@@ -874,10 +873,6 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         let k = self.problem.n_delays();
         let fmesh = self.mesh.clone();
         let l = fmesh.len() - 1;
-        self.set_params(u);
-        let period = self.period(u);
-        let delays = self.delays();
-        let tau_max = delays.iter().fold(0.0f64, |a, &b| a.max(b / period));
         let locate = |s: f64| -> Loc {
             let kk = s.floor();
             let r = s - kk;

@@ -86,22 +86,23 @@ fn check_sizes(value: &toml::Value, key: &str, file: &Path) -> Result<(), TaskEr
 /// # Errors
 /// [`TaskError::Config`] naming the key path, the line and the problem.
 pub fn parse_toml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<T, TaskError> {
-    let located = |message: &str, span: Option<std::ops::Range<usize>>| match span {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("{} (line {line})", message.trim())
-        }
-        None => message.trim().to_string(),
+    let syntax = |e: toml::de::Error| {
+        let message = match e.span() {
+            Some(span) => format!(
+                "{} (line {})",
+                e.message().trim(),
+                line_at(text, span.start)
+            ),
+            None => e.message().trim().to_string(),
+        };
+        TaskError::config(file, "<syntax>", message)
     };
-    let syntax =
-        |e: toml::de::Error| TaskError::config(file, "<syntax>", located(e.message(), e.span()));
     let document = toml::Value::Table(toml::from_str(text).map_err(syntax)?);
-    check_sizes(&document, "", file)?;
-    let de = toml::de::Deserializer::parse(text).map_err(syntax)?;
-    serde_path_to_error::deserialize(de).map_err(|e| {
-        config_error(e, &document, file, |inner| {
-            located(inner.message(), inner.span())
-        })
+    deserialise(document, file, |path, message| {
+        match key_offset(text, path) {
+            Some(at) => format!("{message} (line {})", line_at(text, at)),
+            None => message.to_string(),
+        }
     })
 }
 
@@ -115,24 +116,76 @@ pub fn parse_table<T: DeserializeOwned>(
     document: toml::Table,
     file: &Path,
 ) -> Result<T, TaskError> {
-    let value = toml::Value::Table(document);
-    check_sizes(&value, "", file)?;
-    serde_path_to_error::deserialize(value.clone())
-        .map_err(|e| config_error(e, &value, file, |inner| inner.message().trim().to_string()))
+    deserialise(toml::Value::Table(document), file, |_, message| {
+        message.to_string()
+    })
+}
+
+/// `T` from a parsed document, the one deserialiser of every config type (the document's
+/// own, not the text's: each config type compiles against one deserialiser). `message`
+/// renders the problem at a key path (adding the line where the text is known).
+fn deserialise<T: DeserializeOwned>(
+    document: toml::Value,
+    file: &Path,
+    message: impl Fn(&serde_path_to_error::Path, &str) -> String,
+) -> Result<T, TaskError> {
+    check_sizes(&document, "", file)?;
+    serde_path_to_error::deserialize(document.clone()).map_err(|e| {
+        let message = message(e.path(), e.inner().message().trim());
+        config_error(e, &document, file, message)
+    })
+}
+
+/// The 1-based line of byte offset `at` in `text`.
+fn line_at(text: &str, at: usize) -> usize {
+    text[..at.min(text.len())].matches('\n').count() + 1
+}
+
+/// The byte offset in `text` of the deepest key of `path` that the document has (a key the
+/// type does not know, the table that misses a key, the key of a bad value); None at the
+/// root.
+fn key_offset(text: &str, path: &serde_path_to_error::Path) -> Option<usize> {
+    use serde_path_to_error::Segment;
+    use toml::de::DeValue;
+    let root = toml::de::DeTable::parse(text).ok()?;
+    let mut table = Some(root.get_ref());
+    let mut array: Option<&toml::de::DeArray<'_>> = None;
+    let mut at = None;
+    for segment in path.iter() {
+        let value = match segment {
+            Segment::Map { key } => {
+                let (k, v) = table?
+                    .iter()
+                    .find(|(k, _)| k.get_ref().as_ref() == key.as_str())?;
+                at = Some(k.span().start);
+                v
+            }
+            Segment::Seq { index } => {
+                let v = array?.get(*index)?;
+                at = Some(v.span().start);
+                v
+            }
+            Segment::Enum { .. } | Segment::Unknown => continue,
+        };
+        (table, array) = match value.get_ref() {
+            DeValue::Table(t) => (Some(t), None),
+            DeValue::Array(a) => (None, Some(a)),
+            _ => (None, None),
+        };
+    }
+    at
 }
 
 /// The [`TaskError::Config`] of a deserialisation error at key path `e.path()` of
-/// `document`; a bad value inside flattened run settings is found again by
-/// [`run_settings_error`]. `message` renders the inner error (with a line where the text
-/// is known).
+/// `document` with the problem `message`; a bad value inside flattened run settings is
+/// found again by [`run_settings_error`].
 fn config_error(
     e: serde_path_to_error::Error<toml::de::Error>,
     document: &toml::Value,
     file: &Path,
-    message: impl Fn(&toml::de::Error) -> String,
+    message: String,
 ) -> TaskError {
     let key = e.path().to_string();
-    let inner = e.into_inner();
     if let Some((inside, problem)) = run_settings_error(document)
         && (key == "." || inside.starts_with(&format!("{key}.")))
     {
@@ -143,7 +196,7 @@ fn config_error(
     } else {
         key
     };
-    TaskError::config(file, key, message(&inner))
+    TaskError::config(file, key, message)
 }
 
 /// The key path and problem of a bad value inside the run settings (`guard`, `[solver]`,

@@ -1,5 +1,7 @@
-//! Figures as data: a [`Figure`] of [`Panel`]s of [`Layer`]s, drawn once as SVG (plotters)
-//! and rasterised from that SVG to an antialiased PNG (resvg), so both show exactly the same.
+//! Figures as data: a [`Figure`] of [`Panel`]s of [`Layer`]s, drawn by plotters twice with
+//! the same calls: as SVG, and rasterised into an antialiased PNG with the SVG's geometry
+//! (tiny-skia; the glyph outlines placed as an SVG renderer places the `<text>` elements,
+//! see `plot/pixmap.rs`), so both show the same.
 //! Text uses the DejaVu Sans font shipped in the binary (pure Rust, no system font
 //! libraries). A heat map gets a colour bar beside the axes; a legend goes into a corner
 //! that holds no data, or beside the axes when every corner does.
@@ -12,15 +14,16 @@
 //! ```
 
 use std::path::Path;
-use std::sync::{Arc, Once, OnceLock};
+use std::sync::Once;
 
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
-use resvg::usvg;
 
 use crate::TaskError;
+
+mod pixmap;
 
 /// An RGB colour.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -420,8 +423,8 @@ impl Figure {
     }
 
     /// Writes `<stem>.svg` and `<stem>.png` (each through a temporary file and a rename).
-    /// The PNG is the SVG rasterised (antialiased, text in the shipped DejaVu Sans), so the
-    /// two show exactly the same.
+    /// The PNG is drawn by the same calls as the SVG, rasterised with its geometry
+    /// (antialiased, text from the shipped DejaVu Sans), so the two show the same.
     ///
     /// # Errors
     /// [`TaskError::Plot`] naming the file; [`TaskError::Write`] if it cannot be written.
@@ -432,7 +435,7 @@ impl Figure {
             path: svg_path.clone(),
             message,
         })?;
-        let png = rasterise(&svg).map_err(|message| TaskError::Plot {
+        let png = self.png().map_err(|message| TaskError::Plot {
             path: png_path.clone(),
             message,
         })?;
@@ -454,7 +457,20 @@ impl Figure {
         Ok(svg)
     }
 
-    fn draw(&self, root: &Area<'_>) -> Result<(), String> {
+    /// The figure as a PNG file's bytes: the same drawing calls as [`Self::svg`], rasterised
+    /// with the SVG's geometry ([`pixmap`]).
+    fn png(&self) -> Result<Vec<u8>, String> {
+        register_fonts();
+        let mut pixmap = pixmap::white_pixmap(self.size)?;
+        {
+            let root = pixmap::PixmapBackend::new(&mut pixmap)?.into_drawing_area();
+            self.draw(&root)?;
+            root.present().map_err(err)?;
+        }
+        pixmap.encode_png().map_err(err)
+    }
+
+    fn draw<B: DrawingBackend>(&self, root: &Area<B>) -> Result<(), String> {
         root.fill(&WHITE).map_err(err)?;
         let area = match &self.title {
             Some(t) => root
@@ -470,10 +486,10 @@ impl Figure {
     }
 }
 
-/// The drawing surface: figures are drawn once, as SVG, and the PNG is rasterised from it.
-type Area<'b> = DrawingArea<SVGBackend<'b>, Shift>;
+/// The drawing surface: the SVG's and the PNG's backends take the same calls.
+type Area<B> = DrawingArea<B, Shift>;
 /// The axes of one panel.
-type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+type Chart<'a, B> = ChartContext<'a, B, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
@@ -492,47 +508,6 @@ fn register_fonts() {
         );
         let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
     });
-}
-
-/// Fonts for rasterising: the same DejaVu Sans, as the SVG's "sans-serif" (no system fonts).
-fn font_database() -> Arc<usvg::fontdb::Database> {
-    static DB: OnceLock<Arc<usvg::fontdb::Database>> = OnceLock::new();
-    DB.get_or_init(|| {
-        let mut db = usvg::fontdb::Database::new();
-        db.load_font_data(dejavu::sans::regular().to_vec());
-        db.load_font_data(dejavu::sans::bold().to_vec());
-        db.set_sans_serif_family(FONT_FAMILY);
-        Arc::new(db)
-    })
-    .clone()
-}
-
-const FONT_FAMILY: &str = "DejaVu Sans";
-
-/// The SVG rasterised to an antialiased PNG of the same size.
-fn rasterise(svg: &str) -> Result<Vec<u8>, String> {
-    let options = usvg::Options {
-        font_family: FONT_FAMILY.to_string(),
-        fontdb: font_database(),
-        ..usvg::Options::default()
-    };
-    let tree = usvg::Tree::from_str(svg, &options).map_err(err)?;
-    let size = tree.size().to_int_size();
-    let mut pixmap =
-        resvg::tiny_skia::Pixmap::new(size.width(), size.height()).ok_or_else(|| {
-            format!(
-                "cannot rasterise a {}×{} figure",
-                size.width(),
-                size.height()
-            )
-        })?;
-    pixmap.fill(resvg::tiny_skia::Color::WHITE);
-    resvg::render(
-        &tree,
-        resvg::tiny_skia::Transform::default(),
-        &mut pixmap.as_mut(),
-    );
-    pixmap.encode_png().map_err(err)
 }
 
 fn split_finite(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
@@ -592,7 +567,7 @@ enum Placement {
 
 /// Draws one panel: the layout (colour bar and legend placed where they cover no data), the
 /// axes, the layers, the colour bar and the legend.
-fn draw_panel(panel: &Panel, cell: &Area<'_>) -> Result<(), String> {
+fn draw_panel<B: DrawingBackend>(panel: &Panel, cell: &Area<B>) -> Result<(), String> {
     let ranges = panel.ranges();
     let legend = LegendBox::new(panel, cell)?;
     let bar = panel
@@ -627,11 +602,11 @@ fn draw_panel(panel: &Panel, cell: &Area<'_>) -> Result<(), String> {
 }
 
 /// The axes with caption, grid and axis labels.
-fn build_axes<'a, 'b>(
+fn build_axes<'a, B: DrawingBackend>(
     panel: &Panel,
-    area: &'a Area<'b>,
+    area: &'a Area<B>,
     ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
-) -> Result<Chart<'a, 'b>, String> {
+) -> Result<Chart<'a, B>, String> {
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 18))
         .margin(MARGIN)
@@ -653,7 +628,7 @@ fn build_axes<'a, 'b>(
 }
 
 /// The plotting area of the axes, relative to the panel's area.
-fn plot_rect(chart: &Chart<'_, '_>, cell: &Area<'_>) -> PixelRect {
+fn plot_rect<B: DrawingBackend>(chart: &Chart<'_, B>, cell: &Area<B>) -> PixelRect {
     let (xs, ys) = chart.plotting_area().get_pixel_range();
     let (bx, by) = cell.get_base_pixel();
     PixelRect {
@@ -724,8 +699,8 @@ fn clamped(layer: &Layer, (xr, yr): ((f64, f64), (f64, f64))) -> Layer {
     l
 }
 
-fn draw_layer(
-    chart: &mut Chart<'_, '_>,
+fn draw_layer<B: DrawingBackend>(
+    chart: &mut Chart<'_, B>,
     layer: &Layer,
     ranges: ((f64, f64), (f64, f64)),
 ) -> Result<(), String> {
@@ -776,8 +751,8 @@ fn draw_layer(
     }
 }
 
-fn draw_line(
-    chart: &mut Chart<'_, '_>,
+fn draw_line<B: DrawingBackend>(
+    chart: &mut Chart<'_, B>,
     points: &[(f64, f64)],
     color: Rgb,
     stroke: Stroke,
@@ -796,8 +771,8 @@ fn draw_line(
     Ok(())
 }
 
-fn draw_markers(
-    chart: &mut Chart<'_, '_>,
+fn draw_markers<B: DrawingBackend>(
+    chart: &mut Chart<'_, B>,
     points: &[(f64, f64)],
     color: Rgb,
     shape: Shape,
@@ -817,8 +792,8 @@ fn draw_markers(
     .map_err(err)
 }
 
-fn fill_rects(
-    chart: &mut Chart<'_, '_>,
+fn fill_rects<B: DrawingBackend>(
+    chart: &mut Chart<'_, B>,
     rects: &[[f64; 4]],
     color: Rgb,
     opacity: f64,
@@ -837,8 +812,8 @@ fn fill_rects(
 /// Grey for heat-map cells without a value.
 const MISSING: RGBAColor = RGBAColor(190, 190, 190, 1.0);
 
-fn draw_heatmap(
-    chart: &mut Chart<'_, '_>,
+fn draw_heatmap<B: DrawingBackend>(
+    chart: &mut Chart<'_, B>,
     x_edges: &[f64],
     y_edges: &[f64],
     values: &[Vec<f64>],
@@ -891,7 +866,7 @@ struct ColourBar {
 
 impl ColourBar {
     /// The colour bar of a heat-map layer (`None` for other layers).
-    fn of(layer: &Layer, cell: &Area<'_>) -> Option<Result<Self, String>> {
+    fn of<B: DrawingBackend>(layer: &Layer, cell: &Area<B>) -> Option<Result<Self, String>> {
         let Layer::Heatmap {
             values,
             range: (lo, hi),
@@ -907,8 +882,8 @@ impl ColourBar {
         Some(Self::measure(cell, range, ticks, label, has_missing))
     }
 
-    fn measure(
-        cell: &Area<'_>,
+    fn measure<B: DrawingBackend>(
+        cell: &Area<B>,
         range: (f64, f64),
         ticks: Vec<(f64, String)>,
         label: &str,
@@ -936,7 +911,7 @@ impl ColourBar {
     }
 
     /// Draws the bar beside `plot`, as tall as the axes.
-    fn draw(&self, cell: &Area<'_>, plot: PixelRect) -> Result<(), String> {
+    fn draw<B: DrawingBackend>(&self, cell: &Area<B>, plot: PixelRect) -> Result<(), String> {
         let x0 = plot.right + SIDE_GAP as i32;
         let x1 = x0 + STRIP_WIDTH;
         // the "no value" swatch takes the bottom of the bar's height
@@ -994,7 +969,11 @@ fn small_font() -> TextStyle<'static> {
     ("sans-serif", 13).into_font().color(&BLACK)
 }
 
-fn text_width(cell: &Area<'_>, text: &str, font: &TextStyle<'_>) -> Result<u32, String> {
+fn text_width<B: DrawingBackend>(
+    cell: &Area<B>,
+    text: &str,
+    font: &TextStyle<'_>,
+) -> Result<u32, String> {
     cell.estimate_text_size(text, font)
         .map(|(w, _)| w)
         .map_err(err)
@@ -1059,7 +1038,7 @@ struct LegendBox<'p> {
 impl<'p> LegendBox<'p> {
     /// The legend of the labelled layers (a heat map has its colour bar instead); `None`
     /// without labels or with [`Legend::None`].
-    fn new(panel: &'p Panel, cell: &Area<'_>) -> Result<Option<Self>, String> {
+    fn new<B: DrawingBackend>(panel: &'p Panel, cell: &Area<B>) -> Result<Option<Self>, String> {
         if panel.legend == Legend::None {
             return Ok(None);
         }
@@ -1141,7 +1120,7 @@ impl<'p> LegendBox<'p> {
         }
     }
 
-    fn draw(&self, cell: &Area<'_>, (x, y): (i32, i32)) -> Result<(), String> {
+    fn draw<B: DrawingBackend>(&self, cell: &Area<B>, (x, y): (i32, i32)) -> Result<(), String> {
         let (w, h) = (self.size.0 as i32, self.size.1 as i32);
         let frame = [(x, y), (x + w, y + h)];
         cell.draw(&Rectangle::new(frame, WHITE.mix(0.9).filled()))
@@ -1198,7 +1177,11 @@ fn legend_entry(layer: &Layer) -> Option<(Swatch, &str)> {
 }
 
 /// A swatch starting at `x`, centred on `y`.
-fn draw_swatch(cell: &Area<'_>, swatch: Swatch, (x, y): (i32, i32)) -> Result<(), String> {
+fn draw_swatch<B: DrawingBackend>(
+    cell: &Area<B>,
+    swatch: Swatch,
+    (x, y): (i32, i32),
+) -> Result<(), String> {
     match swatch {
         Swatch::Line(color, stroke, width) => {
             let dashes: &[(i32, i32)] = match stroke {

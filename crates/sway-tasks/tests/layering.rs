@@ -37,8 +37,8 @@ fn the_scenario_library_does_not_depend_on_the_plotting_stack() {
     for forbidden in [
         "plotters",
         "dejavu",
-        "resvg",
         "tiny-skia",
+        "ab_glyph",
         "image",
         "csv",
         "toml",

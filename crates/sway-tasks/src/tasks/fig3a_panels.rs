@@ -243,7 +243,10 @@ fn time_panel(cfg: &PanelsConfig, theta0: f64, r: &sway::sim::SimResult<7>) -> P
         .map_or("n/a".into(), |a| format!("{a:.2}°"));
     let (v, horizon) = (cfg.speed_mps, cfg.horizon_s.get());
     let mut p = Panel::new(
-        &format!("V = {v} m/s, θ(0) = {theta0}°: final amplitude {fa}"),
+        &format!(
+            "V = {} m/s, θ(0) = {theta0}°: final amplitude {fa}",
+            speed_text(v)
+        ),
         "t [s]",
         "θ [deg]",
     )
@@ -297,7 +300,10 @@ pub fn run_panels(
     })?;
     for (&th, r) in cfg.theta0_deg.iter().zip(runs) {
         let key = panel_key(th);
-        lines.push(line(&format!("fig3a V = {speed} m/s, θ(0) = {th}°"), &r));
+        lines.push(line(
+            &format!("fig3a V = {} m/s, θ(0) = {th}°", speed_text(speed)),
+            &r,
+        ));
         panels.push(time_panel(cfg, th, &r));
         entries.0.push((
             key,
@@ -407,4 +413,12 @@ impl Prepared for Fig3aTask {
             Ok((summary, lines))
         })
     }
+}
+
+/// A speed for titles and printed lines: to 1e-9 m/s, without trailing zeros (a speed
+/// resolved relative to the vehicle's range, e.g. 32.99999999999999, reads 33).
+fn speed_text(v: f64) -> String {
+    let text = format!("{v:.9}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" { "0".into() } else { text.into() }
 }

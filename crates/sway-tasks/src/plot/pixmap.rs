@@ -69,18 +69,46 @@ impl<'p> PixmapBackend<'p> {
         })
     }
 
-    fn fill(&mut self, path: &tiny_skia::Path, color: BackendColor, transform: Transform) {
-        self.pixmap
-            .fill_path(path, &paint(color), FillRule::Winding, transform, None);
-    }
-
-    fn stroke(&mut self, path: &tiny_skia::Path, color: BackendColor, width: f32) {
-        let stroke = SkiaStroke {
-            width,
-            ..SkiaStroke::default()
+    /// Paints `path` (nothing for no path or a transparent colour).
+    fn paint_path(
+        &mut self,
+        path: Option<tiny_skia::Path>,
+        color: BackendColor,
+        ink: Ink,
+        transform: Transform,
+    ) -> DrawResult<()> {
+        let Some(path) = path.filter(|_| color.alpha != 0.0) else {
+            return Ok(());
         };
-        self.pixmap
-            .stroke_path(path, &paint(color), &stroke, Transform::identity(), None);
+        let paint = paint(color);
+        match ink {
+            Ink::Fill => self
+                .pixmap
+                .fill_path(&path, &paint, FillRule::Winding, transform, None),
+            Ink::Stroke(width) => {
+                let stroke = SkiaStroke {
+                    width,
+                    ..SkiaStroke::default()
+                };
+                self.pixmap
+                    .stroke_path(&path, &paint, &stroke, transform, None)
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How a shape is painted: filled, or its outline stroked `width` px wide.
+#[derive(Debug, Clone, Copy)]
+enum Ink {
+    Fill,
+    Stroke(f32),
+}
+
+impl Ink {
+    /// plotters' `fill` flag with the stroke width of an outline.
+    fn of(fill: bool, width: f32) -> Self {
+        if fill { Ink::Fill } else { Ink::Stroke(width) }
     }
 }
 
@@ -163,22 +191,16 @@ impl DrawingBackend for PixmapBackend<'_> {
         style: &S,
         fill: bool,
     ) -> DrawResult<()> {
-        let color = style.color();
         let ((l, t), (r, b)) = (point(upper_left), point(bottom_right));
-        let Some(rect) = Rect::from_ltrb(l.min(r), t.min(b), l.max(r), t.max(b)) else {
-            return Ok(());
-        };
-        if color.alpha == 0.0 {
-            return Ok(());
-        }
-        let path = PathBuilder::from_rect(rect);
-        if fill {
-            self.fill(&path, color, Transform::identity());
-        } else {
-            // the SVG's rectangle has no stroke-width: 1
-            self.stroke(&path, color, 1.0);
-        }
-        Ok(())
+        let rect = Rect::from_ltrb(l.min(r), t.min(b), l.max(r), t.max(b));
+        // the SVG's rectangle has no stroke-width: 1
+        let ink = Ink::of(fill, 1.0);
+        self.paint_path(
+            rect.map(PathBuilder::from_rect),
+            style.color(),
+            ink,
+            Transform::identity(),
+        )
     }
 
     fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
@@ -186,14 +208,13 @@ impl DrawingBackend for PixmapBackend<'_> {
         path: I,
         style: &S,
     ) -> DrawResult<()> {
-        let color = style.color();
-        if color.alpha == 0.0 {
-            return Ok(());
-        }
-        if let Some(path) = polyline(path, false) {
-            self.stroke(&path, color, style.stroke_width() as f32);
-        }
-        Ok(())
+        let ink = Ink::Stroke(style.stroke_width() as f32);
+        self.paint_path(
+            polyline(path, false),
+            style.color(),
+            ink,
+            Transform::identity(),
+        )
     }
 
     fn draw_circle<S: BackendStyle>(
@@ -203,20 +224,10 @@ impl DrawingBackend for PixmapBackend<'_> {
         style: &S,
         fill: bool,
     ) -> DrawResult<()> {
-        let color = style.color();
         let (x, y) = point(center);
-        let Some(path) = PathBuilder::from_circle(x, y, radius as f32) else {
-            return Ok(());
-        };
-        if color.alpha == 0.0 {
-            return Ok(());
-        }
-        if fill {
-            self.fill(&path, color, Transform::identity());
-        } else {
-            self.stroke(&path, color, style.stroke_width() as f32);
-        }
-        Ok(())
+        let path = PathBuilder::from_circle(x, y, radius as f32);
+        let ink = Ink::of(fill, style.stroke_width() as f32);
+        self.paint_path(path, style.color(), ink, Transform::identity())
     }
 
     fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
@@ -224,14 +235,8 @@ impl DrawingBackend for PixmapBackend<'_> {
         vertices: I,
         style: &S,
     ) -> DrawResult<()> {
-        let color = style.color();
-        if color.alpha == 0.0 {
-            return Ok(());
-        }
-        if let Some(path) = polyline(vertices, true) {
-            self.fill(&path, color, Transform::identity());
-        }
-        Ok(())
+        let path = polyline(vertices, true);
+        self.paint_path(path, style.color(), Ink::Fill, Transform::identity())
     }
 
     /// The text's glyph outlines, placed as the SVG's `<text>` element places them.
@@ -246,8 +251,8 @@ impl DrawingBackend for PixmapBackend<'_> {
             return Ok(());
         }
         let font = match style.style() {
-            FontStyle::Bold => self.bold.clone(),
-            _ => self.regular.clone(),
+            FontStyle::Bold => &self.bold,
+            _ => &self.regular,
         };
         let em = style.size() * EM_PER_SIZE;
         let rotation = match style.transform() {
@@ -257,18 +262,10 @@ impl DrawingBackend for PixmapBackend<'_> {
             _ => 0.0,
         };
         let (x0, y0) = point(pos);
-        let Some(path) = text_outline(
-            &font,
-            text,
-            em as f32,
-            style.anchor().h_pos,
-            style.anchor().v_pos,
-            (x0, y0),
-        ) else {
-            return Ok(());
-        };
-        self.fill(&path, color, Transform::from_rotate_at(rotation, x0, y0));
-        Ok(())
+        let anchor = style.anchor();
+        let path = text_outline(font, text, em as f32, anchor.h_pos, anchor.v_pos, (x0, y0));
+        let rotated = Transform::from_rotate_at(rotation, x0, y0);
+        self.paint_path(path, color, Ink::Fill, rotated)
     }
 }
 

@@ -336,7 +336,8 @@ pub(crate) fn refine_sampled(
 }
 
 /// Index of the first largest value (NaN never wins).
-fn first_argmax(ys: &[f64]) -> usize {
+#[doc(hidden)] // pub for tests/unit
+pub fn first_argmax(ys: &[f64]) -> usize {
     let mut k = 0;
     for (i, &y) in ys.iter().enumerate() {
         if y > ys[k] || ys[k].is_nan() {
@@ -646,6 +647,3 @@ pub fn delay_budget<M: LoopModel + ?Sized>(
 }
 
 pub mod study;
-
-#[cfg(test)]
-mod tests;

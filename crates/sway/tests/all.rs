@@ -24,6 +24,8 @@ mod scenario_speeds;
 mod simulation;
 #[path = "trivial_multiplier.rs"]
 mod trivial_multiplier;
+// the unit tests of the pipeline modules (tests/unit/mod.rs says why they are here)
+mod unit;
 
 /// `autotests = false` runs no `tests/*.rs` on its own: a new file must be a module above
 /// (or its own `[[test]]` in Cargo.toml) or its tests would silently never run.
@@ -45,6 +47,22 @@ fn every_test_file_is_a_module_of_this_binary() {
             assert!(
                 all.contains(&format!("\nmod {module};\n")),
                 "tests/{name} is not a module of tests/all.rs"
+            );
+        }
+    }
+    let unit = std::fs::read_to_string(dir.join("unit/mod.rs")).expect("tests/unit/mod.rs");
+    for entry in std::fs::read_dir(dir.join("unit")).expect("tests/unit/") {
+        let name = entry
+            .expect("an entry")
+            .file_name()
+            .into_string()
+            .expect("UTF-8");
+        if let Some(module) = name.strip_suffix(".rs")
+            && name != "mod.rs"
+        {
+            assert!(
+                unit.contains(&format!("\nmod {module};\n")),
+                "tests/unit/{name} is not a module of tests/unit/mod.rs"
             );
         }
     }

@@ -135,7 +135,8 @@ impl ChartOptions {
     /// the cycle branches' options: the box's speed range, and no branch-point test (the
     /// chart reads the fold and the criticality off its cycle branches, nothing else; without
     /// the test the engine factorises with supernodes, 2× faster at τ = 0.4 s)
-    fn cycle_options(&self) -> DiagramOptions {
+    #[doc(hidden)] // pub for tests/unit
+    pub fn cycle_options(&self) -> DiagramOptions {
         DiagramOptions {
             v_min_mps: self.v_min_mps,
             v_max_mps: self.v_max_mps,
@@ -348,7 +349,9 @@ impl ChartOptions {
     }
 }
 
-type HopfSystem<'a, P, const N: usize> = HopfCurveSystem<'a, ClosedLoop<'a, P, N>, ChebyshevRoots>;
+#[doc(hidden)] // pub for tests/unit
+pub type HopfSystem<'a, P, const N: usize> =
+    HopfCurveSystem<'a, ClosedLoop<'a, P, N>, ChebyshevRoots>;
 
 /// Extends `branch` in chunks until it stops, leaves the box (through the secondary
 /// parameter, which the engine does not watch) or has `max_points` points.
@@ -451,7 +454,8 @@ fn joined(branches: &[Branch; 2]) -> impl Iterator<Item = &BranchPoint> {
 
 /// The Hopf-curve system of the closed loop with free parameters [D, V] (D primary),
 /// the gain set to `d` (where [`HopfCurveSystem::start_at_hopf`] starts).
-fn hopf_system<'a, P: LoopPlant<N>, const N: usize>(
+#[doc(hidden)] // pub for tests/unit
+pub fn hopf_system<'a, P: LoopPlant<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     d: f64,
     o: &ChartOptions,
@@ -966,7 +970,8 @@ fn fold_curve<P: LoopPlant<N>, const N: usize>(
 }
 
 /// Codimension-two points the Hopf-curve system located on a curve.
-fn hopf_codim2<P: LoopPlant<N>, const N: usize>(
+#[doc(hidden)] // pub for tests/unit
+pub fn hopf_codim2<P: LoopPlant<N>, const N: usize>(
     sys: &HopfSystem<'_, P, N>,
     curve: &HopfCurve,
 ) -> Vec<Codim2> {
@@ -993,7 +998,8 @@ fn ascending(mut v: Vec<f64>) -> Vec<f64> {
 
 /// Drops repeated points (the same kind within 1e-3 s and 1e-2 m/s: found on two curves
 /// or on both directions from a seed) and sorts by kind, then D.
-fn dedup_codim2(mut points: Vec<Codim2>) -> Vec<Codim2> {
+#[doc(hidden)] // pub for tests/unit
+pub fn dedup_codim2(mut points: Vec<Codim2>) -> Vec<Codim2> {
     let mut out: Vec<Codim2> = Vec::new();
     points.sort_by(|a, b| a.d_s.total_cmp(&b.d_s));
     for p in points {
@@ -1274,6 +1280,3 @@ impl NonlinearChart {
 }
 
 pub mod study;
-
-#[cfg(test)]
-mod tests;

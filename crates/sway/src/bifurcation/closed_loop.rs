@@ -336,7 +336,8 @@ impl<'a, P: LoopPlant<N>, const N: usize> ClosedLoop<'a, P, N> {
     }
 
     /// number of stacked arguments, N·(k + 1)
-    pub(crate) fn n_args(&self) -> usize {
+    #[doc(hidden)] // pub for tests/unit
+    pub fn n_args(&self) -> usize {
         N + self.feedback_offset()
     }
 
@@ -595,6 +596,3 @@ impl<P: LoopPlant<N>, const N: usize> Problem for ClosedLoop<'_, P, N> {
         self.model.loop_switching(&Self::state(args), &u, g);
     }
 }
-
-#[cfg(test)]
-mod tests;

@@ -31,7 +31,7 @@ pub mod chart;
 mod closed_loop;
 pub mod closed_loop_diagrams;
 pub mod corners;
-mod ranged;
+pub(crate) mod ranged;
 pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, LoopLaw, LoopPlant, SPEED};
 pub use closed_loop_diagrams::{
     PairDiagram, PairSummary, closed_loop_diagram, closed_loop_diagrams, common_range,
@@ -198,7 +198,8 @@ fn num(context: String) -> impl FnOnce(continuation::Error) -> SwayError {
     move |e| SwayError::numerical(context, e)
 }
 
-fn collocation(o: &DiagramOptions) -> CollocationOptions {
+#[doc(hidden)] // pub for tests/unit
+pub fn collocation(o: &DiagramOptions) -> CollocationOptions {
     CollocationOptions {
         intervals: o.intervals,
         degree: o.degree,
@@ -576,6 +577,3 @@ pub fn bifurcation_diagram_with_law<P: LoopPlant<N>, const N: usize>(
         cycle_branch_end,
     })
 }
-
-#[cfg(test)]
-mod tests;

@@ -272,7 +272,7 @@ impl DiagramOutcome {
 
 /// How straight running first loses stability on the searched range.
 #[derive(Debug, Clone, PartialEq)]
-pub(super) enum FirstLoss {
+pub enum FirstLoss {
     /// a complex pair crosses: the Hopf point where the sway cycles start
     Hopf(HopfPoint),
     /// a real eigenvalue crosses zero (static divergence) at this speed \[m/s\]
@@ -285,7 +285,7 @@ pub(super) enum FirstLoss {
 /// stability (or to `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch
 /// and that first loss: a Hopf point, or a real eigenvalue through zero (a vehicle can
 /// diverge statically before it sways).
-pub(super) fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
+pub fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (v_lo, v_hi): (f64, f64),

@@ -262,8 +262,3 @@ pub fn stable_gain_intervals<M: LoopModel + ?Sized>(
     sys.stable_gain_intervals(delay, d_min, d_max)
         .map_err(numerical(ctx))
 }
-
-#[cfg(test)]
-mod tests;
-#[cfg(test)]
-mod vehicle_tests;

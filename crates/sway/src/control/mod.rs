@@ -29,8 +29,6 @@
 mod design;
 pub mod predictor;
 mod study;
-#[cfg(test)]
-mod tests;
 
 pub use design::{
     CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness,

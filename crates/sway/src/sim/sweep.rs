@@ -444,7 +444,8 @@ fn apply(base: &BaseScenario, p: SweepParameter, v: f64) -> Result<BaseScenario,
     Ok(s)
 }
 
-fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(), String> {
+#[doc(hidden)] // pub for tests/unit
+pub fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(), String> {
     match p {
         SweepParameter::SpeedMps => {
             match &mut s.speed {
@@ -839,7 +840,8 @@ fn variant_point<'a>(
 
 /// Simulates scenario `s` on the 4-state model (θ and the guard do not depend on ψ, x_H,
 /// y_H) to `horizon_s`: its metrics and accepted steps.
-pub(crate) fn simulate_point(
+#[doc(hidden)] // pub for tests/unit
+pub fn simulate_point(
     model: &Model,
     s: &BaseScenario,
     horizon_s: f64,
@@ -908,6 +910,3 @@ pub fn run_sweep(sweep: &Sweep, progress: &dyn Progress) -> Vec<PointResult> {
     progress.finish();
     out
 }
-
-#[cfg(test)]
-mod tests;

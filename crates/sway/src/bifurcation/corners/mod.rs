@@ -752,7 +752,8 @@ pub fn continued_torus_curves<P: LoopPlant<N>, const N: usize>(
 }
 
 /// One torus curve from the double-Hopf point (family 0: the ω1 cycles, 1: the ω2 cycles).
-fn torus_curve<P: LoopPlant<N>, const N: usize>(
+#[doc(hidden)] // pub for tests/unit
+pub fn torus_curve<P: LoopPlant<N>, const N: usize>(
     problem: &super::ClosedLoop<'_, P, N>,
     p: &DoubleHopfPoint,
     family: usize,
@@ -1194,7 +1195,8 @@ pub fn probe_points(p: &DoubleHopfPoint, o: &CornerOptions) -> Vec<(f64, f64)> {
 }
 
 /// The unstable root pairs' frequencies at (V, D).
-fn unstable_modes<L: LoopModel + ?Sized>(
+#[doc(hidden)] // pub for tests/unit
+pub fn unstable_modes<L: LoopModel + ?Sized>(
     model: &L,
     tau: f64,
     v: f64,
@@ -1392,6 +1394,3 @@ fn run_once<P: CornerPlant<N>, const N: usize>(
         section: section_theta.into_iter().zip(section_rate).collect(),
     })
 }
-
-#[cfg(test)]
-mod tests;

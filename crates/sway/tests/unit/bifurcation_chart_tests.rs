@@ -1,8 +1,12 @@
 //! Tests of the nonlinear chart on the vehicle model.
 
-use super::*;
-use crate::bifurcation::bifurcation_diagram;
+use continuation::{Criticality, MeshAdaptation};
 use std::sync::OnceLock;
+use sway::bifurcation::bifurcation_diagram;
+use sway::bifurcation::chart::*;
+use sway::bifurcation::{
+    ClosedLoop, CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until,
+};
 use trailer_model::{Model, VehicleParams};
 
 fn model() -> &'static Model {
@@ -79,7 +83,7 @@ fn curves_pass_through_the_fig4b_hopf_and_fold_speeds() {
 
 #[test]
 fn hopf_curves_are_the_fig4a_dynamic_boundary() {
-    // reference: crate::charts::critical_speed_at_gain, the fig4a computation (exact counts
+    // reference: sway::charts::critical_speed_at_gain, the fig4a computation (exact counts
     // of unstable roots of the quasi-polynomial (13) on a 0.5 m/s scan, then bisection to
     // 1e-11 m/s); required agreement 1e-8 m/s at every summary gain, for τ = 0 (one curve)
     // and τ = 0.2 s (the sway-mode and the fast-mode curve, crossing at a double Hopf point)
@@ -88,7 +92,7 @@ fn hopf_curves_are_the_fig4a_dynamic_boundary() {
         let (curves, _) = hopf_curves(model(), tau, &o).unwrap();
         for d in [0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3] {
             let h = hopf_speed_at(model(), tau, &curves, d, &o).unwrap();
-            let b = crate::charts::critical_speed_at_gain(
+            let b = sway::charts::critical_speed_at_gain(
                 model(),
                 tau,
                 d,
@@ -139,7 +143,7 @@ fn double_hopf_point_at_tau_0_2() {
         (p.d_s - 0.26).abs() < 0.01 && (p.v_mps - 63.0).abs() < 1.5,
         "{p:?}"
     );
-    let roots = crate::charts::rightmost_roots(model(), p.v_mps, p.d_s, 0.2, 8).unwrap();
+    let roots = sway::charts::rightmost_roots(model(), p.v_mps, p.d_s, 0.2, 8).unwrap();
     for w in &p.omega_rad_s {
         let r = roots
             .iter()

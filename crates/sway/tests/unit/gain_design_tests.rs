@@ -2,10 +2,13 @@
 
 use trailer_model::{Model, VehicleParams};
 
-use crate::bifurcation::DiagramOptions;
+use sway::bifurcation::DiagramOptions;
 
-use super::*;
-use crate::charts::rightmost_roots;
+use sway::SwayError;
+use sway::bifurcation::chart::ChartOptions;
+use sway::bifurcation::chart::nonlinear_chart;
+use sway::charts::rightmost_roots;
+use sway::gain_design::*;
 
 fn model() -> Model {
     Model::new(VehicleParams::default()).unwrap()

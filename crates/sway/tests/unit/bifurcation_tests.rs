@@ -3,13 +3,19 @@
 //! long simulations with the `dde` crate's Dormand–Prince solver, finite-difference
 //! monodromy matrices from simulations, and mesh refinement.
 
-use super::*;
 use approx::assert_relative_eq;
+use continuation::CollocationOptions;
 use continuation::Problem;
+use continuation::{
+    Continuation, Criticality, PeriodicOrbitSystem, SpecialKind, points_at_parameter,
+};
 use dde::{DdeProblem, OdeProblem, Options, solve_dde, solve_ode};
 use nalgebra::{DMatrix, SVector};
 use stability::{RankOneFeedback, first_unstable_parameter};
 use std::sync::OnceLock;
+use sway::__unit_tests::*;
+use sway::bifurcation::*;
+use trailer_model::HITCH_ANGLE;
 use trailer_model::{CriticalSpeedOptions, Model, State4, VehicleParams};
 
 fn model() -> &'static Model {
@@ -424,7 +430,7 @@ fn derived(params: VehicleParams, settings: &DiagramSettings) -> (Model, Diagram
         &m,
         Feedback::OPEN_LOOP,
         settings,
-        &crate::ranging::SpeedLimits::default(),
+        &sway::ranging::SpeedLimits::default(),
         CycleExtent::WholeRange,
     )
     .expect("diagram");
@@ -477,7 +483,7 @@ fn derived_range_reproduces_table_i_fig4b_open_loop_pair() {
         m,
         Feedback::OPEN_LOOP,
         &DiagramSettings::closed_loop(),
-        &crate::ranging::SpeedLimits::default(),
+        &sway::ranging::SpeedLimits::default(),
         CycleExtent::WholeRange,
     )
     .unwrap();
@@ -566,8 +572,8 @@ fn vehicle_stable_up_to_the_maximum_speed_has_no_hopf_point_as_an_outcome() {
 
 /// yaw_rate_hitch on steering, yaw_rate and yaw_rate_hitch on braking (gains in steering
 /// units times the braking scale C_F·(f − c)), with their delays
-fn controller_cases() -> Vec<(crate::control::Controller, f64)> {
-    use crate::control::{Actuator, Controller, Gains, Structure};
+fn controller_cases() -> Vec<(sway::control::Controller, f64)> {
+    use sway::control::{Actuator, Controller, Gains, Structure};
     let s = Actuator::DifferentialBraking.scale(model());
     let hitch = |k: f64| Gains {
         yaw_rate: 0.1 * k,
@@ -608,21 +614,21 @@ fn controller_hopf_points_are_the_linear_critical_speeds() {
     // structure, actuator, gains and delay (exact unstable-root counts, bisection to
     // 1e-10 m/s), an independent formulation (characteristic function, not the nonlinear
     // loop); the continuation locates its Hopf point to ~1e-10: 1e-6 relative
-    let search = crate::control::SpeedSearch {
+    let search = sway::control::SpeedSearch {
         v_min_mps: 5.0,
         v_max_mps: 100.0,
         samples: 200,
         tolerance_mps: 1e-10,
     };
     for (c, tau) in controller_cases() {
-        let v_lin = crate::control::critical_speed(model(), &c, tau, None, &search)
+        let v_lin = sway::control::critical_speed(model(), &c, tau, None, &search)
             .unwrap()
             .expect("a critical speed");
         let fb = Feedback {
             gain_d_s: c.gains.yaw_rate,
             delay_s: tau,
         };
-        let problem = ClosedLoop::with_law(model(), fb, crate::control::loop_law(&c).unwrap());
+        let problem = ClosedLoop::with_law(model(), fb, sway::control::loop_law(&c).unwrap());
         let (_, hopf) = straight_running(
             &problem,
             &problem.parameters(5.0),
@@ -648,12 +654,12 @@ fn controller_cycle_agrees_with_simulation() {
             gain_d_s: c.gains.yaw_rate,
             delay_s: tau,
         };
-        let law = crate::control::loop_law(&c).unwrap();
+        let law = sway::control::loop_law(&c).unwrap();
         let settings = DiagramSettings {
             intervals: 40,
             ..DiagramSettings::default()
         };
-        let limits = crate::ranging::SpeedLimits::default();
+        let limits = sway::ranging::SpeedLimits::default();
         let d = match vehicle_diagram_with_law(
             model(),
             fb,
@@ -760,7 +766,7 @@ fn relaxation_plant_diagram_hopf_is_its_critical_speed_and_fold_converges() {
     )
     .unwrap()
     .v_crit_mps;
-    let limits = crate::ranging::SpeedLimits::default();
+    let limits = sway::ranging::SpeedLimits::default();
     let fold_at = |intervals: usize| {
         let settings = DiagramSettings {
             intervals,
@@ -817,12 +823,12 @@ fn hopf_point_only_detected_on_the_grid_is_located_at_the_critical_speed() {
     // 1e-9 relative (both converged to ≤ 1e-9 m/s; the collocation's root is polished).
     let m = model();
     let (d, tau) = (0.14047194868615961, 1.8);
-    let v_crit = crate::control::critical_speed(
+    let v_crit = sway::control::critical_speed(
         m,
-        &crate::control::Controller::paper(d),
+        &sway::control::Controller::paper(d),
         tau,
         None,
-        &crate::control::SpeedSearch::default(),
+        &sway::control::SpeedSearch::default(),
     )
     .unwrap()
     .unwrap();
@@ -832,14 +838,14 @@ fn hopf_point_only_detected_on_the_grid_is_located_at_the_critical_speed() {
     };
     let problem = ClosedLoop::new(m, fb);
     let params = problem.parameters(1.0);
-    let (_, loss) = ranged::straight_running_to_first_loss(
+    let (_, loss) = straight_running_to_first_loss(
         &problem,
         &params,
         (1.0, 100.0),
         DiagramOptions::default().root_degree,
     )
     .unwrap();
-    let ranged::FirstLoss::Hopf(h) = loss else {
+    let FirstLoss::Hopf(h) = loss else {
         panic!("no Hopf point: {loss:?}")
     };
     assert!(

@@ -4,13 +4,13 @@
 
 use trailer_model::{Model, VehicleParams};
 
-use super::auto_range::*;
-use super::fig4a::{Fig4aConfig, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig};
-use super::{critical_speed_at_gain, fig4a};
-use crate::bifurcation::DiagramOptions;
-use crate::bifurcation::chart::ChartOptions;
-use crate::bifurcation::chart::study::{ChartConfig, ChartNonlinearConfig, RegionGrid, compute};
-use crate::progress::NoProgress;
+use sway::bifurcation::DiagramOptions;
+use sway::bifurcation::chart::ChartOptions;
+use sway::bifurcation::chart::study::{ChartConfig, ChartNonlinearConfig, RegionGrid, compute};
+use sway::charts::auto_range::*;
+use sway::charts::fig4a::{Fig4aConfig, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig};
+use sway::charts::{critical_speed_at_gain, fig4a};
+use sway::progress::NoProgress;
 
 fn table1() -> Model {
     Model::new(VehicleParams::default()).unwrap()
@@ -329,8 +329,8 @@ fn a_flagged_fold_where_v_does_not_turn_is_not_corrected() {
     // of the cycles (issue 23) the coarse mesh no longer flags it; either way no fold may be
     // reported. Reference: the meshes L = 20 and 40 pass that speed smoothly with no fold
     // above the box's 5 m/s.
-    use crate::bifurcation::chart::critical_speeds;
-    use crate::bifurcation::{CycleExtent, Feedback, bifurcation_diagram_until};
+    use sway::bifurcation::chart::critical_speeds;
+    use sway::bifurcation::{CycleExtent, Feedback, bifurcation_diagram_until};
     const FLAGGED_ON_THE_UNIFORM_MESH_MPS: f64 = 5.64;
     let m = low_critical_speed();
     let o = small_chart().resolve(&m, &BOUNDS).unwrap().options;
@@ -389,25 +389,25 @@ fn chart_controller_charts_the_loop_of_that_controller() {
     // reference: the critical speed of the same controller from `control` (its loop built
     // with the gains inside q, gain 1), against the chart's, where D multiplies q of the row
     // per unit of D: two formulations of one loop; equal to the bisection tolerances (1e-9)
-    use crate::control::{Actuator, Controller, Gains, SpeedSearch, Structure};
+    use sway::control::{Actuator, Controller, Gains, SpeedSearch, Structure};
     let m = trailer_model::AnyVehicleModel::new(
         &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
     )
     .unwrap();
-    let scale = Actuator::DifferentialBraking.scale(crate::control::LoopModel::paper_model(&m));
-    let chart = super::ChartController {
+    let scale = Actuator::DifferentialBraking.scale(sway::control::LoopModel::paper_model(&m));
+    let chart = sway::charts::ChartController {
         structure: Structure::YawRateHitch,
         actuator: Actuator::DifferentialBraking,
         hitch_angle_per_d: 0.4,
         hitch_rate_per_d: 0.2,
     };
-    let controlled = super::Controlled {
+    let controlled = sway::charts::Controlled {
         model: &m,
         controller: chart,
     };
     let s = SpeedSearch::default();
     for (d, tau) in [(0.1 * scale, 0.2), (0.05 * scale, 0.4)] {
-        let by_chart = super::critical_speed_at_gain(
+        let by_chart = sway::charts::critical_speed_at_gain(
             &controlled,
             tau,
             d,
@@ -426,14 +426,14 @@ fn chart_controller_charts_the_loop_of_that_controller() {
                 hitch_rate: 0.2 * d,
             },
         };
-        let by_control = crate::control::critical_speed(&m, &c, tau, None, &s).unwrap();
+        let by_control = sway::control::critical_speed(&m, &c, tau, None, &s).unwrap();
         match (by_chart, by_control) {
             (Some(a), Some(b)) => assert!((a - b).abs() <= 2e-9, "{a} vs {b}"),
             (a, b) => assert_eq!(a, b),
         }
     }
     assert!(
-        super::ChartController {
+        sway::charts::ChartController {
             structure: Structure::Predictor,
             ..chart
         }

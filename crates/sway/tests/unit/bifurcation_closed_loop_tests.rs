@@ -2,10 +2,12 @@
 //! derivative (the `continuation` crate's explicit fallbacks), at pseudo-random states away
 //! from the tire curve's kinks (where the differences would straddle a jump of f'').
 
-use super::*;
-use crate::control::Actuator;
+use continuation::Problem;
 use continuation::{fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
 use std::sync::OnceLock;
+use sway::bifurcation::*;
+use sway::control::Actuator;
+use trailer_model::Model;
 use trailer_model::{VehicleModel, VehicleParams, VehicleSpec};
 
 fn model() -> &'static Model {

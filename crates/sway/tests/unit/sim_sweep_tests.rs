@@ -1,8 +1,11 @@
-use crate::ranging::SpeedLimits;
 use std::path::Path;
+use sway::ranging::SpeedLimits;
 
-use super::*;
-use crate::sim::SwayClass;
+use sway::sim::Controller;
+use sway::sim::SwayClass;
+use sway::sim::speeds::ResolveSpeeds;
+use sway::sim::sweep::*;
+use trailer_model::Model;
 use trailer_model::VehicleParams;
 
 fn parse(text: &str) -> SweepConfig {
@@ -41,7 +44,7 @@ points = 3
     let mut edited = VehicleParams::default();
     edited.trailer.mass = 1200.0;
     let model = Model::new(edited).unwrap();
-    let reference = analysis::linear_critical_speed(
+    let reference = linear_critical_speed(
         &model,
         &Controller::None,
         &AnalysisOptions::default(),
@@ -94,7 +97,7 @@ files = ["a.toml", "b.toml"]
     let fleet = [VehicleParams::default(), heavy];
     assert!(Sweep::new(&VehicleParams::default(), &fleet[..1], &cfg).is_err());
     let sweep = Sweep::new(&VehicleParams::default(), &fleet, &cfg).unwrap();
-    let reference = analysis::linear_critical_speed(
+    let reference = linear_critical_speed(
         &Model::new(heavy).unwrap(),
         &Controller::None,
         &AnalysisOptions::default(),
@@ -223,7 +226,7 @@ max = 2.85
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| run_sweep(&sweep, &crate::progress::NoProgress))
+            .install(|| run_sweep(&sweep, &sway::progress::NoProgress))
     };
     let (one, two) = (run(1), run(2));
     assert_eq!(one, two);
@@ -233,7 +236,7 @@ max = 2.85
     let mut v = VehicleParams::default();
     v.trailer.cog = r.values[0];
     v.trailer.axle = r.values[1];
-    let reference = analysis::linear_critical_speed(
+    let reference = linear_critical_speed(
         &Model::new(v).unwrap(),
         &Controller::None,
         &cfg.analysis,
@@ -253,7 +256,7 @@ fn range_spec(
     min: f64,
     max: f64,
     points: usize,
-) -> Axis<crate::ranging::SpeedSpec> {
+) -> Axis<sway::ranging::SpeedSpec> {
     Axis {
         parameter,
         min: Some(min.into()),
@@ -271,7 +274,7 @@ fn no_sustained_sway_below_the_fold_of_cycles() {
     ))
     .unwrap();
     // the shipped file gives the speed axis relative to the vehicle; this test sets it in m/s
-    let mut cfg: SweepConfig<crate::ranging::SpeedSpec> = toml::from_str(&text).unwrap();
+    let mut cfg: SweepConfig<sway::ranging::SpeedSpec> = toml::from_str(&text).unwrap();
     // small resolution: 9 speeds 30–35 m/s (bracketing V_fold and V_crit), 6 kicks
     let p0 = cfg.axes[0].parameter;
     let p1 = cfg.axes[1].parameter;
@@ -311,7 +314,7 @@ fn open_loop_search_agrees_with_the_model_critical_speed() {
         let reference = model
             .critical_speed(&trailer_model::CriticalSpeedOptions::default())
             .unwrap();
-        let ours = analysis::linear_critical_speed(
+        let ours = linear_critical_speed(
             &model,
             &Controller::None,
             &AnalysisOptions::default(),
@@ -336,7 +339,7 @@ fn open_loop_search_agrees_with_the_model_critical_speed() {
     };
     let model = Model::new(VehicleParams::default()).unwrap();
     assert_eq!(
-        analysis::open_loop_critical_speed(&model, &o, &SpeedLimits::default()),
+        open_loop_critical_speed(&model, &o, &SpeedLimits::default()),
         Ok(None)
     );
 }
@@ -406,9 +409,9 @@ fn loop_controllers_are_analysed_as_the_paper_controller_they_contain() {
         actuator: Default::default(),
     };
     let hitch = Controller::YawRateHitch {
-        gains: crate::control::Gains::yaw_rate(d),
+        gains: sway::control::Gains::yaw_rate(d),
         delay_s: tau,
-        actuator: crate::control::Actuator::Steering,
+        actuator: sway::control::Actuator::Steering,
         on_s: 0.0,
         off_s: None,
         limit: Default::default(),
@@ -420,15 +423,15 @@ fn loop_controllers_are_analysed_as_the_paper_controller_they_contain() {
     };
     o.diagram.intervals = 30;
     let limits = SpeedLimits::default();
-    let a = analysis::linear_critical_speed(&model, &paper, &o, &limits).unwrap();
-    let b = analysis::linear_critical_speed(&model, &hitch, &o, &limits).unwrap();
+    let a = linear_critical_speed(&model, &paper, &o, &limits).unwrap();
+    let b = linear_critical_speed(&model, &hitch, &o, &limits).unwrap();
     let (va, vb) = (a.v_crit_mps.unwrap(), b.v_crit_mps.unwrap());
     assert!((va - vb).abs() < 1e-8, "{va} vs {vb}");
     let (wa, wb) = (a.hopf_omega_rad_s.unwrap(), b.hopf_omega_rad_s.unwrap());
     assert!((wa - wb).abs() < 1e-6, "{wa} vs {wb}");
 
-    let a = analysis::hopf_fold_speeds(&model, &paper, &o, &limits).unwrap();
-    let b = analysis::hopf_fold_speeds(&model, &hitch, &o, &limits).unwrap();
+    let a = hopf_fold_speeds(&model, &paper, &o, &limits).unwrap();
+    let b = hopf_fold_speeds(&model, &hitch, &o, &limits).unwrap();
     let (ha, hb) = (a.hopf_v_mps.unwrap(), b.hopf_v_mps.unwrap());
     assert!((ha - hb).abs() < 1e-8, "{ha} vs {hb}");
     assert_eq!(a.criticality, b.criticality);
@@ -439,8 +442,8 @@ fn loop_controllers_are_analysed_as_the_paper_controller_they_contain() {
     let predictor: Controller =
         toml::from_str("kind = \"predictor\"\ndelay_s = 0.6\ngains = { yaw_rate = 0.05 }\n")
             .unwrap();
-    let p = analysis::linear_critical_speed(&model, &predictor, &o, &limits).unwrap();
+    let p = linear_critical_speed(&model, &predictor, &o, &limits).unwrap();
     assert!(p.v_crit_mps.is_some_and(|v| v > 34.7), "{p:?}");
-    let p = analysis::hopf_fold_speeds(&model, &predictor, &o, &limits).unwrap();
+    let p = hopf_fold_speeds(&model, &predictor, &o, &limits).unwrap();
     assert!(p.fold_v_mps.is_none() && p.reason.is_some_and(|r| r.contains("predictor")));
 }

@@ -2,7 +2,8 @@
 
 use trailer_model::{CriticalSpeedOptions, Model, VehicleParams};
 
-use super::*;
+use stability::{Axis, ChartOptions, Complex64, RootOptions, StabilityChart};
+use sway::charts::*;
 
 fn model() -> Model {
     Model::new(VehicleParams::default()).unwrap()

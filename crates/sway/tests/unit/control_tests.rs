@@ -3,12 +3,13 @@ use nalgebra::{Matrix4, SVector};
 use stability::sort_rightmost;
 use trailer_model::{Inputs, Model, State4, VehicleParams};
 
-use super::*;
-use crate::charts::critical_speed_at_gain;
+use stability::Complex64;
+use sway::charts::critical_speed_at_gain;
+use sway::control::*;
 
 /// |tan α| below which a slip has no sign (the simulation plant's floor)
 const SLIP_TANGENT_FLOOR: f64 = 1e-9;
-use crate::gain_design::{GainSearch, linear_optimum};
+use sway::gain_design::{GainSearch, linear_optimum};
 
 fn table_i() -> Model {
     Model::new(VehicleParams::default()).expect("Table I")
@@ -425,7 +426,7 @@ fn hitch_sensor_design_beats_the_yaw_rate_design_and_is_confirmed_by_the_roots()
     let m = table_i();
     let o = DesignSearch {
         gain_samples: 26,
-        optimiser: crate::mitigation::optimise::OptimiserSettings {
+        optimiser: sway::mitigation::optimise::OptimiserSettings {
             random_starts: 0,
             max_iters: 60,
             ..DesignSearch::default().optimiser
@@ -645,16 +646,16 @@ fn predictor_characteristic(
 
 /// `control_design`'s fold computation ([`fold_speed`]'s chart options) on a cycle mesh of
 /// `intervals`.
-fn design_fold_chart(intervals: usize) -> crate::bifurcation::chart::ChartOptions {
-    crate::bifurcation::chart::ChartOptions {
+fn design_fold_chart(intervals: usize) -> sway::bifurcation::chart::ChartOptions {
+    sway::bifurcation::chart::ChartOptions {
         seed_gains_s: vec![0.1],
         fold_max_step: 4.0,
-        cycles: crate::bifurcation::DiagramOptions {
+        cycles: sway::bifurcation::DiagramOptions {
             intervals,
             max_step: 0.5,
-            ..crate::bifurcation::DiagramOptions::default()
+            ..sway::bifurcation::DiagramOptions::default()
         },
-        ..crate::bifurcation::chart::ChartOptions::default()
+        ..sway::bifurcation::chart::ChartOptions::default()
     }
 }
 
@@ -677,22 +678,22 @@ fn fold_of_a_design_whose_hopf_point_lies_between_the_grid_speeds() {
     let c = Controller::paper(d);
     let search = SpeedSearch::default();
     let v_crit = critical_speed(&m, &c, tau, None, &search).unwrap().unwrap();
-    let limits = crate::ranging::SpeedLimits {
+    let limits = sway::ranging::SpeedLimits {
         min_speed_mps: search.v_min_mps,
         max_speed_mps: search.v_max_mps,
-        ..crate::ranging::SpeedLimits::default()
+        ..sway::ranging::SpeedLimits::default()
     };
     let chart = design_fold_chart(20);
-    let outcome = crate::bifurcation::cycle_diagram_with_law(
+    let outcome = sway::bifurcation::cycle_diagram_with_law(
         &m,
-        crate::bifurcation::Feedback {
+        sway::bifurcation::Feedback {
             gain_d_s: d,
             delay_s: tau,
         },
         loop_law(&c).unwrap(),
-        &crate::bifurcation::DiagramSettings::from_options(&chart.cycles, None),
+        &sway::bifurcation::DiagramSettings::from_options(&chart.cycles, None),
         &limits,
-        crate::bifurcation::CycleExtent::FirstFold,
+        sway::bifurcation::CycleExtent::FirstFold,
     )
     .unwrap();
     let hopf = outcome.diagram().expect("a Hopf point").hopf.parameter;

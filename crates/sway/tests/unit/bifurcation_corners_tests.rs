@@ -1,7 +1,9 @@
 //! Tests of the corner analysis on the vehicle model.
 
-use super::*;
 use std::sync::OnceLock;
+use sway::bifurcation::corners::motion::MotionClass;
+use sway::bifurcation::corners::*;
+use sway::charts::rightmost_roots;
 use trailer_model::{Model, VehicleParams};
 
 fn model() -> &'static Model {
@@ -22,24 +24,17 @@ fn points(tau: f64) -> &'static [DoubleHopfPoint] {
 
 #[test]
 fn double_hopf_point_lies_on_the_fig4a_dynamic_boundary() {
-    // reference: crate::charts::critical_speed_at_gain, the fig4a computation (exact counts
+    // reference: sway::charts::critical_speed_at_gain, the fig4a computation (exact counts
     // of unstable roots on a 0.5 m/s scan, bisection to 1e-11 m/s) at the point's gain:
     // the corner of the stable region, required to 1e-8 m/s (the tolerance)
     let p = points(0.2);
     assert_eq!(p.len(), 1, "{p:?}");
     let p = p[0];
     assert_eq!(p.other_unstable_roots, 0, "{p:?}");
-    let b = crate::charts::critical_speed_at_gain(
-        model(),
-        0.2,
-        p.d_s,
-        V_RANGE.0,
-        V_RANGE.1,
-        131,
-        1e-11,
-    )
-    .unwrap()
-    .expect("unstable somewhere");
+    let b =
+        sway::charts::critical_speed_at_gain(model(), 0.2, p.d_s, V_RANGE.0, V_RANGE.1, 131, 1e-11)
+            .unwrap()
+            .expect("unstable somewhere");
     assert!((b - p.v_mps).abs() < 1e-8, "{} vs fig4a {b}", p.v_mps);
     // reference: the rightmost-root finder (Chebyshev seeds, Newton on eq. 13): both
     // pairs on the imaginary axis to 1e-8
@@ -119,11 +114,11 @@ fn quasi_periodic_classification_agrees_with_the_torus_curve() {
     // 400 s at 0.0053 s below T2), so |D − D_T2| > 2.1e-3 s is needed; δ = 4e-3 s is twice
     // that and ≫ the curve's mesh error (≤ 1e-4 s at L = 16). Tolerance: the class itself.
     let p = points(0.2)[0];
-    let fb = super::super::Feedback {
+    let fb = sway::bifurcation::Feedback {
         gain_d_s: p.d_s,
         delay_s: p.tau_s,
     };
-    let problem = super::super::ClosedLoop::new(model(), fb);
+    let problem = sway::bifurcation::ClosedLoop::new(model(), fb);
     let o = TorusContinuation {
         intervals: 16,
         max_step: 2.0,

@@ -28,41 +28,32 @@ mod trivial_multiplier;
 mod unit;
 
 /// `autotests = false` runs no `tests/*.rs` on its own: a new file must be a module above
-/// (or its own `[[test]]` in Cargo.toml) or its tests would silently never run.
+/// (or its own `[[test]]` in Cargo.toml) or its tests would silently never run; likewise a
+/// new file of `tests/unit/` must be a module of `tests/unit/mod.rs`.
 #[test]
 fn every_test_file_is_a_module_of_this_binary() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
-    let all = std::fs::read_to_string(dir.join("all.rs")).expect("tests/all.rs");
-    let own_binaries: [&str; 0] = [];
-    for entry in std::fs::read_dir(&dir).expect("tests/") {
+    assert_modules(&dir, "all.rs", &[]);
+    assert_modules(&dir.join("unit"), "mod.rs", &[]);
+}
+
+/// Every `*.rs` file of `dir` other than `root` and `own_binaries` is a `mod` of `dir/root`.
+fn assert_modules(dir: &std::path::Path, root: &str, own_binaries: &[&str]) {
+    let text = std::fs::read_to_string(dir.join(root)).expect("the module file");
+    for entry in std::fs::read_dir(dir).expect("the test directory") {
         let name = entry
             .expect("an entry")
             .file_name()
             .into_string()
             .expect("UTF-8");
         if let Some(module) = name.strip_suffix(".rs")
-            && name != "all.rs"
+            && name != root
             && !own_binaries.contains(&name.as_str())
         {
             assert!(
-                all.contains(&format!("\nmod {module};\n")),
-                "tests/{name} is not a module of tests/all.rs"
-            );
-        }
-    }
-    let unit = std::fs::read_to_string(dir.join("unit/mod.rs")).expect("tests/unit/mod.rs");
-    for entry in std::fs::read_dir(dir.join("unit")).expect("tests/unit/") {
-        let name = entry
-            .expect("an entry")
-            .file_name()
-            .into_string()
-            .expect("UTF-8");
-        if let Some(module) = name.strip_suffix(".rs")
-            && name != "mod.rs"
-        {
-            assert!(
-                unit.contains(&format!("\nmod {module};\n")),
-                "tests/unit/{name} is not a module of tests/unit/mod.rs"
+                text.contains(&format!("\nmod {module};\n")),
+                "{}/{name} is not a module of {root}",
+                dir.display()
             );
         }
     }

@@ -603,6 +603,3 @@ pub fn prepare_run(
     };
     Ok(SweepRun { resolution, sweep })
 }
-
-#[cfg(test)]
-mod tests;

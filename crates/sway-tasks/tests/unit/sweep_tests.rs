@@ -1,9 +1,16 @@
 use std::path::Path;
 
-use super::*;
-use crate::config_file::load_toml;
+use std::path::PathBuf;
 use sway::progress::NoProgress;
+use sway::ranging::SpeedSpec;
 use sway::sim::speeds::ResolveSpeeds;
+use sway::sim::sweep::SweepConfig;
+use sway_tasks::config_file::Configured;
+use sway_tasks::config_file::TaskConfig;
+use sway_tasks::config_file::load_toml;
+use sway_tasks::tasks::Prepared;
+use sway_tasks::tasks::TaskContext;
+use sway_tasks::tasks::sweep::*;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -61,7 +68,10 @@ fn uncertainty_study_writes_distributions_and_histogram() {
     let dir = tmp.path().join("study_uncertainty");
     assert!(dir.join("histogram.svg").is_file() && dir.join("histogram.png").is_file());
     let csv = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
-    assert!(csv.starts_with("trailer.cog,trailer.axle,v_crit_mps,"), "{csv:.80}");
+    assert!(
+        csv.starts_with("trailer.cog,trailer.axle,v_crit_mps,"),
+        "{csv:.80}"
+    );
     assert_eq!(csv.lines().count(), 201);
 }
 
@@ -81,7 +91,11 @@ fn fleet_study_loads_its_files_and_names_them_in_the_rows() {
     assert_eq!(s["points"], 3);
     let csv = std::fs::read_to_string(tmp.path().join("study_fleet/sweep.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().collect();
-    assert!(rows[2].starts_with("985.0,fleet/loaded_trailer.toml,"), "{}", rows[2]);
+    assert!(
+        rows[2].starts_with("985.0,fleet/loaded_trailer.toml,"),
+        "{}",
+        rows[2]
+    );
     // the Table I member at Table I's mass has fig3a's V_crit (34.748 m/s, to 1e-3)
     let v: f64 = rows[1].split(',').nth(2).unwrap().parse().unwrap();
     assert!((v - 34.748).abs() < 1e-3, "{v}");
@@ -90,6 +104,8 @@ fn fleet_study_loads_its_files_and_names_them_in_the_rows() {
     let ctx = context(tmp.path());
     let mut cfg: SweepConfig<SpeedSpec> = load_toml(&file).unwrap();
     cfg.axes[1].files[1] = "fleet/missing.toml".into();
-    let e = prepare_sweep(&ctx, &cfg.all_numbers().unwrap(), &file).unwrap_err().to_string();
+    let e = prepare_sweep(&ctx, &cfg.all_numbers().unwrap(), &file)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("missing.toml"), "{e}");
 }

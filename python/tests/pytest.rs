@@ -1,7 +1,8 @@
 //! The Python package's tests from `cargo test --workspace`: puts the package
 //! `trailer_sway` together from this build and runs its pytest suite
 //! (`python/tests/test_*.py`, which also runs `python/examples/*.py`) in a virtual
-//! environment under the target directory (created once: `python3 -m venv`, then numpy and
+//! environment under the target directory (created once: `python3 -m venv`, without a pip
+//! of its own when python3's pip can install into it with `--python`; then numpy and
 //! pytest from PyPI).
 //!
 //! The package is what `pip install ./python` installs: the Python sources of
@@ -64,8 +65,12 @@ fn venv(target: &Path) -> PathBuf {
     }
     if !py.exists() {
         let _ = std::fs::remove_dir_all(&dir);
+        // without a pip of its own when the interpreter's pip can install into it
+        // (`pip --python`): ensurepip took 3 of the venv's 3.1 s
+        let own_pip = !pip_takes_python_option(&interpreter);
         let out = Command::new(&interpreter)
             .args(["-m", "venv"])
+            .args((!own_pip).then_some("--without-pip"))
             .arg(&dir)
             .output()
             .unwrap_or_else(|e| panic!("cannot run {interpreter} -m venv: {e}"));
@@ -84,17 +89,69 @@ fn venv(target: &Path) -> PathBuf {
     py
 }
 
-/// `python -m pip install`, quiet, with the venv's interpreter `py`.
+/// Whether `interpreter`'s pip installs into another environment (`--python`, pip ≥ 22.3).
+fn pip_takes_python_option(interpreter: &str) -> bool {
+    let Ok(out) = Command::new(interpreter)
+        .args(["-m", "pip", "--version"])
+        .output()
+    else {
+        return false;
+    };
+    // "pip 23.2.1 from …"
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut version = text
+        .split_whitespace()
+        .nth(1)
+        .unwrap_or("")
+        .split('.')
+        .map(|part| part.parse::<u32>().unwrap_or(0));
+    let (major, minor) = (version.next().unwrap_or(0), version.next().unwrap_or(0));
+    out.status.success() && (major, minor) >= (22, 3)
+}
+
+/// pip for the venv of `py`: the venv's own, or (a venv made without pip) the
+/// interpreter's, pointed at the venv.
+fn pip(py: &Path) -> Command {
+    let venv_bin = py.parent().expect("the venv's bin/");
+    if venv_bin.join("pip").exists() {
+        let mut cmd = Command::new(py);
+        cmd.args(["-m", "pip"]);
+        cmd
+    } else {
+        let mut cmd = Command::new(python());
+        cmd.args(["-m", "pip", "--python"]).arg(py);
+        cmd
+    }
+}
+
+/// `pip install`, quiet, into the venv of `py`.
 fn pip_install(py: &Path) -> Command {
-    let mut cmd = Command::new(py);
-    cmd.args([
-        "-m",
-        "pip",
-        "install",
-        "--quiet",
-        "--disable-pip-version-check",
-    ]);
+    let mut cmd = pip(py);
+    cmd.args(["install", "--quiet", "--disable-pip-version-check"]);
     cmd
+}
+
+/// Whether the venv of `py` has a `trailer_sway` installed (by a run with
+/// `TRAILER_SWAY_PIP_INSTALL=1`), which would shadow the package under test.
+fn package_installed(py: &Path) -> bool {
+    let lib = py
+        .parent()
+        .and_then(Path::parent)
+        .expect("the venv")
+        .join("lib");
+    let Ok(versions) = std::fs::read_dir(lib) else {
+        return false;
+    };
+    versions.flatten().any(|version| {
+        std::fs::read_dir(version.path().join("site-packages")).is_ok_and(|entries| {
+            entries.flatten().any(|entry| {
+                entry
+                    .file_name()
+                    .to_string_lossy()
+                    .starts_with("trailer_sway")
+            })
+        })
+    })
 }
 
 /// PATH with `dir` first.
@@ -171,12 +228,14 @@ fn python_package_installs_and_its_pytest_suite_passes() {
             "pip install ./python",
         );
     } else {
-        run(
-            Command::new(&py)
-                .args(["-m", "pip", "uninstall", "--quiet", "--yes"])
-                .arg("trailer_sway"),
-            "removing an installed trailer_sway from the test venv",
-        );
+        if package_installed(&py) {
+            run(
+                pip(&py)
+                    .args(["uninstall", "--quiet", "--yes"])
+                    .arg("trailer_sway"),
+                "removing an installed trailer_sway from the test venv",
+            );
+        }
         pytest.env("PYTHONPATH", assemble_package(manifest, &target));
     }
     pytest

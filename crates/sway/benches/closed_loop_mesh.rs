@@ -9,6 +9,13 @@
 //! block-forward solver and the Arnoldi multipliers: 3.9 s / 36.6 s (issue 23's numbers);
 //! with the block-forward solver but the dense monodromy eigenvalues: 1.28 / 5.76 s (4.5×,
 //! the O(L³) eigenvalue problem of the monodromy matrix was 26 % of the L = 120 profile).
+//!
+//! Re-measured idle on 2026-12-05 (db2b6ac): 0.727 s at L = 40 and 2.733 s at L = 120
+//! (3.76×: the target is not met any more — L = 40 got 1.7× faster since, L = 120 1.25×);
+//! without the branch-point test 0.651 / 2.488 s (3.8×). The L = 120 profile: the dense
+//! Schur complement (Z = A⁻¹C, one forward solve per border column, and its K × K LU: K
+//! grows with L) ≈ 27 %, and a fallback to faer's sparse LU (simplicial, ≈ 7 %) that L = 40
+//! does not show.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;

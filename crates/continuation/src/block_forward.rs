@@ -23,13 +23,24 @@
 //! ```
 //!
 //! and the solve is block elimination: the diagonal blocks' dense LUs (partial pivoting
-//! within each block), Z = A⁻¹C by block forward substitution (K right-hand sides, no fill:
-//! A is already triangular by blocks), the K × K Schur complement S = D − R Z by dense LU.
-//! With x₀ and the history in the border, A is the collocation of the forward problem —
-//! single shooting with the history segment as unknowns, the DDE analogue of AUTO's
-//! condensation — well conditioned however stiff the stable modes are. The cost is
-//! O(K · (nnz(A) + L·(B·m·n)²) + K³) with K ≈ (τ/T·L + 1)·B·m·n: for a fixed τ/T it grows
-//! like L², with constants far below the sparse LU's fill.
+//! within each block), then the K × K Schur complement S = D − R A⁻¹C. With x₀ and the
+//! history in the border, A is the collocation of the forward problem — single shooting
+//! with the history segment as unknowns, the DDE analogue of AUTO's condensation — well
+//! conditioned however stiff the stable modes are. For a small border S is formed
+//! (Z = A⁻¹C by block forward substitution, K right-hand sides, no fill: A is already
+//! triangular by blocks) and factorised densely: O(K · (nnz(A) + L·(B·m·n)²) + K³) with
+//! K ≈ (τ/T·L + 1)·B·m·n, which for a fixed τ/T grows like L². From
+//! [`ITERATIVE_MIN_BORDER`] on, S is only applied (one forward solve per product):
+//! S = −I + E where E, on the copies the period map of the delayed history, has a
+//! spectrum that falls off fast (the Floquet multipliers; a few border directions
+//! besides), so GMRES converges in a few dozen products, and so does the Arnoldi process
+//! that gives det(I − E) (measured on the closed-loop diagram: its Krylov space invariant
+//! after 10–24 products at L = 120, K = 70–126). The cost is then linear in L for a fixed
+//! τ/T. (Solving by the low-rank form that such an invariant space gives, S⁻¹g =
+//! −g + V (H − I)⁻¹ Vᵀ E g in two products, was tried: 1–2 % faster, and on the long-delay
+//! designs of `control_design` (τ = 1.6–1.8 s) it flipped whether a fold of cycles was
+//! found — as the dense complement in place of GMRES does: those results hang on
+//! rounding.)
 //!
 //! det M = det A · det S up to the signs of the row and column permutations and of the
 //! copies, so the branch-point test keeps its determinant.
@@ -45,7 +56,8 @@
 //! diagram 516 → 409 ms with the layouts kept).
 
 use crate::linalg::{
-    Csr, Determinant, Entry, KrylovOperator, MeshStructure, gmres, permutation_sign, sorted_by_rows,
+    Csr, Determinant, Entry, KrylovOperator, MeshStructure, arnoldi, determinant_settled, gmres,
+    identity_minus_hessenberg_determinant, permutation_sign, sorted_by_rows,
 };
 use std::cell::OnceCell;
 use std::sync::Arc;
@@ -143,6 +155,35 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// x ← a⁻¹ x as [`lu_solve`], with the LU factors stored by columns (`at`: column-major
+/// s × s): both sweeps by columns, each solved unknown subtracted from the ones still to
+/// solve by a contiguous axpy, so that the updates do not wait on one another (a dot
+/// product per row chains every addition behind the one before). The inner loop of the
+/// one-right-hand-side forward solves — the GMRES and Arnoldi products: the closed-loop
+/// diagram at L = 120 took 2.05–2.12 s with the row-wise sweep, 1.82–1.87 s by columns
+/// (three runs each). Storing U's pivots' reciprocals instead of dividing was slower
+/// (2.29 s): rounding differently, more of GMRES's tolerance of 1e-12 went unmet and fell
+/// back to the dense Schur complement
+fn lu_solve_by_columns(at: &[f64], s: usize, piv: &[usize], x: &mut [f64]) {
+    for (j, &p) in piv.iter().enumerate() {
+        x.swap(j, p);
+    }
+    let x = &mut x[..s];
+    for (j, col) in at.chunks_exact(s).enumerate() {
+        let xj = x[j];
+        if xj != 0.0 {
+            axpy(-xj, &col[j + 1..], &mut x[j + 1..]);
+        }
+    }
+    for (j, col) in at.chunks_exact(s).enumerate().rev() {
+        let xj = x[j] / col[j];
+        x[j] = xj;
+        if xj != 0.0 {
+            axpy(-xj, &col[..j], &mut x[..j]);
+        }
+    }
+}
+
 /// y ← y + a·x
 #[inline]
 fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
@@ -160,6 +201,8 @@ pub(crate) struct BlockLowerTriangular {
     n: usize,
     /// LU factors of the diagonal blocks, row-major s × s each
     diag: Vec<f64>,
+    /// the same, column-major (the one-right-hand-side solves sweep by columns)
+    diag_columns: Vec<f64>,
     /// pivot rows (within the block) of each block's elimination steps
     piv: Vec<usize>,
     /// the strictly lower part by rows (duplicates kept)
@@ -203,13 +246,23 @@ impl BlockLowerTriangular {
             sign: 1.0,
             log_abs: 0.0,
         };
-        for (block, p) in diag.chunks_exact_mut(s * s).zip(piv.chunks_exact_mut(s)) {
+        let mut diag_columns = vec![0.0; diag.len()];
+        let blocks = diag
+            .chunks_exact_mut(s * s)
+            .zip(diag_columns.chunks_exact_mut(s * s));
+        for ((block, columns), p) in blocks.zip(piv.chunks_exact_mut(s)) {
             lu_in_place(block, s, p, &mut det)?;
+            for (i, row) in block.chunks_exact(s).enumerate() {
+                for (j, &v) in row.iter().enumerate() {
+                    columns[j * s + i] = v;
+                }
+            }
         }
         Some(Self {
             s,
             n,
             diag,
+            diag_columns,
             piv,
             lower,
             det,
@@ -230,8 +283,8 @@ impl BlockLowerTriangular {
                     let lower: f64 = self.lower.row(r).map(|(c, v)| v * x[c]).sum();
                     x[r] -= lower;
                 }
-                let f = &self.diag[b * s * s..(b + 1) * s * s];
-                lu_solve(
+                let f = &self.diag_columns[b * s * s..(b + 1) * s * s];
+                lu_solve_by_columns(
                     f,
                     s,
                     &self.piv[b * s..(b + 1) * s],
@@ -283,6 +336,8 @@ pub(crate) struct PeriodicForwardLu {
     /// the dense Schur complement (made at once where the determinant is asked for or K
     /// is small, else only if GMRES fails)
     dense: OnceCell<Option<DenseSchur>>,
+    /// the size of the Krylov space the determinant came from, where it did
+    krylov_size: Option<usize>,
     det: Option<Determinant>,
 }
 
@@ -327,11 +382,20 @@ impl DenseSchur {
     }
 }
 
-/// Where the block-forward solver solves its Schur complement iteratively (GMRES, no
-/// determinant): from this many border unknowns K on. Measured (`benches/fold_cycles.rs`,
-/// fold-of-cycles Newton step): GMRES converges in 5–14 iterations; at K ≈ 100 it is
-/// 1.5× faster than the dense Schur complement, at K ≈ 40–80 1.25× slower
-pub(crate) const ITERATIVE_MIN_BORDER: usize = 80;
+/// E q may leave an invariant Krylov space of E by this much of its norm for the space to
+/// count as holding E's range ([`PeriodicForwardLu::krylov_schur_determinant`])
+const KRYLOV_RANGE_TOLERANCE: f64 = 1e-12;
+
+/// Where the block-forward solver leaves the Schur complement unformed: from this many
+/// border unknowns K on, solves are by GMRES and the determinant
+/// by Arnoldi ([`PeriodicForwardLu::krylov_schur_determinant`]), a few dozen forward
+/// solves each, where forming S takes K of them and a K × K LU. Measured (criterion
+/// medians, 2026-12-05, against 80 before): the closed-loop diagram (τ = 0.2 s,
+/// D = 0.1 s) 0.661 / 1.854 s at L = 40 / 120 (2.80×; 0.651 / 1.867 s from K = 60); the
+/// fold-of-cycles Newton step of `benches/fold_cycles.rs` 0.70 / 1.54 / 3.29 / 6.96 ms at
+/// L = 20 / 40 / 80 / 160 (0.91 / 1.48 / 3.12 / 7.36 ms from K = 80) and its cycle's
+/// step 0.22 / 0.40 / 0.79 / 1.80 ms (0.22 / 0.50 / 0.84 / 1.83 ms).
+pub(crate) const ITERATIVE_MIN_BORDER: usize = 40;
 
 /// The mesh-order map of a system's rows and columns to the forward blocks: slots and the
 /// owner interval of each forward column; None if the mesh structure does not describe the
@@ -716,8 +780,8 @@ impl PeriodicForwardLu {
     /// as `structure` says, or None where it does not fit (no mesh blocks, a coupling
     /// above the block triangle that is not a column reached ahead, a singular diagonal
     /// block or Schur complement): the caller keeps the sparse LU.
-    /// With `need_determinant` false and K ≥ [`ITERATIVE_MIN_BORDER`] the Schur complement
-    /// is solved by GMRES (one forward solve per iteration: cost linear in L).
+    /// From K ≥ [`ITERATIVE_MIN_BORDER`] on the Schur complement is not formed: solves by
+    /// GMRES, the determinant (`need_determinant`) by Arnoldi — cost linear in L.
     pub(crate) fn new(
         n: usize,
         entries: &[Entry],
@@ -742,28 +806,43 @@ impl PeriodicForwardLu {
             layout,
             k,
             dense: OnceCell::new(),
+            krylov_size: None,
             det: None,
         };
-        if need_determinant || k < ITERATIVE_MIN_BORDER {
-            let dense = DenseSchur::new(&lu)?;
-            let (det_a, det_s) = (lu.a.determinant(), dense.det);
-            let det = Determinant {
-                sign: lu.layout.sign * det_a.sign * det_s.sign,
-                log_abs: det_a.log_abs + det_s.log_abs,
-            };
-            if !det.log_abs.is_finite() {
-                return None;
+        let iterative = k >= ITERATIVE_MIN_BORDER;
+        let det_s = match (need_determinant, iterative) {
+            (false, true) => return Some(lu),
+            (true, true) => lu.krylov_schur_determinant()?,
+            (_, false) => {
+                let dense = DenseSchur::new(&lu)?;
+                let det_s = dense.det;
+                lu.dense = OnceCell::from(Some(dense));
+                det_s
             }
-            lu.det = Some(det);
-            lu.dense = OnceCell::from(Some(dense));
+        };
+        let det_a = lu.a.determinant();
+        let det = Determinant {
+            sign: lu.layout.sign * det_a.sign * det_s.sign,
+            log_abs: det_a.log_abs + det_s.log_abs,
+        };
+        if !det.log_abs.is_finite() {
+            return None;
         }
+        lu.det = Some(det);
         Some(lu)
     }
 
-    /// det of the matrix (in its original row and column order); None where the Schur
-    /// complement is solved iteratively
+    /// det of the matrix (in its original row and column order); None where it was not
+    /// asked for and the Schur complement is not formed
     pub(crate) fn determinant(&self) -> Option<Determinant> {
         self.det
+    }
+
+    /// the border size K and the size of the Krylov space the determinant came from, if it
+    /// did
+    #[cfg(test)]
+    pub(crate) fn border_and_krylov_size(&self) -> (usize, Option<usize>) {
+        (self.k, self.krylov_size)
     }
 
     /// solves M x = b in place (b in row order, x in column order); NaN where the Schur
@@ -806,6 +885,63 @@ impl PeriodicForwardLu {
                 Slot::Border(j) => y[j],
             };
         }
+    }
+
+    /// w = E v = S v + v, the operator whose spectrum falls off fast: on the copies E is
+    /// the period map of the delayed history (the discretised monodromy operator, whose
+    /// eigenvalues are the Floquet multipliers), and the border rows and columns add a few
+    /// directions. One forward solve.
+    fn e_times(&self, v: &[f64], w: &mut [f64]) {
+        self.schur_times(v, w);
+        w.iter_mut().zip(v).for_each(|(wi, vi)| *wi += vi);
+    }
+
+    /// det S without forming S, from the Arnoldi process on E = S + I: det S = (−1)^K
+    /// det(I − E), estimated by det(I − H_j) until two estimates agree
+    /// ([`determinant_settled`]), exact where the Krylov space is invariant and holds E's
+    /// range ([`PeriodicForwardLu::holds_range`]; an invariant space that does not falls
+    /// back to the dense complement): a few dozen forward solves where the dense Schur
+    /// complement takes K of them and a K × K LU. Measured on the closed-loop diagram at
+    /// L = 120 (185 determinants, K = 70–126): the Krylov space invariant after 10–24
+    /// products, log |det| within 9e-12 of the dense Schur complement's, every sign equal.
+    fn krylov_schur_determinant(&mut self) -> Option<Determinant> {
+        let mut previous = None;
+        let space = arnoldi(
+            self.k,
+            self.k,
+            |v, w| self.e_times(v, w),
+            |h| determinant_settled(&mut previous, h),
+        )?;
+        if space.invariant && !self.holds_range(&space.basis) {
+            let dense = DenseSchur::new(self)?;
+            let det_s = dense.det;
+            self.dense = OnceCell::from(Some(dense));
+            return Some(det_s);
+        }
+        let det = identity_minus_hessenberg_determinant(&space.h)?;
+        self.krylov_size = Some(space.basis.len());
+        let parity = if self.k.is_multiple_of(2) { 1.0 } else { -1.0 };
+        Some(Determinant {
+            sign: parity * det.sign,
+            log_abs: det.log_abs,
+        })
+    }
+
+    /// whether E q lies in the E-invariant space of the orthonormal `basis` for a vector q
+    /// other than the Arnoldi start vector: then the space holds E's range (not only the
+    /// part of E that the start vector reaches), and E's eigenvalues outside it are zero
+    fn holds_range(&self, basis: &[Vec<f64>]) -> bool {
+        let k = self.k;
+        let q: Vec<f64> = (0..k).map(|i| (1.3 * i as f64 + 0.4).cos()).collect();
+        let mut eq = vec![0.0; k];
+        self.e_times(&q, &mut eq);
+        let norm = eq.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for v in basis {
+            let c: f64 = v.iter().zip(&eq).map(|(a, b)| a * b).sum();
+            axpy(-c, v, &mut eq);
+        }
+        let outside = eq.iter().map(|v| v * v).sum::<f64>().sqrt();
+        outside <= KRYLOV_RANGE_TOLERANCE * norm.max(f64::MIN_POSITIVE)
     }
 
     /// w = S v = D v − R A⁻¹ C v

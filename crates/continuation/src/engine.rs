@@ -1221,6 +1221,14 @@ pub(crate) fn correct_with_chord<S: ContinuationSystem>(
             };
             return Ok((u, lu));
         }
+        if size > 2.0 * last {
+            // diverging (a guess this close converges monotonically): stop before the
+            // iterates leave the cycle's neighbourhood (measured on the closed-loop
+            // diagram at L = 120: a correction whose first update was 0.13 went on to
+            // 1e46 in 12 iterations, its Jacobians reading the delay ahead — K ≈ 950
+            // border unknowns — each factorised densely once GMRES gave up)
+            break;
+        }
         if size <= 0.25 * last {
             kept = Some(step.lu);
         }

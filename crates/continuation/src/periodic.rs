@@ -1270,8 +1270,11 @@ fn dominant_multipliers(
 
 /// Monodromy matrices of at least this size are not formed: their dominant eigenvalues come
 /// from Arnoldi's method on the operator (one block forward solve per product), so the cost
-/// grows linearly in the mesh for a fixed τ/T instead of cubically.
-const ARNOLDI_MIN_SIZE: usize = 128;
+/// grows linearly in the mesh for a fixed τ/T instead of cubically. Measured on the
+/// closed-loop diagram (τ = 0.2 s, D = 0.1 s; operators of size 28–52 at L = 40, 68–124
+/// at L = 120): from 128 down to 40, L = 120 2.56 → 2.17 s, L = 40 0.67 → 0.64 s (24 and
+/// 60 within the noise of 40).
+const ARNOLDI_MIN_SIZE: usize = 40;
 
 /// The monodromy operator of a cycle's collocation: the history (nh nodes of n components
 /// on [−τ_max/T, 0]) carried over one period by the initial-value collocation (np nodes
@@ -1475,6 +1478,83 @@ mod tests {
             nonzero(sys.monodromy_multipliers(&u, None).unwrap()),
             forward,
         )
+    }
+
+    /// The block-forward solver on a genuine delayed cycle's Newton matrix with a border
+    /// too large to form its Schur complement (PhaseCoupled, K ≥ ITERATIVE_MIN_BORDER),
+    /// against nalgebra's dense LU of the same matrix (independent): the determinant from
+    /// the Arnoldi process on E = S + I — sign exact, log |det| to 1e-9 relative — and the
+    /// solution to 1e-10 relative. How many products that takes follows the spectrum of
+    /// the period map, |μ_k| ~ (κ/ω_k)^(T/τ) for the k-th characteristic root ω_k of the
+    /// delayed term: at τ/T = 0.1 a Krylov space small against K holds E's range
+    /// (measured 6 vectors for K = 60), at τ/T = 1/2 the multipliers fall
+    /// off only like k⁻² and the process runs to the whole space (K = 196: exact, at the
+    /// cost of the dense complement). Measured errors 5e-16 in log |det|, 4e-15 in x.
+    #[test]
+    fn krylov_determinant_on_a_delayed_cycle() {
+        use nalgebra::{DMatrix, DVector};
+        for (r, intervals) in [(0.1, 64), (0.5, 48)] {
+            let problem = PhaseCoupled {
+                omega: 2.0,
+                kappa: 0.3,
+                r,
+            };
+            let options = CollocationOptions {
+                intervals,
+                degree: 4,
+                ..CollocationOptions::default()
+            };
+            let period = 2.0 * PI / problem.omega;
+            let mut sys = PeriodicOrbitSystem::new(&problem, vec![0.0], 0, options).unwrap();
+            let u = sys.unknowns_from(
+                |s| vec![(2.0 * PI * s).cos(), (2.0 * PI * s).sin()],
+                period,
+                0.0,
+            );
+            sys.set_reference(&u);
+            let nu = u.len();
+            let mut entries = Vec::new();
+            sys.jacobian(&u, &mut entries).unwrap();
+            // the arclength row along the period and the parameter
+            entries.push(Entry::new(nu - 1, nu - 2, 0.6));
+            entries.push(Entry::new(nu - 1, nu - 1, 0.8));
+            let structure = sys.mesh_structure().expect("mesh structure");
+            let lu = crate::block_forward::PeriodicForwardLu::new(nu, &entries, &structure, true)
+                .expect("block-forward shape");
+            let (k, krylov_size) = lu.border_and_krylov_size();
+            assert!(
+                k >= crate::block_forward::ITERATIVE_MIN_BORDER,
+                "τ/T = {r}: K = {k}"
+            );
+            if r < 0.2 {
+                let size = krylov_size.expect("the determinant from a Krylov space");
+                assert!(
+                    size < k / 4,
+                    "τ/T = {r}: Krylov space of {size} for K = {k}"
+                );
+            }
+            let mut a = DMatrix::<f64>::zeros(nu, nu);
+            for e in &entries {
+                a[(e.row, e.col)] += e.val;
+            }
+            let dense = a.lu();
+            // log |det| and sign from the factors (det itself under- or overflows)
+            let diagonal = dense.u().diagonal();
+            let log_det: f64 = diagonal.iter().map(|v| v.abs().ln()).sum();
+            let sign = diagonal
+                .iter()
+                .fold(dense.p().determinant::<f64>(), |s, v| s * v.signum());
+            let d = lu.determinant().expect("determinant asked for");
+            assert_eq!(d.sign, sign, "τ/T = {r}");
+            let rel = (d.log_abs - log_det).abs() / log_det.abs().max(1.0);
+            assert!(rel < 1e-9, "τ/T = {r}: log |det| off by {rel:e}");
+            let b: Vec<f64> = (0..nu).map(|i| (i as f64 * 0.37).sin()).collect();
+            let mut x = b.clone();
+            lu.solve(&mut x);
+            let reference = dense.solve(&DVector::from_vec(b)).expect("regular");
+            let err = (DVector::from_vec(x) - &reference).amax() / reference.amax();
+            assert!(err < 1e-10, "τ/T = {r}: solution error {err:e}");
+        }
     }
 
     /// The multipliers read off the Newton matrix's block-forward factorisation

@@ -15,6 +15,13 @@
 //! The starting point was 6.1 / 22.8 / 137 / 757 ms. With the block-forward
 //! layouts kept per pattern (stop 38, idle machine): 0.84 / 1.74 / 3.40 / 7.27 ms, L = 160
 //! 4.2× L = 40.
+//!
+//! Stop 41 (GMRES and the Arnoldi determinant from K = 40 on, the forward solves by
+//! columns; 2026-12-05): 0.73 / 1.51 / 3.23 / 7.55 ms (5.0×) in a slow spell of the host;
+//! L = 40 and 160 again, twice: 1.56 / 7.72 and 1.54 / 7.54 ms (4.95×, 4.88×); an hour
+//! earlier, with the forward solves dividing by the pivots, 0.74 / 1.46 / 3.18 / 6.78 ms
+//! (4.6×). L = 40 got 1.2× faster than stop 38's, L = 160 did not: the ratio is at the
+//! target's edge. The cycle's own step: 0.22 / 0.39 / 0.82 / 1.80 ms.
 use continuation::*;
 use continuation_textbook::DelayedBautin;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};

@@ -156,14 +156,16 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// x ← a⁻¹ x as [`lu_solve`], with the LU factors stored by columns (`at`: column-major
-/// s × s): both sweeps by columns, each solved unknown subtracted from the ones still to
-/// solve by a contiguous axpy, so that the updates do not wait on one another (a dot
-/// product per row chains every addition behind the one before). The inner loop of the
-/// one-right-hand-side forward solves — the GMRES and Arnoldi products: the closed-loop
-/// diagram at L = 120 took 2.05–2.12 s with the row-wise sweep, 1.82–1.87 s by columns
-/// (three runs each). Storing U's pivots' reciprocals instead of dividing was slower
-/// (2.29 s): rounding differently, more of GMRES's tolerance of 1e-12 went unmet and fell
-/// back to the dense Schur complement
+/// s × s, the reciprocals of U's pivots on the diagonal): both sweeps by columns, each
+/// solved unknown subtracted from the ones still to solve by a contiguous axpy, so that
+/// the updates do not wait on one another (a dot product per row chains every addition
+/// behind the one before), and a multiplication where a division would stand on the
+/// backward sweep's critical path. The inner loop of the one-right-hand-side forward
+/// solves — the GMRES and Arnoldi products. Measured on the closed-loop diagram at
+/// L = 120 (criterion medians): the row-wise sweep 2.05–2.12 s, by columns 1.82–1.87 s,
+/// with the reciprocals 1.73 s. (The reciprocals measured slower before the diverging
+/// kink corrections were cut short: their rounding sent one such correction into dense
+/// K ≈ 950 factorisations.)
 fn lu_solve_by_columns(at: &[f64], s: usize, piv: &[usize], x: &mut [f64]) {
     for (j, &p) in piv.iter().enumerate() {
         x.swap(j, p);
@@ -176,7 +178,7 @@ fn lu_solve_by_columns(at: &[f64], s: usize, piv: &[usize], x: &mut [f64]) {
         }
     }
     for (j, col) in at.chunks_exact(s).enumerate().rev() {
-        let xj = x[j] / col[j];
+        let xj = x[j] * col[j];
         x[j] = xj;
         if xj != 0.0 {
             axpy(-xj, &col[..j], &mut x[..j]);
@@ -201,7 +203,8 @@ pub(crate) struct BlockLowerTriangular {
     n: usize,
     /// LU factors of the diagonal blocks, row-major s × s each
     diag: Vec<f64>,
-    /// the same, column-major (the one-right-hand-side solves sweep by columns)
+    /// the same, column-major with the pivots' reciprocals on the diagonal (the
+    /// one-right-hand-side solves sweep by columns)
     diag_columns: Vec<f64>,
     /// pivot rows (within the block) of each block's elimination steps
     piv: Vec<usize>,
@@ -254,7 +257,7 @@ impl BlockLowerTriangular {
             lu_in_place(block, s, p, &mut det)?;
             for (i, row) in block.chunks_exact(s).enumerate() {
                 for (j, &v) in row.iter().enumerate() {
-                    columns[j * s + i] = v;
+                    columns[j * s + i] = if i == j { 1.0 / v } else { v };
                 }
             }
         }

@@ -413,12 +413,7 @@ mod tests {
         let nb = intervals * D;
         let n = nb + 2;
         let mut seed = 12345u64;
-        let mut rand = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut rand = || crate::linalg::lcg(&mut seed);
         let mut e = Vec::new();
         for i in 0..intervals {
             let next = (i + 1) % intervals;

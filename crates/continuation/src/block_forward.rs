@@ -938,12 +938,11 @@ impl PeriodicForwardLu {
         let q: Vec<f64> = (0..k).map(|i| (1.3 * i as f64 + 0.4).cos()).collect();
         let mut eq = vec![0.0; k];
         self.e_times(&q, &mut eq);
-        let norm = eq.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let norm = dot(&eq, &eq).sqrt();
         for v in basis {
-            let c: f64 = v.iter().zip(&eq).map(|(a, b)| a * b).sum();
-            axpy(-c, v, &mut eq);
+            axpy(-dot(v, &eq), v, &mut eq);
         }
-        let outside = eq.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let outside = dot(&eq, &eq).sqrt();
         outside <= KRYLOV_RANGE_TOLERANCE * norm.max(f64::MIN_POSITIVE)
     }
 
@@ -1065,15 +1064,8 @@ impl KrylovOperator for PeriodicForwardLu {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::linalg::lcg;
     use nalgebra::{DMatrix, DVector};
-
-    /// seeded LCG in [−0.5, 0.5)
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-    }
 
     /// A matrix with the shape of a delay equation's periodic collocation (n states,
     /// degree m, L intervals; the delayed coupling reaching `lag` intervals back, wrapping

@@ -915,49 +915,51 @@ pub(crate) fn by_decreasing_modulus(a: &Complex64, b: &Complex64) -> std::cmp::O
 pub(crate) fn dominant_eigenvalues(
     dim: usize,
     wanted: usize,
-    mut apply: impl FnMut(&[f64], &mut [f64]),
+    apply: impl FnMut(&[f64], &mut [f64]),
 ) -> Result<Vec<Complex64>> {
-    let fail = |message: &str| Error::Eigen {
-        size: dim,
-        message: message.into(),
+    let ritz_values = |h: &[Vec<f64>]| -> Result<Vec<Complex64>> {
+        let size = h.len();
+        let hm = Mat::<f64>::from_fn(size, size, |r, c| h[c].get(r).copied().unwrap_or(0.0));
+        let mut ritz = eigenvalues(&hm)?;
+        ritz.sort_by(by_decreasing_modulus);
+        ritz.truncate(wanted);
+        Ok(ritz)
     };
-    let mut basis = vec![arnoldi_start(dim)];
-    // Hessenberg columns: h[j][i] = H(i, j), i ≤ j + 1
-    let mut h: Vec<Vec<f64>> = Vec::new();
+    // the Ritz values at sizes 2·wanted + 10, then every ARNOLDI_GROWTH more, until they
+    // settle (`done`: the settled values, or the eigenvalue solver's error)
     let mut previous: Vec<Complex64> = Vec::new();
     let mut check_at = (2 * wanted + 10).min(dim);
-    loop {
-        let j = h.len();
-        let mut w = vec![0.0; dim];
-        apply(&basis[j], &mut w);
-        if !w.iter().all(|x| x.is_finite()) {
-            return Err(fail("the operator gave non-finite values"));
+    let mut done: Option<Result<Vec<Complex64>>> = None;
+    let space = arnoldi(dim, dim, apply, |h| {
+        if h.len() != check_at {
+            return false;
         }
-        let scale = dot(&w, &w).sqrt();
-        let mut col = orthogonalise(&basis, &mut w);
-        let next = dot(&w, &w).sqrt();
-        col[j + 1] = next;
-        h.push(col);
-        let size = j + 1;
-        let invariant = next <= 1e-14 * scale.max(f64::MIN_POSITIVE);
-        if size == check_at || invariant || size == dim {
-            let hm = Mat::<f64>::from_fn(size, size, |r, c| h[c].get(r).copied().unwrap_or(0.0));
-            let mut ritz = eigenvalues(&hm)?;
-            ritz.sort_by(by_decreasing_modulus);
-            ritz.truncate(wanted);
-            let tol = ARNOLDI_TOLERANCE * ritz.first().map_or(1.0, |z| z.norm().max(1.0));
-            let settled = previous.len() == ritz.len()
-                && ritz
-                    .iter()
-                    .all(|z| previous.iter().any(|p| (z - p).norm() <= tol));
-            if settled || invariant || size == dim {
-                return Ok(ritz);
+        let ritz = match ritz_values(h) {
+            Ok(ritz) => ritz,
+            Err(e) => {
+                done = Some(Err(e));
+                return true;
             }
-            previous = ritz;
-            check_at = (check_at + ARNOLDI_GROWTH).min(dim);
+        };
+        let tol = ARNOLDI_TOLERANCE * ritz.first().map_or(1.0, |z| z.norm().max(1.0));
+        let settled = previous.len() == ritz.len()
+            && ritz
+                .iter()
+                .all(|z| previous.iter().any(|p| (z - p).norm() <= tol));
+        if settled {
+            done = Some(Ok(ritz));
+            return true;
         }
-        basis.push(w.iter().map(|x| x / next).collect());
-    }
+        previous = ritz;
+        check_at = (check_at + ARNOLDI_GROWTH).min(dim);
+        false
+    })
+    .ok_or_else(|| Error::Eigen {
+        size: dim,
+        message: "the operator gave non-finite values".into(),
+    })?;
+    // settled, or else the space is invariant or fills ℝ^dim: its Ritz values
+    done.unwrap_or_else(|| ritz_values(&space.h))
 }
 
 /// The start vector of the Arnoldi processes: fixed (the same numbers on every run), of
@@ -988,10 +990,11 @@ pub(crate) struct KrylovSpace {
     pub(crate) invariant: bool,
 }
 
-/// The Arnoldi process on E (`apply`: w = E v) from a fixed start vector (modified
-/// Gram–Schmidt twice: the same numbers on every run), until the space is invariant, or
-/// has `max_size` vectors, or `enough(h)` (asked every [`ARNOLDI_GROWTH`] products with
-/// the Hessenberg columns so far) says so. None if E gives non-finite values.
+/// The Arnoldi process on E (`apply`: w = E v, w zeroed before) from a fixed start vector
+/// (modified Gram–Schmidt twice: the same numbers on every run), until the space is
+/// invariant, or has `max_size` vectors, or `enough(h)` (asked after every product with
+/// the Hessenberg columns so far) says so. The one Krylov loop of [`dominant_eigenvalues`]
+/// and of the block-forward solver's determinant. None if E gives non-finite values.
 pub(crate) fn arnoldi(
     dim: usize,
     max_size: usize,
@@ -1004,6 +1007,7 @@ pub(crate) fn arnoldi(
     let mut w = vec![0.0; dim];
     loop {
         let j = h.len();
+        w.iter_mut().for_each(|x| *x = 0.0);
         apply(&basis[j], &mut w);
         if !w.iter().all(|x| x.is_finite()) {
             return None;
@@ -1015,7 +1019,7 @@ pub(crate) fn arnoldi(
         h.push(col);
         let size = j + 1;
         let invariant = next <= 1e-14 * scale.max(f64::MIN_POSITIVE) || size == dim;
-        let checked = size.is_multiple_of(ARNOLDI_GROWTH) && enough(&h);
+        let checked = enough(&h);
         if invariant || checked || size == max_size {
             return Some(KrylovSpace {
                 basis,
@@ -1035,10 +1039,13 @@ pub(crate) fn arnoldi(
 /// eigenvalues left out change log |det| by about their sum, and cannot change its sign
 /// once every eigenvalue of modulus ≥ 1 is in). Settled when two successive estimates
 /// (`h`, the Hessenberg columns so far, and `previous`, which keeps the last one) agree in
-/// sign and to [`KRYLOV_DETERMINANT_TOLERANCE`] in log |det|. Used as [`arnoldi`]'s
-/// `enough`: the cost is then j products and O(j²·dim) orthogonalisation, against dim
-/// products for the matrix of E.
+/// sign and to [`KRYLOV_DETERMINANT_TOLERANCE`] in log |det|, estimated every
+/// [`ARNOLDI_GROWTH`] products. Used as [`arnoldi`]'s `enough`: the cost is then j products
+/// and O(j²·dim) orthogonalisation, against dim products for the matrix of E.
 pub(crate) fn determinant_settled(previous: &mut Option<Determinant>, h: &[Vec<f64>]) -> bool {
+    if !h.len().is_multiple_of(ARNOLDI_GROWTH) {
+        return false;
+    }
     let Some(estimate) = identity_minus_hessenberg_determinant(h) else {
         return false;
     };
@@ -1106,6 +1113,16 @@ pub(crate) fn eigenvalues(a: &Mat<f64>) -> Result<Vec<Complex64>> {
     Ok(ev.into_iter().map(|z| Complex64::new(z.re, z.im)).collect())
 }
 
+/// The unit tests' seeded random numbers: a linear congruential generator (Knuth's MMIX
+/// constants), uniform in [−0.5, 0.5)
+#[cfg(test)]
+pub(crate) fn lcg(seed: &mut u64) -> f64 {
+    *seed = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    ((*seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1142,12 +1159,7 @@ mod tests {
     fn arnoldi_determinant_of_a_compact_operator() {
         let n = 200;
         let mut seed = 11u64;
-        let mut rand = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut rand = || crate::linalg::lcg(&mut seed);
         let p = DMatrix::<f64>::from_fn(n, n, |i, j| {
             f64::from(u8::from(i == j)) + 0.2 * rand() / (n as f64).sqrt()
         });
@@ -1246,12 +1258,7 @@ mod tests {
     fn arnoldi_finds_the_dominant_eigenvalues() {
         let n = 300;
         let mut seed = 99u64;
-        let mut rand = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut rand = || crate::linalg::lcg(&mut seed);
         let mut d = nalgebra::DMatrix::<f64>::zeros(n, n);
         d[(0, 0)] = 1.0;
         d[(1, 1)] = 0.9;

@@ -731,22 +731,9 @@ struct CorrectedFold<'a, P: LoopPlant<N>, const N: usize> {
     direction: Vec<f64>,
 }
 
-/// Whether V turns at point `i` of a branch: its neighbours lie on the same side of it in V
-/// (true at a branch end, where there is no neighbour to compare with).
-fn turns(points: &[continuation::BranchPoint], i: usize) -> bool {
-    let v = points[i].parameter;
-    match (
-        i.checked_sub(1).and_then(|k| points.get(k)),
-        points.get(i + 1),
-    ) {
-        (Some(a), Some(b)) => (v - a.parameter) * (b.parameter - v) <= 0.0,
-        _ => true,
-    }
-}
-
 /// The fold of the cycle branch of `diagram` corrected on the fold-of-cycles system at the
 /// diagram's gain, finally from the cycle's canonical phase. None if the cycle branch has
-/// no fold (no flagged fold at which V turns, [`turns`]).
+/// no fold (no flagged fold at which V has a local minimum, `lower_fold`).
 fn corrected_fold<'a, P: LoopPlant<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     diagram: &Diagram,
@@ -757,18 +744,10 @@ fn corrected_fold<'a, P: LoopPlant<N>, const N: usize>(
         "fold of cycles at D = {} s, τ = {} s",
         fb.gain_d_s, fb.delay_s
     );
-    // the first flagged fold at which V turns: the fold test (the tangent's V component
-    // changes sign) also fires where the oriented tangent flips at a singular point of the
-    // collocation system that is no turning point (V runs on through it; seen on a coarse
-    // mesh, L = 10, of a vehicle with V_crit = 17 m/s at V = 5.6 m/s, where L = 20 and 40
-    // pass smoothly). The fold-of-cycles system has no solution near such a point: Newton
-    // started there diverges.
-    let turning = diagram
-        .cycles
-        .special_points()
-        .filter(|(_, s)| s.kind == SpecialKind::Fold)
-        .map(|(i, _)| i)
-        .find(|&i| turns(&diagram.cycles.points, i));
+    // the fold of cycles: the first flagged fold at which V has a local minimum
+    // (`super::lower_fold`; a fold flag where V runs on is no turning point, and the
+    // fold-of-cycles system has no solution near it)
+    let turning = super::lower_fold(&diagram.cycles);
     let Some(i) = turning else {
         return Ok(None);
     };

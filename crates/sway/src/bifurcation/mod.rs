@@ -37,7 +37,7 @@ pub use closed_loop_diagrams::{
     PairDiagram, PairSummary, closed_loop_diagram, closed_loop_diagrams, common_range,
 };
 pub use ranged::{
-    BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, MARGIN_BELOW, NoHopf,
+    BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, HopfBubble, MARGIN_BELOW, NoHopf,
     cycle_diagram_with_law, cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
 };
 
@@ -185,13 +185,19 @@ pub struct Diagram {
     pub cycle_summary: Vec<CycleSummary>,
     /// criticality of the Hopf bifurcation (from the computed branch)
     pub criticality: Criticality,
-    /// the (first) fold of the cycle branch
+    /// the fold of cycles: the first fold of the cycle branch where V has a local minimum
+    /// (the lower end of the cycles; a fold where they turn back to lower speeds is not it)
     pub fold: Option<FoldPoint>,
     /// the speeds searched \[m/s\]: straight running from the first, the cycle branch
     /// within both
     pub searched_mps: [f64; 2],
     /// why the cycle branch ended
     pub cycle_branch_end: BranchEnd,
+    /// windows of instability below `hopf` whose cycles rejoin straight running (a Hopf
+    /// bubble each, passed over: `hopf` and `cycles` are those of the next loss of
+    /// stability); empty on a range the settings give
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bubbles: Vec<HopfBubble>,
 }
 
 fn num(context: String) -> impl FnOnce(continuation::Error) -> SwayError {
@@ -323,7 +329,7 @@ fn root_finder(degree: usize) -> ChebyshevRoots {
 
 /// the first fold of a cycle branch, in the paper's quantities
 fn fold_of(cycles: &Branch, summary: &[CycleSummary]) -> Option<FoldPoint> {
-    cycles.first(SpecialKind::Fold).map(|(i, _)| {
+    lower_fold(cycles).map(|i| {
         let c = summary[i];
         FoldPoint {
             speed_mps: c.speed_mps,
@@ -331,6 +337,55 @@ fn fold_of(cycles: &Branch, summary: &[CycleSummary]) -> Option<FoldPoint> {
             period_s: c.period_s,
         }
     })
+}
+
+/// How V turns at a flagged fold of a cycle branch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Turn {
+    /// V has a local minimum: the lower end of a range of coexisting cycles, the fold of
+    /// cycles of the paper (below it no kick triggers sway from this branch)
+    Lower,
+    /// V has a local maximum: the branch turns back to lower speeds (a supercritical Hopf
+    /// point whose stable cycles fold back, unstable, over straight running)
+    Upper,
+}
+
+/// How V turns at point `i` of `points` (None where it runs on through the flagged point:
+/// the fold test, the tangent's V component changing sign, also fires where the oriented
+/// tangent flips at a singular point of the collocation system that is no turning point).
+/// A missing neighbour (the branch's first or last point) does not contradict either.
+fn turn_at(points: &[continuation::BranchPoint], i: usize) -> Option<Turn> {
+    let v = points[i].parameter;
+    let neighbours = [
+        i.checked_sub(1).and_then(|k| points.get(k)),
+        points.get(i + 1),
+    ];
+    let lower = neighbours.iter().flatten().all(|p| p.parameter >= v);
+    let upper = neighbours.iter().flatten().all(|p| p.parameter <= v);
+    match (lower, upper) {
+        (true, false) | (true, true) => Some(Turn::Lower),
+        (false, true) => Some(Turn::Upper),
+        (false, false) => None,
+    }
+}
+
+/// The index of the first flagged fold of `cycles` at which V has a local minimum (the fold
+/// of cycles: [`Turn::Lower`]); an upper fold before it is passed over.
+pub(crate) fn lower_fold(cycles: &Branch) -> Option<usize> {
+    fold_turning(cycles, Turn::Lower)
+}
+
+/// The index of the first flagged fold of `cycles` at which V has a local maximum.
+pub(crate) fn upper_fold(cycles: &Branch) -> Option<usize> {
+    fold_turning(cycles, Turn::Upper)
+}
+
+fn fold_turning(cycles: &Branch, turn: Turn) -> Option<usize> {
+    cycles
+        .special_points()
+        .filter(|(_, s)| s.kind == SpecialKind::Fold)
+        .map(|(i, _)| i)
+        .find(|&i| turn_at(&cycles.points, i) == Some(turn))
 }
 
 /// Straight running x = 0 of `problem` continued in V from `v_min` to `v_max` (steps of
@@ -388,8 +443,9 @@ pub fn straight_running<P: LoopPlant<N>, const N: usize>(
 pub enum CycleExtent {
     /// until it leaves the speed range or has `max_cycle_points` points (the diagrams)
     WholeRange,
-    /// until the first fold of cycles (or as [`CycleExtent::WholeRange`] if there is none):
-    /// enough to start a fold-of-cycles curve
+    /// until the fold of cycles, the first fold where V has a local minimum (past a fold
+    /// where the cycles of a supercritical Hopf point turn back), or as
+    /// [`CycleExtent::WholeRange`] if there is none: enough to start a fold-of-cycles curve
     FirstFold,
 }
 
@@ -469,7 +525,7 @@ pub fn cycles_from_hopf_until<'a, P: LoopPlant<N>, const N: usize>(
         CycleExtent::FirstFold => {
             // in chunks (a resumed branch continues exactly as an uninterrupted one)
             const CHUNK: usize = 8;
-            while cycles.points.len() < max_points && cycles.first(SpecialKind::Fold).is_none() {
+            while cycles.points.len() < max_points && lower_fold(&cycles).is_none() {
                 let chunk = CHUNK.min(max_points - cycles.points.len());
                 let stop = cont
                     .extend(&mut po, &mut cycles, chunk)
@@ -575,5 +631,6 @@ pub fn bifurcation_diagram_with_law<P: LoopPlant<N>, const N: usize>(
         fold,
         searched_mps: [o.v_min_mps, o.v_max_mps],
         cycle_branch_end,
+        bubbles: Vec::new(),
     })
 }

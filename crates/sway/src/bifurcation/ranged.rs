@@ -160,7 +160,8 @@ pub enum BranchEnd {
         /// the end of the range it left \[m/s\]
         limit_mps: f64,
     },
-    /// it was continued only to its first fold ([`CycleExtent::FirstFold`])
+    /// it was continued only to its fold of cycles, the first fold where V has a local
+    /// minimum ([`CycleExtent::FirstFold`])
     FirstFold,
     /// the validity guard stopped it: the model is not physical on this cycle
     Guard {
@@ -181,7 +182,39 @@ pub enum BranchEnd {
         /// speed of its last point \[m/s\]
         speed_mps: f64,
     },
+    /// the cycles shrank back onto straight running: a second Hopf point (a Hopf bubble,
+    /// [`HopfBubble`])
+    RejoinsStraightRunning {
+        /// where the cycles vanish (their squared amplitude extrapolated to zero) \[m/s\]
+        speed_mps: f64,
+        /// the largest max |θ| on the branch \[deg\]
+        amplitude_deg: f64,
+    },
 }
+
+/// A cycle branch that never leaves straight running's neighbourhood: born at one Hopf point,
+/// it shrinks back onto straight running at another (a Hopf bubble: where a root pair
+/// crosses the axis and returns, or, past a fold, below its own Hopf point). Its cycles are
+/// tiny; the sway that matters starts at the next loss of stability above both, which the
+/// diagram follows instead.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HopfBubble {
+    /// the Hopf point the branch is born at \[m/s\]
+    pub opens_mps: f64,
+    /// where its cycles rejoin straight running (above or below `opens_mps`) \[m/s\]
+    pub closes_mps: f64,
+    /// the largest max |θ| of its cycles \[deg\]
+    pub amplitude_deg: f64,
+}
+
+/// A cycle branch whose max |θ| falls below this fraction of its largest value has met
+/// straight running again ([`BranchEnd::RejoinsStraightRunning`]): near a Hopf point the
+/// squared amplitude is linear in V, so it reaches zero within a step from there.
+const REJOIN_FRACTION: f64 = 0.02;
+
+/// At most this many windows of instability are passed over before the diagram keeps the
+/// cycles of the last one.
+const MAX_BUBBLES: usize = 4;
 
 impl BranchEnd {
     /// One sentence for the summary and the console.
@@ -211,6 +244,12 @@ impl BranchEnd {
             BranchEnd::StepUnderflow { speed_mps } => format!(
                 "the cycle branch could not be continued beyond {speed_mps:.3} m/s (step below its minimum)"
             ),
+            BranchEnd::RejoinsStraightRunning {
+                speed_mps,
+                amplitude_deg,
+            } => format!(
+                "the cycle branch shrinks back onto straight running at {speed_mps:.3} m/s, a second Hopf point (max |θ| ≤ {amplitude_deg:.2e}°)"
+            ),
         }
     }
 }
@@ -222,16 +261,45 @@ impl Diagram {
         if self.fold.is_some() {
             return None;
         }
-        Some(match self.criticality {
-            Criticality::Supercritical => format!(
+        let upper = super::upper_fold(&self.cycles).map(|i| self.cycle_summary[i].speed_mps);
+        let reason = match (self.criticality, upper) {
+            (Criticality::Supercritical, Some(v_up)) => format!(
+                "supercritical Hopf point at {:.4} m/s, but its stable cycles fold back at {v_up:.4} m/s and the branch returns, unstable, to lower speeds: no lower fold of cycles in the searched range ({})",
+                self.hopf.parameter,
+                self.cycle_branch_end.reason()
+            ),
+            (Criticality::Supercritical, None) if self.bubbles.is_empty() => format!(
                 "supercritical Hopf point: stable sway cycles grow from V_crit = {:.4} m/s; no fold of cycles and no bistable range",
+                self.hopf.parameter
+            ),
+            (Criticality::Supercritical, None) => format!(
+                "supercritical Hopf point: stable sway cycles grow from V = {:.4} m/s; no fold of cycles",
                 self.hopf.parameter
             ),
             _ => format!(
                 "no fold of cycles in the searched range: {} before it folded",
                 self.cycle_branch_end.reason()
             ),
+        };
+        Some(match self.bubbles_note() {
+            Some(note) => format!("{reason} ({note})"),
+            None => reason,
         })
+    }
+
+    /// The windows of instability passed over, in one clause (None without any).
+    pub fn bubbles_note(&self) -> Option<String> {
+        let windows: Vec<String> = self
+            .bubbles
+            .iter()
+            .map(|b| {
+                format!(
+                    "the cycles of the Hopf point at {:.4} m/s rejoin straight running at {:.4} m/s (max |θ| {:.1e}°)",
+                    b.opens_mps, b.closes_mps, b.amplitude_deg
+                )
+            })
+            .collect();
+        (!windows.is_empty()).then(|| format!("passed over below: {}", windows.join("; ")))
     }
 }
 
@@ -534,10 +602,20 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
     }
     let mut cycles = first.map_err(num(format!("{ctx}: first cycle")))?;
     let mut end = None;
+    // (V, max |θ|) of the branch's points so far, for the rejoin test
+    let mut amplitudes: Vec<(f64, f64)> = Vec::new();
+    let mut rejoin_bracket = None;
     let mut rules = |b: &Branch| {
         let Some(last) = b.points.last() else {
             return Decision::Continue;
         };
+        let theta_max = guard_sys.max_abs(&last.u, trailer_model::HITCH_ANGLE);
+        amplitudes.push((last.parameter, theta_max));
+        if let Some((rejoin, bracket)) = rejoins_straight_running(&amplitudes) {
+            end = Some(rejoin);
+            rejoin_bracket = Some(bracket);
+            return Decision::Stop;
+        }
         if let Some(condition) = cycle_loss_of_control(&guard_sys, problem, &last.u) {
             end = Some(BranchEnd::Guard {
                 condition,
@@ -548,7 +626,7 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
             });
             return Decision::Stop;
         }
-        if extent == CycleExtent::FirstFold && b.first(SpecialKind::Fold).is_some() {
+        if extent == CycleExtent::FirstFold && super::lower_fold(b).is_some() {
             end = Some(BranchEnd::FirstFold);
             return Decision::Stop;
         }
@@ -564,6 +642,21 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
         .extend_observed(&mut po, &mut cycles, o.max_cycle_points, &mut rules)
         .map_err(num(format!("{ctx}: cycle branch")))?;
     let last_v = cycles.points.last().map_or(hopf.parameter, |p| p.parameter);
+    // where the cycles rejoin straight running: located on its spectrum
+    if let (
+        Some(BranchEnd::RejoinsStraightRunning {
+            speed_mps,
+            amplitude_deg,
+        }),
+        Some(bracket),
+    ) = (end, rejoin_bracket)
+    {
+        end = Some(BranchEnd::RejoinsStraightRunning {
+            speed_mps: rejoin_hopf_speed(problem, params, o.root_degree, bracket)
+                .unwrap_or(speed_mps),
+            amplitude_deg,
+        });
+    }
     let end = match stop {
         Stop::Observer => end.unwrap_or(BranchEnd::Complete { speed_mps: last_v }),
         Stop::MaxPoints => BranchEnd::PointBudget {
@@ -588,6 +681,97 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
         )
     })?;
     Ok((po, cycles, crit, end))
+}
+
+/// The next Hopf point of straight running above `from` \[m/s\] (where a Hopf bubble's
+/// cycles rejoined it, or their Hopf point if higher): straight running continued from just
+/// past it (by 1e-3 of the speed, where it is stable again) to its next loss of stability
+/// below `v_hi`. None when it stays stable, diverges statically or is unstable there.
+///
+/// # Errors
+/// As [`straight_running_to_first_loss`].
+fn next_hopf_point<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
+    params: &[f64],
+    (from, v_hi): (f64, f64),
+    root_degree: usize,
+) -> Result<Option<HopfPoint>, SwayError> {
+    let from = from * (1.0 + 1e-3);
+    if from >= v_hi {
+        return Ok(None);
+    }
+    let (branch, loss) =
+        straight_running_to_first_loss(problem, params, (from, v_hi), root_degree)?;
+    let stable_start = branch.points.first().and_then(|p| p.is_stable()) == Some(true);
+    Ok(match loss {
+        FirstLoss::Hopf(h) if stable_start => Some(h),
+        _ => None,
+    })
+}
+
+/// The Hopf point of straight running near the speeds of `bracket` (the last cycle of a
+/// Hopf bubble and its collapsed successor), located where the rightmost complex root crosses
+/// the axis ([`locate_hopf`]); None without a sign change within 8 bracket lengths.
+fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
+    params: &[f64],
+    root_degree: usize,
+    (v_in, v_out): (f64, f64),
+) -> Option<f64> {
+    let mut p = params.to_vec();
+    p[SPEED] = v_in;
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree)).ok()?;
+    let point = |v: f64| {
+        let mut u = vec![0.0; N + 1];
+        u[N] = v;
+        u
+    };
+    // the collapsed cycle may still lie short of the Hopf point: the bracket is widened
+    // (doubled, up to 8 times its length) until the complex abscissa changes sign
+    (0..4).find_map(|k| {
+        let v_far = v_in + f64::from(1 << k) * (v_out - v_in);
+        let (u, _) = locate_hopf(&mut eq, &point(v_in), &point(v_far)).ok()?;
+        (u[N] != v_far).then_some(u[N])
+    })
+}
+
+/// [`BranchEnd::RejoinsStraightRunning`] when the last of a branch's (V, max |θ|) has fallen
+/// below [`REJOIN_FRACTION`] of the largest, with the speed where the squared amplitude of
+/// the last two points above it extrapolates to zero (the point below may lie past the Hopf
+/// point, on straight running seen as a cycle of any period), and the bracket (V of the last
+/// point above, V of the collapsed one) for [`rejoin_hopf_speed`].
+fn rejoins_straight_running(amplitudes: &[(f64, f64)]) -> Option<(BranchEnd, (f64, f64))> {
+    let &(v_last, a_last) = amplitudes.last()?;
+    let a_max = amplitudes.iter().map(|p| p.1).fold(0.0, f64::max);
+    if amplitudes.len() < 3 || a_last >= REJOIN_FRACTION * a_max {
+        return None;
+    }
+    let above: Vec<_> = amplitudes
+        .iter()
+        .rev()
+        .filter(|p| p.1 >= REJOIN_FRACTION * a_max)
+        .take(2)
+        .collect();
+    let speed_mps = match above[..] {
+        [&(v1, a1), &(v0, a0)] if a0 > a1 => {
+            let v = v1 + (v1 - v0) * a1 * a1 / (a0 * a0 - a1 * a1);
+            // between the last cycle above and the collapsed point
+            if (v - v1) * (v_last - v1) >= 0.0 && (v - v1).abs() <= (v_last - v1).abs() {
+                v
+            } else {
+                v_last
+            }
+        }
+        _ => v_last,
+    };
+    let v_above = above.first().map_or(v_last, |p| p.0);
+    Some((
+        BranchEnd::RejoinsStraightRunning {
+            speed_mps,
+            amplitude_deg: a_max.to_degrees(),
+        },
+        (v_above, v_last),
+    ))
 }
 
 /// The bifurcation diagram of `model` with `feedback`, on the speed range of `settings`
@@ -713,14 +897,55 @@ fn diagram_with_law<P: LoopPlant<N>, const N: usize>(
             },
         }));
     };
-    let vh = hopf.parameter;
-    let v_stop = match settings.v_max_mps {
+    let search = settings.options(lo, hi);
+    let v_stop = |vh: f64| match settings.v_max_mps {
         Some(_) => None,
         None => Some((1.0 + settings.beyond_hopf) * vh),
     };
-    let search = settings.options(lo, hi);
-    let (po, cycles, crit, end) =
-        cycles_with_stop_rules(&problem, &params, &hopf, &search, v_stop, extent)?;
+    let (mut hopf, mut bubbles) = (hopf, Vec::new());
+    let (mut po, mut cycles, mut crit, mut end) = cycles_with_stop_rules(
+        &problem,
+        &params,
+        &hopf,
+        &search,
+        v_stop(hopf.parameter),
+        extent,
+    )?;
+    // a Hopf bubble (cycles that rejoin straight running): the sway starts at the next Hopf
+    // point above it, if straight running loses stability again in the range
+    while let BranchEnd::RejoinsStraightRunning {
+        speed_mps: closes,
+        amplitude_deg,
+    } = end
+    {
+        if bubbles.len() == MAX_BUBBLES {
+            break;
+        }
+        // on upwards: cycles that turned back rejoin straight running below their Hopf point
+        let from = closes.max(hopf.parameter);
+        let Some(next) = next_hopf_point(&problem, &params, (from, hi), settings.root_degree)?
+        else {
+            break;
+        };
+        if next.parameter <= hopf.parameter {
+            break;
+        }
+        bubbles.push(HopfBubble {
+            opens_mps: hopf.parameter,
+            closes_mps: closes,
+            amplitude_deg,
+        });
+        (po, cycles, crit, end) = cycles_with_stop_rules(
+            &problem,
+            &params,
+            &next,
+            &search,
+            v_stop(next.parameter),
+            extent,
+        )?;
+        hopf = next;
+    }
+    let vh = hopf.parameter;
     let cycle_summary: Vec<_> = cycles
         .points
         .iter()
@@ -742,12 +967,15 @@ fn diagram_with_law<P: LoopPlant<N>, const N: usize>(
         p[SPEED] = vh;
         let mut eq = EquilibriumSystem::new(&problem, p, SPEED, root_finder(settings.root_degree))
             .map_err(num("straight running beyond the Hopf point".into()))?;
-        let n = ((plot_hi - vh) / 0.5).ceil() as usize + 4;
+        // from its last point: just past the first loss, below `vh` past a window
+        let v_from = equilibria.points.last().map_or(vh, |p| p.parameter.min(vh));
+        let n = ((plot_hi - v_from) / 0.5).ceil() as usize + 4;
         cont.extend(&mut eq, &mut equilibria, n)
             .map_err(num("straight running beyond the Hopf point".into()))?;
     }
     let fold = fold_of(&cycles, &cycle_summary);
     Ok(DiagramOutcome::Computed(Box::new(Diagram {
+        bubbles,
         feedback,
         law,
         options: settings.options(plot_lo, plot_hi),

@@ -769,3 +769,209 @@ fn a_window_of_instability_between_scan_samples_is_found() {
         v
     );
 }
+
+/// The speed between `a` and `b` (either order, on either side of one crossing) at which
+/// the exact unstable-root count of `c`'s loop changes, bisected to 1e-7 m/s.
+fn linear_crossing(m: &Model, c: &Controller, tau: f64, (a, b): (f64, f64)) -> f64 {
+    let (mut a, mut b) = (a.min(b), a.max(b));
+    let unstable = |v: f64| {
+        LinearLoop::new(m, c, v, tau, None)
+            .unwrap()
+            .unstable_root_count()
+            .unwrap()
+            > 0
+    };
+    let unstable_at_b = unstable(b);
+    assert_ne!(unstable(a), unstable_at_b, "no crossing in [{a}, {b}]");
+    while b - a > 1e-7 {
+        let mid = 0.5 * (a + b);
+        if unstable(mid) == unstable_at_b {
+            b = mid
+        } else {
+            a = mid
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// The nonlinear loop simulated (`sway::sim`, the DDE solver) at `speed` from straight
+/// running with the hitch angle θ(0) = `theta_deg`, for `horizon` s: (largest |θ| of the
+/// last period \[deg\], loss of control).
+fn simulated_sway(
+    m: &Model,
+    c: &Controller,
+    tau: f64,
+    speed: f64,
+    theta_deg: f64,
+    horizon: f64,
+) -> (Option<f64>, bool) {
+    use sway::sim::{
+        Controller as Law, MetricSettings, Recording, RunSettings, SimSpec, SolverSettings,
+        SpeedProfile, ValidityGuard,
+    };
+    let controller = Law::YawRateHitch {
+        gains: c.gains,
+        delay_s: tau,
+        actuator: c.actuator,
+        on_s: 0.0,
+        off_s: None,
+        limit: Default::default(),
+    };
+    let spec = SimSpec {
+        early_stop: sway::sim::EarlyStop::Never,
+        profile: SpeedProfile::Constant { speed_mps: speed },
+        controller,
+        horizon_s: horizon,
+        action_s: 0.0,
+        settings: RunSettings {
+            guard: ValidityGuard::Stop,
+            solver: SolverSettings {
+                rtol: 1e-9,
+                atol: 1e-11,
+                ..SolverSettings::default()
+            },
+            metrics: MetricSettings::default(),
+        },
+    };
+    let x0 = trailer_model::State7::from_column_slice(&[
+        0.0,
+        0.0,
+        0.0,
+        theta_deg.to_radians(),
+        0.0,
+        0.0,
+        0.0,
+    ]);
+    let r = sway::sim::simulate::<7>(m, &spec, x0, Recording::None).unwrap();
+    (
+        r.metrics.final_amplitude_deg,
+        r.metrics.loss_of_control_time_s.is_some(),
+    )
+}
+
+#[test]
+fn a_window_whose_cycles_rejoin_straight_running_is_passed_over() {
+    // control_design's yaw_rate_hitch + steering optimum at τ = 1.8 s. A root pair crosses
+    // the axis at V_crit ≈ 57.12 m/s and returns at ≈ 57.98 m/s; the cycles born at V_crit
+    // (max |θ| ≈ 3e-3°) shrink back onto straight running there. The diagram used to follow
+    // straight running on as a "cycle" of zero amplitude and reported a supercritical Hopf
+    // point with no fold and no bistable range. The sway starts at the next Hopf point
+    // (≈ 58.27 m/s), which is subcritical.
+    // References (the exact unstable-root count of the linear loop, bisected to 1e-7 m/s):
+    // the window's opening and closing to 1e-8 relative (all located on the spectrum, the
+    // regula falsi to 1e-10·V; the bisection's 1e-7 m/s), the next Hopf point likewise. The
+    // nonlinear loop simulated 1 m/s below V_crit: a 0.01° kick decays, a 0.1° kick grows
+    // into loss of control (bistability below V_crit, which the old answer denied).
+    let m = table_i();
+    let c = Controller {
+        structure: Structure::YawRateHitch,
+        actuator: Actuator::Steering,
+        gains: Gains {
+            yaw_rate: 0.06423543651575456,
+            hitch_angle: -0.026208200825896144,
+            hitch_rate: -0.006679639135814763,
+        },
+    };
+    let tau = 1.8;
+    let search = SpeedSearch::default();
+    let limits = sway::ranging::SpeedLimits {
+        min_speed_mps: search.v_min_mps,
+        max_speed_mps: search.v_max_mps,
+        ..sway::ranging::SpeedLimits::default()
+    };
+    let chart = design_fold_chart(20);
+    let outcome = sway::bifurcation::cycle_diagram_with_law(
+        &m,
+        sway::bifurcation::Feedback {
+            gain_d_s: c.gains.yaw_rate,
+            delay_s: tau,
+        },
+        loop_law(&c).unwrap(),
+        &sway::bifurcation::DiagramSettings::from_options(&chart.cycles, None),
+        &limits,
+        sway::bifurcation::CycleExtent::FirstFold,
+    )
+    .unwrap();
+    let d = outcome.diagram().expect("a Hopf point");
+    let [bubble] = d.bubbles[..] else {
+        panic!("one window of instability, got {:?}", d.bubbles)
+    };
+    let opens = linear_crossing(&m, &c, tau, (56.0, 57.5));
+    let closes = linear_crossing(&m, &c, tau, (58.1, 57.5));
+    let next = linear_crossing(&m, &c, tau, (58.1, 59.0));
+    println!(
+        "bubble {bubble:?}; linear: opens {opens}, closes {closes}, next {next}; Hopf {}",
+        d.hopf.parameter
+    );
+    assert!(
+        (bubble.opens_mps - opens).abs() <= 1e-8 * opens + 1e-7,
+        "{bubble:?} vs {opens}"
+    );
+    assert!(
+        (bubble.closes_mps - closes).abs() <= 1e-8 * closes + 1e-7,
+        "{bubble:?} vs {closes}"
+    );
+    assert!(bubble.amplitude_deg < 1e-2, "{bubble:?}");
+    assert!(
+        (d.hopf.parameter - next).abs() <= 1e-8 * next + 1e-7,
+        "{} vs {next}",
+        d.hopf.parameter
+    );
+    assert_eq!(d.criticality, continuation::Criticality::Subcritical);
+    // its unstable cycles reach below V_crit: straight running is bistable there
+    let lowest = d
+        .cycle_summary
+        .iter()
+        .map(|s| s.speed_mps)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        lowest < opens - 1.0,
+        "the branch reaches down to {lowest} m/s"
+    );
+    let below = opens - 1.0;
+    let (small, lost_small) = simulated_sway(&m, &c, tau, below, 0.01, 200.0);
+    let (_, lost_large) = simulated_sway(&m, &c, tau, below, 0.1, 200.0);
+    assert!(
+        !lost_small && small.is_some_and(|a| a < 0.01),
+        "0.01° at {below} m/s: {small:?}"
+    );
+    assert!(lost_large, "0.1° at {below} m/s ends in loss of control");
+}
+
+#[test]
+fn a_supercritical_hopf_point_whose_cycles_fold_back_has_its_fold_below() {
+    // control_design's yaw_rate optimum at τ = 0.4 s (D = 0.1484 s): the Hopf point at
+    // V_crit ≈ 60.15 m/s is supercritical, but its stable cycles fold back at ≈ 60.77 m/s and
+    // the unstable branch runs down to a second fold at ≈ 49.25 m/s, where it turns into
+    // large stable cycles. The fold of cycles, the speed below which no kick triggers sway,
+    // is the lower one; it used to be reported as the first fold, 60.77 m/s, above V_crit.
+    // Reference: the nonlinear loop simulated (sway::sim, DDE solver) halfway between the
+    // lower fold and V_crit, where a 20° kick settles on a sway cycle of more than 10° and a
+    // 0.5° kick decays, and 2 m/s below the lower fold, where the 20° kick decays too.
+    let m = table_i();
+    let (d, tau) = (0.14843621379603142, 0.4);
+    let c = Controller::paper(d);
+    let search = SpeedSearch::default();
+    let v_crit = critical_speed(&m, &c, tau, None, &search).unwrap().unwrap();
+    let (v_fold, why) = fold_speed(&m, &c, tau, &design_fold_chart(20), &search).unwrap();
+    let v_fold = v_fold.unwrap_or_else(|| panic!("no fold: {why:?}"));
+    println!("V_crit {v_crit}, V_fold {v_fold}");
+    assert!(v_fold < v_crit - 5.0, "V_fold {v_fold}, V_crit {v_crit}");
+    let mid = 0.5 * (v_fold + v_crit);
+    let (large, lost) = simulated_sway(&m, &c, tau, mid, 20.0, 200.0);
+    assert!(
+        !lost && large.is_some_and(|a| a > 10.0),
+        "20° at {mid} m/s: {large:?}"
+    );
+    let (small, lost) = simulated_sway(&m, &c, tau, mid, 0.5, 200.0);
+    assert!(
+        !lost && small.is_some_and(|a| a < 0.1),
+        "0.5° at {mid} m/s: {small:?}"
+    );
+    let (large, lost) = simulated_sway(&m, &c, tau, v_fold - 2.0, 20.0, 200.0);
+    assert!(
+        !lost && large.is_some_and(|a| a < 0.1),
+        "20° at {} m/s: {large:?}",
+        v_fold - 2.0
+    );
+}

@@ -19,7 +19,7 @@
 
 use continuation::{
     ArclengthWeights, Branch, ChebyshevRoots, CollocationOptions, Continuation,
-    ContinuationOptions, Criticality, EquilibriumSystem, FloquetMultipliers, HopfPoint,
+    ContinuationOptions, Criticality, Decision, EquilibriumSystem, FloquetMultipliers, HopfPoint,
     PeriodicOrbitSystem, Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
@@ -479,6 +479,27 @@ pub fn cycles_from_hopf<'a, P: LoopPlant<N>, const N: usize>(
     )
 }
 
+/// The first cycle of the branch born at `hopf`, at `amplitude` along the critical
+/// eigenvector; where Newton does not converge from it (a branch that bends sharply, or a
+/// Hopf bubble smaller than the amplitude: the normal form's guess is good only closer to
+/// the Hopf point), again at a tenth and a hundredth of it.
+pub(crate) fn first_cycle<'a, P: LoopPlant<N>, const N: usize>(
+    cont: &Continuation,
+    po: &mut PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
+    hopf: &HopfPoint,
+    amplitude: f64,
+) -> continuation::Result<Branch> {
+    let mut first = Err(continuation::Error::InvalidInput(String::new()));
+    for shrink in [1.0, 0.1, 0.01] {
+        let (guess, dir) = po.hopf_guess(hopf, shrink * amplitude);
+        first = cont.start(po, &guess, &dir);
+        if first.is_ok() {
+            break;
+        }
+    }
+    first
+}
+
 /// [`cycles_from_hopf`] continued as far as `extent` says.
 ///
 /// # Errors
@@ -511,15 +532,28 @@ pub fn cycles_from_hopf_until<'a, P: LoopPlant<N>, const N: usize>(
     });
     let mut p = params.to_vec();
     p[SPEED] = hopf.parameter;
-    let mut po =
+    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
+        .map_err(num(ctx.clone()))?;
+    // a second system on the same mesh measures the cycles: a branch that shrinks back onto
+    // straight running (a Hopf bubble) stops there instead of following it as a "cycle"
+    let gauge =
         PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
-    let (guess, dir) = po.hopf_guess(hopf, o.hopf_amplitude);
-    let mut cycles = cont
-        .start(&mut po, &guess, &dir)
+    let mut amplitudes: Vec<(f64, f64)> = Vec::new();
+    let mut rejoin = |b: &Branch| {
+        let Some(last) = b.points.last() else {
+            return Decision::Continue;
+        };
+        amplitudes.push((last.parameter, gauge.max_abs(&last.u, HITCH_ANGLE)));
+        match ranged::rejoins_straight_running(&amplitudes) {
+            Some(_) => Decision::Stop,
+            None => Decision::Continue,
+        }
+    };
+    let mut cycles = first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
         .map_err(num(format!("{ctx}: first cycle")))?;
     match extent {
         CycleExtent::WholeRange => {
-            cont.extend(&mut po, &mut cycles, max_points)
+            cont.extend_observed(&mut po, &mut cycles, max_points, &mut rejoin)
                 .map_err(num(format!("{ctx}: cycle branch")))?;
         }
         CycleExtent::FirstFold => {
@@ -528,7 +562,7 @@ pub fn cycles_from_hopf_until<'a, P: LoopPlant<N>, const N: usize>(
             while cycles.points.len() < max_points && lower_fold(&cycles).is_none() {
                 let chunk = CHUNK.min(max_points - cycles.points.len());
                 let stop = cont
-                    .extend(&mut po, &mut cycles, chunk)
+                    .extend_observed(&mut po, &mut cycles, chunk, &mut rejoin)
                     .map_err(num(format!("{ctx}: cycle branch")))?;
                 if stop != continuation::Stop::MaxPoints {
                     break;
@@ -601,7 +635,26 @@ pub fn bifurcation_diagram_with_law<P: LoopPlant<N>, const N: usize>(
         .collect();
     let fold = fold_of(&cycles, &cycle_summary);
     let last_v = cycle_summary.last().map_or(hopf.parameter, |c| c.speed_mps);
-    let cycle_branch_end = if last_v < o.v_min_mps || last_v > o.v_max_mps {
+    let amplitudes: Vec<(f64, f64)> = cycle_summary
+        .iter()
+        .map(|c| (c.speed_mps, c.amplitude_deg))
+        .collect();
+    let rejoin = ranged::rejoins_straight_running(&amplitudes);
+    let cycle_branch_end = if let Some((
+        BranchEnd::RejoinsStraightRunning {
+            speed_mps,
+            amplitude_deg,
+        },
+        bracket,
+    )) = rejoin
+    {
+        // the test is scale-free: fed degrees, its "amplitude_deg" came back converted twice
+        BranchEnd::RejoinsStraightRunning {
+            speed_mps: ranged::rejoin_hopf_speed(&problem, &params, o.root_degree, bracket)
+                .unwrap_or(speed_mps),
+            amplitude_deg: amplitude_deg.to_radians(),
+        }
+    } else if last_v < o.v_min_mps || last_v > o.v_max_mps {
         BranchEnd::SpeedRange {
             speed_mps: last_v,
             limit_mps: if last_v < o.v_min_mps {

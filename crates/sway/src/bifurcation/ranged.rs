@@ -589,18 +589,8 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
     // a second system on the same (fixed) mesh evaluates the profiles for the guard
     let guard_sys =
         PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
-    // the first cycle at the configured amplitude; where Newton does not converge from it
-    // (a branch that bends sharply: the normal form's guess is good only closer to the
-    // Hopf point), again at a tenth and a hundredth of it
-    let mut first = Err(continuation::Error::InvalidInput(String::new()));
-    for shrink in [1.0, 0.1, 0.01] {
-        let (guess, dir) = po.hopf_guess(hopf, shrink * o.hopf_amplitude);
-        first = cont.start(&mut po, &guess, &dir);
-        if first.is_ok() {
-            break;
-        }
-    }
-    let mut cycles = first.map_err(num(format!("{ctx}: first cycle")))?;
+    let mut cycles = super::first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
+        .map_err(num(format!("{ctx}: first cycle")))?;
     let mut end = None;
     // (V, max |θ|) of the branch's points so far, for the rejoin test
     let mut amplitudes: Vec<(f64, f64)> = Vec::new();
@@ -712,7 +702,7 @@ fn next_hopf_point<P: LoopPlant<N>, const N: usize>(
 /// The Hopf point of straight running near the speeds of `bracket` (the last cycle of a
 /// Hopf bubble and its collapsed successor), located where the rightmost complex root crosses
 /// the axis ([`locate_hopf`]); None without a sign change within 8 bracket lengths.
-fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
+pub(super) fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     root_degree: usize,
@@ -740,7 +730,9 @@ fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
 /// the last two points above it extrapolates to zero (the point below may lie past the Hopf
 /// point, on straight running seen as a cycle of any period), and the bracket (V of the last
 /// point above, V of the collapsed one) for [`rejoin_hopf_speed`].
-fn rejoins_straight_running(amplitudes: &[(f64, f64)]) -> Option<(BranchEnd, (f64, f64))> {
+pub(super) fn rejoins_straight_running(
+    amplitudes: &[(f64, f64)],
+) -> Option<(BranchEnd, (f64, f64))> {
     let &(v_last, a_last) = amplitudes.last()?;
     let a_max = amplitudes.iter().map(|p| p.1).fold(0.0, f64::max);
     if amplitudes.len() < 3 || a_last >= REJOIN_FRACTION * a_max {

@@ -918,6 +918,29 @@ fn a_window_whose_cycles_rejoin_straight_running_is_passed_over() {
         d.hopf.parameter
     );
     assert_eq!(d.criticality, continuation::Criticality::Subcritical);
+    // on a range the settings give (50–60 m/s) the bubble is where the branch ends
+    let fixed = sway::bifurcation::bifurcation_diagram_with_law(
+        &m,
+        sway::bifurcation::Feedback {
+            gain_d_s: c.gains.yaw_rate,
+            delay_s: tau,
+        },
+        loop_law(&c).unwrap(),
+        &sway::bifurcation::DiagramOptions {
+            v_min_mps: 50.0,
+            v_max_mps: 60.0,
+            ..chart.cycles.clone()
+        },
+        sway::bifurcation::CycleExtent::WholeRange,
+    )
+    .unwrap();
+    match fixed.cycle_branch_end {
+        sway::bifurcation::BranchEnd::RejoinsStraightRunning { speed_mps, .. } => assert!(
+            (speed_mps - closes).abs() <= 1e-8 * closes + 1e-7,
+            "{speed_mps} vs {closes}"
+        ),
+        other => panic!("the fixed-range branch ends {other:?}"),
+    }
     // its unstable cycles reach below V_crit: straight running is bistable there
     let lowest = d
         .cycle_summary

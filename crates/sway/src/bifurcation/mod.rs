@@ -544,9 +544,10 @@ pub fn cycles_from_hopf_until<'a, P: LoopPlant<N>, const N: usize>(
             return Decision::Continue;
         };
         amplitudes.push((last.parameter, gauge.max_abs(&last.u, HITCH_ANGLE)));
-        match ranged::rejoins_straight_running(&amplitudes) {
-            Some(_) => Decision::Stop,
-            None => Decision::Continue,
+        if ranged::collapsed(&amplitudes) {
+            Decision::Stop
+        } else {
+            Decision::Continue
         }
     };
     let mut cycles = first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
@@ -637,23 +638,11 @@ pub fn bifurcation_diagram_with_law<P: LoopPlant<N>, const N: usize>(
     let last_v = cycle_summary.last().map_or(hopf.parameter, |c| c.speed_mps);
     let amplitudes: Vec<(f64, f64)> = cycle_summary
         .iter()
-        .map(|c| (c.speed_mps, c.amplitude_deg))
+        .map(|c| (c.speed_mps, c.amplitude_deg.to_radians()))
         .collect();
-    let rejoin = ranged::rejoins_straight_running(&amplitudes);
-    let cycle_branch_end = if let Some((
-        BranchEnd::RejoinsStraightRunning {
-            speed_mps,
-            amplitude_deg,
-        },
-        bracket,
-    )) = rejoin
-    {
-        // the test is scale-free: fed degrees, its "amplitude_deg" came back converted twice
-        BranchEnd::RejoinsStraightRunning {
-            speed_mps: ranged::rejoin_hopf_speed(&problem, &params, o.root_degree, bracket)
-                .unwrap_or(speed_mps),
-            amplitude_deg: amplitude_deg.to_radians(),
-        }
+    let rejoin = ranged::rejoin_end(&problem, &params, o.root_degree, &amplitudes);
+    let cycle_branch_end = if let Some(end) = rejoin {
+        end
     } else if last_v < o.v_min_mps || last_v > o.v_max_mps {
         BranchEnd::SpeedRange {
             speed_mps: last_v,

@@ -594,25 +594,22 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
     let mut end = None;
     // (V, max |θ|) of the branch's points so far, for the rejoin test
     let mut amplitudes: Vec<(f64, f64)> = Vec::new();
-    let mut rejoin_bracket = None;
+    let mut rejoined = false;
     let mut rules = |b: &Branch| {
         let Some(last) = b.points.last() else {
             return Decision::Continue;
         };
         let theta_max = guard_sys.max_abs(&last.u, trailer_model::HITCH_ANGLE);
         amplitudes.push((last.parameter, theta_max));
-        if let Some((rejoin, bracket)) = rejoins_straight_running(&amplitudes) {
-            end = Some(rejoin);
-            rejoin_bracket = Some(bracket);
+        if collapsed(&amplitudes) {
+            rejoined = true;
             return Decision::Stop;
         }
         if let Some(condition) = cycle_loss_of_control(&guard_sys, problem, &last.u) {
             end = Some(BranchEnd::Guard {
                 condition,
                 speed_mps: last.parameter,
-                amplitude_deg: guard_sys
-                    .max_abs(&last.u, trailer_model::HITCH_ANGLE)
-                    .to_degrees(),
+                amplitude_deg: theta_max.to_degrees(),
             });
             return Decision::Stop;
         }
@@ -632,20 +629,8 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
         .extend_observed(&mut po, &mut cycles, o.max_cycle_points, &mut rules)
         .map_err(num(format!("{ctx}: cycle branch")))?;
     let last_v = cycles.points.last().map_or(hopf.parameter, |p| p.parameter);
-    // where the cycles rejoin straight running: located on its spectrum
-    if let (
-        Some(BranchEnd::RejoinsStraightRunning {
-            speed_mps,
-            amplitude_deg,
-        }),
-        Some(bracket),
-    ) = (end, rejoin_bracket)
-    {
-        end = Some(BranchEnd::RejoinsStraightRunning {
-            speed_mps: rejoin_hopf_speed(problem, params, o.root_degree, bracket)
-                .unwrap_or(speed_mps),
-            amplitude_deg,
-        });
+    if rejoined {
+        end = rejoin_end(problem, params, o.root_degree, &amplitudes);
     }
     let end = match stop {
         Stop::Observer => end.unwrap_or(BranchEnd::Complete { speed_mps: last_v }),
@@ -699,10 +684,28 @@ fn next_hopf_point<P: LoopPlant<N>, const N: usize>(
     })
 }
 
+/// [`BranchEnd::RejoinsStraightRunning`] of a branch whose (V, max |θ| \[rad\]) per point are
+/// `amplitudes`, if its last cycle has collapsed ([`rejoins_straight_running`]): the speed
+/// is the Hopf point of straight running located on its spectrum ([`rejoin_hopf_speed`]),
+/// else the extrapolated one.
+pub(super) fn rejoin_end<P: LoopPlant<N>, const N: usize>(
+    problem: &ClosedLoop<'_, P, N>,
+    params: &[f64],
+    root_degree: usize,
+    amplitudes: &[(f64, f64)],
+) -> Option<BranchEnd> {
+    let r = rejoins_straight_running(amplitudes)?;
+    Some(BranchEnd::RejoinsStraightRunning {
+        speed_mps: rejoin_hopf_speed(problem, params, root_degree, r.bracket)
+            .unwrap_or(r.estimate_mps),
+        amplitude_deg: r.amplitude_rad.to_degrees(),
+    })
+}
+
 /// The Hopf point of straight running near the speeds of `bracket` (the last cycle of a
 /// Hopf bubble and its collapsed successor), located where the rightmost complex root crosses
 /// the axis ([`locate_hopf`]); None without a sign change within 8 bracket lengths.
-pub(super) fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
+fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     root_degree: usize,
@@ -725,14 +728,27 @@ pub(super) fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
     })
 }
 
-/// [`BranchEnd::RejoinsStraightRunning`] when the last of a branch's (V, max |θ|) has fallen
-/// below [`REJOIN_FRACTION`] of the largest, with the speed where the squared amplitude of
-/// the last two points above it extrapolates to zero (the point below may lie past the Hopf
-/// point, on straight running seen as a cycle of any period), and the bracket (V of the last
-/// point above, V of the collapsed one) for [`rejoin_hopf_speed`].
-pub(super) fn rejoins_straight_running(
-    amplitudes: &[(f64, f64)],
-) -> Option<(BranchEnd, (f64, f64))> {
+/// Whether the last cycle of a branch with (V, max |θ|) per point `amplitudes` has shrunk
+/// back onto straight running ([`rejoins_straight_running`]).
+pub(super) fn collapsed(amplitudes: &[(f64, f64)]) -> bool {
+    rejoins_straight_running(amplitudes).is_some()
+}
+
+/// A cycle branch that has shrunk back onto straight running ([`rejoins_straight_running`]).
+struct Rejoin {
+    /// where the squared amplitude of the last two cycles above the threshold extrapolates
+    /// to zero \[m/s\]
+    estimate_mps: f64,
+    /// the largest max |θ| on the branch \[rad\]
+    amplitude_rad: f64,
+    /// (V of the last cycle above the threshold, V of the collapsed one) \[m/s\]
+    bracket: (f64, f64),
+}
+
+/// A [`Rejoin`] when the last of a branch's (V, max |θ|) has fallen below
+/// [`REJOIN_FRACTION`] of the largest (the collapsed point may lie past the Hopf point, on
+/// straight running seen as a cycle of any period).
+fn rejoins_straight_running(amplitudes: &[(f64, f64)]) -> Option<Rejoin> {
     let &(v_last, a_last) = amplitudes.last()?;
     let a_max = amplitudes.iter().map(|p| p.1).fold(0.0, f64::max);
     if amplitudes.len() < 3 || a_last >= REJOIN_FRACTION * a_max {
@@ -744,7 +760,7 @@ pub(super) fn rejoins_straight_running(
         .filter(|p| p.1 >= REJOIN_FRACTION * a_max)
         .take(2)
         .collect();
-    let speed_mps = match above[..] {
+    let estimate_mps = match above[..] {
         [&(v1, a1), &(v0, a0)] if a0 > a1 => {
             let v = v1 + (v1 - v0) * a1 * a1 / (a0 * a0 - a1 * a1);
             // between the last cycle above and the collapsed point
@@ -756,14 +772,11 @@ pub(super) fn rejoins_straight_running(
         }
         _ => v_last,
     };
-    let v_above = above.first().map_or(v_last, |p| p.0);
-    Some((
-        BranchEnd::RejoinsStraightRunning {
-            speed_mps,
-            amplitude_deg: a_max.to_degrees(),
-        },
-        (v_above, v_last),
-    ))
+    Some(Rejoin {
+        estimate_mps,
+        amplitude_rad: a_max,
+        bracket: (above.first().map_or(v_last, |p| p.0), v_last),
+    })
 }
 
 /// The bifurcation diagram of `model` with `feedback`, on the speed range of `settings`

@@ -644,6 +644,34 @@ fn predictor_characteristic(
     cplx(1.0) + first + (&k * y)[0]
 }
 
+/// The cycle branch of `c`'s loop at delay `tau` from its first Hopf point to its fold of
+/// cycles, on the speed range of `search` and `control_design`'s cycle mesh (L = 20): what
+/// [`fold_speed`] continues.
+fn design_diagram(
+    m: &Model,
+    c: &Controller,
+    tau: f64,
+    search: &SpeedSearch,
+) -> sway::bifurcation::DiagramOutcome {
+    let limits = sway::ranging::SpeedLimits {
+        min_speed_mps: search.v_min_mps,
+        max_speed_mps: search.v_max_mps,
+        ..sway::ranging::SpeedLimits::default()
+    };
+    sway::bifurcation::cycle_diagram_with_law(
+        m,
+        sway::bifurcation::Feedback {
+            gain_d_s: c.gains.yaw_rate,
+            delay_s: tau,
+        },
+        loop_law(c).unwrap(),
+        &sway::bifurcation::DiagramSettings::from_options(&design_fold_chart(20).cycles, None),
+        &limits,
+        sway::bifurcation::CycleExtent::FirstFold,
+    )
+    .unwrap()
+}
+
 /// `control_design`'s fold computation ([`fold_speed`]'s chart options) on a cycle mesh of
 /// `intervals`.
 fn design_fold_chart(intervals: usize) -> sway::bifurcation::chart::ChartOptions {
@@ -678,24 +706,7 @@ fn fold_of_a_design_whose_hopf_point_lies_between_the_grid_speeds() {
     let c = Controller::paper(d);
     let search = SpeedSearch::default();
     let v_crit = critical_speed(&m, &c, tau, None, &search).unwrap().unwrap();
-    let limits = sway::ranging::SpeedLimits {
-        min_speed_mps: search.v_min_mps,
-        max_speed_mps: search.v_max_mps,
-        ..sway::ranging::SpeedLimits::default()
-    };
-    let chart = design_fold_chart(20);
-    let outcome = sway::bifurcation::cycle_diagram_with_law(
-        &m,
-        sway::bifurcation::Feedback {
-            gain_d_s: d,
-            delay_s: tau,
-        },
-        loop_law(&c).unwrap(),
-        &sway::bifurcation::DiagramSettings::from_options(&chart.cycles, None),
-        &limits,
-        sway::bifurcation::CycleExtent::FirstFold,
-    )
-    .unwrap();
+    let outcome = design_diagram(&m, &c, tau, &search);
     let hopf = outcome.diagram().expect("a Hopf point").hopf.parameter;
     assert!(
         (hopf - v_crit).abs() <= 1e-9 * v_crit,
@@ -852,7 +863,7 @@ fn simulated_sway(
 #[test]
 fn a_window_whose_cycles_rejoin_straight_running_is_passed_over() {
     // control_design's yaw_rate_hitch + steering optimum at τ = 1.8 s. A root pair crosses
-    // the axis at V_crit ≈ 57.12 m/s and returns at ≈ 57.98 m/s; the cycles born at V_crit
+    // the axis at V_crit ≈ 57.12 m/s and returns at ≈ 58.00 m/s; the cycles born at V_crit
     // (max |θ| ≈ 3e-3°) shrink back onto straight running there. The diagram used to follow
     // straight running on as a "cycle" of zero amplitude and reported a supercritical Hopf
     // point with no fold and no bistable range. The sway starts at the next Hopf point
@@ -873,25 +884,7 @@ fn a_window_whose_cycles_rejoin_straight_running_is_passed_over() {
         },
     };
     let tau = 1.8;
-    let search = SpeedSearch::default();
-    let limits = sway::ranging::SpeedLimits {
-        min_speed_mps: search.v_min_mps,
-        max_speed_mps: search.v_max_mps,
-        ..sway::ranging::SpeedLimits::default()
-    };
-    let chart = design_fold_chart(20);
-    let outcome = sway::bifurcation::cycle_diagram_with_law(
-        &m,
-        sway::bifurcation::Feedback {
-            gain_d_s: c.gains.yaw_rate,
-            delay_s: tau,
-        },
-        loop_law(&c).unwrap(),
-        &sway::bifurcation::DiagramSettings::from_options(&chart.cycles, None),
-        &limits,
-        sway::bifurcation::CycleExtent::FirstFold,
-    )
-    .unwrap();
+    let outcome = design_diagram(&m, &c, tau, &SpeedSearch::default());
     let d = outcome.diagram().expect("a Hopf point");
     let [bubble] = d.bubbles[..] else {
         panic!("one window of instability, got {:?}", d.bubbles)
@@ -929,7 +922,7 @@ fn a_window_whose_cycles_rejoin_straight_running_is_passed_over() {
         &sway::bifurcation::DiagramOptions {
             v_min_mps: 50.0,
             v_max_mps: 60.0,
-            ..chart.cycles.clone()
+            ..design_fold_chart(20).cycles
         },
         sway::bifurcation::CycleExtent::WholeRange,
     )

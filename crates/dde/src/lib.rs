@@ -69,6 +69,7 @@ mod options;
 mod problem;
 mod scheme;
 mod solver;
+mod step;
 
 pub use dense::{Segment, Solution};
 pub use error::Error;

@@ -1,7 +1,6 @@
 //! Solver options.
 
 use crate::Error;
-use crate::scheme::{Dop853, Dopri5, Scheme};
 
 /// How the step size is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,16 +42,6 @@ pub enum Method {
     /// of a DDE (its past) or with [`DenseOutput::Keep`], and otherwise only the steps where
     /// an event fires or an observer interpolates.
     Dop853,
-}
-
-impl Method {
-    /// Order of the method's propagated solution (5 or 8).
-    pub fn order(self) -> usize {
-        match self {
-            Method::Dopri5 => <Dopri5<1> as Scheme<1>>::ORDER,
-            Method::Dop853 => <Dop853<1> as Scheme<1>>::ORDER,
-        }
-    }
 }
 
 /// How a step lands on a kink: a root of a switching function

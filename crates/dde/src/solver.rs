@@ -11,7 +11,8 @@ use crate::dense::{Segment, Solution};
 use crate::events::{Event, EventAction, EventHit, locate_root};
 use crate::options::{DenseOutput, KinkLanding, Options, StepController};
 use crate::problem::{DdeProblem, OdeProblem};
-use crate::scheme::{Pair, Tolerances};
+use crate::scheme::Pair;
+use crate::step::{PastEval, Plan, Rhs, Tolerances};
 
 type SV<const N: usize> = SVector<f64, N>;
 
@@ -130,28 +131,6 @@ impl<const N: usize, F: FnMut(&StepView<'_, N>) -> Flow> Observer<N> for F {
     fn on_step(&mut self, step: &StepView<'_, N>) -> Flow {
         self(step)
     }
-}
-
-/// Evaluation of the stored past (DDE) for observers.
-pub(crate) trait PastEval<const N: usize> {
-    fn eval_past(&self, t: f64) -> Option<SV<N>>;
-}
-
-/// The right-hand side as the stepping loop sees it.
-pub(crate) trait Rhs<const N: usize>: PastEval<N> {
-    fn eval(&self, t: f64, x: &SV<N>, dx: &mut SV<N>);
-    /// whether every step's continuous extension must be stored (a DDE's past)
-    fn keeps_past(&self) -> bool;
-    fn push(&mut self, seg: &Segment<N>);
-    fn truncate(&mut self, t_end: f64);
-    /// largest step that keeps every delayed argument in the computed past
-    fn h_cap(&self) -> f64;
-    /// number of delays
-    fn n_delays(&self) -> usize;
-    /// `out[j] = x(t − τⱼ)` from the stored past (the current step included)
-    fn delayed_states(&self, t: f64, x: &SV<N>, out: &mut [SV<N>]);
-    /// the switching functions at `(t, x)` (DDE: with the delayed states from the past)
-    fn switching(&self, t: f64, x: &SV<N>, g: &mut [f64]);
 }
 
 /// The problem behind a `&dyn`: the stepping loop, its controller and the event machinery
@@ -807,39 +786,6 @@ struct Control {
     safety: f64,
     fac_min: f64,
     fac_max: f64,
-}
-
-/// The step about to be attempted from `(t, x)` with `k1 = f(t, x)`.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Plan<const N: usize> {
-    pub(crate) t: f64,
-    pub(crate) x: SV<N>,
-    pub(crate) k1: SV<N>,
-    /// the step size
-    pub(crate) h: f64,
-    /// the size the controller proposed (before landing)
-    h_prop: f64,
-    /// whether the step lands on a breakpoint or on `t_end`
-    land: bool,
-    /// whether it lands on a breakpoint
-    at_bp: bool,
-    /// end of the step
-    pub(crate) t_new: f64,
-    /// where `f` at the new point is evaluated: the left limit at a breakpoint
-    pub(crate) t_last: f64,
-}
-
-impl<const N: usize> Plan<N> {
-    /// Where a stage with node `c = 1` is evaluated: `t + h`, or the left limit at a
-    /// breakpoint.
-    #[inline]
-    pub(crate) fn t_end_stage(&self) -> f64 {
-        if self.at_bp {
-            self.t_last
-        } else {
-            self.t + self.h
-        }
-    }
 }
 
 /// The continuous extension of an accepted step, built at most once and only when

@@ -120,22 +120,3 @@ pub enum StabilityError {
 
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, StabilityError>;
-
-/// Eigenvalues of a dense real matrix: [`crate::small_eigen`] up to
-/// [`SMALL_EIGEN_MAX`](crate::small_eigen::SMALL_EIGEN_MAX), faer's blocked QR above.
-pub(crate) fn eigenvalues(m: &faer::Mat<f64>) -> Result<Vec<Complex64>> {
-    let n = m.nrows();
-    if n == 0 {
-        return Ok(Vec::new());
-    }
-    if n <= crate::small_eigen::SMALL_EIGEN_MAX {
-        let mut a: Vec<f64> = (0..n * n).map(|k| m[(k / n, k % n)]).collect();
-        let mut out = Vec::with_capacity(n);
-        crate::small_eigen::small_eigenvalues(&mut a, n, &mut out)?;
-        return Ok(out);
-    }
-    m.eigenvalues().map_err(|e| StabilityError::Eigensolver {
-        size: m.nrows(),
-        message: format!("{e:?}"),
-    })
-}

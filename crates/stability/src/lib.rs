@@ -56,6 +56,7 @@
 
 pub mod chart;
 pub mod dde;
+mod eigen;
 pub mod error;
 pub mod rank_one;
 pub mod roots;

@@ -38,7 +38,8 @@ use nalgebra::{DMatrix, Dim, Matrix, Storage, U1};
 use num_complex::Complex64;
 
 use crate::dde::{LinearDde, NewtonOptions, NewtonStep, newton, sort_rightmost};
-use crate::error::{Result, StabilityError, eigenvalues};
+use crate::eigen::eigenvalues;
+use crate::error::{Result, StabilityError};
 use crate::roots::{RootOptions, confirmed_rightmost};
 
 /// A point where a characteristic root crosses the imaginary axis as the gain D varies.

@@ -22,7 +22,8 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 use crate::dde::{LinearDde, sort_rightmost};
-use crate::error::{Result, StabilityError, eigenvalues};
+use crate::eigen::eigenvalues;
+use crate::error::{Result, StabilityError};
 
 /// Semi-discretisation with `steps_per_delay` steps over the largest delay.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

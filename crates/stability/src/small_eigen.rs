@@ -7,7 +7,7 @@
 //! companion matrices of the crossing search (degree ≤ ~40). At that size a general blocked
 //! eigensolver spends most of its time on setup and vector dispatch; this routine works in one
 //! row-major buffer and is several times faster (see the `small_eigenvalues` benchmark).
-//! [`crate::error::eigenvalues`] dispatches here below [`SMALL_EIGEN_MAX`] and to faer above.
+//! `eigen::eigenvalues` dispatches here below [`SMALL_EIGEN_MAX`] and to faer above.
 //!
 //! Accuracy: backward stable like any QR iteration — the eigenvalues are exact for a matrix
 //! within a few ulps·‖A‖ of the balanced input (checked against faer in the tests).

@@ -16,7 +16,8 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 use crate::dde::{LinearDde, sort_rightmost};
-use crate::error::{Result, StabilityError, eigenvalues};
+use crate::eigen::eigenvalues;
+use crate::error::{Result, StabilityError};
 
 /// Chebyshev differentiation matrix on the N+1 points `x_j = cos(jπ/N)` of [−1, 1]
 /// (Trefethen, *Spectral Methods in MATLAB*, program `cheb`), row-major `(N+1)²`.

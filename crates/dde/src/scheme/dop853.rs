@@ -10,9 +10,9 @@
 
 use nalgebra::SVector;
 
-use super::{Scheme, Tolerances, hermite_part};
+use super::{Scheme, hermite_part};
 use crate::dense::Segment;
-use crate::solver::{Plan, Rhs};
+use crate::step::{Plan, Rhs, Tolerances};
 
 type SV<const N: usize> = SVector<f64, N>;
 

@@ -1,18 +1,20 @@
 //! The explicit Runge–Kutta pairs the stepping loop runs ([`crate::Method`]): the attempt of
-//! one step, its error estimate and its continuous extension. The loop itself (step-size
-//! control, breakpoints, events, observers) lives in `solver` and is shared.
+//! one step, its error estimate and its continuous extension, and each method's constants
+//! ([`Method::order`], the controller's exponents). The loop itself (step-size control,
+//! breakpoints, events, observers) lives in `solver` and is shared; the step and the
+//! right-hand side both of them see are in `step`.
 
 mod dop853;
 mod dopri5;
 
-pub(crate) use dop853::Dop853;
-pub(crate) use dopri5::Dopri5;
+use dop853::Dop853;
+use dopri5::Dopri5;
 
 use nalgebra::SVector;
 
-use crate::Method;
 use crate::dense::Segment;
-use crate::solver::{Plan, Rhs};
+use crate::options::Method;
+use crate::step::{Plan, Rhs, Tolerances};
 
 type SV<const N: usize> = SVector<f64, N>;
 
@@ -106,6 +108,16 @@ impl<const N: usize> Pair<N> {
     }
 }
 
+impl Method {
+    /// Order of the method's propagated solution (5 or 8).
+    pub fn order(self) -> usize {
+        match self {
+            Method::Dopri5 => <Dopri5<1> as Scheme<1>>::ORDER,
+            Method::Dop853 => <Dop853<1> as Scheme<1>>::ORDER,
+        }
+    }
+}
+
 /// The pair's constants ([`Scheme`]'s) for the method chosen at run time (its order:
 /// [`Method::order`]).
 impl Method {
@@ -148,25 +160,4 @@ pub(crate) fn hermite_part<const N: usize>(
     let ydiff = x_new - x;
     let bspl = f * h - ydiff;
     [*x, ydiff, bspl, ydiff - f_new * h - bspl]
-}
-
-/// The mixed error weights `atol + rtol · max(|xᵢ|, |x_newᵢ|)` of the error norms.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Tolerances {
-    pub rtol: f64,
-    pub atol: f64,
-}
-
-impl Tolerances {
-    /// `Σᵢ (eᵢ / skᵢ)²` with `skᵢ = atol + rtol · max(|xᵢ|, |x_newᵢ|)`.
-    #[inline]
-    pub fn scaled_square_sum<const N: usize>(self, e: &SV<N>, x: &SV<N>, x_new: &SV<N>) -> f64 {
-        let mut s = 0.0;
-        for i in 0..N {
-            let sk = self.atol + self.rtol * x[i].abs().max(x_new[i].abs());
-            let q = e[i] / sk;
-            s += q * q;
-        }
-        s
-    }
 }

@@ -840,7 +840,7 @@ fn simulate<'py>(
     trajectory: bool,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use sway::ranging::SpeedSpec;
-    use sway::sim::speeds::resolve_speeds_any;
+    use sway::ranging::resolve_speeds_any;
     use sway::sim::{Recording, ScenarioConfig, simulate_any};
     use sway_tasks::config_file::{Configured, TaskConfig};
     use sway_tasks::tasks::Prepared;

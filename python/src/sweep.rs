@@ -1,6 +1,6 @@
 //! `sweep`: a study of `cargo xtask sweep FILE.toml` (a file path or a dict of its shape),
 //! validated and planned as the task does, its grid points computed in parallel on rayon
-//! ([`sway::sim::sweep::Sweep::run_point`], the task's own point function: the same
+//! ([`sway_studies::sweep::Sweep::run_point`], the task's own point function: the same
 //! numbers whatever the thread count), checking a cancellation flag between points.
 //! Returned as columns in the order of the task's `sweep.csv` header.
 
@@ -14,7 +14,7 @@ use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
 use serde_json::Value;
 use sway::ranging::SpeedSpec;
-use sway::sim::sweep::{AxisParameter, PointOutput, PointResult, SweepConfig};
+use sway_studies::sweep::{AxisParameter, PointOutput, PointResult, SweepConfig};
 use sway_tasks::TaskError;
 use sway_tasks::config_file::{Configured, TaskConfig};
 use sway_tasks::tasks::Prepared;

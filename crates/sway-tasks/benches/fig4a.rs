@@ -21,7 +21,7 @@ fn fig4a(c: &mut Criterion) {
     let mut g = c.benchmark_group("fig4a");
     g.sample_size(10);
     g.bench_function("derive_ranges", |b| {
-        b.iter(|| sway::charts::fig4a::resolve(black_box(&model), &cfg, &bounds).unwrap())
+        b.iter(|| sway_studies::fig4a::resolve(black_box(&model), &cfg, &bounds).unwrap())
     });
     g.bench_function("default_config", |b| {
         b.iter(|| compute(black_box(&model), &cfg, &bounds).unwrap())

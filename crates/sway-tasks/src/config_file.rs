@@ -7,7 +7,6 @@ use serde::de::DeserializeOwned;
 
 use crate::TaskError;
 use crate::limits::{self, MAX_ARRAY_LEN, MAX_STRING_LEN};
-use crate::tasks::{Prepared, Task, TaskContext};
 use sway::config::ensure;
 use sway::sim::RunSettings;
 use trailer_model::{AnyVehicleModel, Model, ModelError, VehicleParams, VehicleSpec};
@@ -412,53 +411,11 @@ pub fn check_delays(file: &Path, key: &str, delays_s: &[f64]) -> Result<(), Task
 }
 
 /// A prepared task that is a config file and its checked contents (the common shape of the
-/// tasks' [`Prepared`] values).
+/// tasks' `Prepared` values, made by the task registry's `prepare_config`).
 #[derive(Debug)]
 pub struct Configured<C> {
     /// the config file
     pub file: PathBuf,
     /// its contents, checked
     pub config: C,
-}
-
-/// The [`crate::tasks::Task::prepare`] of a task whose prepared value is [`Configured`]:
-/// reads `file`, checks it ([`TaskConfig::check`]) and boxes it.
-///
-/// # Errors
-/// Read and config errors.
-pub fn prepare_config<C: TaskConfig>(
-    _ctx: &TaskContext<'_>,
-    file: &Path,
-) -> Result<Box<dyn Prepared>, TaskError>
-where
-    Configured<C>: Prepared,
-{
-    let mut config: C = load_toml(file)?;
-    config.load_named_files(file)?;
-    config.check(file)?;
-    Ok(Box::new(Configured {
-        file: file.to_path_buf(),
-        config,
-    }))
-}
-
-impl Task {
-    /// The task `name` (`about` it, default config file `config` in `configs/`) whose
-    /// prepared value is a [`Configured`] `C` ([`prepare_config`]).
-    pub const fn configured<C: TaskConfig>(
-        name: &'static str,
-        about: &'static str,
-        config: &'static str,
-    ) -> Self
-    where
-        Configured<C>: Prepared,
-    {
-        Self {
-            name,
-            about,
-            config,
-            prepare: prepare_config::<C>,
-            models: crate::tasks::Models::Paper,
-        }
-    }
 }

@@ -34,7 +34,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use sway::progress::Progress;
 use sway::ranging::SpeedSpec;
-use sway::sim::sweep::{PointResult, SweepConfig};
+use sway_studies::sweep::{PointResult, SweepConfig};
 use trailer_model::{Model, VehicleParams, VehicleSpec};
 
 use crate::config_file::{TaskConfig, load_toml};
@@ -331,7 +331,7 @@ pub trait PointwiseTask {
 }
 
 /// The sweep (`cargo xtask sweep`, `brake_timing`, the studies): one evaluation per point
-/// of [`sway::sim::sweep::Sweep`] (grid × samples, then threshold and reference points).
+/// of [`sway_studies::sweep::Sweep`] (grid × samples, then threshold and reference points).
 #[derive(Debug, Clone, Copy)]
 pub struct SweepPoints;
 

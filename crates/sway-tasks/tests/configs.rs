@@ -1,8 +1,9 @@
 //! Config files: shipped ones load and validate; errors name the file and key path.
 
 use sway::ranging::SpeedSpec;
-use sway::sim::sweep::SweepConfig;
-use sway::sim::{ScenarioConfig, resolve_speeds};
+use sway::ranging::resolve_speeds;
+use sway::sim::ScenarioConfig;
+use sway_studies::sweep::SweepConfig;
 
 #[test]
 fn scenario_config_errors_name_the_key() {

@@ -573,7 +573,7 @@ fn period_by_simulation(
         early_stop: sway::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: v },
         controller: Controller::None,
-        horizon_s: settle_s + sway::mitigation::study::CYCLE_SEARCH_S,
+        horizon_s: settle_s + sway_studies::mitigation::CYCLE_SEARCH_S,
         action_s: 0.0,
         settings,
     };

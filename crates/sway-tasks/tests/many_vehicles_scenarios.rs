@@ -577,10 +577,10 @@ fn chart_nonlinear_runs_on_a_model_variant_and_keeps_the_papers_numbers() {
 
     let paper = configs_dir().join("vehicle.toml");
     let a = run("chart_nonlinear", CHART_SMALL, &paper, dir.path()).expect("paper chart");
-    let cfg: sway::bifurcation::chart::study::ChartNonlinearConfig =
+    let cfg: sway_studies::chart::ChartNonlinearConfig =
         toml::from_str(CHART_SMALL).expect("config");
     let model = trailer_model::Model::new(VehicleParams::default()).expect("Table I");
-    let study = sway::bifurcation::chart::study::compute(
+    let study = sway_studies::chart::compute(
         &model,
         &cfg,
         &sway::charts::auto_range::SpeedBounds::from(&sway::ranging::SpeedLimits::default()),

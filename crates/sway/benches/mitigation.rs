@@ -10,11 +10,11 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use sway::mitigation::optimise::Bounded;
 use sway::mitigation::{
     Intervention, PhaseStarts, Setting, evaluate, evaluate_unless_above, sway_cycle,
 };
 use sway::sim::{ActuatorLimits, RampShape, RunSettings, SolverSettings};
+use sway_model::optimise::Bounded;
 use trailer_model::{Model, VehicleParams};
 
 fn objective(c: &mut Criterion) {

@@ -41,8 +41,8 @@ use common::spec;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::progress::NoProgress;
-use sway::sim::sweep::{Sweep, SweepConfig, run_sweep};
 use sway::sim::{Controller, Recording, SpeedProfile, simulate, simulate_any};
+use sway_studies::sweep::{Sweep, SweepConfig, run_sweep};
 use trailer_model::State7;
 
 fn single_runs(c: &mut Criterion) {
@@ -107,7 +107,8 @@ fn sweep(c: &mut Criterion) {
     let spec: SweepConfig<sway::ranging::SpeedSpec> =
         toml::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
     let resolution =
-        sway::sim::resolve_speeds(&model, &sway::ranging::SpeedLimits::default(), &spec).unwrap();
+        sway::ranging::resolve_speeds(&model, &sway::ranging::SpeedLimits::default(), &spec)
+            .unwrap();
     let mut cfg: SweepConfig = resolution.outcome.unwrap();
     cfg.validate(&file).unwrap();
     // the issue-3 workload: the grid of 60 s simulations only (no threshold bisection)

@@ -9,8 +9,8 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::progress::NoProgress;
-use sway::sim::sweep::{Sweep, SweepConfig, run_sweep};
 use sway::sim::{Recording, SimSpec, simulate};
+use sway_studies::sweep::{Sweep, SweepConfig, run_sweep};
 use trailer_model::{Model, State4, VehicleParams};
 
 const S1: &str = r#"

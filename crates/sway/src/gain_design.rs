@@ -34,7 +34,7 @@ use argmin::solver::brent::BrentOpt;
 use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
-use crate::control::LoopModel;
+use sway_model::law::LoopModel;
 
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, NonlinearChart, critical_speeds, nonlinear_chart};
@@ -645,5 +645,3 @@ pub fn delay_budget<M: LoopModel + ?Sized>(
     budget.tau_s = Some(tau);
     Ok(budget)
 }
-
-pub mod study;

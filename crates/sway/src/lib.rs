@@ -22,20 +22,15 @@
 
 pub mod bifurcation;
 pub mod charts;
-pub mod config;
 pub mod control;
-mod error;
 pub mod gain_design;
 pub mod linear;
 pub mod loading;
 pub mod mitigation;
-pub mod parallel;
-pub mod progress;
 pub mod ranging;
-pub mod sampling;
 pub mod sim;
 
-pub use error::SwayError;
+pub use sway_model::{SwayError, config, parallel, progress, sampling};
 
 /// Internals of private modules that the tests in `tests/unit/` reach. Those tests are the
 /// unit tests of the modules whose tests drive whole pipelines, kept as integration tests so

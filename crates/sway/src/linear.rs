@@ -10,7 +10,7 @@ use trailer_model::{
 
 use crate::SwayError;
 use crate::config::Grid;
-use crate::control::LoopModel;
+use sway_model::law::LoopModel;
 
 /// Eigenvalues of Ã along a speed grid, each column following one eigenvalue
 /// continuously (matched to the previous speed by nearest distance); n columns for a plant
@@ -338,7 +338,7 @@ pub const DERIVED_GRID_STEP_MPS: f64 = 0.1;
 /// but at least 1.1·V_crit), or to the maximum speed when straight running is stable
 /// there (`v_crit` None); spacing [`DERIVED_GRID_STEP_MPS`]. For Table I (V_crit =
 /// 34.75 m/s): 1–60 m/s, 591 points.
-pub fn derived_speed_grid(v_crit: Option<f64>, limits: &crate::ranging::SpeedLimits) -> Grid {
+pub fn derived_speed_grid(v_crit: Option<f64>, limits: &sway_model::speeds::SpeedLimits) -> Grid {
     let min = limits.min_speed_mps;
     let max = match v_crit {
         Some(v) => ((1.5 * v / 10.0).ceil() * 10.0)

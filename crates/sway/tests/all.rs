@@ -18,8 +18,6 @@ mod loading;
 mod mitigation;
 #[path = "optimise.rs"]
 mod optimise;
-#[path = "scenario_speeds.rs"]
-mod scenario_speeds;
 #[path = "simulation.rs"]
 mod simulation;
 #[path = "trivial_multiplier.rs"]

@@ -4,7 +4,6 @@
 
 mod common;
 
-use sway::mitigation::optimise::Bounded;
 use sway::mitigation::{
     Intervention, PhaseStarts, Setting, SwayCycle, cycle_state, evaluate, evaluate_unless_above,
     phase_cost, settled, sway_cycle,
@@ -13,6 +12,7 @@ use sway::sim::{
     ActuatorLimits, EarlyStop, Metrics, Outcome, RampShape, Recording, RunSettings, SimulateOwn,
     SolverSettings,
 };
+use sway_model::optimise::Bounded;
 use trailer_model::Model;
 
 fn cycle(model: &Model) -> SwayCycle {

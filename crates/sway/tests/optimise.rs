@@ -3,7 +3,7 @@
 //! discrete choice, worst case over samples) whose optimum is known in closed form.
 
 use sway::SwayError;
-use sway::mitigation::optimise::{
+use sway_model::optimise::{
     Bound, Bounded, MixedProblem, OptimiserSettings, minimise, starting_points, worst_case,
 };
 

@@ -16,8 +16,8 @@ use std::path::Path;
 use serde::Serialize;
 use stability::StabilityChart;
 use crate::TaskError;
-use sway::bifurcation::chart::study::ResolvedChart;
-pub use sway::bifurcation::chart::study::{
+use sway_studies::chart::ResolvedChart;
+pub use sway_studies::chart::{
     ChartConfig, ChartNonlinearConfig, ChartStudy, CurvesAtGain, DelayResult, RegionGrid, compute,
     compute_delay,
 };

@@ -25,9 +25,12 @@ use serde::{Deserialize, Serialize};
 use sway::bifurcation::chart::ChartOptions;
 use sway::config::{Grid, ensure, ensure_positive};
 use sway::control::{
-    Actuator, AwayFromCorner, CheckedDesign, Combination, CommandLimits, ControlStudy, Design, DesignSearch,
-    GainName, Gains, SpeedSearch,
-    Structure, StudySettings, StudyVehicle, VehicleUncertainty, control_study,
+    Actuator, CommandLimits, Design, DesignSearch, GainName, Gains, SpeedSearch, Structure,
+    VehicleUncertainty,
+};
+use sway_studies::control_design::{
+    AwayFromCorner, CheckedDesign, Combination, ControlStudy, StudySettings, StudyVehicle,
+    control_study,
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
 use sway::sim::{

@@ -25,7 +25,7 @@ use std::path::Path;
 use serde::Serialize;
 use crate::TaskError;
 use sway::bifurcation::corners::motion::MotionClass;
-pub use sway::bifurcation::corners::study::{Corners, CornersConfig, ResolvedCorners, compute};
+pub use sway_studies::corners::{Corners, CornersConfig, ResolvedCorners, compute};
 use sway::bifurcation::corners::{
     Corner, CornerStudy, ProbeRun, TorusComparison, TorusCurve, TorusPoint,
 };

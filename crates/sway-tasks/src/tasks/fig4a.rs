@@ -8,7 +8,7 @@ use stability::StabilityChart;
 use crate::TaskError;
 use sway::charts::auto_range::SpeedBounds;
 use sway::charts::open_loop_stability;
-pub use sway::charts::fig4a::{
+pub use sway_studies::fig4a::{
     Fig4a, Fig4aConfig, Fig4aRanges, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig, compute,
 };
 use sway::config::ensure;

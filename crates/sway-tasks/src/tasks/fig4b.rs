@@ -21,10 +21,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use crate::TaskError;
 use sway::bifurcation::chart::CriticalSpeeds;
-use sway::bifurcation::{
-    Diagram, DiagramSettings, Feedback, PairDiagram, PairSummary, closed_loop_diagrams,
-    common_range,
-};
+use sway::bifurcation::{Diagram, DiagramSettings, Feedback};
+use sway_studies::fig4b::{PairDiagram, PairSummary, closed_loop_diagrams, common_range};
 use sway::config::ensure;
 
 use super::fig3a_diagram::{split_by_stability, validate_settings};

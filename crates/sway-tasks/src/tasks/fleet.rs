@@ -1,5 +1,5 @@
 //! `cargo xtask fleet` (issue 20, item 6): the headline numbers of every task for each
-//! vehicle file of `configs/fleet/` ([`sway::sim::fleet`]): V_crit, the fold of cycles, the
+//! vehicle file of `configs/fleet/` ([`sway_studies::fleet`]): V_crit, the fold of cycles, the
 //! width of the bistable range, the best gain D\* at τ = 0.2 s and the θ(0) threshold of
 //! sway at the middle of the bistable range. `summary.json`: `"vehicles"` (one entry per
 //! file, every null with its reason), `fleet.csv` (one row per file) and `fleet.md` (the
@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sway::sim::fleet::{FleetEntry, FleetOptions, fleet_entry};
+use sway_studies::fleet::{FleetEntry, FleetOptions, fleet_entry};
 use trailer_model::AnyVehicleModel;
 
 use super::{Prepared, Report, Task, TaskContext};

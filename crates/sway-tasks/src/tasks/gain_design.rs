@@ -19,10 +19,10 @@ use std::path::Path;
 
 use serde::Serialize;
 use crate::TaskError;
-use sway::bifurcation::chart::study::ChartConfig;
+use sway_studies::chart::ChartConfig;
 use sway::charts::auto_range::SpeedBounds;
 use sway::config::{ensure, ensure_positive};
-pub use sway::gain_design::study::{
+pub use sway_studies::gain_design::{
     BudgetConfig, GainDesign, GainDesignConfig, GainSearchConfig, NonlinearConfig, ResolvedDesign,
     compute, compute_plant, default_chart,
 };

@@ -25,14 +25,14 @@
 use std::path::Path;
 
 use serde::Serialize;
-use sway::mitigation::study::{
+use sway_studies::mitigation::{
     MitigationConfig, MitigationOutcome, MitigationResult, MitigationSummary,
     run_mitigation, summary, theta_at_phase,
 };
 use sway::mitigation::{Evaluation, Setting, settled};
 use sway::ranging::SpeedSpec;
 use sway::progress::Progress;
-use sway::sim::speeds::resolve_speeds_any;
+use sway::ranging::resolve_speeds_any;
 use sway::sim::{RampShape, ResolvedSpeed, SimulateOwn};
 
 use super::series::{WithSpeeds, nothing_to_show, resolved_check};

@@ -12,6 +12,7 @@ use trailer_model::{AnyVehicleModel, Model, VehicleParams, VehicleSpec};
 
 use crate::TaskError;
 use crate::config_file;
+use crate::config_file::{Configured, TaskConfig, load_toml};
 use crate::io::OutputDir;
 use crate::limits::Plan;
 use sway::progress::Progress;
@@ -373,4 +374,46 @@ pub fn resolve(name: &str) -> Result<Vec<Task>, TaskError> {
         name: name.to_string(),
         known: known.join(", "),
     })
+}
+
+/// The [`Task::prepare`] of a task whose prepared value is [`Configured`]:
+/// reads `file`, checks it (`TaskConfig::check`) and boxes it.
+///
+/// # Errors
+/// Read and config errors.
+pub fn prepare_config<C: TaskConfig>(
+    _ctx: &TaskContext<'_>,
+    file: &Path,
+) -> Result<Box<dyn Prepared>, TaskError>
+where
+    Configured<C>: Prepared,
+{
+    let mut config: C = load_toml(file)?;
+    config.load_named_files(file)?;
+    config.check(file)?;
+    Ok(Box::new(Configured {
+        file: file.to_path_buf(),
+        config,
+    }))
+}
+
+impl Task {
+    /// The task `name` (`about` it, default config file `config` in `configs/`) whose
+    /// prepared value is a [`Configured`] `C` ([`prepare_config`]).
+    pub const fn configured<C: TaskConfig>(
+        name: &'static str,
+        about: &'static str,
+        config: &'static str,
+    ) -> Self
+    where
+        Configured<C>: Prepared,
+    {
+        Self {
+            name,
+            about,
+            config,
+            prepare: prepare_config::<C>,
+            models: Models::Paper,
+        }
+    }
 }

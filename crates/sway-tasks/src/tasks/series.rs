@@ -11,7 +11,7 @@ use std::path::Path;
 
 use sway::SwayError;
 use sway::ranging::SpeedReferences;
-use sway::sim::speeds::resolve_speeds_any;
+use sway::ranging::resolve_speeds_any;
 use sway::sim::speeds::{ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};
 use sway::sim::{
     Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, SwayStart, simulate_any,

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use serde::Serialize;
 use sway::ranging::SpeedSpec;
-use sway::sim::speeds::resolve_speeds_any;
+use sway::ranging::resolve_speeds_any;
 use sway::sim::{ScenarioConfig, SimResult};
 
 use super::series::{RunEntry, WithSpeeds, line, nothing_to_show, resolved_check, run_and_write};

@@ -1,7 +1,7 @@
 //! `cargo xtask sweep FILE.toml`: a study in parallel (rayon): a grid over scenario
 //! quantities (V, θ(0), D, τ, braking), vehicle fields by key path and vehicle files (a
 //! fleet), optionally times uncertainty samples, each point a simulation (classified), the
-//! linear critical speed or the Hopf and fold speeds ([`sway::sim::sweep`]). One CSV row per
+//! linear critical speed or the Hopf and fold speeds ([`sway_studies::sweep`]). One CSV row per
 //! grid point (a failed point says why in its row), `summary.json`, a heat map over the first
 //! two axes, and with `[sampling]` the distributions (quantiles, histogram figure); a
 //! threshold map also bisects the θ(0) threshold per speed and compares it with the
@@ -22,10 +22,10 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use sway::ranging::SpeedSpec;
 use sway::sim::speeds::Resolution;
-use sway::sim::sweep::{
+use sway_studies::sweep::{
     AxisParameter, PointKind, PointOutput, PointResult, Sweep, SweepConfig, run_sweep,
 };
-use sway::sim::speeds::resolve_speeds_any;
+use sway::ranging::resolve_speeds_any;
 use sway::sim::{Metrics, Outcome, SwayClass};
 
 use super::fig3a_diagram::validate_settings;
@@ -178,12 +178,12 @@ fn kind_columns(kind: PointKind) -> Vec<String> {
     }
     match kind {
         PointKind::Simulation => names(&empty_metrics()),
-        PointKind::LinearCriticalSpeed => names(&sway::sim::sweep::LinearCriticalSpeed {
+        PointKind::LinearCriticalSpeed => names(&sway_studies::sweep::LinearCriticalSpeed {
             v_crit_mps: None,
             hopf_omega_rad_s: None,
             hopf_frequency_hz: None,
         }),
-        PointKind::HopfFoldSpeeds => names(&sway::sim::sweep::HopfFoldSpeeds {
+        PointKind::HopfFoldSpeeds => names(&sway_studies::sweep::HopfFoldSpeeds {
             hopf_v_mps: None,
             hopf_omega_rad_s: None,
             criticality: None,

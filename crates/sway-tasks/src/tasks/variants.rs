@@ -6,7 +6,7 @@
 //! point on the variant's own plant and corrected on the fold-of-cycles system), the width
 //! of the bistable range V_crit − V_fold, the best gain D\*(τ) with its V_crit (on the
 //! variant's own linearisation) and the θ(0) threshold of sway, each the headline numbers
-//! of the `fleet` task ([`sway::sim::fleet::fleet_entry`]), plus the threshold at one
+//! of the `fleet` task ([`sway_studies::fleet::fleet_entry`]), plus the threshold at one
 //! speed common to all variants. A number a variant does not have is null with its reason.
 //! The figure: V_crit and V_fold against σ on a finer grid.
 //!
@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sway::config::Grid;
 use sway::ranging::{Reference, open_loop_references};
-use sway::sim::fleet::{FleetEntry, FleetOptions, fleet_entry, threshold_at};
+use sway_studies::fleet::{FleetEntry, FleetOptions, fleet_entry, threshold_at};
 use trailer_model::{AnyVehicleModel, VehicleSpec, with_plant};
 
 use super::{Prepared, Report, Task, TaskContext};

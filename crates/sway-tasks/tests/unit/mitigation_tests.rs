@@ -1,12 +1,12 @@
 use std::path::Path;
 use std::path::PathBuf;
-use sway::mitigation::study::MitigationConfig;
-use sway::mitigation::study::{CYCLE_SEARCH_S, refinement_bound};
 use sway::mitigation::{Intervention, PhaseStarts, evaluate, sway_cycle};
 use sway::ranging::SpeedLimits;
 use sway::ranging::SpeedSpec;
+use sway::ranging::resolve_speeds;
 use sway::sim::ActuatorLimits;
-use sway::sim::speeds::resolve_speeds;
+use sway_studies::mitigation::MitigationConfig;
+use sway_studies::mitigation::{CYCLE_SEARCH_S, refinement_bound};
 use sway_tasks::config_file::TaskConfig;
 use sway_tasks::config_file::parse_toml;
 use trailer_model::{Model, VehicleParams};

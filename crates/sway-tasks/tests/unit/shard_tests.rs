@@ -1,5 +1,5 @@
 use sway::ranging::SpeedSpec;
-use sway::sim::sweep::SweepConfig;
+use sway_studies::sweep::SweepConfig;
 use sway_tasks::shard::*;
 use trailer_model::VehicleParams;
 

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use sway::progress::NoProgress;
 use sway::ranging::SpeedSpec;
 use sway::sim::speeds::ResolveSpeeds;
-use sway::sim::sweep::SweepConfig;
+use sway_studies::sweep::SweepConfig;
 use sway_tasks::config_file::Configured;
 use sway_tasks::config_file::TaskConfig;
 use sway_tasks::config_file::load_toml;
@@ -80,7 +80,7 @@ fn fleet_study_loads_its_files_and_names_them_in_the_rows() {
     let tmp = tempfile::tempdir().unwrap();
     let file = root().join("configs/study_fleet.toml");
     let s = run(&file, tmp.path(), |c| {
-        c.axes[0] = sway::sim::sweep::Axis {
+        c.axes[0] = sway_studies::sweep::Axis {
             parameter: c.axes[0].parameter,
             min: Some(985.0.into()),
             max: Some(985.0.into()),

@@ -1257,5 +1257,3 @@ impl NonlinearChart {
         out
     }
 }
-
-pub mod study;

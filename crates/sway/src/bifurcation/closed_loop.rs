@@ -17,7 +17,7 @@
 //! plant's nonlinear hitch-angle rate, as the simulations measure it), and drive either the
 //! steering angle δ \[rad\] or a yaw moment M_z \[N m\] on the tractor
 //! ([`Plant::rhs_with_yaw_moment`], differential braking). The braking limit
-//! ([`crate::control::Actuator::limit`]) is **not** modelled in continuation (the moment is
+//! ([`sway_model::law::Actuator::limit`]) is **not** modelled in continuation (the moment is
 //! unsaturated); the `predictor` structure (a distributed delay) is not a problem of this
 //! module.
 
@@ -27,8 +27,8 @@ use num_dual::{Dual64, DualNum, DualSVec64, HyperDual64, jacobian};
 use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Inputs, Model, Plant, State4, VehicleModel};
 
-use crate::control::Actuator;
 use crate::sim::LossOfControl;
+use sway_model::law::Actuator;
 
 /// index of the speed V \[m/s\] in the parameter vector
 pub const SPEED: usize = 0;
@@ -63,7 +63,7 @@ impl Feedback {
 /// The rest of the controller beyond the yaw-rate gain D and the delay τ of [`Feedback`]
 /// (issue 22): the actuator the command drives and the gains on the delayed hitch angle
 /// and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ). Units are the actuator's
-/// ([`crate::control`]): steering K_θ rad/rad, D_θ s; braking N m/rad, N m s/rad.
+/// ([`sway_model::law`]): steering K_θ rad/rad, D_θ s; braking N m/rad, N m s/rad.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopLaw {
     /// what the command moves

@@ -29,13 +29,9 @@ use crate::SwayError;
 
 pub mod chart;
 mod closed_loop;
-pub mod closed_loop_diagrams;
 pub mod corners;
 pub(crate) mod ranged;
 pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, LoopLaw, LoopPlant, SPEED};
-pub use closed_loop_diagrams::{
-    PairDiagram, PairSummary, closed_loop_diagram, closed_loop_diagrams, common_range,
-};
 pub use ranged::{
     BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, HopfBubble, MARGIN_BELOW, NoHopf,
     cycle_diagram_with_law, cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,

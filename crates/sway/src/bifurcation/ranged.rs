@@ -25,8 +25,8 @@ use super::{
     LoopPlant, SPEED, collocation, fold_of, num, root_finder, summarise,
 };
 use crate::SwayError;
-use crate::ranging::SpeedLimits;
 use crate::sim::LossOfControl;
+use sway_model::speeds::SpeedLimits;
 
 /// Default of [`DiagramSettings::beyond_hopf`]: the cycle branch is followed to 1.3·V_Hopf.
 pub const BEYOND_HOPF: f64 = 0.3;

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{closed_loop, critical_speed_at_gain};
 use crate::SwayError;
-use crate::control::LoopModel;
+use sway_model::law::LoopModel;
 
 /// Gains of the coarse scan of the critical speed over a gain range (ends included).
 pub const SCAN_GAINS: usize = 21;
@@ -75,8 +75,8 @@ impl Default for SpeedBounds {
     }
 }
 
-impl From<&crate::ranging::SpeedLimits> for SpeedBounds {
-    fn from(l: &crate::ranging::SpeedLimits) -> Self {
+impl From<&sway_model::speeds::SpeedLimits> for SpeedBounds {
+    fn from(l: &sway_model::speeds::SpeedLimits) -> Self {
         Self {
             min_mps: l.min_speed_mps,
             max_mps: l.max_speed_mps,
@@ -129,7 +129,7 @@ fn numerical(context: String, message: String) -> SwayError {
 }
 
 /// The open-loop critical speed \[m/s\] (None: stable up to the maximum speed): the one
-/// search every task uses ([`crate::ranging::open_loop_critical_speed`]) over the bounds.
+/// search every task uses ([`sway_model::speeds::open_loop_critical_speed`]) over the bounds.
 ///
 /// # Errors
 /// [`SwayError::Model`] when straight running is unstable at the lowest speed.
@@ -137,10 +137,10 @@ pub fn open_loop_critical_speed<M: LoopModel + ?Sized>(
     model: &M,
     b: &SpeedBounds,
 ) -> Result<Option<f64>, SwayError> {
-    let limits = crate::ranging::SpeedLimits {
+    let limits = sway_model::speeds::SpeedLimits {
         min_speed_mps: b.min_mps,
         max_speed_mps: b.max_mps,
-        ..crate::ranging::SpeedLimits::default()
+        ..sway_model::speeds::SpeedLimits::default()
     };
     Ok(super::open_loop_stability(model, &limits)?.v_crit())
 }

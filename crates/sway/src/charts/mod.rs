@@ -9,14 +9,13 @@
 use serde::{Deserialize, Serialize};
 
 use crate::SwayError;
-use crate::control::{Actuator, Gains, LoopLinearization, LoopModel, Structure, loop_output_row};
 use stability::{
     Axis, ChartOptions, Complex64, RankOneFeedback, RootOptions, StabilityChart, StabilityError,
     first_unstable_parameter, stability_charts,
 };
+use sway_model::law::{Actuator, Gains, LoopLinearization, LoopModel, Structure, loop_output_row};
 
 pub mod auto_range;
-pub mod fig4a;
 
 /// The closed loop at speed V \[m/s\] in quasi-polynomial form (Ã, B̃, C̃ of eq. 11) of any
 /// plant ([`LoopModel`]: the paper's `Model`, a `VehicleModel<N>`, an `AnyVehicleModel`):
@@ -138,7 +137,7 @@ impl<M: LoopModel + ?Sized> LoopModel for Controlled<'_, M> {
     }
 }
 
-/// The open-loop critical speed of any plant: [`crate::ranging::open_loop_critical_speed`]
+/// The open-loop critical speed of any plant: [`sway_model::speeds::open_loop_critical_speed`]
 /// (the one search every task uses) through [`LoopModel::critical_speed_search`]; for the
 /// paper's `Model` the same call, so the same numbers.
 ///
@@ -147,9 +146,9 @@ impl<M: LoopModel + ?Sized> LoopModel for Controlled<'_, M> {
 /// the eigenvalues are not finite.
 pub fn open_loop_stability<M: LoopModel + ?Sized>(
     model: &M,
-    limits: &crate::ranging::SpeedLimits,
-) -> Result<crate::ranging::OpenLoopStability, SwayError> {
-    use crate::ranging::OpenLoopStability;
+    limits: &sway_model::speeds::SpeedLimits,
+) -> Result<sway_model::speeds::OpenLoopStability, SwayError> {
+    use sway_model::speeds::OpenLoopStability;
     Ok(
         match model.critical_speed_search(&limits.critical_speed_options())? {
             Some(c) => OpenLoopStability::Critical {

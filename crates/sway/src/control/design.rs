@@ -15,7 +15,7 @@
 //! - a structure with several gains (`yaw_rate_hitch`) by Nelder–Mead, a derivative-free
 //!   method that copes with kinks, with restarts: from the best one-gain design (D\*, 0, 0),
 //!   from the optimum of the previous delay of a τ grid, and from seeded random points of
-//!   the gain box ([`crate::mitigation::optimise::minimise`]); the bands are bisected along
+//!   the gain box ([`sway_model::optimise::minimise`]); the bands are bisected along
 //!   each gain with the others at the optimum.
 
 use crate::parallel::{Split, map_indices};
@@ -27,8 +27,8 @@ use super::LoopModel;
 use super::{Actuator, Controller, GainName, Gains, LinearLoop, SpeedSearch, Structure};
 use crate::SwayError;
 use crate::gain_design::{GainSearch, band_end, refine_sampled};
-use crate::mitigation::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
 use crate::sampling::{About, Sampler, Sampling, Statistics};
+use sway_model::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
 
 /// Bounds of the gains, in steering units (D, D_θ in s, K_θ in rad/rad); for differential
 /// braking they are multiplied by [`Actuator::scale`] (N m per rad of equivalent steering).
@@ -263,7 +263,7 @@ pub fn design<M: LoopModel + ?Sized>(
 /// # Errors
 /// As [`design`].
 #[allow(clippy::too_many_arguments)]
-pub(super) fn design_from_start<M: LoopModel + ?Sized>(
+pub fn design_from_start<M: LoopModel + ?Sized>(
     model: &M,
     structure: Structure,
     actuator: Actuator,
@@ -339,7 +339,7 @@ fn designed<M: LoopModel + ?Sized>(
 ///
 /// # Errors
 /// As [`design`].
-pub(super) fn perfect_predictor_designs<M: LoopModel + ?Sized>(
+pub fn perfect_predictor_designs<M: LoopModel + ?Sized>(
     model: &M,
     actuator: Actuator,
     taus: &[f64],

@@ -26,9 +26,6 @@
 //! is a bound, δ_max a saturation. [`optimise()`] minimises the worst case with the generic
 //! [`optimise::minimise`] (Nelder–Mead per ramp shape, seeded multi-start).
 
-pub mod optimise;
-pub mod study;
-
 use dde::{Direction, Event, EventAction, EventHit, Observer, OdeSolver};
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
@@ -40,8 +37,10 @@ use crate::sim::{
     ActuatorLimits, Controller, EarlyStop, Metrics, Outcome, RampShape, Recording, RunSettings,
     SimProblem, SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle_plant,
 };
-use optimise::{Bound, Bounded, Minimum, MixedProblem, OptimiserSettings, minimise, worst_case};
 use std::sync::atomic::{AtomicBool, Ordering};
+use sway_model::optimise::{
+    Bound, Bounded, Minimum, MixedProblem, OptimiserSettings, minimise, worst_case,
+};
 
 /// The open-loop sway cycle at constant speed, of a plant with M reduced states (4: the
 /// paper's model).

@@ -32,19 +32,13 @@
 //! ```
 
 pub mod classify;
-mod controller;
-pub mod fleet;
 mod plant;
 mod profile;
 mod run;
 mod scenario;
-pub mod speeds;
-pub mod sweep;
+pub use sway_model::speeds::resolve as speeds;
 
 pub use classify::{MetricSettings, SwayClass};
-pub use controller::{
-    ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError, PredictionVehicle,
-};
 #[allow(deprecated)]
 pub use plant::Plant;
 pub use plant::{
@@ -58,7 +52,10 @@ pub use run::{
     simulate, simulate_any, simulate_plant,
 };
 pub use scenario::{
-    InitialCondition, ScenarioConfig, SwayStart, default_action_time, validate_parts,
+    InitialCondition, ScenarioConfig, SwayStart, default_action_time, ensure_name, validate_parts,
     validate_spec_parts,
 };
-pub use speeds::{Resolution, ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed, resolve_speeds};
+pub use sway_model::law::simulation::{
+    ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError, PredictionVehicle,
+};
+pub use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};

@@ -14,10 +14,10 @@ use trailer_model::{
     Inputs, MAX_AXLES, Model, Plant as PlantModel, SlipAngles, State4, SwitchingKind, VehicleModel,
 };
 
-use super::controller::LoopLaw;
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
-use crate::control::{Actuator, Structure};
+use sway_model::law::simulation::LoopLaw;
+use sway_model::law::{Actuator, Structure};
 
 /// What a simulation needs of a plant beyond [`trailer_model::Plant`]: the paper-form model of
 /// the vehicle (for the predictor's model and the braking limit), the plant's initial state

@@ -87,7 +87,7 @@ fn exponential_norm() -> f64 {
 /// written in a config (a number or relative to the vehicle, see [`super::speeds`]); a
 /// table's points are numbers.
 ///
-/// [`SpeedSpec`]: crate::ranging::SpeedSpec
+/// [`SpeedSpec`]: sway_model::speeds::SpeedSpec
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 #[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]

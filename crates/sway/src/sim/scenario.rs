@@ -237,7 +237,11 @@ fn default_output_step() -> Positive {
 
 /// Declares a config struct with its own leading fields followed by the fields that define
 /// a run, in this order (so scenario and sweep files read and echo them alike): `action_s`,
-/// `speed`, `controller`, `initial` and the flattened run settings.
+/// `speed`, `controller`, `initial` and the flattened run settings. The expansion names
+/// `SpeedProfile`, `Controller`, `InitialCondition`, `RunSettings`, `Serialize` and
+/// `Deserialize`: the calling module imports them.
+#[doc(hidden)]
+#[macro_export]
 macro_rules! with_run_fields {
     (
         $(#[$attr:meta])*
@@ -266,7 +270,6 @@ macro_rules! with_run_fields {
         }
     };
 }
-pub(crate) use with_run_fields;
 
 with_run_fields! {
     /// A scenario file (see `configs/scenario_example.toml`).

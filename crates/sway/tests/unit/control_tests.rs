@@ -426,7 +426,7 @@ fn hitch_sensor_design_beats_the_yaw_rate_design_and_is_confirmed_by_the_roots()
     let m = table_i();
     let o = DesignSearch {
         gain_samples: 26,
-        optimiser: sway::mitigation::optimise::OptimiserSettings {
+        optimiser: sway_model::optimise::OptimiserSettings {
             random_starts: 0,
             max_iters: 60,
             ..DesignSearch::default().optimiser

@@ -10,7 +10,5 @@ mod bifurcation_closed_loop_tests;
 mod bifurcation_corners_tests;
 mod bifurcation_tests;
 mod charts_tests;
-mod charts_vehicle_tests;
 mod control_tests;
 mod gain_design_tests;
-mod sim_sweep_tests;

@@ -6,7 +6,7 @@ use serde::Serialize;
 use crate::TaskError;
 use sway::sampling::{Statistics, histogram};
 use sway::sim::SwayClass;
-use sway::sim::sweep::{
+use sway_studies::sweep::{
     AxisParameter, CycleReference, PointKind, PointOutput, PointResult, SweepConfig,
     Theta0Threshold,
 };

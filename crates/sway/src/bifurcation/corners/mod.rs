@@ -30,7 +30,6 @@
 //!    section θ at the upward zero crossings of the tractor yaw rate ψ̇.
 
 pub mod motion;
-pub mod study;
 
 use continuation::Criticality;
 use serde::{Deserialize, Serialize};
@@ -42,9 +41,9 @@ use super::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
 use super::closed_loop::LoopPlant;
 use crate::SwayError;
 use crate::charts::{closed_loop, fig4a_charts, rightmost_roots};
-use crate::control::LoopModel;
 use crate::parallel::{Split, join, map, try_map};
 use crate::sim::{Controller, Outcome, Recording, RunSettings, SimSpec, SimulateOwn, SpeedProfile};
+use sway_model::law::LoopModel;
 
 /// What the corner analysis needs of a plant (issue 21: any plant, the paper's [`Model`] or a
 /// [`trailer_model::VehicleModel`] of a vehicle file with variants): its closed loop for the

@@ -6,11 +6,11 @@
 //!
 //! `cargo run --release -p sway --example threshold_variants`
 //!
-//! The threshold search is `sway::sim::fleet::threshold_at` with `FleetOptions`' defaults
+//! The threshold search is `sway_studies::fleet::threshold_at` with `FleetOptions`' defaults
 //! (θ(0) from 0.5° to 15° in 16 steps, bisected to 0.01°, 240 s horizon); the task
 //! `cargo xtask variants` reports it with the other headline numbers of each variant.
 
-use sway::sim::fleet::{FleetOptions, threshold_at};
+use sway_studies::fleet::{FleetOptions, threshold_at};
 use trailer_model::{AnyVehicleModel, CriticalSpeedOptions, Plant, VehicleSpec, with_plant};
 
 fn threshold(vehicle: &AnyVehicleModel, v: f64) -> Option<f64> {

@@ -5,14 +5,14 @@
 
 use std::path::Path;
 
-use sway::mitigation::study::MitigationConfig;
-use sway::ranging::{SpeedLimits, SpeedReferences, SpeedSpec};
+use sway::ranging::{SpeedLimits, SpeedReferences, SpeedSpec, resolve_speeds};
 use sway::sim::speeds::{ResolveSpeeds, resolve_against};
-use sway::sim::sweep::SweepConfig;
 use sway::sim::{
     Controller, InitialCondition, Outcome, Recording, ScenarioConfig, SimSpec, SpeedProfile,
-    resolve_speeds, simulate,
+    simulate,
 };
+use sway_studies::mitigation::MitigationConfig;
+use sway_studies::sweep::SweepConfig;
 use trailer_model::{CriticalSpeedOptions, Model, State4, VehicleParams};
 
 /// Table I's open-loop critical speed as committed in results/linear/summary.json.

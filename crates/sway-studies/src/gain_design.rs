@@ -1,27 +1,27 @@
 //! The computation of `gain_design` (issue 10): the linear optima of a τ grid, the
 //! nonlinear part at every few delays, the delay budget, with the gain range, the speed
 //! range and the fold-of-cycles chart's box and seed derived from the vehicle where
-//! `configs/gain_design.toml` omits them ([`crate::charts::auto_range`]); the physical
+//! `configs/gain_design.toml` omits them ([`sway::charts::auto_range`]); the physical
 //! outcomes (stable up to the maximum speed, no gain that helps, no budget) carry reasons.
 
-use crate::parallel::{Split, join, map, try_map};
 use serde::{Deserialize, Serialize};
+use sway::parallel::{Split, join, map, try_map};
 use trailer_model::Model;
 
-use crate::control::LoopModel;
+use sway::control::LoopModel;
 
-use super::{
+use crate::chart::ChartConfig;
+use sway::SwayError;
+use sway::bifurcation::DiagramOptions;
+use sway::bifurcation::chart::ChartOptions;
+use sway::charts::auto_range::{
+    BoxKeys, Derivation, SpeedBounds, design_gains, middle, nonlinear_box, vehicle_scale,
+};
+use sway::config::Grid;
+use sway::gain_design::{
     DelayBudget, FoldResult, GainSearch, LinearOptimum, critical_speed, delay_budget, fold_optimum,
     linear_optimum, open_loop_fold_speed,
 };
-use crate::SwayError;
-use crate::bifurcation::DiagramOptions;
-use crate::bifurcation::chart::ChartOptions;
-use crate::bifurcation::chart::study::ChartConfig;
-use crate::charts::auto_range::{
-    BoxKeys, Derivation, SpeedBounds, design_gains, middle, nonlinear_box, vehicle_scale,
-};
-use crate::config::Grid;
 
 /// The search's keys: [`GainSearch`] with the gain and speed ranges optional.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -211,7 +211,7 @@ impl GainDesignConfig {
         let delays = self.nonlinear_delays();
         let chart = if delays.is_empty() {
             c.options(
-                &crate::charts::auto_range::SpeedGainBox {
+                &sway::charts::auto_range::SpeedGainBox {
                     v_min_mps: c.v_min_mps.unwrap_or(b.min_mps),
                     v_max_mps: c.v_max_mps.unwrap_or(b.max_mps),
                     d_min_s: search.d_min_s,
@@ -223,7 +223,7 @@ impl GainDesignConfig {
             )
         } else {
             // the speed range of chart_nonlinear's box at the nonlinear delays; the gain range
-            // is replaced by the search's ([`super::fold_chart_options`])
+            // is replaced by the search's ([`sway::gain_design::fold_chart_options`])
             let keys = BoxKeys {
                 v_min_mps: c.v_min_mps,
                 v_max_mps: c.v_max_mps,
@@ -327,7 +327,7 @@ pub fn compute(
     model: &Model,
     cfg: &GainDesignConfig,
     b: &SpeedBounds,
-    progress: &dyn crate::progress::Progress,
+    progress: &dyn sway::progress::Progress,
 ) -> Result<GainDesign, SwayError> {
     compute_plant(model, Some(model), cfg, b, progress)
 }
@@ -345,7 +345,7 @@ pub fn compute_plant<M: LoopModel + ?Sized>(
     nonlinear_model: Option<&Model>,
     cfg: &GainDesignConfig,
     b: &SpeedBounds,
-    progress: &dyn crate::progress::Progress,
+    progress: &dyn sway::progress::Progress,
 ) -> Result<GainDesign, SwayError> {
     let resolved = cfg.resolve(model, b)?;
     let delays = cfg.delays();

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 use trailer_model::{PARAMETERS, VehicleParams};
 
-use crate::sim::speeds::{Resolver, SpeedValue, UnresolvedSpeed};
+use sway::sim::speeds::{Resolver, SpeedValue, UnresolvedSpeed};
 
 /// A swept scenario quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -181,7 +181,7 @@ impl AxisParameter {
 /// One axis of the grid: `points` uniformly spaced values from `min` to `max`, or for
 /// `parameter = "vehicle_file"` the vehicle files `files` (paths relative to the sweep
 /// file's directory). `S`: the type of `min` and `max` (a `speed_mps` axis may give them
-/// relative to the vehicle, see [`crate::sim::speeds`]; every other axis gives numbers).
+/// relative to the vehicle, see [`sway::sim::speeds`]; every other axis gives numbers).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]

@@ -21,7 +21,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::control::{Actuator, Gains};
+use crate::law::{Actuator, Gains};
 
 fn default_time_constant() -> f64 {
     0.05
@@ -169,12 +169,12 @@ pub enum Controller {
         #[serde(default, skip_serializing_if = "ActuatorLimits::is_default")]
         actuator: ActuatorLimits,
     },
-    /// u(t) = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) for t_on ≤ t < t_off (issue 22's
-    /// `yaw_rate_hitch`, [`crate::control::Structure::YawRateHitch`]): a yaw-rate and a
+    /// u(t) = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) for t_on ≤ t < t_off (the
+    /// `yaw_rate_hitch` structure, [`crate::law::Structure::YawRateHitch`]): a yaw-rate and a
     /// hitch-angle sensor; u is the steering angle δ \[rad\] or the braking yaw moment
     /// M_z \[N m\] (saturated at ±M_max, [`CommandLimit`]).
     YawRateHitch {
-        /// D, K_θ, D_θ (units of the actuator: [`crate::control`])
+        /// D, K_θ, D_θ (units of the actuator: [`crate::law`])
         gains: Gains,
         /// loop delay τ \[s\]
         delay_s: f64,
@@ -191,8 +191,8 @@ pub enum Controller {
         #[serde(default, skip_serializing_if = "CommandLimit::is_default")]
         limit: CommandLimit,
     },
-    /// u(t) = −D·ψ̇_p(t) for t_on ≤ t < t_off (issue 22's `predictor`,
-    /// [`crate::control::predictor`]): ψ̇_p = Ĉ·x̂(t), x̂(t) = e^{Âτ}x(t − τ) + z(t), the state
+    /// u(t) = −D·ψ̇_p(t) for t_on ≤ t < t_off (the `predictor` structure,
+    /// [`crate::law::predictor`]): ψ̇_p = Ĉ·x̂(t), x̂(t) = e^{Âτ}x(t − τ) + z(t), the state
     /// predicted τ ahead through the prediction model (Â, B̂, Ĉ) linearised at the speed of
     /// t = 0, with z(t) = ∫_{t−τ}^{t} e^{Â(t−s)}B̂u(s) ds realised as the four extra states
     /// ż = Âz + B̂u(t) − e^{Âτ}B̂u(t − τ), z(0) = 0 (u ≡ 0 before t_on). The realisation
@@ -230,7 +230,7 @@ pub enum Controller {
 /// the scenario or sweep file): the prediction runs on it instead of the vehicle, so a
 /// simulation shows what a prediction model that differs from the vehicle does.
 ///
-/// The predictor's realisation is four-state (module [`crate::control::predictor`]): it
+/// The predictor's realisation is four-state (module [`crate::law::predictor`]): it
 /// predicts with the paper-form linearisation of the file's equivalent single-axle vehicle
 /// ([`trailer_model::VehicleSpec::equivalent_params`]), as it does with the vehicle itself;
 /// tyre relaxation in the file does not enter the prediction.
@@ -406,7 +406,7 @@ impl ModelError {
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoopLaw {
     /// `yaw_rate_hitch` or `predictor`
-    pub structure: crate::control::Structure,
+    pub structure: crate::law::Structure,
     /// the gains
     pub gains: Gains,
     /// τ \[s\]
@@ -469,7 +469,7 @@ impl Controller {
 
     /// The law of a `yaw_rate_hitch` or `predictor` controller (`None` for the others).
     pub fn loop_law(&self) -> Option<LoopLaw> {
-        use crate::control::Structure;
+        use crate::law::Structure;
         match self.clone() {
             Controller::None | Controller::YawRateFeedback { .. } => None,
             Controller::YawRateHitch {
@@ -554,7 +554,7 @@ impl Controller {
 
     /// The command before saturation \[rad\]: −D·ψ̇(t − τ) while the controller is on, 0
     /// while it is off (0 for `yaw_rate_hitch` and `predictor`, whose commands the
-    /// [`crate::sim::Plant`] computes from the whole delayed state).
+    /// simulation computes from the whole delayed state).
     #[inline]
     pub fn raw_steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
         match self {
@@ -650,7 +650,7 @@ impl Controller {
                     return Err((key, format!("expected a finite gain, got {v}")));
                 }
             }
-            if law.structure == crate::control::Structure::Predictor {
+            if law.structure == crate::law::Structure::Predictor {
                 for (key, v) in [
                     ("gains.hitch_angle", g.hitch_angle),
                     ("gains.hitch_rate", g.hitch_rate),

@@ -1,25 +1,25 @@
 //! The headline numbers of every task for one vehicle (issue 20, item 6; task `fleet`):
-//! the open-loop critical speed V_crit ([`crate::ranging::open_loop_critical_speed`]), the
+//! the open-loop critical speed V_crit ([`sway::ranging::open_loop_critical_speed`]), the
 //! fold of cycles V_fold and the width of the bistable range V_crit − V_fold
-//! ([`crate::ranging::open_loop_references`]), the best gain D\*(τ) of the delayed feedback
-//! at τ = 0.2 s ([`crate::gain_design::linear_optimum`]) and the θ(0) threshold of sway at
+//! ([`sway::ranging::open_loop_references`]), the best gain D\*(τ) of the delayed feedback
+//! at τ = 0.2 s ([`sway::gain_design::linear_optimum`]) and the θ(0) threshold of sway at
 //! the middle of the bistable range (`{ in_bistable = 0.5 }`, the bisection of the threshold
-//! map, [`super::sweep::threshold`]). Every number that a vehicle does not have is null with
+//! map, [`crate::sweep::threshold`]). Every number that a vehicle does not have is null with
 //! a reason next to it.
 
 use serde::{Deserialize, Serialize};
 use trailer_model::{AnyVehicleModel, with_plant};
 
-use super::sweep::threshold::{ThresholdSearch, theta0_threshold_any};
-use super::sweep::{Axis, AxisParameter, BaseScenario, SweepParameter};
-use super::{Controller, InitialCondition, SpeedProfile};
-use crate::SwayError;
-use crate::config::Positive;
-use crate::gain_design::{GainSearch, linear_optimum};
-use crate::ranging::{
+use crate::sweep::threshold::{ThresholdSearch, theta0_threshold_any};
+use crate::sweep::{Axis, AxisParameter, BaseScenario, SweepParameter};
+use sway::SwayError;
+use sway::config::Positive;
+use sway::gain_design::{GainSearch, linear_optimum};
+use sway::ranging::{
     OpenLoopStability, Reference, SpeedLimits, open_loop_critical_speed, open_loop_references,
 };
-use crate::sim::{MetricSettings, RunSettings, SolverSettings};
+use sway::sim::{Controller, InitialCondition, SpeedProfile};
+use sway::sim::{MetricSettings, RunSettings, SolverSettings};
 
 /// Settings of the fleet table (`configs/fleet.toml`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -94,7 +94,7 @@ pub struct FleetEntry {
 /// [`trailer_model::Model`] for a vehicle of the paper's form: the same calls, so the
 /// same numbers): V_crit and the fold of cycles on the plant itself
 /// ([`open_loop_references`]), D\* on its own linearisation ([`linear_optimum`] through
-/// [`crate::control::LoopModel`]) and the threshold by simulating it
+/// [`sway::control::LoopModel`]) and the threshold by simulating it
 /// ([`theta0_threshold_any`]).
 ///
 /// # Errors

@@ -1,4 +1,4 @@
-//! Scenario speeds that mean the same for every vehicle (issue 20): a speed in a scenario
+//! Scenario speeds that mean the same for every vehicle: a speed in a scenario
 //! or sweep config is a [`SpeedSpec`] — a number (m/s, absolute: wins, as always) or a
 //! table relative to the vehicle, `{ of_v_crit = f }` (f·V_crit of the open loop) or
 //! `{ in_bistable = f }` (V_fold + f·(V_crit − V_fold); f = 0 at the fold of cycles, 1 at
@@ -7,10 +7,10 @@
 //!
 //! The config types are generic over the speed type `S`: `S = SpeedSpec` is what a file
 //! says, `S = f64` (the default) is what the pipelines run. A config is resolved once per
-//! run ([`resolve_speeds`]): the references it needs are computed once
-//! ([`crate::ranging::open_loop_references`]; the fold only when an `in_bistable` speed
+//! run (`sway::ranging::resolve_speeds`): the references it needs are computed once
+//! (`sway::ranging::open_loop_references`; the fold only when an `in_bistable` speed
 //! asks for it, nothing at all when every speed is a number), then every speed is
-//! replaced by its value. A spec that cannot resolve (a vehicle stable at every speed up
+//! replaced by its value ([`resolve_against`]). A spec that cannot resolve (a vehicle stable at every speed up
 //! to the maximum has no V_crit; a supercritical Hopf point has no bistable range) is an
 //! outcome with a reason ([`UnresolvedSpeed`]), not an error.
 
@@ -18,12 +18,8 @@ use std::fmt::Debug;
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
-use trailer_model::Model;
 
-use crate::SwayError;
-use crate::ranging::{
-    Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, open_loop_references,
-};
+use super::{Reference, RelativeSpeed, SpeedReferences, SpeedSpec};
 
 /// A speed as a config type holds it: `f64` (resolved, m/s) or [`SpeedSpec`] (as written).
 pub trait SpeedValue:
@@ -108,7 +104,7 @@ pub struct Needs {
 }
 
 impl Needs {
-    /// The argument of [`open_loop_references`], None when every speed is a number.
+    /// The reference to compute (`sway::ranging::open_loop_references`), None when every speed is a number.
     pub fn reference(&self) -> Option<Reference> {
         match (self.v_crit, self.fold) {
             (_, true) => Some(Reference::Fold),
@@ -248,23 +244,6 @@ pub fn resolve_against<C: ResolveSpeeds>(
     }
 }
 
-/// Resolves `cfg` for `model`: computes the references its speeds need (none, V_crit, or
-/// V_crit and the fold) once, then every speed.
-///
-/// # Errors
-/// When computing a reference fails numerically (an unresolvable speed is not an error).
-pub fn resolve_speeds<C: ResolveSpeeds>(
-    model: &Model,
-    limits: &SpeedLimits,
-    cfg: &C,
-) -> Result<Resolution<C::Resolved>, SwayError> {
-    let refs = match cfg.needs().reference() {
-        Some(need) => open_loop_references(model, limits, need)?,
-        None => SpeedReferences::default(),
-    };
-    Ok(resolve_against(&refs, cfg))
-}
-
 /// Resolves a speed change (ΔV): a number or `{ of_v_crit = f }`.
 ///
 /// # Errors
@@ -288,27 +267,4 @@ pub fn check_change<S: SpeedValue>(s: &S, key: &str) -> Result<(), (String, Stri
         ));
     }
     Ok(())
-}
-
-/// [`resolve_speeds`] for the model of a vehicle file: the paper's [`Model`] exactly as
-/// [`resolve_speeds`]; a model variant refers `of_v_crit` speeds to its own V_crit and
-/// `in_bistable` speeds to its own fold of cycles ([`open_loop_references`] on its plant).
-///
-/// # Errors
-/// When computing a reference fails numerically (an unresolvable speed is not an error).
-pub fn resolve_speeds_any<C: ResolveSpeeds>(
-    vehicle: &trailer_model::AnyVehicleModel,
-    limits: &SpeedLimits,
-    cfg: &C,
-) -> Result<Resolution<C::Resolved>, SwayError> {
-    if let trailer_model::AnyVehicleModel::Paper(model) = vehicle {
-        return resolve_speeds(model, limits, cfg);
-    }
-    let refs = match cfg.needs().reference() {
-        None => SpeedReferences::default(),
-        Some(need) => {
-            trailer_model::with_plant!(vehicle, m => open_loop_references(m, limits, need))?
-        }
-    };
-    Ok(resolve_against(&refs, cfg))
 }

@@ -6,11 +6,12 @@ use trailer_model::{Model, VehicleParams};
 
 use sway::bifurcation::DiagramOptions;
 use sway::bifurcation::chart::ChartOptions;
-use sway::bifurcation::chart::study::{ChartConfig, ChartNonlinearConfig, RegionGrid, compute};
 use sway::charts::auto_range::*;
-use sway::charts::fig4a::{Fig4aConfig, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig};
-use sway::charts::{critical_speed_at_gain, fig4a};
+use sway::charts::critical_speed_at_gain;
 use sway::progress::NoProgress;
+use sway_studies::chart::{ChartConfig, ChartNonlinearConfig, RegionGrid, compute};
+use sway_studies::fig4a;
+use sway_studies::fig4a::{Fig4aConfig, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig};
 
 fn table1() -> Model {
     Model::new(VehicleParams::default()).unwrap()

@@ -4,18 +4,18 @@
 //! defining systems of the nonlinear chart ([`critical_speeds`]), so that `fig4b`,
 //! `chart_nonlinear` and the `hopf_fold_speeds` sweep kind share one implementation.
 
-use super::LoopPlant;
-use crate::parallel::{Split, try_map};
 use continuation::Criticality;
 use serde::Serialize;
+use sway::bifurcation::LoopPlant;
+use sway::parallel::{Split, try_map};
 
-use super::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
-use super::{
+use sway::SwayError;
+use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
+use sway::bifurcation::{
     BranchEnd, CycleExtent, Diagram, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram,
 };
-use crate::SwayError;
-use crate::progress::Progress;
-use crate::ranging::SpeedLimits;
+use sway::progress::Progress;
+use sway::ranging::SpeedLimits;
 
 /// The diagram of one feedback setting.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,7 +32,7 @@ pub enum PairDiagram {
         /// the feedback
         feedback: Feedback,
         /// what straight running does instead
-        outcome: super::NoHopf,
+        outcome: sway::bifurcation::NoHopf,
     },
 }
 

@@ -20,13 +20,13 @@ use serde::{Deserialize, Serialize};
 
 use super::{AxisParameter, PointModel, PointOutput, PointResult, SweepConfig, SweepParameter};
 use super::{BaseScenario, PointKind, Sweep};
-use crate::SwayError;
-use crate::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
-use crate::config::{Positive, ensure};
-use crate::ranging::SpeedLimits;
-use crate::sim::classify::SwayClass;
-use crate::sim::{Controller, InitialCondition, SpeedProfile};
 use std::borrow::Cow;
+use sway::SwayError;
+use sway::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
+use sway::config::{Positive, ensure};
+use sway::ranging::SpeedLimits;
+use sway::sim::classify::SwayClass;
+use sway::sim::{Controller, InitialCondition, SpeedProfile};
 use trailer_model::{AnyVehicleModel, Model};
 
 fn default_horizon() -> Positive {

@@ -2,24 +2,24 @@
 //! `configs/chart_nonlinear.toml`, the linear chart behind its shading, the speeds of the
 //! curves at the summary gains and the bistable width; the box, the seeds and the summary
 //! gains derived from the vehicle where the config omits them
-//! ([`crate::charts::auto_range`]). Also the `[chart]` table that `corners` and
+//! ([`sway::charts::auto_range`]). Also the `[chart]` table that `corners` and
 //! `gain_design` share ([`ChartConfig`]).
 
-use crate::bifurcation::LoopPlant;
-use crate::control::LoopModel;
-use crate::parallel::{Split, join, map, try_map};
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
+use sway::bifurcation::LoopPlant;
+use sway::control::LoopModel;
+use sway::parallel::{Split, join, map, try_map};
 
-use super::{ChartOptions, NonlinearChart, nonlinear_chart};
-use crate::SwayError;
-use crate::bifurcation::DiagramOptions;
-use crate::charts::auto_range::{
+use continuation::{MeshAdaptation, NewtonUpdate};
+use sway::SwayError;
+use sway::bifurcation::DiagramOptions;
+use sway::bifurcation::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
+use sway::charts::auto_range::{
     BoxKeys, Derivation, SpeedBounds, SpeedGainBox, middle, nonlinear_box, seed_gains,
     summary_gains,
 };
-use crate::charts::fig4a_charts;
-use continuation::{MeshAdaptation, NewtonUpdate};
+use sway::charts::fig4a_charts;
 
 /// The `[chart]` table of a config: [`ChartOptions`] with the box and the seeds optional
 /// (derived from the vehicle where omitted).
@@ -437,7 +437,7 @@ pub fn compute<P: LoopPlant<N> + LoopModel, const N: usize>(
     model: &P,
     cfg: &ChartNonlinearConfig,
     b: &SpeedBounds,
-    progress: &dyn crate::progress::Progress,
+    progress: &dyn sway::progress::Progress,
 ) -> Result<ChartStudy, SwayError> {
     let resolved = cfg.resolve(model, b)?;
     let delays = compute_resolved(model, &resolved, &cfg.delays_s, progress)?;
@@ -452,7 +452,7 @@ pub fn compute_resolved<P: LoopPlant<N> + LoopModel, const N: usize>(
     model: &P,
     r: &ResolvedChart,
     delays: &[f64],
-    progress: &dyn crate::progress::Progress,
+    progress: &dyn sway::progress::Progress,
 ) -> Result<Vec<DelayResult>, SwayError> {
     // the longest delays first (their collocation factors fill most, so they cost most):
     // rayon then starts them on separate threads instead of last; results in config order

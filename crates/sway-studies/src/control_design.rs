@@ -2,29 +2,26 @@
 //! actuator, the best gains on a grid of delays, the delay budget, and at chosen delays the
 //! robust (5 %) critical speed under vehicle uncertainty; for every optimum of the
 //! output-feedback structures (`yaw_rate`, `yaw_rate_hitch`, either actuator) the
-//! fold-of-cycles speed of its loop ([`crate::bifurcation::ClosedLoop`] with the
+//! fold-of-cycles speed of its loop ([`sway::bifurcation::ClosedLoop`] with the
 //! [`LoopLaw`] of the design) and, where the optimum sits on a double-Hopf corner, the gain a
 //! little away from it that maximises the fold speed instead ([`AwayFromCorner`], issue 22
 //! item 4). The `predictor` has no fold: its distributed delay is not a continuation problem
 //! here.
 
-use crate::parallel::{Split, map};
 use serde::{Deserialize, Serialize};
+use sway::parallel::{Split, map};
 use trailer_model::{AnyVehicleModel, Model, VehicleParams, VehicleSpec};
 
-use super::design::{design_from_start, perfect_predictor_designs};
-use super::{
+use sway::SwayError;
+use sway::bifurcation::chart::ChartOptions;
+use sway::control::{
     Actuator, Controller, DelayBudget, Design, DesignSearch, GainName, Gains, LoopModel,
     Robustness, SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
     robust_critical_speed, robust_critical_speed_spec,
 };
-use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, fold_of_cycles};
-use crate::bifurcation::{
-    CycleExtent, DiagramOutcome, DiagramSettings, Feedback, LoopLaw, cycle_diagram_with_law,
-};
-use crate::progress::Progress;
-use crate::ranging::SpeedLimits;
+use sway::control::{design_from_start, perfect_predictor_designs};
+use sway::control::{fold_speed, hopf_and_fold};
+use sway::progress::Progress;
 
 /// What the study computes (plain data; the task reads it from its config).
 #[derive(Debug, Clone, PartialEq)]
@@ -75,7 +72,7 @@ pub struct DesignFold {
 }
 
 /// The gains near a double-Hopf optimum that maximise the fold-of-cycles speed (issue 22,
-/// item 4): D varied over its near-optimal band ([`super::GainBand`], the gains whose
+/// item 4): D varied over its near-optimal band ([`sway::control::GainBand`], the gains whose
 /// linear critical speed is within the band fraction of the best), `samples` evenly on each
 /// side of the corner, the other gains kept at the optimum.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -215,8 +212,14 @@ pub fn control_study(
         .transpose()
         .map_err(|e| SwayError::numerical("the predictor's prediction vehicle", e))?;
     let prediction = prediction_model.as_ref().map(|m| m as &dyn LoopModel);
-    let open = super::critical_speed(model, &Controller::paper(0.0), 0.0, None, &s.search.speed)?
-        .ok_or_else(|| {
+    let open = sway::control::critical_speed(
+        model,
+        &Controller::paper(0.0),
+        0.0,
+        None,
+        &s.search.speed,
+    )?
+    .ok_or_else(|| {
         SwayError::numerical(
             "the open-loop critical speed of the control study",
             std::io::Error::other(format!(
@@ -500,22 +503,6 @@ fn all_designs(
         .collect())
 }
 
-/// The law of the continuation problem of a controller: None for the predictor.
-pub fn loop_law(c: &Controller) -> Option<LoopLaw> {
-    match c.structure {
-        Structure::YawRate => Some(LoopLaw {
-            actuator: c.actuator,
-            ..LoopLaw::PAPER
-        }),
-        Structure::YawRateHitch => Some(LoopLaw {
-            actuator: c.actuator,
-            hitch_angle: c.gains.hitch_angle,
-            hitch_rate: c.gains.hitch_rate,
-        }),
-        Structure::Predictor => None,
-    }
-}
-
 /// The fold of one optimum and, at a double-Hopf corner, the best gains away from it; for
 /// a vehicle with model variants (no paper `model`) none, with the reason.
 fn design_fold(
@@ -604,7 +591,7 @@ fn away_from_corner(
                 actuator: d.actuator,
                 gains,
             };
-            let v_crit = super::critical_speed(model, &c, d.tau_s, None, &s.search.speed)?
+            let v_crit = sway::control::critical_speed(model, &c, d.tau_s, None, &s.search.speed)?
                 .unwrap_or(s.search.speed.v_max_mps);
             Some(AwayFromCorner {
                 gains,
@@ -616,118 +603,4 @@ fn away_from_corner(
         None => None,
     };
     Ok(best.map(|b| AwayFromCorner { tried, ..b }))
-}
-
-/// The Hopf point and the fold of cycles of a controller's loop at one delay
-/// ([`hopf_and_fold`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct LoopHopfFold {
-    /// the Hopf point of straight running where it first loses stability, located on the
-    /// spectrum: speed \[m/s\], ω \[rad/s\] and criticality (from the cycle branch's
-    /// direction); None without one (see `reason`)
-    pub hopf: Option<(f64, f64, continuation::Criticality)>,
-    /// the fold of cycles, corrected on the fold-of-cycles system at fixed gains; None
-    /// without one (see `reason`)
-    pub fold: Option<crate::bifurcation::chart::FoldCurvePoint>,
-    /// why `hopf` or `fold` is None
-    pub reason: Option<String>,
-}
-
-/// The Hopf point and the fold of cycles of the sway branch of a controller's loop
-/// ([`crate::bifurcation::ClosedLoop`] with the controller's [`LoopLaw`]: u = −(D·ψ̇ +
-/// K_θ·θ + D_θ·θ̇)(t − τ) on steering or a yaw moment), the fold corrected on the
-/// fold-of-cycles system as the nonlinear chart does. The cycle branch is continued without
-/// Floquet multipliers (the fold comes from the tangent, the criticality from the
-/// branch's direction). The diagram's speed range is derived from the vehicle
-/// ([`cycle_diagram_with_law`]: from the lowest speed of `search` past the Hopf point)
-/// unless `chart.cycles` gives both ends. Without a Hopf point (a stable loop, a static
-/// divergence), without a fold, for the predictor or when the continuation fails: None
-/// with the reason (one design's failure does not stop a study or a sweep).
-///
-/// # Errors
-/// None today: every failure is a reason (the `Result` leaves room for the caller's).
-pub fn hopf_and_fold(
-    model: &Model,
-    c: &Controller,
-    tau: f64,
-    chart: &ChartOptions,
-    search: &SpeedSearch,
-) -> Result<LoopHopfFold, SwayError> {
-    let none = |reason: String| LoopHopfFold {
-        hopf: None,
-        fold: None,
-        reason: Some(reason),
-    };
-    let Some(law) = loop_law(c) else {
-        return Ok(none(format!(
-            "not computed: the predictor's distributed delay (the integral of the commands \
-             over [t − τ, t]) is not a continuation problem of bifurcation::closed_loop \
-             ({} + {})",
-            c.structure.as_str(),
-            c.actuator.as_str()
-        )));
-    };
-    let feedback = Feedback {
-        gain_d_s: c.gains.yaw_rate,
-        delay_s: tau,
-    };
-    let limits = SpeedLimits {
-        min_speed_mps: search.v_min_mps,
-        max_speed_mps: search.v_max_mps,
-        ..SpeedLimits::default()
-    };
-    let settings = DiagramSettings {
-        floquet_multipliers: continuation::FloquetMultipliers::OnRequest,
-        ..DiagramSettings::from_options(&chart.cycles, None)
-    };
-    let failed = |e: SwayError| none(format!("the continuation failed: {e}"));
-    let diagram = match cycle_diagram_with_law(
-        model,
-        feedback,
-        law,
-        &settings,
-        &limits,
-        CycleExtent::FirstFold,
-    ) {
-        Ok(DiagramOutcome::Computed(d)) => d,
-        Ok(DiagramOutcome::NoHopf(n)) => return Ok(none(n.reason)),
-        Err(e) => return Ok(failed(e)),
-    };
-    let hopf = Some((
-        diagram.hopf.parameter,
-        diagram.hopf.omega.abs(),
-        diagram.criticality,
-    ));
-    Ok(match fold_of_cycles(model, &diagram, chart) {
-        Ok(Some(f)) => LoopHopfFold {
-            hopf,
-            fold: Some(f),
-            reason: None,
-        },
-        Ok(None) => {
-            LoopHopfFold {
-                hopf,
-                fold: None,
-                reason: Some(diagram.fold_reason().unwrap_or_else(|| {
-                    "the fold of the cycle branch could not be corrected".into()
-                })),
-            }
-        }
-        Err(e) => LoopHopfFold { hopf, ..failed(e) },
-    })
-}
-
-/// The fold-of-cycles speed of [`hopf_and_fold`] \[m/s\], or None with the reason.
-///
-/// # Errors
-/// As [`hopf_and_fold`].
-pub fn fold_speed(
-    model: &Model,
-    c: &Controller,
-    tau: f64,
-    chart: &ChartOptions,
-    search: &SpeedSearch,
-) -> Result<(Option<f64>, Option<String>), SwayError> {
-    let r = hopf_and_fold(model, c, tau, chart, search)?;
-    Ok((r.fold.map(|f| f.v_mps), r.reason))
 }

@@ -1,7 +1,7 @@
 //! Parallel sweeps (issue 11): a grid over scenario quantities (V, θ(0), D, τ, braking
 //! time and start), vehicle fields by key path and vehicle files (a fleet), optionally times
 //! uncertainty samples of vehicle fields; every point evaluates one [`PointKind`]: a
-//! simulation (classified, see [`crate::sim::classify`]), the linear critical speed, or the
+//! simulation (classified, see [`sway::sim::classify`]), the linear critical speed, or the
 //! Hopf and fold-of-cycles speeds.
 //!
 //! Every piece of work is a point with an index `k` in `0..len()` and
@@ -17,20 +17,20 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use sway::with_run_fields;
 use trailer_model::{AnyVehicleModel, Model, State4, VehicleParams, VehicleSpec};
 
-use super::run::{Metrics, RunSettings, SimSpec, simulate, simulate_any};
-use super::scenario::{
+use sway::SwayError;
+use sway::config::{Positive, ensure};
+use sway::progress::Progress;
+use sway::ranging::SpeedLimits;
+use sway::sampling::{About, Sampler, Sampling};
+use sway::sim::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
+use sway::sim::{Controller, Recording, SpeedProfile};
+use sway::sim::{
     InitialCondition, default_action_time, ensure_name, validate_parts, validate_spec_parts,
-    with_run_fields,
 };
-use super::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
-use super::{Controller, Recording, SpeedProfile};
-use crate::SwayError;
-use crate::config::{Positive, ensure};
-use crate::progress::Progress;
-use crate::ranging::SpeedLimits;
-use crate::sampling::{About, Sampler, Sampling};
+use sway::sim::{Metrics, RunSettings, SimSpec, simulate, simulate_any};
 
 mod analysis;
 mod axis;
@@ -91,8 +91,8 @@ impl PointKind {
 }
 
 /// A sweep file (see `configs/sweep_threshold.toml`). `S`: the type of the speeds (base
-/// scenario and `speed_mps` axes), [`crate::ranging::SpeedSpec`] as written, `f64` when run
-/// (see [`crate::sim::speeds`]; relative speeds resolve once per run against the sweep's
+/// scenario and `speed_mps` axes), [`sway::ranging::SpeedSpec`] as written, `f64` when run
+/// (see [`sway::sim::speeds`]; relative speeds resolve once per run against the sweep's
 /// vehicle, not per point).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -851,7 +851,7 @@ pub fn simulate_point(
         .resolve(model, &s.settings.solver)
         .map_err(|e| e.to_string())?;
     let spec = SimSpec {
-        early_stop: crate::sim::EarlyStop::Never,
+        early_stop: sway::sim::EarlyStop::Never,
         action_s: s
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
@@ -880,7 +880,7 @@ pub(crate) fn simulate_point_any(
         .resolve_any(vehicle, &s.settings.solver)
         .map_err(|e| e.to_string())?;
     let spec = SimSpec {
-        early_stop: crate::sim::EarlyStop::Never,
+        early_stop: sway::sim::EarlyStop::Never,
         action_s: s
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),

@@ -1,18 +1,18 @@
-//! The computation of `corners` (issue 12): [`super::corner_study`] for every delay of
+//! The computation of `corners` (issue 12): [`sway::bifurcation::corners::corner_study`] for every delay of
 //! `configs/corners.toml`, with the nonlinear chart's box and seeds and the
 //! `beyond_gain_s` scan derived from the vehicle where the config omits them
-//! ([`crate::charts::auto_range`]); a delay without a double-Hopf point in the box is an
+//! ([`sway::charts::auto_range`]); a delay without a double-Hopf point in the box is an
 //! outcome with its reason, not an error.
 
-use crate::parallel::{Split, try_map};
 use serde::{Deserialize, Serialize};
+use sway::parallel::{Split, try_map};
 
-use super::{CornerOptions, CornerPlant, CornerStudy, corner_study};
-use crate::SwayError;
-use crate::bifurcation::chart::ChartOptions;
-use crate::bifurcation::chart::study::ChartConfig;
-use crate::charts::auto_range::{Derivation, SpeedBounds, chart_gains, vehicle_scale};
-use crate::control::LoopModel;
+use crate::chart::ChartConfig;
+use sway::SwayError;
+use sway::bifurcation::chart::ChartOptions;
+use sway::bifurcation::corners::{CornerOptions, CornerPlant, CornerStudy, corner_study};
+use sway::charts::auto_range::{Derivation, SpeedBounds, chart_gains, vehicle_scale};
+use sway::control::LoopModel;
 
 fn default_delays() -> Vec<f64> {
     vec![0.2, 0.4]

@@ -5,7 +5,7 @@
 //! ([`MitigationSummary`]). The task writes the files and draws the figures.
 //!
 //! Speeds (V0, the final-speed floor, the paper's ΔV) may be given relative to the vehicle
-//! ([`crate::sim::speeds`]); a vehicle without sway at V0 (stable at every speed up to the
+//! ([`sway::sim::speeds`]); a vehicle without sway at V0 (stable at every speed up to the
 //! maximum, or V0 below where it sways) has nothing to mitigate: [`MitigationOutcome::NoSway`]
 //! with the reason.
 
@@ -13,19 +13,19 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::optimise::OptimiserSettings;
-use super::{
+use sway::SwayError;
+use sway::config::{Positive, ensure};
+use sway::mitigation::{
     DecisionBounds, Evaluation, Intervention, MitigationProblem, Optimum, PhaseStarts, Setting,
     SwayCycle, evaluate, find_sway_cycle, optimise, settled,
 };
-use crate::SwayError;
-use crate::config::{Positive, ensure};
-use crate::progress::Progress;
-use crate::sim::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed, check_change};
-use crate::sim::{
+use sway::progress::Progress;
+use sway::sim::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed, check_change};
+use sway::sim::{
     ActuatorLimits, Outcome, RampShape, Recording, RunSettings, SimulateOwn, SolverSettings,
     SwayStart,
 };
+use sway_model::optimise::OptimiserSettings;
 
 /// The paper's strategies (Fig. 4c): braking ΔV over T (linear), steering gain D.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -54,7 +54,7 @@ fn default_true() -> bool {
     true
 }
 
-/// `configs/mitigation.toml`. `S`: the type of the speeds (see [`crate::sim::speeds`]).
+/// `configs/mitigation.toml`. `S`: the type of the speeds (see [`sway::sim::speeds`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[serde(bound(serialize = "S: Serialize", deserialize = "S: Deserialize<'de>"))]

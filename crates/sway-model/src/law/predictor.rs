@@ -30,7 +30,7 @@
 //!
 //! **Closed form.** With a perfect model (Â, B̂) = (A, B) the two delayed terms cancel and
 //! the loop's roots are the eigenvalues of A − B K, whatever τ: the spectrum of the delay-free
-//! loop (tested against eig(A − B K)). [`super::LinearLoop`] builds that delay-free loop
+//! loop (tested against eig(A − B K)). `sway::control::LinearLoop` builds that delay-free loop
 //! directly when the model is the plant ([`is_perfect_model`]): the cleared form would carry
 //! P₁ as a round-off remainder (≈ 1e-16 of P₀'s coefficients) instead of 0, and
 //! ε·e^{−λτ}P₁ has infinitely many roots near Re λ ≈ ln ε/τ that no spectral discretisation

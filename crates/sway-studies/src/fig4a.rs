@@ -1,18 +1,18 @@
 //! The computation of `fig4a` (paper Fig. 4(a)): the stability charts of the delayed
 //! yaw-rate feedback in the (V, D) plane for several delays, their headline numbers, and the
 //! axes derived from the vehicle where `configs/fig4a.toml` omits them
-//! ([`super::auto_range`]).
+//! ([`sway::charts::auto_range`]).
 
-use crate::control::LoopModel;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, ChartOptions, StabilityChart};
+use sway::control::LoopModel;
 
-use super::auto_range::{
+use sway::SwayError;
+use sway::charts::auto_range::{
     Derivation, SpeedBounds, VehicleScale, chart_gains, critical_speed_extent, speed_top,
     summary_speed, vehicle_scale,
 };
-use super::{critical_speed_at_gain, fig4a_charts, stable_gain_intervals};
-use crate::SwayError;
+use sway::charts::{critical_speed_at_gain, fig4a_charts, stable_gain_intervals};
 
 /// Speed axis \[m/s\]; an omitted end is derived from the vehicle.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -105,9 +105,9 @@ pub struct Fig4aConfig {
     #[serde(default)]
     pub numerics: NumericsConfig,
     /// the controller whose gain D is the chart's axis (omitted: the paper's yaw-rate
-    /// steering, [`super::ChartController`])
+    /// steering, [`sway::charts::ChartController`])
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub controller: Option<super::ChartController>,
+    pub controller: Option<sway::charts::ChartController>,
 }
 
 impl Fig4aConfig {
@@ -159,7 +159,7 @@ pub struct Fig4aRanges {
 }
 
 /// The config's axes and summary settings with the omitted ones derived from the vehicle
-/// ([`super::auto_range`]).
+/// ([`sway::charts::auto_range`]).
 ///
 /// # Errors
 /// [`SwayError::Numerical`] from the derivation.
@@ -311,7 +311,7 @@ pub fn compute<M: LoopModel + ?Sized>(
                 )
             })?;
             compute_loop(
-                &super::Controlled {
+                &sway::charts::Controlled {
                     model,
                     controller: c,
                 },

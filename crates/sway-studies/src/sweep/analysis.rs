@@ -8,15 +8,15 @@ use serde::{Deserialize, Serialize};
 use trailer_model::{Inputs, Model, State4, sorted_eigenvalues};
 
 use super::PointKind;
-use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{CycleExtent, Feedback};
-use crate::bifurcation::{DiagramOutcome, DiagramSettings, vehicle_diagram};
-use crate::charts::{critical_speed_at_gain, rightmost_roots};
-use crate::config::ensure;
-use crate::control;
-use crate::ranging::SpeedLimits;
-use crate::sim::Controller;
+use sway::SwayError;
+use sway::bifurcation::chart::{ChartOptions, critical_speeds};
+use sway::bifurcation::{CycleExtent, Feedback};
+use sway::bifurcation::{DiagramOutcome, DiagramSettings, vehicle_diagram};
+use sway::charts::{critical_speed_at_gain, rightmost_roots};
+use sway::config::ensure;
+use sway::control;
+use sway::ranging::SpeedLimits;
+use sway::sim::Controller;
 
 /// Settings of the linear and bifurcation point kinds (`[analysis]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -141,9 +141,9 @@ pub struct HopfFoldSpeeds {
     pub reason: Option<String>,
 }
 
-/// A `yaw_rate_hitch` or `predictor` controller as a loop of [`crate::control`]: its
+/// A `yaw_rate_hitch` or `predictor` controller as a loop of [`sway::control`]: its
 /// structure, actuator and gains, the delay τ \[s\] and, for the predictor, the model it
-/// predicts with ([`crate::sim::LoopLaw::prediction_params`]).
+/// predicts with ([`sway::sim::LoopLaw::prediction_params`]).
 struct AnalysedLoop {
     controller: control::Controller,
     delay_s: f64,
@@ -246,7 +246,7 @@ impl AnalysedLoop {
             ..control::SpeedSearch::default()
         };
         let chart = ChartOptions::correcting(&o.diagram.options(lo, hi));
-        match control::hopf_and_fold(model, &self.controller, self.delay_s, &chart, &search) {
+        match sway::control::hopf_and_fold(model, &self.controller, self.delay_s, &chart, &search) {
             Ok(r) => HopfFoldSpeeds {
                 hopf_v_mps: r.hopf.map(|h| h.0),
                 hopf_omega_rad_s: r.hopf.map(|h| h.1),

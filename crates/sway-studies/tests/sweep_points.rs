@@ -4,7 +4,7 @@ use sway::ranging::SpeedLimits;
 use sway::sim::Controller;
 use sway::sim::SwayClass;
 use sway::sim::speeds::ResolveSpeeds;
-use sway::sim::sweep::*;
+use sway_studies::sweep::*;
 use trailer_model::Model;
 use trailer_model::VehicleParams;
 

@@ -1,0 +1,32 @@
+//! The studies floor of trailer-sway: one module per task, each the whole computation of
+//! the task — its typed config, the ranges it derives from the vehicle, the engines of
+//! [`sway`] it calls and the values it returns. The task layer (`sway-tasks`) reads the
+//! config, calls the study and writes what it returns; the Python package calls the same
+//! studies.
+//!
+//! | module | task |
+//! |---|---|
+//! | [`fig4a`] | `fig4a`: linear stability charts in (V, D) per delay |
+//! | [`fig4b`] | `fig4b`: bifurcation diagrams of the delayed closed loop |
+//! | [`chart`] | `chart_nonlinear`: Hopf and fold-of-cycles curves, regions, codimension-two points |
+//! | [`corners`] | `corners`: double-Hopf points, torus curves and the motion near them |
+//! | [`gain_design`] | `gain_design`: the best gain D\*(τ) and the delay budget |
+//! | [`control_design`] | `control_design`: every structure × actuator over the delays |
+//! | [`mitigation`] | `mitigation`: the intervention that ends sway fastest from any phase |
+//! | [`sweep`] | `sweep`, `brake_timing`, `study_*`: point-wise parallel studies |
+//! | [`fleet`] | `variants`, fleets: the headline numbers of one vehicle |
+//!
+//! ```
+//! use sway_studies::fig4a::{Fig4aConfig, compute};
+//! # let _ = (std::any::type_name::<Fig4aConfig>(), compute as usize);
+//! ```
+
+pub mod chart;
+pub mod control_design;
+pub mod corners;
+pub mod fig4a;
+pub mod fig4b;
+pub mod fleet;
+pub mod gain_design;
+pub mod mitigation;
+pub mod sweep;

@@ -12,6 +12,8 @@
 mod configs;
 #[path = "generated_inputs.rs"]
 mod generated_inputs;
+#[path = "import_cycles.rs"]
+mod import_cycles;
 #[path = "layering.rs"]
 mod layering;
 #[path = "linear.rs"]

@@ -1,8 +1,9 @@
 //! The model floor of trailer-sway: what the analysis engines ([`sway`]) and the studies
 //! (`sway-studies`) share and what knows nothing about simulation, continuation or charts.
 //!
-//! - [`law`]: the loop laws — controller structures, actuators and gains, the linearisation
-//!   of a vehicle the linear loops are built on ([`law::LoopModel`]), the predictor's
+//! - [`vehicle`]: the one vehicle abstraction of the engines ([`vehicle::Vehicle`]) and its
+//!   object-safe view for the linear loops ([`vehicle::LoopModel`], [`linear_view!`]);
+//! - [`law`]: the loop laws — controller structures, actuators and gains, the predictor's
 //!   realisation, and the controller of a simulation ([`law::simulation`]);
 //! - [`speeds`]: the limits of every automatic range ([`speeds::SpeedLimits`]), the open-loop
 //!   critical-speed search, speeds given relative to the vehicle ([`speeds::SpeedSpec`]) and
@@ -40,5 +41,10 @@ pub mod parallel;
 pub mod progress;
 pub mod sampling;
 pub mod speeds;
+pub mod vehicle;
 
 pub use error::SwayError;
+
+/// The model crate, for [`linear_view!`]'s expansion in other crates.
+#[doc(hidden)]
+pub use trailer_model as __trailer_model;

@@ -7,9 +7,9 @@
 
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
-use sway::bifurcation::LoopPlant;
 use sway::control::LoopModel;
 use sway::parallel::{Split, join, map, try_map};
+use sway_model::vehicle::Vehicle;
 
 use continuation::{MeshAdaptation, NewtonUpdate};
 use sway::SwayError;
@@ -313,7 +313,7 @@ pub fn grid_axes(r: &ResolvedChart) -> (Axis, Axis) {
     )
 }
 
-fn speeds_at<P: LoopPlant<N>, const N: usize>(
+fn speeds_at<P: Vehicle<N>, const N: usize>(
     model: &P,
     chart: &NonlinearChart,
     d: f64,
@@ -348,7 +348,7 @@ fn speeds_at<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn compute_delay<P: LoopPlant<N> + LoopModel, const N: usize>(
+pub fn compute_delay<P: Vehicle<N> + LoopModel, const N: usize>(
     model: &P,
     r: &ResolvedChart,
     tau: f64,
@@ -433,7 +433,7 @@ pub struct ChartStudy {
 ///
 /// # Errors
 /// The first failing delay's error (in config order).
-pub fn compute<P: LoopPlant<N> + LoopModel, const N: usize>(
+pub fn compute<P: Vehicle<N> + LoopModel, const N: usize>(
     model: &P,
     cfg: &ChartNonlinearConfig,
     b: &SpeedBounds,
@@ -448,7 +448,7 @@ pub fn compute<P: LoopPlant<N> + LoopModel, const N: usize>(
 ///
 /// # Errors
 /// The first failing delay's error.
-pub fn compute_resolved<P: LoopPlant<N> + LoopModel, const N: usize>(
+pub fn compute_resolved<P: Vehicle<N> + LoopModel, const N: usize>(
     model: &P,
     r: &ResolvedChart,
     delays: &[f64],

@@ -10,9 +10,10 @@ use sway::parallel::{Split, try_map};
 use crate::chart::ChartConfig;
 use sway::SwayError;
 use sway::bifurcation::chart::ChartOptions;
-use sway::bifurcation::corners::{CornerOptions, CornerPlant, CornerStudy, corner_study};
+use sway::bifurcation::corners::{CornerOptions, CornerStudy, corner_study};
 use sway::charts::auto_range::{Derivation, SpeedBounds, chart_gains, vehicle_scale};
 use sway::control::LoopModel;
+use sway::sim::SimulateOwn;
 
 fn default_delays() -> Vec<f64> {
     vec![0.2, 0.4]
@@ -92,11 +93,11 @@ impl CornersConfig {
 }
 
 /// All delays (in parallel, results in config order; each delay is deterministic), for any
-/// plant ([`CornerPlant`]: the paper's model or a vehicle with model variants, issue 21).
+/// plant (the paper's model or a vehicle with model variants).
 ///
 /// # Errors
 /// The first failing delay's error.
-pub fn compute<P: CornerPlant<N>, const N: usize>(
+pub fn compute<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     cfg: &CornersConfig,
     b: &SpeedBounds,

@@ -6,8 +6,8 @@
 
 use continuation::Criticality;
 use serde::Serialize;
-use sway::bifurcation::LoopPlant;
 use sway::parallel::{Split, try_map};
+use sway_model::vehicle::Vehicle;
 
 use sway::SwayError;
 use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
@@ -145,7 +145,7 @@ pub struct PairSummary {
 ///
 /// # Errors
 /// Numerical failures naming the stage.
-pub fn closed_loop_diagram<P: LoopPlant<N>, const N: usize>(
+pub fn closed_loop_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     settings: &DiagramSettings,
@@ -168,7 +168,7 @@ pub fn closed_loop_diagram<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// The first failing setting's error (in their order).
-pub fn closed_loop_diagrams<P: LoopPlant<N>, const N: usize>(
+pub fn closed_loop_diagrams<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedbacks: &[Feedback],
     settings: &DiagramSettings,

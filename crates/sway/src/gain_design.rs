@@ -34,7 +34,7 @@ use argmin::solver::brent::BrentOpt;
 use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
-use sway_model::law::LoopModel;
+use sway_model::vehicle::LoopModel;
 
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, NonlinearChart, critical_speeds, nonlinear_chart};

@@ -10,7 +10,7 @@ use trailer_model::{
 
 use crate::SwayError;
 use crate::config::Grid;
-use sway_model::law::LoopModel;
+use sway_model::vehicle::LoopModel;
 
 /// Eigenvalues of Ã along a speed grid, each column following one eigenvalue
 /// continuously (matched to the previous speed by nearest distance); n columns for a plant

@@ -48,74 +48,42 @@ pub fn v_crit_of(params: &VehicleParams, opts: &CriticalSpeedOptions) -> f64 {
         .map_or(f64::NAN, |c| c.v_crit_mps)
 }
 
-/// A vehicle whose trailer loading the map varies: the paper's [`VehicleParams`] (the
-/// paper's [`Model`]) or a vehicle file with model variants ([`VehicleSpec`], its own plant:
-/// tyre relaxation, tyre laws, axle lists, hitch torque). A file of the paper's form gives
-/// the paper's numbers bit for bit either way.
-pub trait LoadingBase: Sync + Sized {
-    /// The vehicle with trailer mass `m2` \[kg\] and centre of gravity `h` \[m\] (J2 as
-    /// `inertia` says).
-    fn loaded(&self, m2: f64, h: f64, inertia: InertiaScaling) -> Self;
-    /// V_crit \[m/s\] in `opts`' range, NaN as [`v_crit_of`].
-    fn v_crit(&self, opts: &CriticalSpeedOptions) -> f64;
-    /// m2 \[kg\]
-    fn trailer_mass(&self) -> f64;
-    /// l \[m\]: hitch → trailer axle (of a tandem: the mean position, where its load acts)
-    fn trailer_axle(&self) -> f64;
-    /// the tongue load fraction 1 − h/l \[-\]
-    fn tongue_load_fraction(&self) -> f64;
+/// The vehicle `base` with trailer mass `m2` \[kg\] and centre of gravity `h` \[m\] (J2 as
+/// `inertia` says): any vehicle file, model variants included (each loading is its own
+/// plant; a file of the paper's form gives the paper's numbers).
+pub fn loaded_vehicle(base: &VehicleSpec, m2: f64, h: f64, inertia: InertiaScaling) -> VehicleSpec {
+    let mut s = base.clone();
+    if inertia == InertiaScaling::ScaleWithMass {
+        s.trailer.yaw_inertia = base.trailer.yaw_inertia * m2 / base.trailer.mass;
+    }
+    s.trailer.mass = m2;
+    s.trailer.cog = h;
+    s
 }
 
-impl LoadingBase for VehicleParams {
-    fn loaded(&self, m2: f64, h: f64, inertia: InertiaScaling) -> Self {
-        loaded(self, m2, h, inertia)
-    }
-    fn v_crit(&self, opts: &CriticalSpeedOptions) -> f64 {
-        v_crit_of(self, opts)
-    }
-    fn trailer_mass(&self) -> f64 {
-        self.trailer.mass
-    }
-    fn trailer_axle(&self) -> f64 {
-        self.trailer.axle
-    }
-    fn tongue_load_fraction(&self) -> f64 {
-        tongue_load_fraction(self)
-    }
+/// V_crit \[m/s\] of a vehicle file in `opts`' range, NaN as [`v_crit_of`].
+pub fn vehicle_v_crit(spec: &VehicleSpec, opts: &CriticalSpeedOptions) -> f64 {
+    AnyVehicleModel::new(spec)
+        .and_then(|m| trailer_model::with_plant!(&m, p => Plant::critical_speed(p, opts)))
+        .map_or(f64::NAN, |c| c.v_crit_mps)
 }
 
-impl LoadingBase for VehicleSpec {
-    fn loaded(&self, m2: f64, h: f64, inertia: InertiaScaling) -> Self {
-        let mut s = self.clone();
-        if inertia == InertiaScaling::ScaleWithMass {
-            s.trailer.yaw_inertia = self.trailer.yaw_inertia * m2 / self.trailer.mass;
-        }
-        s.trailer.mass = m2;
-        s.trailer.cog = h;
-        s
-    }
-    fn v_crit(&self, opts: &CriticalSpeedOptions) -> f64 {
-        AnyVehicleModel::new(self)
-            .and_then(|m| trailer_model::with_plant!(&m, p => Plant::critical_speed(p, opts)))
-            .map_or(f64::NAN, |c| c.v_crit_mps)
-    }
-    fn trailer_mass(&self) -> f64 {
-        self.trailer.mass
-    }
-    fn trailer_axle(&self) -> f64 {
-        self.equivalent_params()
-            .map_or(f64::NAN, |p| p.trailer.axle)
-    }
-    fn tongue_load_fraction(&self) -> f64 {
-        1.0 - self.trailer.cog / self.trailer_axle()
-    }
+/// l \[m\]: hitch → trailer axle (of a tandem: the mean position, where its load acts).
+pub fn trailer_axle(spec: &VehicleSpec) -> f64 {
+    spec.equivalent_params()
+        .map_or(f64::NAN, |p| p.trailer.axle)
+}
+
+/// The tongue load fraction 1 − h/l \[-\] of a vehicle file.
+pub fn vehicle_tongue_load_fraction(spec: &VehicleSpec) -> f64 {
+    1.0 - spec.trailer.cog / trailer_axle(spec)
 }
 
 /// V_crit on the grid `masses × cogs`, row j for `cogs[j]`, column i for `masses[i]`.
 /// Parallel over rows; each cell is independent, so the result does not depend on the
 /// number of threads.
-pub fn v_crit_map<B: LoadingBase>(
-    base: &B,
+pub fn v_crit_map(
+    base: &VehicleSpec,
     masses: &[f64],
     cogs: &[f64],
     inertia: InertiaScaling,
@@ -125,7 +93,7 @@ pub fn v_crit_map<B: LoadingBase>(
     map(cogs, Split::Adaptive, &|_, &h| {
         let row = masses
             .iter()
-            .map(|&m2| base.loaded(m2, h, inertia).v_crit(opts))
+            .map(|&m2| vehicle_v_crit(&loaded_vehicle(base, m2, h, inertia), opts))
             .collect();
         progress();
         row
@@ -154,8 +122,8 @@ pub const CUT_POINTS: usize = 200;
 
 /// The loading map of `base` over `masses × cogs`, and the cut along h ∈ \[first, last of
 /// `cogs`\] at the base mass (`progress` is called once per row of the map).
-pub fn loading_map<B: LoadingBase>(
-    base: &B,
+pub fn loading_map(
+    base: &VehicleSpec,
     masses: Vec<f64>,
     cogs: Vec<f64>,
     inertia: InertiaScaling,
@@ -167,8 +135,11 @@ pub fn loading_map<B: LoadingBase>(
     let cut = (0..=CUT_POINTS)
         .map(|k| {
             let h = h0 + (h1 - h0) * k as f64 / CUT_POINTS as f64;
-            let p = base.loaded(base.trailer_mass(), h, inertia);
-            (100.0 * p.tongue_load_fraction(), p.v_crit(opts))
+            let p = loaded_vehicle(base, base.trailer.mass, h, inertia);
+            (
+                100.0 * vehicle_tongue_load_fraction(&p),
+                vehicle_v_crit(&p, opts),
+            )
         })
         .collect();
     let range = map
@@ -190,12 +161,12 @@ pub fn loading_map<B: LoadingBase>(
 
 /// V_crit \[m/s\] of `base` with its trailer loaded to the tongue load `pct` \[% of the
 /// trailer weight\] at its own mass (h = l (1 − pct/100)); NaN as [`v_crit_of`].
-pub fn v_crit_at_tongue_load<B: LoadingBase>(
-    base: &B,
+pub fn v_crit_at_tongue_load(
+    base: &VehicleSpec,
     pct: f64,
     inertia: InertiaScaling,
     opts: &CriticalSpeedOptions,
 ) -> f64 {
-    let h = base.trailer_axle() * (1.0 - pct / 100.0);
-    base.loaded(base.trailer_mass(), h, inertia).v_crit(opts)
+    let h = trailer_axle(base) * (1.0 - pct / 100.0);
+    vehicle_v_crit(&loaded_vehicle(base, base.trailer.mass, h, inertia), opts)
 }

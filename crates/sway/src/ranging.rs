@@ -10,13 +10,12 @@ pub use sway_model::speeds::{
 };
 
 use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, resolve_against};
+use sway_model::vehicle::Vehicle;
 use trailer_model::Model;
 
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{
-    CycleExtent, DiagramOptions, Feedback, LoopPlant, bifurcation_diagram_until,
-};
+use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
 
 /// The open-loop reference speeds of `model` that `need` asks for: V_crit
 /// ([`open_loop_critical_speed`]) and, for [`Reference::Fold`], the fold of cycles of the
@@ -25,7 +24,7 @@ use crate::bifurcation::{
 /// # Errors
 /// A numerical failure of the critical-speed search (a failure of the cycle continuation
 /// leaves the fold null, with the reason).
-pub fn open_loop_references<P: LoopPlant<N>, const N: usize>(
+pub fn open_loop_references<P: Vehicle<N>, const N: usize>(
     model: &P,
     limits: &SpeedLimits,
     need: Reference,
@@ -73,7 +72,7 @@ pub fn open_loop_references<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// A numerical failure of the continuation.
-pub fn open_loop_fold<P: LoopPlant<N>, const N: usize>(
+pub fn open_loop_fold<P: Vehicle<N>, const N: usize>(
     model: &P,
     v_crit: f64,
     limits: &SpeedLimits,

@@ -2,7 +2,7 @@
 
 use approx::assert_relative_eq;
 use sway::loading::{InertiaScaling, loaded, tongue_load_fraction, v_crit_map, v_crit_of};
-use trailer_model::{AxleLoads, CriticalSpeedOptions, Model, VehicleParams};
+use trailer_model::{AxleLoads, CriticalSpeedOptions, Model, VehicleParams, VehicleSpec};
 
 fn opts() -> CriticalSpeedOptions {
     CriticalSpeedOptions {
@@ -43,7 +43,7 @@ fn map_reproduces_the_linear_critical_speed_at_the_base_vehicle() {
         .expect("V_crit")
         .v_crit_mps;
     let map = v_crit_map(
-        &p,
+        &VehicleSpec::from(p),
         &[985.0],
         &[2.9],
         InertiaScaling::ScaleWithMass,
@@ -88,7 +88,16 @@ fn map_is_independent_of_the_thread_count() {
             .num_threads(threads)
             .build()
             .expect("pool")
-            .install(|| v_crit_map(&p, &masses, &cogs, InertiaScaling::Fixed, &opts(), &|| {}))
+            .install(|| {
+                v_crit_map(
+                    &VehicleSpec::from(p),
+                    &masses,
+                    &cogs,
+                    InertiaScaling::Fixed,
+                    &opts(),
+                    &|| {},
+                )
+            })
     };
     let one = run(1);
     let two = run(2);

@@ -26,11 +26,7 @@ pub mod simulation;
 
 use nalgebra::{DMatrix, DVector, RowDVector, RowVector4, Vector4};
 use serde::{Deserialize, Serialize};
-use stability::Complex64;
-use trailer_model::{
-    AnyVehicleModel, CriticalSpeed, CriticalSpeedOptions, HITCH_ANGLE, Linearization, Model,
-    ModelError, Plant, PlantLinearization, VehicleModel, with_plant,
-};
+use trailer_model::{HITCH_ANGLE, Linearization, Model, PlantLinearization};
 
 /// The linearisation of a plant of any state count n about straight running at one speed
 /// V: x' = A x + B δ + B_M M_z, ψ̇ = C x (eq. 9–11 for the paper's model, n = 4), as
@@ -71,113 +67,6 @@ impl LoopLinearization {
     /// Number of states n.
     pub fn states(&self) -> usize {
         self.a.nrows()
-    }
-}
-
-/// What the linear loops need of a vehicle model: its linearisation at a speed, its
-/// open-loop spectrum and critical speed, and the paper's form of it (the equivalent
-/// single-axle vehicle, which sizes the actuators, [`Actuator::scale`]). Implemented by
-/// the paper's [`Model`], every [`VehicleModel`] and [`AnyVehicleModel`]: the linear side
-/// (loops, charts, gain design, the linear task) takes any of them.
-pub trait LoopModel: Sync {
-    /// The linearisation about straight running at speed V \[m/s\].
-    fn loop_linearization(&self, speed: f64) -> LoopLinearization;
-
-    /// Eigenvalues of A(V), sorted by decreasing real part (ties: decreasing imaginary part).
-    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64>;
-
-    /// The open-loop critical speed search ([`Plant::critical_speed_search`]).
-    ///
-    /// # Errors
-    /// As [`Plant::critical_speed_search`].
-    fn critical_speed_search(
-        &self,
-        opts: &CriticalSpeedOptions,
-    ) -> Result<Option<CriticalSpeed>, ModelError>;
-
-    /// The paper's form of the vehicle (for axle lists the equivalent single-axle vehicle).
-    fn paper_model(&self) -> &Model;
-
-    /// Number of reduced states n.
-    fn states(&self) -> usize;
-}
-
-fn spectrum_c64(v: Vec<nalgebra::Complex<f64>>) -> Vec<Complex64> {
-    v.into_iter().map(|z| Complex64::new(z.re, z.im)).collect()
-}
-
-impl LoopModel for Model {
-    fn loop_linearization(&self, speed: f64) -> LoopLinearization {
-        LoopLinearization::from_plant(&Plant::plant_linearization(self, speed))
-    }
-
-    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64> {
-        spectrum_c64(Plant::open_loop_spectrum(self, speed))
-    }
-
-    fn critical_speed_search(
-        &self,
-        opts: &CriticalSpeedOptions,
-    ) -> Result<Option<CriticalSpeed>, ModelError> {
-        Model::critical_speed_search(self, opts)
-    }
-
-    fn paper_model(&self) -> &Model {
-        self
-    }
-
-    fn states(&self) -> usize {
-        4
-    }
-}
-
-impl<const N: usize> LoopModel for VehicleModel<N> {
-    fn loop_linearization(&self, speed: f64) -> LoopLinearization {
-        LoopLinearization::from_plant(&self.plant_linearization(speed))
-    }
-
-    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64> {
-        spectrum_c64(Plant::open_loop_spectrum(self, speed))
-    }
-
-    fn critical_speed_search(
-        &self,
-        opts: &CriticalSpeedOptions,
-    ) -> Result<Option<CriticalSpeed>, ModelError> {
-        Plant::critical_speed_search(self, opts)
-    }
-
-    fn paper_model(&self) -> &Model {
-        self.equivalent_model()
-    }
-
-    fn states(&self) -> usize {
-        N
-    }
-}
-
-impl LoopModel for AnyVehicleModel {
-    fn loop_linearization(&self, speed: f64) -> LoopLinearization {
-        with_plant!(self, m => LoopModel::loop_linearization(m, speed))
-    }
-
-    fn open_loop_spectrum(&self, speed: f64) -> Vec<Complex64> {
-        with_plant!(self, m => LoopModel::open_loop_spectrum(m, speed))
-    }
-
-    fn critical_speed_search(
-        &self,
-        opts: &CriticalSpeedOptions,
-    ) -> Result<Option<CriticalSpeed>, ModelError> {
-        with_plant!(self, m => LoopModel::critical_speed_search(m, opts))
-    }
-
-    fn paper_model(&self) -> &Model {
-        with_plant!(self, m => LoopModel::paper_model(m))
-    }
-
-    fn states(&self) -> usize {
-        AnyVehicleModel::states(self)
     }
 }
 

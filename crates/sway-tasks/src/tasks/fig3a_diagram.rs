@@ -9,12 +9,13 @@
 //! the `[diagram]` section of `configs/fig3a.toml`.
 
 use std::path::Path;
+use sway_model::vehicle::Vehicle;
 
 use crate::TaskError;
 use serde::{Deserialize, Serialize};
 use sway::bifurcation::chart::{ChartOptions, critical_speeds};
 use sway::bifurcation::{
-    CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, Feedback, LoopPlant,
+    CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, Feedback,
     vehicle_diagram,
 };
 use sway::config::ensure;
@@ -395,7 +396,7 @@ pub fn compute_diagram(
 
 /// [`compute_diagram`] on the concrete plant of the vehicle (any model variant; the paper's
 /// [`trailer_model::Model`] for a vehicle of the paper's form).
-fn compute_diagram_on<P: LoopPlant<N>, const N: usize>(
+fn compute_diagram_on<P: Vehicle<N>, const N: usize>(
     model: &P,
     ctx: &TaskContext<'_>,
     cfg: &DiagramConfig,

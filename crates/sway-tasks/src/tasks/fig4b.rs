@@ -189,7 +189,7 @@ fn feedback(p: &Pair) -> Feedback {
 ///
 /// # Errors
 /// The first failing pair's error (in config order).
-pub fn diagrams<P: sway::bifurcation::LoopPlant<N>, const N: usize>(
+pub fn diagrams<P: sway_model::vehicle::Vehicle<N>, const N: usize>(
     model: &P,
     cfg: &Fig4bConfig,
     limits: &sway::ranging::SpeedLimits,

@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use crate::TaskError;
 use sway::config::{Grid, ensure};
-use sway::loading::{InertiaScaling, LoadingBase, LoadingMap, loading_map, v_crit_at_tongue_load};
+use sway::loading::{
+    InertiaScaling, LoadingMap, loading_map, trailer_axle, v_crit_at_tongue_load,
+    vehicle_tongue_load_fraction, vehicle_v_crit,
+};
 use sway::ranging::{Reference, SpeedLimits, SpeedSpec, open_loop_references};
 use sway::sim::speeds::SpeedValue;
 use trailer_model::{AnyVehicleModel, CriticalSpeedOptions, VehicleSpec};
@@ -250,7 +253,7 @@ fn draw(
 ) -> Result<(), TaskError> {
     let (lo, hi) = m.range;
     let (masses, cogs, map, cut) = (&m.masses, &m.cogs, &m.map, &m.cut);
-    let l = base.trailer_axle();
+    let l = trailer_axle(base);
     let mut map_panel = Panel::new(
         "Critical speed of straight running vs trailer loading",
         "trailer mass m2 [kg]",
@@ -297,7 +300,7 @@ fn draw(
         Some("V_crit"),
     ))
     .with(Layer::markers(
-        vec![(100.0 * base.tongue_load_fraction(), base.v_crit(opts))],
+        vec![(100.0 * vehicle_tongue_load_fraction(base), vehicle_v_crit(base, opts))],
         Rgb::RED,
         Some(who),
     ))
@@ -334,7 +337,7 @@ impl Prepared for LoadingTask {
         // the map varies the file's trailer (any model variant: its own plant in every cell;
         // a tandem's l is the mean position of its axles, where their load acts)
         let base = &ctx.spec;
-        let l = base.trailer_axle();
+        let l = trailer_axle(base);
         let who = if ctx.variant_key.is_none() && ctx.vehicle.is_table_i() {
             "Table I"
         } else {
@@ -361,8 +364,8 @@ impl Prepared for LoadingTask {
             draw(out, cfg, base, who, &m, &opts)?;
             let at = |q: f64| v_crit_at_tongue_load(base, q, cfg.inertia, &opts);
             let summary = LoadingSummary {
-                tongue_load_pct_table_i: 100.0 * base.tongue_load_fraction(),
-                v_crit_table_i_mps: base.v_crit(&opts),
+                tongue_load_pct_table_i: 100.0 * vehicle_tongue_load_fraction(base),
+                v_crit_table_i_mps: vehicle_v_crit(base, &opts),
                 v_crit_at_tongue_load_0pct_mps: at(0.0),
                 v_crit_at_tongue_load_5pct_mps: at(5.0),
                 v_crit_at_tongue_load_10pct_mps: at(10.0),

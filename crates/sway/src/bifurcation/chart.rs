@@ -24,11 +24,12 @@ use continuation::{
     MeshAdaptation, NewtonUpdate, Refinement, SpecialKind, Stop,
 };
 use serde::{Deserialize, Serialize};
+use sway_model::vehicle::Vehicle;
 use trailer_model::HITCH_ANGLE;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, LoopPlant,
-    SPEED, bifurcation_diagram_until, cycles_from_hopf, straight_running,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, SPEED,
+    bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
 use crate::parallel::{Split, join, try_map};
@@ -418,7 +419,7 @@ fn curve_points_at<S: ContinuationSystem>(
 /// discrete fold from any guess (measured: one pass left 4e-6 relative between the fold of
 /// a cycle branch and the same fold read off a fold-of-cycles curve at L = 20; the passes
 /// converge geometrically).
-fn corrected_in_canonical_phase<P: LoopPlant<N>, const N: usize>(
+fn corrected_in_canonical_phase<P: Vehicle<N>, const N: usize>(
     cont: &Continuation,
     sys: &mut FoldSystem<'_, P, N>,
     u: &[f64],
@@ -455,7 +456,7 @@ fn joined(branches: &[Branch; 2]) -> impl Iterator<Item = &BranchPoint> {
 /// The Hopf-curve system of the closed loop with free parameters [D, V] (D primary),
 /// the gain set to `d` (where [`HopfCurveSystem::start_at_hopf`] starts).
 #[doc(hidden)] // pub for tests/unit
-pub fn hopf_system<'a, P: LoopPlant<N>, const N: usize>(
+pub fn hopf_system<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     d: f64,
     o: &ChartOptions,
@@ -490,7 +491,7 @@ fn hopf_curve_point(u: &[f64]) -> HopfCurvePoint {
 }
 
 /// The Hopf curve through the located Hopf point `hopf` at gain `d`, both directions.
-fn hopf_curve<P: LoopPlant<N>, const N: usize>(
+fn hopf_curve<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     d: f64,
     hopf: &HopfPoint,
@@ -528,7 +529,7 @@ fn hopf_curve<P: LoopPlant<N>, const N: usize>(
 /// re-located on straight running near V (so that the transversality is known), then a
 /// short cycle branch from it. None if the located point is another mode (ω differs by
 /// more than 1 %).
-fn criticality_at<P: LoopPlant<N>, const N: usize>(
+fn criticality_at<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     p: &HopfCurvePoint,
     o: &ChartOptions,
@@ -555,7 +556,7 @@ fn criticality_at<P: LoopPlant<N>, const N: usize>(
 }
 
 /// Samples the criticality at evenly spaced points of the curve inside the box.
-fn sample_criticality<P: LoopPlant<N>, const N: usize>(
+fn sample_criticality<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     curve: &HopfCurve,
     o: &ChartOptions,
@@ -584,7 +585,7 @@ fn sample_criticality<P: LoopPlant<N>, const N: usize>(
 }
 
 /// Lowest speed of the Hopf curves at gain `d`, each crossing corrected at fixed D.
-fn lowest_hopf_speed<P: LoopPlant<N>, const N: usize>(
+fn lowest_hopf_speed<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     curves: &[HopfCurve],
     d: f64,
@@ -623,14 +624,14 @@ fn on_curve(curves: &[HopfCurve], d: f64, hopf: &HopfPoint) -> bool {
 }
 
 /// Fold-of-cycles system unknowns [x, T, V, D, v, v_T]: index of V and D
-fn fold_indices<P: LoopPlant<N>, const N: usize>(
+fn fold_indices<P: Vehicle<N>, const N: usize>(
     sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_, P, N>>,
 ) -> (usize, usize) {
     let ip = sys.parameter_index();
     (ip, ip + 1)
 }
 
-fn fold_curve_point<P: LoopPlant<N>, const N: usize>(
+fn fold_curve_point<P: Vehicle<N>, const N: usize>(
     sys: &FoldOfCyclesSystem<'_, ClosedLoop<'_, P, N>>,
     u: &[f64],
 ) -> Result<FoldCurvePoint, continuation::Error> {
@@ -653,7 +654,7 @@ fn fold_options(o: &ChartOptions) -> FoldCyclesOptions {
 
 /// The Hopf point `hopf` (located on straight running at the gain of `problem`'s
 /// parameters) corrected on the Hopf-curve system at fixed D; returns the unknowns.
-fn corrected_hopf<P: LoopPlant<N>, const N: usize>(
+fn corrected_hopf<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     d: f64,
     hopf: &HopfPoint,
@@ -680,7 +681,7 @@ type FoldSystem<'a, P, const N: usize> = FoldOfCyclesSystem<'a, ClosedLoop<'a, P
 /// mesh and the fold there; None with [`MeshAdaptation::Fixed`] or when the first round
 /// fails (a refinement that does not converge keeps the uniform mesh's fold: the caller's
 /// value stands, to its mesh's accuracy).
-fn on_fold_mesh<'a, P: LoopPlant<N>, const N: usize>(
+fn on_fold_mesh<'a, P: Vehicle<N>, const N: usize>(
     sys: &FoldSystem<'a, P, N>,
     u: &[f64],
     o: &ChartOptions,
@@ -725,7 +726,7 @@ type FoldAt<'a, P, const N: usize> = (FoldSystem<'a, P, N>, Vec<f64>);
 const FOLD_MESH_ROUNDS: usize = 3;
 
 /// A fold of cycles corrected at fixed D: its system, the point and the direction +D.
-struct CorrectedFold<'a, P: LoopPlant<N>, const N: usize> {
+struct CorrectedFold<'a, P: Vehicle<N>, const N: usize> {
     sys: FoldSystem<'a, P, N>,
     u: Vec<f64>,
     direction: Vec<f64>,
@@ -734,7 +735,7 @@ struct CorrectedFold<'a, P: LoopPlant<N>, const N: usize> {
 /// The fold of the cycle branch of `diagram` corrected on the fold-of-cycles system at the
 /// diagram's gain, finally from the cycle's canonical phase. None if the cycle branch has
 /// no fold (no flagged fold at which V has a local minimum, `lower_fold`).
-fn corrected_fold<'a, P: LoopPlant<N>, const N: usize>(
+fn corrected_fold<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     diagram: &Diagram,
     o: &ChartOptions,
@@ -777,7 +778,7 @@ fn corrected_fold<'a, P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage.
-pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
+pub fn critical_speeds<P: Vehicle<N>, const N: usize>(
     model: &P,
     diagram: &Diagram,
     o: &ChartOptions,
@@ -806,7 +807,7 @@ pub fn critical_speeds<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage.
-pub fn fold_of_cycles<P: LoopPlant<N>, const N: usize>(
+pub fn fold_of_cycles<P: Vehicle<N>, const N: usize>(
     model: &P,
     diagram: &Diagram,
     o: &ChartOptions,
@@ -817,7 +818,7 @@ pub fn fold_of_cycles<P: LoopPlant<N>, const N: usize>(
 
 /// The corrected fold of `diagram`'s cycle branch on `problem` (its loop), on the fold's
 /// adapted mesh.
-fn fold_on<'a, P: LoopPlant<N>, const N: usize>(
+fn fold_on<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     diagram: &Diagram,
     o: &ChartOptions,
@@ -844,7 +845,7 @@ type FoldStage = Result<(FoldCurve, Vec<Codim2>), String>;
 /// directions; with the codimension-two points it ends at or passes. Without a curve, the
 /// reason: no Hopf point of straight running at `d` in the speed range (stable there), a
 /// supercritical Hopf point, a cycle branch that does not fold in the speed range.
-fn fold_curve<P: LoopPlant<N>, const N: usize>(
+fn fold_curve<P: Vehicle<N>, const N: usize>(
     model: &P,
     tau: f64,
     d: f64,
@@ -950,7 +951,7 @@ fn fold_curve<P: LoopPlant<N>, const N: usize>(
 
 /// Codimension-two points the Hopf-curve system located on a curve.
 #[doc(hidden)] // pub for tests/unit
-pub fn hopf_codim2<P: LoopPlant<N>, const N: usize>(
+pub fn hopf_codim2<P: Vehicle<N>, const N: usize>(
     sys: &HopfSystem<'_, P, N>,
     curve: &HopfCurve,
 ) -> Vec<Codim2> {
@@ -1000,7 +1001,7 @@ pub fn dedup_codim2(mut points: Vec<Codim2>) -> Vec<Codim2> {
 /// # Errors
 /// [`SwayError::Numerical`] if a curve fails; a seed without a Hopf point in the speed
 /// range is only noted.
-pub fn hopf_curves<P: LoopPlant<N>, const N: usize>(
+pub fn hopf_curves<P: Vehicle<N>, const N: usize>(
     model: &P,
     tau: f64,
     o: &ChartOptions,
@@ -1043,7 +1044,7 @@ pub fn hopf_curves<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a correction fails.
-pub fn hopf_speed_at<P: LoopPlant<N>, const N: usize>(
+pub fn hopf_speed_at<P: Vehicle<N>, const N: usize>(
     model: &P,
     tau: f64,
     curves: &[HopfCurve],
@@ -1065,7 +1066,7 @@ pub fn hopf_speed_at<P: LoopPlant<N>, const N: usize>(
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage; a seed gain without a Hopf point in
 /// the speed range is not an error (it is recorded in [`NonlinearChart::notes`]).
-pub fn nonlinear_chart<P: LoopPlant<N>, const N: usize>(
+pub fn nonlinear_chart<P: Vehicle<N>, const N: usize>(
     model: &P,
     tau: f64,
     o: &ChartOptions,
@@ -1133,7 +1134,7 @@ pub fn nonlinear_chart<P: LoopPlant<N>, const N: usize>(
 }
 
 impl NonlinearChart {
-    fn problem<'a, P: LoopPlant<N>, const N: usize>(&self, model: &'a P) -> ClosedLoop<'a, P, N> {
+    fn problem<'a, P: Vehicle<N>, const N: usize>(&self, model: &'a P) -> ClosedLoop<'a, P, N> {
         ClosedLoop::new(
             model,
             Feedback {
@@ -1148,7 +1149,7 @@ impl NonlinearChart {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if a correction fails.
-    pub fn hopf_speed_at<P: LoopPlant<N>, const N: usize>(
+    pub fn hopf_speed_at<P: Vehicle<N>, const N: usize>(
         &self,
         model: &P,
         d: f64,
@@ -1161,7 +1162,7 @@ impl NonlinearChart {
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if a correction fails.
-    pub fn fold_speed_at<P: LoopPlant<N>, const N: usize>(
+    pub fn fold_speed_at<P: Vehicle<N>, const N: usize>(
         &self,
         model: &P,
         d: f64,

@@ -7,7 +7,7 @@
 //! the paper's [`Model`]). The delay τ enters only through the argument x_τ = x(t − τ)
 //! (reported by [`Problem::delay_dp`]); f itself does not depend on it.
 //!
-//! **Any plant.** The loop is generic over the plant `P: `[`LoopPlant<N>`] (N reduced
+//! **Any plant.** The loop is generic over the plant `P: `[`Vehicle<N>`] (N reduced
 //! states): the paper's [`Model`] keeps its own switching functions (slip angles) and guard,
 //! so that its diagrams are bit for bit what they were; every [`trailer_model::VehicleModel`]
 //! gets them from [`Plant::switching_functions`] and [`Plant::guard_values`].
@@ -22,13 +22,13 @@
 //! module.
 
 use continuation::Problem;
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
 use num_dual::{Dual64, DualNum, DualSVec64, HyperDual64, jacobian};
 use serde::{Deserialize, Serialize};
-use trailer_model::{HITCH_ANGLE, Inputs, Model, Plant, State4, VehicleModel};
+use trailer_model::{HITCH_ANGLE, Inputs, Model};
 
-use crate::sim::LossOfControl;
 use sway_model::law::Actuator;
+use sway_model::vehicle::{LossOfControl, Vehicle, actuated_rhs, input_jacobian};
 
 /// index of the speed V \[m/s\] in the parameter vector
 pub const SPEED: usize = 0;
@@ -94,186 +94,6 @@ impl LoopLaw {
     }
 }
 
-/// What the closed loop needs of a plant beyond [`Plant`]: its switching functions and its
-/// validity guard at real arguments, and ∂F/∂x, ∂F/∂δ for the steering Jacobian. The
-/// defaults come from [`Plant`]; the paper's [`Model`] overrides them with the forms the
-/// closed loop has always used (slip angles as switching functions, one 5-component dual
-/// Jacobian), so that its diagrams do not move by a bit.
-pub trait LoopPlant<const N: usize>: Plant<N> + Sync {
-    /// number of switching functions
-    fn loop_switching_count(&self) -> usize {
-        self.switching_kinds().len()
-    }
-
-    /// the switching functions at (x, u) (kinks of the right-hand side)
-    fn loop_switching(&self, x: &SVector<f64, N>, u: &Inputs, g: &mut [f64]) {
-        self.switching_functions(x, u, g);
-    }
-
-    /// The first tripped condition of the simulations' validity guard (in
-    /// [`LossOfControl`]'s order: a saturating axle when its value is > 0, a stopped wheel
-    /// when ≥ 0, as `sway::sim` checks them), None while the model is valid.
-    fn loop_loss_of_control(&self, x: &SVector<f64, N>, u: &Inputs) -> Option<LossOfControl> {
-        let v = self.guard_values(x, u);
-        (0..5)
-            .find(|&k| if k < 2 { v[k] > 0.0 } else { v[k] >= 0.0 })
-            .map(|k| GUARD_ORDER[k])
-    }
-
-    /// ∂F/∂x and ∂F/∂δ at (x, δ, V), exact (an N-component and a one-component dual pass).
-    fn steering_jacobian(
-        &self,
-        x: &SVector<f64, N>,
-        steering: f64,
-        speed: f64,
-    ) -> (SMatrix<f64, N, N>, SVector<f64, N>) {
-        input_jacobian(self, x, steering, speed, Actuator::Steering)
-    }
-}
-
-/// the conditions of [`Plant::guard_values`] in their order
-const GUARD_ORDER: [LossOfControl; 5] = [
-    LossOfControl::FrontAxleSliding,
-    LossOfControl::RearAxleSliding,
-    LossOfControl::FrontWheelStopped,
-    LossOfControl::RearWheelStopped,
-    LossOfControl::TrailerWheelStopped,
-];
-
-/// ∂F/∂x and ∂F/∂u at (x, u, V) for the command u of `actuator`, exact.
-fn input_jacobian<P: Plant<N> + ?Sized, const N: usize>(
-    plant: &P,
-    x: &SVector<f64, N>,
-    command: f64,
-    speed: f64,
-    actuator: Actuator,
-) -> (SMatrix<f64, N, N>, SVector<f64, N>) {
-    let (_, jx) = jacobian(
-        |z: SVector<DualSVec64<N>, N>| {
-            actuated_rhs(
-                plant,
-                &z,
-                DualSVec64::<N>::from(command),
-                DualSVec64::<N>::from(speed),
-                actuator,
-            )
-        },
-        x,
-    );
-    let r = actuated_rhs(
-        plant,
-        &x.map(Dual64::from),
-        Dual64::new(command, 1.0),
-        Dual64::from(speed),
-        actuator,
-    );
-    (jx, r.map(|v| v.eps))
-}
-
-/// F(x, u; V) at constant speed with the command u on `actuator`, for any number type
-#[inline]
-fn actuated_rhs<P: Plant<N> + ?Sized, T: DualNum<Primitive = f64> + Copy, const N: usize>(
-    plant: &P,
-    x: &SVector<T, N>,
-    command: T,
-    speed: T,
-    actuator: Actuator,
-) -> SVector<T, N> {
-    match actuator {
-        Actuator::Steering => plant.rhs(
-            x,
-            &Inputs {
-                steering_angle: command,
-                speed,
-                acceleration: T::from(0.0),
-            },
-        ),
-        Actuator::DifferentialBraking => plant.rhs_with_yaw_moment(
-            x,
-            &Inputs {
-                steering_angle: T::from(0.0),
-                speed,
-                acceleration: T::from(0.0),
-            },
-            command,
-        ),
-    }
-}
-
-/// The paper's model: the closed loop's own switching functions, guard and Jacobian.
-impl LoopPlant<4> for Model {
-    fn loop_switching_count(&self) -> usize {
-        6
-    }
-
-    /// slip angles α_F, α_R, α_T (the brush tire is only C¹ at α = 0) and |α| − α_cr
-    /// (sliding starts, the force curve's second derivative jumps)
-    fn loop_switching(&self, x: &State4, u: &Inputs, g: &mut [f64]) {
-        let a = self.slip_angles(x, u);
-        let cr = self.critical_slip_angles();
-        g[0] = a.front;
-        g[1] = a.rear;
-        g[2] = a.trailer;
-        g[3] = a.front.abs() - cr.front;
-        g[4] = a.rear.abs() - cr.rear;
-        g[5] = a.trailer.abs() - cr.trailer;
-    }
-
-    /// A tractor axle sliding fully (|α| > α_cr, eq. 15) or a wheel's longitudinal velocity
-    /// at or below 0.
-    fn loop_loss_of_control(&self, x: &State4, u: &Inputs) -> Option<LossOfControl> {
-        let (tan_front, tan_rear) = self.axle_slip_tangents(x, u);
-        let (cr_front, cr_rear) = self.critical_slip_tangents();
-        let front_wheel_speed = {
-            let lateral_front = x[0] + Model::yaw_rate(self, x) * self.params().tractor.front_axle;
-            let (sd, cd) = u.steering_angle.sin_cos();
-            u.speed * cd + lateral_front * sd
-        };
-        if tan_front > cr_front {
-            Some(LossOfControl::FrontAxleSliding)
-        } else if tan_rear > cr_rear {
-            Some(LossOfControl::RearAxleSliding)
-        } else if front_wheel_speed <= 0.0 {
-            Some(LossOfControl::FrontWheelStopped)
-        } else if u.speed <= 0.0 {
-            Some(LossOfControl::RearWheelStopped)
-        } else if self.trailer_wheel_speed(x, u.speed) <= 0.0 {
-            Some(LossOfControl::TrailerWheelStopped)
-        } else {
-            None
-        }
-    }
-
-    /// ∂F/∂(x, δ) by one 5-component dual vector
-    fn steering_jacobian(
-        &self,
-        x: &State4,
-        steering: f64,
-        speed: f64,
-    ) -> (SMatrix<f64, 4, 4>, SVector<f64, 4>) {
-        let z = SVector::<f64, 5>::new(x[0], x[1], x[2], x[3], steering);
-        let (_, j) = jacobian(
-            |z: SVector<DualSVec64<5>, 5>| {
-                let x = State4::new(z[0], z[1], z[2], z[3]);
-                let u = Inputs {
-                    steering_angle: z[4],
-                    speed: DualSVec64::<5>::from(speed),
-                    acceleration: DualSVec64::<5>::from(0.0),
-                };
-                self.rhs4(&x, &u)
-            },
-            &z,
-        );
-        (
-            SMatrix::<f64, 4, 4>::from_fn(|i, k| j[(i, k)]),
-            SVector::<f64, 4>::from_fn(|i, _| j[(i, 4)]),
-        )
-    }
-}
-
-/// Every model of a vehicle file: the defaults from [`Plant`].
-impl<const N: usize> LoopPlant<N> for VehicleModel<N> {}
-
 /// The closed loop as a continuation problem, parameters p = [V, D, τ] (indices [`SPEED`],
 /// [`GAIN`], [`DELAY`]); any of them may be free. The gain and the delay are read from p;
 /// the [`Feedback`] it was built with only fixes the structure (a DDE with one delay p\[τ\]
@@ -290,7 +110,7 @@ pub struct ClosedLoop<'a, P = Model, const N: usize = 4> {
     yaw_gradient: [f64; N],
 }
 
-impl<'a, P: LoopPlant<N>, const N: usize> ClosedLoop<'a, P, N> {
+impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
     /// The closed loop of `model` with the paper's `feedback` δ = −D·ψ̇(t − τ).
     pub fn new(model: &'a P, feedback: Feedback) -> Self {
         Self::with_law(model, feedback, LoopLaw::PAPER)
@@ -446,7 +266,7 @@ impl<'a, P: LoopPlant<N>, const N: usize> ClosedLoop<'a, P, N> {
     }
 }
 
-impl<P: LoopPlant<N>, const N: usize> Problem for ClosedLoop<'_, P, N> {
+impl<P: Vehicle<N>, const N: usize> Problem for ClosedLoop<'_, P, N> {
     fn dim(&self) -> usize {
         N
     }
@@ -589,7 +409,7 @@ impl<P: LoopPlant<N>, const N: usize> Problem for ClosedLoop<'_, P, N> {
         self.model.loop_switching_count()
     }
     /// the plant's switching functions at x(t) with the command of the loop
-    /// ([`LoopPlant::loop_switching`]; for the paper's model the slip angles α_F, α_R, α_T
+    /// ([`Vehicle::loop_switching`]; for the paper's model the slip angles α_F, α_R, α_T
     /// and |α| − α_cr)
     fn switching(&self, args: &[f64], p: &[f64], g: &mut [f64]) {
         let u = self.inputs(args, p);

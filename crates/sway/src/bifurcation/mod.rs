@@ -23,6 +23,7 @@ use continuation::{
     PeriodicOrbitSystem, Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
+use sway_model::vehicle::Vehicle;
 use trailer_model::HITCH_ANGLE;
 
 use crate::SwayError;
@@ -31,7 +32,7 @@ pub mod chart;
 mod closed_loop;
 pub mod corners;
 pub(crate) mod ranged;
-pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, LoopLaw, LoopPlant, SPEED};
+pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, LoopLaw, SPEED};
 pub use ranged::{
     BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, HopfBubble, MARGIN_BELOW, NoHopf,
     cycle_diagram_with_law, cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
@@ -213,7 +214,7 @@ pub fn collocation(o: &DiagramOptions) -> CollocationOptions {
 
 impl Diagram {
     /// The collocation system the cycle branch was computed with (to evaluate its points).
-    pub fn cycle_system<'a, P: LoopPlant<N>, const N: usize>(
+    pub fn cycle_system<'a, P: Vehicle<N>, const N: usize>(
         &self,
         problem: &'a ClosedLoop<'a, P, N>,
     ) -> Result<PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>, SwayError> {
@@ -227,7 +228,7 @@ impl Diagram {
     }
 
     /// The cycles at speed V \[m/s\] (all crossings of the branch), corrected at fixed V.
-    pub fn cycles_at<P: LoopPlant<N>, const N: usize>(
+    pub fn cycles_at<P: Vehicle<N>, const N: usize>(
         &self,
         model: &P,
         speed: f64,
@@ -249,7 +250,7 @@ impl Diagram {
     ///
     /// # Errors
     /// Numerical failures of the correction at fixed V.
-    pub fn cycle_at<P: LoopPlant<N>, const N: usize>(
+    pub fn cycle_at<P: Vehicle<N>, const N: usize>(
         &self,
         model: &P,
         speed: f64,
@@ -297,7 +298,7 @@ impl Diagram {
     }
 }
 
-fn summarise<P: LoopPlant<N>, const N: usize>(
+fn summarise<P: Vehicle<N>, const N: usize>(
     sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_, P, N>>,
     u: &[f64],
     st: Option<&continuation::Stability>,
@@ -390,7 +391,7 @@ fn fold_turning(cycles: &Branch, turn: Turn) -> Option<usize> {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if there is no Hopf point in the range or a step fails.
-pub fn straight_running<P: LoopPlant<N>, const N: usize>(
+pub fn straight_running<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (v_min, v_max): (f64, f64),
@@ -451,7 +452,7 @@ pub enum CycleExtent {
 /// # Errors
 /// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
 /// leave the Hopf point.
-pub fn cycles_from_hopf<'a, P: LoopPlant<N>, const N: usize>(
+pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
@@ -479,7 +480,7 @@ pub fn cycles_from_hopf<'a, P: LoopPlant<N>, const N: usize>(
 /// eigenvector; where Newton does not converge from it (a branch that bends sharply, or a
 /// Hopf bubble smaller than the amplitude: the normal form's guess is good only closer to
 /// the Hopf point), again at a tenth and a hundredth of it.
-pub(crate) fn first_cycle<'a, P: LoopPlant<N>, const N: usize>(
+pub(crate) fn first_cycle<'a, P: Vehicle<N>, const N: usize>(
     cont: &Continuation,
     po: &mut PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
     hopf: &HopfPoint,
@@ -500,7 +501,7 @@ pub(crate) fn first_cycle<'a, P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// As [`cycles_from_hopf`].
-pub fn cycles_from_hopf_until<'a, P: LoopPlant<N>, const N: usize>(
+pub fn cycles_from_hopf_until<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
@@ -585,7 +586,7 @@ pub fn cycles_from_hopf_until<'a, P: LoopPlant<N>, const N: usize>(
 /// # Errors
 /// [`SwayError::Numerical`] saying which stage failed (no Hopf point in the range, Newton
 /// divergence, ...).
-pub fn bifurcation_diagram<P: LoopPlant<N>, const N: usize>(
+pub fn bifurcation_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     options: &DiagramOptions,
@@ -597,7 +598,7 @@ pub fn bifurcation_diagram<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// As [`bifurcation_diagram`].
-pub fn bifurcation_diagram_until<P: LoopPlant<N>, const N: usize>(
+pub fn bifurcation_diagram_until<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     options: &DiagramOptions,
@@ -611,7 +612,7 @@ pub fn bifurcation_diagram_until<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// As [`bifurcation_diagram`].
-pub fn bifurcation_diagram_with_law<P: LoopPlant<N>, const N: usize>(
+pub fn bifurcation_diagram_with_law<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     law: LoopLaw,

@@ -19,10 +19,11 @@ use continuation::{
     Location, PeriodicOrbitSystem, SpecialKind, Stop, criticality,
 };
 use serde::{Deserialize, Serialize};
+use sway_model::vehicle::Vehicle;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, LoopLaw,
-    LoopPlant, SPEED, collocation, fold_of, num, root_finder, summarise,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, LoopLaw, SPEED,
+    collocation, fold_of, num, root_finder, summarise,
 };
 use crate::SwayError;
 use crate::sim::LossOfControl;
@@ -353,7 +354,7 @@ pub enum FirstLoss {
 /// stability (or to `v_hi`), in steps of 0.5 m/s as [`super::straight_running`]; the branch
 /// and that first loss: a Hopf point, or a real eigenvalue through zero (a vehicle can
 /// diverge statically before it sways).
-pub fn straight_running_to_first_loss<P: LoopPlant<N>, const N: usize>(
+pub fn straight_running_to_first_loss<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (v_lo, v_hi): (f64, f64),
@@ -522,7 +523,7 @@ fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
 
 /// The first tripped validity condition on the cycle `u` of `sys` (checked at the
 /// collocation nodes, with the delayed state read off the periodic profile).
-pub fn cycle_loss_of_control<P: LoopPlant<N>, const N: usize>(
+pub fn cycle_loss_of_control<P: Vehicle<N>, const N: usize>(
     sys: &PeriodicOrbitSystem<'_, ClosedLoop<'_, P, N>>,
     problem: &ClosedLoop<'_, P, N>,
     u: &[f64],
@@ -561,7 +562,7 @@ type StoppedCycles<'a, P, const N: usize> = (
 /// The cycle branch from `hopf`, continued on `o`'s speed range for at most `max_points`
 /// points, stopped by the first of: V ≥ `v_stop`, the first fold (`extent`), the validity
 /// guard. Returns the system, the branch, its criticality and why it ended.
-fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
+fn cycles_with_stop_rules<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
@@ -665,7 +666,7 @@ fn cycles_with_stop_rules<'a, P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// As [`straight_running_to_first_loss`].
-fn next_hopf_point<P: LoopPlant<N>, const N: usize>(
+fn next_hopf_point<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     (from, v_hi): (f64, f64),
@@ -688,7 +689,7 @@ fn next_hopf_point<P: LoopPlant<N>, const N: usize>(
 /// `amplitudes`, if its last cycle has collapsed ([`rejoins_straight_running`]): the speed
 /// is the Hopf point of straight running located on its spectrum ([`rejoin_hopf_speed`]),
 /// else the extrapolated one.
-pub(super) fn rejoin_end<P: LoopPlant<N>, const N: usize>(
+pub(super) fn rejoin_end<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     root_degree: usize,
@@ -705,7 +706,7 @@ pub(super) fn rejoin_end<P: LoopPlant<N>, const N: usize>(
 /// The Hopf point of straight running near the speeds of `bracket` (the last cycle of a
 /// Hopf bubble and its collapsed successor), located where the rightmost complex root crosses
 /// the axis ([`locate_hopf`]); None without a sign change within 8 bracket lengths.
-fn rejoin_hopf_speed<P: LoopPlant<N>, const N: usize>(
+fn rejoin_hopf_speed<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     params: &[f64],
     root_degree: usize,
@@ -789,7 +790,7 @@ fn rejoins_straight_running(amplitudes: &[(f64, f64)]) -> Option<Rejoin> {
 ///
 /// # Errors
 /// [`SwayError::Numerical`] saying which stage failed.
-pub fn vehicle_diagram<P: LoopPlant<N>, const N: usize>(
+pub fn vehicle_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     settings: &DiagramSettings,
@@ -804,7 +805,7 @@ pub fn vehicle_diagram<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// As [`vehicle_diagram`].
-pub fn vehicle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
+pub fn vehicle_diagram_with_law<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     law: LoopLaw,
@@ -821,7 +822,7 @@ pub fn vehicle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
 ///
 /// # Errors
 /// As [`vehicle_diagram`].
-pub fn cycle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
+pub fn cycle_diagram_with_law<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     law: LoopLaw,
@@ -832,7 +833,7 @@ pub fn cycle_diagram_with_law<P: LoopPlant<N>, const N: usize>(
     diagram_with_law(model, feedback, law, settings, limits, extent, false)
 }
 
-fn diagram_with_law<P: LoopPlant<N>, const N: usize>(
+fn diagram_with_law<P: Vehicle<N>, const N: usize>(
     model: &P,
     feedback: Feedback,
     law: LoopLaw,

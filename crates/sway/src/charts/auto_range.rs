@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{closed_loop, critical_speed_at_gain};
 use crate::SwayError;
-use sway_model::law::LoopModel;
+use sway_model::vehicle::LoopModel;
 
 /// Gains of the coarse scan of the critical speed over a gain range (ends included).
 pub const SCAN_GAINS: usize = 21;

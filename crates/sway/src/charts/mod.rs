@@ -13,7 +13,8 @@ use stability::{
     Axis, ChartOptions, Complex64, RankOneFeedback, RootOptions, StabilityChart, StabilityError,
     first_unstable_parameter, stability_charts,
 };
-use sway_model::law::{Actuator, Gains, LoopLinearization, LoopModel, Structure, loop_output_row};
+use sway_model::law::{Actuator, Gains, LoopLinearization, Structure, loop_output_row};
+use sway_model::vehicle::LoopModel;
 
 pub mod auto_range;
 

@@ -30,9 +30,10 @@ mod design;
 mod loop_fold;
 
 pub use sway_model::law::{
-    Actuator, Controller, GainName, Gains, LoopLinearization, LoopModel, Structure,
-    loop_output_row, output_row, predictor,
+    Actuator, Controller, GainName, Gains, LoopLinearization, Structure, loop_output_row,
+    output_row, predictor,
 };
+pub use sway_model::vehicle::LoopModel;
 
 pub use design::{
     CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness,

@@ -4,7 +4,7 @@
 //! sweeps. The integration is done by the general-purpose [`dde`] crate: the open loop is an
 //! ODE, the closed loop a DDE with one constant delay.
 //!
-//! Any plant simulates ([`trailer_model::Plant`] through [`SimPlant`]: the paper's
+//! Any vehicle simulates ([`sway_model::vehicle::Vehicle`]: the paper's
 //! [`trailer_model::Model`] and every [`trailer_model::VehicleModel`] of a vehicle file with
 //! model variants): [`SimProblem`] is the ODE/DDE problem of a plant with M reduced states,
 //! [`simulate`] runs the paper's model, [`simulate_plant`] any plant in its own layout, and
@@ -41,15 +41,13 @@ pub use sway_model::speeds::resolve as speeds;
 pub use classify::{MetricSettings, SwayClass};
 #[allow(deprecated)]
 pub use plant::Plant;
-pub use plant::{
-    SLIP_TANGENT_FLOOR, SWITCHING_FUNCTIONS, SimPlant, SimProblem, reduced, reduced_state,
-};
+pub use plant::{SWITCHING_FUNCTIONS, SimProblem, reduced, reduced_state};
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{
-    ControllerStates, EarlyStop, IntegrationMethod, KinkLandingMode, Layout, LossOfControl,
-    Metrics, Outcome, Recording, RunSettings, Sample, SimResult, SimSpec, SimulateOwn,
-    SolverSettings, ValidityGuard, lift_state, paper_layout, settle, settle_any, settle_plant,
-    simulate, simulate_any, simulate_plant,
+    ControllerStates, EarlyStop, IntegrationMethod, KinkLandingMode, Layout, Metrics, Outcome,
+    Recording, RunSettings, Sample, SimResult, SimSpec, SimulateOwn, SolverSettings, ValidityGuard,
+    lift_state, paper_layout, settle, settle_any, settle_plant, simulate, simulate_any,
+    simulate_plant,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, ensure_name, validate_parts,
@@ -59,3 +57,4 @@ pub use sway_model::law::simulation::{
     ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError, PredictionVehicle,
 };
 pub use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};
+pub use sway_model::vehicle::{LossOfControl, SLIP_TANGENT_FLOOR};

@@ -1,6 +1,6 @@
 //! The car–trailer model with a speed profile and a steering controller, as an ODE/DDE
 //! problem for the [`dde`] solver ([`SimProblem`]), for any plant
-//! ([`trailer_model::Plant<M>`] with M reduced states, through [`SimPlant`]). The state of
+//! ([`trailer_model::Plant<M>`] with M reduced states, through [`Vehicle`]). The state of
 //! the problem is, in this order: the M reduced states (\[σ1, σ2, σ3, θ\] and the plant's own,
 //! e.g. the lagged slips α′ of relaxing axles), the kinematic states \[ψ, x_H, y_H\] when the
 //! path is wanted, the steering angle δ when the controller has a rate-limited actuator (see
@@ -10,116 +10,13 @@
 
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
-use trailer_model::{
-    Inputs, MAX_AXLES, Model, Plant as PlantModel, SlipAngles, State4, SwitchingKind, VehicleModel,
-};
+use sway_model::vehicle::Vehicle;
+use trailer_model::{Inputs, Model, SlipAngles, State4};
 
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
 use sway_model::law::simulation::LoopLaw;
 use sway_model::law::{Actuator, Structure};
-
-/// What a simulation needs of a plant beyond [`trailer_model::Plant`]: the paper-form model of
-/// the vehicle (for the predictor's model and the braking limit), the plant's initial state
-/// from the paper's four states, and its switching functions as the integrator wants them.
-/// Implemented by the paper's [`Model`] (with the code the simulation had before the trait,
-/// so its numbers do not move) and by every [`VehicleModel`].
-pub trait SimPlant<const M: usize>: PlantModel<M> + Sync {
-    /// The paper's model of the vehicle (for axle lists: of the equivalent single-axle
-    /// vehicle, [`trailer_model::VehicleSpec::equivalent_params`]).
-    fn paper_model(&self) -> &Model;
-
-    /// The reduced state with \[σ1, σ2, σ3, θ\] = `x4` and the plant's own states at their
-    /// values in steady state of the tyres: a lagged slip α′ starts at the instantaneous
-    /// slip α(x4) at speed `speed_mps` and δ = 0.
-    fn initial_state(&self, x4: &State4, speed_mps: f64) -> SVector<f64, M>;
-
-    /// Number of the plant's switching functions ([`Self::sim_switching`]).
-    fn switching_count(&self) -> usize {
-        self.switching_kinds().len()
-    }
-
-    /// The plant's switching functions at (x, u) into `g` (length
-    /// [`SimPlant::switching_count`]): [`trailer_model::Plant::switching_functions`] with a
-    /// slip below [`SLIP_TANGENT_FLOOR`] counted as zero (near straight running the slips
-    /// hover at round-off level, where sign flips are noise and landing on them would never
-    /// end) and a function that cannot change sign (no sliding limit) as −1.
-    fn sim_switching(&self, x: &SVector<f64, M>, u: &Inputs, g: &mut [f64]) {
-        self.switching_functions(x, u, g);
-        for (g, kind) in g.iter_mut().zip(self.switching_kinds()) {
-            if !g.is_finite() {
-                *g = -1.0;
-            } else if matches!(kind, SwitchingKind::SlipSign { .. })
-                && g.abs() <= SLIP_TANGENT_FLOOR
-            {
-                *g = 0.0;
-            }
-        }
-    }
-}
-
-impl SimPlant<4> for Model {
-    fn paper_model(&self) -> &Model {
-        self
-    }
-
-    fn initial_state(&self, x4: &State4, _speed_mps: f64) -> State4 {
-        *x4
-    }
-
-    fn switching_count(&self) -> usize {
-        6
-    }
-
-    /// tan α of the front, rear and trailer axles (0 below the floor), then
-    /// tan²α − tan²α_cr of each (−1 without a sliding limit): the code of the simulation
-    /// before the plant abstraction, bit for bit.
-    #[inline]
-    fn sim_switching(&self, x: &State4, u: &Inputs, g: &mut [f64]) {
-        let tan = self.slip_angle_tangents(x, u);
-        let signed = |t: f64| {
-            if t.abs() <= SLIP_TANGENT_FLOOR {
-                0.0
-            } else {
-                t
-            }
-        };
-        let cr = self.critical_slip_angle_tangents();
-        let tans = [tan.front, tan.rear, tan.trailer];
-        let crs = [cr.front, cr.rear, cr.trailer];
-        for k in 0..3 {
-            g[k] = signed(tans[k]);
-            g[3 + k] = if crs[k].is_finite() {
-                tans[k] * tans[k] - crs[k] * crs[k]
-            } else {
-                -1.0
-            };
-        }
-    }
-}
-
-impl<const N: usize> SimPlant<N> for VehicleModel<N> {
-    fn paper_model(&self) -> &Model {
-        self.equivalent_model()
-    }
-
-    fn initial_state(&self, x4: &State4, speed_mps: f64) -> SVector<f64, N> {
-        let mut x = SVector::<f64, N>::from_fn(|i, _| if i < 4 { x4[i] } else { 0.0 });
-        let mut alpha = [0.0; MAX_AXLES];
-        let axles = self.axles();
-        self.slip_angles(
-            &x,
-            &Inputs::constant_speed(speed_mps),
-            &mut alpha[..axles.len()],
-        );
-        for (a, alpha) in axles.iter().zip(alpha) {
-            if let Some(j) = a.state {
-                x[j] = alpha;
-            }
-        }
-        x
-    }
-}
 
 /// What a `yaw_rate_hitch` or `predictor` controller needs at run time.
 #[derive(Debug, Clone)]
@@ -163,10 +60,6 @@ pub struct SimProblem<'a, P, const M: usize, const N: usize> {
 #[deprecated(note = "use `SimProblem<'a, Model, 4, N>`")]
 pub type Plant<'a, const N: usize> = SimProblem<'a, Model, 4, N>;
 
-/// |tan α| below which a slip counts as zero for the switching functions (a kink of that size
-/// changes the brush force by φ₂·tan²α ≈ 1e-18 of its scale).
-pub const SLIP_TANGENT_FLOOR: f64 = 1e-9;
-
 /// Number of switching functions of a [`SimProblem`] of the paper's model (see
 /// [`SimProblem::switching_functions`]).
 pub const SWITCHING_FUNCTIONS: usize = 8;
@@ -183,7 +76,7 @@ pub fn reduced_state<const M: usize, const N: usize>(x: &SVector<f64, N>) -> SVe
     SVector::<f64, M>::from_fn(|i, _| x[i])
 }
 
-impl<'a, P: SimPlant<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> {
+impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> {
     /// A problem starting from `x0` (also the history for t ≤ 0). `N` is M (+ 3 for the
     /// kinematic states) + the controller's states ([`Controller::extra_states`]): with a
     /// rate-limited controller ([`Controller::has_actuator_state`]) `x0[N − 1]` is δ(0), with a
@@ -381,7 +274,7 @@ impl<'a, P: SimPlant<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N>
     }
 
     /// The places where the right-hand side is continuous but not smooth, as the sign
-    /// changes of the plant's switching functions ([`SimPlant::sim_switching`]; for the
+    /// changes of the plant's switching functions ([`Vehicle::sim_switching`]; for the
     /// paper's model tan α of each axle, the brush law's tan α·|tan α| of eq. 14, and
     /// tan²α − tan²α_cr of each axle, the onset of full sliding) followed by two of the
     /// controller: with actuator limits δ_raw² − δ_max² (saturation) and r² − δ̇_max² (rate
@@ -506,7 +399,7 @@ impl<const N: usize> SimProblem<'_, Model, 4, N> {
     }
 }
 
-impl<P: SimPlant<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem<'_, P, M, N> {
+impl<P: Vehicle<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem<'_, P, M, N> {
     #[inline]
     fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
         let u = self.inputs(t, x, &[]);
@@ -536,7 +429,7 @@ impl<P: SimPlant<M>, const M: usize, const N: usize> OdeProblem<N> for SimProble
     }
 }
 
-impl<P: SimPlant<M>, const M: usize, const N: usize> DdeProblem<N> for SimProblem<'_, P, M, N> {
+impl<P: Vehicle<M>, const M: usize, const N: usize> DdeProblem<N> for SimProblem<'_, P, M, N> {
     fn delays(&self) -> &[f64] {
         &self.delays
     }

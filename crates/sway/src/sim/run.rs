@@ -10,9 +10,10 @@ use serde::{Deserialize, Serialize};
 use trailer_model::{AnyVehicleModel, HITCH_ANGLE, Model, State4};
 
 use super::classify::{MetricSettings, SwayClass, Window, Windows, classify};
-use super::plant::{SimPlant, SimProblem, reduced_state};
+use super::plant::{SimProblem, reduced_state};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
+use sway_model::vehicle::{LossOfControl, Vehicle};
 
 /// The Runge–Kutta pair of the simulations (`method = "auto"`, `"dop853"` or `"dopri5"` in
 /// a `[solver]` table).
@@ -155,43 +156,6 @@ pub enum ValidityGuard {
     Stop,
     /// integrate on regardless (the results past a violation are not physical)
     Off,
-}
-
-/// Which validity condition tripped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LossOfControl {
-    /// |α_F| > α_cr,F: the front axle slides fully
-    FrontAxleSliding,
-    /// |α_R| > α_cr,R: the rear axle slides fully
-    RearAxleSliding,
-    /// the front wheel's longitudinal velocity reached 0
-    FrontWheelStopped,
-    /// the rear wheel's longitudinal velocity (= V) reached 0
-    RearWheelStopped,
-    /// the trailer wheel's longitudinal velocity V cos θ + σ1 sin θ reached 0 (jackknife)
-    TrailerWheelStopped,
-}
-
-impl LossOfControl {
-    /// The snake_case name used in CSV and JSON.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            LossOfControl::FrontAxleSliding => "front_axle_sliding",
-            LossOfControl::RearAxleSliding => "rear_axle_sliding",
-            LossOfControl::FrontWheelStopped => "front_wheel_stopped",
-            LossOfControl::RearWheelStopped => "rear_wheel_stopped",
-            LossOfControl::TrailerWheelStopped => "trailer_wheel_stopped",
-        }
-    }
-
-    const ALL: [LossOfControl; 5] = [
-        LossOfControl::FrontAxleSliding,
-        LossOfControl::RearAxleSliding,
-        LossOfControl::FrontWheelStopped,
-        LossOfControl::RearWheelStopped,
-        LossOfControl::TrailerWheelStopped,
-    ];
 }
 
 /// How a run ended.
@@ -353,7 +317,7 @@ struct MetricObserver<'p, 'm, P, const M: usize, const N: usize> {
     stopped_early: bool,
 }
 
-impl<P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'_, '_, P, M, N> {
+impl<P: Vehicle<M>, const M: usize, const N: usize> MetricObserver<'_, '_, P, M, N> {
     #[inline]
     fn update(&mut self, t: f64, abs_theta: f64) {
         if t >= self.action_s {
@@ -411,7 +375,7 @@ impl<P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'_, '_, P, M
     }
 }
 
-impl<P: SimPlant<M>, const M: usize, const N: usize> Observer<N>
+impl<P: Vehicle<M>, const M: usize, const N: usize> Observer<N>
     for MetricObserver<'_, '_, P, M, N>
 {
     fn on_step(&mut self, step: &StepView<'_, N>) -> Flow {
@@ -503,7 +467,7 @@ where
 ///
 /// # Errors
 /// As [`simulate`]; [`SwayError::Numerical`] when `N` is neither M nor M + 3.
-pub fn simulate_plant<P: SimPlant<M>, const M: usize, const N: usize>(
+pub fn simulate_plant<P: Vehicle<M>, const M: usize, const N: usize>(
     plant: &P,
     spec: &SimSpec,
     x0: SVector<f64, N>,
@@ -519,7 +483,7 @@ where
 /// ones), with the state counts of every controller known: every plant of
 /// [`trailer_model::AnyVehicleModel`]. Generic code that simulates takes `P: SimulateOwn<M>`
 /// instead of carrying the bound `Layout<M>: ControllerStates<M>` through every signature.
-pub trait SimulateOwn<const M: usize>: SimPlant<M> {
+pub trait SimulateOwn<const M: usize>: Vehicle<M> {
     /// [`simulate_plant`] from the reduced state `x0` (M states; the controller's states are
     /// added and dropped there). For the paper's [`Model`] this is [`simulate`] with 4 states,
     /// bit for bit.
@@ -534,7 +498,7 @@ pub trait SimulateOwn<const M: usize>: SimPlant<M> {
     ) -> Result<SimResult<M>, SwayError>;
 }
 
-impl<P: SimPlant<M>, const M: usize> SimulateOwn<M> for P
+impl<P: Vehicle<M>, const M: usize> SimulateOwn<M> for P
 where
     Layout<M>: ControllerStates<M>,
 {
@@ -560,7 +524,7 @@ pub trait ControllerStates<const N: usize> {
     ///
     /// # Errors
     /// As [`simulate_plant`].
-    fn run<P: SimPlant<M>, const M: usize>(
+    fn run<P: Vehicle<M>, const M: usize>(
         plant: &P,
         spec: &SimSpec,
         x0: SVector<f64, N>,
@@ -571,7 +535,7 @@ pub trait ControllerStates<const N: usize> {
 macro_rules! layouts {
     ($($n:literal => $actuator:literal, $predictor:literal;)*) => {$(
         impl ControllerStates<$n> for Layout<$n> {
-            fn run<P: SimPlant<M>, const M: usize>(
+            fn run<P: Vehicle<M>, const M: usize>(
                 plant: &P,
                 spec: &SimSpec,
                 x0: SVector<f64, $n>,
@@ -607,7 +571,7 @@ layouts! {
 
 /// Runs the `S`-state problem (the controller's states last: δ(0) = 0 or z(0) = 0) and drops
 /// them from the states.
-fn with_controller_states<P: SimPlant<M>, const M: usize, const N: usize, const S: usize>(
+fn with_controller_states<P: Vehicle<M>, const M: usize, const N: usize, const S: usize>(
     plant: &P,
     spec: &SimSpec,
     x0: SVector<f64, N>,
@@ -648,7 +612,7 @@ impl<const N: usize> SimResult<N> {
 /// [`simulate`] for the model of a vehicle file: the paper's [`Model`] as [`simulate`] (bit
 /// for bit), a [`trailer_model::VehicleModel`] through [`simulate_plant`]. `x0` and the result
 /// are in the paper's layout (`N` = 4: \[σ1, σ2, σ3, θ\]; 7: with \[ψ, x_H, y_H\]); the plant's
-/// own states start in steady state of the tyres ([`SimPlant::initial_state`] at V(0)) and
+/// own states start in steady state of the tyres ([`Vehicle::initial_state`] at V(0)) and
 /// are dropped from the result.
 ///
 /// # Errors
@@ -684,8 +648,8 @@ where
 }
 
 /// The paper-layout state `x` (4 or 7 states) in the layout of an M-state plant (M or M + 3
-/// states): the plant's own states from [`SimPlant::initial_state`] at `speed_mps`.
-pub fn lift_state<P: SimPlant<M>, const M: usize, const N: usize, const S: usize>(
+/// states): the plant's own states from [`Vehicle::initial_state`] at `speed_mps`.
+pub fn lift_state<P: Vehicle<M>, const M: usize, const N: usize, const S: usize>(
     plant: &P,
     x: &SVector<f64, N>,
     speed_mps: f64,
@@ -705,7 +669,7 @@ pub fn paper_layout<const M: usize, const S: usize, const N: usize>(
     SVector::<f64, N>::from_fn(|i, _| if i < 4 { x[i] } else { x[M + i - 4] })
 }
 
-fn lifted<P: SimPlant<M>, const M: usize, const N: usize, const S: usize>(
+fn lifted<P: Vehicle<M>, const M: usize, const N: usize, const S: usize>(
     plant: &P,
     spec: &SimSpec,
     x0: SVector<f64, N>,
@@ -727,7 +691,7 @@ where
 
 /// Events of a run: 0 the extrema of θ (θ̇ = 0, eq. 5), 1 |θ| crossing the settle threshold
 /// `theta_settle` \[rad\]; the validity guard is added by [`guard_event`].
-fn metric_events<'e, P: SimPlant<M>, const M: usize, const N: usize>(
+fn metric_events<'e, P: Vehicle<M>, const M: usize, const N: usize>(
     problem: &'e SimProblem<'_, P, M, N>,
     theta_settle: f64,
 ) -> Vec<Event<'e, N>> {
@@ -749,7 +713,7 @@ fn metric_events<'e, P: SimPlant<M>, const M: usize, const N: usize>(
 /// [`trailer_model::Plant::guard_values`], each "tripped when > 0"; one event on their maximum
 /// (continuous, and zero exactly when the first of them reaches zero) costs one slip
 /// evaluation per call instead of five events.
-fn guard_event<'e, P: SimPlant<M>, const M: usize, const N: usize>(
+fn guard_event<'e, P: Vehicle<M>, const M: usize, const N: usize>(
     problem: &'e SimProblem<'_, P, M, N>,
 ) -> Event<'e, N> {
     Event::with_delays(
@@ -772,7 +736,7 @@ fn tripped(v: [f64; 5]) -> LossOfControl {
 
 /// Integrates the problem to the horizon (ODE in open loop, DDE with a delay): status, end
 /// time, end state and the solver's counters.
-fn integrate<P: SimPlant<M>, const M: usize, const N: usize>(
+fn integrate<P: Vehicle<M>, const M: usize, const N: usize>(
     problem: &SimProblem<'_, P, M, N>,
     spec: &SimSpec,
     x0: SVector<f64, N>,
@@ -804,7 +768,7 @@ fn integrate<P: SimPlant<M>, const M: usize, const N: usize>(
 }
 
 /// The metrics at the end of a run that reached the horizon, or lost control at `lost`.
-fn final_metrics<P: SimPlant<M>, const M: usize, const N: usize>(
+fn final_metrics<P: Vehicle<M>, const M: usize, const N: usize>(
     obs: &mut MetricObserver<'_, '_, P, M, N>,
     spec: &SimSpec,
     x_end: &SVector<f64, N>,
@@ -844,7 +808,7 @@ fn final_metrics<P: SimPlant<M>, const M: usize, const N: usize>(
 
 /// One run of an N-state problem (controller states included): build the problem, its
 /// events and the metric observer, integrate, and read the metrics.
-fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
+fn run_problem<P: Vehicle<M>, const M: usize, const N: usize>(
     plant: &P,
     spec: &SimSpec,
     x0: SVector<f64, N>,
@@ -891,7 +855,7 @@ fn run_problem<P: SimPlant<M>, const M: usize, const N: usize>(
     })
 }
 
-impl<'p, 'm, P: SimPlant<M>, const M: usize, const N: usize> MetricObserver<'p, 'm, P, M, N> {
+impl<'p, 'm, P: Vehicle<M>, const M: usize, const N: usize> MetricObserver<'p, 'm, P, M, N> {
     /// The observer of a run from `x0` at t = 0 (its first values seen, the first sample
     /// recorded), with the settle threshold `theta_settle` \[rad\].
     fn start(
@@ -980,11 +944,11 @@ pub fn settle(
 }
 
 /// [`settle`] for any plant: the reduced state where the open loop ends (the plant's own
-/// states start in steady state of the tyres, [`SimPlant::initial_state`]).
+/// states start in steady state of the tyres, [`Vehicle::initial_state`]).
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails.
-pub fn settle_plant<P: SimPlant<M>, const M: usize>(
+pub fn settle_plant<P: Vehicle<M>, const M: usize>(
     plant: &P,
     speed_mps: f64,
     theta0_rad: f64,

@@ -34,27 +34,16 @@ pub mod motion;
 use continuation::Criticality;
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
+use sway_model::vehicle::Vehicle;
 use trailer_model::{HITCH_ANGLE, State4};
 
 use self::motion::{MotionClass, MotionEvidence, MotionOptions, Spectrum};
 use super::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
-use super::closed_loop::LoopPlant;
 use crate::SwayError;
 use crate::charts::{closed_loop, fig4a_charts, rightmost_roots};
 use crate::parallel::{Split, join, map, try_map};
 use crate::sim::{Controller, Outcome, Recording, RunSettings, SimSpec, SimulateOwn, SpeedProfile};
-use sway_model::law::LoopModel;
-
-/// What the corner analysis needs of a plant (issue 21: any plant, the paper's [`Model`] or a
-/// [`trailer_model::VehicleModel`] of a vehicle file with variants): its closed loop for the
-/// continuations ([`LoopPlant`]), its linearisation for the D-subdivision and the
-/// characteristic roots ([`LoopModel`]) and its simulation in its own layout
-/// ([`SimulateOwn`]). Implemented for every type that has the three.
-///
-/// [`Model`]: trailer_model::Model
-pub trait CornerPlant<const N: usize>: LoopPlant<N> + LoopModel + SimulateOwn<N> {}
-
-impl<P: LoopPlant<N> + LoopModel + SimulateOwn<N>, const N: usize> CornerPlant<N> for P {}
+use sway_model::vehicle::LoopModel;
 
 /// Settings of the simulations at the probe points.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -721,7 +710,7 @@ impl Default for TorusContinuation {
 /// `window`, reaches a strong resonance or `max_points`; each also continued backwards to
 /// its end at the double-Hopf point ([`TorusCurve::end`]). A family whose continuation
 /// fails is reported in the notes (second value) instead of failing the analysis.
-pub fn continued_torus_curves<P: LoopPlant<N>, const N: usize>(
+pub fn continued_torus_curves<P: Vehicle<N>, const N: usize>(
     model: &P,
     p: &DoubleHopfPoint,
     window: [f64; 4],
@@ -752,7 +741,7 @@ pub fn continued_torus_curves<P: LoopPlant<N>, const N: usize>(
 
 /// One torus curve from the double-Hopf point (family 0: the ω1 cycles, 1: the ω2 cycles).
 #[doc(hidden)] // pub for tests/unit
-pub fn torus_curve<P: LoopPlant<N>, const N: usize>(
+pub fn torus_curve<P: Vehicle<N>, const N: usize>(
     problem: &super::ClosedLoop<'_, P, N>,
     p: &DoubleHopfPoint,
     family: usize,
@@ -904,7 +893,7 @@ pub fn compare_torus(
 ///
 /// # Errors
 /// [`SwayError::Numerical`] naming the failing stage.
-pub fn corner_study<P: CornerPlant<N>, const N: usize>(
+pub fn corner_study<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     tau: f64,
     chart: &ChartOptions,
@@ -975,7 +964,7 @@ fn beyond<L: LoopModel + ?Sized>(
 }
 
 /// The analysis near one double-Hopf point.
-fn corner<P: CornerPlant<N>, const N: usize>(
+fn corner<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     nl: &NonlinearChart,
     p: &DoubleHopfPoint,
@@ -1210,7 +1199,7 @@ pub fn unstable_modes<L: LoopModel + ?Sized>(
 }
 
 /// The simulations at one probe point.
-fn probe<P: CornerPlant<N>, const N: usize>(
+fn probe<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     tau: f64,
     v: f64,
@@ -1234,7 +1223,7 @@ fn probe<P: CornerPlant<N>, const N: usize>(
 }
 
 /// The class of the run at (V, D) from the kick \[deg\].
-fn class_at<P: CornerPlant<N>, const N: usize>(
+fn class_at<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     p: &DoubleHopfPoint,
     (v, d): (f64, f64),
@@ -1247,7 +1236,7 @@ fn class_at<P: CornerPlant<N>, const N: usize>(
 /// The torus boundary at speed V: the first periodic → quasi-periodic change of the
 /// coarse scan in D, bisected; with the probes flanking it (periodic below, quasi-periodic
 /// above). None if the scan shows no such change.
-fn torus_boundary_at<P: CornerPlant<N>, const N: usize>(
+fn torus_boundary_at<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     p: &DoubleHopfPoint,
     v: f64,
@@ -1306,7 +1295,7 @@ fn torus_boundary_at<P: CornerPlant<N>, const N: usize>(
 /// paper's model bit for bit as before) from θ(t ≤ 0) = kick, classified; a run still
 /// growing at the end of the window (without loss of control) is repeated with a
 /// transient three times as long, so that the class is that of where the motion settles.
-pub fn run_at<P: CornerPlant<N>, const N: usize>(
+pub fn run_at<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     tau: f64,
     v: f64,
@@ -1324,7 +1313,7 @@ pub fn run_at<P: CornerPlant<N>, const N: usize>(
 /// θ rad\] (e.g. a state of a cycle; the run's `kick_deg` is θ0 in degrees). A plant's own
 /// states (the lagged slips of relaxing axles) start in steady state of the tyres
 /// ([`crate::sim::SimPlant::initial_state`] at V).
-pub fn run_from<P: CornerPlant<N>, const N: usize>(
+pub fn run_from<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     tau: f64,
     v: f64,
@@ -1343,7 +1332,7 @@ pub fn run_from<P: CornerPlant<N>, const N: usize>(
     run_once(model, tau, v, d, x0, &longer)
 }
 
-fn run_once<P: CornerPlant<N>, const N: usize>(
+fn run_once<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     tau: f64,
     v: f64,

@@ -19,7 +19,8 @@
 use crate::collocation::{MAX_DEGREE, lagrange_d2};
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, Factorisation, SparseLu};
+use crate::linalg::Entry;
+use crate::linear_solver::{Factorisation, SparseLu};
 use crate::periodic::{Loc, PeriodicOrbitSystem};
 use crate::problem::Problem;
 use crate::{BranchPoint, CollocationOptions};

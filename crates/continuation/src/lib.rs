@@ -118,6 +118,7 @@ pub mod torus;
 
 pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
+pub use cycle_curve::{CycleCurveSystem, CycleExtension};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
     Decision, NewtonMatrix, NewtonUpdate, NoObserver, Observer, SpecialPoints, Stop, newton_step,

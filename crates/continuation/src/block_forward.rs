@@ -1,6 +1,6 @@
 //! The block-forward solver of collocation systems of periodic orbits of delay equations:
 //! the collocation integrated forward over one period, the periodicity and the wrapped
-//! delayed history in a small border (issue 23 item 1).
+//! delayed history in a small border.
 //!
 //! The Newton matrix M of a periodic orbit (and of the extended systems built on it: folds,
 //! tori and period doublings of cycles), in the systems' mesh order, has per mesh interval i
@@ -52,8 +52,7 @@
 //! Where each entry goes (slots, copies, blocks, the counting sorts of the sparse parts)
 //! depends only on the matrix's nonzero pattern, which repeats from one Newton iteration
 //! and one continuation step to the next: that [`Layout`] is made once per pattern and kept
-//! per thread, so that a factorisation scatters the values and factorises (fig3a's
-//! diagram 516 → 409 ms with the layouts kept).
+//! per thread, so that a factorisation only scatters the values and factorises.
 
 use crate::linalg::{
     Csr, Determinant, Entry, KrylovOperator, MeshStructure, arnoldi, determinant_settled, gmres,

@@ -6,9 +6,14 @@
 //! values, T the period) and the equations [cycle (collocation + phase), extra rows]. This
 //! module holds what they all need:
 //!
+//! - [`CycleCurveSystem`]: the one type of the three systems, generic over the part in
+//!   which they differ ([`CycleExtension`]: options, the mode of the last accepted point,
+//!   scratch), with their shared constructors and getters (the cycle, its period,
+//!   parameters and amplitude, its periodic-orbit system and Floquet multipliers);
 //! - [`CycleCurve`]: the cycle system and p2 (validation, parameters of a point, the cycle's
-//!   system at a point, its Floquet multipliers, weights, the node-interleaved column order,
-//!   the extrapolation of a curve's end to zero amplitude, the curve loop with stop rules);
+//!   rows of the residual and the Jacobian, weights, the node-interleaved column order, the
+//!   mesh structure, the extrapolation of a curve's end to zero amplitude), and the curve
+//!   loop with stop rules;
 //! - the rows of a *real* mode v on the cycle's mesh, y'(s) = T Σ_j J_j(s) y(s − τ_j/T),
 //!   either periodic with a period component v_T (the null vector of the linearised
 //!   periodic problem: folds of cycles) or antiperiodic, v(s + 1) = −v(s) (the Floquet mode
@@ -19,9 +24,11 @@
 use crate::collocation::{MAX_DEGREE, lagrange_d2};
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, Factorisation, SparseLu};
+use crate::linalg::{Entry, MeshStructure};
+use crate::linear_solver::{Factorisation, LinearSolver, SparseLu};
 use crate::periodic::{Loc, PeriodicOrbitSystem};
 use crate::problem::Problem;
+use crate::stability::Stability;
 use crate::{BranchPoint, CollocationOptions};
 use num_complex::Complex64;
 
@@ -98,6 +105,60 @@ impl<'a, P: Problem> CycleCurve<'a, P> {
         self.po.set_params(&u[..np + 2]);
     }
 
+    /// the cycle's rows (collocation and phase) of the residual `r` at u, p1 and p2 set
+    /// from u first; the rest of `r`, the extra rows
+    pub(crate) fn cycle_residual<'r>(
+        &mut self,
+        u: &[f64],
+        r: &'r mut [f64],
+    ) -> Result<&'r mut [f64]> {
+        let np = self.np();
+        self.sync(u);
+        let (r_cycle, rest) = r.split_at_mut(np + 1);
+        self.po.residual(&u[..np + 2], r_cycle)?;
+        Ok(rest)
+    }
+
+    /// the Jacobian entries of the cycle's rows in the columns (x, T, p1) at u, p1 and p2
+    /// set from u first
+    pub(crate) fn cycle_jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
+        let np = self.np();
+        self.sync(u);
+        self.po.jacobian(&u[..np + 2], entries)
+    }
+
+    /// the accepted point u: p1 and p2 set from it, its cycle the phase reference
+    pub(crate) fn accept(&mut self, u: &[f64]) {
+        let np = self.np();
+        self.sync(u);
+        self.po.set_reference(&u[..np + 2]);
+    }
+
+    /// Ok if the extra rows (or their Jacobian entries) at u are `finite`, else the error
+    /// at u's p1
+    pub(crate) fn finite(&self, u: &[f64], finite: bool) -> Result<()> {
+        if finite {
+            Ok(())
+        } else {
+            Err(Error::NonFinite {
+                parameter: u[self.np() + 1],
+            })
+        }
+    }
+
+    /// ⟨a, b⟩ = Σ a_i b_i /(L·m) on profile-sized vectors
+    pub(crate) fn mean_dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / self.po.n_nodes() as f64
+    }
+
+    /// the direction +p2 in a system of `len` unknowns: the start direction of a curve
+    /// from a point of a cycle branch, along which the corrector keeps p2 fixed
+    pub(crate) fn p2_direction(&self, len: usize) -> Vec<f64> {
+        let mut direction = vec![0.0; len];
+        direction[self.np() + 2] = 1.0;
+        direction
+    }
+
     /// the periodic-orbit unknowns [x, T, p1] of the point's cycle
     pub(crate) fn orbit<'u>(&self, u: &'u [f64]) -> &'u [f64] {
         &u[..self.np() + 2]
@@ -133,6 +194,15 @@ impl<'a, P: Problem> CycleCurve<'a, P> {
         v[..np + 2].copy_from_slice(&w);
         v[np + 2] = w[np + 1];
         v
+    }
+
+    /// the cycle and `modes` profile-sized blocks after p2 (the rows after the cycle's)
+    /// on the mesh (see [`LinearSolver::Krylov`])
+    pub(crate) fn mesh_structure(&self, modes: usize) -> Option<MeshStructure> {
+        let np = self.np();
+        let columns = std::iter::once(0).chain((0..modes).map(|k| np + 3 + k * np));
+        let rows = std::iter::once(0).chain((0..modes).map(|k| np + 1 + k * np));
+        self.po.structure(columns.collect(), rows.collect())
     }
 
     /// column order with the cycle and the extra profile-sized blocks starting at
@@ -178,6 +248,153 @@ impl<'a, P: Problem> CycleCurve<'a, P> {
             None => vb,
         };
         (est, rho_b.sqrt())
+    }
+}
+
+/// The part in which the two-parameter cycle systems differ: the options of their extra
+/// equations, the mode of the last accepted point and scratch (see [`CycleCurveSystem`]).
+pub trait CycleExtension {
+    /// the options of the curve
+    type Options;
+    /// the part of a system whose cycle has `n` components, `delays` delays and `np`
+    /// profile unknowns
+    fn new(options: Self::Options, n: usize, delays: usize, np: usize) -> Self;
+}
+
+/// A curve of cycles in two free parameters with the extra equations `E`: the type of
+/// [`crate::FoldOfCyclesSystem`], [`crate::PeriodDoublingCurveSystem`] and
+/// [`crate::TorusCurveSystem`], whose documentation gives their equations. The unknowns
+/// are u = [x, T, p1, p2, extra…] (x the n·L·m profile values, T the period); the
+/// constructors and the getters of the cycle are those of all three.
+#[derive(Debug)]
+pub struct CycleCurveSystem<'a, P: Problem, E> {
+    pub(crate) base: CycleCurve<'a, P>,
+    pub(crate) ext: E,
+}
+
+impl<'a, P: Problem, E: CycleExtension> CycleCurveSystem<'a, P, E> {
+    /// New system on the mesh `mesh` (0 = s_0 < … < s_L = 1); `params`: all parameters,
+    /// `free` = (p1, p2) the primary and secondary free parameter. Set the references with
+    /// [`ContinuationSystem::accept`] before correcting a guess (or start from the special
+    /// point of a cycle branch, as each system's documentation says).
+    pub fn with_mesh(
+        problem: &'a P,
+        params: Vec<f64>,
+        free: (usize, usize),
+        mesh: Vec<f64>,
+        collocation: CollocationOptions,
+        options: E::Options,
+    ) -> Result<Self> {
+        Ok(Self::on(
+            CycleCurve::new(problem, params, free, mesh, collocation)?,
+            options,
+        ))
+    }
+
+    /// New system on a uniform mesh of `collocation.intervals` intervals.
+    pub fn new(
+        problem: &'a P,
+        params: Vec<f64>,
+        free: (usize, usize),
+        collocation: CollocationOptions,
+        options: E::Options,
+    ) -> Result<Self> {
+        let mesh = uniform_mesh(collocation.intervals);
+        Self::with_mesh(problem, params, free, mesh, collocation, options)
+    }
+
+    /// the system on the cycle `base`
+    pub(crate) fn on(base: CycleCurve<'a, P>, options: E::Options) -> Self {
+        let problem = base.po.problem;
+        let ext = E::new(options, problem.dim(), problem.n_delays(), base.np());
+        Self { base, ext }
+    }
+
+    /// the system on the cycle system of `po` at the branch point `point`, with `ip2` as
+    /// the second parameter (see [`CycleCurve::from_branch_point`])
+    pub(crate) fn at_branch_point(
+        po: &PeriodicOrbitSystem<'a, P>,
+        point: &BranchPoint,
+        ip2: usize,
+        options: E::Options,
+        what: &str,
+    ) -> Result<Self> {
+        let base = CycleCurve::from_branch_point(po, point, ip2, what)?;
+        Ok(Self::on(base, options))
+    }
+}
+
+impl<'a, P: Problem, E> CycleCurveSystem<'a, P, E> {
+    /// n·L·m: number of profile unknowns
+    pub(crate) fn np(&self) -> usize {
+        self.base.np()
+    }
+
+    /// the periodic-orbit unknowns [x, T, p1] of the point's cycle
+    pub fn orbit<'u>(&self, u: &'u [f64]) -> &'u [f64] {
+        self.base.orbit(u)
+    }
+
+    /// the period T of the point's cycle [time units]
+    pub fn period(&self, u: &[f64]) -> f64 {
+        u[self.np()]
+    }
+
+    /// all parameters at the point u
+    pub fn parameters(&self, u: &[f64]) -> Vec<f64> {
+        self.base.parameters(u)
+    }
+
+    /// amplitude of the point's cycle: half the peak-to-peak range of the node values,
+    /// largest over the components [state units]
+    pub fn amplitude(&self, u: &[f64]) -> f64 {
+        self.base.po.amplitude(u)
+    }
+
+    /// The periodic-orbit system of the point's cycle at the parameters of u (free
+    /// parameter p1, same mesh, phase reference set to the cycle): continue the cycle
+    /// branch from here, or evaluate the cycle with [`PeriodicOrbitSystem::eval`].
+    pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
+        self.base.periodic_system(u)
+    }
+
+    /// How the bordered Newton systems are solved (default: that of the cycle system the
+    /// curve was started from, [`LinearSolver::Auto`] unless set there).
+    pub fn set_linear_solver(&mut self, solver: LinearSolver) {
+        self.base.po.set_linear_solver(solver);
+    }
+
+    /// Floquet multipliers of the point's cycle, sorted by decreasing modulus: the trivial
+    /// multiplier 1 and the critical ones of the curve among them (≈ 1 at a fold of
+    /// cycles, −1 at a period doubling, e^{±iθ} at a torus point)
+    pub fn multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
+        self.base.multipliers(u)
+    }
+
+    /// The stability of the point (if `wanted`): the cycle's multipliers with the one
+    /// nearest to each of `critical` removed, so that a change of the number outside the
+    /// unit circle marks a codimension-two point of the curve.
+    pub(crate) fn stability_without(
+        &mut self,
+        u: &[f64],
+        wanted: bool,
+        critical: &[Complex64],
+    ) -> Result<Option<Stability>> {
+        if !wanted {
+            return Ok(None);
+        }
+        let mut mu = self.multipliers(u)?;
+        for z in critical {
+            let nearest = mu
+                .iter()
+                .enumerate()
+                .min_by(|a, b| (a.1 - z).norm().total_cmp(&(b.1 - z).norm()))
+                .map(|(i, _)| i);
+            if let Some(i) = nearest {
+                mu.remove(i);
+            }
+        }
+        Ok(Some(Stability::from_multipliers(mu)))
     }
 }
 
@@ -232,6 +449,23 @@ pub(crate) fn second_derivative_matrix<P: Problem>(
         }
     }
     Ok(())
+}
+
+/// The reference mode of an accepted point: `reference` = `mode` / `norm` where `norm` is
+/// positive and finite (else the reference is kept).
+pub(crate) fn set_reference_mode(reference: &mut [f64], mode: &[f64], norm: f64) {
+    if norm > 0.0 && norm.is_finite() {
+        reference
+            .iter_mut()
+            .zip(mode)
+            .for_each(|(r, x)| *r = x / norm);
+    }
+}
+
+/// Entry i of the fixed, generic start of inverse iteration (the same numbers on every
+/// run)
+pub(crate) fn generic_start(i: usize) -> f64 {
+    1.0 + 0.5 * ((i as f64) * 0.754_877_666_246_692_7).fract()
 }
 
 /// A mode found by inverse iteration on the square block of `size` rows from `r0` and

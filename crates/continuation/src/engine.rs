@@ -10,7 +10,8 @@
 //! bordered determinant, whose change with a non-turning tangent marks a branch point.
 
 use crate::error::{Error, Result};
-use crate::linalg::{Determinant, Entry, Factorisation, SUPERNODAL_MIN_SIZE, SparseLu};
+use crate::linalg::{Determinant, Entry};
+use crate::linear_solver::{Factorisation, SUPERNODAL_MIN_SIZE, SparseLu};
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
 use serde::{Deserialize, Serialize};
 

@@ -4,14 +4,17 @@
 //!
 //! The equations, special points and an example are documented on [`FoldOfCyclesSystem`].
 
-use crate::cycle_curve::{CycleCurve, ModeScratch, Out, RealMode, extend_checked, uniform_mesh};
+use crate::BranchPoint;
+use crate::cycle_curve::{
+    CycleCurve, CycleCurveSystem, CycleExtension, ModeScratch, Out, RealMode, extend_checked,
+    set_reference_mode,
+};
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::error::{Error, Result};
-use crate::linalg::Entry;
+use crate::linalg::{Entry, MeshStructure};
 use crate::periodic::PeriodicOrbitSystem;
 use crate::problem::Problem;
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
-use crate::{BranchPoint, CollocationOptions};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
@@ -63,6 +66,10 @@ pub enum FoldCyclesStop {
 
 /// Fold-of-cycles (limit point of cycles) defining system in two free parameters, as a
 /// [`ContinuationSystem`].
+///
+/// A [`CycleCurveSystem`]: its constructors and the getters of the cycle are those of every
+/// two-parameter cycle curve; the null vector, the start at a fold and the end at a
+/// generalised Hopf point are its own.
 ///
 /// # Defining system (the doubled / extended system)
 ///
@@ -177,58 +184,31 @@ pub enum FoldCyclesStop {
 /// # Ok(())
 /// # }
 /// ```
+pub type FoldOfCyclesSystem<'a, P> = CycleCurveSystem<'a, P, FoldExtension>;
+
+/// The part of a [`FoldOfCyclesSystem`] that is its own: the options and the null vector of
+/// the last accepted point.
 #[derive(Debug)]
-pub struct FoldOfCyclesSystem<'a, P: Problem> {
-    base: CycleCurve<'a, P>,
+pub struct FoldExtension {
     options: FoldCyclesOptions,
     /// normalised null vector of the last accepted point (length n·L·m + 1)
     v_ref: Vec<f64>,
     s: ModeScratch,
 }
 
-impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
-    /// New system on the mesh `mesh` (0 = s_0 < … < s_L = 1); `params`: all parameters, `ip1`
-    /// the primary and `ip2` the secondary free parameter. Set references with
-    /// [`ContinuationSystem::accept`] before correcting a guess (or use
-    /// [`FoldOfCyclesSystem::from_fold`]).
-    pub fn with_mesh(
-        problem: &'a P,
-        params: Vec<f64>,
-        free: (usize, usize),
-        mesh: Vec<f64>,
-        collocation: CollocationOptions,
-        options: FoldCyclesOptions,
-    ) -> Result<Self> {
-        Ok(Self::on(
-            CycleCurve::new(problem, params, free, mesh, collocation)?,
-            options,
-        ))
-    }
+impl CycleExtension for FoldExtension {
+    type Options = FoldCyclesOptions;
 
-    fn on(base: CycleCurve<'a, P>, options: FoldCyclesOptions) -> Self {
-        let problem = base.po.problem;
-        let s = ModeScratch::new(problem.dim(), problem.n_delays());
-        let v_ref = vec![0.0; base.np() + 1];
+    fn new(options: FoldCyclesOptions, n: usize, delays: usize, np: usize) -> Self {
         Self {
-            base,
             options,
-            v_ref,
-            s,
+            v_ref: vec![0.0; np + 1],
+            s: ModeScratch::new(n, delays),
         }
     }
+}
 
-    /// New system on a uniform mesh of `collocation.intervals` intervals.
-    pub fn new(
-        problem: &'a P,
-        params: Vec<f64>,
-        free: (usize, usize),
-        collocation: CollocationOptions,
-        options: FoldCyclesOptions,
-    ) -> Result<Self> {
-        let mesh = uniform_mesh(collocation.intervals);
-        Self::with_mesh(problem, params, free, mesh, collocation, options)
-    }
-
+impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
     /// Start from a fold of cycles `point` located on a branch of `po` (a
     /// [`SpecialKind::Fold`] point; its tangent, with zero parameter component, is the null
     /// vector). `ip2` is the second free parameter (its value taken from `po`'s parameters).
@@ -248,15 +228,14 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
                 np + 2
             )));
         }
-        let base = CycleCurve::from_branch_point(po, point, ip2, "from_fold")?;
-        let mut sys = Self::on(base, options);
+        let mut sys = Self::at_branch_point(po, point, ip2, options, "from_fold")?;
         let p2 = sys.base.po.params[ip2];
         let guess = sys.unknowns(&point.u, p2, &point.tangent[..=np])?;
-        let mut direction = vec![0.0; guess.len()];
-        direction[np + 2] = 1.0;
+        let direction = sys.base.p2_direction(guess.len());
         sys.accept(&guess);
         Ok((sys, guess, direction))
     }
+
     /// Unknowns [x, T, p1, p2, v, v_T] from periodic-orbit unknowns `orbit` = [x, T, p1], the
     /// second parameter and a null-vector guess (v, v_T) (normalised here).
     pub fn unknowns(&self, orbit: &[f64], p2: f64, null_vector: &[f64]) -> Result<Vec<f64>> {
@@ -282,16 +261,10 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         Ok(u)
     }
 
-    /// n·L·m: number of profile unknowns
-    fn np(&self) -> usize {
-        self.base.np()
-    }
-
     /// ⟨a, b⟩ = Σ a_i b_i /(L·m) + a_T b_T on (profile, period) vectors
     fn inner(&self, a: &[f64], b: &[f64]) -> f64 {
         let np = self.np();
-        let prof: f64 = a[..np].iter().zip(&b[..np]).map(|(x, y)| x * y).sum();
-        prof / self.base.po.n_nodes() as f64 + a[np] * b[np]
+        self.base.mean_dot(&a[..np], &b[..np]) + a[np] * b[np]
     }
 
     /// The point u with the cycle and the null vector shifted in phase so that profile
@@ -309,37 +282,9 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         out
     }
 
-    /// the periodic-orbit unknowns [x, T, p1] of the fold's cycle
-    pub fn orbit<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        self.base.orbit(u)
-    }
-
     /// the null vector (v, v_T) of the linearised periodic problem at the fold
     pub fn null_vector<'u>(&self, u: &'u [f64]) -> &'u [f64] {
         &u[self.np() + 3..]
-    }
-
-    /// the period T of the fold's cycle [time units]
-    pub fn period(&self, u: &[f64]) -> f64 {
-        u[self.np()]
-    }
-
-    /// all parameters at the point u
-    pub fn parameters(&self, u: &[f64]) -> Vec<f64> {
-        self.base.parameters(u)
-    }
-
-    /// amplitude of the fold's cycle: half the peak-to-peak range of the node values,
-    /// largest over the components [state units]
-    pub fn amplitude(&self, u: &[f64]) -> f64 {
-        self.base.po.amplitude(u)
-    }
-
-    /// The periodic-orbit system of the fold's cycle at the parameters of u (free parameter
-    /// p1, same mesh, phase reference set to the cycle): continue the cycle branch through
-    /// the fold from here, or evaluate the cycle with [`PeriodicOrbitSystem::eval`].
-    pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
-        self.base.periodic_system(u)
     }
 
     /// The point u carried to a mesh of `intervals` intervals adapted to its cycle
@@ -367,7 +312,7 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
             collocation,
         )?;
         base.po.set_linear_solver(po.linear_solver());
-        let mut sys = Self::on(base, self.options.clone());
+        let mut sys = Self::on(base, self.ext.options.clone());
         let target = &sys.base.po;
         let orbit = po.remesh(self.orbit(u), target);
         // the null vector (v, v_T) as a profile with a dummy parameter entry
@@ -378,18 +323,6 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         let guess = sys.unknowns(&orbit, u[np + 2], &null)?;
         sys.accept(&guess);
         Ok((sys, guess))
-    }
-
-    /// How the bordered Newton systems are solved (default: that of the cycle system the
-    /// curve was started from, [`crate::LinearSolver::Auto`] unless set there).
-    pub fn set_linear_solver(&mut self, solver: crate::LinearSolver) {
-        self.base.po.set_linear_solver(solver);
-    }
-
-    /// Floquet multipliers of the fold's cycle (sorted by decreasing modulus; the trivial
-    /// multiplier and the fold's multiplier are both ≈ 1)
-    pub fn multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
-        self.base.multipliers(u)
     }
 
     /// Continue the fold-of-cycles curve by up to `max_points` points (like
@@ -405,7 +338,7 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
         let stop = extend_checked(self, cont, branch, max_points, |sys, branch, before| {
             sys.label_cusps(branch, before);
             let last = &branch.points[branch.points.len() - 1];
-            Ok((sys.amplitude(&last.u) < sys.options.min_amplitude)
+            Ok((sys.amplitude(&last.u) < sys.ext.options.min_amplitude)
                 .then(|| sys.mark_hopf_end(branch)))
         })?;
         Ok(match stop {
@@ -480,13 +413,11 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
 
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
         let np = self.np();
-        self.base.sync(u);
-        let (r_cycle, r_null) = r.split_at_mut(np + 1);
-        self.base.po.residual(&u[..np + 2], r_cycle)?;
+        let r_null = self.base.cycle_residual(u, r)?;
         self.base.real_mode_rows(
             u,
             RealMode::Periodic,
-            &mut self.s,
+            &mut self.ext.s,
             Out::Residual(&mut r_null[..np]),
         )?;
         let v = &u[np + 3..];
@@ -498,21 +429,14 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
             .zip(v)
             .map(|(a, b)| a * b)
             .sum();
-        r_null[np + 1] = self.inner(&self.v_ref, v) - 1.0;
-        if r_null.iter().all(|x| x.is_finite()) {
-            Ok(())
-        } else {
-            Err(Error::NonFinite {
-                parameter: u[np + 1],
-            })
-        }
+        r_null[np + 1] = self.inner(&self.ext.v_ref, v) - 1.0;
+        self.base.finite(u, r_null.iter().all(|x| x.is_finite()))
     }
 
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
         let np = self.np();
-        self.base.sync(u);
         let start = entries.len();
-        self.base.po.jacobian(&u[..np + 2], entries)?;
+        self.base.cycle_jacobian(u, entries)?;
         // the null-vector rows contain A itself: the cycle's (x, T) columns, shifted
         for idx in start..entries.len() {
             let (row, col, val) = (entries[idx].row, entries[idx].col, entries[idx].val);
@@ -521,20 +445,19 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
             }
         }
         let second = entries.len();
-        self.base
-            .real_mode_rows(u, RealMode::Periodic, &mut self.s, Out::Jacobian(entries))?;
+        self.base.real_mode_rows(
+            u,
+            RealMode::Periodic,
+            &mut self.ext.s,
+            Out::Jacobian(entries),
+        )?;
         let w = 1.0 / self.base.po.n_nodes() as f64;
-        for (i, &v) in self.v_ref[..np].iter().enumerate() {
+        for (i, &v) in self.ext.v_ref[..np].iter().enumerate() {
             entries.push(Entry::new(2 * np + 2, np + 3 + i, v * w));
         }
-        entries.push(Entry::new(2 * np + 2, 2 * np + 3, self.v_ref[np]));
-        if entries[second..].iter().all(|e| e.val.is_finite()) {
-            Ok(())
-        } else {
-            Err(Error::NonFinite {
-                parameter: u[np + 1],
-            })
-        }
+        entries.push(Entry::new(2 * np + 2, 2 * np + 3, self.ext.v_ref[np]));
+        self.base
+            .finite(u, entries[second..].iter().all(|e| e.val.is_finite()))
     }
 
     /// x and v interleaved node by node (each node's state of the cycle, then of the null
@@ -550,33 +473,23 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
     }
 
     fn weights(&self) -> Vec<f64> {
-        self.base.weights(2 * self.np() + 4)
+        self.base.weights(self.n_unknowns())
     }
 
     /// the cycle and the null vector on the mesh (see [`crate::LinearSolver::Krylov`])
-    fn mesh_structure(&self) -> Option<crate::linalg::MeshStructure> {
-        let np = self.np();
-        self.base.po.structure(vec![0, np + 3], vec![0, np + 1])
+    fn mesh_structure(&self) -> Option<MeshStructure> {
+        self.base.mesh_structure(1)
     }
 
     fn accept(&mut self, u: &[f64]) {
         let np = self.np();
-        self.base.sync(u);
-        self.base.po.set_reference(&u[..np + 2]);
+        self.base.accept(u);
         let v = &u[np + 3..];
         let norm = self.inner(v, v).sqrt();
-        if norm > 0.0 && norm.is_finite() {
-            self.v_ref
-                .iter_mut()
-                .zip(v)
-                .for_each(|(r, x)| *r = x / norm);
-        }
+        set_reference_mode(&mut self.ext.v_ref, v, norm);
     }
 
     fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
-        if !self.options.multipliers {
-            return Ok(None);
-        }
-        Ok(Some(Stability::from_multipliers(self.multipliers(u)?)))
+        self.stability_without(u, self.ext.options.multipliers, &[])
     }
 }

@@ -107,6 +107,7 @@ mod fold_curve;
 mod fold_cycles;
 mod hopf_curve;
 mod linalg;
+mod linear_solver;
 mod normal_form;
 mod period_doubling;
 mod periodic;
@@ -117,6 +118,7 @@ pub mod torus;
 
 pub use codim2::Codim2Point;
 pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
+pub use cycle_curve::{CycleCurveSystem, CycleExtension};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
     Decision, NewtonMatrix, NewtonUpdate, NoObserver, Observer, SpecialPoints, Stop, newton_step,
@@ -127,7 +129,8 @@ pub use error::{Error, Result};
 pub use fold_curve::FoldCurveSystem;
 pub use fold_cycles::{FoldCyclesOptions, FoldCyclesStop, FoldOfCyclesSystem, HopfEnd};
 pub use hopf_curve::HopfCurveSystem;
-pub use linalg::{Entry, KRYLOV_MIN_SIZE, KRYLOV_TOLERANCE, LinearSolver, MeshStructure};
+pub use linalg::{Entry, KRYLOV_TOLERANCE, MeshStructure};
+pub use linear_solver::{KRYLOV_MIN_SIZE, LinearSolver};
 pub use normal_form::{DoubleHopfCase, DoubleHopfNormalForm, HopfNormalForm};
 pub use period_doubling::{PeriodDoublingCurveSystem, PeriodDoublingOptions};
 pub use periodic::{

@@ -4,14 +4,17 @@
 //!
 //! The equations are documented on [`PeriodDoublingCurveSystem`].
 
-use crate::cycle_curve::{CycleCurve, ModeScratch, Out, RealMode, inverse_iteration, uniform_mesh};
+use crate::BranchPoint;
+use crate::cycle_curve::{
+    CycleCurveSystem, CycleExtension, ModeScratch, Out, RealMode, generic_start, inverse_iteration,
+    set_reference_mode,
+};
 use crate::engine::ContinuationSystem;
 use crate::error::{Error, Result};
-use crate::linalg::Entry;
+use crate::linalg::{Entry, MeshStructure};
 use crate::periodic::PeriodicOrbitSystem;
 use crate::problem::Problem;
 use crate::stability::{SpecialKind, Stability};
-use crate::{BranchPoint, CollocationOptions};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +34,10 @@ impl Default for PeriodDoublingOptions {
 
 /// Period-doubling (flip) points of cycles in two free parameters, as a
 /// [`ContinuationSystem`].
+///
+/// A [`CycleCurveSystem`]: its constructors and the getters of the cycle are those of every
+/// two-parameter cycle curve (the doubled orbit born at a point has about twice the
+/// [`PeriodDoublingCurveSystem::period`]); the mode and the start are its own.
 ///
 /// # Defining system (the doubled system with the antiperiodic mode)
 ///
@@ -59,58 +66,31 @@ impl Default for PeriodDoublingOptions {
 /// Start at a [`SpecialKind::PeriodDoubling`] point of a cycle branch with
 /// [`PeriodDoublingCurveSystem::from_period_doubling`] (the mode by inverse iteration on
 /// the (PD1) block).
+pub type PeriodDoublingCurveSystem<'a, P> = CycleCurveSystem<'a, P, PeriodDoublingExtension>;
+
+/// The part of a [`PeriodDoublingCurveSystem`] that is its own: the options and the mode of
+/// the last accepted point.
 #[derive(Debug)]
-pub struct PeriodDoublingCurveSystem<'a, P: Problem> {
-    base: CycleCurve<'a, P>,
+pub struct PeriodDoublingExtension {
     options: PeriodDoublingOptions,
     /// the normalised mode of the last accepted point (length n·L·m)
     v_ref: Vec<f64>,
     s: ModeScratch,
 }
 
-impl<'a, P: Problem> PeriodDoublingCurveSystem<'a, P> {
-    /// New system on the mesh `mesh` (0 = s_0 < … < s_L = 1); `params`: all parameters,
-    /// `free` = (p1, p2) the primary and secondary free parameter. Set the references with
-    /// [`ContinuationSystem::accept`] before correcting a guess (or use
-    /// [`PeriodDoublingCurveSystem::from_period_doubling`]).
-    pub fn with_mesh(
-        problem: &'a P,
-        params: Vec<f64>,
-        free: (usize, usize),
-        mesh: Vec<f64>,
-        collocation: CollocationOptions,
-        options: PeriodDoublingOptions,
-    ) -> Result<Self> {
-        Ok(Self::on(
-            CycleCurve::new(problem, params, free, mesh, collocation)?,
-            options,
-        ))
-    }
+impl CycleExtension for PeriodDoublingExtension {
+    type Options = PeriodDoublingOptions;
 
-    /// New system on a uniform mesh of `collocation.intervals` intervals.
-    pub fn new(
-        problem: &'a P,
-        params: Vec<f64>,
-        free: (usize, usize),
-        collocation: CollocationOptions,
-        options: PeriodDoublingOptions,
-    ) -> Result<Self> {
-        let mesh = uniform_mesh(collocation.intervals);
-        Self::with_mesh(problem, params, free, mesh, collocation, options)
-    }
-
-    fn on(base: CycleCurve<'a, P>, options: PeriodDoublingOptions) -> Self {
-        let problem = base.po.problem;
-        let s = ModeScratch::new(problem.dim(), problem.n_delays());
-        let v_ref = vec![0.0; base.np()];
+    fn new(options: PeriodDoublingOptions, n: usize, delays: usize, np: usize) -> Self {
         Self {
-            base,
             options,
-            v_ref,
-            s,
+            v_ref: vec![0.0; np],
+            s: ModeScratch::new(n, delays),
         }
     }
+}
 
+impl<'a, P: Problem> PeriodDoublingCurveSystem<'a, P> {
     /// Start from a period-doubling `point` of a branch of `po` (located or detected: the
     /// mode is found by inverse iteration on the (PD1) block at the point's cycle). `ip2`
     /// is the second free parameter (its value taken from `po`'s parameters). Returns the
@@ -123,13 +103,12 @@ impl<'a, P: Problem> PeriodDoublingCurveSystem<'a, P> {
         ip2: usize,
         options: PeriodDoublingOptions,
     ) -> Result<(Self, Vec<f64>, Vec<f64>)> {
-        let base = CycleCurve::from_branch_point(po, point, ip2, "from_period_doubling")?;
-        let mut sys = Self::on(base, options);
+        let mut sys = Self::at_branch_point(po, point, ip2, options, "from_period_doubling")?;
         let np = sys.np();
         let mut guess = point.u.clone();
         guess.push(sys.base.po.params[ip2]);
-        // a fixed, generic start (deterministic), then inverse iteration
-        guess.extend((0..np).map(|i| 1.0 + 0.5 * ((i as f64) * 0.754_877_666_246_692_7).fract()));
+        // a fixed, generic start, then inverse iteration
+        guess.extend((0..np).map(generic_start));
         let mut entries = Vec::new();
         sys.jacobian(&guess, &mut entries)?;
         let mut z = guess[np + 3..].to_vec();
@@ -142,26 +121,15 @@ impl<'a, P: Problem> PeriodDoublingCurveSystem<'a, P> {
         guess[np + 3..].copy_from_slice(&z);
         sys.normalise(&mut guess)?;
         sys.accept(&guess);
-        let mut direction = vec![0.0; guess.len()];
-        direction[np + 2] = 1.0;
+        let direction = sys.base.p2_direction(guess.len());
         Ok((sys, guess, direction))
-    }
-
-    /// n·L·m: number of profile unknowns
-    fn np(&self) -> usize {
-        self.base.np()
-    }
-
-    /// ⟨a, b⟩ = Σ a_i b_i /(L·m) on profile-sized vectors
-    fn mean_dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / self.base.po.n_nodes() as f64
     }
 
     /// scale the mode of u to ⟨v, v⟩ = 1
     fn normalise(&self, u: &mut [f64]) -> Result<()> {
         let np = self.np();
         let v = &u[np + 3..];
-        let norm = self.mean_dot(v, v).sqrt();
+        let norm = self.base.mean_dot(v, v).sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             return Err(Error::InvalidInput(
                 "period doubling: the mode is zero or not finite".into(),
@@ -171,49 +139,10 @@ impl<'a, P: Problem> PeriodDoublingCurveSystem<'a, P> {
         Ok(())
     }
 
-    /// the periodic-orbit unknowns [x, T, p1] of the point's cycle
-    pub fn orbit<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        self.base.orbit(u)
-    }
-
     /// the antiperiodic Floquet mode v of (PD1): node values on [0, 1) like the profile
     /// (v(s + 1) = −v(s))
     pub fn mode<'u>(&self, u: &'u [f64]) -> &'u [f64] {
         &u[self.np() + 3..]
-    }
-
-    /// the period T of the cycle [time units] (the doubled orbit born here has period ≈ 2T)
-    pub fn period(&self, u: &[f64]) -> f64 {
-        u[self.np()]
-    }
-
-    /// all parameters at the point u
-    pub fn parameters(&self, u: &[f64]) -> Vec<f64> {
-        self.base.parameters(u)
-    }
-
-    /// amplitude of the cycle: half the peak-to-peak range of the node values, largest
-    /// over the components [state units]
-    pub fn amplitude(&self, u: &[f64]) -> f64 {
-        self.base.po.amplitude(u)
-    }
-
-    /// The periodic-orbit system of the cycle at the parameters of u (free parameter p1,
-    /// same mesh, phase reference set to the cycle).
-    pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
-        self.base.periodic_system(u)
-    }
-
-    /// How the bordered Newton systems are solved (default: that of the cycle system the
-    /// curve was started from, [`crate::LinearSolver::Auto`] unless set there).
-    pub fn set_linear_solver(&mut self, solver: crate::LinearSolver) {
-        self.base.po.set_linear_solver(solver);
-    }
-
-    /// Floquet multipliers of the cycle at u (sorted by decreasing modulus; one of them is
-    /// −1, one the trivial multiplier 1)
-    pub fn multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
-        self.base.multipliers(u)
     }
 }
 
@@ -230,47 +159,33 @@ impl<P: Problem> ContinuationSystem for PeriodDoublingCurveSystem<'_, P> {
 
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
         let np = self.np();
-        self.base.sync(u);
-        let (r_cycle, r_mode) = r.split_at_mut(np + 1);
-        self.base.po.residual(&u[..np + 2], r_cycle)?;
+        let r_mode = self.base.cycle_residual(u, r)?;
         self.base.real_mode_rows(
             u,
             RealMode::Antiperiodic,
-            &mut self.s,
+            &mut self.ext.s,
             Out::Residual(&mut r_mode[..np]),
         )?;
-        r_mode[np] = self.mean_dot(&self.v_ref, &u[np + 3..]) - 1.0;
-        if r_mode.iter().all(|x| x.is_finite()) {
-            Ok(())
-        } else {
-            Err(Error::NonFinite {
-                parameter: u[np + 1],
-            })
-        }
+        r_mode[np] = self.base.mean_dot(&self.ext.v_ref, &u[np + 3..]) - 1.0;
+        self.base.finite(u, r_mode.iter().all(|x| x.is_finite()))
     }
 
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
         let np = self.np();
-        self.base.sync(u);
-        self.base.po.jacobian(&u[..np + 2], entries)?;
+        self.base.cycle_jacobian(u, entries)?;
         let start = entries.len();
         self.base.real_mode_rows(
             u,
             RealMode::Antiperiodic,
-            &mut self.s,
+            &mut self.ext.s,
             Out::Jacobian(entries),
         )?;
         let w = 1.0 / self.base.po.n_nodes() as f64;
-        for (g, &v) in self.v_ref.iter().enumerate() {
+        for (g, &v) in self.ext.v_ref.iter().enumerate() {
             entries.push(Entry::new(2 * np + 1, np + 3 + g, v * w));
         }
-        if entries[start..].iter().all(|e| e.val.is_finite()) {
-            Ok(())
-        } else {
-            Err(Error::NonFinite {
-                parameter: u[np + 1],
-            })
-        }
+        self.base
+            .finite(u, entries[start..].iter().all(|e| e.val.is_finite()))
     }
 
     /// the cycle x and the mode v interleaved node by node, the border (T, p1, p2) last
@@ -285,50 +200,27 @@ impl<P: Problem> ContinuationSystem for PeriodDoublingCurveSystem<'_, P> {
     /// the cycle's weights ([`PeriodicOrbitSystem`]), p2 weighted like p1, the mode not
     /// at all
     fn weights(&self) -> Vec<f64> {
-        self.base.weights(2 * self.np() + 3)
+        self.base.weights(self.n_unknowns())
     }
 
     /// the cycle and the mode on the mesh (see [`crate::LinearSolver::Krylov`])
-    fn mesh_structure(&self) -> Option<crate::linalg::MeshStructure> {
-        let np = self.np();
-        self.base.po.structure(vec![0, np + 3], vec![0, np + 1])
+    fn mesh_structure(&self) -> Option<MeshStructure> {
+        self.base.mesh_structure(1)
     }
 
     fn accept(&mut self, u: &[f64]) {
         let np = self.np();
-        self.base.sync(u);
-        self.base.po.set_reference(&u[..np + 2]);
+        self.base.accept(u);
         let v = &u[np + 3..];
-        let norm = self.mean_dot(v, v).sqrt();
-        if norm > 0.0 && norm.is_finite() {
-            self.v_ref
-                .iter_mut()
-                .zip(v)
-                .for_each(|(r, x)| *r = x / norm);
-        }
+        let norm = self.base.mean_dot(v, v).sqrt();
+        set_reference_mode(&mut self.ext.v_ref, v, norm);
     }
 
     /// the cycle's multipliers with the critical −1 removed, so that a change of the number
     /// outside the unit circle marks a codimension-two point of the curve
     fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
-        if !self.options.multipliers {
-            return Ok(None);
-        }
-        let mut mu = self.multipliers(u)?;
         let minus_one = Complex64::new(-1.0, 0.0);
-        if let Some(i) = mu
-            .iter()
-            .enumerate()
-            .min_by(|a, b| {
-                (a.1 - minus_one)
-                    .norm()
-                    .total_cmp(&(b.1 - minus_one).norm())
-            })
-            .map(|(i, _)| i)
-        {
-            mu.remove(i);
-        }
-        Ok(Some(Stability::from_multipliers(mu)))
+        self.stability_without(u, self.ext.options.multipliers, &[minus_one])
     }
 
     fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {

@@ -18,9 +18,8 @@ use crate::collocation::{Basis, MAX_DEGREE, lagrange};
 use crate::engine::{ContinuationSystem, NewtonMatrix};
 use crate::equilibrium::HopfPoint;
 use crate::error::{Error, Result};
-use crate::linalg::{
-    Entry, Factorisation, LinearSolver, MeshStructure, SparseLu, by_decreasing_modulus, eigenvalues,
-};
+use crate::linalg::{Entry, MeshStructure, by_decreasing_modulus, eigenvalues};
+use crate::linear_solver::{Factorisation, KRYLOV_MIN_SIZE, LinearSolver, SparseLu};
 use crate::problem::Problem;
 use crate::stability::{SpecialKind, Stability};
 use faer::Mat;
@@ -249,7 +248,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
             LinearSolver::SparseLu => return None,
             LinearSolver::Krylov => (0, false),
             LinearSolver::BlockForward => (usize::MAX, true),
-            LinearSolver::Auto => (crate::linalg::KRYLOV_MIN_SIZE, true),
+            LinearSolver::Auto => (KRYLOV_MIN_SIZE, true),
         };
         Some(MeshStructure {
             n: self.dim(),

@@ -76,13 +76,14 @@
 
 use crate::collocation::{MAX_DEGREE, lagrange};
 use crate::cycle_curve::{
-    CycleCurve, extend_checked, inverse_iteration, second_derivative_matrix, uniform_mesh,
+    CycleCurveSystem, CycleExtension, extend_checked, generic_start, inverse_iteration,
+    second_derivative_matrix, set_reference_mode,
 };
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::equilibrium::HopfPoint;
 use crate::error::{Error, Result};
 use crate::hopf_curve::HopfCurveSystem;
-use crate::linalg::Entry;
+use crate::linalg::{Entry, MeshStructure};
 use crate::periodic::{Loc, PeriodicOrbitSystem};
 use crate::problem::Problem;
 use crate::roots::CharacteristicRoots;
@@ -373,6 +374,9 @@ struct Scratch {
 /// Torus (Neimark–Sacker) points of periodic orbits in two free parameters, as a
 /// [`ContinuationSystem`]; see the [module documentation](self) for the equations.
 ///
+/// A [`CycleCurveSystem`]: its constructors and the getters of the cycle are those of every
+/// two-parameter cycle curve; the mode, θ, the starts and the stops are its own.
+///
 /// Unknowns u = [x (n·L·m), T, p1, p2, a (n·L·m), b (n·L·m), θ]; the curve's `parameter`
 /// is p1, its `secondary_parameter` p2.
 ///
@@ -422,9 +426,12 @@ struct Scratch {
 /// # Ok(())
 /// # }
 /// ```
+pub type TorusCurveSystem<'a, P> = CycleCurveSystem<'a, P, TorusExtension>;
+
+/// The part of a [`TorusCurveSystem`] that is its own: the options and the mode of the
+/// last accepted point.
 #[derive(Debug)]
-pub struct TorusCurveSystem<'a, P: Problem> {
-    base: CycleCurve<'a, P>,
+pub struct TorusExtension {
     options: TorusCurveOptions,
     /// the mode q_ref = a_ref + i b_ref of the last accepted point (⟨q_ref, q_ref⟩ = 1)
     a_ref: Vec<f64>,
@@ -432,34 +439,10 @@ pub struct TorusCurveSystem<'a, P: Problem> {
     s: Scratch,
 }
 
-/// where the eigen-row terms go
-enum Out<'b> {
-    Residual(&'b mut [f64]),
-    Jacobian(&'b mut Vec<Entry>),
-}
+impl CycleExtension for TorusExtension {
+    type Options = TorusCurveOptions;
 
-impl<'a, P: Problem> TorusCurveSystem<'a, P> {
-    /// New system on the mesh `mesh` (0 = s_0 < … < s_L = 1); `params`: all parameters,
-    /// `ip1` the primary and `ip2` the secondary free parameter. Set the references with
-    /// [`ContinuationSystem::accept`] before correcting a guess (or use
-    /// [`TorusCurveSystem::from_torus`], [`TorusCurveSystem::from_double_hopf`]).
-    pub fn with_mesh(
-        problem: &'a P,
-        params: Vec<f64>,
-        free: (usize, usize),
-        mesh: Vec<f64>,
-        collocation: CollocationOptions,
-        options: TorusCurveOptions,
-    ) -> Result<Self> {
-        Ok(Self::on(
-            CycleCurve::new(problem, params, free, mesh, collocation)?,
-            options,
-        ))
-    }
-
-    fn on(base: CycleCurve<'a, P>, options: TorusCurveOptions) -> Self {
-        let n = base.po.dim();
-        let k = base.po.problem.n_delays();
+    fn new(options: TorusCurveOptions, n: usize, k: usize, np: usize) -> Self {
         let nc = n * (k + 1);
         let s = Scratch {
             jac: vec![0.0; n * nc],
@@ -480,28 +463,22 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             dtau: [vec![0.0; k], vec![0.0; k]],
             locs: vec![Loc::ZERO; k],
         };
-        let np = base.np();
         Self {
-            base,
             options,
             a_ref: vec![0.0; np],
             b_ref: vec![0.0; np],
             s,
         }
     }
+}
 
-    /// New system on a uniform mesh of `collocation.intervals` intervals.
-    pub fn new(
-        problem: &'a P,
-        params: Vec<f64>,
-        free: (usize, usize),
-        collocation: CollocationOptions,
-        options: TorusCurveOptions,
-    ) -> Result<Self> {
-        let mesh = uniform_mesh(collocation.intervals);
-        Self::with_mesh(problem, params, free, mesh, collocation, options)
-    }
+/// where the eigen-row terms go
+enum Out<'b> {
+    Residual(&'b mut [f64]),
+    Jacobian(&'b mut Vec<Entry>),
+}
 
+impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     /// Start from a torus point `point` of a branch of `po` (a [`SpecialKind::Torus`]
     /// point, located or detected; its critical multiplier gives θ0). `ip2` is the second
     /// free parameter (its value taken from `po`'s parameters). The mode is found by
@@ -516,7 +493,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         options: TorusCurveOptions,
     ) -> Result<(Self, Vec<f64>, Vec<f64>)> {
         let np = po.period_index();
-        let base = CycleCurve::from_branch_point(po, point, ip2, "from_torus")?;
+        let mut sys = Self::at_branch_point(po, point, ip2, options, "from_torus")?;
         let crit = point
             .special
             .as_ref()
@@ -530,15 +507,13 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             .ok_or(Error::InvalidInput(
                 "from_torus: the point has no critical multiplier (compute the stability)".into(),
             ))?;
-        let mut sys = Self::on(base, options);
         let mut guess = point.u.clone();
         guess.push(sys.base.po.params[ip2]);
         guess.extend(std::iter::repeat_n(0.0, 2 * np));
         guess.push(crit.arg().abs());
         sys.mode_by_inverse_iteration(&mut guess)?;
         sys.accept(&guess);
-        let mut direction = vec![0.0; guess.len()];
-        direction[np + 2] = 1.0;
+        let direction = sys.base.p2_direction(guess.len());
         Ok((sys, guess, direction))
     }
 
@@ -630,26 +605,16 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         Ok((guess, direction))
     }
 
-    /// n·L·m: number of profile unknowns
-    fn np(&self) -> usize {
-        self.base.np()
-    }
-
     /// index of θ in u
     fn theta_index(&self) -> usize {
         3 * self.np() + 3
-    }
-
-    /// ⟨a, b⟩ = Σ a_i b_i /(L·m) on profile-sized vectors
-    fn mean_dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / self.base.po.n_nodes() as f64
     }
 
     /// scale the mode (a, b) of u to ⟨q, q⟩ = 1
     fn normalise_mode(&self, u: &mut [f64]) -> Result<()> {
         let np = self.np();
         let (a, b) = (&u[np + 3..2 * np + 3], &u[2 * np + 3..3 * np + 3]);
-        let norm = (self.mean_dot(a, a) + self.mean_dot(b, b)).sqrt();
+        let norm = (self.base.mean_dot(a, a) + self.base.mean_dot(b, b)).sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             return Err(Error::InvalidInput(
                 "torus: the mode is zero or not finite".into(),
@@ -663,9 +628,9 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     /// 2·n·L·m square; nearly singular at a torus point): four solves from a fixed start.
     fn mode_by_inverse_iteration(&mut self, u: &mut [f64]) -> Result<()> {
         let np = self.np();
-        // a fixed, generic start (deterministic)
+        // a fixed, generic start
         for (i, v) in u[np + 3..3 * np + 3].iter_mut().enumerate() {
-            *v = 1.0 + 0.5 * ((i as f64) * 0.7548776662466927).fract();
+            *v = generic_start(i);
         }
         let mut entries = Vec::new();
         self.jacobian(u, &mut entries)?;
@@ -676,40 +641,15 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         self.normalise_mode(u)
     }
 
-    fn sync(&mut self, u: &[f64]) {
-        self.base.sync(u);
-    }
-
-    /// the periodic-orbit unknowns [x, T, p1] of the torus point's cycle
-    pub fn orbit<'u>(&self, u: &'u [f64]) -> &'u [f64] {
-        self.base.orbit(u)
-    }
-
     /// the Floquet mode q = a + ib of (T1) as (a, b), node values like the profile
     pub fn mode<'u>(&self, u: &'u [f64]) -> (&'u [f64], &'u [f64]) {
         let np = self.np();
         (&u[np + 3..2 * np + 3], &u[2 * np + 3..3 * np + 3])
     }
 
-    /// the period T of the cycle [time units]
-    pub fn period(&self, u: &[f64]) -> f64 {
-        u[self.np()]
-    }
-
     /// the unreduced θ of (T1) \[rad\]
     pub fn theta(&self, u: &[f64]) -> f64 {
         u[self.theta_index()]
-    }
-
-    /// all parameters at the point u
-    pub fn parameters(&self, u: &[f64]) -> Vec<f64> {
-        self.base.parameters(u)
-    }
-
-    /// amplitude of the cycle: half the peak-to-peak range of the node values, largest
-    /// over the components [state units]
-    pub fn amplitude(&self, u: &[f64]) -> f64 {
-        self.base.po.amplitude(u)
     }
 
     /// The torus point at u: the cycle, its period, all parameters, the multiplier angle
@@ -739,24 +679,6 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
         }
     }
 
-    /// The periodic-orbit system of the cycle at the parameters of u (free parameter p1,
-    /// same mesh, phase reference set to the cycle).
-    pub fn periodic_system(&self, u: &[f64]) -> Result<PeriodicOrbitSystem<'a, P>> {
-        self.base.periodic_system(u)
-    }
-
-    /// How the bordered Newton systems are solved (default: that of the cycle system the
-    /// curve was started from, [`crate::LinearSolver::Auto`] unless set there).
-    pub fn set_linear_solver(&mut self, solver: crate::LinearSolver) {
-        self.base.po.set_linear_solver(solver);
-    }
-
-    /// Floquet multipliers of the cycle at u (sorted by decreasing modulus; two of them are
-    /// e^{±iθ}, one is the trivial multiplier 1)
-    pub fn multipliers(&mut self, u: &[f64]) -> Result<Vec<Complex64>> {
-        self.base.multipliers(u)
-    }
-
     /// Continue the torus curve by up to `max_points` points (like [`Continuation::extend`]),
     /// stopping at a double-Hopf end or a strong resonance 1:1 or 1:2 (see the module
     /// documentation).
@@ -770,7 +692,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
             let last = branch.points.len() - 1;
             let amplitude = sys.amplitude(&branch.points[last].u);
             let shrinking = last > 0 && amplitude < sys.amplitude(&branch.points[last - 1].u);
-            if amplitude < sys.options.min_amplitude && shrinking {
+            if amplitude < sys.ext.options.min_amplitude && shrinking {
                 return Ok(Some(TorusCurveStop::DoubleHopfEnd(sys.mark_end(branch))));
             }
             Ok((last > 0)
@@ -792,7 +714,7 @@ impl<'a, P: Problem> TorusCurveSystem<'a, P> {
     fn strong_resonance(&self, a: &[f64], b: &[f64]) -> Option<(u32, f64)> {
         let (ta, tb) = (self.theta(a), self.theta(b));
         let phi = multiplier_angle(tb);
-        let tol = self.options.resonance_tolerance;
+        let tol = self.ext.options.resonance_tolerance;
         if phi < tol {
             return Some((1, 1.0));
         }
@@ -882,11 +804,11 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
         let params = &self.base.po.params;
         for d in 0..problem.n_delays() {
             let tau = problem.delay(d, params);
-            self.s.delays[d] = tau;
-            self.s.dtau[0][d] = problem.delay_dp(d, params, self.base.po.ip);
-            self.s.dtau[1][d] = problem.delay_dp(d, params, self.base.ip2);
+            self.ext.s.delays[d] = tau;
+            self.ext.s.dtau[0][d] = problem.delay_dp(d, params, self.base.po.ip);
+            self.ext.s.dtau[1][d] = problem.delay_dp(d, params, self.base.ip2);
             let ph = theta * tau / period;
-            self.s.cs[d] = (ph.cos(), ph.sin());
+            self.ext.s.cs[d] = (ph.cos(), ph.sin());
         }
     }
 
@@ -902,11 +824,11 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
             at.i,
             at.c,
             at.period,
-            &self.s.delays,
-            &mut self.s.locs,
+            &self.ext.s.delays,
+            &mut self.ext.s.locs,
         );
         let po = &self.base.po;
-        let s = &mut self.s;
+        let s = &mut self.ext.s;
         po.problem.jacobian(&po.args, &po.params, &mut s.jac);
         for kk in 0..n {
             let (mut qa, mut qb) = (0.0, 0.0);
@@ -966,7 +888,7 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
                 self.prepare_point(u, &at);
                 match &mut out {
                     Out::Residual(r) => {
-                        let (po, s) = (&self.base.po, &self.s);
+                        let (po, s) = (&self.base.po, &self.ext.s);
                         for rr in 0..n {
                             let (mut da, mut db) = (0.0, 0.0);
                             for j in 0..=m {
@@ -995,7 +917,7 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
 
     /// B_a = f_XX[Q_a, ·] and B_b = f_XX[Q_b, ·], column by column
     fn second_derivatives(&mut self) -> Result<()> {
-        let (po, s) = (&self.base.po, &mut self.s);
+        let (po, s) = (&self.base.po, &mut self.ext.s);
         let (problem, args, params) = (po.problem, &po.args, &po.params);
         second_derivative_matrix(
             problem,
@@ -1019,7 +941,7 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
 
     /// entries of the (T1) rows in the columns of a, b (the mode) and x (the cycle)
     fn push_mode_columns(&self, at: &At, h: f64, entries: &mut Vec<Entry>) {
-        let (po, s) = (&self.base.po, &self.s);
+        let (po, s) = (&self.base.po, &self.ext.s);
         let n = po.dim();
         let m = po.degree();
         let np = self.np();
@@ -1072,9 +994,9 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
         let n = self.base.po.dim();
         let np = self.np();
         self.parameter_derivatives()?;
-        let mut border = std::mem::take(&mut self.s.border);
+        let mut border = std::mem::take(&mut self.ext.s.border);
         self.border_values(at, &mut border);
-        let (po, s) = (&self.base.po, &self.s);
+        let (po, s) = (&self.base.po, &self.ext.s);
         let nc = s.qa.len();
         let (ra, rb) = (np + 1 + at.row0, 2 * np + 1 + at.row0);
         let cols = [
@@ -1102,13 +1024,13 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
             }
             entries.push(Entry::new(at.row0 + r, np + 2, c2));
         }
-        self.s.border = border;
+        self.ext.s.border = border;
         Ok(())
     }
 
     /// f_Xp[Q_a], f_Xp[Q_b] for p1 and p2 and f_p2 at the current arguments
     fn parameter_derivatives(&mut self) -> Result<()> {
-        let (po, s) = (&self.base.po, &mut self.s);
+        let (po, s) = (&self.base.po, &mut self.ext.s);
         let n = po.dim();
         let (problem, args, params) = (po.problem, &po.args, &po.params);
         for (i, ip) in [po.ip, self.base.ip2].into_iter().enumerate() {
@@ -1123,7 +1045,7 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
     /// per row r of the point: ∂(T1)/∂(T, θ, p1, p2), real and imaginary parts
     /// ([Re_T, Im_T, Re_θ, Im_θ, Re_p1, Im_p1, Re_p2, Im_p2])
     fn border_values(&self, at: &At, border: &mut [[f64; 8]]) {
-        let (po, s) = (&self.base.po, &self.s);
+        let (po, s) = (&self.base.po, &self.ext.s);
         let n = po.dim();
         let nc = s.qa.len();
         let k = s.delays.len();
@@ -1189,45 +1111,32 @@ impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
 
     fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
         let np = self.np();
-        self.sync(u);
-        let (r_cycle, r_mode) = r.split_at_mut(np + 1);
-        self.base.po.residual(&u[..np + 2], r_cycle)?;
+        let r_mode = self.base.cycle_residual(u, r)?;
         self.eigen_rows(u, Out::Residual(&mut r_mode[..2 * np]))?;
         let (a, b) = self.mode(u);
-        let re = self.mean_dot(&self.a_ref, a) + self.mean_dot(&self.b_ref, b) - 1.0;
-        let im = self.mean_dot(&self.a_ref, b) - self.mean_dot(&self.b_ref, a);
+        let (base, e) = (&self.base, &self.ext);
+        let re = base.mean_dot(&e.a_ref, a) + base.mean_dot(&e.b_ref, b) - 1.0;
+        let im = base.mean_dot(&e.a_ref, b) - base.mean_dot(&e.b_ref, a);
         r_mode[2 * np] = re;
         r_mode[2 * np + 1] = im;
-        if r_mode.iter().all(|x| x.is_finite()) {
-            Ok(())
-        } else {
-            Err(Error::NonFinite {
-                parameter: u[np + 1],
-            })
-        }
+        self.base.finite(u, r_mode.iter().all(|x| x.is_finite()))
     }
 
     fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
         let np = self.np();
-        self.sync(u);
-        self.base.po.jacobian(&u[..np + 2], entries)?;
+        self.base.cycle_jacobian(u, entries)?;
         let start = entries.len();
         self.eigen_rows(u, Out::Jacobian(entries))?;
         let w = 1.0 / self.base.po.n_nodes() as f64;
         let (row_re, row_im) = (3 * np + 1, 3 * np + 2);
-        for (g, (&ar, &br)) in self.a_ref.iter().zip(&self.b_ref).enumerate() {
+        for (g, (&ar, &br)) in self.ext.a_ref.iter().zip(&self.ext.b_ref).enumerate() {
             entries.push(Entry::new(row_re, np + 3 + g, ar * w));
             entries.push(Entry::new(row_re, 2 * np + 3 + g, br * w));
             entries.push(Entry::new(row_im, 2 * np + 3 + g, ar * w));
             entries.push(Entry::new(row_im, np + 3 + g, -br * w));
         }
-        if entries[start..].iter().all(|e| e.val.is_finite()) {
-            Ok(())
-        } else {
-            Err(Error::NonFinite {
-                parameter: u[np + 1],
-            })
-        }
+        self.base
+            .finite(u, entries[start..].iter().all(|e| e.val.is_finite()))
     }
 
     /// the cycle x and the mode (a, b) interleaved node by node (each node's state of x,
@@ -1244,51 +1153,26 @@ impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
     /// the cycle's weights ([`PeriodicOrbitSystem`]), p2 weighted like p1, the mode and θ
     /// not at all
     fn weights(&self) -> Vec<f64> {
-        self.base.weights(3 * self.np() + 4)
+        self.base.weights(self.n_unknowns())
     }
 
     /// the cycle and the two parts of the mode on the mesh (see
     /// [`crate::LinearSolver::Krylov`])
-    fn mesh_structure(&self) -> Option<crate::linalg::MeshStructure> {
-        let np = self.np();
-        self.base
-            .po
-            .structure(vec![0, np + 3, 2 * np + 3], vec![0, np + 1, 2 * np + 1])
+    fn mesh_structure(&self) -> Option<MeshStructure> {
+        self.base.mesh_structure(2)
     }
 
     fn accept(&mut self, u: &[f64]) {
-        let np = self.np();
-        self.sync(u);
-        self.base.po.set_reference(&u[..np + 2]);
+        self.base.accept(u);
         let (a, b) = self.mode(u);
-        let norm = (self.mean_dot(a, a) + self.mean_dot(b, b)).sqrt();
-        if norm > 0.0 && norm.is_finite() {
-            for (r, x) in self.a_ref.iter_mut().zip(a) {
-                *r = x / norm;
-            }
-            for (r, x) in self.b_ref.iter_mut().zip(b) {
-                *r = x / norm;
-            }
-        }
+        let norm = (self.base.mean_dot(a, a) + self.base.mean_dot(b, b)).sqrt();
+        set_reference_mode(&mut self.ext.a_ref, a, norm);
+        set_reference_mode(&mut self.ext.b_ref, b, norm);
     }
 
     fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
-        if !self.options.multipliers {
-            return Ok(None);
-        }
-        let mut mu = self.multipliers(u)?;
         let pair = Complex64::from_polar(1.0, self.theta(u));
-        for z in [pair, pair.conj()] {
-            let nearest = mu
-                .iter()
-                .enumerate()
-                .min_by(|a, b| (a.1 - z).norm().total_cmp(&(b.1 - z).norm()))
-                .map(|(i, _)| i);
-            if let Some(i) = nearest {
-                mu.remove(i);
-            }
-        }
-        Ok(Some(Stability::from_multipliers(mu)))
+        self.stability_without(u, self.ext.options.multipliers, &[pair, pair.conj()])
     }
 
     /// a change of the number of unstable multipliers (the critical pair removed): the

@@ -10,7 +10,6 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 #[test]
-#[ignore = "enabled once the workspace's import cycles are removed"]
 fn no_crate_has_an_import_cycle_between_its_modules() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let mut report = Vec::new();

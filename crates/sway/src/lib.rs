@@ -1,15 +1,18 @@
-//! Trailer-sway scenarios: the library that wires the vehicle model ([`trailer_model`])
-//! into the numerical crates ([`dde`], [`stability`], [`continuation`]) — simulation
-//! ([`sim`]), bifurcation diagrams ([`bifurcation`]), stability charts ([`charts`]),
-//! linear analysis ([`linear`]), trailer loading ([`loading`]) and the design of the
-//! feedback gain ([`gain_design`]), uncertainty sampling ([`sampling`]) — with typed configs as
-//! plain serde data and their validation ([`config`]).
+//! The analysis floor of trailer-sway: the engines that take a vehicle
+//! ([`sway_model::vehicle::Vehicle`]) and a loop law and return values — simulation
+//! ([`sim`]), bifurcation diagrams and the nonlinear chart ([`bifurcation`]), linear
+//! stability charts of the delayed loop ([`charts`]), linear analysis ([`linear`]), trailer
+//! loading ([`loading`]), the reference speeds that need a diagram ([`ranging`]), the design
+//! of the feedback gain ([`gain_design`]) and of other controllers ([`control`]), and the
+//! mitigation ([`mitigation`]). They wire the model ([`trailer_model`]) into the numerical
+//! crates ([`dde`], [`stability`], [`continuation`]).
 //!
-//! It computes and returns values: it reads no files, writes no files and does not
-//! depend on the plotting stack. The task layer above it (`sway-tasks`, used by
-//! `cargo xtask`) reads config files, writes `results/<task>/` and draws the figures.
+//! It reads no files, writes no files and does not depend on the plotting stack. The model
+//! floor below it is `sway-model` (re-exported here: [`config`], [`parallel`],
+//! [`progress`], [`sampling`], [`SwayError`]); the studies above it, one per task, are
+//! `sway-studies`.
 //!
-//! ```
+```
 //! use sway::linear::eigen_table;
 //! use trailer_model::{Model, VehicleParams};
 //!
@@ -32,11 +35,9 @@ pub mod sim;
 
 pub use sway_model::{SwayError, config, parallel, progress, sampling};
 
-/// Internals of private modules that the tests in `tests/unit/` reach. Those tests are the
-/// unit tests of the modules whose tests drive whole pipelines, kept as integration tests so
-/// that `cargo test` does not compile the crate a second time for them (the library's test
-/// build recompiled everything they reach: 32 of its 36 unit-s; issue 23 item 7). Helpers of
-/// public modules that they call are `#[doc(hidden)] pub` in place. Not part of the API.
+/// Internals of private modules that the tests in `tests/unit/` reach (the unit tests of
+/// the modules whose tests drive whole pipelines, kept as integration tests so that
+/// `cargo test` does not compile the crate a second time for them). Not part of the API.
 #[doc(hidden)]
 pub mod __unit_tests {
     pub use crate::bifurcation::ranged::{FirstLoss, straight_running_to_first_loss};

@@ -5,7 +5,7 @@ use num_dual::{Dual64, first_derivative};
 use proptest::prelude::*;
 use tires::{BrushTire, LinearTire, TireError, TireModel};
 
-/// Table I front tire with the statically computed load (DESIGN.md): C_F, F_z,F, μ0, μ.
+/// Table I front tire with the load from the statics of Fig. 2: C_F, F_z,F, μ0, μ.
 fn front() -> BrushTire {
     BrushTire::new(137e3, 11894.6, 0.9, 0.6).expect("valid tire")
 }

@@ -444,7 +444,7 @@ impl Model {
     /// of eq. (7) and θ̇ of eq. (5).
     ///
     /// The σ̇3 prefactor is 1/(I1·I2³): the printed 1/(I1·I2²) is dimensionally
-    /// inconsistent (see DESIGN.md and the tests `independent_formulation` and
+    /// inconsistent (the Newton–Euler oracle of the tests, `independent_formulation` and
     /// `dimensional_consistency`).
     pub fn rhs4<D: DualNum<Primitive = f64> + Copy>(
         &self,

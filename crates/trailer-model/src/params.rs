@@ -201,7 +201,8 @@ impl VehicleParams {
     }
 }
 
-/// Static vertical axle loads \[N\] from the geometry of Fig. 2 (see DESIGN.md).
+/// Static vertical axle loads \[N\] from the statics of Fig. 2: trailer axle m2·g·h/l, the
+/// hitch force m2·g − F_z,T, the tractor's axles from its moment balance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct AxleLoads {
     /// front axle load F_z,F \[N\]

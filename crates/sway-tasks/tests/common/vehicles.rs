@@ -86,7 +86,7 @@ impl Draw {
         }
     }
 
-    /// The vehicle file of this draw: the static axle loads of DESIGN.md's statics give the
+    /// The vehicle file of this draw: the static axle loads of Fig. 2's statics give the
     /// cornering stiffnesses.
     pub fn vehicle(&self) -> VehicleParams {
         let g = 9.81;

@@ -1,6 +1,6 @@
 //! Test oracle: the same mechanics written from scratch as Newton–Euler equations with
-//! the hitch force and the longitudinal constraint force solved for (DESIGN.md asks to
-//! keep such an independent formulation: it is the guard against the next typo).
+//! the hitch force and the longitudinal constraint force solved for: an independent
+//! formulation is the guard against the next typo in the equations of motion.
 #![allow(dead_code)]
 
 use nalgebra::{SMatrix, SVector, Vector2};

@@ -12,7 +12,7 @@
 //! [`progress`], [`sampling`], [`SwayError`]); the studies above it, one per task, are
 //! `sway-studies`.
 //!
-```
+//! ```
 //! use sway::linear::eigen_table;
 //! use trailer_model::{Model, VehicleParams};
 //!

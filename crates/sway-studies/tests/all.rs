@@ -12,6 +12,8 @@
 mod charts_vehicle;
 #[path = "fig4b.rs"]
 mod fig4b;
+#[path = "newcomer_vehicle.rs"]
+mod newcomer_vehicle;
 #[path = "scenario_speeds.rs"]
 mod scenario_speeds;
 #[path = "sweep.rs"]

@@ -367,7 +367,7 @@ struct RootsArgs {
     /// vehicle file (the form of configs/vehicle.toml, or a model variant of configs/vehicles/)
     #[arg(long)]
     vehicle: Option<PathBuf>,
-    /// controller structure: yaw_rate (default), yaw_rate_hitch or predictor (issue 22)
+    /// controller structure: yaw_rate (default), yaw_rate_hitch or predictor
     #[arg(long, default_value = "yaw_rate")]
     structure: String,
     /// actuator: steering (default) or differential_braking

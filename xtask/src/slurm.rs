@@ -1,5 +1,5 @@
 //! `cargo xtask slurm FILE --shards N [--partition P] [--time T]`: a sharded sweep as a
-//! SLURM job array (issue 11).
+//! SLURM job array.
 //!
 //! Writes into the job directory (default `results/<name>.slurm/`):
 //! - `shard.sbatch`: the job array `1-N`; array task K runs `xtask sweep FILE --shard K/N`

@@ -1,4 +1,4 @@
-//! Interruption of a running task (issue 13): SIGTERM to a running `xtask` process stops
+//! Interruption of a running task: SIGTERM to a running `xtask` process stops
 //! it with a non-zero status and one line on stderr, leaves `--results` byte for byte as
 //! it was and removes its staging directory; after SIGKILL (no handler runs) the staging
 //! directory left behind is removed by the next run.

@@ -1,4 +1,4 @@
-//! The sharding command line (issue 11): `xtask sweep FILE --shard K/N` for every K, then
+//! The sharding command line: `xtask sweep FILE --shard K/N` for every K, then
 //! `xtask merge DIR`, writes the same results as `xtask sweep FILE` (reference: that
 //! unsharded run; byte equality, summary.json without wall_time_s); a missing shard makes
 //! the merge fail with a message naming it; `xtask slurm` writes the job scripts.

@@ -1,4 +1,4 @@
-//! A sharded sweep on a real SLURM cluster (issue 11): `xtask slurm FILE --shards 4`, its
+//! A sharded sweep on a real SLURM cluster: `xtask slurm FILE --shards 4`, its
 //! `submit.sh`, the job array and the dependent merge job; the merged results equal a
 //! single-machine run byte for byte (reference: `xtask sweep FILE` in this process's
 //! machine; summary.json without wall_time_s).

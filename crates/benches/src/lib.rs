@@ -4,5 +4,5 @@
 //!
 //! Why a package of its own: a crate's dev-dependencies are built for every `cargo test` of
 //! it, and criterion with its dependencies was ≈ 21 of the ≈ 490 compile unit-seconds of a
-//! fresh `cargo test --workspace` (issue 23 item 7). This package has no test target, so
+//! fresh `cargo test --workspace`. This package has no test target, so
 //! `cargo test` builds nothing of it; `cargo clippy --all-targets` still checks the benches.

@@ -958,7 +958,7 @@ impl PeriodicForwardLu {
 }
 
 /// The discretised monodromy operator read off a [`PeriodicForwardLu`]: the Floquet
-/// multipliers from the Newton system's own factorisation (issue 23 item 1), as AUTO
+/// multipliers from the Newton system's own factorisation, as AUTO
 /// reads them off its condensed Jacobian.
 ///
 /// The copies x̂ are the values the start of the period reads ahead: x₀ and, for a delay

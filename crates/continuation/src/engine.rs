@@ -71,8 +71,8 @@ pub trait ContinuationSystem {
     }
     /// stability of the solution `u` given the corrector's factorisation of the bordered
     /// Newton matrix where it was made within the Newton tolerance of u: a system that can
-    /// read its stability off that factorisation (a periodic orbit's Floquet multipliers,
-    /// issue 23 item 1) overrides this; by default [`ContinuationSystem::stability`]
+    /// read its stability off that factorisation (a periodic orbit's Floquet multipliers)
+    /// overrides this; by default [`ContinuationSystem::stability`]
     fn stability_from(&mut self, u: &[f64], newton: NewtonMatrix<'_>) -> Result<Option<Stability>> {
         let _ = newton;
         self.stability(u)

@@ -37,7 +37,7 @@ const KINK_GENERATIONS: usize = 2;
 /// point (otherwise the kink is inserted as a new mesh point).
 const KINK_MOVE: f64 = 0.5;
 
-/// How the mesh of a periodic orbit is chosen where a caller refines a point (issue 23
+/// How the mesh of a periodic orbit is chosen where a caller refines a point
 /// item 2; see [`PeriodicOrbitSystem::adapted_mesh`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -728,7 +728,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
         out
     }
 
-    /// A mesh of `intervals` intervals adapted to the cycle u (issue 23 item 2): the
+    /// A mesh of `intervals` intervals adapted to the cycle u: the
     /// collocation error of degree m on an interval of length h is ≈ C·h^(m+1)·|x^(m+1)|,
     /// so the mesh equidistributes the error density |x^(m+1)(s)|^(1/(m+1)) (estimated
     /// from the jumps of the piecewise constant m-th derivative between neighbouring

@@ -4,7 +4,7 @@
 use continuation::*;
 use continuation_textbook::{Neuron, Pitchfork};
 
-/// The delayed pair of issue 8:
+/// The delayed pair of the nonlinear chart's tests:
 /// x1' = −x1/2 − tanh x1(t−1.5) + tanh x2(t−0.2),
 /// x2' = −x2/2 − tanh x2(t−1.5) + a·tanh x1(t−0.2), p = [a].
 #[derive(Debug)]

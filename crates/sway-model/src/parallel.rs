@@ -5,7 +5,7 @@
 //! `trailer_model::with_plant!`) is a new type for each plant the function is compiled
 //! for, and a rayon pipeline over it compiles its splitting machinery (producers, bridges,
 //! `join`, stack jobs) again for each — eight plants × every call site: a quarter of the
-//! task layer's compiled code (issue 23 item 7, the test build). Here the work is a
+//! task layer's compiled code in the test build. Here the work is a
 //! `&dyn Fn` and each result goes to its own slot, so the one rayon pipeline underneath
 //! has no type parameters and is compiled once; the indirect call and the slot's lock
 //! per item cost nothing next to an item's work (a continuation, a simulation, a root

@@ -1,4 +1,4 @@
-//! Uncertainty sampling (issue 11): Monte-Carlo or Latin-hypercube samples of vehicle
+//! Uncertainty sampling: Monte-Carlo or Latin-hypercube samples of vehicle
 //! fields from declared distributions, seeded and reproducible, and the statistics of the
 //! results (quantiles, mean, standard deviation, histogram counts).
 //!

@@ -1,7 +1,7 @@
-//! Actuator limits of the yaw-rate feedback (issue 10, part 2): the steering-angle
+//! Actuator limits of the yaw-rate feedback: the steering-angle
 //! saturation and the rate-limited first-order actuator, on the sway cycle at 35 m/s; and
 //! the `yaw_rate_hitch` and `predictor` controller kinds with steering or differential
-//! braking (issue 22).
+//! braking.
 
 mod common;
 
@@ -160,7 +160,7 @@ fn a_fast_unlimited_actuator_converges_to_the_ideal_controller() {
     assert!(fine < 0.01, "{fine} deg");
 }
 
-// ---- issue 22: the `yaw_rate_hitch` and `predictor` controller kinds, simulated ----
+// ---- the `yaw_rate_hitch` and `predictor` controller kinds, simulated ----
 
 use sway::control::{self, Actuator, Gains, LinearLoop, SpeedSearch, Structure, critical_speed};
 use sway::sim::{CommandLimit, ModelError};

@@ -1,4 +1,4 @@
-//! The mitigation pipeline on the sway cycle at 35 m/s (issue 10): the period of the
+//! The mitigation pipeline on the sway cycle at 35 m/s: the period of the
 //! cycle, the mirror symmetry behind the half-period phase placement, the lead-in history,
 //! the penalty's ordering.
 

@@ -1,4 +1,4 @@
-//! The generic optimisation layer (issue 10): known optima of a smooth bounded problem
+//! The generic optimisation layer: known optima of a smooth bounded problem
 //! (Rosenbrock) and of a problem with the mitigation's structure (bounded variables, a
 //! discrete choice, worst case over samples) whose optimum is known in closed form.
 

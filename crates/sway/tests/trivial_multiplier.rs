@@ -1,4 +1,4 @@
-//! The trivial Floquet multiplier of the sway cycles (issue 23 item 3): every cycle of an
+//! The trivial Floquet multiplier of the sway cycles: every cycle of an
 //! autonomous system has the multiplier 1 exactly; the collocation's approximation of it
 //! measures the accuracy of the Floquet computation of the C¹ (kinked) trailer model.
 
@@ -53,7 +53,7 @@ fn check(feedback: Feedback, options: DiagramOptions) {
 
 #[test]
 fn trivial_multiplier_of_open_loop_sway_cycles_is_one() {
-    // reference: exactly 1 (autonomous system); tolerance 1e-6 (issue 23 item 3), on the
+    // reference: exactly 1 (autonomous system); tolerance 1e-6, on the
     // fig3a branch with a coarser mesh (L = 20; fig3a uses 60): measured 7.3e-8
     check(
         Feedback::OPEN_LOOP,

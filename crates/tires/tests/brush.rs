@@ -116,7 +116,7 @@ proptest! {
     }
 }
 
-// ---- Magic Formula and the per-axle tyre law (issue 21) ----
+// ---- Magic Formula and the per-axle tyre law ----
 
 use tires::{MagicFormulaTire, TireLaw, TireLawSpec};
 

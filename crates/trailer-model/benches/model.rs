@@ -1,6 +1,6 @@
 //! Cost of one evaluation of the reduced right-hand side (eq. 5–7), of its exact
 //! Jacobian (forward-mode AD through the brush tires) and of the linearisation; and of the
-//! general model (issue 21): Table I through `VehicleModel<4>` (the paper's model without
+//! general model: Table I through `VehicleModel<4>` (the paper's model without
 //! variants), and the 10-state full system with relaxation on the three axles
 //! (`VehicleModel<7>`, σ = 0.3 m) against the paper's 7-state `rhs7`.
 
@@ -37,7 +37,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| model.open_loop_eigenvalues(black_box(33.0)))
     });
 
-    // issue 21: the general model
+    // the general model
     let paper =
         VehicleModel::<4>::new(&VehicleSpec::from(VehicleParams::default())).expect("Table I");
     let relaxed =

@@ -1,4 +1,4 @@
-//! V_crit of Table I with first-order tyre relaxation σ on every axle (issue 21).
+//! V_crit of Table I with first-order tyre relaxation σ on every axle.
 //!
 //! `cargo run -p trailer-model --example relaxation`
 

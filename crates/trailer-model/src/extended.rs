@@ -1,4 +1,4 @@
-//! The general single-track car–trailer model of issue 21: any axles per unit (tandems),
+//! The general single-track car–trailer model: any axles per unit (tandems),
 //! a tyre law per axle, first-order tyre relaxation per axle and yaw damping at the hitch.
 //!
 //! **Equations.** The Appellian equations (5)–(7) are linear in the generalised forces, and
@@ -17,7 +17,7 @@
 //! slip lag; linearised it is the force lag (σ/V)·Ḟ + F = F(α)). V_x is the longitudinal
 //! speed of the unit at the axle: V on the tractor, V cos θ + σ1 sin θ on the trailer (the
 //! denominators of the slip angles, eq. 2). Axles with σ = 0 react instantly and have no
-//! state: with σ = 0 on every axle the model is the paper's, bit for bit.
+//! state: with σ = 0 on every axle the model is the paper's.
 //!
 //! **Fixed size.** N = 4 + (number of relaxing axles) is a const generic: every state vector
 //! and Jacobian is a stack-allocated nalgebra type and the hot loop allocates nothing.

@@ -4,7 +4,7 @@
 //! time-varying speed V(t) and steering angle δ, and the linearisation about straight
 //! running (eq. 9–11).
 //!
-//! Beyond the paper (issue 21): the plant abstraction [`Plant`] (any model with N reduced
+//! Beyond the paper: the plant abstraction [`Plant`] (any model with N reduced
 //! states, exact derivatives, linearisation, V_crit; [`Model`] is `Plant<4>`), and the
 //! general model [`VehicleModel`] built from a vehicle file [`VehicleSpec`] — axle lists
 //! (tandems), a tyre law per axle, first-order tyre relaxation, hitch damping — with

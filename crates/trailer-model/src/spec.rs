@@ -1,4 +1,4 @@
-//! The vehicle file with the model variants of issue 21: per-axle tyre laws, tyre
+//! The vehicle file with the model variants: per-axle tyre laws, tyre
 //! relaxation, axle lists (tandems) and hitch damping, as serde data with validation.
 //!
 //! Every key of today's `configs/vehicle.toml` ([`VehicleParams`]) keeps its meaning; the new
@@ -287,7 +287,7 @@ fn mean(xs: impl Iterator<Item = f64>) -> f64 {
 }
 
 impl VehicleSpec {
-    /// Table I with every axle given relaxation length σ \[m\] (issue 21's first variant).
+    /// Table I with every axle given relaxation length σ \[m\] .
     pub fn table_i_with_relaxation(sigma_m: f64) -> Self {
         let mut s = Self::from(VehicleParams::default());
         s.tractor.front_relaxation_length_m = Some(sigma_m);

@@ -17,7 +17,7 @@
 //! sway mode (≈ 2.3 rad/s) by atan(2.3 · 0.05) ≈ 7°. The extra state exists only when the
 //! rate limit is on ([`ActuatorLimits::has_rate_limit`]); δ stays within ±δ_max because it
 //! relaxes towards a command that does. Without limits (the default) everything is
-//! unchanged, bit for bit.
+//! unchanged.
 
 use serde::{Deserialize, Serialize};
 

@@ -38,7 +38,7 @@ fn braking_scale() -> f64 {
     Actuator::DifferentialBraking.scale(model())
 }
 
-/// the controller laws of issue 22: hitch gains on steering, braking alone and with the
+/// the controller laws: hitch gains on steering, braking alone and with the
 /// hitch gains (K_θ, D_θ in steering units, scaled for braking)
 fn laws() -> [(LoopLaw, f64); 3] {
     let s = braking_scale();
@@ -70,7 +70,7 @@ fn laws() -> [(LoopLaw, f64); 3] {
 }
 
 /// the settings: ODE (τ = 0) and DDE (τ = 0.2 s) loops, gains of both signs and zero; then
-/// the controller laws of issue 22 with τ = 0 and 0.2 s
+/// the controller laws with τ = 0 and 0.2 s
 fn loops() -> Vec<(ClosedLoop<'static>, Vec<f64>)> {
     let mut out = Vec::new();
     for (law, scale) in laws() {

@@ -395,7 +395,7 @@ fn delayed_cycle_agrees_with_simulation() {
     );
 }
 
-// ---- diagrams on the speed range derived from the vehicle (issue 20) ----
+// ---- diagrams on the speed range derived from the vehicle ----
 
 /// a number of a committed results/<task>/summary.json (the main branch's Table I run)
 fn committed(task: &str, path: &[&str]) -> f64 {
@@ -547,7 +547,7 @@ fn vehicle_stable_up_to_the_maximum_speed_has_no_hopf_point_as_an_outcome() {
     }
 }
 
-// ---- the controller structures of issue 22 in continuation ----
+// ---- the controller structures in continuation ----
 
 /// yaw_rate_hitch on steering, yaw_rate and yaw_rate_hitch on braking (gains in steering
 /// units times the braking scale C_F·(f − c)), with their delays
@@ -724,7 +724,7 @@ fn controller_cycle_agrees_with_simulation() {
     assert!(checked >= 1, "no loop had a stable cycle");
 }
 
-// ---- any plant (issue 21) ----
+// ---- any plant ----
 
 #[test]
 fn relaxation_plant_diagram_hopf_is_its_critical_speed_and_fold_converges() {

@@ -555,7 +555,7 @@ fn relaxed_plant_delayed_loops_match_chebyshev_collocation() {
     // n·(N+1) discretisation of Breda et al.: no quasi-polynomial, no Faddeev–LeVerrier
     // coefficients). Degree 60 is converged for these roots (|λ|τ < 10: it agrees with
     // degree 80 to < 1e-11, checked below); tolerance 1e-8 relative. The predictor with a
-    // perfect model has the delay-free spectrum at any τ (closed form, issue 22); with the
+    // perfect model has the delay-free spectrum at any τ (closed form); with the
     // paper's 4-state model predicting the 7-state vehicle, its rightmost root satisfies
     // the characteristic equation of the loop evaluated directly (complex solves, not the
     // cleared polynomials) to 1e-10 relative.

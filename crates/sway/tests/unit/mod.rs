@@ -2,7 +2,7 @@
 //! charts, control design, gain design, sweeps), one file per module
 //! (`<module path>_tests.rs`). They live here rather than in `src/` so that
 //! `cargo test` does not compile the library a second time for them: its test build
-//! recompiled everything they reach (issue 23 item 7). Helpers they need are
+//! recompiled everything they reach. Helpers they need are
 //! `#[doc(hidden)] pub` in place, or re-exported by `sway::__unit_tests` from private modules.
 
 mod bifurcation_chart_tests;

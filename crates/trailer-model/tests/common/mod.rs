@@ -115,7 +115,7 @@ pub fn newton_euler_with_yaw_moment(
     )
 }
 
-/// The Newton–Euler oracle for the variants of issue 21 ([`trailer_model::VehicleModel`]):
+/// The Newton–Euler oracle for the model variants ([`trailer_model::VehicleModel`]):
 /// any axles per unit with their own tyre laws, steered tractor axles, the first-order slip
 /// lag of relaxing axles (α̇′ = V_x (α − α′)/σ with V_x the wheel centre's velocity along
 /// its unit's axis and α from the wheel centre's inertial velocity), a yaw moment on the

@@ -36,7 +36,7 @@ use trailer_model::{HITCH_ANGLE, Linearization, Model, PlantLinearization};
 /// const N: [`stability::RankOneFeedback`] works on dynamic matrices anyway, the
 /// predictor's model may have another state count than the vehicle (a relaxed vehicle
 /// predicted with the paper's model), and the design, chart and gain-design code is then
-/// compiled once, not once per N of [`AnyVehicleModel`]. The paper's model gives the same
+/// compiled once, not once per N of [`trailer_model::AnyVehicleModel`]. The paper's model gives the same
 /// entries as [`Model::linearize`], so its numbers do not move.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoopLinearization {

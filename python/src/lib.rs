@@ -840,8 +840,8 @@ fn simulate<'py>(
     trajectory: bool,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use sway::ranging::SpeedSpec;
-    use sway::ranging::resolve_speeds_any;
-    use sway::sim::{Recording, ScenarioConfig, simulate_any};
+    use sway::ranging::resolve_speeds;
+    use sway::sim::{Recording, ScenarioConfig, simulate_in_paper_layout};
     use sway_tasks::config_file::{Configured, TaskConfig};
     use sway_tasks::tasks::Prepared;
     use sway_tasks::tasks::series::resolved_check;
@@ -858,7 +858,7 @@ fn simulate<'py>(
     let plant = vehicle.plant().clone();
     let run = move || -> Result<_, TaskError> {
         let limits = SpeedLimits::default();
-        let resolution = resolve_speeds_any(&plant, &limits, &config)?;
+        let resolution = resolve_speeds(&plant, &limits, &config)?;
         let cfg = match resolution.outcome {
             Ok(c) => c,
             Err(u) => {
@@ -870,7 +870,7 @@ fn simulate<'py>(
             }
         };
         resolved_check(cfg.validate(&file).map_err(Into::into), &resolution.speeds)?;
-        let x0 = cfg.initial.state7_any(&plant, &cfg.settings.solver)?;
+        let x0 = cfg.initial.state7(&plant, &cfg.settings.solver)?;
         let spec = cfg.spec();
         let recording = if trajectory {
             Recording::Every {
@@ -879,7 +879,7 @@ fn simulate<'py>(
         } else {
             Recording::None
         };
-        let r = simulate_any::<7>(&plant, &spec, x0, recording)?;
+        let r = simulate_in_paper_layout::<7>(&plant, &spec, x0, recording)?;
         let summary = ScenarioSummary::of_run(&cfg.name, spec.action_s, &r);
         // one pass over the samples into owned arrays (handed to numpy without a copy):
         // t, the states row-major (n × 7), V, δ

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 pub use stability::Complex64;
 use trailer_model::{
     AnyVehicleModel, CriticalSpeed, CriticalSpeedOptions, Inputs, MAX_AXLES, Model, ModelError,
-    Plant, State4, SwitchingKind, VehicleModel, with_plant,
+    Plant, State4, SwitchingKind, VehicleModel, VehicleParams, VehicleSpec, with_plant,
 };
 
 use crate::law::{Actuator, LoopLinearization};
@@ -439,5 +439,64 @@ impl LoopModel for AnyVehicleModel {
 
     fn states(&self) -> usize {
         AnyVehicleModel::states(self)
+    }
+}
+
+/// A description of a vehicle whose paper keys ([`trailer_model::PARAMETERS`]) can be set
+/// one by one, and which builds its model: the paper's [`VehicleParams`] (a [`Model`]) and a
+/// vehicle file of any form, [`VehicleSpec`] (an [`AnyVehicleModel`]).
+pub trait VehicleDescription: Clone + Sync {
+    /// The model the description builds.
+    type Model: LoopModel;
+
+    /// The values of the paper's keys (of a vehicle file: those of its equivalent
+    /// single-axle vehicle, [`VehicleSpec::equivalent_params`]).
+    ///
+    /// # Errors
+    /// An invalid vehicle file.
+    fn paper_values(&self) -> Result<VehicleParams, ModelError>;
+
+    /// The description with paper key `index` set to `value`.
+    ///
+    /// # Errors
+    /// A key the vehicle file does not have ([`VehicleSpec::with_parameter`]).
+    fn with_paper_value(&self, index: usize, value: f64) -> Result<Self, ModelError>;
+
+    /// The model of the vehicle.
+    ///
+    /// # Errors
+    /// An invalid vehicle.
+    fn model(&self) -> Result<Self::Model, ModelError>;
+}
+
+impl VehicleDescription for VehicleParams {
+    type Model = Model;
+
+    fn paper_values(&self) -> Result<VehicleParams, ModelError> {
+        Ok(*self)
+    }
+
+    fn with_paper_value(&self, index: usize, value: f64) -> Result<Self, ModelError> {
+        Ok(self.with(index, value))
+    }
+
+    fn model(&self) -> Result<Model, ModelError> {
+        Model::new(*self)
+    }
+}
+
+impl VehicleDescription for VehicleSpec {
+    type Model = AnyVehicleModel;
+
+    fn paper_values(&self) -> Result<VehicleParams, ModelError> {
+        self.equivalent_params()
+    }
+
+    fn with_paper_value(&self, index: usize, value: f64) -> Result<Self, ModelError> {
+        self.with_parameter(index, value)
+    }
+
+    fn model(&self) -> Result<AnyVehicleModel, ModelError> {
+        AnyVehicleModel::new(self)
     }
 }

@@ -17,7 +17,7 @@ use sway::bifurcation::chart::ChartOptions;
 use sway::control::{
     Actuator, Controller, DelayBudget, Design, DesignSearch, GainName, Gains, LoopModel,
     Robustness, SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
-    robust_critical_speed, robust_critical_speed_spec,
+    robust_critical_speed,
 };
 use sway::control::{design_from_start, perfect_predictor_designs};
 use sway::control::{fold_speed, hopf_and_fold};
@@ -290,12 +290,13 @@ pub fn control_study(
             match (vehicle.paper, vehicle.prediction) {
                 (Some((_, params)), None) => robust_critical_speed(
                     params,
+                    None,
                     &controller,
                     design.tau_s,
                     &s.uncertainty,
                     &s.robustness_speed,
                 ),
-                _ => robust_critical_speed_spec(
+                _ => robust_critical_speed(
                     vehicle.spec,
                     vehicle.prediction,
                     &controller,

@@ -10,7 +10,7 @@
 use serde::{Deserialize, Serialize};
 use trailer_model::{AnyVehicleModel, with_plant};
 
-use crate::sweep::threshold::{ThresholdSearch, theta0_threshold_any};
+use crate::sweep::threshold::{ThresholdSearch, theta0_threshold};
 use crate::sweep::{Axis, AxisParameter, BaseScenario, SweepParameter};
 use sway::SwayError;
 use sway::config::Positive;
@@ -95,7 +95,7 @@ pub struct FleetEntry {
 /// same numbers): V_crit and the fold of cycles on the plant itself
 /// ([`open_loop_references`]), D\* on its own linearisation ([`linear_optimum`] through
 /// [`sway::control::LoopModel`]) and the threshold by simulating it
-/// ([`theta0_threshold_any`]).
+/// ([`theta0_threshold`]).
 ///
 /// # Errors
 /// [`SwayError::Numerical`] when a computation fails (a missing reference is not an error).
@@ -234,7 +234,7 @@ pub fn threshold_at(
         points.max(1.0) as usize,
     )
     .values();
-    theta0_threshold_any(vehicle, &base, &column, &o.threshold, v)
+    theta0_threshold(vehicle, &base, &column, &o.threshold, v)
         .map(|t| t.theta0_threshold_deg)
         .map_err(|e| {
             SwayError::numerical(

@@ -319,28 +319,15 @@ fn linear_reason(l: &LinearOptimum, v_open: f64, o: &GainSearch) -> Option<Strin
 
 /// The whole computation (no I/O): the settings resolved, the linear optima of all delays
 /// and the nonlinear part of the selected ones side by side on the thread pool (each delay
-/// deterministic, results in grid order), then the delay budget.
+/// deterministic, results in grid order), then the delay budget. The linear part (optima,
+/// bands, budget, the derived ranges) runs on `model`'s own linearisation ([`LoopModel`]:
+/// the paper's model or any plant); the nonlinear part (the fold-of-cycles optimum,
+/// V_fold(D = 0)) on `nonlinear_model`, the paper's model of the same vehicle, and is left
+/// out (every `fold` None, [`GainDesign::nonlinear_reason`] says why) when it is `None`.
 ///
 /// # Errors
 /// [`SwayError::Numerical`].
-pub fn compute(
-    model: &Model,
-    cfg: &GainDesignConfig,
-    b: &SpeedBounds,
-    progress: &dyn sway::progress::Progress,
-) -> Result<GainDesign, SwayError> {
-    compute_plant(model, Some(model), cfg, b, progress)
-}
-
-/// [`compute`] on any plant ([`LoopModel`]: the linear part — optima, bands, budget, the
-/// derived ranges — on `model`'s own linearisation); the nonlinear part (the fold-of-cycles
-/// optimum, V_fold(D = 0)) runs on `nonlinear_model`, the paper's model of the same
-/// vehicle, and is left out (every `fold` None, [`GainDesign::nonlinear_reason`] says why)
-/// when it is `None`: the nonlinear chart of the variant plants is not wired yet.
-///
-/// # Errors
-/// [`SwayError::Numerical`].
-pub fn compute_plant<M: LoopModel + ?Sized>(
+pub fn compute<M: LoopModel + ?Sized>(
     model: &M,
     nonlinear_model: Option<&Model>,
     cfg: &GainDesignConfig,

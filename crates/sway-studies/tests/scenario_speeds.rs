@@ -201,7 +201,7 @@ fn a_nose_heavy_trailer_resolves_to_its_own_speeds_and_runs() {
             settings: s.settings,
         };
         let x0 = State4::new(0.0, 0.0, 0.0, 1f64.to_radians());
-        let r = simulate::<4>(&model, &spec, x0, Recording::None).unwrap();
+        let r = simulate(&model, &spec, x0, Recording::None).unwrap();
         let peak_late = r.metrics.final_amplitude_deg.unwrap_or(f64::INFINITY);
         if grows {
             assert!(

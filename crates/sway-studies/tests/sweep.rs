@@ -96,7 +96,7 @@ fn sweep_is_deterministic_across_thread_counts_and_matches_single_runs() {
             metrics: MetricSettings::default(),
         },
     };
-    let r7 = simulate::<7>(&m, &s, x7(10.0), Recording::None).unwrap();
+    let r7 = simulate(&m, &s, x7(10.0), Recording::None).unwrap();
     let swept = one[5].metrics().unwrap();
     assert_abs_diff_eq!(
         swept.final_amplitude_deg.unwrap(),

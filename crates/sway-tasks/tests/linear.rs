@@ -476,7 +476,7 @@ fn corners_and_mitigation_run_on_model_variants() {
     // - mitigation: V0 is the config's fraction of the variant's own V_crit
     //   (Plant::critical_speed, same scan: 1e-9 relative), and the sway cycle's period
     //   (events on θ = 0 in the plant's own layout) against upward zero crossings of θ
-    //   interpolated on a 1 ms grid of an independent `simulate_any` run in the paper's
+    //   interpolated on a 1 ms grid of an independent `simulate_in_paper_layout` run in the paper's
     //   layout (same settle and search windows): 1e-5 s (solver rtol 1e-6, interpolation
     //   ~1e-7 s).
     let mitigation_cfg = "phases = 2\nrefinement = 1\nhorizon_s = 4.0\ndelay_s = 0.2\n\
@@ -558,14 +558,16 @@ fn corners_and_mitigation_run_on_model_variants() {
 /// The period of the open-loop sway cycle at V: θ(0) = θ0, settle for `settle_s`, then the
 /// time between the second and third upward zero crossings of θ (as
 /// `sway::mitigation::find_sway_cycle` counts them), located by linear interpolation on a
-/// 1 ms grid of a [`sway::sim::simulate_any`] run in the paper's layout.
+/// 1 ms grid of a [`sway::sim::simulate_in_paper_layout`] run in the paper's layout.
 fn period_by_simulation(
     plant: &trailer_model::AnyVehicleModel,
     v: f64,
     theta0: f64,
     settle_s: f64,
 ) -> f64 {
-    use sway::sim::{Controller, Recording, RunSettings, SimSpec, SpeedProfile, simulate_any};
+    use sway::sim::{
+        Controller, Recording, RunSettings, SimSpec, SpeedProfile, simulate_in_paper_layout,
+    };
     let mut settings = RunSettings::default();
     settings.solver.rtol = 1e-6;
     settings.solver.atol = 1e-8;
@@ -578,8 +580,8 @@ fn period_by_simulation(
         settings,
     };
     let x0 = trailer_model::State4::new(0.0, 0.0, 0.0, theta0);
-    let r =
-        simulate_any::<4>(plant, &spec, x0, Recording::Every { step_s: 1e-3 }).expect("simulation");
+    let r = simulate_in_paper_layout::<4>(plant, &spec, x0, Recording::Every { step_s: 1e-3 })
+        .expect("simulation");
     let up: Vec<f64> = r
         .trajectory
         .windows(2)

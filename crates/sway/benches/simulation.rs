@@ -41,7 +41,7 @@ use common::spec;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::progress::NoProgress;
-use sway::sim::{Controller, Recording, SpeedProfile, simulate, simulate_any};
+use sway::sim::{Controller, Recording, SpeedProfile, simulate, simulate_in_paper_layout};
 use sway_studies::sweep::{Sweep, SweepConfig, run_sweep};
 use trailer_model::State7;
 
@@ -67,12 +67,12 @@ fn single_runs(c: &mut Criterion) {
         1e-8,
     );
     for (name, s) in [("S1", &s1), ("S3", &s3)] {
-        let r = simulate::<7>(&model, s, x0, Recording::None).unwrap();
+        let r = simulate(&model, s, x0, Recording::None).unwrap();
         eprintln!("{name}: {:?}, {:?}", r.stats, r.metrics);
     }
     c.bench_function("S1_open_loop_V33_60s", |b| {
         b.iter(|| {
-            simulate::<7>(&model, black_box(&s1), x0, Recording::None)
+            simulate(&model, black_box(&s1), x0, Recording::None)
                 .unwrap()
                 .metrics
         })
@@ -81,18 +81,18 @@ fn single_runs(c: &mut Criterion) {
         &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
     )
     .unwrap();
-    let r = simulate_any::<7>(&relaxed, &s1, x0, Recording::None).unwrap();
+    let r = simulate_in_paper_layout::<7>(&relaxed, &s1, x0, Recording::None).unwrap();
     eprintln!("S1 relaxation 0.3 m: {:?}, {:?}", r.stats, r.metrics);
     c.bench_function("S1_relaxation_0.3m_open_loop_V33_60s", |b| {
         b.iter(|| {
-            simulate_any::<7>(&relaxed, black_box(&s1), x0, Recording::None)
+            simulate_in_paper_layout::<7>(&relaxed, black_box(&s1), x0, Recording::None)
                 .unwrap()
                 .metrics
         })
     });
     c.bench_function("S3_closed_loop_V35_D0.1_tau0.2_40s", |b| {
         b.iter(|| {
-            simulate::<7>(&model, black_box(&s3), x0, Recording::None)
+            simulate(&model, black_box(&s3), x0, Recording::None)
                 .unwrap()
                 .metrics
         })

@@ -44,13 +44,13 @@ fn overhead(c: &mut Criterion) {
         settings: cfg.base.settings,
     };
     let x0 = State4::new(0.0, 0.0, 0.0, 5.729577951308232_f64.to_radians());
-    let direct = simulate::<4>(&model, &spec, x0, Recording::None).unwrap();
+    let direct = simulate(&model, &spec, x0, Recording::None).unwrap();
     let point = sweep.run_point(0);
     assert_eq!(point.metrics(), Some(&direct.metrics));
     let mut g = c.benchmark_group("sweep_overhead");
     g.bench_function("S1_simulate_4_states", |b| {
         b.iter(|| {
-            simulate::<4>(&model, black_box(&spec), x0, Recording::None)
+            simulate(&model, black_box(&spec), x0, Recording::None)
                 .unwrap()
                 .metrics
         })

@@ -1,8 +1,7 @@
 //! The open-loop reference speeds of a vehicle that need its bifurcation diagram: V_crit
 //! and the fold of cycles ([`open_loop_references`], [`open_loop_fold`]), and the
-//! resolution of a config's relative speeds against them ([`resolve_speeds`],
-//! [`resolve_speeds_any`]). The speed types themselves and the critical-speed search are
-//! [`sway_model::speeds`]'s.
+//! resolution of a config's relative speeds against them ([`resolve_speeds`]). The speed
+//! types themselves and the critical-speed search are [`sway_model::speeds`]'s.
 
 pub use sway_model::speeds::{
     CriticalSpeedSummary, OpenLoopStability, Reference, RelativeSpeed, SpeedLimits,
@@ -11,11 +10,11 @@ pub use sway_model::speeds::{
 
 use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, resolve_against};
 use sway_model::vehicle::Vehicle;
-use trailer_model::Model;
 
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, critical_speeds};
 use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
+use crate::sim::VehicleForm;
 
 /// The open-loop reference speeds of `model` that `need` asks for: V_crit
 /// ([`open_loop_critical_speed`]) and, for [`Reference::Fold`], the fold of cycles of the
@@ -97,42 +96,26 @@ pub fn open_loop_fold<P: Vehicle<N>, const N: usize>(
         .ok_or_else(|| "the fold of cycles could not be corrected".to_string()))
 }
 
-/// Resolves `cfg` for `model`: computes the references its speeds need (none, V_crit, or
-/// V_crit and the fold) once, then every speed.
+/// Resolves `cfg` for `vehicle`: computes the references its speeds need (none, V_crit, or
+/// V_crit and the fold) once, on the vehicle's own model ([`open_loop_references`]: a model
+/// variant refers `of_v_crit` speeds to its own V_crit and `in_bistable` speeds to its own
+/// fold of cycles), then every speed.
 ///
 /// # Errors
 /// When computing a reference fails numerically (an unresolvable speed is not an error).
-pub fn resolve_speeds<C: ResolveSpeeds>(
-    model: &Model,
+pub fn resolve_speeds<'a, C: ResolveSpeeds>(
+    vehicle: impl Into<VehicleForm<'a>>,
     limits: &SpeedLimits,
     cfg: &C,
 ) -> Result<Resolution<C::Resolved>, SwayError> {
     let refs = match cfg.needs().reference() {
-        Some(need) => open_loop_references(model, limits, need)?,
         None => SpeedReferences::default(),
-    };
-    Ok(resolve_against(&refs, cfg))
-}
-
-/// [`resolve_speeds`] for the model of a vehicle file: the paper's [`Model`] exactly as
-/// [`resolve_speeds`]; a model variant refers `of_v_crit` speeds to its own V_crit and
-/// `in_bistable` speeds to its own fold of cycles ([`open_loop_references`] on its plant).
-///
-/// # Errors
-/// When computing a reference fails numerically (an unresolvable speed is not an error).
-pub fn resolve_speeds_any<C: ResolveSpeeds>(
-    vehicle: &trailer_model::AnyVehicleModel,
-    limits: &SpeedLimits,
-    cfg: &C,
-) -> Result<Resolution<C::Resolved>, SwayError> {
-    if let trailer_model::AnyVehicleModel::Paper(model) = vehicle {
-        return resolve_speeds(model, limits, cfg);
-    }
-    let refs = match cfg.needs().reference() {
-        None => SpeedReferences::default(),
-        Some(need) => {
-            trailer_model::with_plant!(vehicle, m => open_loop_references(m, limits, need))?
-        }
+        Some(need) => match vehicle.into() {
+            VehicleForm::Paper(model) => open_loop_references(model, limits, need)?,
+            VehicleForm::Variants(v) => {
+                trailer_model::with_plant!(v, m => open_loop_references(m, limits, need))?
+            }
+        },
     };
     Ok(resolve_against(&refs, cfg))
 }

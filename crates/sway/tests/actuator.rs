@@ -36,7 +36,7 @@ fn run(actuator: ActuatorLimits, horizon_s: f64) -> SimResult<4> {
     // one landing rule for all runs (`auto` picks `exact` as soon as a limit is set), so
     // that the runs differ in the limits alone
     spec.settings.solver.kink_landing = KinkLandingMode::Exact;
-    simulate::<4>(
+    simulate(
         &model,
         &spec,
         on_the_cycle(),
@@ -297,7 +297,7 @@ fn new_controller_kinds_grow_at_the_rightmost_root() {
             1e-11,
         );
         spec.settings.solver.atol = 1e-15;
-        let r = simulate::<4>(
+        let r = simulate(
             &model,
             &spec,
             State4::new(0.0, 0.0, 0.0, 1e-5),
@@ -404,7 +404,7 @@ fn braking_is_saturated_at_the_friction_limit() {
     let mz = plant.yaw_moment(1.0, &x, &[x]);
     assert_eq!(mz.abs(), limit, "M_z = {mz}, limit {limit}");
     let spec = common::spec(profile, c, 10.0, 1e-8);
-    let r = simulate::<4>(&model, &spec, x, Recording::None).unwrap();
+    let r = simulate(&model, &spec, x, Recording::None).unwrap();
     assert!(r.t_end > 0.0);
 }
 
@@ -423,7 +423,7 @@ fn a_prediction_vehicle_is_the_model_the_predictor_predicts_with() {
     let x = on_the_cycle();
     let run = |c: Controller| {
         let spec = common::spec(profile.clone(), c, 5.0, 1e-8);
-        simulate::<4>(&model, &spec, x, Recording::Every { step_s: 0.1 }).unwrap()
+        simulate(&model, &spec, x, Recording::Every { step_s: 0.1 }).unwrap()
     };
     let predictor = |error| {
         loop_controller(
@@ -461,6 +461,6 @@ fn a_prediction_vehicle_is_the_model_the_predictor_predicts_with() {
     )
     .unwrap();
     let spec = common::spec(profile.clone(), unloaded, 5.0, 1e-8);
-    let e = simulate::<4>(&model, &spec, x, Recording::None).unwrap_err();
+    let e = simulate(&model, &spec, x, Recording::None).unwrap_err();
     assert!(e.to_string().contains("heavier.toml"), "{e}");
 }

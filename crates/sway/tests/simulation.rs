@@ -77,8 +77,8 @@ fn open_loop_equals_delay_solver_with_zero_gain() {
     };
     let dde_spec = spec(p, ctl, 20.0, 1e-10);
     let rec = Recording::Every { step_s: 0.05 };
-    let a = simulate::<7>(&m, &ode, x7(8.0), rec).unwrap();
-    let b = simulate::<7>(&m, &dde_spec, x7(8.0), rec).unwrap();
+    let a = simulate(&m, &ode, x7(8.0), rec).unwrap();
+    let b = simulate(&m, &dde_spec, x7(8.0), rec).unwrap();
     assert_eq!(a.trajectory.len(), b.trajectory.len());
     for (sa, sb) in a.trajectory.iter().zip(&b.trajectory) {
         assert_eq!(sa.t, sb.t);
@@ -105,7 +105,7 @@ fn refinement_errors(
             horizon_s,
             rtol,
         );
-        simulate::<7>(&m, &s, x7(theta0_deg), Recording::None)
+        simulate(&m, &s, x7(theta0_deg), Recording::None)
             .unwrap()
             .x_end[3]
     };
@@ -168,7 +168,7 @@ fn sway_amplitude_at_35_agrees_with_tight_tolerance_run() {
             1e-8,
         );
         s.settings.solver = solver;
-        simulate::<7>(&m, &s, x0, Recording::None)
+        simulate(&m, &s, x0, Recording::None)
             .unwrap()
             .metrics
             .final_amplitude_deg
@@ -199,7 +199,7 @@ fn sampled_run(
         1e-9,
     );
     s.action_s = action_s;
-    let r = simulate::<7>(
+    let r = simulate(
         &model(),
         &s,
         x7(theta0_deg),
@@ -266,7 +266,7 @@ fn guard_stops_hard_braking_exactly_at_axle_saturation() {
     let profile = braking_35_to_25(2.0, 2.0);
     let mut s = spec(profile.clone(), Controller::None, 40.0, 1e-8);
     s.action_s = 2.0;
-    let r = simulate::<7>(&m, &s, x0, Recording::None).unwrap();
+    let r = simulate(&m, &s, x0, Recording::None).unwrap();
     assert_eq!(r.metrics.outcome, Outcome::LossOfControl);
     assert!(r.metrics.final_amplitude_deg.is_none() && r.metrics.settle_time_s.is_none());
     let t = r.metrics.loss_of_control_time_s.unwrap();
@@ -289,7 +289,7 @@ fn guard_stops_hard_braking_exactly_at_axle_saturation() {
     assert!(g.abs() < 1e-8, "guard function at the event: {g}");
     // without the guard the same run goes on past that point
     s.settings.guard = ValidityGuard::Off;
-    let r_off = simulate::<7>(&m, &s, x0, Recording::None);
+    let r_off = simulate(&m, &s, x0, Recording::None);
     if let Ok(r_off) = r_off {
         assert!(r_off.t_end > t);
     }
@@ -376,7 +376,7 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         (
             "S1 open loop 7 states",
             digest(
-                &simulate::<7>(
+                &simulate(
                     &m,
                     &spec(
                         SpeedProfile::Constant { speed_mps: 33.0 },
@@ -393,7 +393,7 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         (
             "S3 closed loop 7 states",
             digest(
-                &simulate::<7>(
+                &simulate(
                     &m,
                     &spec(v35.clone(), feedback(Default::default()), 20.0, 1e-8),
                     x7(5.7),
@@ -405,7 +405,7 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         (
             "rate-limited actuator 4 states",
             digest(
-                &simulate::<4>(
+                &simulate(
                     &m,
                     &spec(v35.clone(), feedback(limited), 20.0, 1e-8),
                     State4::new(0.0, 0.0, 0.0, 0.1),
@@ -416,15 +416,12 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         ),
         (
             "predictor 7 states",
-            digest(
-                &simulate::<7>(&m, &spec(v35.clone(), predictor, 20.0, 1e-8), x7(5.7), rec)
-                    .unwrap(),
-            ),
+            digest(&simulate(&m, &spec(v35.clone(), predictor, 20.0, 1e-8), x7(5.7), rec).unwrap()),
         ),
         (
             "braking yaw_rate_hitch 4 states",
             digest(
-                &simulate::<4>(
+                &simulate(
                     &m,
                     &spec(v35.clone(), braking, 20.0, 1e-8),
                     State4::new(0.0, 0.0, 0.0, 0.1),
@@ -436,7 +433,7 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         (
             "hard braking to loss of control",
             digest(
-                &simulate::<7>(
+                &simulate(
                     &m,
                     &spec(braking_35_to_25(0.0, 0.3), Controller::None, 10.0, 1e-8),
                     x7(8.0),
@@ -505,7 +502,7 @@ fn relaxed_vehicle_simulation_matches_an_independent_rk4() {
         1e-10,
     );
     let x0 = State4::new(0.0, 0.0, 0.0, 2f64.to_radians());
-    let r = sway::sim::simulate_any::<4>(&any, &s, x0, Recording::None).unwrap();
+    let r = sway::sim::simulate_in_paper_layout::<4>(&any, &s, x0, Recording::None).unwrap();
     assert_eq!(r.metrics.outcome, Outcome::Ok);
     let x0m = sway::sim::lift_state::<_, 7, 4, 7>(&vm, &x0, 33.0);
     // the lagged slips start at the instantaneous ones: α′_T = α_T = atan(tan θ…) ≠ 0
@@ -520,7 +517,7 @@ fn relaxed_vehicle_simulation_matches_an_independent_rk4() {
         );
     }
     // and it sways differently from the paper's model (the check is not vacuous)
-    let paper = simulate::<4>(&model(), &s, x0, Recording::None).unwrap();
+    let paper = simulate(&model(), &s, x0, Recording::None).unwrap();
     assert!((paper.x_end[3] - r.x_end[3]).abs() > 1e-3);
 }
 
@@ -536,13 +533,13 @@ fn relaxation_length_to_zero_converges_to_the_paper_trajectory() {
         1e-10,
     );
     let x0 = x7(2.0);
-    let paper = simulate::<7>(&model(), &s, x0, Recording::None).unwrap();
+    let paper = simulate(&model(), &s, x0, Recording::None).unwrap();
     let distance = |sigma: f64| {
         let any = trailer_model::AnyVehicleModel::new(
             &trailer_model::VehicleSpec::table_i_with_relaxation(sigma),
         )
         .unwrap();
-        let r = sway::sim::simulate_any::<7>(&any, &s, x0, Recording::None).unwrap();
+        let r = sway::sim::simulate_in_paper_layout::<7>(&any, &s, x0, Recording::None).unwrap();
         (0..4)
             .map(|i| (r.x_end[i] - paper.x_end[i]).abs())
             .fold(0.0, f64::max)
@@ -583,8 +580,9 @@ fn relaxed_s1_at_bench_settings_matches_a_converged_run() {
     converged.settings.solver.method = sway::sim::IntegrationMethod::Dop853;
     converged.settings.solver.kink_landing = sway::sim::KinkLandingMode::Exact;
     let x0 = State7::from_column_slice(&[0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0]);
-    let r = sway::sim::simulate_any::<7>(&any, &s1, x0, Recording::None).unwrap();
-    let c = sway::sim::simulate_any::<7>(&any, &converged, x0, Recording::None).unwrap();
+    let r = sway::sim::simulate_in_paper_layout::<7>(&any, &s1, x0, Recording::None).unwrap();
+    let c =
+        sway::sim::simulate_in_paper_layout::<7>(&any, &converged, x0, Recording::None).unwrap();
     let err = (0..7)
         .map(|i| (r.x_end[i] - c.x_end[i]).abs() / c.x_end[i].abs().max(1.0))
         .fold(0.0, f64::max);

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use continuation::Criticality;
 use serde::{Deserialize, Serialize};
-use trailer_model::{Inputs, Model, State4, sorted_eigenvalues};
+use trailer_model::{AnyVehicleModel, Inputs, Model, State4, sorted_eigenvalues};
 
 use super::PointKind;
 use sway::SwayError;
@@ -16,7 +16,7 @@ use sway::charts::{critical_speed_at_gain, rightmost_roots};
 use sway::config::ensure;
 use sway::control;
 use sway::ranging::SpeedLimits;
-use sway::sim::Controller;
+use sway::sim::{Controller, VehicleForm};
 
 /// Settings of the linear and bifurcation point kinds (`[analysis]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -326,21 +326,15 @@ fn plant_critical_pair<P: trailer_model::Plant<M>, const M: usize>(
     (ev[0].re, ev[0].im.abs())
 }
 
-/// [`linear_critical_speed`] for the model of a vehicle file: the paper's [`Model`] as there;
-/// a model variant in open loop by the same scan and regula falsi on its own spectral
-/// abscissa (the closed loop of a variant is refused with a message).
-///
-/// # Errors
-/// A message naming the failing step.
-pub fn linear_critical_speed_any(
-    vehicle: &trailer_model::AnyVehicleModel,
+/// V_crit and the Hopf frequency of a model variant in open loop, by the scan and regula
+/// falsi of [`open_loop_critical_speed`] on its own spectral abscissa (the closed loop of a
+/// variant is refused with a message).
+fn variant_linear_critical_speed(
+    vehicle: &AnyVehicleModel,
     controller: &Controller,
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<LinearCriticalSpeed, String> {
-    if let trailer_model::AnyVehicleModel::Paper(model) = vehicle {
-        return linear_critical_speed(model, controller, o, limits);
-    }
     if feedback(controller)?.gain_d_s != 0.0 {
         return Err(
             "the closed-loop critical speed of a vehicle with model variants is not \
@@ -425,19 +419,27 @@ fn open_loop_scan(
     Ok(Some(0.5 * (lo + hi)))
 }
 
-/// V_crit and the Hopf frequency of `model` with `controller`'s feedback: open loop by the
-/// sign change of max Re λ(Ã(V)) ([`open_loop_critical_speed`]); closed loop by the exact
-/// unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and its rightmost root;
-/// `yaw_rate_hitch` and `predictor` by the count of their loop ([`control::critical_speed`]).
+/// V_crit and the Hopf frequency of `vehicle` with `controller`'s feedback. The paper's
+/// model: open loop by the sign change of max Re λ(Ã(V)) ([`open_loop_critical_speed`]);
+/// closed loop by the exact unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and
+/// its rightmost root; `yaw_rate_hitch` and `predictor` by the count of their loop
+/// ([`control::critical_speed`]). A model variant: open loop only, by the same scan and
+/// regula falsi on its own spectral abscissa.
 ///
 /// # Errors
 /// A message naming the failing step.
-pub fn linear_critical_speed(
-    model: &Model,
+pub fn linear_critical_speed<'a>(
+    vehicle: impl Into<VehicleForm<'a>>,
     controller: &Controller,
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<LinearCriticalSpeed, String> {
+    let model = match vehicle.into() {
+        VehicleForm::Paper(m) | VehicleForm::Variants(AnyVehicleModel::Paper(m)) => m,
+        VehicleForm::Variants(v) => {
+            return variant_linear_critical_speed(v, controller, o, limits);
+        }
+    };
     let (v_min, v_max) = o.range(limits);
     if let Some(l) = AnalysedLoop::of(model, controller)? {
         return l.critical_speed(model, (v_min, v_max), o);

@@ -30,7 +30,7 @@ use sway::sim::{Controller, Recording, SpeedProfile};
 use sway::sim::{
     InitialCondition, default_action_time, ensure_name, validate_parts, validate_spec_parts,
 };
-use sway::sim::{Metrics, RunSettings, SimSpec, simulate, simulate_any};
+use sway::sim::{Metrics, RunSettings, SimSpec, VehicleForm, simulate_in_paper_layout};
 
 mod analysis;
 mod axis;
@@ -38,12 +38,10 @@ pub mod threshold;
 
 pub use analysis::{
     AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed, hopf_fold_speeds, linear_critical_speed,
-    linear_critical_speed_any, open_loop_critical_speed,
+    open_loop_critical_speed,
 };
 pub use axis::{Axis, AxisParameter, SweepParameter, VEHICLE_FILE, VehicleField};
-pub use threshold::{
-    CycleReference, Theta0Threshold, ThresholdSearch, theta0_threshold, theta0_threshold_any,
-};
+pub use threshold::{CycleReference, Theta0Threshold, ThresholdSearch, theta0_threshold};
 
 fn default_horizon() -> Positive {
     Positive::literal(60.0)
@@ -513,16 +511,20 @@ pub(crate) enum PointModel<'a> {
     Variant(Cow<'a, AnyVehicleModel>),
 }
 
-impl PointModel<'_> {
-    /// Simulates scenario `s` to `horizon_s` ([`simulate_point`], [`simulate_point_any`]).
-    pub(crate) fn simulate(
-        &self,
-        s: &BaseScenario,
-        horizon_s: f64,
-    ) -> Result<(Metrics, usize), String> {
-        match self {
-            PointModel::Paper(m) => simulate_point(m, s, horizon_s),
-            PointModel::Variant(v) => simulate_point_any(v, s, horizon_s),
+impl<'a> From<&'a PointModel<'_>> for VehicleForm<'a> {
+    fn from(model: &'a PointModel<'_>) -> Self {
+        match model {
+            PointModel::Paper(m) => VehicleForm::Paper(m),
+            PointModel::Variant(v) => VehicleForm::from(v.as_ref()),
+        }
+    }
+}
+
+impl<'a> From<VehicleForm<'a>> for PointModel<'a> {
+    fn from(vehicle: VehicleForm<'a>) -> Self {
+        match vehicle {
+            VehicleForm::Paper(m) => PointModel::Paper(Cow::Borrowed(m)),
+            VehicleForm::Variants(v) => PointModel::Variant(Cow::Borrowed(v)),
         }
     }
 }
@@ -626,7 +628,7 @@ impl Sweep {
 
     /// The same sweep on the vehicle file `spec` itself when it has model variants (tyre
     /// relaxation, axle lists, tyre laws, hitch torque): simulations run on its plant
-    /// ([`simulate_any`]), vehicle fields and samples change it by
+    /// ([`simulate_in_paper_layout`]), vehicle fields and samples change it by
     /// [`VehicleSpec::with_parameter`]. A vehicle of the paper's form (or a sweep with a
     /// fleet axis) is left on the paper's model, bit for bit.
     ///
@@ -758,27 +760,15 @@ impl Sweep {
     fn run_grid_point(&self, k: usize) -> PointResult {
         let (values, setup) = self.setup(k);
         let result = setup.and_then(|(model, s)| match (self.cfg.kind, &model) {
-            (PointKind::Simulation, _) => model
-                .simulate(&s, s.horizon_s.get())
+            (PointKind::Simulation, _) => simulate_point(&model, &s, s.horizon_s.get())
                 .map(|(m, steps)| (PointOutput::Simulation(m), steps)),
-            (PointKind::LinearCriticalSpeed, PointModel::Paper(model)) => {
-                analysis::linear_critical_speed(
-                    model,
-                    &s.controller,
-                    &self.cfg.analysis,
-                    &self.limits,
-                )
-                .map(|r| (PointOutput::LinearCriticalSpeed(r), 0))
-            }
-            (PointKind::LinearCriticalSpeed, PointModel::Variant(v)) => {
-                analysis::linear_critical_speed_any(
-                    v,
-                    &s.controller,
-                    &self.cfg.analysis,
-                    &self.limits,
-                )
-                .map(|r| (PointOutput::LinearCriticalSpeed(r), 0))
-            }
+            (PointKind::LinearCriticalSpeed, _) => analysis::linear_critical_speed(
+                &model,
+                &s.controller,
+                &self.cfg.analysis,
+                &self.limits,
+            )
+            .map(|r| (PointOutput::LinearCriticalSpeed(r), 0)),
             (PointKind::HopfFoldSpeeds, PointModel::Paper(model)) => {
                 analysis::hopf_fold_speeds(model, &s.controller, &self.cfg.analysis, &self.limits)
                     .map(|r| (PointOutput::HopfFoldSpeeds(r), 0))
@@ -838,17 +828,19 @@ fn variant_point<'a>(
     })
 }
 
-/// Simulates scenario `s` on the 4-state model (θ and the guard do not depend on ψ, x_H,
-/// y_H) to `horizon_s`: its metrics and accepted steps.
+/// Simulates scenario `s` on `vehicle` in the paper's 4-state layout (θ and the guard do
+/// not depend on ψ, x_H, y_H; [`simulate_in_paper_layout`]) to `horizon_s`: its metrics and
+/// accepted steps.
 #[doc(hidden)] // pub for tests/unit
-pub fn simulate_point(
-    model: &Model,
+pub fn simulate_point<'a>(
+    vehicle: impl Into<VehicleForm<'a>>,
     s: &BaseScenario,
     horizon_s: f64,
 ) -> Result<(Metrics, usize), String> {
+    let vehicle = vehicle.into();
     let (x0, _psi0) = s
         .initial
-        .resolve(model, &s.settings.solver)
+        .resolve(vehicle, &s.settings.solver)
         .map_err(|e| e.to_string())?;
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
@@ -860,36 +852,7 @@ pub fn simulate_point(
         horizon_s,
         settings: s.settings,
     };
-    let r = simulate::<4>(model, &spec, State4::from(x0), Recording::None)
-        .map_err(|e| e.to_string())?;
-    Ok((r.metrics, r.stats.accepted))
-}
-
-/// [`simulate_point`] on the model of a vehicle file ([`simulate_any`]; the paper's model
-/// exactly as [`simulate_point`]).
-pub(crate) fn simulate_point_any(
-    vehicle: &AnyVehicleModel,
-    s: &BaseScenario,
-    horizon_s: f64,
-) -> Result<(Metrics, usize), String> {
-    if let AnyVehicleModel::Paper(model) = vehicle {
-        return simulate_point(model, s, horizon_s);
-    }
-    let (x0, _psi0) = s
-        .initial
-        .resolve_any(vehicle, &s.settings.solver)
-        .map_err(|e| e.to_string())?;
-    let spec = SimSpec {
-        early_stop: sway::sim::EarlyStop::Never,
-        action_s: s
-            .action_s
-            .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
-        profile: s.speed.clone(),
-        controller: s.controller.clone(),
-        horizon_s,
-        settings: s.settings,
-    };
-    let r = simulate_any::<4>(vehicle, &spec, State4::from(x0), Recording::None)
+    let r = simulate_in_paper_layout::<4>(vehicle, &spec, State4::from(x0), Recording::None)
         .map_err(|e| e.to_string())?;
     Ok((r.metrics, r.stats.accepted))
 }

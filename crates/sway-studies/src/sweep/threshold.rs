@@ -20,14 +20,13 @@ use serde::{Deserialize, Serialize};
 
 use super::{AxisParameter, PointModel, PointOutput, PointResult, SweepConfig, SweepParameter};
 use super::{BaseScenario, PointKind, Sweep};
-use std::borrow::Cow;
 use sway::SwayError;
 use sway::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
 use sway::config::{Positive, ensure};
 use sway::ranging::SpeedLimits;
 use sway::sim::classify::SwayClass;
-use sway::sim::{Controller, InitialCondition, SpeedProfile};
-use trailer_model::{AnyVehicleModel, Model};
+use sway::sim::{Controller, InitialCondition, SpeedProfile, VehicleForm};
+use trailer_model::Model;
 
 fn default_horizon() -> Positive {
     Positive::literal(240.0)
@@ -183,7 +182,7 @@ fn class_at(
 ) -> Result<(SwayClass, usize), String> {
     let mut s = base.clone();
     super::set_scenario(&mut s, SweepParameter::Theta0Deg, theta0)?;
-    let (m, steps) = model.simulate(&s, horizon)?;
+    let (m, steps) = super::simulate_point(model, &s, horizon)?;
     Ok((m.class, steps))
 }
 
@@ -374,39 +373,19 @@ fn reference(
     })
 }
 
-/// The θ(0) threshold at constant speed `speed` \[m/s\] of `base` (a state start): the
-/// first value of `column` \[deg\] that ends in sustained sway, bisected, with the horizon
-/// check of a threshold map (as its threshold points).
+/// The θ(0) threshold of `vehicle` at constant speed `speed` \[m/s\] of `base` (a state
+/// start): the first value of `column` \[deg\] that ends in sustained sway, bisected, with
+/// the horizon check of a threshold map (as its threshold points).
 ///
 /// # Errors
 /// A message when a simulation fails.
-pub fn theta0_threshold(
-    model: &Model,
+pub fn theta0_threshold<'a>(
+    vehicle: impl Into<VehicleForm<'a>>,
     base: &BaseScenario,
     column: &[f64],
     search: &ThresholdSearch,
     speed: f64,
 ) -> Result<Theta0Threshold, String> {
-    let model = PointModel::Paper(Cow::Borrowed(model));
-    search_with_doubling(&model, base, column, search, speed).map(|(t, _)| t)
-}
-
-/// [`theta0_threshold`] for the model of a vehicle file, any model variant (the paper's
-/// model exactly as [`theta0_threshold`]): the smallest kick θ(0) that triggers sustained
-/// sway at `speed` \[m/s\].
-///
-/// # Errors
-/// A message when a simulation fails.
-pub fn theta0_threshold_any(
-    vehicle: &AnyVehicleModel,
-    base: &BaseScenario,
-    column: &[f64],
-    search: &ThresholdSearch,
-    speed: f64,
-) -> Result<Theta0Threshold, String> {
-    let model = match vehicle {
-        AnyVehicleModel::Paper(m) => PointModel::Paper(Cow::Borrowed(m)),
-        v => PointModel::Variant(Cow::Borrowed(v)),
-    };
+    let model = PointModel::from(vehicle.into());
     search_with_doubling(&model, base, column, search, speed).map(|(t, _)| t)
 }

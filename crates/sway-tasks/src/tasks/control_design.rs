@@ -625,7 +625,7 @@ fn simulation_check(
             settings: RunSettings::default(),
         };
         let x0 = State4::new(0.0, 0.0, 0.0, kick_deg.to_radians());
-        simulate::<4>(model, &spec, x0, Recording::Every { step_s: 0.02 })
+        simulate(model, &spec, x0, Recording::Every { step_s: 0.02 })
     };
     let curve = |label: String, res: &sway::sim::SimResult<4>| -> Curve {
         (

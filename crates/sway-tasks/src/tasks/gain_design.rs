@@ -24,7 +24,7 @@ use sway::charts::auto_range::SpeedBounds;
 use sway::config::{ensure, ensure_positive};
 pub use sway_studies::gain_design::{
     BudgetConfig, GainDesign, GainDesignConfig, GainSearchConfig, NonlinearConfig, ResolvedDesign,
-    compute, compute_plant, default_chart,
+    compute, default_chart,
 };
 use sway::gain_design::{RangeEnd, SafeSpeedLimit};
 
@@ -556,7 +556,7 @@ impl Prepared for Configured<GainDesignConfig> {
         // a vehicle with model variants: the linear part on its plant, the nonlinear part
         // (fold of cycles) only for the paper's model (`nonlinear_reason`)
         let nonlinear_model = ctx.variant_key.is_none().then_some(&ctx.model);
-        let r = compute_plant(&ctx.plant, nonlinear_model, cfg, &SpeedBounds::from(&ctx.limits), ctx.progress)?;
+        let r = compute(&ctx.plant, nonlinear_model, cfg, &SpeedBounds::from(&ctx.limits), ctx.progress)?;
         write_tables(out, &r)?;
         Figure::column(vec![speed_panel(&r, cfg), gain_panel(&r, cfg)])
             .titled("Best gain D of the yaw-rate feedback δ(t) = −D·dψ/dt(t − τ) for each delay τ")

@@ -32,7 +32,7 @@ use sway_studies::mitigation::{
 use sway::mitigation::{Evaluation, Setting, settled};
 use sway::ranging::SpeedSpec;
 use sway::progress::Progress;
-use sway::ranging::resolve_speeds_any;
+use sway::ranging::resolve_speeds;
 use sway::sim::{RampShape, ResolvedSpeed, SimulateOwn};
 
 use super::series::{WithSpeeds, nothing_to_show, resolved_check};
@@ -441,7 +441,7 @@ impl Prepared for Configured<MitigationConfig<SpeedSpec>> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = TASK.name;
-        let resolution = resolve_speeds_any(&ctx.plant, &ctx.limits, &self.config)?;
+        let resolution = resolve_speeds(&ctx.plant, &ctx.limits, &self.config)?;
         let cfg = match &resolution.outcome {
             Ok(c) => c,
             Err(u) => {

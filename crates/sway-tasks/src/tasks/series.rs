@@ -11,10 +11,11 @@ use std::path::Path;
 
 use sway::SwayError;
 use sway::ranging::SpeedReferences;
-use sway::ranging::resolve_speeds_any;
+use sway::ranging::resolve_speeds;
 use sway::sim::speeds::{ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};
 use sway::sim::{
-    Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, SwayStart, simulate_any,
+    Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, SwayStart,
+    simulate_in_paper_layout,
 };
 use trailer_model::State7;
 
@@ -53,7 +54,7 @@ pub fn run_and_write<R>(
 where
     R: Serialize + Default + for<'s> From<&'s Sample<7>>,
 {
-    let r = simulate_any::<7>(
+    let r = simulate_in_paper_layout::<7>(
         &ctx.plant,
         spec,
         x0,
@@ -273,7 +274,7 @@ impl<C: SwayRuns> Prepared for Configured<C> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = C::LABELS.0;
-        let resolution = resolve_speeds_any(&ctx.plant, &ctx.limits, &self.config)?;
+        let resolution = resolve_speeds(&ctx.plant, &ctx.limits, &self.config)?;
         let c = match &resolution.outcome {
             Ok(c) => c,
             Err(u) => {
@@ -293,7 +294,7 @@ impl<C: SwayRuns> Prepared for Configured<C> {
         let (mut figure, runs) = C::runs(c);
         let steps = runs.len() as u64 + 1;
         ctx.run_staged(name, C::LABELS.1, steps, &self.config, &self.file, |out| {
-            let x0 = start.initial().state7_any(&ctx.plant, &settings.solver)?;
+            let x0 = start.initial().state7(&ctx.plant, &settings.solver)?;
             ctx.progress.advance(1);
             let mut summary = Keyed::default();
             let mut lines = Vec::new();

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use serde::Serialize;
 use sway::ranging::SpeedSpec;
-use sway::ranging::resolve_speeds_any;
+use sway::ranging::resolve_speeds;
 use sway::sim::{ScenarioConfig, SimResult};
 
 use super::series::{RunEntry, WithSpeeds, line, nothing_to_show, resolved_check, run_and_write};
@@ -145,7 +145,7 @@ impl Prepared for Configured<ScenarioConfig<SpeedSpec>> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = self.config.name.as_str();
-        let resolution = resolve_speeds_any(&ctx.plant, &ctx.limits, &self.config)?;
+        let resolution = resolve_speeds(&ctx.plant, &ctx.limits, &self.config)?;
         let cfg = match &resolution.outcome {
             Ok(c) => c,
             Err(u) => {
@@ -163,7 +163,7 @@ impl Prepared for Configured<ScenarioConfig<SpeedSpec>> {
         resolved_check(cfg.validate(&self.file).map_err(Into::into), &resolution.speeds)?;
         let stage = format!("simulate {name}");
         ctx.run_staged(name, &stage, 2, &self.config, &self.file, |out| {
-            let x0 = cfg.initial.state7_any(&ctx.plant, &cfg.settings.solver)?;
+            let x0 = cfg.initial.state7(&ctx.plant, &cfg.settings.solver)?;
             ctx.progress.advance(1);
             let spec = cfg.spec();
             let r = run_and_write::<TrajectoryRow>(

@@ -25,7 +25,7 @@ use sway::sim::speeds::Resolution;
 use sway_studies::sweep::{
     AxisParameter, PointKind, PointOutput, PointResult, Sweep, SweepConfig, run_sweep,
 };
-use sway::ranging::resolve_speeds_any;
+use sway::ranging::resolve_speeds;
 use sway::sim::{Metrics, Outcome, SwayClass};
 
 use super::fig3a_diagram::validate_settings;
@@ -142,7 +142,7 @@ pub fn resolve(
     ctx: &TaskContext<'_>,
     cfg: &SweepConfig<SpeedSpec>,
 ) -> Result<Resolution<SweepConfig>, TaskError> {
-    Ok(resolve_speeds_any(&ctx.plant, &ctx.limits, cfg)?)
+    Ok(resolve_speeds(&ctx.plant, &ctx.limits, cfg)?)
 }
 
 /// Builds the [`Sweep`] of `cfg` (read from `file`, its speeds resolved): loads the fleet's

@@ -20,7 +20,7 @@
 
 use crate::parallel::{Split, map_indices};
 use serde::{Deserialize, Serialize};
-use trailer_model::{AnyVehicleModel, Model, PARAMETERS, VehicleParams, VehicleSpec};
+use trailer_model::{Model, PARAMETERS, VehicleParams};
 
 use super::LoopModel;
 
@@ -29,6 +29,7 @@ use crate::SwayError;
 use crate::gain_design::{GainSearch, band_end, refine_sampled};
 use crate::sampling::{About, Sampler, Sampling, Statistics};
 use sway_model::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
+use sway_model::vehicle::VehicleDescription;
 
 /// Bounds of the gains, in steering units (D, D_θ in s, K_θ in rad/rad); for differential
 /// braking they are multiplied by [`Actuator::scale`] (N m per rad of equivalent steering).
@@ -748,79 +749,21 @@ fn sampler(s: &Sampling) -> Result<(Sampler, Vec<(usize, About)>), SwayError> {
     Ok((sampler, idx))
 }
 
-/// The critical speed of `controller` at delay τ over the samples of `uncertainty`
-/// (in parallel, reduced in sample order: the same on any number of threads). The
-/// predictor predicts with `nominal` (perturbed by `prediction_model` where given); a
-/// sample whose vehicle is invalid or whose search fails is counted, not fatal.
-///
-/// # Errors
-/// [`SwayError::Numerical`] for an invalid sampling or an unknown field.
-pub fn robust_critical_speed(
-    nominal: &VehicleParams,
-    controller: &Controller,
-    tau: f64,
-    uncertainty: &VehicleUncertainty,
-    search: &SpeedSearch,
-) -> Result<Robustness, SwayError> {
-    let (vehicle, vehicle_idx) = sampler(&uncertainty.vehicle)?;
-    let model_errors = match (&uncertainty.prediction_model, controller.structure) {
-        (Some(s), Structure::Predictor) => Some(sampler(s)?),
-        _ => None,
-    };
-    let nominal_model = Model::new(*nominal)
-        .map_err(|e| SwayError::numerical("the nominal vehicle of the uncertainty study", e))?;
-    let one = |s: usize| -> Option<f64> {
-        let params = vehicle
-            .sample(s)
-            .iter()
-            .zip(&vehicle_idx)
-            .fold(*nominal, |p, (&v, &(i, about))| {
-                p.with(i, about.apply(nominal.get(i), v))
-            });
-        let model = Model::new(params).ok()?;
-        let prediction = match &model_errors {
-            Some((errors, idx)) => {
-                let p = errors
-                    .sample(s % errors.len())
-                    .iter()
-                    .zip(idx)
-                    .fold(*nominal, |p, (&f, &(i, about))| {
-                        p.with(i, about.apply(nominal.get(i), f))
-                    });
-                Some(Model::new(p).ok()?)
-            }
-            None => None,
-        };
-        let prediction = match controller.structure {
-            Structure::Predictor => {
-                Some(prediction.as_ref().unwrap_or(&nominal_model) as &dyn LoopModel)
-            }
-            _ => None,
-        };
-        v_crit(&model, controller, tau, prediction, search).ok()
-    };
-    let values: Vec<Option<f64>> = map_indices(vehicle.len(), Split::Adaptive, &one);
-    let failed_samples = values.iter().filter(|v| v.is_none()).count();
-    let stats = Statistics::of(values.into_iter().flatten());
-    Ok(Robustness {
-        v_crit_p05_mps: stats.as_ref().map(|s| s.quantiles.q05),
-        v_crit: stats,
-        failed_samples,
-    })
-}
-
-/// [`robust_critical_speed`] for a vehicle file of any form (tyre relaxation, axle lists,
-/// …): each sample sets the sampled fields of the paper's keys on `nominal`
-/// ([`VehicleSpec::with_parameter`], about the nominal equivalent values); the predictor
-/// predicts with `prediction` (a separate vehicle file; `nominal` when `None`), perturbed
-/// by the uncertainty's `prediction_model` errors where given.
+/// The critical speed of `controller` at delay τ over the samples of `uncertainty` (in
+/// parallel, reduced in sample order: the same on any number of threads). `nominal` is the
+/// paper's [`VehicleParams`] or a vehicle file of any form
+/// ([`trailer_model::VehicleSpec`]: tyre relaxation, axle lists, …); each sample sets the
+/// sampled fields of the paper's keys on it ([`VehicleDescription::with_paper_value`],
+/// about the nominal values of those keys). The predictor predicts with `prediction` (`nominal` when `None`), perturbed by the
+/// uncertainty's `prediction_model` errors where given. A sample whose vehicle is invalid or
+/// whose search fails is counted, not fatal.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] for an invalid sampling or an unknown field; the nominal
 /// vehicle's or prediction model's errors.
-pub fn robust_critical_speed_spec(
-    nominal: &VehicleSpec,
-    prediction: Option<&VehicleSpec>,
+pub fn robust_critical_speed<D: VehicleDescription>(
+    nominal: &D,
+    prediction: Option<&D>,
     controller: &Controller,
     tau: f64,
     uncertainty: &VehicleUncertainty,
@@ -832,19 +775,21 @@ pub fn robust_critical_speed_spec(
         _ => None,
     };
     let predicted = prediction.unwrap_or(nominal);
-    let nominal_values = nominal.equivalent_params()?;
-    let predicted_values = predicted.equivalent_params()?;
-    let prediction_model = AnyVehicleModel::new(predicted)?;
-    let perturbed = |base: &VehicleSpec,
+    let nominal_values = nominal.paper_values()?;
+    let predicted_values = predicted.paper_values()?;
+    let prediction_model = predicted.model()?;
+    let perturbed = |base: &D,
                      values: &VehicleParams,
                      draws: &[f64],
                      idx: &[(usize, About)]|
-     -> Option<AnyVehicleModel> {
-        let mut spec = base.clone();
+     -> Option<D::Model> {
+        let mut description = base.clone();
         for (&v, &(i, about)) in draws.iter().zip(idx) {
-            spec = spec.with_parameter(i, about.apply(values.get(i), v)).ok()?;
+            description = description
+                .with_paper_value(i, about.apply(values.get(i), v))
+                .ok()?;
         }
-        AnyVehicleModel::new(&spec).ok()
+        description.model().ok()
     };
     let one = |s: usize| -> Option<f64> {
         let model = perturbed(nominal, &nominal_values, &vehicle.sample(s), &vehicle_idx)?;

@@ -33,12 +33,12 @@ pub use sway_model::law::{
     Actuator, Controller, GainName, Gains, LoopLinearization, Structure, loop_output_row,
     output_row, predictor,
 };
-pub use sway_model::vehicle::LoopModel;
+pub use sway_model::vehicle::{LoopModel, VehicleDescription};
 
 pub use design::{
     CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness,
     VehicleUncertainty, delay_budget, design, design_from_start, designs_over_delays,
-    perfect_predictor_designs, robust_critical_speed, robust_critical_speed_spec,
+    perfect_predictor_designs, robust_critical_speed,
 };
 pub use loop_fold::{LoopHopfFold, fold_speed, hopf_and_fold, loop_law};
 

@@ -35,7 +35,7 @@ use crate::SwayError;
 use crate::parallel::{Split, map};
 use crate::sim::{
     ActuatorLimits, Controller, EarlyStop, Metrics, Outcome, RampShape, Recording, RunSettings,
-    SimProblem, SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle_plant,
+    SimProblem, SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle,
 };
 use std::sync::atomic::{AtomicBool, Ordering};
 use sway_model::optimise::{
@@ -127,7 +127,7 @@ fn open_loop<P: SimulateOwn<M>, const M: usize>(
 }
 
 /// Settles on the sway cycle (open loop at `speed_mps` for `settle_s` from θ(0) =
-/// `theta0_rad`, as [`settle_plant`]), then finds its period from three upward zero crossings of θ
+/// `theta0_rad`, as [`settle`]), then finds its period from three upward zero crossings of θ
 /// (within `search_s` seconds).
 ///
 /// # Errors
@@ -162,7 +162,7 @@ pub fn find_sway_cycle<P: SimulateOwn<M>, const M: usize>(
     search_s: f64,
     solver: &SolverSettings,
 ) -> Result<Result<SwayCycle<M>, String>, SwayError> {
-    let x = settle_plant(model, speed_mps, theta0_rad, settle_s, solver)?;
+    let x = settle(model, speed_mps, theta0_rad, settle_s, solver)?;
     let (_, c) = open_loop(model, speed_mps, x, search_s, solver)?;
     if c.times.len() < 3 {
         return Ok(Err(format!(

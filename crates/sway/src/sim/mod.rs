@@ -7,9 +7,9 @@
 //! Any vehicle simulates ([`sway_model::vehicle::Vehicle`]: the paper's
 //! [`trailer_model::Model`] and every [`trailer_model::VehicleModel`] of a vehicle file with
 //! model variants): [`SimProblem`] is the ODE/DDE problem of a plant with M reduced states,
-//! [`simulate`] runs the paper's model, [`simulate_plant`] any plant in its own layout, and
-//! [`simulate_any`] the model of a vehicle file ([`trailer_model::AnyVehicleModel`]) in the
-//! paper's layout of 4 or 7 states (the paper's model bit for bit as [`simulate`]).
+//! [`simulate`] runs any vehicle in its own layout, and [`simulate_in_paper_layout`] the
+//! paper's model or the model of a vehicle file ([`trailer_model::AnyVehicleModel`], as a
+//! [`VehicleForm`]) in the paper's layout of 4 or 7 states.
 //!
 //! ```
 //! use sway::sim::{Controller, Outcome, Recording, SimSpec, SpeedProfile, simulate};
@@ -32,6 +32,7 @@
 //! ```
 
 pub mod classify;
+mod paper_layout;
 mod plant;
 mod profile;
 mod run;
@@ -39,6 +40,9 @@ mod scenario;
 pub use sway_model::speeds::resolve as speeds;
 
 pub use classify::{MetricSettings, SwayClass};
+pub use paper_layout::{
+    VehicleForm, lift_state, paper_layout, settle_in_paper_layout, simulate_in_paper_layout,
+};
 #[allow(deprecated)]
 pub use plant::Plant;
 pub use plant::{SWITCHING_FUNCTIONS, SimProblem, reduced, reduced_state};
@@ -46,8 +50,7 @@ pub use profile::{RampShape, SpeedProfile};
 pub use run::{
     ControllerStates, EarlyStop, IntegrationMethod, KinkLandingMode, Layout, Metrics, Outcome,
     Recording, RunSettings, Sample, SimResult, SimSpec, SimulateOwn, SolverSettings, ValidityGuard,
-    lift_state, paper_layout, settle, settle_any, settle_plant, simulate, simulate_any,
-    simulate_plant,
+    settle, simulate,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, ensure_name, validate_parts,

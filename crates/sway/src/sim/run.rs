@@ -7,10 +7,10 @@ use dde::{
 };
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
-use trailer_model::{AnyVehicleModel, HITCH_ANGLE, Model, State4};
+use trailer_model::{HITCH_ANGLE, State4};
 
 use super::classify::{MetricSettings, SwayClass, Window, Windows, classify};
-use super::plant::{SimProblem, reduced_state};
+use super::plant::SimProblem;
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
 use sway_model::vehicle::{LossOfControl, Vehicle};
@@ -438,19 +438,23 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> Observer<N>
     }
 }
 
-/// Runs one scenario of the paper's model from the state `x0` at t = 0 (4 states, or 7 to
-/// get the path). Open loop uses the ODE solver; with a controller the DDE solver (history:
-/// x ≡ x0 for t ≤ 0). With a rate-limited actuator the steering angle is an extra state,
-/// starting at δ(0) = 0 (see [`crate::sim::ActuatorLimits`]), with a predictor its integral z,
-/// starting at z(0) = 0 ([`Controller::Predictor`]); the result has `N` states all the same,
-/// and the recorded `steering_angle` is the applied steering angle (0 under differential
-/// braking). [`simulate_plant`] for any plant, [`simulate_any`] for a vehicle file's model.
+/// Runs one scenario of `vehicle` from the state `x0` at t = 0, in the vehicle's own
+/// layout: its M reduced states (the paper's [`trailer_model::Model`]: \[σ1, σ2, σ3, θ\]),
+/// or M + 3 with the kinematic states \[ψ, x_H, y_H\] last to get the path. Open loop uses
+/// the ODE solver; with a controller the DDE solver (history: x ≡ x0 for t ≤ 0). With a
+/// rate-limited actuator the steering angle is an extra state, starting at δ(0) = 0 (see
+/// [`crate::sim::ActuatorLimits`]), with a predictor its integral z, starting at z(0) = 0
+/// ([`Controller::Predictor`]); these are added here and dropped from the result, which has
+/// `N` states all the same, and the recorded `steering_angle` is the applied steering angle
+/// (0 under differential braking). [`super::simulate_in_paper_layout`] runs the paper's
+/// model or a vehicle file's model from the paper's layout.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails (step-size underflow, non-finite state,
-/// step budget), with the scenario's time in the message.
-pub fn simulate<const N: usize>(
-    model: &Model,
+/// step budget), with the scenario's time in the message, or when `N` is neither M nor
+/// M + 3.
+pub fn simulate<V: Vehicle<M>, const M: usize, const N: usize>(
+    vehicle: &V,
     spec: &SimSpec,
     x0: SVector<f64, N>,
     recording: Recording,
@@ -458,38 +462,18 @@ pub fn simulate<const N: usize>(
 where
     Layout<N>: ControllerStates<N>,
 {
-    simulate_plant::<Model, 4, N>(model, spec, x0, recording)
+    <Layout<N> as ControllerStates<N>>::run(vehicle, spec, x0, recording)
 }
 
-/// [`simulate`] for any plant with M reduced states: `x0` has the M reduced states, or
-/// M + 3 with the kinematic states \[ψ, x_H, y_H\] last; the controller's states are added
-/// (and dropped from the result) here.
-///
-/// # Errors
-/// As [`simulate`]; [`SwayError::Numerical`] when `N` is neither M nor M + 3.
-pub fn simulate_plant<P: Vehicle<M>, const M: usize, const N: usize>(
-    plant: &P,
-    spec: &SimSpec,
-    x0: SVector<f64, N>,
-    recording: Recording,
-) -> Result<SimResult<N>, SwayError>
-where
-    Layout<N>: ControllerStates<N>,
-{
-    <Layout<N> as ControllerStates<N>>::run(plant, spec, x0, recording)
-}
-
-/// A plant that [`simulate_plant`] runs in its own reduced layout (M states, no kinematic
+/// A vehicle that [`simulate`] runs in its own reduced layout (M states, no kinematic
 /// ones), with the state counts of every controller known: every plant of
 /// [`trailer_model::AnyVehicleModel`]. Generic code that simulates takes `P: SimulateOwn<M>`
 /// instead of carrying the bound `Layout<M>: ControllerStates<M>` through every signature.
 pub trait SimulateOwn<const M: usize>: Vehicle<M> {
-    /// [`simulate_plant`] from the reduced state `x0` (M states; the controller's states are
-    /// added and dropped there). For the paper's [`Model`] this is [`simulate`] with 4 states,
-    /// bit for bit.
+    /// [`simulate`] from the reduced state `x0` (M states).
     ///
     /// # Errors
-    /// As [`simulate_plant`].
+    /// As [`simulate`].
     fn simulate_own(
         &self,
         spec: &SimSpec,
@@ -508,7 +492,7 @@ where
         x0: SVector<f64, M>,
         recording: Recording,
     ) -> Result<SimResult<M>, SwayError> {
-        simulate_plant::<P, M, M>(self, spec, x0, recording)
+        simulate::<P, M, M>(self, spec, x0, recording)
     }
 }
 
@@ -520,10 +504,10 @@ pub struct Layout<const N: usize>;
 
 /// Runs an N-state plant problem with the controller's states appended (see [`Layout`]).
 pub trait ControllerStates<const N: usize> {
-    /// [`simulate_plant`] with the controller's states.
+    /// [`simulate`] with the controller's states.
     ///
     /// # Errors
-    /// As [`simulate_plant`].
+    /// As [`simulate`].
     fn run<P: Vehicle<M>, const M: usize>(
         plant: &P,
         spec: &SimSpec,
@@ -607,86 +591,6 @@ impl<const N: usize> SimResult<N> {
             stopped_early: self.stopped_early,
         }
     }
-}
-
-/// [`simulate`] for the model of a vehicle file: the paper's [`Model`] as [`simulate`] (bit
-/// for bit), a [`trailer_model::VehicleModel`] through [`simulate_plant`]. `x0` and the result
-/// are in the paper's layout (`N` = 4: \[σ1, σ2, σ3, θ\]; 7: with \[ψ, x_H, y_H\]); the plant's
-/// own states start in steady state of the tyres ([`Vehicle::initial_state`] at V(0)) and
-/// are dropped from the result.
-///
-/// # Errors
-/// As [`simulate`]; [`SwayError::Numerical`] when `N` is neither 4 nor 7.
-pub fn simulate_any<const N: usize>(
-    vehicle: &AnyVehicleModel,
-    spec: &SimSpec,
-    x0: SVector<f64, N>,
-    recording: Recording,
-) -> Result<SimResult<N>, SwayError>
-where
-    Layout<N>: ControllerStates<N>,
-{
-    macro_rules! lifted {
-        ($m:expr, $states:literal) => {
-            if N == 7 {
-                lifted::<_, $states, N, { $states + 3 }>($m, spec, x0, recording)
-            } else {
-                lifted::<_, $states, N, $states>($m, spec, x0, recording)
-            }
-        };
-    }
-    match vehicle {
-        AnyVehicleModel::Paper(m) => simulate(m, spec, x0, recording),
-        AnyVehicleModel::N4(m) => lifted!(m, 4),
-        AnyVehicleModel::N5(m) => lifted!(m, 5),
-        AnyVehicleModel::N6(m) => lifted!(m, 6),
-        AnyVehicleModel::N7(m) => lifted!(m, 7),
-        AnyVehicleModel::N8(m) => lifted!(m, 8),
-        AnyVehicleModel::N9(m) => lifted!(m, 9),
-        AnyVehicleModel::N10(m) => lifted!(m, 10),
-    }
-}
-
-/// The paper-layout state `x` (4 or 7 states) in the layout of an M-state plant (M or M + 3
-/// states): the plant's own states from [`Vehicle::initial_state`] at `speed_mps`.
-pub fn lift_state<P: Vehicle<M>, const M: usize, const N: usize, const S: usize>(
-    plant: &P,
-    x: &SVector<f64, N>,
-    speed_mps: f64,
-) -> SVector<f64, S> {
-    let xr = plant.initial_state(&State4::new(x[0], x[1], x[2], x[3]), speed_mps);
-    SVector::<f64, S>::from_fn(|i, _| match i {
-        i if i < M => xr[i],
-        i if N == 7 => x[4 + i - M],
-        _ => 0.0,
-    })
-}
-
-/// The paper-layout state (4 or 7 states) of an M- or (M + 3)-state vector.
-pub fn paper_layout<const M: usize, const S: usize, const N: usize>(
-    x: &SVector<f64, S>,
-) -> SVector<f64, N> {
-    SVector::<f64, N>::from_fn(|i, _| if i < 4 { x[i] } else { x[M + i - 4] })
-}
-
-fn lifted<P: Vehicle<M>, const M: usize, const N: usize, const S: usize>(
-    plant: &P,
-    spec: &SimSpec,
-    x0: SVector<f64, N>,
-    recording: Recording,
-) -> Result<SimResult<N>, SwayError>
-where
-    Layout<S>: ControllerStates<S>,
-{
-    if !(N == 4 || N == 7) || S != if N == 7 { M + 3 } else { M } {
-        return Err(SwayError::numerical(
-            format!("simulation of a {M}-state plant from {N} states"),
-            std::io::Error::other("expected 4 or 7 states"),
-        ));
-    }
-    let x0s = lift_state::<P, M, N, S>(plant, &x0, spec.profile.speed(0.0));
-    let r = simulate_plant::<P, M, S>(plant, spec, x0s, recording)?;
-    Ok(r.map_states(paper_layout::<M, S, N>))
 }
 
 /// Events of a run: 0 the extrema of θ (θ̇ = 0, eq. 5), 1 |θ| crossing the settle threshold
@@ -927,60 +831,29 @@ fn lost_at_start<const N: usize>(
     }
 }
 
-/// The state "on the sway cycle": integrate the open loop at constant speed `speed_mps`
-/// from θ(0) = `theta0_rad` (other states 0) for `settle_s` seconds and return where it
-/// ends. At a speed above V_crit this is on the stable limit cycle (trailer sway).
+/// The state "on the sway cycle" in the vehicle's own layout: integrate the open loop at
+/// constant speed `speed_mps` from θ(0) = `theta0_rad` (the other paper states 0, the
+/// vehicle's own states in steady state of the tyres, [`Vehicle::initial_state`]) for
+/// `settle_s` seconds and return the reduced state where it ends. At a speed above V_crit
+/// this is on the stable limit cycle (trailer sway). [`super::settle_in_paper_layout`]
+/// gives it in the paper's four states.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails.
-pub fn settle(
-    model: &Model,
-    speed_mps: f64,
-    theta0_rad: f64,
-    settle_s: f64,
-    solver: &SolverSettings,
-) -> Result<State4, SwayError> {
-    settle_plant(model, speed_mps, theta0_rad, settle_s, solver)
-}
-
-/// [`settle`] for any plant: the reduced state where the open loop ends (the plant's own
-/// states start in steady state of the tyres, [`Vehicle::initial_state`]).
-///
-/// # Errors
-/// [`SwayError::Numerical`] if the solver fails.
-pub fn settle_plant<P: Vehicle<M>, const M: usize>(
-    plant: &P,
+pub fn settle<V: Vehicle<M>, const M: usize>(
+    vehicle: &V,
     speed_mps: f64,
     theta0_rad: f64,
     settle_s: f64,
     solver: &SolverSettings,
 ) -> Result<SVector<f64, M>, SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
-    let x0 = plant.initial_state(&State4::new(0.0, 0.0, 0.0, theta0_rad), speed_mps);
-    let problem = SimProblem::<P, M, M>::new(plant, &profile, Controller::None, x0)?;
+    let x0 = vehicle.initial_state(&State4::new(0.0, 0.0, 0.0, theta0_rad), speed_mps);
+    let problem = SimProblem::<V, M, M>::new(vehicle, &profile, Controller::None, x0)?;
     let context = || format!("settling on the sway cycle at V = {speed_mps} m/s for {settle_s} s");
     let mut s = OdeSolver::new(&problem, 0.0, x0, solver.options(&Controller::None))
         .map_err(|e| SwayError::numerical(context(), e))?;
     s.integrate(&problem, settle_s, &[], &mut NoObserver)
         .map_err(|e| SwayError::numerical(context(), e))?;
     Ok(*s.state())
-}
-
-/// [`settle`] for the model of a vehicle file, in the paper's four states (the plant's own
-/// states, the lagged slips, are dropped: a run started from this state restarts them in
-/// steady state of the tyres, off the cycle by the tyres' lag, which dies out within a few
-/// σ/V).
-///
-/// # Errors
-/// [`SwayError::Numerical`] if the solver fails.
-pub fn settle_any(
-    vehicle: &AnyVehicleModel,
-    speed_mps: f64,
-    theta0_rad: f64,
-    settle_s: f64,
-    solver: &SolverSettings,
-) -> Result<State4, SwayError> {
-    trailer_model::with_plant!(vehicle, m => {
-        settle_plant(m, speed_mps, theta0_rad, settle_s, solver).map(|x| reduced_state(&x))
-    })
 }

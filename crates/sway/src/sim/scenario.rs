@@ -4,9 +4,10 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use trailer_model::{AnyVehicleModel, Model, State4, State7};
+use trailer_model::{State4, State7};
 
-use super::run::{RunSettings, SimSpec, SolverSettings, settle, settle_any};
+use super::paper_layout::{VehicleForm, settle_in_paper_layout};
+use super::run::{RunSettings, SimSpec, SolverSettings};
 use super::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
 use super::{Controller, SpeedProfile};
 use crate::SwayError;
@@ -94,34 +95,15 @@ impl<S: SpeedValue> InitialCondition<S> {
 }
 
 impl InitialCondition {
-    /// The reduced state \[σ1, σ2, σ3, θ\] and ψ(0) \[rad\].
+    /// The reduced state \[σ1, σ2, σ3, θ\] and ψ(0) \[rad\] for `vehicle` (the sway cycle
+    /// by [`settle_in_paper_layout`]).
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if settling fails.
-    pub fn resolve(
+    pub fn resolve<'a>(
         &self,
-        model: &Model,
+        vehicle: impl Into<VehicleForm<'a>>,
         solver: &SolverSettings,
-    ) -> Result<(State4, f64), SwayError> {
-        self.resolve_with(|v, th, t| settle(model, v, th, t, solver))
-    }
-
-    /// [`InitialCondition::resolve`] for the model of a vehicle file (the sway cycle of a
-    /// model variant by [`settle_any`]).
-    ///
-    /// # Errors
-    /// [`SwayError::Numerical`] if settling fails.
-    pub fn resolve_any(
-        &self,
-        vehicle: &AnyVehicleModel,
-        solver: &SolverSettings,
-    ) -> Result<(State4, f64), SwayError> {
-        self.resolve_with(|v, th, t| settle_any(vehicle, v, th, t, solver))
-    }
-
-    fn resolve_with(
-        &self,
-        settle: impl Fn(f64, f64, f64) -> Result<State4, SwayError>,
     ) -> Result<(State4, f64), SwayError> {
         match *self {
             InitialCondition::State {
@@ -143,32 +125,23 @@ impl InitialCondition {
                 speed_mps,
                 settle_s,
                 theta0_rad,
-            } => Ok((settle(speed_mps, theta0_rad, settle_s)?, 0.0)),
+            } => Ok((
+                settle_in_paper_layout(vehicle, speed_mps, theta0_rad, settle_s, solver)?,
+                0.0,
+            )),
         }
     }
 
-    /// The 7-state initial vector (hitch at the origin).
+    /// The 7-state initial vector (hitch at the origin) in the paper's layout.
     ///
     /// # Errors
     /// As [`InitialCondition::resolve`].
-    pub fn state7(&self, model: &Model, solver: &SolverSettings) -> Result<State7, SwayError> {
-        let (x4, psi0) = self.resolve(model, solver)?;
-        Ok(State7::from_column_slice(&[
-            x4[0], x4[1], x4[2], x4[3], psi0, 0.0, 0.0,
-        ]))
-    }
-
-    /// [`InitialCondition::state7`] for the model of a vehicle file (the paper's layout; see
-    /// [`crate::sim::simulate_any`]).
-    ///
-    /// # Errors
-    /// As [`InitialCondition::resolve_any`].
-    pub fn state7_any(
+    pub fn state7<'a>(
         &self,
-        vehicle: &AnyVehicleModel,
+        vehicle: impl Into<VehicleForm<'a>>,
         solver: &SolverSettings,
     ) -> Result<State7, SwayError> {
-        let (x4, psi0) = self.resolve_any(vehicle, solver)?;
+        let (x4, psi0) = self.resolve(vehicle, solver)?;
         Ok(State7::from_column_slice(&[
             x4[0], x4[1], x4[2], x4[3], psi0, 0.0, 0.0,
         ]))

@@ -853,7 +853,7 @@ fn simulated_sway(
         0.0,
         0.0,
     ]);
-    let r = sway::sim::simulate::<7>(m, &spec, x0, Recording::None).unwrap();
+    let r = sway::sim::simulate(m, &spec, x0, Recording::None).unwrap();
     (
         r.metrics.final_amplitude_deg,
         r.metrics.loss_of_control_time_s.is_some(),

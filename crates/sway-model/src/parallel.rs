@@ -16,7 +16,7 @@
 //! items were scheduled.
 //!
 //! ```
-//! use sway::parallel::{Split, try_map};
+//! use sway_model::parallel::{Split, try_map};
 //! let squares = try_map(&[1.0, 2.0, 3.0], Split::Adaptive, &|_, &x: &f64| {
 //!     if x > 0.0 { Ok(x * x) } else { Err("negative") }
 //! });

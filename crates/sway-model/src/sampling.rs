@@ -9,7 +9,7 @@
 //! (numbered from the top of the stream space) when the [`Sampler`] is built.
 //!
 //! ```
-//! use sway::sampling::{Distribution, Field, Method, Sampler, Sampling};
+//! use sway_model::sampling::{Distribution, Field, Method, Sampler, Sampling};
 //! let s = Sampling {
 //!     method: Method::LatinHypercube,
 //!     samples: 100,

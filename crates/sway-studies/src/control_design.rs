@@ -3,9 +3,9 @@
 //! robust (5 %) critical speed under vehicle uncertainty; for every optimum of the
 //! output-feedback structures (`yaw_rate`, `yaw_rate_hitch`, either actuator) the
 //! fold-of-cycles speed of its loop ([`sway::bifurcation::ClosedLoop`] with the
-//! [`LoopLaw`] of the design) and, where the optimum sits on a double-Hopf corner, the gain a
-//! little away from it that maximises the fold speed instead ([`AwayFromCorner`], issue 22
-//! item 4). The `predictor` has no fold: its distributed delay is not a continuation problem
+//! [`sway::bifurcation::LoopLaw`] of the design) and, where the optimum sits on a double-Hopf
+//! corner, the gain a little away from it that maximises the fold speed instead
+//! ([`AwayFromCorner`]). The `predictor` has no fold: its distributed delay is not a continuation problem
 //! here.
 
 use serde::{Deserialize, Serialize};

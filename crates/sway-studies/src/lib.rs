@@ -17,8 +17,24 @@
 //! | [`fleet`] | `variants`, fleets: the headline numbers of one vehicle |
 //!
 //! ```
-//! use sway_studies::fig4a::{Fig4aConfig, compute};
-//! # let _ = (std::any::type_name::<Fig4aConfig>(), compute as usize);
+//! use sway::charts::auto_range::SpeedBounds;
+//! use sway_studies::fig4a::{Fig4aConfig, GainAxis, SpeedAxis, compute};
+//! use trailer_model::{Model, VehicleParams};
+//!
+//! // Fig. 4(a) at τ = 0.2 s on a coarse grid, the ranges derived from Table I
+//! let cfg = Fig4aConfig {
+//!     speed: SpeedAxis { min_mps: None, max_mps: None, cells: 24 },
+//!     gain: GainAxis { min_s: None, max_s: None, cells: 16 },
+//!     delays_s: vec![0.2],
+//!     summary: Default::default(),
+//!     numerics: Default::default(),
+//!     controller: None,
+//! };
+//! let model = Model::new(VehicleParams::default()).unwrap();
+//! let fig = compute(&model, &cfg, &SpeedBounds::default()).unwrap();
+//! // the delayed yaw-rate feedback raises the critical speed above the open loop's 34.75 m/s
+//! let v = fig.summaries[0].v_crit_at_gain_mps.unwrap();
+//! assert!(v > 35.0, "{v}");
 //! ```
 
 pub mod chart;

@@ -74,8 +74,8 @@ pub struct LinearLoop {
 }
 
 impl LinearLoop {
-    /// The loop of `controller` on `model` (the paper's [`Model`], a [`VehicleModel`] or an
-    /// [`AnyVehicleModel`]) at speed V \[m/s\] with delay τ \[s\]; the predictor predicts
+    /// The loop of `controller` on `model` (the paper's [`trailer_model::Model`], a
+    /// [`trailer_model::VehicleModel`] or an [`trailer_model::AnyVehicleModel`]) at speed V \[m/s\] with delay τ \[s\]; the predictor predicts
     /// with `prediction_model` (the vehicle itself when `None`; it may have another state
     /// count than the vehicle).
     ///

@@ -32,12 +32,11 @@ mod sweep;
 
 use sway::control::LoopModel;
 use sway::ranging::SpeedLimits;
+use sway_studies::linear::SearchConfig;
+use sway_studies::roots::RootsConfig;
 use sway_tasks::config_file::LoadedVehicle;
 use sway_tasks::tasks::TaskContext;
-use trailer_model::{
-    AnyVehicleModel, CriticalSpeedOptions, Model, ModelError, PARAMETERS, VehicleParams,
-    VehicleSpec,
-};
+use trailer_model::{AnyVehicleModel, Model, ModelError, PARAMETERS, VehicleParams, VehicleSpec};
 
 // ---------------------------------------------------------------------------------------
 // errors
@@ -640,69 +639,58 @@ enum CriticalOutcome {
     UnstableAtMin { v_min_mps: f64 },
 }
 
-/// The V_crit search settings (`[critical_speed]` of `configs/linear.toml`).
-#[derive(Debug, Clone, Copy)]
-struct Search {
-    v_min: f64,
-    v_max: f64,
-    step: f64,
-    tolerance: f64,
-}
-
 /// The one place that turns today's V_crit searches into the "stable up to" outcome
-/// (the library's own version can replace its body): open loop by the model's scan and
+/// (the library's own version can replace its body), with the settings of the `linear`
+/// task's `[critical_speed]` ([`SearchConfig`]): open loop by the model's scan and
 /// bisection of the spectral abscissa (the `linear` task), closed loop by the exact
 /// unstable-root count (the `fig4a` task's `v_crit_at_d`).
 fn critical_outcome(
     model: &AnyVehicleModel,
     loop_: Option<(f64, f64)>,
-    s: Search,
+    s: SearchConfig,
 ) -> Result<CriticalOutcome, SwayError> {
     match loop_ {
-        None => {
-            let opts = CriticalSpeedOptions {
-                v_min: s.v_min,
-                v_max: s.v_max,
-                scan_step: s.step,
-                tolerance: s.tolerance,
-            };
-            match LoopModel::critical_speed_search(model, &opts) {
-                Ok(Some(c)) => Ok(CriticalOutcome::Crossing {
-                    v_crit_mps: c.v_crit_mps,
-                    hopf_frequency_hz: c.hopf_frequency_hz,
-                    hopf_omega_rad_s: c.hopf_omega_rad_s,
-                }),
-                Ok(None) => Ok(CriticalOutcome::StableUpToMax {
-                    stable_up_to_mps: s.v_max,
-                }),
-                Err(ModelError::NoCriticalSpeed { detail, .. })
-                    if detail.contains("already unstable at v_min") =>
-                {
-                    Ok(CriticalOutcome::UnstableAtMin { v_min_mps: s.v_min })
-                }
-                Err(e) => Err(SwayError::Model(e)),
+        None => match LoopModel::critical_speed_search(model, &s.options()) {
+            Ok(Some(c)) => Ok(CriticalOutcome::Crossing {
+                v_crit_mps: c.v_crit_mps,
+                hopf_frequency_hz: c.hopf_frequency_hz,
+                hopf_omega_rad_s: c.hopf_omega_rad_s,
+            }),
+            Ok(None) => Ok(CriticalOutcome::StableUpToMax {
+                stable_up_to_mps: s.v_max_mps,
+            }),
+            Err(ModelError::NoCriticalSpeed { detail, .. })
+                if detail.contains("already unstable at v_min") =>
+            {
+                Ok(CriticalOutcome::UnstableAtMin {
+                    v_min_mps: s.v_min_mps,
+                })
             }
-        }
+            Err(e) => Err(SwayError::Model(e)),
+        },
         Some((gain, delay)) => {
             // samples so that the scan's spacing is at most `step` (the fig4a task scans
             // its cell centres: spacing (v_max − v_min)/(samples − 1))
-            let samples = ((s.v_max - s.v_min) / s.step - 1e-9).ceil().max(1.0) as usize + 1;
+            let samples = ((s.v_max_mps - s.v_min_mps) / s.scan_step_mps - 1e-9)
+                .ceil()
+                .max(1.0) as usize
+                + 1;
             let v = sway::charts::critical_speed_at_gain(
                 model,
                 delay,
                 gain,
-                s.v_min,
-                s.v_max,
+                s.v_min_mps,
+                s.v_max_mps,
                 samples,
-                s.tolerance,
+                s.tolerance_mps,
             )?;
             match v {
                 None => Ok(CriticalOutcome::StableUpToMax {
-                    stable_up_to_mps: s.v_max,
+                    stable_up_to_mps: s.v_max_mps,
                 }),
-                Some(v) if v <= s.v_min => {
-                    Ok(CriticalOutcome::UnstableAtMin { v_min_mps: s.v_min })
-                }
+                Some(v) if v <= s.v_min_mps => Ok(CriticalOutcome::UnstableAtMin {
+                    v_min_mps: s.v_min_mps,
+                }),
                 Some(v) => {
                     // the crossing root: the rightmost root there (ω = 0: a static crossing)
                     let r = sway::charts::rightmost_roots(model, v, gain, delay, 2)?;
@@ -777,11 +765,11 @@ fn critical_speed(
         _ => None,
     };
     let model = vehicle.plant().clone();
-    let search = Search {
-        v_min: v_min_mps,
-        v_max: v_max_mps,
-        step: scan_step_mps,
-        tolerance: tolerance_mps,
+    let search = SearchConfig {
+        v_min_mps,
+        v_max_mps,
+        scan_step_mps,
+        tolerance_mps,
     };
     // ≈ 10 µs per open-loop eigenvalue problem, ≈ 1 ms per closed-loop root count
     let per_point = if loop_.is_some() { 1e-3 } else { 1e-5 };
@@ -818,7 +806,7 @@ fn roots<'py>(
     sway_tasks::tasks::roots::validate_args(speed, gain, delay, count).map_err(py_err)?;
     let model = vehicle.plant().clone();
     let r = interruptible(py, 0.0, None, move || {
-        sway_tasks::tasks::roots::roots(&model, speed, gain, delay, count)
+        sway_studies::roots::compute(&model, &RootsConfig::paper(speed, gain, delay, count), None)
     })?
     .map_err(py_err)?;
     Ok(r.into_pyarray(py))

@@ -434,20 +434,19 @@ fn roots(args: &[String]) -> Result<()> {
         Some(file) => Some(config_file::load_vehicle_spec(file)?.plant),
         None => None,
     };
-    let roots = if controller == sway::control::Controller::paper(a.gain) {
-        sway_tasks::tasks::roots::roots(&loaded.plant, a.speed, a.gain, a.delay, a.count)?
-    } else {
-        sway_tasks::tasks::roots::roots_with_controller(
-            &loaded.plant,
-            &controller,
-            a.speed,
-            a.delay,
-            a.count,
-            prediction
-                .as_ref()
-                .map(|m| m as &dyn sway::control::LoopModel),
-        )?
+    let point = sway_tasks::tasks::roots::RootsConfig {
+        speed_mps: a.speed,
+        delay_s: a.delay,
+        count: a.count,
+        controller,
     };
+    let roots = sway_tasks::tasks::roots::run(
+        &loaded.plant,
+        &point,
+        prediction
+            .as_ref()
+            .map(|m| m as &dyn sway::control::LoopModel),
+    )?;
     print!("{}", sway_tasks::tasks::roots::format_roots(&roots));
     Ok(())
 }

@@ -15,6 +15,10 @@
 //! | [`mitigation`] | `mitigation`: the intervention that ends sway fastest from any phase |
 //! | [`sweep`] | `sweep`, `brake_timing`, `study_*`: point-wise parallel studies |
 //! | [`fleet`] | `variants`, fleets: the headline numbers of one vehicle |
+//! | [`linear`] | `linear`: the open loop's V_crit, eigenvalues, sensitivities dV_crit/dp |
+//! | [`loading`] | `loading`: V_crit over trailer mass × centre of gravity, tongue-load cut |
+//! | [`variants`] | `variants`: the headline numbers of Table I with tyre relaxation and of vehicle files |
+//! | [`roots`] | `roots`: the rightmost characteristic roots of a closed loop at one point |
 //!
 //! ```
 //! use sway::charts::auto_range::SpeedBounds;
@@ -44,5 +48,9 @@ pub mod fig4a;
 pub mod fig4b;
 pub mod fleet;
 pub mod gain_design;
+pub mod linear;
+pub mod loading;
 pub mod mitigation;
+pub mod roots;
 pub mod sweep;
+pub mod variants;

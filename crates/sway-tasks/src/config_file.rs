@@ -326,7 +326,8 @@ pub fn load_vehicle(file: &Path) -> Result<(VehicleParams, Model), TaskError> {
 }
 
 /// A task's config that can check itself beyond what deserialisation checks (ranges,
-/// consistency between keys), so that the task can be prepared by [`prepare_config`].
+/// consistency between keys), so that the task can be prepared by the registry's
+/// `prepare_config`.
 pub trait TaskConfig: DeserializeOwned + Send + 'static {
     /// Checks the loaded config of `file`.
     ///

@@ -1,16 +1,15 @@
-//! `cargo xtask linear`: open-loop linear stability, V_crit, Hopf frequency, sensitivities.
+//! `cargo xtask linear`: open-loop linear stability, V_crit, Hopf frequency, sensitivities
+//! ([`sway_studies::linear`]).
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use crate::TaskError;
 use sway::config::{Grid, ensure};
-use sway::linear::{
-    EigenTable, Sensitivity, SensitivityOptions, eigen_table, parameter_index, sensitivities,
-    sensitivities_spec, v_crit_curve, v_crit_curve_spec,
-};
-use sway::control::LoopModel;
-use trailer_model::{CriticalSpeed, CriticalSpeedOptions, VehicleParams, VehicleSpec};
+use sway::linear::{EigenTable, Sensitivity};
+use sway_studies::linear::{Critical, LinearVehicle, Onset, RoundingStudy, compute};
+pub use sway_studies::linear::{LinearConfig, LossOfStability, SearchConfig};
+use trailer_model::CriticalSpeed;
 
 use crate::limits::{BYTES_PER_ROW, LINEAR_SECONDS_PER_POINT, Plan};
 use super::{Prepared, Report, Task, TaskContext};
@@ -26,62 +25,6 @@ pub const TASK: Task = Task {
     prepare,
     models: super::Models::Any,
 };
-
-/// `configs/linear.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LinearConfig {
-    /// speed grid of the eigenvalue table \[m/s\] (omitted: derived from the vehicle,
-    /// [`sway::linear::derived_speed_grid`]: 1 m/s to 1.5·V_crit rounded up to 10 m/s)
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub speed_grid: Option<Grid>,
-    /// V_crit search (omitted: the one search of every task, over the `--max-speed` limits,
-    /// [`sway::ranging::open_loop_critical_speed`])
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub critical_speed: Option<SearchConfig>,
-    /// sensitivity differences
-    #[serde(default)]
-    pub sensitivity: SensitivityOptions,
-    /// the paper's value, for comparison \[m/s\] (reported only for Table I)
-    #[serde(default = "paper_v_crit")]
-    pub paper_v_crit_mps: f64,
-    /// half a unit of the last printed digit of Table I's lengths h and l \[m\]
-    #[serde(default = "rounding")]
-    pub length_rounding_m: f64,
-}
-
-fn paper_v_crit() -> f64 {
-    34.1
-}
-fn rounding() -> f64 {
-    0.05
-}
-
-/// The V_crit search settings.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SearchConfig {
-    /// lowest speed scanned \[m/s\]
-    pub v_min_mps: f64,
-    /// highest speed scanned \[m/s\]
-    pub v_max_mps: f64,
-    /// scan step \[m/s\]
-    pub scan_step_mps: f64,
-    /// bisection stops at this bracket width \[m/s\]
-    pub tolerance_mps: f64,
-}
-
-impl Default for SearchConfig {
-    fn default() -> Self {
-        let d = CriticalSpeedOptions::default();
-        Self {
-            v_min_mps: d.v_min,
-            v_max_mps: d.v_max,
-            scan_step_mps: d.scan_step,
-            tolerance_mps: d.tolerance,
-        }
-    }
-}
 
 /// One parameter's entry in `summary.json`'s `"sensitivities"` (keyed by its symbol).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -106,28 +49,6 @@ impl From<&Sensitivity> for SensitivityEntry {
             value: x.value,
             dv_crit_dp: x.dv_crit_dp,
             elasticity: x.elasticity,
-        }
-    }
-}
-
-/// How the rightmost eigenvalue crosses the imaginary axis at V_crit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LossOfStability {
-    /// a complex pair ±iω, ω > 0: a Hopf point, sway starts
-    Hopf,
-    /// a real eigenvalue through 0: a static divergence (pitchfork of the symmetric vehicle)
-    Divergence,
-}
-
-impl LossOfStability {
-    /// The kind of crossing of `vc`: a divergence when its frequency is zero (a real
-    /// eigenvalue is the rightmost one; the eigenvalue solver returns Im λ = 0 exactly).
-    pub fn of(vc: &CriticalSpeed) -> Self {
-        if vc.hopf_omega_rad_s == 0.0 {
-            Self::Divergence
-        } else {
-            Self::Hopf
         }
     }
 }
@@ -178,21 +99,6 @@ struct RoundingRow {
     offset_m: f64,
     v_crit_varying_h_mps: Option<f64>,
     v_crit_varying_l_mps: Option<f64>,
-}
-
-/// The rounding study: V_crit along h and l around the vehicle's values.
-struct RoundingStudy {
-    /// dV_crit/dh, dV_crit/dl
-    dh: f64,
-    dl: f64,
-    /// h and l of Table I \[m\]
-    h0: f64,
-    l0: f64,
-    /// (h, V_crit) and (l, V_crit); None where the changed vehicle has no V_crit nearby
-    by_h: Vec<(f64, Option<f64>)>,
-    by_l: Vec<(f64, Option<f64>)>,
-    /// first-order V_crit change of the rounding \[m/s\]
-    band: f64,
 }
 
 struct LinearTask {
@@ -263,18 +169,6 @@ fn validate_search(s: &SearchConfig, file: &Path) -> Result<(), TaskError> {
     Ok(())
 }
 
-impl SearchConfig {
-    /// As the model's search options.
-    fn options(&self) -> CriticalSpeedOptions {
-        CriticalSpeedOptions {
-            v_min: self.v_min_mps,
-            v_max: self.v_max_mps,
-            scan_step: self.scan_step_mps,
-            tolerance: self.tolerance_mps,
-        }
-    }
-}
-
 /// Step 1: the eigenvalues along the speed grid, `eigenvalues.csv`.
 fn write_eigenvalues(out: &OutputDir, table: &EigenTable) -> Result<(), TaskError> {
     let rows: Vec<Vec<f64>> = table
@@ -297,54 +191,18 @@ fn write_eigenvalues(out: &OutputDir, table: &EigenTable) -> Result<(), TaskErro
     out.write_csv("eigenvalues.csv", &header, &rows)
 }
 
-/// The vehicle of the rounding study: its paper-form parameters, and its file where it has
-/// model variants (then the curves change the file's keys).
-struct Vehicle<'a> {
-    params: &'a VehicleParams,
-    spec: Option<&'a VehicleSpec>,
-}
-
-/// Step 3: V_crit along h and l (±0.1 m around Table I), `v_crit_vs_h_l.csv`.
-fn rounding_study(
-    vehicle: &Vehicle<'_>,
-    sens: &[Sensitivity],
-    v_crit: f64,
-    rounding_m: f64,
-    out: &OutputDir,
-) -> Result<RoundingStudy, TaskError> {
-    let (ih, il) = (
-        parameter_index("h").unwrap_or(9),
-        parameter_index("l").unwrap_or(10),
-    );
-    let (dh, dl) = (sens[ih].dv_crit_dp, sens[il].dv_crit_dp);
-    let offsets: Vec<f64> = (0..=40).map(|k| -0.1 + 0.2 * k as f64 / 40.0).collect();
-    let (h0, l0) = (vehicle.params.get(ih), vehicle.params.get(il));
-    let along = |i: usize, p0: f64| {
-        let values: Vec<f64> = offsets.iter().map(|o| p0 + o).collect();
-        match vehicle.spec {
-            None => v_crit_curve(vehicle.params, i, &values, v_crit),
-            Some(spec) => v_crit_curve_spec(spec, i, &values, v_crit),
-        }
-    };
-    let (by_h, by_l) = (along(ih, h0)?, along(il, l0)?);
-    let rows = offsets
+/// Step 3: `v_crit_vs_h_l.csv`, V_crit along h and l (±0.1 m around Table I).
+fn write_rounding(out: &OutputDir, study: &RoundingStudy) -> Result<(), TaskError> {
+    let rows = study
+        .offsets_m
         .iter()
-        .zip(by_h.iter().zip(&by_l))
+        .zip(study.by_h.iter().zip(&study.by_l))
         .map(|(&o, (a, b))| RoundingRow {
             offset_m: o,
             v_crit_varying_h_mps: a.1,
             v_crit_varying_l_mps: b.1,
         });
-    out.write_table("v_crit_vs_h_l.csv", rows)?;
-    Ok(RoundingStudy {
-        dh,
-        dl,
-        h0,
-        l0,
-        by_h,
-        by_l,
-        band: (dh.abs() + dl.abs()) * rounding_m,
-    })
+    out.write_table("v_crit_vs_h_l.csv", rows)
 }
 
 /// One line per eigenvalue, `part` of each (real part, or frequency), solid and dashed
@@ -482,13 +340,9 @@ fn draw_rounding(
     Figure::single(p3).render(&out.path("sensitivity"))
 }
 
-/// Step 5: the headline numbers (`paper`: the paper's V_crit, Table I only).
-fn summary(
-    vc: &CriticalSpeed,
-    paper: Option<f64>,
-    study: &RoundingStudy,
-    sens: &[Sensitivity],
-) -> LinearSummary {
+/// Step 5: the headline numbers of a vehicle with a V_crit.
+fn summary(c: &Critical) -> LinearSummary {
+    let (vc, paper, study) = (&c.speed, c.paper_v_crit_mps, &c.rounding);
     LinearSummary {
         v_crit_mps: Some(vc.v_crit_mps),
         stable_up_to_mps: None,
@@ -502,7 +356,8 @@ fn summary(
         dv_crit_dh_mps_per_m: Some(study.dh),
         dv_crit_dl_mps_per_m: Some(study.dl),
         v_crit_rounding_band_mps: Some([vc.v_crit_mps - study.band, vc.v_crit_mps + study.band]),
-        sensitivities: sens
+        sensitivities: c
+            .sensitivities
             .iter()
             .map(|x| (x.symbol.to_string(), SensitivityEntry::from(x)))
             .collect(),
@@ -529,14 +384,12 @@ fn stable_summary(v_max: f64, reason: String) -> LinearSummary {
 }
 
 /// The printed headline lines.
-fn headline_lines(
-    vc: &CriticalSpeed,
-    cfg: &LinearConfig,
-    study: &RoundingStudy,
-    paper: Option<f64>,
-) -> Vec<String> {
+fn headline_lines(c: &Critical, cfg: &LinearConfig) -> Vec<String> {
+    let (vc, study) = (&c.speed, &c.rounding);
     let (dh, dl, band, r) = (study.dh, study.dl, study.band, cfg.length_rounding_m);
-    let paper = paper.map_or_else(String::new, |p| format!(" (paper: {p} m/s)"));
+    let paper = c
+        .paper_v_crit_mps
+        .map_or_else(String::new, |p| format!(" (paper: {p} m/s)"));
     let crossing = match LossOfStability::of(vc) {
         LossOfStability::Hopf => format!(
             "Hopf frequency = {:.6} Hz (ω = {:.6} rad/s)",
@@ -569,47 +422,27 @@ impl Prepared for LinearTask {
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         ctx.run_staged(TASK.name, "linear: eigenvalues", 3, cfg, &self.file, |out| {
-            let search = cfg
-                .critical_speed
-                .as_ref()
-                .map_or_else(|| ctx.limits.critical_speed_options(), SearchConfig::options);
-            let vc = LoopModel::critical_speed_search(&ctx.plant, &search)?;
-            ctx.progress.advance(1);
-            let grid = cfg.speed_grid.unwrap_or_else(|| {
-                sway::linear::derived_speed_grid(vc.as_ref().map(|c| c.v_crit_mps), &ctx.limits)
-            });
-            let table = eigen_table(&ctx.plant, &grid.values());
-            write_eigenvalues(out, &table)?;
-            ctx.progress.advance(1);
-            draw_eigenvalues(out, &table, &grid, vc.as_ref())?;
-            let Some(vc) = vc else {
-                let reason = format!(
-                    "straight running is stable at every speed up to {} m/s (the maximum speed{})",
-                    search.v_max,
-                    if cfg.critical_speed.is_some() {
-                        ", critical_speed.v_max_mps"
-                    } else {
-                        ", --max-speed"
-                    }
-                );
-                ctx.progress.advance(1);
-                let lines = vec![format!("no V_crit: {reason}")];
-                return Ok((stable_summary(search.v_max, reason), lines));
-            };
             // a vehicle of the paper's form: the paper's parameters (the numbers of results/);
             // one with model variants: its file, each key changed on it
-            let sens = match &ctx.variant_key {
-                None => sensitivities(&ctx.vehicle, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?,
-                Some(_) => sensitivities_spec(&ctx.spec, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?,
+            let vehicle = LinearVehicle {
+                plant: &ctx.plant,
+                params: &ctx.vehicle,
+                spec: ctx.variant_key.is_some().then_some(&ctx.spec),
             };
-            out.write_table("sensitivity.csv", sens.iter().cloned())?;
-            let vehicle = Vehicle { params: &ctx.vehicle, spec: ctx.variant_key.is_some().then_some(&ctx.spec) };
-            let study = rounding_study(&vehicle, &sens, vc.v_crit_mps, cfg.length_rounding_m, out)?;
-            ctx.progress.advance(1);
-            let paper = ctx.vehicle.is_table_i().then_some(cfg.paper_v_crit_mps);
-            draw_rounding(out, &study, cfg, vc.v_crit_mps, paper)?;
-            let lines = headline_lines(&vc, cfg, &study, paper);
-            Ok((summary(&vc, paper, &study, &sens), lines))
+            let r = compute(cfg, &vehicle, &ctx.limits, ctx.progress)?;
+            write_eigenvalues(out, &r.table)?;
+            draw_eigenvalues(out, &r.table, &r.grid, r.critical_speed())?;
+            let c = match &r.onset {
+                Onset::Critical(c) => c,
+                Onset::Stable { up_to_mps, reason } => {
+                    let lines = vec![format!("no V_crit: {reason}")];
+                    return Ok((stable_summary(*up_to_mps, reason.clone()), lines));
+                }
+            };
+            out.write_table("sensitivity.csv", c.sensitivities.iter().cloned())?;
+            write_rounding(out, &c.rounding)?;
+            draw_rounding(out, &c.rounding, cfg, c.speed.v_crit_mps, c.paper_v_crit_mps)?;
+            Ok((summary(c), headline_lines(c, cfg)))
         })
     }
 }

@@ -1,18 +1,16 @@
 //! `cargo xtask loading`: V_crit over trailer mass × centre-of-gravity position, with
-//! lines of constant tongue load (beyond the paper).
+//! lines of constant tongue load (beyond the paper; [`sway_studies::loading`]).
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use crate::TaskError;
-use sway::config::{Grid, ensure};
-use sway::loading::{
-    InertiaScaling, LoadingMap, loading_map, trailer_axle, v_crit_at_tongue_load,
-    vehicle_tongue_load_fraction, vehicle_v_crit,
-};
-use sway::ranging::{Reference, SpeedLimits, SpeedSpec, open_loop_references};
+use sway::config::ensure;
+use sway::ranging::Reference;
 use sway::sim::speeds::SpeedValue;
-use trailer_model::{AnyVehicleModel, CriticalSpeedOptions, VehicleSpec};
+pub use sway_studies::loading::{LoadingConfig, SCAN_STEP_MPS};
+use sway_studies::loading::{Loading, compute};
+use trailer_model::VehicleSpec;
 
 use crate::limits::{
     BYTES_PER_ROW, LOADING_SECONDS_PER_CELL, MAX_SIMULATIONS, Plan, bound, human_seconds,
@@ -30,82 +28,6 @@ pub const TASK: Task = Task {
     prepare,
     models: super::Models::Any,
 };
-
-/// `configs/loading.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LoadingConfig {
-    /// trailer mass m2 \[kg\]
-    pub trailer_mass_kg: Grid,
-    /// trailer centre of gravity behind the hitch h \[m\] (or `trailer_cog_of_axle`)
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub trailer_cog_m: Option<Grid>,
-    /// h relative to the vehicle's trailer axle, h/l \[-\] (or `trailer_cog_m`): the same
-    /// range of tongue loads 1 − h/l for a short and a long trailer
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub trailer_cog_of_axle: Option<Grid>,
-    /// how J2 follows m2
-    #[serde(default)]
-    pub inertia: InertiaScaling,
-    /// tongue loads to draw as lines \[% of trailer weight\]
-    #[serde(default = "default_tongue")]
-    pub tongue_load_lines_pct: Vec<f64>,
-    /// V_crit search range \[m/s\] (numbers, or relative to the vehicle's V_crit,
-    /// `{ of_v_crit = f }`): cells outside are left empty. Omitted: from the lowest to the
-    /// maximum speed (`--max-speed`)
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub v_range_mps: Option<[SpeedSpec; 2]>,
-}
-
-impl LoadingConfig {
-    /// The centres of gravity h \[m\] of the map's rows for a trailer axle at `axle_m`.
-    fn cogs(&self, axle_m: f64) -> Grid {
-        match (self.trailer_cog_m, self.trailer_cog_of_axle) {
-            (Some(g), _) => g,
-            (None, Some(g)) => Grid {
-                min: g.min * axle_m,
-                max: g.max * axle_m,
-                points: g.points,
-            },
-            (None, None) => unreachable!("checked by prepare"),
-        }
-    }
-}
-
-fn default_tongue() -> Vec<f64> {
-    vec![-4.0, 0.0, 4.0, 7.0, 10.0]
-}
-/// Scan step of each cell's V_crit search \[m/s\].
-const SCAN_STEP_MPS: f64 = 0.5;
-
-/// The V_crit search range for this vehicle \[m/s\], and why it is not the config's
-/// (a relative end of a vehicle without V_crit falls back to the limits).
-fn v_range(
-    cfg: &LoadingConfig,
-    vehicle: &AnyVehicleModel,
-    limits: &SpeedLimits,
-) -> Result<([f64; 2], Option<String>), TaskError> {
-    let Some([a, b]) = cfg.v_range_mps else {
-        return Ok(([limits.min_speed_mps, limits.max_speed_mps], None));
-    };
-    let need = a.needs().max(b.needs());
-    let refs = trailer_model::with_plant!(vehicle, m => open_loop_references(m, limits, need))?;
-    let fallback = [limits.min_speed_mps, limits.max_speed_mps];
-    match (a.resolve(&refs), b.resolve(&refs)) {
-        (Ok(lo), Ok(hi)) => Ok(([lo, hi], None)),
-        (ra, rb) => {
-            let why = ra.err().or(rb.err()).map(|u| u.reason).unwrap_or_default();
-            let lo = a.resolve(&refs).unwrap_or(fallback[0]);
-            let hi = b.resolve(&refs).unwrap_or(fallback[1]);
-            Ok((
-                [lo, hi],
-                Some(format!(
-                    "v_range_mps relative to V_crit does not resolve ({why}): the search runs over [{lo}, {hi}] m/s"
-                )),
-            ))
-        }
-    }
-}
 
 /// `summary.json` of `loading` (before the common fields of [`crate::io::Summary`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -206,7 +128,8 @@ fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, Tas
 }
 
 /// Step 2: `v_crit_map.csv` and `v_crit_vs_tongue_load.csv`.
-fn write_tables(out: &OutputDir, m: &LoadingMap, axle_m: f64) -> Result<(), TaskError> {
+fn write_tables(out: &OutputDir, r: &Loading) -> Result<(), TaskError> {
+    let (m, axle_m) = (&r.map, r.axle_m);
     let mut rows = Vec::with_capacity(m.masses.len() * m.cogs.len());
     for (j, &h) in m.cogs.iter().enumerate() {
         for (i, &m2) in m.masses.iter().enumerate() {
@@ -248,12 +171,12 @@ fn draw(
     cfg: &LoadingConfig,
     base: &VehicleSpec,
     who: &str,
-    m: &LoadingMap,
-    opts: &CriticalSpeedOptions,
+    r: &Loading,
 ) -> Result<(), TaskError> {
+    let m = &r.map;
     let (lo, hi) = m.range;
     let (masses, cogs, map, cut) = (&m.masses, &m.cogs, &m.map, &m.cut);
-    let l = trailer_axle(base);
+    let l = r.axle_m;
     let mut map_panel = Panel::new(
         "Critical speed of straight running vs trailer loading",
         "trailer mass m2 [kg]",
@@ -300,7 +223,7 @@ fn draw(
         Some("V_crit"),
     ))
     .with(Layer::markers(
-        vec![(100.0 * vehicle_tongue_load_fraction(base), vehicle_v_crit(base, opts))],
+        vec![(r.tongue_load_pct, r.v_crit_mps)],
         Rgb::RED,
         Some(who),
     ))
@@ -337,49 +260,30 @@ impl Prepared for LoadingTask {
         // the map varies the file's trailer (any model variant: its own plant in every cell;
         // a tandem's l is the mean position of its axles, where their load acts)
         let base = &ctx.spec;
-        let l = trailer_axle(base);
         let who = if ctx.variant_key.is_none() && ctx.vehicle.is_table_i() {
             "Table I"
         } else {
             "this vehicle"
         };
-        let ([v_min, v_max], v_range_reason) = v_range(cfg, &ctx.plant, &ctx.limits)?;
-        let opts = CriticalSpeedOptions {
-            v_min,
-            v_max,
-            scan_step: SCAN_STEP_MPS,
-            tolerance: 1e-6,
-        };
-        let cogs = cfg.cogs(l);
-        ctx.run_staged(TASK.name, "loading: V_crit map", cogs.points as u64, cfg, &self.file, |out| {
-            let m = loading_map(
-                base,
-                cfg.trailer_mass_kg.values(),
-                cogs.values(),
-                cfg.inertia,
-                &opts,
-                &|| ctx.progress.advance(1),
-            );
-            write_tables(out, &m, l)?;
-            draw(out, cfg, base, who, &m, &opts)?;
-            let at = |q: f64| v_crit_at_tongue_load(base, q, cfg.inertia, &opts);
+        let rows = cfg.cogs(1.0).points as u64;
+        ctx.run_staged(TASK.name, "loading: V_crit map", rows, cfg, &self.file, |out| {
+            let r = compute(cfg, base, &ctx.plant, &ctx.limits, ctx.progress)?;
+            write_tables(out, &r)?;
+            draw(out, cfg, base, who, &r)?;
+            let [v_min, v_max] = [r.search.v_min, r.search.v_max];
+            let [at_0, at_5, at_10] = r.v_crit_at_tongue_load_mps;
             let summary = LoadingSummary {
-                tongue_load_pct_table_i: 100.0 * vehicle_tongue_load_fraction(base),
-                v_crit_table_i_mps: vehicle_v_crit(base, &opts),
-                v_crit_at_tongue_load_0pct_mps: at(0.0),
-                v_crit_at_tongue_load_5pct_mps: at(5.0),
-                v_crit_at_tongue_load_10pct_mps: at(10.0),
-                v_crit_map_min_mps: m.range.0,
-                v_crit_map_max_mps: m.range.1,
-                cells_without_critical_speed: m
-                    .map
-                    .iter()
-                    .flatten()
-                    .filter(|v| !v.is_finite())
-                    .count(),
+                tongue_load_pct_table_i: r.tongue_load_pct,
+                v_crit_table_i_mps: r.v_crit_mps,
+                v_crit_at_tongue_load_0pct_mps: at_0,
+                v_crit_at_tongue_load_5pct_mps: at_5,
+                v_crit_at_tongue_load_10pct_mps: at_10,
+                v_crit_map_min_mps: r.map.range.0,
+                v_crit_map_max_mps: r.map.range.1,
+                cells_without_critical_speed: r.cells_without_critical_speed,
                 v_range_mps: [v_min, v_max],
-                trailer_cog_range_m: [cogs.min, cogs.max],
-                v_range_reason: v_range_reason.clone(),
+                trailer_cog_range_m: [r.cogs.min, r.cogs.max],
+                v_range_reason: r.v_range_reason.clone(),
             };
             let mut lines = vec![format!(
                 "V_crit at this vehicle's loading (tongue load {:.1}%) = {:.3} m/s; at 10% tongue load = {:.3} m/s (searched in [{v_min:.3}, {v_max:.3}] m/s)",
@@ -387,7 +291,7 @@ impl Prepared for LoadingTask {
                 summary.v_crit_table_i_mps,
                 summary.v_crit_at_tongue_load_10pct_mps
             )];
-            if let Some(r) = &v_range_reason {
+            if let Some(r) = &r.v_range_reason {
                 lines.push(r.clone());
             }
             Ok((summary, lines))

@@ -1,11 +1,12 @@
 //! `cargo xtask roots --speed V --gain D --delay τ [--count N]`: the N rightmost characteristic roots of
-//! the closed loop (eq. 13) at one point, one `<re> <im>` line each, sorted by decreasing real
-//! part, conjugates both listed (a pair is never split: if the N-th root is complex, its
-//! conjugate is printed as well). Roots are Newton-polished on the exact quasi-polynomial
-//! (relative accuracy ~1e-14, well inside the promised 1e-9).
+//! the closed loop (eq. 13) at one point ([`sway_studies::roots`]), one `<re> <im>` line
+//! each, sorted by decreasing real part, conjugates both listed (a pair is never split: if
+//! the N-th root is complex, its conjugate is printed as well). Roots are Newton-polished on
+//! the exact quasi-polynomial (relative accuracy ~1e-14, well inside the promised 1e-9).
 
 use stability::Complex64;
-use sway::control::{Controller, LinearLoop, LoopModel};
+use sway::control::LoopModel;
+pub use sway_studies::roots::RootsConfig;
 
 use crate::TaskError;
 
@@ -28,41 +29,33 @@ pub fn roots<M: LoopModel + ?Sized>(
     delay: f64,
     count: usize,
 ) -> Result<Vec<Complex64>, TaskError> {
-    validate_args(speed, gain, delay, count)?;
-    let r = sway::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
-    Ok(without_split_pair(r, count))
+    run(model, &RootsConfig::paper(speed, gain, delay, count), None)
 }
 
-/// `r` (count + 1 roots, rightmost first) cut to `count`, or to count + 1 where the last two
-/// are a conjugate pair (a pair is never split).
-fn without_split_pair(mut r: Vec<Complex64>, count: usize) -> Vec<Complex64> {
-    if r.len() > count {
-        let (last, next) = (r[count - 1], r[count]);
-        let pair = last.im != 0.0 && (next - last.conj()).norm() <= 1e-9 * last.norm().max(1.0);
-        r.truncate(if pair { count + 1 } else { count });
-    }
-    r
-}
-
-/// The roots at speed V \[m/s\] and delay τ \[s\] of any controller (structure, actuator,
-/// gains; issue 22) on any plant; the predictor predicts with `prediction` (the vehicle
-/// itself when `None`). For the paper's controller the same quasi-polynomial and root finder
-/// as [`sway::charts::rightmost_roots`] (but at D = 0, where
-/// it lists the open loop's eigenvalues).
+/// The roots of any controller (structure, actuator, gains) on any plant at `cfg`'s speed
+/// and delay ([`sway_studies::roots::compute`]); the predictor predicts with `prediction`
+/// (the vehicle itself when `None`).
 ///
 /// # Errors
-/// As [`validate_args`] (the yaw-rate gain as `--gain`), and
-/// [`sway::SwayError::Numerical`] if the loop cannot be built or its roots confirmed.
-pub fn roots_with_controller<M: LoopModel + ?Sized>(
+/// As [`validate`], and [`sway::SwayError::Numerical`] if the loop cannot be built or its
+/// roots confirmed.
+pub fn run<M: LoopModel + ?Sized>(
     model: &M,
-    controller: &Controller,
-    speed: f64,
-    delay: f64,
-    count: usize,
+    cfg: &RootsConfig,
     prediction: Option<&dyn LoopModel>,
 ) -> Result<Vec<Complex64>, TaskError> {
-    let g = &controller.gains;
-    validate_args(speed, g.yaw_rate, delay, count)?;
+    validate(cfg)?;
+    Ok(sway_studies::roots::compute(model, cfg, prediction)?)
+}
+
+/// Checks a point of `roots`: [`validate_args`] (the yaw-rate gain as `--gain`) and finite
+/// hitch gains.
+///
+/// # Errors
+/// [`TaskError::Config`] naming the command-line option.
+pub fn validate(cfg: &RootsConfig) -> Result<(), TaskError> {
+    let g = &cfg.controller.gains;
+    validate_args(cfg.speed_mps, g.yaw_rate, cfg.delay_s, cfg.count)?;
     if !(g.hitch_angle.is_finite() && g.hitch_rate.is_finite()) {
         return Err(TaskError::config(
             "command line",
@@ -73,20 +66,7 @@ pub fn roots_with_controller<M: LoopModel + ?Sized>(
             ),
         ));
     }
-    let ctx = || {
-        format!(
-            "rightmost roots of the {} loop with {} at V = {speed} m/s, τ = {delay} s",
-            controller.structure.as_str(),
-            controller.actuator.as_str()
-        )
-    };
-    let l = LinearLoop::new(model, controller, speed, delay, prediction)?;
-    // one more root than asked, so that a conjugate pair is never split: if the N-th
-    // root is complex, its conjugate is listed too (N + 1 lines)
-    let r = l
-        .rightmost_roots(count + 1)
-        .map_err(|e| sway::SwayError::numerical(ctx(), e))?;
-    Ok(without_split_pair(r, count))
+    Ok(())
 }
 
 /// Checks the command-line arguments of `roots` (what `--check` validates).

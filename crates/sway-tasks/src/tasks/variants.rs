@@ -1,12 +1,7 @@
-//! `cargo xtask variants` (issue 21, item 7): how the paper's conclusions move when its
-//! simplifications are lifted. For Table I with tyre relaxation σ on every axle
-//! ([`VehicleSpec::table_i_with_relaxation`]) and for the example vehicles of
-//! `configs/vehicles/` (Magic Formula tyres, a tandem trailer axle, hitch friction): the
-//! open-loop V_crit, the fold of cycles V_fold (the cycle branch continued from the Hopf
-//! point on the variant's own plant and corrected on the fold-of-cycles system), the width
-//! of the bistable range V_crit − V_fold, the best gain D\*(τ) with its V_crit (on the
-//! variant's own linearisation) and the θ(0) threshold of sway, each the headline numbers
-//! of the `fleet` task ([`sway_studies::fleet::fleet_entry`]), plus the threshold at one
+//! `cargo xtask variants`: how the paper's conclusions move when its simplifications are
+//! lifted ([`sway_studies::variants`]): for Table I with tyre relaxation σ on every axle and
+//! for the example vehicles of `configs/vehicles/` (Magic Formula tyres, a tandem trailer
+//! axle, hitch friction) the headline numbers of the `fleet` task, plus the threshold at one
 //! speed common to all variants. A number a variant does not have is null with its reason.
 //! The figure: V_crit and V_fold against σ on a finer grid.
 //!
@@ -14,14 +9,12 @@
 //! figure's points), `variants.csv`, `v_crit_v_fold_vs_sigma.csv` and
 //! `v_crit_v_fold_vs_sigma.{svg,png}`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use sway::config::Grid;
-use sway::ranging::{Reference, open_loop_references};
-use sway_studies::fleet::{FleetEntry, FleetOptions, fleet_entry, threshold_at};
-use trailer_model::{AnyVehicleModel, VehicleSpec, with_plant};
+use serde::Serialize;
+use sway_studies::fleet::FleetEntry;
+use sway_studies::variants::{Variants, compute, steps};
+pub use sway_studies::variants::{CurvePoint, VariantRow, VariantsConfig};
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
@@ -35,40 +28,6 @@ pub const TASK: Task = Task::configured::<VariantsConfig>(
     "variants.toml",
 )
 .any_model();
-
-fn default_sigmas() -> Vec<f64> {
-    vec![0.0, 0.3, 0.6]
-}
-
-fn default_curve() -> Grid {
-    Grid {
-        min: 0.0,
-        max: 0.6,
-        points: 13,
-    }
-}
-
-/// `configs/variants.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct VariantsConfig {
-    /// rows of Table I with this relaxation length σ on every axle \[m\] (0: the paper's model)
-    #[serde(default = "default_sigmas")]
-    pub relaxation_lengths_m: Vec<f64>,
-    /// further rows: vehicle files, relative to this file's directory
-    #[serde(default)]
-    pub vehicle_files: Vec<PathBuf>,
-    /// the figure's σ grid \[m\] (V_crit and V_fold only)
-    #[serde(default = "default_curve")]
-    pub curve_relaxation_lengths_m: Grid,
-    /// the θ(0) threshold also at this speed, the same for every row \[m/s\] (below the
-    /// row's V_crit; omitted: not computed)
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub common_speed_mps: Option<f64>,
-    /// what is computed for each row (as `fleet`'s `[headline]`)
-    #[serde(default)]
-    pub headline: FleetOptions,
-}
 
 impl TaskConfig for VariantsConfig {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
@@ -137,42 +96,6 @@ impl TaskConfig for VariantsConfig {
     }
 }
 
-/// One row of the table.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct VariantRow {
-    /// what differs from Table I (`"Table I"`, `"σ = 0.3 m on every axle"`, the file)
-    pub variant: String,
-    /// the relaxation length on every axle \[m\] (rows of `relaxation_lengths_m`)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub relaxation_length_m: Option<f64>,
-    /// the vehicle file (rows of `vehicle_files`), as written in the config
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub vehicle_file: Option<String>,
-    /// reduced states of its plant (4: the paper's model)
-    pub states: usize,
-    /// the headline numbers (V_crit, V_fold, bistable width, D\*, threshold; `reasons`)
-    #[serde(flatten)]
-    pub entry: FleetEntry,
-    /// the θ(0) threshold at `common_speed_mps` \[deg\] (null: see `reasons`)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub theta0_threshold_at_common_speed_deg: Option<f64>,
-}
-
-/// One point of the figure (a row of `v_crit_v_fold_vs_sigma.csv`).
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
-pub struct CurvePoint {
-    /// σ on every axle \[m\]
-    pub relaxation_length_m: f64,
-    /// open-loop V_crit \[m/s\]
-    pub v_crit_mps: Option<f64>,
-    /// fold of cycles \[m/s\]
-    pub v_fold_mps: Option<f64>,
-    /// V_crit − V_fold \[m/s\]
-    pub bistable_width_mps: Option<f64>,
-    /// why a number is null (null: none is)
-    pub reason: Option<String>,
-}
-
 /// `summary.json`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct VariantsSummary {
@@ -199,81 +122,6 @@ struct CsvRow {
     theta0_threshold_deg: Option<f64>,
     theta0_threshold_at_common_speed_deg: Option<f64>,
     reasons: String,
-}
-
-/// A row to compute: its name, σ or file, and plant.
-struct Row {
-    variant: String,
-    sigma: Option<f64>,
-    file: Option<String>,
-    plant: AnyVehicleModel,
-}
-
-/// The plant of Table I with σ on every axle.
-fn relaxed(sigma: f64) -> Result<AnyVehicleModel, TaskError> {
-    AnyVehicleModel::new(&VehicleSpec::table_i_with_relaxation(sigma))
-        .map_err(|e| TaskError::numerical(format!("Table I with σ = {sigma} m"), e))
-}
-
-fn row_name(sigma: f64) -> String {
-    if sigma == 0.0 {
-        "Table I (paper's model)".into()
-    } else {
-        format!("σ = {sigma} m on every axle")
-    }
-}
-
-/// The headline numbers of one row, with the threshold at the common speed.
-fn compute_row(
-    row: &Row,
-    cfg: &VariantsConfig,
-    ctx: &TaskContext<'_>,
-) -> Result<VariantRow, TaskError> {
-    let mut entry = fleet_entry(&row.plant, &ctx.limits, &cfg.headline)?;
-    let mut common = None;
-    if let Some(v) = cfg.common_speed_mps {
-        match entry.v_crit_mps {
-            Some(vc) if v >= vc => entry.reasons.push(format!(
-                "the common speed {v} m/s is not below V_crit: straight running is unstable there, no threshold"
-            )),
-            _ => {
-                common = threshold_at(&row.plant, v, &cfg.headline)?;
-                if common.is_none() {
-                    let below = match entry.v_fold_mps {
-                        Some(f) if v < f => format!(" (below its fold of cycles V_fold = {f:.4} m/s: no sway cycle there)"),
-                        _ => String::new(),
-                    };
-                    entry.reasons.push(format!(
-                        "no θ(0) up to {}° ends in sustained sway at the common speed {v} m/s{below}",
-                        cfg.headline.theta0_deg[1]
-                    ));
-                }
-            }
-        }
-    }
-    ctx.progress.advance(1);
-    Ok(VariantRow {
-        variant: row.variant.clone(),
-        relaxation_length_m: row.sigma,
-        vehicle_file: row.file.clone(),
-        states: row.plant.states(),
-        entry,
-        theta0_threshold_at_common_speed_deg: common,
-    })
-}
-
-/// V_crit and V_fold of Table I with σ on every axle.
-fn curve_point(sigma: f64, ctx: &TaskContext<'_>) -> Result<CurvePoint, TaskError> {
-    let plant = relaxed(sigma)?;
-    let r = with_plant!(&plant, m => open_loop_references(m, &ctx.limits, Reference::Fold))?;
-    ctx.progress.advance(1);
-    Ok(CurvePoint {
-        relaxation_length_m: sigma,
-        v_crit_mps: r.v_crit_mps,
-        v_fold_mps: r.v_fold_mps,
-        bistable_width_mps: r.v_crit_mps.zip(r.v_fold_mps).map(|(c, f)| c - f),
-        reason: r.reason,
-    })
 }
 
 fn cell(v: Option<f64>, digits: usize) -> String {
@@ -354,49 +202,20 @@ impl Prepared for Configured<VariantsConfig> {
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
         let dir = self.file.parent().unwrap_or(Path::new("."));
-        let mut rows = Vec::new();
-        for &sigma in &cfg.relaxation_lengths_m {
-            rows.push(Row {
-                variant: row_name(sigma),
-                sigma: Some(sigma),
-                file: None,
-                plant: relaxed(sigma)?,
-            });
-        }
-        for f in &cfg.vehicle_files {
-            rows.push(Row {
-                variant: f
-                    .file_stem()
-                    .map_or_else(|| f.display().to_string(), |s| s.to_string_lossy().into()),
-                sigma: None,
-                file: Some(f.display().to_string()),
-                plant: load_vehicle_spec(&dir.join(f))?.plant,
-            });
-        }
-        let sigmas = cfg.curve_relaxation_lengths_m.values();
-        let steps = (rows.len() + sigmas.len()) as u64;
+        let files = cfg
+            .vehicle_files
+            .iter()
+            .map(|f| Ok(load_vehicle_spec(&dir.join(f))?.plant))
+            .collect::<Result<Vec<_>, TaskError>>()?;
         ctx.run_staged(
             TASK.name,
             "variants: headline numbers per model variant",
-            steps,
+            steps(cfg),
             cfg,
             &self.file,
             |out| {
-                let (table, curve) = rayon::join(
-                    || {
-                        rows.par_iter()
-                            .map(|r| compute_row(r, cfg, ctx))
-                            .collect::<Vec<_>>()
-                    },
-                    || {
-                        sigmas
-                            .par_iter()
-                            .map(|&s| curve_point(s, ctx))
-                            .collect::<Vec<_>>()
-                    },
-                );
-                let table = table.into_iter().collect::<Result<Vec<_>, _>>()?;
-                let curve = curve.into_iter().collect::<Result<Vec<_>, _>>()?;
+                let Variants { rows: table, curve } =
+                    compute(cfg, &files, &ctx.limits, ctx.progress)?;
                 out.write_table(
                     "variants.csv",
                     table.iter().map(|r| CsvRow {

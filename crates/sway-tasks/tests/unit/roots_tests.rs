@@ -80,7 +80,13 @@ fn controller_roots_of_a_relaxed_vehicle_satisfy_the_loop_equation() {
         },
     };
     let (v, tau) = (40.0, 0.4);
-    let r = roots_with_controller(&plant, &c, v, tau, 4, None).unwrap();
+    let point = RootsConfig {
+        speed_mps: v,
+        delay_s: tau,
+        count: 4,
+        controller: c,
+    };
+    let r = run(&plant, &point, None).unwrap();
     let lin = plant.loop_linearization(v);
     let k = loop_output_row(&lin, c.structure, &c.gains);
     let bk = &lin.b_yaw_moment * &k;

@@ -23,6 +23,7 @@ use continuation::{
     PeriodicOrbitSystem, Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
+use sway_model::config::Omittable;
 use sway_model::vehicle::Vehicle;
 use trailer_model::HITCH_ANGLE;
 
@@ -38,14 +39,26 @@ pub use ranged::{
     cycle_diagram_with_law, cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
 };
 
-/// Options of the bifurcation diagram of one feedback setting.
+/// The settings of the bifurcation diagram of one feedback setting, with the ends of its
+/// speed range as `S` and the derived end of its cycle branch as `B`: [`DiagramOptions`] on
+/// a given range (`S` = f64, `B` = `()`: none), [`DiagramSettings`] as a config gives them
+/// (`S` = `Option<f64>`: an omitted end derived from the vehicle; `B` = f64). An omitted
+/// value is not serialised ([`Omittable`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct DiagramOptions {
-    /// lowest speed of the diagram \[m/s\] (start of the straight-running branch)
-    pub v_min_mps: f64,
-    /// highest speed of the diagram \[m/s\]
-    pub v_max_mps: f64,
+pub struct DiagramSpec<S: Omittable, B: Omittable> {
+    /// lowest speed of the diagram \[m/s\] (start of the straight-running branch; in
+    /// [`DiagramSettings`] omitted: derived from the vehicle)
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub v_min_mps: S,
+    /// highest speed of the diagram \[m/s\] (in [`DiagramSettings`] omitted: derived from
+    /// the vehicle)
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub v_max_mps: S,
+    /// with `v_max_mps` omitted, the cycle branch is followed until V ≥ (1 + this)·V_Hopf
+    /// \[-\] ([`DiagramSettings`]; a given range has none)
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub beyond_hopf: B,
     /// mesh intervals L of the periodic orbits
     pub intervals: usize,
     /// collocation degree m
@@ -57,7 +70,7 @@ pub struct DiagramOptions {
     pub initial_step: f64,
     /// largest continuation step
     pub max_step: f64,
-    /// at most this many cycle points
+    /// at most this many cycle points (the point budget)
     pub max_cycle_points: usize,
     /// degree of the Chebyshev collocation for characteristic roots (delayed case)
     pub root_degree: usize,
@@ -70,6 +83,35 @@ pub struct DiagramOptions {
     /// branch's shape, e.g. a fold-of-cycles speed: no stability, much cheaper at long
     /// delays)
     pub floquet_multipliers: FloquetMultipliers,
+}
+
+/// Options of the bifurcation diagram of one feedback setting on a given speed range.
+pub type DiagramOptions = DiagramSpec<f64, ()>;
+
+impl<S: Omittable, B: Omittable> DiagramSpec<S, B> {
+    /// These settings with the speed range `v_min_mps`, `v_max_mps` and the derived end
+    /// `beyond_hopf` in place of theirs.
+    pub fn with_range<T: Omittable, C: Omittable>(
+        &self,
+        v_min_mps: T,
+        v_max_mps: T,
+        beyond_hopf: C,
+    ) -> DiagramSpec<T, C> {
+        DiagramSpec {
+            v_min_mps,
+            v_max_mps,
+            beyond_hopf,
+            intervals: self.intervals,
+            degree: self.degree,
+            hopf_amplitude: self.hopf_amplitude,
+            initial_step: self.initial_step,
+            max_step: self.max_step,
+            max_cycle_points: self.max_cycle_points,
+            root_degree: self.root_degree,
+            cycle_branch_points: self.cycle_branch_points,
+            floquet_multipliers: self.floquet_multipliers,
+        }
+    }
 }
 
 /// Whether a branch watches the sign of the bordered determinant for branch points.
@@ -102,6 +144,7 @@ impl Default for DiagramOptions {
         Self {
             v_min_mps: 25.0,
             v_max_mps: 45.0,
+            beyond_hopf: (),
             intervals: 60,
             degree: 4,
             hopf_amplitude: 1e-3,

@@ -22,14 +22,14 @@ use serde::{Deserialize, Serialize};
 use sway_model::vehicle::Vehicle;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, LoopLaw, SPEED,
-    collocation, fold_of, num, root_finder, summarise,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, DiagramSpec, Feedback,
+    LoopLaw, SPEED, collocation, fold_of, num, root_finder, summarise,
 };
 use crate::SwayError;
 use crate::sim::LossOfControl;
 use sway_model::speeds::SpeedLimits;
 
-/// Default of [`DiagramSettings::beyond_hopf`]: the cycle branch is followed to 1.3·V_Hopf.
+/// Default of [`DiagramSpec::beyond_hopf`] in [`DiagramSettings`]: the cycle branch is followed to 1.3·V_Hopf.
 pub const BEYOND_HOPF: f64 = 0.3;
 
 /// Width of the straight-running margin below the lowest speed of the cycle branch in the
@@ -43,36 +43,7 @@ pub const MARGIN_BELOW: f64 = 0.2;
 /// speed of the limits; the figure starts 0.2·V_Hopf below the lowest speed of the cycle
 /// branch. `v_max_mps` omitted: derived from the vehicle: the cycle branch ends once it has
 /// passed (1 + `beyond_hopf`)·V_Hopf (or at the maximum speed, the guard, the budget).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DiagramSettings {
-    /// lowest speed of the diagram \[m/s\] (omitted: derived from the vehicle)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub v_min_mps: Option<f64>,
-    /// highest speed of the diagram \[m/s\] (omitted: derived from the vehicle)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub v_max_mps: Option<f64>,
-    /// with `v_max_mps` omitted, the cycle branch is followed until V ≥ (1 + this)·V_Hopf \[-\]
-    pub beyond_hopf: f64,
-    /// mesh intervals L of the periodic orbits
-    pub intervals: usize,
-    /// collocation degree m
-    pub degree: usize,
-    /// amplitude of the first cycle along the critical eigenvector
-    pub hopf_amplitude: f64,
-    /// first continuation step (weighted arclength)
-    pub initial_step: f64,
-    /// largest continuation step
-    pub max_step: f64,
-    /// at most this many cycle points (the point budget)
-    pub max_cycle_points: usize,
-    /// degree of the Chebyshev collocation for characteristic roots (delayed case)
-    pub root_degree: usize,
-    /// "watch" or "ignore" branch points of cycles
-    pub cycle_branch_points: BranchPointTest,
-    /// "every_point" or "on_request": the cycles' Floquet multipliers
-    pub floquet_multipliers: continuation::FloquetMultipliers,
-}
+pub type DiagramSettings = DiagramSpec<Option<f64>, f64>;
 
 impl Default for DiagramSettings {
     /// fig3a's settings ([`DiagramOptions::default`]) with the range derived
@@ -103,37 +74,12 @@ impl DiagramSettings {
 
     /// The settings of `o` on `range` \[m/s\] (None: the range derived from the vehicle).
     pub fn from_options(o: &DiagramOptions, range: Option<(f64, f64)>) -> Self {
-        Self {
-            v_min_mps: range.map(|r| r.0),
-            v_max_mps: range.map(|r| r.1),
-            beyond_hopf: BEYOND_HOPF,
-            intervals: o.intervals,
-            degree: o.degree,
-            hopf_amplitude: o.hopf_amplitude,
-            initial_step: o.initial_step,
-            max_step: o.max_step,
-            max_cycle_points: o.max_cycle_points,
-            root_degree: o.root_degree,
-            cycle_branch_points: o.cycle_branch_points,
-            floquet_multipliers: o.floquet_multipliers,
-        }
+        o.with_range(range.map(|r| r.0), range.map(|r| r.1), BEYOND_HOPF)
     }
 
     /// These settings on the speed range [v_min, v_max] \[m/s\].
     pub fn options(&self, v_min_mps: f64, v_max_mps: f64) -> DiagramOptions {
-        DiagramOptions {
-            v_min_mps,
-            v_max_mps,
-            intervals: self.intervals,
-            degree: self.degree,
-            hopf_amplitude: self.hopf_amplitude,
-            initial_step: self.initial_step,
-            max_step: self.max_step,
-            max_cycle_points: self.max_cycle_points,
-            root_degree: self.root_degree,
-            cycle_branch_points: self.cycle_branch_points,
-            floquet_multipliers: self.floquet_multipliers,
-        }
+        self.with_range(v_min_mps, v_max_mps, ())
     }
 
     /// The speeds searched \[m/s\]: the config's numbers, else the limits'.

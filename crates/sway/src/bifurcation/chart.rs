@@ -667,7 +667,14 @@ fn criticality_at<P: Vehicle<N>, const N: usize>(
         return Ok(None);
     }
     let co = o.cycle_options();
-    let (_, _, crit) = cycles_from_hopf(problem, &params, &hopf, &co, o.criticality_cycle_points)?;
+    let (_, _, crit) = cycles_from_hopf(
+        problem,
+        &params,
+        &hopf,
+        &co,
+        o.criticality_cycle_points,
+        CycleExtent::WholeRange,
+    )?;
     Ok(Some(crit))
 }
 

@@ -489,36 +489,6 @@ pub enum CycleExtent {
     FirstFold,
 }
 
-/// The cycle branch born at `hopf` continued in V for at most `max_points` points (or
-/// until it leaves [v_min, v_max]), and the criticality it shows.
-///
-/// # Errors
-/// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
-/// leave the Hopf point.
-pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
-    problem: &'a ClosedLoop<'a, P, N>,
-    params: &[f64],
-    hopf: &HopfPoint,
-    o: &DiagramOptions,
-    max_points: usize,
-) -> Result<
-    (
-        PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
-        Branch,
-        Criticality,
-    ),
-    SwayError,
-> {
-    cycles_from_hopf_until(
-        problem,
-        params,
-        hopf,
-        o,
-        max_points,
-        CycleExtent::WholeRange,
-    )
-}
-
 /// The first cycle of the branch born at `hopf`, at `amplitude` along the critical
 /// eigenvector; where Newton does not converge from it (a branch that bends sharply, or a
 /// Hopf bubble smaller than the amplitude: the normal form's guess is good only closer to
@@ -540,11 +510,13 @@ pub(crate) fn first_cycle<'a, P: Vehicle<N>, const N: usize>(
     first
 }
 
-/// [`cycles_from_hopf`] continued as far as `extent` says.
+/// The cycle branch born at `hopf` continued in V for at most `max_points` points (or
+/// until it leaves [v_min, v_max]) as far as `extent` says, and the criticality it shows.
 ///
 /// # Errors
-/// As [`cycles_from_hopf`].
-pub fn cycles_from_hopf_until<'a, P: Vehicle<N>, const N: usize>(
+/// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
+/// leave the Hopf point.
+pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
@@ -668,7 +640,7 @@ pub fn bifurcation_diagram_with_law<P: Vehicle<N>, const N: usize>(
     let (equilibria, hopf) =
         straight_running(&problem, &params, (o.v_min_mps, o.v_max_mps), o.root_degree)?;
     let (po, cycles, crit) =
-        cycles_from_hopf_until(&problem, &params, &hopf, o, o.max_cycle_points, extent)?;
+        cycles_from_hopf(&problem, &params, &hopf, o, o.max_cycle_points, extent)?;
     let cycle_summary: Vec<CycleSummary> = cycles
         .points
         .iter()

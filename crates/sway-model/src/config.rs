@@ -59,6 +59,39 @@ pub fn ensure_time_span(
     )
 }
 
+/// A config value that a table may omit, so that one struct serves both with its numbers
+/// given and with them optional (`#[serde(skip_serializing_if = "Omittable::is_omitted")]`):
+/// an `Option` is omitted when None, `()` (a key the struct does not take) always, a given
+/// value never.
+pub trait Omittable {
+    /// Whether the key is left out of the serialised table.
+    fn is_omitted(&self) -> bool;
+}
+
+impl<T> Omittable for Option<T> {
+    fn is_omitted(&self) -> bool {
+        self.is_none()
+    }
+}
+
+impl Omittable for () {
+    fn is_omitted(&self) -> bool {
+        true
+    }
+}
+
+impl Omittable for f64 {
+    fn is_omitted(&self) -> bool {
+        false
+    }
+}
+
+impl<T> Omittable for Vec<T> {
+    fn is_omitted(&self) -> bool {
+        false
+    }
+}
+
 /// A finite number > 0. It validates itself when deserialised, so a bad value in a config
 /// file is reported at its key path (`metrics.final_window_s`) with no validation code in
 /// the config that holds it.

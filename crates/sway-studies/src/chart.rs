@@ -3,7 +3,8 @@
 //! curves at the summary gains and the bistable width; the box, the seeds and the summary
 //! gains derived from the vehicle where the config omits them
 //! ([`sway::charts::auto_range`]). Also the `[chart]` table that `corners` and
-//! `gain_design` share ([`ChartConfig`]).
+//! `gain_design` share ([`ChartConfig`], the config form of
+//! [`sway::bifurcation::chart::ChartOptions`]).
 
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
@@ -11,157 +12,11 @@ use sway::control::LoopModel;
 use sway::parallel::{Split, join, map, try_map};
 use sway_model::vehicle::Vehicle;
 
-use continuation::{MeshAdaptation, NewtonUpdate};
 use sway::SwayError;
-use sway::bifurcation::DiagramOptions;
+pub use sway::bifurcation::chart::ChartConfig;
 use sway::bifurcation::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
-use sway::charts::auto_range::{
-    BoxKeys, Derivation, SpeedBounds, SpeedGainBox, middle, nonlinear_box, seed_gains,
-    summary_gains,
-};
+use sway::charts::auto_range::{Derivation, SpeedBounds, middle, summary_gains};
 use sway::charts::fig4a_charts;
-
-/// The `[chart]` table of a config: [`ChartOptions`] with the box and the seeds optional
-/// (derived from the vehicle where omitted).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ChartConfig {
-    /// lower speed of the box \[m/s\] (omitted: derived)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub v_min_mps: Option<f64>,
-    /// upper speed of the box \[m/s\] (omitted: derived)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub v_max_mps: Option<f64>,
-    /// lower gain of the box \[s\] (omitted: derived)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub d_min_s: Option<f64>,
-    /// upper gain of the box \[s\] (omitted: derived)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub d_max_s: Option<f64>,
-    /// seed gains \[s\] (omitted: the middle, the top and the bottom of the gain range)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub seed_gains_s: Option<Vec<f64>>,
-    /// see [`ChartOptions::hopf_step`]
-    pub hopf_step: f64,
-    /// see [`ChartOptions::hopf_max_step`]
-    pub hopf_max_step: f64,
-    /// see [`ChartOptions::hopf_max_points`]
-    pub hopf_max_points: usize,
-    /// see [`ChartOptions::fold_step`]
-    pub fold_step: f64,
-    /// see [`ChartOptions::fold_max_step`]
-    pub fold_max_step: f64,
-    /// see [`ChartOptions::fold_max_points`]
-    pub fold_max_points: usize,
-    /// see [`ChartOptions::curve_min_tangent_cosine`]
-    pub curve_min_tangent_cosine: f64,
-    /// see [`ChartOptions::curve_target_newton_iterations`]
-    pub curve_target_newton_iterations: usize,
-    /// see [`ChartOptions::curve_newton`]
-    pub curve_newton: NewtonUpdate,
-    /// see [`ChartOptions::criticality_samples`]
-    pub criticality_samples: usize,
-    /// see [`ChartOptions::criticality_cycle_points`]
-    pub criticality_cycle_points: usize,
-    /// see [`ChartOptions::fold_min_amplitude`]
-    pub fold_min_amplitude: f64,
-    /// the cycles (their speed range is replaced by the box's)
-    pub cycles: DiagramOptions,
-    /// see [`ChartOptions::fold_mesh`]
-    pub fold_mesh: MeshAdaptation,
-}
-
-impl Default for ChartConfig {
-    fn default() -> Self {
-        Self::from_options(&ChartOptions::default(), false)
-    }
-}
-
-impl ChartConfig {
-    /// The table of `o`, with the box and the seeds given (`given`) or left to derive.
-    pub fn from_options(o: &ChartOptions, given: bool) -> Self {
-        let g = |x: f64| given.then_some(x);
-        Self {
-            v_min_mps: g(o.v_min_mps),
-            v_max_mps: g(o.v_max_mps),
-            d_min_s: g(o.d_min_s),
-            d_max_s: g(o.d_max_s),
-            seed_gains_s: given.then(|| o.seed_gains_s.clone()),
-            hopf_step: o.hopf_step,
-            hopf_max_step: o.hopf_max_step,
-            hopf_max_points: o.hopf_max_points,
-            fold_step: o.fold_step,
-            fold_max_step: o.fold_max_step,
-            fold_max_points: o.fold_max_points,
-            curve_min_tangent_cosine: o.curve_min_tangent_cosine,
-            curve_target_newton_iterations: o.curve_target_newton_iterations,
-            curve_newton: o.curve_newton,
-            criticality_samples: o.criticality_samples,
-            criticality_cycle_points: o.criticality_cycle_points,
-            fold_min_amplitude: o.fold_min_amplitude,
-            cycles: o.cycles.clone(),
-            fold_mesh: o.fold_mesh,
-        }
-    }
-
-    /// The box keys as given.
-    pub fn box_keys(&self) -> BoxKeys {
-        BoxKeys {
-            v_min_mps: self.v_min_mps,
-            v_max_mps: self.v_max_mps,
-            d_min_s: self.d_min_s,
-            d_max_s: self.d_max_s,
-        }
-    }
-
-    /// The chart options with box `b` and seeds `seeds`.
-    pub fn options(&self, b: &SpeedGainBox, seeds: Vec<f64>) -> ChartOptions {
-        ChartOptions {
-            v_min_mps: b.v_min_mps,
-            v_max_mps: b.v_max_mps,
-            d_min_s: b.d_min_s,
-            d_max_s: b.d_max_s,
-            seed_gains_s: seeds,
-            hopf_step: self.hopf_step,
-            hopf_max_step: self.hopf_max_step,
-            hopf_max_points: self.hopf_max_points,
-            fold_step: self.fold_step,
-            fold_max_step: self.fold_max_step,
-            fold_max_points: self.fold_max_points,
-            curve_min_tangent_cosine: self.curve_min_tangent_cosine,
-            curve_target_newton_iterations: self.curve_target_newton_iterations,
-            curve_newton: self.curve_newton,
-            criticality_samples: self.criticality_samples,
-            criticality_cycle_points: self.criticality_cycle_points,
-            fold_min_amplitude: self.fold_min_amplitude,
-            cycles: self.cycles.clone(),
-            fold_mesh: self.fold_mesh,
-        }
-    }
-
-    /// The chart options over `delays` \[s\]: the given box keys and seeds, the others
-    /// derived ([`nonlinear_box`], [`seed_gains`]); keys named with `prefix`.
-    ///
-    /// # Errors
-    /// [`SwayError::Numerical`] from the derivation.
-    pub fn resolve<M: LoopModel + ?Sized>(
-        &self,
-        model: &M,
-        delays: &[f64],
-        b: &SpeedBounds,
-        prefix: &str,
-    ) -> Result<(ChartOptions, Derivation), SwayError> {
-        let (bx, mut der) = nonlinear_box(model, &self.box_keys(), delays, b, prefix)?;
-        let seeds = match &self.seed_gains_s {
-            Some(s) => s.clone(),
-            None => {
-                der.derived_keys.push(format!("{prefix}seed_gains_s"));
-                seed_gains((bx.d_min_s, bx.d_max_s))
-            }
-        };
-        Ok((self.options(&bx, seeds), der))
-    }
-}
 
 /// The shading grid (cells of the linear stability chart, exact unstable-root counts).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

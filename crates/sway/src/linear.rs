@@ -148,21 +148,29 @@ impl Default for SensitivityOptions {
     }
 }
 
-/// V_crit of `params`, searched in `around ± window` \[m/s\].
-fn v_crit_near(
-    params: &VehicleParams,
+/// V_crit of `model`, searched in `around ± window` \[m/s\].
+fn v_crit_near<M: LoopModel + ?Sized>(
+    model: &M,
     around: f64,
     window: f64,
     tolerance: f64,
 ) -> Result<f64, SwayError> {
-    let model = Model::new(*params)?;
     let opts = CriticalSpeedOptions {
         v_min: (around - window).max(0.5),
         v_max: around + window,
         scan_step: 0.25,
         tolerance,
     };
-    Ok(model.critical_speed(&opts)?.v_crit_mps)
+    match LoopModel::critical_speed_search(model, &opts)? {
+        Some(c) => Ok(c.v_crit_mps),
+        None => Err(SwayError::Model(
+            trailer_model::ModelError::NoCriticalSpeed {
+                v_min: opts.v_min,
+                v_max: opts.v_max,
+                detail: "straight running stays stable up to v_max",
+            },
+        )),
+    }
 }
 
 /// dV_crit/dp for every parameter of [`PARAMETERS`] by central differences of V_crit
@@ -177,14 +185,43 @@ pub fn sensitivities(
     opts: &SensitivityOptions,
     tolerance: f64,
 ) -> Result<Vec<Sensitivity>, SwayError> {
+    central_differences(
+        params,
+        v_crit,
+        opts,
+        |i, value| Some(params.with(i, value)),
+        |p| v_crit_near(&Model::new(*p)?, v_crit, 3.0, tolerance),
+    )
+}
+
+/// dV_crit/dp for every parameter of [`PARAMETERS`] about its value in `params`: the
+/// vehicle with parameter i changed to a value is `changed(i, value)` (None: it has no
+/// such key, the sensitivity NaN), its V_crit `v_crit_of` it.
+fn central_differences<T>(
+    params: &VehicleParams,
+    v_crit: f64,
+    opts: &SensitivityOptions,
+    changed: impl Fn(usize, f64) -> Option<T>,
+    v_crit_of: impl Fn(&T) -> Result<f64, SwayError>,
+) -> Result<Vec<Sensitivity>, SwayError> {
     PARAMETERS
         .iter()
         .enumerate()
         .map(|(i, &(key, symbol, unit))| {
             let value = params.get(i);
             let h = opts.relative_step * value;
-            let up = v_crit_near(&params.with(i, value + h), v_crit, 3.0, tolerance)?;
-            let down = v_crit_near(&params.with(i, value - h), v_crit, 3.0, tolerance)?;
+            let (Some(up), Some(down)) = (changed(i, value + h), changed(i, value - h)) else {
+                return Ok(Sensitivity {
+                    key,
+                    symbol,
+                    unit,
+                    value,
+                    dv_crit_dp: f64::NAN,
+                    elasticity: f64::NAN,
+                });
+            };
+            let up = v_crit_of(&up)?;
+            let down = v_crit_of(&down)?;
             let d = (up - down) / (2.0 * h);
             Ok(Sensitivity {
                 key,
@@ -210,10 +247,27 @@ pub fn v_crit_curve(
     values: &[f64],
     around: f64,
 ) -> Result<Vec<(f64, Option<f64>)>, SwayError> {
+    curve(
+        values,
+        |p| Some(params.with(index, p)),
+        |changed| v_crit_near(&Model::new(*changed)?, around, 0.9 * around, 1e-9),
+    )
+}
+
+/// V_crit of the vehicle `changed(p)` for each p of `values` (`v_crit_of` it); None where
+/// the vehicle has no such key or no critical speed in the searched window.
+fn curve<T>(
+    values: &[f64],
+    changed: impl Fn(f64) -> Option<T>,
+    v_crit_of: impl Fn(&T) -> Result<f64, SwayError>,
+) -> Result<Vec<(f64, Option<f64>)>, SwayError> {
     values
         .iter()
         .map(|&p| {
-            let v = match v_crit_near(&params.with(index, p), around, 0.9 * around, 1e-9) {
+            let Some(changed) = changed(p) else {
+                return Ok((p, None));
+            };
+            let v = match v_crit_of(&changed) {
                 Ok(v) => Some(v),
                 Err(SwayError::Model(trailer_model::ModelError::NoCriticalSpeed { .. })) => None,
                 Err(e) => return Err(e),
@@ -221,32 +275,6 @@ pub fn v_crit_curve(
             Ok((p, v))
         })
         .collect()
-}
-
-/// V_crit of the vehicle file `spec` (any form), searched in `around ± window` \[m/s\].
-fn v_crit_near_spec(
-    spec: &VehicleSpec,
-    around: f64,
-    window: f64,
-    tolerance: f64,
-) -> Result<f64, SwayError> {
-    let model = AnyVehicleModel::new(spec)?;
-    let opts = CriticalSpeedOptions {
-        v_min: (around - window).max(0.5),
-        v_max: around + window,
-        scan_step: 0.25,
-        tolerance,
-    };
-    match LoopModel::critical_speed_search(&model, &opts)? {
-        Some(c) => Ok(c.v_crit_mps),
-        None => Err(SwayError::Model(
-            trailer_model::ModelError::NoCriticalSpeed {
-                v_min: opts.v_min,
-                v_max: opts.v_max,
-                detail: "straight running stays stable up to v_max",
-            },
-        )),
-    }
 }
 
 /// [`sensitivities`] of a vehicle file of any form (tyre relaxation, tyre laws, axle
@@ -263,39 +291,13 @@ pub fn sensitivities_spec(
     opts: &SensitivityOptions,
     tolerance: f64,
 ) -> Result<Vec<Sensitivity>, SwayError> {
-    let params = spec.equivalent_params()?;
-    PARAMETERS
-        .iter()
-        .enumerate()
-        .map(|(i, &(key, symbol, unit))| {
-            let value = params.get(i);
-            let h = opts.relative_step * value;
-            let (Ok(up), Ok(down)) = (
-                spec.with_parameter(i, value + h),
-                spec.with_parameter(i, value - h),
-            ) else {
-                return Ok(Sensitivity {
-                    key,
-                    symbol,
-                    unit,
-                    value,
-                    dv_crit_dp: f64::NAN,
-                    elasticity: f64::NAN,
-                });
-            };
-            let up = v_crit_near_spec(&up, v_crit, 3.0, tolerance)?;
-            let down = v_crit_near_spec(&down, v_crit, 3.0, tolerance)?;
-            let d = (up - down) / (2.0 * h);
-            Ok(Sensitivity {
-                key,
-                symbol,
-                unit,
-                value,
-                dv_crit_dp: d,
-                elasticity: d * value / v_crit,
-            })
-        })
-        .collect()
+    central_differences(
+        &spec.equivalent_params()?,
+        v_crit,
+        opts,
+        |i, value| spec.with_parameter(i, value).ok(),
+        |s| v_crit_near(&AnyVehicleModel::new(s)?, v_crit, 3.0, tolerance),
+    )
 }
 
 /// [`v_crit_curve`] of a vehicle file of any form; every value None where the file does
@@ -309,20 +311,11 @@ pub fn v_crit_curve_spec(
     values: &[f64],
     around: f64,
 ) -> Result<Vec<(f64, Option<f64>)>, SwayError> {
-    values
-        .iter()
-        .map(|&p| {
-            let Ok(changed) = spec.with_parameter(index, p) else {
-                return Ok((p, None));
-            };
-            let v = match v_crit_near_spec(&changed, around, 0.9 * around, 1e-9) {
-                Ok(v) => Some(v),
-                Err(SwayError::Model(trailer_model::ModelError::NoCriticalSpeed { .. })) => None,
-                Err(e) => return Err(e),
-            };
-            Ok((p, v))
-        })
-        .collect()
+    curve(
+        values,
+        |p| spec.with_parameter(index, p).ok(),
+        |changed| v_crit_near(&AnyVehicleModel::new(changed)?, around, 0.9 * around, 1e-9),
+    )
 }
 
 /// Index of a parameter of [`PARAMETERS`] by its paper symbol.

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 pub mod resolve;
 
-use trailer_model::{CriticalSpeedOptions, Plant};
+use trailer_model::{CriticalSpeed, CriticalSpeedOptions, ModelError, Plant};
 
 use crate::SwayError;
 
@@ -149,17 +149,30 @@ pub fn open_loop_critical_speed<P: Plant<N>, const N: usize>(
     model: &P,
     limits: &SpeedLimits,
 ) -> Result<OpenLoopStability, SwayError> {
-    Ok(
-        match model.critical_speed_search(&limits.critical_speed_options())? {
-            Some(c) => OpenLoopStability::Critical {
-                v_crit_mps: c.v_crit_mps,
-                hopf_omega_rad_s: c.hopf_omega_rad_s,
-            },
-            None => OpenLoopStability::StableUpTo {
-                stable_up_to_mps: limits.max_speed_mps,
-            },
+    open_loop_stability_by(limits, |o| model.critical_speed_search(o))
+}
+
+/// [`open_loop_critical_speed`] with the search given: `search` answers the options of
+/// `limits` ([`SpeedLimits::critical_speed_options`]) as [`Plant::critical_speed_search`]
+/// does (a vehicle's, or
+/// [`LoopModel::critical_speed_search`](crate::vehicle::LoopModel::critical_speed_search) of
+/// any plant).
+///
+/// # Errors
+/// [`SwayError::Model`] from the search.
+pub fn open_loop_stability_by(
+    limits: &SpeedLimits,
+    search: impl FnOnce(&CriticalSpeedOptions) -> Result<Option<CriticalSpeed>, ModelError>,
+) -> Result<OpenLoopStability, SwayError> {
+    Ok(match search(&limits.critical_speed_options())? {
+        Some(c) => OpenLoopStability::Critical {
+            v_crit_mps: c.v_crit_mps,
+            hopf_omega_rad_s: c.hopf_omega_rad_s,
         },
-    )
+        None => OpenLoopStability::StableUpTo {
+            stable_up_to_mps: limits.max_speed_mps,
+        },
+    })
 }
 
 /// A speed in a config: a number in m/s (absolute, used as given) or relative to the

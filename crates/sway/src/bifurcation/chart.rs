@@ -32,23 +32,38 @@ use super::{
     bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
+use crate::charts::auto_range::{
+    BoxKeys, Derivation, SpeedBounds, SpeedGainBox, nonlinear_box, seed_gains,
+};
 use crate::parallel::{Split, join, try_map};
+use sway_model::config::Omittable;
+use sway_model::vehicle::LoopModel;
 
-/// Options of the nonlinear chart of one delay.
+/// The settings of the nonlinear chart of one delay, with the (D, V) box as `B` and the
+/// seed gains as `S`: [`ChartOptions`] with both given (`B` = f64, `S` = `Vec<f64>`),
+/// [`ChartConfig`] as a config's `[chart]` table gives them (`Option`s: an omitted one is
+/// derived from the vehicle, [`ChartConfig::resolve`]). An omitted value is not serialised
+/// ([`Omittable`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct ChartOptions {
+pub struct ChartSpec<B: Omittable, S: Omittable> {
     /// speed range of the curves [v_min, v_max] \[m/s\]
-    pub v_min_mps: f64,
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub v_min_mps: B,
     /// upper end of the speed range \[m/s\]
-    pub v_max_mps: f64,
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub v_max_mps: B,
     /// gain range of the curves [d_min, d_max] \[s\]
-    pub d_min_s: f64,
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub d_min_s: B,
     /// upper end of the gain range \[s\]
-    pub d_max_s: f64,
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub d_max_s: B,
     /// gains at which Hopf curves are started \[s\] (the first one also starts the
-    /// fold-of-cycles curve); a seed on an already computed curve is skipped
-    pub seed_gains_s: Vec<f64>,
+    /// fold-of-cycles curve); a seed on an already computed curve is skipped; in a config
+    /// omitted: the middle, the top and the bottom of the gain range
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub seed_gains_s: S,
     /// first and largest continuation step along the Hopf curves (weighted arclength in
     /// the unknowns [x, v, ω, D, V]; dominated by V \[m/s\])
     pub hopf_step: f64,
@@ -80,7 +95,7 @@ pub struct ChartOptions {
     /// half peak-to-peak range of a state component) falls below this
     pub fold_min_amplitude: f64,
     /// cycles: collocation mesh, degree, first amplitude, steps (its speed range is
-    /// replaced by [v_min, v_max])
+    /// replaced by the box's [v_min, v_max])
     pub cycles: DiagramOptions,
     /// the mesh of the fold speeds read at a fixed gain ([`critical_speeds`],
     /// [`NonlinearChart::fold_speed_at`]): `adapted` (default) corrects the fold again on
@@ -89,6 +104,107 @@ pub struct ChartOptions {
     /// [`continuation::PeriodicOrbitSystem::adapted_mesh`]): the fold of Table I at L = 40 then
     /// agrees with L = 160 to 1e-8 relative instead of ~1e-6; `fixed` keeps the uniform mesh
     pub fold_mesh: MeshAdaptation,
+}
+
+/// Options of the nonlinear chart of one delay: the box and the seeds given.
+pub type ChartOptions = ChartSpec<f64, Vec<f64>>;
+
+/// The `[chart]` table of a config (shared by `chart_nonlinear`, `corners` and
+/// `gain_design`): [`ChartOptions`] with the box and the seeds optional (derived from the
+/// vehicle where omitted).
+pub type ChartConfig = ChartSpec<Option<f64>, Option<Vec<f64>>>;
+
+impl<B: Omittable, S: Omittable> ChartSpec<B, S> {
+    /// These settings with the box `v_min_mps`, `v_max_mps`, `d_min_s`, `d_max_s` and the
+    /// seeds `seed_gains_s` in place of theirs.
+    pub fn with_box<C: Omittable, T: Omittable>(
+        &self,
+        v_min_mps: C,
+        v_max_mps: C,
+        d_min_s: C,
+        d_max_s: C,
+        seed_gains_s: T,
+    ) -> ChartSpec<C, T> {
+        ChartSpec {
+            v_min_mps,
+            v_max_mps,
+            d_min_s,
+            d_max_s,
+            seed_gains_s,
+            hopf_step: self.hopf_step,
+            hopf_max_step: self.hopf_max_step,
+            hopf_max_points: self.hopf_max_points,
+            fold_step: self.fold_step,
+            fold_max_step: self.fold_max_step,
+            fold_max_points: self.fold_max_points,
+            curve_min_tangent_cosine: self.curve_min_tangent_cosine,
+            curve_target_newton_iterations: self.curve_target_newton_iterations,
+            curve_newton: self.curve_newton,
+            criticality_samples: self.criticality_samples,
+            criticality_cycle_points: self.criticality_cycle_points,
+            fold_min_amplitude: self.fold_min_amplitude,
+            cycles: self.cycles.clone(),
+            fold_mesh: self.fold_mesh,
+        }
+    }
+}
+
+impl Default for ChartConfig {
+    fn default() -> Self {
+        Self::from_options(&ChartOptions::default(), false)
+    }
+}
+
+impl ChartConfig {
+    /// The table of `o`, with the box and the seeds given (`given`) or left to derive.
+    pub fn from_options(o: &ChartOptions, given: bool) -> Self {
+        let g = |x: f64| given.then_some(x);
+        o.with_box(
+            g(o.v_min_mps),
+            g(o.v_max_mps),
+            g(o.d_min_s),
+            g(o.d_max_s),
+            given.then(|| o.seed_gains_s.clone()),
+        )
+    }
+
+    /// The box keys as given.
+    pub fn box_keys(&self) -> BoxKeys {
+        BoxKeys {
+            v_min_mps: self.v_min_mps,
+            v_max_mps: self.v_max_mps,
+            d_min_s: self.d_min_s,
+            d_max_s: self.d_max_s,
+        }
+    }
+
+    /// The chart options with box `b` and seeds `seeds`.
+    pub fn options(&self, b: &SpeedGainBox, seeds: Vec<f64>) -> ChartOptions {
+        self.with_box(b.v_min_mps, b.v_max_mps, b.d_min_s, b.d_max_s, seeds)
+    }
+
+    /// The chart options over `delays` \[s\]: the given box keys and seeds, the others
+    /// derived ([`nonlinear_box`], [`seed_gains`]); keys named with `prefix`.
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] from the derivation.
+    pub fn resolve<M: LoopModel + ?Sized>(
+        &self,
+        model: &M,
+        delays: &[f64],
+        b: &SpeedBounds,
+        prefix: &str,
+    ) -> Result<(ChartOptions, Derivation), SwayError> {
+        let (bx, mut der) = nonlinear_box(model, &self.box_keys(), delays, b, prefix)?;
+        let seeds = match &self.seed_gains_s {
+            Some(s) => s.clone(),
+            None => {
+                der.derived_keys.push(format!("{prefix}seed_gains_s"));
+                seed_gains((bx.d_min_s, bx.d_max_s))
+            }
+        };
+        Ok((self.options(&bx, seeds), der))
+    }
 }
 
 impl Default for ChartOptions {
@@ -551,7 +667,14 @@ fn criticality_at<P: Vehicle<N>, const N: usize>(
         return Ok(None);
     }
     let co = o.cycle_options();
-    let (_, _, crit) = cycles_from_hopf(problem, &params, &hopf, &co, o.criticality_cycle_points)?;
+    let (_, _, crit) = cycles_from_hopf(
+        problem,
+        &params,
+        &hopf,
+        &co,
+        o.criticality_cycle_points,
+        CycleExtent::WholeRange,
+    )?;
     Ok(Some(crit))
 }
 

@@ -23,6 +23,7 @@ use continuation::{
     PeriodicOrbitSystem, Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
+use sway_model::config::Omittable;
 use sway_model::vehicle::Vehicle;
 use trailer_model::HITCH_ANGLE;
 
@@ -38,14 +39,26 @@ pub use ranged::{
     cycle_diagram_with_law, cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
 };
 
-/// Options of the bifurcation diagram of one feedback setting.
+/// The settings of the bifurcation diagram of one feedback setting, with the ends of its
+/// speed range as `S` and the derived end of its cycle branch as `B`: [`DiagramOptions`] on
+/// a given range (`S` = f64, `B` = `()`: none), [`DiagramSettings`] as a config gives them
+/// (`S` = `Option<f64>`: an omitted end derived from the vehicle; `B` = f64). An omitted
+/// value is not serialised ([`Omittable`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct DiagramOptions {
-    /// lowest speed of the diagram \[m/s\] (start of the straight-running branch)
-    pub v_min_mps: f64,
-    /// highest speed of the diagram \[m/s\]
-    pub v_max_mps: f64,
+pub struct DiagramSpec<S: Omittable, B: Omittable> {
+    /// lowest speed of the diagram \[m/s\] (start of the straight-running branch; in
+    /// [`DiagramSettings`] omitted: derived from the vehicle)
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub v_min_mps: S,
+    /// highest speed of the diagram \[m/s\] (in [`DiagramSettings`] omitted: derived from
+    /// the vehicle)
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub v_max_mps: S,
+    /// with `v_max_mps` omitted, the cycle branch is followed until V ≥ (1 + this)·V_Hopf
+    /// \[-\] ([`DiagramSettings`]; a given range has none)
+    #[serde(skip_serializing_if = "Omittable::is_omitted")]
+    pub beyond_hopf: B,
     /// mesh intervals L of the periodic orbits
     pub intervals: usize,
     /// collocation degree m
@@ -57,7 +70,7 @@ pub struct DiagramOptions {
     pub initial_step: f64,
     /// largest continuation step
     pub max_step: f64,
-    /// at most this many cycle points
+    /// at most this many cycle points (the point budget)
     pub max_cycle_points: usize,
     /// degree of the Chebyshev collocation for characteristic roots (delayed case)
     pub root_degree: usize,
@@ -70,6 +83,35 @@ pub struct DiagramOptions {
     /// branch's shape, e.g. a fold-of-cycles speed: no stability, much cheaper at long
     /// delays)
     pub floquet_multipliers: FloquetMultipliers,
+}
+
+/// Options of the bifurcation diagram of one feedback setting on a given speed range.
+pub type DiagramOptions = DiagramSpec<f64, ()>;
+
+impl<S: Omittable, B: Omittable> DiagramSpec<S, B> {
+    /// These settings with the speed range `v_min_mps`, `v_max_mps` and the derived end
+    /// `beyond_hopf` in place of theirs.
+    pub fn with_range<T: Omittable, C: Omittable>(
+        &self,
+        v_min_mps: T,
+        v_max_mps: T,
+        beyond_hopf: C,
+    ) -> DiagramSpec<T, C> {
+        DiagramSpec {
+            v_min_mps,
+            v_max_mps,
+            beyond_hopf,
+            intervals: self.intervals,
+            degree: self.degree,
+            hopf_amplitude: self.hopf_amplitude,
+            initial_step: self.initial_step,
+            max_step: self.max_step,
+            max_cycle_points: self.max_cycle_points,
+            root_degree: self.root_degree,
+            cycle_branch_points: self.cycle_branch_points,
+            floquet_multipliers: self.floquet_multipliers,
+        }
+    }
 }
 
 /// Whether a branch watches the sign of the bordered determinant for branch points.
@@ -102,6 +144,7 @@ impl Default for DiagramOptions {
         Self {
             v_min_mps: 25.0,
             v_max_mps: 45.0,
+            beyond_hopf: (),
             intervals: 60,
             degree: 4,
             hopf_amplitude: 1e-3,
@@ -397,27 +440,13 @@ pub fn straight_running<P: Vehicle<N>, const N: usize>(
     (v_min, v_max): (f64, f64),
     root_degree: usize,
 ) -> Result<(Branch, HopfPoint), SwayError> {
-    let ctx = format!(
-        "straight running (D = {} s, τ = {} s)",
-        params[GAIN], params[DELAY]
-    );
-    let cont_eq = Continuation::new(ContinuationOptions {
-        initial_step: 0.5,
-        max_step: 0.5,
-        parameter_range: (v_min, v_max),
-        ..Default::default()
-    });
-    let mut p = params.to_vec();
-    p[SPEED] = v_min;
-    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
-        .map_err(num(ctx.clone()))?;
-    let dir = eq.parameter_direction();
-    let mut start = vec![0.0; N + 1];
-    start[N] = v_min;
-    let mut equilibria = cont_eq
-        .start(&mut eq, &start, &dir)
-        .map_err(num(format!("{ctx} at V = {v_min} m/s")))?;
-    let n_eq = ((v_max - v_min) / 0.5).ceil() as usize + 8;
+    let StraightStart {
+        ctx,
+        cont: cont_eq,
+        mut eq,
+        branch: mut equilibria,
+        points: n_eq,
+    } = start_straight_running(problem, params, (v_min, v_max), root_degree)?;
     cont_eq
         .extend(&mut eq, &mut equilibria, n_eq)
         .map_err(num(ctx.clone()))?;
@@ -435,6 +464,67 @@ pub fn straight_running<P: Vehicle<N>, const N: usize>(
     Ok((equilibria, hopf))
 }
 
+/// Straight running started at the lowest speed of a range ([`start_straight_running`]).
+struct StraightStart<'a, P: Vehicle<N>, const N: usize> {
+    /// what the errors name: "straight running (D = …, τ = …)"
+    ctx: String,
+    /// the continuation on the range in steps of 0.5 m/s ([`equilibrium_continuation`])
+    cont: Continuation,
+    /// the equilibrium system
+    eq: EquilibriumSystem<'a, ClosedLoop<'a, P, N>, ChebyshevRoots>,
+    /// the branch of its first point
+    branch: Branch,
+    /// the points that cover the range (its width in steps, and 8 more)
+    points: usize,
+}
+
+/// Straight running x = 0 of `problem` at the gain and delay of `params` = [V, D, τ],
+/// started at `v_lo` for a continuation to `v_hi`.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the equilibrium system cannot be set up or its first point
+/// not found.
+fn start_straight_running<'a, P: Vehicle<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
+    params: &[f64],
+    (v_lo, v_hi): (f64, f64),
+    root_degree: usize,
+) -> Result<StraightStart<'a, P, N>, SwayError> {
+    let ctx = format!(
+        "straight running (D = {} s, τ = {} s)",
+        params[GAIN], params[DELAY]
+    );
+    let cont = equilibrium_continuation(v_lo, v_hi);
+    let mut p = params.to_vec();
+    p[SPEED] = v_lo;
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
+        .map_err(num(ctx.clone()))?;
+    let dir = eq.parameter_direction();
+    let mut start = vec![0.0; N + 1];
+    start[N] = v_lo;
+    let branch = cont
+        .start(&mut eq, &start, &dir)
+        .map_err(num(format!("{ctx} at V = {v_lo} m/s")))?;
+    let points = ((v_hi - v_lo) / 0.5).ceil() as usize + 8;
+    Ok(StraightStart {
+        ctx,
+        cont,
+        eq,
+        branch,
+        points,
+    })
+}
+
+/// The continuation of straight running on [v_lo, v_hi] \[m/s\], in steps of 0.5 m/s.
+fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
+    Continuation::new(ContinuationOptions {
+        initial_step: 0.5,
+        max_step: 0.5,
+        parameter_range: (v_lo, v_hi),
+        ..Default::default()
+    })
+}
+
 /// How far a cycle branch is continued.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CycleExtent {
@@ -444,36 +534,6 @@ pub enum CycleExtent {
     /// where the cycles of a supercritical Hopf point turn back), or as
     /// [`CycleExtent::WholeRange`] if there is none: enough to start a fold-of-cycles curve
     FirstFold,
-}
-
-/// The cycle branch born at `hopf` continued in V for at most `max_points` points (or
-/// until it leaves [v_min, v_max]), and the criticality it shows.
-///
-/// # Errors
-/// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
-/// leave the Hopf point.
-pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
-    problem: &'a ClosedLoop<'a, P, N>,
-    params: &[f64],
-    hopf: &HopfPoint,
-    o: &DiagramOptions,
-    max_points: usize,
-) -> Result<
-    (
-        PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
-        Branch,
-        Criticality,
-    ),
-    SwayError,
-> {
-    cycles_from_hopf_until(
-        problem,
-        params,
-        hopf,
-        o,
-        max_points,
-        CycleExtent::WholeRange,
-    )
 }
 
 /// The first cycle of the branch born at `hopf`, at `amplitude` along the critical
@@ -497,11 +557,13 @@ pub(crate) fn first_cycle<'a, P: Vehicle<N>, const N: usize>(
     first
 }
 
-/// [`cycles_from_hopf`] continued as far as `extent` says.
+/// The cycle branch born at `hopf` continued in V for at most `max_points` points (or
+/// until it leaves [v_min, v_max]) as far as `extent` says, and the criticality it shows.
 ///
 /// # Errors
-/// As [`cycles_from_hopf`].
-pub fn cycles_from_hopf_until<'a, P: Vehicle<N>, const N: usize>(
+/// [`SwayError::Numerical`] if the first cycle cannot be found or the branch does not
+/// leave the Hopf point.
+pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
     problem: &'a ClosedLoop<'a, P, N>,
     params: &[f64],
     hopf: &HopfPoint,
@@ -516,25 +578,15 @@ pub fn cycles_from_hopf_until<'a, P: Vehicle<N>, const N: usize>(
     ),
     SwayError,
 > {
-    let ctx = format!(
-        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
-        hopf.parameter, params[GAIN], params[DELAY]
-    );
-    let cont = Continuation::new(ContinuationOptions {
-        initial_step: o.initial_step,
-        max_step: o.max_step,
-        parameter_range: (o.v_min_mps, o.v_max_mps),
-        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
-        ..Default::default()
-    });
-    let mut p = params.to_vec();
-    p[SPEED] = hopf.parameter;
-    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
-        .map_err(num(ctx.clone()))?;
-    // a second system on the same mesh measures the cycles: a branch that shrinks back onto
-    // straight running (a Hopf bubble) stops there instead of following it as a "cycle"
-    let gauge =
-        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
+    let CycleStart {
+        ctx,
+        cont,
+        mut po,
+        gauge,
+        mut cycles,
+    } = start_cycles(problem, params, hopf, o)?;
+    // the gauge stops a branch that shrinks back onto straight running (a Hopf bubble)
+    // there instead of following it as a "cycle"
     let mut amplitudes: Vec<(f64, f64)> = Vec::new();
     let mut rejoin = |b: &Branch| {
         let Some(last) = b.points.last() else {
@@ -547,8 +599,6 @@ pub fn cycles_from_hopf_until<'a, P: Vehicle<N>, const N: usize>(
             Decision::Continue
         }
     };
-    let mut cycles = first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
-        .map_err(num(format!("{ctx}: first cycle")))?;
     match extent {
         CycleExtent::WholeRange => {
             cont.extend_observed(&mut po, &mut cycles, max_points, &mut rejoin)
@@ -568,15 +618,81 @@ pub fn cycles_from_hopf_until<'a, P: Vehicle<N>, const N: usize>(
             }
         }
     }
-    let crit = criticality(hopf, &cycles).ok_or_else(|| {
+    let crit = branch_criticality(hopf, &cycles, &ctx)?;
+    Ok((po, cycles, crit))
+}
+
+/// A cycle branch started at a Hopf point ([`start_cycles`]).
+struct CycleStart<'a, P: Vehicle<N>, const N: usize> {
+    /// what the errors name: "cycles from the Hopf point V = …"
+    ctx: String,
+    /// the continuation on the options' speed range
+    cont: Continuation,
+    /// the collocation system of the branch
+    po: PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
+    /// a second system on the same (fixed) mesh, to measure the branch's cycles
+    gauge: PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
+    /// the branch of its first cycle ([`first_cycle`])
+    cycles: Branch,
+}
+
+/// The continuation of the cycles born at `hopf` (parameters `params`, options `o`) and
+/// the first cycle.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the collocation system cannot be set up or the first cycle
+/// cannot be found.
+fn start_cycles<'a, P: Vehicle<N>, const N: usize>(
+    problem: &'a ClosedLoop<'a, P, N>,
+    params: &[f64],
+    hopf: &HopfPoint,
+    o: &DiagramOptions,
+) -> Result<CycleStart<'a, P, N>, SwayError> {
+    let ctx = format!(
+        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
+        hopf.parameter, params[GAIN], params[DELAY]
+    );
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = hopf.parameter;
+    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
+        .map_err(num(ctx.clone()))?;
+    let gauge =
+        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
+    let cycles = first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
+        .map_err(num(format!("{ctx}: first cycle")))?;
+    Ok(CycleStart {
+        ctx,
+        cont,
+        po,
+        gauge,
+        cycles,
+    })
+}
+
+/// The criticality of the Hopf point `hopf` shown by its cycle branch `cycles`.
+///
+/// # Errors
+/// [`SwayError::Numerical`] (context `ctx`) if the branch does not leave the Hopf point.
+fn branch_criticality(
+    hopf: &HopfPoint,
+    cycles: &Branch,
+    ctx: &str,
+) -> Result<Criticality, SwayError> {
+    criticality(hopf, cycles).ok_or_else(|| {
         SwayError::numerical(
-            ctx.clone(),
+            ctx.to_string(),
             continuation::Error::InvalidInput(
                 "the cycle branch does not leave the Hopf point".into(),
             ),
         )
-    })?;
-    Ok((po, cycles, crit))
+    })
 }
 
 /// Computes the bifurcation diagram of straight running and sway for one feedback setting:
@@ -625,7 +741,7 @@ pub fn bifurcation_diagram_with_law<P: Vehicle<N>, const N: usize>(
     let (equilibria, hopf) =
         straight_running(&problem, &params, (o.v_min_mps, o.v_max_mps), o.root_degree)?;
     let (po, cycles, crit) =
-        cycles_from_hopf_until(&problem, &params, &hopf, o, o.max_cycle_points, extent)?;
+        cycles_from_hopf(&problem, &params, &hopf, o, o.max_cycle_points, extent)?;
     let cycle_summary: Vec<CycleSummary> = cycles
         .points
         .iter()

@@ -15,21 +15,21 @@
 //! range, a branch ended by the guard ([`BranchEnd`] and [`Diagram::fold_reason`]).
 
 use continuation::{
-    Branch, Continuation, ContinuationOptions, Criticality, Decision, EquilibriumSystem, HopfPoint,
-    Location, PeriodicOrbitSystem, SpecialKind, Stop, criticality,
+    Branch, Criticality, Decision, EquilibriumSystem, HopfPoint, Location, PeriodicOrbitSystem,
+    SpecialKind, Stop,
 };
 use serde::{Deserialize, Serialize};
 use sway_model::vehicle::Vehicle;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, LoopLaw, SPEED,
-    collocation, fold_of, num, root_finder, summarise,
+    ClosedLoop, CycleExtent, Diagram, DiagramOptions, DiagramSpec, Feedback, LoopLaw, SPEED,
+    fold_of, num, root_finder, summarise,
 };
 use crate::SwayError;
 use crate::sim::LossOfControl;
 use sway_model::speeds::SpeedLimits;
 
-/// Default of [`DiagramSettings::beyond_hopf`]: the cycle branch is followed to 1.3·V_Hopf.
+/// Default of [`DiagramSpec::beyond_hopf`] in [`DiagramSettings`]: the cycle branch is followed to 1.3·V_Hopf.
 pub const BEYOND_HOPF: f64 = 0.3;
 
 /// Width of the straight-running margin below the lowest speed of the cycle branch in the
@@ -43,36 +43,7 @@ pub const MARGIN_BELOW: f64 = 0.2;
 /// speed of the limits; the figure starts 0.2·V_Hopf below the lowest speed of the cycle
 /// branch. `v_max_mps` omitted: derived from the vehicle: the cycle branch ends once it has
 /// passed (1 + `beyond_hopf`)·V_Hopf (or at the maximum speed, the guard, the budget).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DiagramSettings {
-    /// lowest speed of the diagram \[m/s\] (omitted: derived from the vehicle)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub v_min_mps: Option<f64>,
-    /// highest speed of the diagram \[m/s\] (omitted: derived from the vehicle)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub v_max_mps: Option<f64>,
-    /// with `v_max_mps` omitted, the cycle branch is followed until V ≥ (1 + this)·V_Hopf \[-\]
-    pub beyond_hopf: f64,
-    /// mesh intervals L of the periodic orbits
-    pub intervals: usize,
-    /// collocation degree m
-    pub degree: usize,
-    /// amplitude of the first cycle along the critical eigenvector
-    pub hopf_amplitude: f64,
-    /// first continuation step (weighted arclength)
-    pub initial_step: f64,
-    /// largest continuation step
-    pub max_step: f64,
-    /// at most this many cycle points (the point budget)
-    pub max_cycle_points: usize,
-    /// degree of the Chebyshev collocation for characteristic roots (delayed case)
-    pub root_degree: usize,
-    /// "watch" or "ignore" branch points of cycles
-    pub cycle_branch_points: BranchPointTest,
-    /// "every_point" or "on_request": the cycles' Floquet multipliers
-    pub floquet_multipliers: continuation::FloquetMultipliers,
-}
+pub type DiagramSettings = DiagramSpec<Option<f64>, f64>;
 
 impl Default for DiagramSettings {
     /// fig3a's settings ([`DiagramOptions::default`]) with the range derived
@@ -103,37 +74,12 @@ impl DiagramSettings {
 
     /// The settings of `o` on `range` \[m/s\] (None: the range derived from the vehicle).
     pub fn from_options(o: &DiagramOptions, range: Option<(f64, f64)>) -> Self {
-        Self {
-            v_min_mps: range.map(|r| r.0),
-            v_max_mps: range.map(|r| r.1),
-            beyond_hopf: BEYOND_HOPF,
-            intervals: o.intervals,
-            degree: o.degree,
-            hopf_amplitude: o.hopf_amplitude,
-            initial_step: o.initial_step,
-            max_step: o.max_step,
-            max_cycle_points: o.max_cycle_points,
-            root_degree: o.root_degree,
-            cycle_branch_points: o.cycle_branch_points,
-            floquet_multipliers: o.floquet_multipliers,
-        }
+        o.with_range(range.map(|r| r.0), range.map(|r| r.1), BEYOND_HOPF)
     }
 
     /// These settings on the speed range [v_min, v_max] \[m/s\].
     pub fn options(&self, v_min_mps: f64, v_max_mps: f64) -> DiagramOptions {
-        DiagramOptions {
-            v_min_mps,
-            v_max_mps,
-            intervals: self.intervals,
-            degree: self.degree,
-            hopf_amplitude: self.hopf_amplitude,
-            initial_step: self.initial_step,
-            max_step: self.max_step,
-            max_cycle_points: self.max_cycle_points,
-            root_degree: self.root_degree,
-            cycle_branch_points: self.cycle_branch_points,
-            floquet_multipliers: self.floquet_multipliers,
-        }
+        self.with_range(v_min_mps, v_max_mps, ())
     }
 
     /// The speeds searched \[m/s\]: the config's numbers, else the limits'.
@@ -360,23 +306,13 @@ pub fn straight_running_to_first_loss<P: Vehicle<N>, const N: usize>(
     (v_lo, v_hi): (f64, f64),
     root_degree: usize,
 ) -> Result<(Branch, FirstLoss), SwayError> {
-    let ctx = format!(
-        "straight running (D = {} s, τ = {} s)",
-        params[super::GAIN],
-        params[super::DELAY]
-    );
-    let cont = equilibrium_continuation(v_lo, v_hi);
-    let mut p = params.to_vec();
-    p[SPEED] = v_lo;
-    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
-        .map_err(num(ctx.clone()))?;
-    let dir = eq.parameter_direction();
-    let mut start = vec![0.0; N + 1];
-    start[N] = v_lo;
-    let mut branch = cont
-        .start(&mut eq, &start, &dir)
-        .map_err(num(format!("{ctx} at V = {v_lo} m/s")))?;
-    let n = ((v_hi - v_lo) / 0.5).ceil() as usize + 8;
+    let super::StraightStart {
+        ctx,
+        cont,
+        mut eq,
+        mut branch,
+        points: n,
+    } = super::start_straight_running(problem, params, (v_lo, v_hi), root_degree)?;
     // stop at the first regular point after the first loss of stability
     let mut past_loss = |b: &Branch| match first_loss_index(b) {
         Some(i) if b.points.len() > i + 1 => Decision::Stop,
@@ -512,15 +448,6 @@ fn first_loss_index(b: &Branch) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
-fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
-    Continuation::new(ContinuationOptions {
-        initial_step: 0.5,
-        max_step: 0.5,
-        parameter_range: (v_lo, v_hi),
-        ..Default::default()
-    })
-}
-
 /// The first tripped validity condition on the cycle `u` of `sys` (checked at the
 /// collocation nodes, with the delayed state read off the periodic profile).
 pub fn cycle_loss_of_control<P: Vehicle<N>, const N: usize>(
@@ -570,28 +497,14 @@ fn cycles_with_stop_rules<'a, P: Vehicle<N>, const N: usize>(
     v_stop: Option<f64>,
     extent: CycleExtent,
 ) -> Result<StoppedCycles<'a, P, N>, SwayError> {
-    let ctx = format!(
-        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
-        hopf.parameter,
-        params[super::GAIN],
-        params[super::DELAY]
-    );
-    let cont = Continuation::new(ContinuationOptions {
-        initial_step: o.initial_step,
-        max_step: o.max_step,
-        parameter_range: (o.v_min_mps, o.v_max_mps),
-        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
-        ..Default::default()
-    });
-    let mut p = params.to_vec();
-    p[SPEED] = hopf.parameter;
-    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
-        .map_err(num(ctx.clone()))?;
-    // a second system on the same (fixed) mesh evaluates the profiles for the guard
-    let guard_sys =
-        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
-    let mut cycles = super::first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
-        .map_err(num(format!("{ctx}: first cycle")))?;
+    // the gauge evaluates the cycles' profiles for the guard
+    let super::CycleStart {
+        ctx,
+        cont,
+        mut po,
+        gauge: guard_sys,
+        mut cycles,
+    } = super::start_cycles(problem, params, hopf, o)?;
     let mut end = None;
     // (V, max |θ|) of the branch's points so far, for the rejoin test
     let mut amplitudes: Vec<(f64, f64)> = Vec::new();
@@ -648,14 +561,7 @@ fn cycles_with_stop_rules<'a, P: Vehicle<N>, const N: usize>(
         },
         Stop::StepSizeUnderflow { .. } => BranchEnd::StepUnderflow { speed_mps: last_v },
     };
-    let crit = criticality(hopf, &cycles).ok_or_else(|| {
-        SwayError::numerical(
-            ctx.clone(),
-            continuation::Error::InvalidInput(
-                "the cycle branch does not leave the Hopf point".into(),
-            ),
-        )
-    })?;
+    let crit = super::branch_criticality(hopf, &cycles, &ctx)?;
     Ok((po, cycles, crit, end))
 }
 
@@ -968,7 +874,7 @@ fn diagram_with_law<P: Vehicle<N>, const N: usize>(
         .unwrap_or_else(|| v_high.max(1.1 * vh).min(hi));
     // straight running on to the figure's end (equilibria.csv)
     if figure_equilibria && plot_hi > vh {
-        let cont = equilibrium_continuation(lo, plot_hi);
+        let cont = super::equilibrium_continuation(lo, plot_hi);
         let mut p = params.clone();
         p[SPEED] = vh;
         let mut eq = EquilibriumSystem::new(&problem, p, SPEED, root_finder(settings.root_degree))

@@ -139,8 +139,9 @@ impl<M: LoopModel + ?Sized> LoopModel for Controlled<'_, M> {
 }
 
 /// The open-loop critical speed of any plant: [`sway_model::speeds::open_loop_critical_speed`]
-/// (the one search every task uses) through [`LoopModel::critical_speed_search`]; for the
-/// paper's `Model` the same call, so the same numbers.
+/// (the one search every task uses, [`sway_model::speeds::open_loop_stability_by`]) through
+/// [`LoopModel::critical_speed_search`]; for the paper's `Model` the same call, so the same
+/// numbers.
 ///
 /// # Errors
 /// [`SwayError::Model`] when straight running is already unstable at the lowest speed or
@@ -149,18 +150,7 @@ pub fn open_loop_stability<M: LoopModel + ?Sized>(
     model: &M,
     limits: &sway_model::speeds::SpeedLimits,
 ) -> Result<sway_model::speeds::OpenLoopStability, SwayError> {
-    use sway_model::speeds::OpenLoopStability;
-    Ok(
-        match model.critical_speed_search(&limits.critical_speed_options())? {
-            Some(c) => OpenLoopStability::Critical {
-                v_crit_mps: c.v_crit_mps,
-                hopf_omega_rad_s: c.hopf_omega_rad_s,
-            },
-            None => OpenLoopStability::StableUpTo {
-                stable_up_to_mps: limits.max_speed_mps,
-            },
-        },
-    )
+    sway_model::speeds::open_loop_stability_by(limits, |o| model.critical_speed_search(o))
 }
 
 fn numerical(context: String) -> impl FnOnce(StabilityError) -> SwayError {

@@ -74,7 +74,21 @@ impl<T> Omittable for Option<T> {
     }
 }
 
-impl Omittable for () {
+/// The value of a key that a table of this kind does not have (the derived end
+/// `beyond_hopf` of a diagram whose range is given): never serialised, and a config that
+/// gives it is refused at the key with the reason.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct Absent;
+
+impl<'de> Deserialize<'de> for Absent {
+    fn deserialize<D: serde::Deserializer<'de>>(_: D) -> Result<Self, D::Error> {
+        Err(serde::de::Error::custom(
+            "not a key of this table (it belongs to a table whose range is derived from the vehicle)",
+        ))
+    }
+}
+
+impl Omittable for Absent {
     fn is_omitted(&self) -> bool {
         true
     }
@@ -248,6 +262,22 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_key_a_table_does_not_have_is_refused_with_the_reason() {
+        #[derive(Debug, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Table {
+            #[serde(default)]
+            #[allow(dead_code)]
+            beyond_hopf: Absent,
+        }
+        assert!(toml::from_str::<Table>("").is_ok());
+        let e = toml::from_str::<Table>("beyond_hopf = 0.3")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not a key of this table"), "{e}");
+    }
 
     #[derive(Debug, Deserialize)]
     struct Holder {

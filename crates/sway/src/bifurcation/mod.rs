@@ -23,7 +23,7 @@ use continuation::{
     PeriodicOrbitSystem, Refinement, SpecialKind, criticality, points_at_parameter,
 };
 use serde::{Deserialize, Serialize};
-use sway_model::config::Omittable;
+use sway_model::config::{Absent, Omittable};
 use sway_model::vehicle::Vehicle;
 use trailer_model::HITCH_ANGLE;
 
@@ -41,7 +41,7 @@ pub use ranged::{
 
 /// The settings of the bifurcation diagram of one feedback setting, with the ends of its
 /// speed range as `S` and the derived end of its cycle branch as `B`: [`DiagramOptions`] on
-/// a given range (`S` = f64, `B` = `()`: none), [`DiagramSettings`] as a config gives them
+/// a given range (`S` = f64, `B` = [`Absent`]: none), [`DiagramSettings`] as a config gives them
 /// (`S` = `Option<f64>`: an omitted end derived from the vehicle; `B` = f64). An omitted
 /// value is not serialised ([`Omittable`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -86,7 +86,7 @@ pub struct DiagramSpec<S: Omittable, B: Omittable> {
 }
 
 /// Options of the bifurcation diagram of one feedback setting on a given speed range.
-pub type DiagramOptions = DiagramSpec<f64, ()>;
+pub type DiagramOptions = DiagramSpec<f64, Absent>;
 
 impl<S: Omittable, B: Omittable> DiagramSpec<S, B> {
     /// These settings with the speed range `v_min_mps`, `v_max_mps` and the derived end
@@ -144,7 +144,7 @@ impl Default for DiagramOptions {
         Self {
             v_min_mps: 25.0,
             v_max_mps: 45.0,
-            beyond_hopf: (),
+            beyond_hopf: Absent,
             intervals: 60,
             degree: 4,
             hopf_amplitude: 1e-3,

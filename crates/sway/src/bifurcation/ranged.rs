@@ -19,6 +19,7 @@ use continuation::{
     SpecialKind, Stop,
 };
 use serde::{Deserialize, Serialize};
+use sway_model::config::Absent;
 use sway_model::vehicle::Vehicle;
 
 use super::{
@@ -79,7 +80,7 @@ impl DiagramSettings {
 
     /// These settings on the speed range [v_min, v_max] \[m/s\].
     pub fn options(&self, v_min_mps: f64, v_max_mps: f64) -> DiagramOptions {
-        self.with_range(v_min_mps, v_max_mps, ())
+        self.with_range(v_min_mps, v_max_mps, Absent)
     }
 
     /// The speeds searched \[m/s\]: the config's numbers, else the limits'.

@@ -1,4 +1,4 @@
-//! The threshold kick of issue 21's model variants: the smallest θ(0) (other states 0) that
+//! The threshold kick of the model variants: the smallest θ(0) (other states 0) that
 //! ends in sustained sway in open loop at constant speed, for Table I with tyre relaxation
 //! σ ∈ {0, 0.3, 0.6} m on every axle and the example vehicles of `configs/vehicles/`
 //! (Magic Formula tyres, a tandem trailer axle, hitch friction), at 0.95·V_crit of each

@@ -1,4 +1,4 @@
-//! The computation of `chart_nonlinear` (issue 8): the nonlinear chart of every delay of
+//! The computation of `chart_nonlinear`: the nonlinear chart of every delay of
 //! `configs/chart_nonlinear.toml`, the linear chart behind its shading, the speeds of the
 //! curves at the summary gains and the bistable width; the box, the seeds and the summary
 //! gains derived from the vehicle where the config omits them

@@ -71,8 +71,7 @@ pub struct DesignFold {
     pub away_from_corner: Option<AwayFromCorner>,
 }
 
-/// The gains near a double-Hopf optimum that maximise the fold-of-cycles speed (issue 22,
-/// item 4): D varied over its near-optimal band ([`sway::control::GainBand`], the gains whose
+/// The gains near a double-Hopf optimum that maximise the fold-of-cycles speed: D varied over its near-optimal band ([`sway::control::GainBand`], the gains whose
 /// linear critical speed is within the band fraction of the best), `samples` evenly on each
 /// side of the corner, the other gains kept at the optimum.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

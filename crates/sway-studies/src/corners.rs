@@ -1,4 +1,4 @@
-//! The computation of `corners` (issue 12): [`sway::bifurcation::corners::corner_study`] for every delay of
+//! The computation of `corners`: [`sway::bifurcation::corners::corner_study`] for every delay of
 //! `configs/corners.toml`, with the nonlinear chart's box and seeds and the
 //! `beyond_gain_s` scan derived from the vehicle where the config omits them
 //! ([`sway::charts::auto_range`]); a delay without a double-Hopf point in the box is an

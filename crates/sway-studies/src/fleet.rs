@@ -1,4 +1,4 @@
-//! The headline numbers of every task for one vehicle (issue 20, item 6; task `fleet`):
+//! The headline numbers of every task for one vehicle (task `fleet`):
 //! the open-loop critical speed V_crit ([`sway::ranging::open_loop_critical_speed`]), the
 //! fold of cycles V_fold and the width of the bistable range V_crit − V_fold
 //! ([`sway::ranging::open_loop_references`]), the best gain D\*(τ) of the delayed feedback

@@ -1,4 +1,4 @@
-//! The computation of `gain_design` (issue 10): the linear optima of a τ grid, the
+//! The computation of `gain_design`: the linear optima of a τ grid, the
 //! nonlinear part at every few delays, the delay budget, with the gain range, the speed
 //! range and the fold-of-cycles chart's box and seed derived from the vehicle where
 //! `configs/gain_design.toml` omits them ([`sway::charts::auto_range`]); the physical

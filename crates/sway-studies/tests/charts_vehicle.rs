@@ -1,4 +1,4 @@
-//! The chart pipelines with ranges derived from the vehicle (issue 20), for Table I and for
+//! The chart pipelines with ranges derived from the vehicle, for Table I and for
 //! vehicles unlike it: a nose-heavy trailer (h < l), a vehicle with V_crit below 15 m/s and
 //! one stable up to the maximum speed at the chart's gains.
 
@@ -64,9 +64,9 @@ fn static_gain_by_inverse(m: &Model, v: f64) -> f64 {
 }
 
 #[test]
-fn table1_ranges_are_the_configs_before_issue_20() {
-    // reference: the numbers of configs/{fig4a,chart_nonlinear,gain_design}.toml before
-    // issue 20 (exact: the rules round to them), the static gain 1/G(0) by a matrix inverse
+fn table1_ranges_are_the_configs_before_derivation() {
+    // reference: the numbers configs/{fig4a,chart_nonlinear,gain_design}.toml held before
+    // their ranges were derived (exact: the rules round to them), the static gain 1/G(0) by a matrix inverse
     // (1e-9 relative), and the τ = 0.2 s double-Hopf point of results/chart_nonlinear
     // (V = 63.46 m/s, D = 0.2635 s), which the box must contain
     let m = table1();
@@ -327,7 +327,7 @@ fn a_flagged_fold_where_v_does_not_turn_is_not_corrected() {
     // on the uniform mesh the fold test flagged V = 5.64 m/s although V runs on through it
     // (no turning point: the oriented tangent flipped at a singular point of the
     // discretised cycles) and the fold-of-cycles Newton diverged there. With the kink mesh
-    // of the cycles (issue 23) the coarse mesh no longer flags it; either way no fold may be
+    // of the cycles the coarse mesh no longer flags it; either way no fold may be
     // reported. Reference: the meshes L = 20 and 40 pass that speed smoothly with no fold
     // above the box's 5 m/s.
     use sway::bifurcation::chart::critical_speeds;

@@ -1,4 +1,4 @@
-//! Scenario speeds relative to the vehicle (issue 20, item 3): parsing of a speed in a
+//! Scenario speeds relative to the vehicle: parsing of a speed in a
 //! scenario, sweep and mitigation config, its resolution for Table I (the shipped factors
 //! give the paper's speeds), the outcome for a vehicle without a reference, and a scenario
 //! that resolves to a nose-heavy trailer's own speeds.

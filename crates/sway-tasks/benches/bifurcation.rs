@@ -26,7 +26,7 @@ fn bench(c: &mut Criterion) {
         let limits = sway::ranging::SpeedLimits::default();
         b.iter(|| black_box(diagrams(&model, &cfg, &limits, &NoProgress).expect("diagrams")))
     });
-    // the same diagram on the range derived from the vehicle (issue 20: ≤ 10 % dearer)
+    // the same diagram on the range derived from the vehicle (≤ 10 % dearer)
     g.bench_function("fig3a_diagram_derived_range", |b| {
         let limits = sway::ranging::SpeedLimits::default();
         b.iter(|| {

@@ -1,8 +1,8 @@
-//! The whole default `chart_nonlinear` computation (issue 8: target ≤ 30 s on 2 cores):
+//! The whole default `chart_nonlinear` computation (target ≤ 30 s on 2 cores):
 //! Hopf curves, criticality samples, the fold-of-cycles curve, the shading grid and the
 //! summary readings for all delays of `configs/chart_nonlinear.toml` (parallel over τ);
 //! and, per piece, the τ = 0.2 s delay alone, and the derivation of the omitted ranges
-//! from the vehicle (issue 20: box, seeds, summary gains).
+//! from the vehicle (box, seeds, summary gains).
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::charts::auto_range::SpeedBounds;

@@ -1,6 +1,6 @@
 //! The whole default Fig. 4(a) computation (configs/fig4a.toml: 4 delays, 300 × 200 cells each,
 //! boundaries and headline numbers; no file output), the derivation of its omitted axes from
-//! the vehicle alone (issue 20), and the rightmost roots at one point.
+//! the vehicle alone, and the rightmost roots at one point.
 
 use std::hint::black_box;
 use std::path::Path;

@@ -1,5 +1,5 @@
-//! Sharding and merging of studies whose work is an indexed list of independent points
-//! (issue 11): a sweep of a million points runs as N slices on N machines (a SLURM job
+//! Sharding and merging of studies whose work is an indexed list of independent points: a
+//! sweep of a million points runs as N slices on N machines (a SLURM job
 //! array) and merges into exactly the files of a run on one machine.
 //!
 //! - [`ShardSpec`] `K/N` is the K-th of N contiguous, balanced slices of the points
@@ -426,7 +426,7 @@ pub struct ShardFile<C, P> {
     /// the vehicle parameters (Table I form; for a vehicle with model variants the
     /// equivalent single-axle vehicle)
     pub vehicle: VehicleParams,
-    /// the vehicle file as written when it has model variants (issue 21: relaxation, axle
+    /// the vehicle file as written when it has model variants (relaxation, axle
     /// lists, tyre laws, hitch torque), absent for a vehicle of the paper's form
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vehicle_spec: Option<VehicleSpec>,

@@ -2,7 +2,7 @@
 //! Cargo.toml): each `tests/<name>.rs` is the module `<name>`, so a test is
 //! `cargo test -p <crate> --test all <name>::<test>`. One binary links the dependency
 //! graph once instead of once per file, and its tests share one pool of test threads
-//! (issue 23: the time of `cargo test --workspace`). `#[path]` makes each file a mod-rs
+//! (the time of `cargo test --workspace`). `#[path]` makes each file a mod-rs
 //! module, so that its own `mod common;` still finds `tests/common/mod.rs`.
 
 // each file keeps its `mod common;` (a copy per module): the files stay as they were

@@ -1,4 +1,4 @@
-//! Generated inputs (issue 13): seeded mutations of every file in `configs/` and of the
+//! Generated inputs: seeded mutations of every file in `configs/` and of the
 //! vehicle file, each run through the validation `cargo xtask <task> --check` uses
 //! (`TaskContext::new` for the vehicle, `tasks::prepare_checked` for a task config).
 //!

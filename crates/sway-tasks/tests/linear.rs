@@ -337,7 +337,7 @@ fn linear_fig4a_and_gain_design_run_on_a_relaxed_vehicle() {
     let ctx = relaxed_context(&results);
     assert_eq!(ctx.plant.states(), 7);
 
-    // linear: V_crit against the independent linear analysis of issue 21 (32.5777 m/s,
+    // linear: V_crit against the independent linear analysis (32.5777 m/s,
     // quoted to 4 decimals: tolerance 1e-4) and as a zero of the 7-state spectral abscissa
     let cfg = write(
         tmp.path(),
@@ -468,7 +468,7 @@ fn characteristic_residual(
 
 #[test]
 fn corners_and_mitigation_run_on_model_variants() {
-    // issue 21: both take any plant. On the relaxation vehicle (σ = 0.3 m on every axle, 7
+    // both take any plant. On the relaxation vehicle (σ = 0.3 m on every axle, 7
     // states) and the tandem vehicle (4 states, two trailer axles). References:
     // - corners: each double-Hopf point is a root of the loop's characteristic function at
     //   both frequencies, evaluated directly from the plant's linearisation (the point was

@@ -397,7 +397,7 @@ atol = 1e-8
 
 #[test]
 fn simulation_tasks_run_on_each_model_variant_file() {
-    // each example vehicle of issue 21 (relaxation, Magic Formula, tandem, hitch friction)
+    // each example vehicle (relaxation, Magic Formula, tandem, hitch friction)
     // through simulate, fig3b, fig4c and a sweep: every run ends with its metrics; the
     // relative speeds refer to the variant's own V_crit (reference:
     // trailer_model::Plant::critical_speed of the vehicle's plant, 1e-6 relative: both
@@ -469,7 +469,7 @@ compare_cycles = false
 
 #[test]
 fn variants_task_moves_the_headline_numbers_with_relaxation() {
-    // issue 21, item 7. References: the paper's model's V_crit 34.7479 m/s (`linear`,
+    // References: the paper's model's V_crit 34.7479 m/s (`linear`,
     // rounded to 1e-4: 5e-5); independent linear analyses of Table I with σ on every axle:
     // 32.5777 m/s at σ = 0.3 m (rounded to 1e-4: 5e-5) and ≈ 30.3 m/s at σ = 0.6 m (given
     // to 0.1 m/s: 0.05); a Magic Formula tyre with the brush tyre's cornering stiffness has

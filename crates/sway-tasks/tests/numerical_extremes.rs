@@ -1,4 +1,4 @@
-//! Numerical extremes that pass validation (issue 13, item 4): seeded samples over the
+//! Numerical extremes that pass validation: seeded samples over the
 //! allowed ranges of `linear`, `roots`, `simulate` and a continuation run (`fig3a`: the
 //! bifurcation diagram and its time panels), bounds included (speeds from 0.1 to 10⁴ m/s,
 //! gains and delays up to 10³, tolerances at their limits, |θ(0)| just below 90°, mesh
@@ -44,7 +44,7 @@ const NULLABLE: &[&str] = &[
     "stable_period_s",
     "unstable_period_s",
     "bistable_range_mps",
-    // linear and fig3a (issue 20): straight running stable up to the maximum speed is an
+    // linear and fig3a: straight running stable up to the maximum speed is an
     // outcome, the quantities at V_crit are null (with `stable_up_to_mps` and a reason)
     "v_crit_mps",
     "hopf_frequency_hz",

@@ -1,4 +1,4 @@
-//! Sharding and merging (issue 11): a sweep computed as N shards and merged writes the
+//! Sharding and merging: a sweep computed as N shards and merged writes the
 //! same bytes as the unsharded run, for several N; re-running a shard rewrites the same
 //! bytes; the merge names a missing, failed, duplicated or foreign shard.
 //!

@@ -6,7 +6,7 @@
 //!
 //! Measured (criterion medians, load 3–4 from a parallel build): with the branch-point test
 //! 1.25 s at L = 40 and 3.42 s at L = 120 (2.7×); without 1.36 / 3.11 s (2.3×). Before the
-//! block-forward solver and the Arnoldi multipliers: 3.9 s / 36.6 s (issue 23's numbers);
+//! block-forward solver and the Arnoldi multipliers: 3.9 s / 36.6 s;
 //! with the block-forward solver but the dense monodromy eigenvalues: 1.28 / 5.76 s (4.5×,
 //! the O(L³) eigenvalue problem of the monodromy matrix was 26 % of the L = 120 profile).
 //!

@@ -1,8 +1,8 @@
-//! Issue 3 performance targets (release, medians), S1 tightened by issue 11:
+//! Performance targets (release, medians):
 //! - S1: open loop, V = 33 m/s, θ(0) = 0.1 rad, 60 s, rtol 1e-8 / atol 1e-10, 7 states
 //!   (target ≤ 1.1 ms on the machine where it took 1.58 ms with Dormand–Prince 5(4));
 //! - S3: closed loop, V = 35 m/s, D = 0.1 s, τ = 0.2 s, 40 s, same tolerances (≤ 5 ms);
-//! - S1 on Table I with tyre relaxation σ = 0.3 m on the three axles (issue 21: 10 states
+//! - S1 on Table I with tyre relaxation σ = 0.3 m on the three axles (10 states
 //!   instead of 7; target ≤ 1.6× S1). Measured 2026-12-04 in a quiet spell (2 cores,
 //!   criterion's estimates of five runs alternating with the build of 5071c0c): S1 0.86 ms
 //!   (812 steps, 68 rejected, 11 915 right-hand sides), relaxed 3.26 ms (2661 steps, 128

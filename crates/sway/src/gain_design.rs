@@ -1,4 +1,4 @@
-//! Gain design for the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8; issue 10,
+//! Gain design for the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8,
 //! beyond the paper): for a given delay τ, the gain D that makes straight running safe up
 //! to the highest speed.
 //!

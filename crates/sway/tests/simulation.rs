@@ -553,7 +553,7 @@ fn relaxation_length_to_zero_converges_to_the_paper_trajectory() {
 
 #[test]
 fn relaxed_s1_at_bench_settings_matches_a_converged_run() {
-    // issue 21's performance case (the `S1_relaxation_0.3m…` bench: Table I with σ = 0.3 m on
+    // the relaxed performance case (the `S1_relaxation_0.3m…` bench: Table I with σ = 0.3 m on
     // the three axles, 33 m/s, θ(0) = 0.1 rad, 60 s, rtol 1e-8 / atol 1e-10, the default
     // solver) against the same run converged: DOP853 at rtol 1e-12 with exact kink landing
     // (at rtol 1e-10 it is already 6e-13 from the run at 1e-13). Measured 1.2e-6 (relative,

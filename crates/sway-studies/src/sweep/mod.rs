@@ -1,4 +1,4 @@
-//! Parallel sweeps (issue 11): a grid over scenario quantities (V, θ(0), D, τ, braking
+//! Parallel sweeps: a grid over scenario quantities (V, θ(0), D, τ, braking
 //! time and start), vehicle fields by key path and vehicle files (a fleet), optionally times
 //! uncertainty samples of vehicle fields; every point evaluates one [`PointKind`]: a
 //! simulation (classified, see [`sway::sim::classify`]), the linear critical speed, or the

@@ -1,4 +1,4 @@
-//! The θ(0) threshold of a threshold map (issue 11): per value V of axis 1 (the speed), the
+//! The θ(0) threshold of a threshold map: per value V of axis 1 (the speed), the
 //! smallest θ(0) on axis 2 that ends in sustained sway, bisected between its grid cells to
 //! `tolerance_deg`, with a horizon long enough that the outcome no longer changes (checked
 //! by doubling it at both ends of the final bracket); and, as the reference, the amplitude

@@ -1,4 +1,4 @@
-//! `cargo xtask chart_nonlinear` (issue 8, beyond the paper): the nonlinear stability chart
+//! `cargo xtask chart_nonlinear` (beyond the paper): the nonlinear stability chart
 //! of the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8) in the (V, D) plane, one
 //! panel per delay τ of `configs/chart_nonlinear.toml`: the Hopf curves V_hopf(D) (the
 //! dynamic boundary of `fig4a`, marked sub- or supercritical), the fold-of-cycles curve

@@ -1,4 +1,4 @@
-//! `cargo xtask control_design` (issue 22, beyond the paper): which controller structure
+//! `cargo xtask control_design` (beyond the paper): which controller structure
 //! and which actuator keep straight running stable for which loop delay τ
 //! ([`sway::control`]): for `yaw_rate`, `yaw_rate_hitch` and `predictor` with front-wheel
 //! steering and with differential braking, the gains maximising the linear critical speed
@@ -218,7 +218,7 @@ pub struct ControlDesignConfig {
     /// band, for the fold speed away from the corner (`v_fold_away_from_corner`; 0: skipped)
     #[serde(default = "default_away_samples")]
     pub away_from_corner_samples: usize,
-    /// the simulation check of one design per structure (issue 22, item 7)
+    /// the simulation check of one design per structure
     #[serde(default)]
     pub simulation_check: SimulationCheck,
     /// the predictor's model of the vehicle: a vehicle file (relative to this file's

@@ -1,4 +1,4 @@
-//! `cargo xtask corners` (issue 12, the paper's open question at the end of §IV-B): the
+//! `cargo xtask corners` (the paper's open question at the end of §IV-B): the
 //! sharp corners of the stability chart of the delayed yaw-rate feedback
 //! δ(t) = −D·ψ̇(t − τ) (eq. 8). For each delay of `configs/corners.toml`
 //! ([`sway::bifurcation::corners`]): every double-Hopf point inside the nonlinear chart's
@@ -17,8 +17,8 @@
 //! `evidence_tau_<τ in ms>ms_<k>` (spectra and sections).
 //!
 //! Any vehicle file: the D-subdivision, the curves, the torus continuation and the
-//! simulations run on the vehicle's plant (relaxation, tyre laws, axle lists, hitch torque;
-//! issue 21); a vehicle of the paper's form gives the paper model's numbers bit for bit.
+//! simulations run on the vehicle's plant (relaxation, tyre laws, axle lists, hitch torque);
+//! a vehicle of the paper's form gives the paper model's numbers.
 
 use std::path::Path;
 

@@ -1,9 +1,9 @@
-//! `cargo xtask fleet` (issue 20, item 6): the headline numbers of every task for each
+//! `cargo xtask fleet`: the headline numbers of every task for each
 //! vehicle file of `configs/fleet/` ([`sway_studies::fleet`]): V_crit, the fold of cycles, the
 //! width of the bistable range, the best gain D\* at τ = 0.2 s and the θ(0) threshold of
 //! sway at the middle of the bistable range. `summary.json`: `"vehicles"` (one entry per
 //! file, every null with its reason), `fleet.csv` (one row per file) and `fleet.md` (the
-//! table of the README). A file may be a vehicle with model variants (issue 21): its
+//! table of the README). A file may be a vehicle with model variants: its
 //! numbers are those of its own plant.
 
 use std::path::{Path, PathBuf};

@@ -1,4 +1,4 @@
-//! `cargo xtask gain_design` (issue 10, beyond the paper): the best gain D of the delayed
+//! `cargo xtask gain_design` (beyond the paper): the best gain D of the delayed
 //! yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8) for each delay τ of a grid
 //! ([`sway::gain_design`]): the gain D\*(τ) maximising the linear critical speed, the
 //! maximal critical speed, the gains within 1 % of it and whether the optimum sits on an
@@ -225,7 +225,7 @@ pub struct GainDesignSummary {
     /// the delays with the nonlinear part \[s\]
     pub nonlinear_delays_s: Vec<f64>,
     /// why the nonlinear part was left out (absent: it ran where the config asks; present
-    /// for a vehicle with model variants, issue 21)
+    /// for a vehicle with model variants)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nonlinear_reason: Option<String>,
     /// the search's ranges and the fold chart's box and seed used (derived where the config

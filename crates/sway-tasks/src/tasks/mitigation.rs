@@ -1,4 +1,4 @@
-//! `cargo xtask mitigation` (issue 10, beyond the paper): the braking-and-steering
+//! `cargo xtask mitigation` (beyond the paper): the braking-and-steering
 //! intervention that ends trailer sway fastest from **any** phase of the sway cycle, next
 //! to the paper's four strategies of Fig. 4(c) evaluated the same way.
 //!
@@ -18,7 +18,7 @@
 //! worst case at refinement × N phases against its bound), `"cycle"`.
 //!
 //! Any vehicle file: the cycle, the phase starts and every run are of the vehicle's plant
-//! (relaxation, tyre laws, axle lists, hitch torque; issue 21), with relative speeds referred
+//! (relaxation, tyre laws, axle lists, hitch torque), with relative speeds referred
 //! to its own V_crit and fold; a vehicle of the paper's form gives the paper model's numbers
 //! bit for bit.
 

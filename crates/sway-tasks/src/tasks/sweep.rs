@@ -64,7 +64,7 @@ pub const BRAKE_TIMING: Task = Task::configured::<SweepConfig<SpeedSpec>>(
 .any_model();
 
 /// The uncertainty study `configs/study_uncertainty.toml`: the distribution of V_crit when
-/// h and l are known to ±0.05 m (issue 11).
+/// h and l are known to ±0.05 m.
 pub const UNCERTAINTY: Task = Task::configured::<SweepConfig<SpeedSpec>>(
     "study_uncertainty",
     "distribution of V_crit when h and l are known to ±0.05 m (Latin hypercube)",

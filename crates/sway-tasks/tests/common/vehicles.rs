@@ -1,4 +1,4 @@
-//! A seeded generator of plausible car–trailer combinations (issue 20), for tests that
+//! A seeded generator of plausible car–trailer combinations, for tests that
 //! must hold for any valid vehicle file, not only Table I.
 //!
 //! Ranges (ours; typical passenger car + single-axle trailer, the single-track model):

@@ -13,7 +13,7 @@ fn shipped() -> (PathBuf, String) {
 
 #[test]
 fn shipped_config_is_valid_and_as_the_issue_asks() {
-    // reference: issue 22 — τ ∈ [0, 2] s, every structure × actuator, the table delays
+    // reference: the study's specification — τ ∈ [0, 2] s, every structure × actuator, the table delays
     // 0.4 / 0.6 / 0.8 s, a 10 % budget, study_uncertainty's h and l ranges
     let (file, text) = shipped();
     let cfg: ControlDesignConfig = parse_toml(&text, &file).unwrap();

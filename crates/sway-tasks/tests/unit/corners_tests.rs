@@ -15,7 +15,7 @@ fn shipped_config_is_valid_and_as_the_issue_asks() {
     let cfg: CornersConfig = parse_toml(&text, &file).unwrap();
     validate(&cfg, &file).unwrap();
     assert_eq!(cfg.delays_s, vec![0.2, 0.4]);
-    // the box and the seeds are derived from the vehicle (issue 20)
+    // the box and the seeds are derived from the vehicle
     assert_eq!(
         cfg.chart.box_keys(),
         sway::charts::auto_range::BoxKeys::default()

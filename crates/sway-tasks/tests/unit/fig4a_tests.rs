@@ -15,7 +15,7 @@ fn shipped_config_is_valid_and_as_the_issue_asks() {
     validate(&cfg, &file).unwrap();
     assert!(cfg.speed.cells >= 300 && cfg.gain.cells >= 200);
     assert_eq!(cfg.delays_s, vec![0.0, 0.1, 0.2, 0.4]);
-    // issue 20: the ranges and summary settings are derived from the vehicle
+    // the ranges and summary settings are derived from the vehicle
     assert_eq!((cfg.speed.min_mps, cfg.speed.max_mps), (None, None));
     assert_eq!((cfg.gain.min_s, cfg.gain.max_s), (None, None));
     assert_eq!(cfg.summary.gain_for_critical_speed_s, None);

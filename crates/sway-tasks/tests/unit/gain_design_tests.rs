@@ -11,7 +11,7 @@ fn shipped() -> (PathBuf, String) {
 
 #[test]
 fn shipped_config_is_valid_and_as_the_issue_asks() {
-    // reference: issue 10's defaults (τ = 0 … 0.5 s in 51 values, D in 0 … 0.5 s, 1 %, 10 %)
+    // reference: the defaults (τ = 0 … 0.5 s in 51 values, D in 0 … 0.5 s, 1 %, 10 %)
     let (file, text) = shipped();
     let cfg: GainDesignConfig = parse_toml(&text, &file).unwrap();
     validate(&cfg, &file).unwrap();
@@ -19,7 +19,7 @@ fn shipped_config_is_valid_and_as_the_issue_asks() {
         (cfg.delays_s.min, cfg.delays_s.max, cfg.delays_s.points),
         (0.0, 0.5, 51)
     );
-    // the gain range is derived from the vehicle (issue 20; Table I: [0, 0.5] s)
+    // the gain range is derived from the vehicle (Table I: [0, 0.5] s)
     assert_eq!((cfg.search.d_min_s, cfg.search.d_max_s), (None, None));
     assert_eq!(cfg.search.band_fraction, 0.01);
     assert_eq!(cfg.budget.rise_fraction, 0.1);

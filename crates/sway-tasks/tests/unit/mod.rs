@@ -1,7 +1,7 @@
 //! The unit tests of the task modules (their configs, checks and small helpers) and of
 //! `limits` and `shard`. They live here rather than in `src/` so that `cargo test` does not
 //! compile the library a second time for them: its test build recompiled everything they
-//! reach (issue 23 item 7). Helpers they need are `#[doc(hidden)] pub` in place. The
+//! reach. Helpers they need are `#[doc(hidden)] pub` in place. The
 //! figures' layout tests (`plot`) and the staging-file tests (`io`) stay in `src/`: they
 //! test private details and reach little.
 

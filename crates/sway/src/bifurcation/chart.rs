@@ -1,4 +1,4 @@
-//! The nonlinear stability chart of one delay τ (issue 8): curves of Hopf points V_hopf(D)
+//! The nonlinear stability chart of one delay τ: curves of Hopf points V_hopf(D)
 //! and of folds of cycles V_fold(D) of the closed loop (eq. 8) continued in the (D, V)
 //! plane, the criticality of the Hopf points along the Hopf curves, and the
 //! codimension-two points on the curves.

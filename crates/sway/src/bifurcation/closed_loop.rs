@@ -12,7 +12,7 @@
 //! so that its diagrams are bit for bit what they were; every [`trailer_model::VehicleModel`]
 //! gets them from [`Plant::switching_functions`] and [`Plant::guard_values`].
 //!
-//! **Controller structures** ([`LoopLaw`], issue 22): the command may also feed back the
+//! **Controller structures** ([`LoopLaw`]): the command may also feed back the
 //! hitch angle and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) (`yaw_rate_hitch`, θ̇ the
 //! plant's nonlinear hitch-angle rate, as the simulations measure it), and drive either the
 //! steering angle δ \[rad\] or a yaw moment M_z \[N m\] on the tractor
@@ -60,8 +60,8 @@ impl Feedback {
     }
 }
 
-/// The rest of the controller beyond the yaw-rate gain D and the delay τ of [`Feedback`]
-/// (issue 22): the actuator the command drives and the gains on the delayed hitch angle
+/// The rest of the controller beyond the yaw-rate gain D and the delay τ of [`Feedback`]:
+/// the actuator the command drives and the gains on the delayed hitch angle
 /// and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ). Units are the actuator's
 /// ([`sway_model::law`]): steering K_θ rad/rad, D_θ s; braking N m/rad, N m s/rad.
 #[derive(Debug, Clone, Copy, PartialEq)]

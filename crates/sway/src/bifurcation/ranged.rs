@@ -1,4 +1,4 @@
-//! Bifurcation diagrams whose speed range is derived from the vehicle (issue 20).
+//! Bifurcation diagrams whose speed range is derived from the vehicle.
 //!
 //! With the speed range omitted ([`DiagramSettings`] without `v_min_mps` / `v_max_mps`),
 //! straight running is continued from the lowest speed of the [`SpeedLimits`] until its

@@ -1,4 +1,4 @@
-//! Ranges of the stability charts derived from the vehicle (issue 20): the axes of `fig4a`,
+//! Ranges of the stability charts derived from the vehicle: the axes of `fig4a`,
 //! the (V, D) box of the nonlinear chart (`chart_nonlinear`, `corners`) and the ranges of
 //! `gain_design`, used where a config omits the key (a number in a config wins).
 //!
@@ -30,7 +30,7 @@
 //! `SCAN_GAINS × delays` critical speeds, each at most one scan over [minimum, maximum
 //! speed] and a bisection to [`SCAN_TOLERANCE_MPS`].
 //!
-//! For Table I the rules give the ranges the configs held before issue 20, except the
+//! For Table I the rules give the ranges the configs held before the ranges were derived, except the
 //! speed axis of `fig4a` (0–75 m/s instead of 0–60 m/s: at τ = 0.1 s and D = 0.5 s straight
 //! running is stable up to 67.9 m/s, above the old axis).
 

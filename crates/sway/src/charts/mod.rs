@@ -32,7 +32,7 @@ pub fn closed_loop<M: LoopModel + ?Sized>(
     RankOneFeedback::from_state_space(&lin.a, &lin.b, &lin.c)
 }
 
-/// The controller of a (V, D) chart (issue 22): the structure and actuator whose gain D is
+/// The controller of a (V, D) chart: the structure and actuator whose gain D is
 /// the chart's gain axis. For the chart to stay the D-subdivision of one quasi-polynomial
 /// p(λ) + D·e^{−λτ}·q(λ), every gain is proportional to D: with `yaw_rate_hitch` the loop is
 /// u = −D·(ψ̇ + k_θ·θ + d_θ·θ̇)(t − τ), k_θ = `hitch_angle_per_d`, d_θ = `hitch_rate_per_d`.

@@ -1,4 +1,4 @@
-//! Sway control beyond the paper's controller (issue 22): which controller structure and
+//! Sway control beyond the paper's controller: which controller structure and
 //! which actuator keep straight running stable for which loop delay τ.
 //!
 //! The paper closes the loop with δ(t) = −D·ψ̇(t − τ) (eq. 8) and ends with the remark

@@ -1,4 +1,4 @@
-//! Mitigation optimisation (issue 10): the braking-and-steering intervention that ends
+//! Mitigation optimisation: the braking-and-steering intervention that ends
 //! trailer sway fastest from **any** phase of the sway cycle.
 //!
 //! **Start.** The open loop settles on the sway cycle at V0 ([`sway_cycle`]); its period P

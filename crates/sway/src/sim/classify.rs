@@ -1,4 +1,4 @@
-//! The honest classification of a run (issue 11): is the trailer still swaying at the
+//! The honest classification of a run: is the trailer still swaying at the
 //! horizon, or only a transient that has not died out yet?
 //!
 //! The last two windows of the run, `[T − 2W, T − W]` and `[T − W, T]` (W = the final

@@ -223,7 +223,7 @@ fn fold_on(fb: Feedback, l: usize, mesh: MeshAdaptation) -> f64 {
 
 #[test]
 fn adapted_fold_agrees_with_the_4x_finer_mesh_to_1e_8() {
-    // issue 23 item 2. Reference: the same fold on the 4× finer adapted mesh (L = 160),
+    // Reference: the same fold on the 4× finer adapted mesh (L = 160),
     // converged far below the tolerance (degree-4 collocation with the kinks on mesh
     // points converges like h⁸ at the fold's speed); required 1e-8 relative. The fixed
     // uniform mesh is printed for the record (its kinks fall inside intervals: 1.5e-6).

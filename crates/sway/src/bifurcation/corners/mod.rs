@@ -1,4 +1,4 @@
-//! The sharp corners of the stability chart (issue 12, the paper's open question at the end
+//! The sharp corners of the stability chart (the paper's open question at the end
 //! of §IV-B: "quasiperiodic motions are expected in the vicinity of the sharp corners of
 //! the stability boundary"): the double-Hopf points of straight running under the delayed
 //! yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8), the curves that meet there, and what the

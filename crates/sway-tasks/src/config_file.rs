@@ -235,7 +235,7 @@ pub struct LoadedVehicle {
     /// the file as written
     pub spec: VehicleSpec,
     /// the plant of every task that takes any model ([`AnyVehicleModel::Paper`] for a
-    /// vehicle of the paper's form: bit for bit the paper's [`Model`])
+    /// vehicle of the paper's form: the paper's [`Model`])
     pub plant: AnyVehicleModel,
     /// the paper-form parameters ([`VehicleSpec::equivalent_params`]: identical to the
     /// file's keys for a vehicle of the paper's form; for a vehicle with variants the

@@ -630,7 +630,7 @@ impl Sweep {
     /// relaxation, axle lists, tyre laws, hitch torque): simulations run on its plant
     /// ([`simulate_in_paper_layout`]), vehicle fields and samples change it by
     /// [`VehicleSpec::with_parameter`]. A vehicle of the paper's form (or a sweep with a
-    /// fleet axis) is left on the paper's model, bit for bit.
+    /// fleet axis) is left on the paper's model.
     ///
     /// # Errors
     /// [`SwayError::Model`] for an invalid vehicle.

@@ -19,8 +19,7 @@
 //!
 //! Any vehicle file: the cycle, the phase starts and every run are of the vehicle's plant
 //! (relaxation, tyre laws, axle lists, hitch torque), with relative speeds referred
-//! to its own V_crit and fold; a vehicle of the paper's form gives the paper model's numbers
-//! bit for bit.
+//! to its own V_crit and fold; a vehicle of the paper's form gives the paper model's numbers.
 
 use std::path::Path;
 

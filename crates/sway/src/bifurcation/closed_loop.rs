@@ -9,8 +9,9 @@
 //!
 //! **Any plant.** The loop is generic over the plant `P: `[`Vehicle<N>`] (N reduced
 //! states): the paper's [`Model`] keeps its own switching functions (slip angles) and guard,
-//! so that its diagrams are bit for bit what they were; every [`trailer_model::VehicleModel`]
-//! gets them from [`Plant::switching_functions`] and [`Plant::guard_values`].
+//! as its pipelines have always computed them; every [`trailer_model::VehicleModel`] gets
+//! them from [`trailer_model::Plant::switching_functions`] and
+//! [`trailer_model::Plant::guard_values`].
 //!
 //! **Controller structures** ([`LoopLaw`]): the command may also feed back the
 //! hitch angle and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) (`yaw_rate_hitch`, θ̇ the

@@ -1291,8 +1291,7 @@ fn torus_boundary_at<P: SimulateOwn<N> + LoopModel, const N: usize>(
     Ok(Some((point, [below, above])))
 }
 
-/// One closed-loop simulation at (V, D, τ) of the plant `model` (in its own layout, the
-/// paper's model bit for bit as before) from θ(t ≤ 0) = kick, classified; a run still
+/// One closed-loop simulation at (V, D, τ) of the plant `model` (in its own layout) from θ(t ≤ 0) = kick, classified; a run still
 /// growing at the end of the window (without loss of control) is repeated with a
 /// transient three times as long, so that the class is that of where the motion settles.
 pub fn run_at<P: SimulateOwn<N> + LoopModel, const N: usize>(

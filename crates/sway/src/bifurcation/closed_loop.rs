@@ -3,7 +3,7 @@
 //! second derivatives along two directions, ∂J/∂p·a) exact by dual numbers.
 //!
 //! f(x, x_τ; V, D, τ) = F(x, u; V) with the command u = −D·c·x_τ (eq. 8; c·x = ψ̇ of eq. 5,
-//! linear in x) and F the plant's reduced right-hand side ([`Plant::rhs`], eq. (5)–(6) for
+//! linear in x) and F the plant's reduced right-hand side ([`trailer_model::Plant::rhs`], eq. (5)–(6) for
 //! the paper's [`Model`]). The delay τ enters only through the argument x_τ = x(t − τ)
 //! (reported by [`Problem::delay_dp`]); f itself does not depend on it.
 //!
@@ -17,7 +17,7 @@
 //! hitch angle and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) (`yaw_rate_hitch`, θ̇ the
 //! plant's nonlinear hitch-angle rate, as the simulations measure it), and drive either the
 //! steering angle δ \[rad\] or a yaw moment M_z \[N m\] on the tractor
-//! ([`Plant::rhs_with_yaw_moment`], differential braking). The braking limit
+//! ([`trailer_model::Plant::rhs_with_yaw_moment`], differential braking). The braking limit
 //! ([`sway_model::law::Actuator::limit`]) is **not** modelled in continuation (the moment is
 //! unsaturated); the `predictor` structure (a distributed delay) is not a problem of this
 //! module.

@@ -24,7 +24,7 @@
 //! not settled: H + final amplitude \[deg\]; loss of control: 2H + (H − time of the loss);
 //! peak |θ| above the limit (45°): max(cost, H) + (peak − limit) \[deg\]. The final speed
 //! is a bound, δ_max a saturation. [`optimise()`] minimises the worst case with the generic
-//! [`optimise::minimise`] (Nelder–Mead per ramp shape, seeded multi-start).
+//! [`sway_model::optimise::minimise`] (Nelder–Mead per ramp shape, seeded multi-start).
 
 use dde::{Direction, Event, EventAction, EventHit, Observer, OdeSolver};
 use nalgebra::SVector;
@@ -483,7 +483,7 @@ pub fn decision_vector(iv: &Intervention, horizon_s: f64) -> Vec<f64> {
     ]
 }
 
-/// The mitigation problem for [`optimise::minimise`]: choices are the ramp shapes
+/// The mitigation problem for [`sway_model::optimise::minimise`]: choices are the ramp shapes
 /// ([`RampShape::ALL`]), the cost the worst case over the phases.
 #[derive(Debug)]
 pub struct MitigationProblem<'a, P = Model, const M: usize = 4> {

@@ -1311,7 +1311,7 @@ pub fn run_at<P: SimulateOwn<N> + LoopModel, const N: usize>(
 /// As [`run_at`], from the constant history x(t ≤ 0) = `x0` \[σ1 m/s, σ2 1/s, σ3 1/s,
 /// θ rad\] (e.g. a state of a cycle; the run's `kick_deg` is θ0 in degrees). A plant's own
 /// states (the lagged slips of relaxing axles) start in steady state of the tyres
-/// ([`crate::sim::SimPlant::initial_state`] at V).
+/// ([`sway_model::vehicle::Vehicle::initial_state`] at V).
 pub fn run_from<P: SimulateOwn<N> + LoopModel, const N: usize>(
     model: &P,
     tau: f64,

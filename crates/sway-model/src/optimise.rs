@@ -3,6 +3,14 @@
 //! trailers: a problem is a cost `f(choice, x)` to minimise over `x` in a box and a choice
 //! among `n` alternatives.
 //!
+//! Why not argmin's `NelderMead`, whose decisions this one reproduces: argmin asks for the
+//! exact cost of every trial point, while this one passes on the cost the trial is compared
+//! with, so that in the mitigation study a trial's phase runs stop once a settle time
+//! exceeds it and the phases not started yet are skipped. Without that cutoff the search
+//! does 1.3× the solver work (2.5·10⁸ right-hand-side evaluations instead of 1.9·10⁸,
+//! 29 040 phase runs instead of about 23 300) and the whole study takes 1.3× as long on
+//! 2 cores, for the same result.
+//!
 //! - **Bounds** by a transform: the optimiser works on free variables z ∈ ℝ and the problem
 //!   sees x = lo + (hi − lo)·(1 + sin z)/2 ∈ \[lo, hi\] ([`Bound::to_bounded`]); every point
 //!   the optimiser visits is feasible for the bounds, and a bound can be attained.

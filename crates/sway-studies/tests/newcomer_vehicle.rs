@@ -38,7 +38,6 @@ use sway::bifurcation::{
 };
 use sway::sim::{
     Controller, EarlyStop, Outcome, Recording, RunSettings, SimSpec, SpeedProfile, simulate,
-    simulate_plant,
 };
 use sway_model::speeds::{OpenLoopStability, SpeedLimits, open_loop_critical_speed};
 use sway_model::vehicle::Vehicle;
@@ -630,7 +629,7 @@ fn kick_decays_below_and_grows_above_v_crit() {
     let theta0 = 0.01_f64.to_radians();
     for factor in [0.9, 1.1] {
         let v = factor * v_c;
-        let r = simulate_plant::<LinearTyres, 4, 4>(&lt, &kick_run(v, horizon), kick(0.01), rec)
+        let r = simulate::<LinearTyres, 4, 4>(&lt, &kick_run(v, horizon), kick(0.01), rec)
             .expect("run");
         let t: Vec<f64> = r.trajectory.iter().map(|s| s.t).collect();
         let th: Vec<f64> = r.trajectory.iter().map(|s| s.x[HITCH_ANGLE]).collect();
@@ -652,8 +651,8 @@ fn kick_decays_below_and_grows_above_v_crit() {
     // linear against brush tyres at 0.9·V_crit, from kicks of 0.01° and 0.02°
     let v = 0.9 * v_c;
     let deviation = |deg: f64| {
-        let ours = simulate_plant::<LinearTyres, 4, 4>(&lt, &kick_run(v, horizon), kick(deg), rec)
-            .expect("run");
+        let ours =
+            simulate::<LinearTyres, 4, 4>(&lt, &kick_run(v, horizon), kick(deg), rec).expect("run");
         let brush = simulate(&paper, &kick_run(v, horizon), kick(deg), rec).expect("run");
         assert_eq!(ours.trajectory.len(), brush.trajectory.len());
         let dev = ours

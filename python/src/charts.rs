@@ -14,7 +14,9 @@ use sway_studies::fig4b::{PairDiagram, closed_loop_diagram};
 use sway_tasks::config_file::{Configured, TaskConfig};
 use sway_tasks::tasks::Prepared;
 use sway_tasks::tasks::chart_nonlinear::{self, ChartNonlinearConfig};
-use sway_tasks::tasks::fig3a_diagram::{DiagramConfig, compute_diagram, validate_settings};
+use sway_tasks::tasks::fig3a_diagram::{
+    DiagramConfig, summary_fields, validate_diagram, validate_settings,
+};
 use sway_tasks::tasks::fig4a::{self, Fig4aConfig};
 
 use sway::charts::auto_range::SpeedBounds;
@@ -180,9 +182,9 @@ fn nonlinear_chart<'py>(
 
 /// bifurcation_diagram(vehicle, gain, delay, settings) → (summary JSON, arrays or None):
 /// the diagram of straight running and the sway cycles over V on the vehicle's plant.
-/// Open loop (gain and delay None): the `fig3a` task's diagram ([`compute_diagram`], what
-/// its `run_diagram` writes) on a dict of the `[diagram]` section's shape; the summary is
-/// fig3a's diagram fields. Closed loop: one pair of the `fig4b` task
+/// Open loop (gain and delay None): the `fig3a` task's diagram
+/// ([`sway_studies::fig3a::diagram`], what the task writes) on a dict of the `[diagram]`
+/// section's shape; the summary is fig3a's diagram fields. Closed loop: one pair of the `fig4b` task
 /// ([`closed_loop_diagram`]) on a dict of its `[continuation]` section's shape (absent keys:
 /// fig4b's defaults); the summary is its `"pairs"` entry. Without a Hopf point the summary
 /// says why and there are no arrays.
@@ -235,13 +237,15 @@ fn bifurcation_diagram<'py>(
         }
         _ => {
             let (cfg, file): (DiagramConfig, PathBuf) = load_config(settings, what)?;
-            cfg.validate(&file, "diagram").map_err(py_err)?;
-            let v = vehicle.clone();
-            let run = interruptible(py, 1.0, None, move || {
-                compute_diagram(&v.context(&sway::progress::NoProgress), &cfg)
+            validate_diagram(&cfg, &file, "diagram").map_err(py_err)?;
+            let plant = vehicle.plant().clone();
+            let (summary, diagram) = interruptible(py, 1.0, None, move || {
+                let limits = SpeedLimits::default();
+                let study = sway_studies::fig3a::diagram(&plant, &cfg, &limits)?;
+                Ok::<_, sway::SwayError>((summary_fields(study.summary), study.diagram))
             })?
             .map_err(py_err)?;
-            (to_json(&run.summary)?, run.diagram)
+            (to_json(&summary)?, diagram)
         }
     };
     let Some(d) = d else {

@@ -828,12 +828,9 @@ fn simulate<'py>(
     trajectory: bool,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use sway::ranging::SpeedSpec;
-    use sway::ranging::resolve_speeds;
-    use sway::sim::{Recording, ScenarioConfig, simulate_in_paper_layout};
+    use sway::sim::ScenarioConfig;
     use sway_tasks::config_file::{Configured, TaskConfig};
     use sway_tasks::tasks::Prepared;
-    use sway_tasks::tasks::series::resolved_check;
-    use sway_tasks::tasks::simulate::ScenarioSummary;
 
     let (mut config, file): (ScenarioConfig<SpeedSpec>, PathBuf) =
         load_config(scenario, "<scenario>")?;
@@ -846,9 +843,12 @@ fn simulate<'py>(
     let plant = vehicle.plant().clone();
     let run = move || -> Result<_, TaskError> {
         let limits = SpeedLimits::default();
-        let resolution = resolve_speeds(&plant, &limits, &config)?;
-        let cfg = match resolution.outcome {
-            Ok(c) => c,
+        let progress = sway::progress::NoProgress;
+        let resolution = sway_studies::simulate::compute(
+            &config, &plant, &limits, &file, trajectory, &progress,
+        )?;
+        let scenario = match resolution.outcome {
+            Ok(s) => s,
             Err(u) => {
                 return Err(TaskError::config(
                     &file,
@@ -857,18 +857,8 @@ fn simulate<'py>(
                 ));
             }
         };
-        resolved_check(cfg.validate(&file).map_err(Into::into), &resolution.speeds)?;
-        let x0 = cfg.initial.state7(&plant, &cfg.settings.solver)?;
-        let spec = cfg.spec();
-        let recording = if trajectory {
-            Recording::Every {
-                step_s: cfg.output_step_s.get(),
-            }
-        } else {
-            Recording::None
-        };
-        let r = simulate_in_paper_layout::<7>(&plant, &spec, x0, recording)?;
-        let summary = ScenarioSummary::of_run(&cfg.name, spec.action_s, &r);
+        let summary = scenario.summary();
+        let r = &scenario.run.result;
         // one pass over the samples into owned arrays (handed to numpy without a copy):
         // t, the states row-major (n × 7), V, δ
         let n = r.trajectory.len();

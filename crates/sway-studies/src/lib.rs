@@ -6,8 +6,12 @@
 //!
 //! | module | task |
 //! |---|---|
+//! | [`fig3a`] | `fig3a`: the open loop's bifurcation diagram and time panels in the bistable range |
+//! | [`fig3b`] | `fig3b`: braking out of sway with several ramp durations |
 //! | [`fig4a`] | `fig4a`: linear stability charts in (V, D) per delay |
 //! | [`fig4b`] | `fig4b`: bifurcation diagrams of the delayed closed loop |
+//! | [`fig4c`] | `fig4c`: sway suppression by steering, braking and both |
+//! | [`simulate`] | `simulate`: one user scenario; the time-series runs of `fig3a`, `fig3b`, `fig4c` |
 //! | [`chart`] | `chart_nonlinear`: Hopf and fold-of-cycles curves, regions, codimension-two points |
 //! | [`corners`] | `corners`: double-Hopf points, torus curves and the motion near them |
 //! | [`gain_design`] | `gain_design`: the best gain D\*(τ) and the delay budget |
@@ -44,13 +48,18 @@
 pub mod chart;
 pub mod control_design;
 pub mod corners;
+pub mod fig3a;
+pub mod fig3b;
 pub mod fig4a;
 pub mod fig4b;
+pub mod fig4c;
 pub mod fleet;
 pub mod gain_design;
+pub mod keyed;
 pub mod linear;
 pub mod loading;
 pub mod mitigation;
 pub mod roots;
+pub mod simulate;
 pub mod sweep;
 pub mod variants;

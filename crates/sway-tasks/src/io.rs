@@ -10,6 +10,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::TaskError;
+pub use sway_studies::keyed::Keyed;
 
 /// Formats a number for CSV: shortest round-trip form, exponent for very large/small
 /// magnitudes, empty for NaN (a missing value).
@@ -467,41 +468,6 @@ pub struct Summary<'a, H, C> {
     pub vehicle: &'a trailer_model::VehicleParams,
     /// wall-clock time of the run \[s\]
     pub wall_time_s: f64,
-}
-
-/// A JSON object whose keys are computed (e.g. one entry per speed, `"35"`, `"36"`), in the
-/// order given.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Keyed<T>(pub Vec<(String, T)>);
-
-impl<T> Default for Keyed<T> {
-    fn default() -> Self {
-        Self(Vec::new())
-    }
-}
-
-impl<T> Keyed<T> {
-    /// No entries.
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-}
-
-impl<T: Serialize> Serialize for Keyed<T> {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut m = s.serialize_map(Some(self.0.len()))?;
-        for (k, v) in &self.0 {
-            m.serialize_entry(k, v)?;
-        }
-        m.end()
-    }
-}
-
-impl<T> FromIterator<(String, T)> for Keyed<T> {
-    fn from_iter<I: IntoIterator<Item = (String, T)>>(iter: I) -> Self {
-        Self(iter.into_iter().collect())
-    }
 }
 
 /// What a summary records about the inputs of a run.

@@ -3,69 +3,24 @@
 //! branch (max |θ| vs V) with its stable and unstable parts and the fold, and the stable /
 //! bistable / unstable speed ranges.
 //!
-//! [`run_diagram`] computes and writes the diagram into a given output directory and returns
-//! the summary fields, the figure panel and printed lines; the `fig3a` task
-//! ([`super::fig3a_panels`]) runs it together with the time panels of the same figure, from
-//! the `[diagram]` section of `configs/fig3a.toml`.
+//! The diagram and its summary fields are computed by [`sway_studies::fig3a::diagram`];
+//! this module checks the `[diagram]` section of `configs/fig3a.toml` (and the continuation
+//! settings of the other diagram tasks), writes the branches and draws the diagram, for the
+//! `fig3a` task ([`super::fig3a_panels`]) that runs it together with the time panels of
+//! the same figure.
 
 use std::path::Path;
-use sway_model::vehicle::Vehicle;
 
 use crate::TaskError;
-use serde::{Deserialize, Serialize};
-use sway::bifurcation::chart::{ChartOptions, critical_speeds};
-use sway::bifurcation::{
-    CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, Feedback,
-    vehicle_diagram,
-};
+use sway::bifurcation::{Diagram, DiagramOptions, DiagramSettings};
 use sway::config::ensure;
-use sway::ranging::{RelativeSpeed, SpeedReferences, SpeedSpec};
+use sway::ranging::SpeedSpec;
+use sway_studies::fig3a::{AmplitudeKey, DiagramStudy};
+pub use sway_studies::fig3a::{DiagramConfig, DiagramSummary, Mesh, speed_key};
 
-use super::TaskContext;
-use crate::io::{Keyed, OutputDir};
+use crate::io::OutputDir;
 use crate::plot::{Layer, Legend, Panel, Rgb, Shape, Stroke};
 use crate::report::CycleRow;
-
-/// Table I's 35, 36 and 38 m/s as fractions of its V_crit (34.74792336267873 m/s).
-fn default_stable() -> Vec<SpeedSpec> {
-    [1.00725443747214, 1.0360331356856298, 1.0935905321126091]
-        .map(|f| SpeedSpec::Relative(RelativeSpeed::OfVCrit(f)))
-        .to_vec()
-}
-/// Table I's 33 m/s as a fraction of its bistable range (fold 31.52277210344242 m/s to
-/// V_crit), as this diagram locates them.
-fn default_unstable() -> Vec<SpeedSpec> {
-    vec![SpeedSpec::Relative(RelativeSpeed::InBistable(
-        0.4580338136231522,
-    ))]
-}
-
-/// The `[diagram]` section of `configs/fig3a.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DiagramConfig {
-    /// continuation and discretisation settings (`[diagram.continuation]`); the speed
-    /// range omitted: derived from the vehicle ([`sway::bifurcation::vehicle_diagram`])
-    #[serde(default, rename = "continuation")]
-    pub options: DiagramSettings,
-    /// speeds at which the stable cycle's amplitude is reported (`stable_amplitude_deg`):
-    /// numbers \[m/s\] or relative ([`SpeedSpec`], resolved with this diagram's V_crit and fold)
-    #[serde(default = "default_stable")]
-    pub stable_speeds_mps: Vec<SpeedSpec>,
-    /// speeds at which the unstable cycle's amplitude is reported (`unstable_amplitude_deg`)
-    #[serde(default = "default_unstable")]
-    pub unstable_speeds_mps: Vec<SpeedSpec>,
-}
-
-impl Default for DiagramConfig {
-    fn default() -> Self {
-        Self {
-            options: DiagramSettings::default(),
-            stable_speeds_mps: default_stable(),
-            unstable_speeds_mps: default_unstable(),
-        }
-    }
-}
 
 /// Most points of a cycle branch: 100 000 (default 600). A point stores its collocation
 /// vector, so the memory also depends on the mesh ([`cycle_branch_bytes`]), which is
@@ -202,130 +157,35 @@ pub fn validate_options(o: &DiagramOptions, file: &Path, prefix: &str) -> Result
     Ok(within("root_degree", o.root_degree, 4..=200)?)
 }
 
-impl DiagramConfig {
-    /// Checks the keys (`prefix` is the section's key path).
-    ///
-    /// # Errors
-    /// [`TaskError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
-        validate_settings(&self.options, file, &format!("{prefix}.continuation"))?;
-        let o = &self.options;
-        let lo = o.v_min_mps.unwrap_or(0.0);
-        let hi = o.v_max_mps.unwrap_or(f64::INFINITY);
-        for (k, list) in [
-            ("stable_speeds_mps", &self.stable_speeds_mps),
-            ("unstable_speeds_mps", &self.unstable_speeds_mps),
-        ] {
-            let absolute = list.iter().filter_map(|v| match v {
-                SpeedSpec::Absolute(v) => Some(*v),
-                SpeedSpec::Relative(_) => None,
-            });
-            ensure(
-                absolute.clone().all(|v| v > lo && v < hi),
-                file,
-                &format!("{prefix}.{k}"),
-                || format!("expected speeds inside ({lo}, {hi}) m/s, got {list:?}"),
-            )?;
-        }
-        Ok(())
+/// Checks the keys of a `[diagram]` section (`prefix` is the section's key path).
+///
+/// # Errors
+/// [`TaskError::Config`] naming the file and key.
+pub fn validate_diagram(cfg: &DiagramConfig, file: &Path, prefix: &str) -> Result<(), TaskError> {
+    validate_settings(&cfg.options, file, &format!("{prefix}.continuation"))?;
+    let o = &cfg.options;
+    let lo = o.v_min_mps.unwrap_or(0.0);
+    let hi = o.v_max_mps.unwrap_or(f64::INFINITY);
+    for (k, list) in [
+        ("stable_speeds_mps", &cfg.stable_speeds_mps),
+        ("unstable_speeds_mps", &cfg.unstable_speeds_mps),
+    ] {
+        let absolute = list.iter().filter_map(|v| match v {
+            SpeedSpec::Absolute(v) => Some(*v),
+            SpeedSpec::Relative(_) => None,
+        });
+        ensure(
+            absolute.clone().all(|v| v > lo && v < hi),
+            file,
+            &format!("{prefix}.{k}"),
+            || format!("expected speeds inside ({lo}, {hi}) m/s, got {list:?}"),
+        )?;
     }
+    Ok(())
 }
 
 /// Vertices of a plotted curve (V \[m/s\], max |θ| \[deg\]); NaN pairs break it.
 pub type Polyline = Vec<(f64, f64)>;
-
-/// The collocation mesh of the cycles.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Mesh {
-    /// mesh intervals L
-    pub intervals: usize,
-    /// polynomial degree m
-    pub degree: usize,
-}
-
-/// The diagram's fields of fig3a's `summary.json` (speed keys as [`speed_key`] writes
-/// them). A quantity that does not exist for the vehicle (no Hopf point below the maximum
-/// speed, no fold) is null, with the reason in the `*_reason` field next to it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DiagramSummary {
-    /// V at the Hopf point (V_crit) \[m/s\]; null: no Hopf point in the searched range
-    pub hopf_v_mps: Option<f64>,
-    /// why there is no Hopf point (only when `hopf_v_mps` is null)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub hopf_reason: Option<String>,
-    /// straight running is stable up to this speed \[m/s\] (only without a Hopf point)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stable_up_to_mps: Option<f64>,
-    /// straight running loses stability here through a real eigenvalue (a static
-    /// divergence, no sway cycles) \[m/s\] (only without a Hopf point)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub divergence_v_mps: Option<f64>,
-    /// V at the fold of cycles \[m/s\], corrected on the fold-of-cycles defining system
-    /// (as `fig4b` and `chart_nonlinear` report it)
-    pub fold_v_mps: Option<f64>,
-    /// V at the fold as located on the cycle branch, before the correction \[m/s\]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub fold_located_v_mps: Option<f64>,
-    /// why there is no fold (only when `fold_v_mps` is null)
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub fold_reason: Option<String>,
-    /// max |θ| at the fold \[deg\]
-    pub fold_amplitude_deg: Option<f64>,
-    /// max |θ| of the stable cycle at the configured speeds \[deg\]
-    pub stable_amplitude_deg: Keyed<Option<f64>>,
-    /// max |θ| of the unstable cycle at the configured speeds \[deg\]
-    pub unstable_amplitude_deg: Keyed<Option<f64>>,
-    /// why a configured speed has no amplitude (relative speed without its reference, or
-    /// no cycle of that stability there), by speed key or spec
-    #[serde(skip_serializing_if = "Keyed::is_empty")]
-    pub amplitude_reasons: Keyed<String>,
-    /// "subcritical" or "supercritical"
-    pub criticality: Option<String>,
-    /// ω at the Hopf point \[rad/s\]
-    pub hopf_omega_rad_s: Option<f64>,
-    /// 2π/ω \[s\]
-    pub hopf_period_s: Option<f64>,
-    /// period of the cycle at the fold \[s\]
-    pub fold_period_s: Option<f64>,
-    /// period of the stable cycle at the configured speeds \[s\]
-    pub stable_period_s: Keyed<Option<f64>>,
-    /// from the fold to the Hopf point \[m/s\]
-    pub bistable_range_mps: Option<[f64; 2]>,
-    /// points on the cycle branch
-    pub cycle_points: usize,
-    /// why the cycle branch ended ([`sway::bifurcation::BranchEnd::reason`])
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cycle_branch_end: Option<String>,
-    /// the speeds searched for the Hopf point and the cycle branch \[m/s\]
-    pub searched_mps: [f64; 2],
-    /// the speed range of the figure \[m/s\] (derived from the vehicle unless configured)
-    pub diagram_range_mps: [f64; 2],
-    /// the collocation mesh
-    pub mesh: Mesh,
-}
-
-/// What [`run_diagram`] returns: summary fields, the figure panel, printed lines.
-pub type DiagramParts = (DiagramSummary, Panel, Vec<String>);
-
-/// What [`compute_diagram`] returns: everything [`run_diagram`] reports, and the diagram
-/// whose branches it writes.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DiagramRun {
-    /// the summary fields
-    pub summary: DiagramSummary,
-    /// the diagram (None: straight running has no Hopf point, `summary` says why)
-    pub diagram: Option<Box<Diagram>>,
-    /// the figure panel
-    pub panel: Panel,
-    /// printed lines
-    pub lines: Vec<String>,
-}
-
-/// Summary key of a speed: `35` for 35.0, `35.5` for 35.5; a resolved relative speed is
-/// rounded to 1e-9 m/s first (Table I's `{ of_v_crit = 1.00725443747214 }` is `35`).
-pub fn speed_key(v: f64) -> String {
-    format!("{}", (v * 1e9).round() / 1e9)
-}
 
 /// Lines of a cycle branch split into stable and unstable parts (NaN breaks), in the
 /// coordinates (V, max |θ| \[deg\]).
@@ -363,163 +223,24 @@ fn straight_running(d: &Diagram) -> (Polyline, Polyline) {
     )
 }
 
-/// Computes the open-loop diagram on the configured or derived speed range, writes
-/// `equilibria.csv` and `cycles.csv`, and returns the summary fields (`hopf_v_mps`,
-/// `fold_v_mps`, `fold_amplitude_deg`, `stable_amplitude_deg`, `unstable_amplitude_deg`,
-/// `criticality`, …), the figure panel and printed lines. Straight running stable up to the
-/// maximum speed is an outcome: `hopf_v_mps` null with `hopf_reason`, a figure of the
-/// stable straight running.
-///
-/// # Errors
-/// Numerical failures with context, or write errors.
-pub fn run_diagram(
-    ctx: &TaskContext<'_>,
-    cfg: &DiagramConfig,
-    out: &OutputDir,
-) -> Result<DiagramParts, TaskError> {
-    let run = compute_diagram(ctx, cfg)?;
-    write_branches(run.diagram.as_deref(), out)?;
-    Ok((run.summary, run.panel, run.lines))
-}
-
-/// What [`run_diagram`] computes, without writing anything: the summary fields, the
-/// diagram, the figure panel and printed lines (the Python package's diagram).
-///
-/// # Errors
-/// Numerical failures with context.
-pub fn compute_diagram(
-    ctx: &TaskContext<'_>,
-    cfg: &DiagramConfig,
-) -> Result<DiagramRun, TaskError> {
-    trailer_model::with_plant!(&ctx.plant, m => compute_diagram_on(m, ctx, cfg))
-}
-
-/// [`compute_diagram`] on the concrete plant of the vehicle (any model variant; the paper's
-/// [`trailer_model::Model`] for a vehicle of the paper's form).
-fn compute_diagram_on<P: Vehicle<N>, const N: usize>(
-    model: &P,
-    ctx: &TaskContext<'_>,
-    cfg: &DiagramConfig,
-) -> Result<DiagramRun, TaskError> {
-    let outcome = vehicle_diagram(
-        model,
-        Feedback::OPEN_LOOP,
-        &cfg.options,
-        &ctx.limits,
-        CycleExtent::WholeRange,
-    )?;
-    let d = match outcome {
-        DiagramOutcome::Computed(d) => d,
-        DiagramOutcome::NoHopf(n) => return Ok(no_hopf_diagram(cfg, &n)),
-    };
-    // the Hopf point and the fold corrected on their defining systems, as fig4b and the
-    // nonlinear chart report them (one number per vehicle across the tasks)
-    let cs = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))?;
-    let refs = SpeedReferences {
-        v_crit_mps: Some(cs.hopf_v_mps),
-        v_fold_mps: cs.fold.map(|f| f.v_mps),
-        reason: d.fold_reason(),
-    };
-    let mut reasons = Keyed::default();
-    let mut stable_amp = Keyed::default();
-    let mut stable_period = Keyed::default();
-    for spec in &cfg.stable_speeds_mps {
-        let Some((key, v)) = resolve_or_note(spec, &refs, &mut reasons) else {
-            continue;
-        };
-        let c = d.cycles_at(model, v)?;
-        let s = c
-            .iter()
-            .filter(|c| c.stable)
-            .max_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
-        if s.is_none() {
-            reasons
-                .0
-                .push((key.clone(), format!("no stable cycle at {key} m/s")));
-        }
-        stable_amp.0.push((key.clone(), s.map(|c| c.amplitude_deg)));
-        stable_period.0.push((key, s.map(|c| c.period_s)));
-    }
-    let mut unstable_amp = Keyed::default();
-    for spec in &cfg.unstable_speeds_mps {
-        let Some((key, v)) = resolve_or_note(spec, &refs, &mut reasons) else {
-            continue;
-        };
-        let c = d.cycles_at(model, v)?;
-        let s = c
-            .iter()
-            .filter(|c| !c.stable)
-            .min_by(|a, b| a.amplitude_deg.total_cmp(&b.amplitude_deg));
-        if s.is_none() {
-            reasons
-                .0
-                .push((key.clone(), format!("no unstable cycle at {key} m/s")));
-        }
-        unstable_amp.0.push((key, s.map(|c| c.amplitude_deg)));
-    }
-    let fold = cs.fold;
-    let fold_reason = match (fold, d.fold_reason()) {
-        (None, None) => Some(
-            "the fold of the cycle branch could not be corrected on the fold-of-cycles system"
-                .into(),
-        ),
-        (None, r) => r,
-        (Some(_), _) => None,
-    };
-    let summary = DiagramSummary {
-        hopf_v_mps: Some(cs.hopf_v_mps),
-        hopf_reason: None,
-        stable_up_to_mps: None,
-        divergence_v_mps: None,
-        fold_v_mps: fold.map(|f| f.v_mps),
-        fold_located_v_mps: d.fold.map(|f| f.speed_mps),
-        fold_reason,
-        fold_amplitude_deg: fold.map(|f| f.amplitude_deg),
-        stable_amplitude_deg: stable_amp,
-        unstable_amplitude_deg: unstable_amp,
-        amplitude_reasons: reasons,
-        criticality: Some(cs.criticality.to_string()),
-        hopf_omega_rad_s: Some(cs.hopf_omega_rad_s),
-        hopf_period_s: Some(2.0 * std::f64::consts::PI / cs.hopf_omega_rad_s),
-        fold_period_s: fold.map(|f| f.period_s),
-        stable_period_s: stable_period,
-        bistable_range_mps: match (cs.criticality, fold) {
-            (continuation::Criticality::Subcritical, Some(f)) => Some([f.v_mps, cs.hopf_v_mps]),
-            _ => None,
-        },
-        cycle_points: d.cycle_summary.len(),
-        cycle_branch_end: Some(d.cycle_branch_end.reason()),
-        searched_mps: d.searched_mps,
-        diagram_range_mps: [d.options.v_min_mps, d.options.v_max_mps],
-        mesh: Mesh {
-            intervals: d.options.intervals,
-            degree: d.options.degree,
-        },
-    };
-
-    let panel = diagram_panel(&d);
-    let mut lines = vec![format!(
-        "fig3a diagram: Hopf (V_crit) at {:.6} m/s ({}), ω = {:.4} rad/s",
-        cs.hopf_v_mps, cs.criticality, cs.hopf_omega_rad_s
-    )];
-    match (fold, &summary.fold_reason) {
-        (Some(f), _) => lines.push(format!(
-            "fig3a diagram: fold of cycles at {:.6} m/s, max |θ| = {:.4}°; bistable {:.3}–{:.3} m/s",
-            f.v_mps, f.amplitude_deg, f.v_mps, cs.hopf_v_mps
-        )),
-        (None, Some(r)) => lines.push(format!("fig3a diagram: no fold of cycles: {r}")),
-        (None, None) => {}
-    }
-    Ok(DiagramRun {
-        summary,
-        diagram: Some(d),
-        panel,
-        lines,
+/// The diagram's fields of `summary.json`: a configured speed that did not resolve keyed
+/// by its JSON text (e.g. `{"in_bistable":0.458}`).
+pub fn summary_fields(s: DiagramSummary<AmplitudeKey>) -> DiagramSummary {
+    s.rekeyed(|k| match k {
+        AmplitudeKey::Speed(key) => key,
+        AmplitudeKey::Spec(spec) => spec_key(&spec),
     })
 }
 
+fn spec_key(spec: &SpeedSpec) -> String {
+    serde_json::to_string(spec).unwrap_or_else(|_| format!("{spec:?}"))
+}
+
 /// `equilibria.csv` and `cycles.csv` of a diagram (without one: the headers only).
-fn write_branches(d: Option<&Diagram>, out: &OutputDir) -> Result<(), TaskError> {
+///
+/// # Errors
+/// [`TaskError::Write`].
+pub fn write_branches(d: Option<&Diagram>, out: &OutputDir) -> Result<(), TaskError> {
     let eq_rows: Vec<[f64; 3]> = d
         .iter()
         .flat_map(|d| &d.equilibria.points)
@@ -544,90 +265,63 @@ fn write_branches(d: Option<&Diagram>, out: &OutputDir) -> Result<(), TaskError>
     Ok(())
 }
 
-/// A configured speed resolved to (summary key, speed \[m/s\]); None (with the reason
-/// recorded under the spec) when its reference does not exist.
-fn resolve_or_note(
-    spec: &SpeedSpec,
-    refs: &SpeedReferences,
-    reasons: &mut Keyed<String>,
-) -> Option<(String, f64)> {
-    match spec.resolve(refs) {
-        Ok(v) => Some((speed_key(v), v)),
-        Err(e) => {
-            let key = serde_json::to_string(spec).unwrap_or_else(|_| format!("{spec:?}"));
-            reasons.0.push((key, e.reason));
-            None
-        }
+/// The figure panel of a diagram and its printed lines: the Hopf point, the fold of
+/// cycles (or why there is none); without a Hopf point the straight running and why.
+pub fn diagram_report(study: &DiagramStudy) -> (Panel, Vec<String>) {
+    let s = &study.summary;
+    let Some(d) = &study.diagram else {
+        return (
+            no_hopf_panel(s),
+            vec![format!(
+                "fig3a diagram: {}",
+                s.hopf_reason.as_deref().unwrap_or_default()
+            )],
+        );
+    };
+    let hopf_v = s.hopf_v_mps.unwrap_or(f64::NAN);
+    let mut lines = vec![format!(
+        "fig3a diagram: Hopf (V_crit) at {:.6} m/s ({}), ω = {:.4} rad/s",
+        hopf_v,
+        s.criticality.as_deref().unwrap_or_default(),
+        s.hopf_omega_rad_s.unwrap_or(f64::NAN)
+    )];
+    match (s.fold_v_mps.zip(s.fold_amplitude_deg), &s.fold_reason) {
+        (Some((v_fold, amplitude)), _) => lines.push(format!(
+            "fig3a diagram: fold of cycles at {v_fold:.6} m/s, max |θ| = {amplitude:.4}°; bistable {v_fold:.3}–{hopf_v:.3} m/s"
+        )),
+        (None, Some(r)) => lines.push(format!("fig3a diagram: no fold of cycles: {r}")),
+        (None, None) => {}
     }
+    (diagram_panel(d), lines)
 }
 
-/// The outcome without a Hopf point: straight running only, said in the summary, the
-/// console and the figure.
-fn no_hopf_diagram(cfg: &DiagramConfig, n: &sway::bifurcation::NoHopf) -> DiagramRun {
-    let hi = n.stable_up_to_mps.unwrap_or(n.searched_from_mps);
-    let mut reasons = Keyed::default();
-    for spec in cfg.stable_speeds_mps.iter().chain(&cfg.unstable_speeds_mps) {
-        let key = serde_json::to_string(spec).unwrap_or_else(|_| format!("{spec:?}"));
-        reasons.0.push((key, n.reason.clone()));
-    }
-    let summary = DiagramSummary {
-        hopf_v_mps: None,
-        hopf_reason: Some(n.reason.clone()),
-        stable_up_to_mps: n.stable_up_to_mps,
-        divergence_v_mps: n.divergence_v_mps,
-        fold_v_mps: None,
-        fold_located_v_mps: None,
-        fold_reason: Some(n.reason.clone()),
-        fold_amplitude_deg: None,
-        stable_amplitude_deg: Keyed::default(),
-        unstable_amplitude_deg: Keyed::default(),
-        amplitude_reasons: reasons,
-        criticality: None,
-        hopf_omega_rad_s: None,
-        hopf_period_s: None,
-        fold_period_s: None,
-        stable_period_s: Keyed::default(),
-        bistable_range_mps: None,
-        cycle_points: 0,
-        cycle_branch_end: None,
-        searched_mps: [n.searched_from_mps, hi],
-        diagram_range_mps: [n.searched_from_mps, hi],
-        mesh: Mesh {
-            intervals: cfg.options.intervals,
-            degree: cfg.options.degree,
-        },
-    };
-    let title = match n.divergence_v_mps {
+/// The panel without a Hopf point: straight running over the searched speeds, stable or
+/// unstable, and where it diverges statically.
+fn no_hopf_panel<K>(s: &DiagramSummary<K>) -> Panel {
+    let [lo, hi] = s.searched_mps;
+    let title = match s.divergence_v_mps {
         Some(v) => format!(
             "Open loop: straight running diverges statically at {v:.2} m/s (real eigenvalue, no Hopf point)"
         ),
         None => "Open loop: straight running (no Hopf point in the searched range)".to_string(),
     };
     let mut panel = Panel::new(&title, "V [m/s]", "max |θ| [deg]")
-        .x_range(n.searched_from_mps, hi)
+        .x_range(lo, hi)
         .y_range(-0.5, 10.0)
         .legend(Legend::UpperLeft);
-    let (color, label) = if n.stable_up_to_mps.is_some() {
+    let (color, label) = if s.stable_up_to_mps.is_some() {
         (Rgb::GREEN, "straight running, stable")
     } else {
         (Rgb::RED, "straight running, unstable")
     };
-    panel
-        .layers
-        .push(Layer::band(n.searched_from_mps, hi, color, Some(label)));
+    panel.layers.push(Layer::band(lo, hi, color, Some(label)));
     panel.layers.push(Layer::line(
-        vec![(n.searched_from_mps, 0.0), (hi, 0.0)],
+        vec![(lo, 0.0), (hi, 0.0)],
         color,
         Stroke::Solid,
         None,
     ));
-    let lines = vec![format!("fig3a diagram: {}", n.reason)];
-    DiagramRun {
-        summary,
-        diagram: None,
-        panel,
-        lines,
-    }
+    panel
 }
 
 /// An empty panel of cycle amplitudes max |θ| \[deg\] against V \[m/s\] over the speed range

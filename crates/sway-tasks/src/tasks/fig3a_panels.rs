@@ -4,7 +4,7 @@
 //! (max |θ| over the last 5 s).
 //!
 //! The task also runs the bifurcation diagram of the same figure (top;
-//! [`super::fig3a_diagram::run_diagram`], `[diagram]` section of `configs/fig3a.toml`):
+//! [`super::fig3a_diagram`], `[diagram]` section of `configs/fig3a.toml`):
 //! one figure `fig3a.svg/.png` with the diagram above the time panels, one `summary.json`
 //! with the diagram's fields and `"time_panels"`.
 //!
@@ -15,28 +15,28 @@
 //! no panel speed: `"time_panels"` is null and `"time_panels_reason"` says why.
 //!
 //! Any vehicle file: the diagram is computed on the vehicle's plant (relaxation, tyre laws,
-//! axle lists, hitch torque); the time panels simulate through [`run_and_write`], which
-//! simulates the paper's model, so a vehicle with model variants gets the diagram without
-//! time panels (`"time_panels_reason"` names the variant).
+//! axle lists, hitch torque); a vehicle with model variants gets the diagram without time
+//! panels (`"time_panels_reason"` names the variant). The computation is
+//! [`sway_studies::fig3a::compute`]; this task checks the config, writes the branches, the
+//! panels' series, the figure and the summary.
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
-use sway::config::{Positive, ensure};
-use sway::parallel::Split;
-use sway::ranging::{SpeedReferences, SpeedSpec};
-use sway::sim::speeds::{
-    ResolveSpeeds, ResolvedSpeed, Resolver, SpeedValue, UnresolvedSpeed, resolve_against,
+use serde::Serialize;
+use sway::sim::speeds::ResolvedSpeed;
+pub use sway_studies::fig3a::{
+    Fig3a, Fig3aConfig, PanelRun, Panels, PanelsConfig, compute, panel_key,
 };
-use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
 
 use crate::TaskError;
 
-use super::fig3a_diagram::{DiagramConfig, DiagramSummary, run_diagram};
-use super::series::{RunEntry, line, resolved_check, run_and_write};
+use super::fig3a_diagram::{
+    DiagramSummary, diagram_report, summary_fields, validate_diagram, write_branches,
+};
+use super::series::{RunEntry, line, write_runs};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::load_toml;
-use crate::io::{Keyed, OutputDir};
+use crate::io::Keyed;
 use crate::limits::{Plan, series_plan};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::report::{SeriesRow, loss_marker, theta_deg};
@@ -49,158 +49,6 @@ pub const TASK: Task = Task {
     prepare,
     models: super::Models::Any,
 };
-
-fn default_speed<S: From<f64>>() -> S {
-    S::from(33.0)
-}
-fn default_thetas() -> Vec<f64> {
-    vec![2.0, 8.0]
-}
-fn default_horizon() -> Positive {
-    Positive::literal(60.0)
-}
-fn default_output_step() -> Positive {
-    Positive::literal(0.02)
-}
-
-/// The `[panels]` section of `configs/fig3a.toml`. `S`: the type of the speed,
-/// [`SpeedSpec`] as written (a number or relative to the vehicle), `f64` when run.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-#[serde(bound(
-    serialize = "S: Serialize",
-    deserialize = "S: Deserialize<'de> + From<f64>"
-))]
-pub struct PanelsConfig<S = f64> {
-    /// constant speed V \[m/s\] (default 33 m/s)
-    #[serde(default = "default_speed")]
-    pub speed_mps: S,
-    /// initial hitch angles θ(0) \[deg\], one panel each (other states 0)
-    #[serde(default = "default_thetas")]
-    pub theta0_deg: Vec<f64>,
-    /// horizon \[s\]
-    #[serde(default = "default_horizon")]
-    pub horizon_s: Positive,
-    /// sampling of the plotted series \[s\]
-    #[serde(default = "default_output_step")]
-    pub output_step_s: Positive,
-    /// validity guard, tolerances, metric settings (final window 5 s)
-    #[serde(flatten)]
-    pub settings: RunSettings,
-}
-
-impl<S: SpeedValue> ResolveSpeeds for PanelsConfig<S> {
-    type Resolved = PanelsConfig;
-    fn resolve_speeds(&self, r: &mut Resolver<'_>) -> Result<PanelsConfig, UnresolvedSpeed> {
-        Ok(PanelsConfig {
-            speed_mps: self.speed_mps.resolve_speed("panels.speed_mps", r)?,
-            theta0_deg: self.theta0_deg.clone(),
-            horizon_s: self.horizon_s,
-            output_step_s: self.output_step_s,
-            settings: self.settings,
-        })
-    }
-}
-
-impl PanelsConfig<SpeedSpec> {
-    /// Checks the keys that can be checked before the speed is resolved; with a number,
-    /// every key ([`PanelsConfig::validate`]).
-    ///
-    /// # Errors
-    /// [`TaskError::Config`] naming the file and key.
-    pub fn validate_spec(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
-        match self.all_numbers() {
-            Some(c) => c.validate(file, prefix),
-            None => Ok(()),
-        }
-    }
-}
-
-impl PanelsConfig {
-    /// Checks the keys that do not validate themselves (`prefix` is the section's key
-    /// path).
-    ///
-    /// # Errors
-    /// [`TaskError::Config`] naming the file and key.
-    pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), TaskError> {
-        ensure(
-            self.speed_mps.is_finite() && self.speed_mps > 0.0,
-            file,
-            &format!("{prefix}.speed_mps"),
-            || format!("expected a speed > 0 m/s, got {}", self.speed_mps),
-        )?;
-        ensure(
-            !self.theta0_deg.is_empty()
-                && self
-                    .theta0_deg
-                    .iter()
-                    .all(|t| t.is_finite() && t.abs() < 90.0),
-            file,
-            &format!("{prefix}.theta0_deg"),
-            || {
-                format!(
-                    "expected a list of angles with |θ| < 90 deg, got {:?}",
-                    self.theta0_deg
-                )
-            },
-        )?;
-        ensure(
-            self.output_step_s <= self.horizon_s,
-            file,
-            &format!("{prefix}.output_step_s"),
-            || {
-                format!(
-                    "expected 0 < output_step_s <= horizon_s, got {}",
-                    self.output_step_s.get()
-                )
-            },
-        )?;
-        Ok(self
-            .settings
-            .solver
-            .validate_at(file, &format!("{prefix}.solver"))?)
-    }
-
-    /// The run at constant speed (every panel; they differ in θ(0)).
-    pub fn spec(&self) -> SimSpec {
-        SimSpec {
-            early_stop: sway::sim::EarlyStop::Never,
-            profile: SpeedProfile::Constant {
-                speed_mps: self.speed_mps,
-            },
-            controller: Controller::None,
-            horizon_s: self.horizon_s.get(),
-            action_s: 0.0,
-            settings: self.settings,
-        }
-    }
-}
-
-/// `configs/fig3a.toml`: `[panels]` for the time panels, `[diagram]` for the bifurcation
-/// diagram (defaults when absent).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Fig3aConfig {
-    /// time panels
-    pub panels: PanelsConfig<SpeedSpec>,
-    /// the bifurcation diagram
-    #[serde(default)]
-    pub diagram: DiagramConfig,
-}
-
-/// The key of a panel in `"time_panels"`: `theta0_2deg`, `theta0_8deg`, `theta0_2.5deg`.
-pub fn panel_key(theta0_deg: f64) -> String {
-    format!("theta0_{theta0_deg}deg")
-}
-
-/// What distinguishes a panel's run in `summary.json` (beside its metrics).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PanelRun {
-    /// θ(0) \[deg\]
-    pub theta0_deg: f64,
-    /// V \[m/s\]
-    pub speed_mps: f64,
-}
 
 /// The `"time_panels"` entry of `summary.json`: one entry per panel, keyed
 /// `"theta0_2deg"`, …: the run's metrics, `theta0_deg` and `speed_mps`.
@@ -269,54 +117,19 @@ fn time_panel(cfg: &PanelsConfig, theta0: f64, r: &sway::sim::SimResult<7>) -> P
     p
 }
 
-/// Simulates the panels, writes `theta0_<θ>deg.csv` per panel, and returns the
-/// `"time_panels"` summary entry, the figure panels and printed lines.
-///
-/// # Errors
-/// Numerical failures with context, or write errors.
-pub fn run_panels(
-    ctx: &TaskContext<'_>,
-    cfg: &PanelsConfig,
-    out: &OutputDir,
-) -> Result<(TimePanels, Vec<Panel>, Vec<String>), TaskError> {
-    let spec = cfg.spec();
-    let speed = cfg.speed_mps;
-    let mut entries = TimePanels::default();
-    let mut panels = Vec::new();
+/// The `"time_panels"` entry, the figure panels and the printed lines of the panels.
+fn report_panels(p: &Panels) -> (TimePanels, Vec<Panel>, Vec<String>) {
+    let cfg = &p.config;
+    let speed = speed_text(cfg.speed_mps);
     let mut lines = Vec::new();
-    // the panels' simulations side by side (each writes its own file)
-    let runs = sway::parallel::try_map(&cfg.theta0_deg, Split::OnePerTask, &|_, &th| {
-        let x0 = trailer_model::State7::from_column_slice(&[
-            0.0,
-            0.0,
-            0.0,
-            th.to_radians(),
-            0.0,
-            0.0,
-            0.0,
-        ]);
-        let file = format!("{}.csv", panel_key(th));
-        run_and_write::<SeriesRow>(ctx, out, &spec, x0, cfg.output_step_s.get(), &file)
-    })?;
-    for (&th, r) in cfg.theta0_deg.iter().zip(runs) {
-        let key = panel_key(th);
-        lines.push(line(
-            &format!("fig3a V = {} m/s, θ(0) = {th}°", speed_text(speed)),
-            &r,
-        ));
-        panels.push(time_panel(cfg, th, &r));
-        entries.0.push((
-            key,
-            RunEntry {
-                metrics: r.metrics,
-                about: PanelRun {
-                    theta0_deg: th,
-                    speed_mps: speed,
-                },
-            },
-        ));
+    let mut panels = Vec::new();
+    for run in &p.runs {
+        let th = run.about.theta0_deg;
+        lines.push(line(&format!("fig3a V = {speed} m/s, θ(0) = {th}°"), &run.result));
+        panels.push(time_panel(cfg, th, &run.result));
     }
-    Ok((entries, panels, lines))
+    let entries = p.runs.iter().map(|r| (r.key.clone(), r.entry())).collect();
+    (entries, panels, lines)
 }
 
 struct Fig3aTask {
@@ -327,7 +140,7 @@ struct Fig3aTask {
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
     let config: Fig3aConfig = load_toml(file)?;
     config.panels.validate_spec(file, "panels")?;
-    config.diagram.validate(file, "diagram")?;
+    validate_diagram(&config.diagram, file, "diagram")?;
     Ok(Box::new(Fig3aTask {
         file: file.to_path_buf(),
         config,
@@ -360,44 +173,24 @@ impl Prepared for Fig3aTask {
         let cfg = &self.config;
         let stage = "fig3a: bifurcation diagram and time panels";
         ctx.run_staged(TASK.name, stage, 2, cfg, &self.file, |out| {
-            let (diagram, diagram_panel, mut lines) = run_diagram(ctx, &cfg.diagram, out)?;
-            ctx.progress.advance(1);
-            // the panel speed against the diagram's own V_crit and fold (corrected on their
-            // defining systems), as the diagram's report speeds: one factor means the same
-            // speed in both sections, and nothing more is computed
-            let refs = SpeedReferences {
-                v_crit_mps: diagram.hopf_v_mps,
-                v_fold_mps: diagram.fold_v_mps,
-                reason: diagram
-                    .hopf_reason
-                    .clone()
-                    .or_else(|| diagram.fold_reason.clone()),
-            };
-            let resolution = resolve_against(&refs, &cfg.panels);
+            let (plant, variant) = (&ctx.plant, ctx.variant_key.as_deref());
+            let fig = compute(cfg, plant, variant, &ctx.limits, &self.file, ctx.progress)?;
+            write_branches(fig.diagram.diagram.as_deref(), out)?;
+            let (diagram_panel, mut lines) = diagram_report(&fig.diagram);
             let mut all = vec![diagram_panel];
-            let (time_panels, reason) = match &resolution.outcome {
-                Ok(_) if ctx.variant_key.is_some() => {
-                    let reason = format!(
-                        "no time panels: the vehicle has a model variant ({}) and the time panels simulate the paper's model",
-                        ctx.variant_key.as_deref().unwrap_or_default()
-                    );
-                    lines.push(format!("fig3a: {reason}"));
-                    (None, Some(reason))
-                }
-                Ok(panels) => {
-                    resolved_check(panels.validate(&self.file, "panels"), &resolution.speeds)?;
-                    let (time_panels, panels, panel_lines) = run_panels(ctx, panels, out)?;
+            let (time_panels, reason) = match &fig.panels {
+                Ok(p) => {
+                    write_runs::<SeriesRow, _>(out, &p.runs)?;
+                    let (time_panels, panels, panel_lines) = report_panels(p);
                     lines.extend(panel_lines);
                     all.extend(panels);
                     (Some(time_panels), None)
                 }
-                Err(u) => {
-                    let reason = format!("no time panels (no speed in the bistable range): {}", u.reason);
+                Err(reason) => {
                     lines.push(format!("fig3a: {reason}"));
-                    (None, Some(reason))
+                    (None, Some(reason.clone()))
                 }
             };
-            ctx.progress.advance(1);
             let n = all.len() as u32;
             Figure::grid(all, n as usize, 1, (900, 420 * n))
                 .titled(
@@ -405,10 +198,10 @@ impl Prepared for Fig3aTask {
                 )
                 .render(&out.path("fig3a"))?;
             let summary = Fig3aSummary {
-                diagram,
+                diagram: summary_fields(fig.diagram.summary),
                 time_panels,
                 time_panels_reason: reason,
-                resolved_speeds: resolution.speeds.clone(),
+                resolved_speeds: fig.resolved_speeds,
             };
             Ok((summary, lines))
         })

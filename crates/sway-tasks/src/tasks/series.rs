@@ -1,9 +1,8 @@
-//! The one skeleton of the time-series tasks (`fig3a` panels, `fig3b`, `fig4c`,
-//! `simulate`): every run is simulated on the vehicle's plant (`ctx.plant`, any model variant;
-//! the paper's 7-state layout), written as one CSV of typed
-//! rows, drawn, and summarised by its [`Metrics`] plus what distinguishes it. The tasks of
-//! several runs from the sway cycle drawn over each other (`fig3b`, `fig4c`) share all of
-//! their [`Prepared`] through [`SwayRuns`].
+//! The one skeleton of writing the time-series tasks (`fig3a` panels, `fig3b`, `fig4c`,
+//! `simulate`), whose runs their studies compute ([`sway_studies::simulate`]): every run is
+//! written as one CSV of typed rows, drawn, and summarised by its [`sway::sim::Metrics`] plus what
+//! distinguishes it ([`RunEntry`]). The tasks of several runs from the sway cycle drawn over
+//! each other (`fig3b`, `fig4c`) share all of their [`Prepared`] through [`SwayRuns`].
 
 use crate::TaskError;
 use serde::Serialize;
@@ -11,13 +10,10 @@ use std::path::Path;
 
 use sway::SwayError;
 use sway::ranging::SpeedReferences;
-use sway::ranging::resolve_speeds;
-use sway::sim::speeds::{ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};
-use sway::sim::{
-    Metrics, Recording, RunSettings, Sample, SimResult, SimSpec, SwayStart,
-    simulate_in_paper_layout,
-};
-use trailer_model::State7;
+use sway::sim::speeds::{Resolution, ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};
+use sway::sim::{Sample, SimResult};
+pub use sway_studies::simulate::RunEntry;
+use sway_studies::simulate::{Runs, SeriesRun, with_resolved_speeds};
 
 use super::{Prepared, Report, TaskContext};
 use crate::config_file::{Configured, TaskConfig};
@@ -26,44 +22,20 @@ use crate::limits::{Plan, series_plan};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::report::{SeriesRow, loss_marker, max_abs_theta_deg, metrics_line, speed, theta_deg};
 
-/// The summary entry of one run: its metrics (the field names of [`Metrics`]) followed by
-/// the fields of `about` that say which run it is (e.g. `brake_duration_s`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct RunEntry<E> {
-    /// the run's metrics
-    #[serde(flatten)]
-    pub metrics: Metrics,
-    /// what distinguishes the run
-    #[serde(flatten)]
-    pub about: E,
-}
-
-/// Simulates one run sampled every `output_step_s` seconds and writes its trajectory to
-/// `file` as rows `R` (e.g. [`crate::report::SeriesRow`]).
+/// Writes the samples of every run to `<key>.csv` as rows `R` (e.g.
+/// [`crate::report::SeriesRow`]).
 ///
 /// # Errors
-/// Numerical failures with context, or write errors.
-pub fn run_and_write<R>(
-    ctx: &TaskContext<'_>,
-    out: &OutputDir,
-    spec: &SimSpec,
-    x0: State7,
-    output_step_s: f64,
-    file: &str,
-) -> Result<SimResult<7>, TaskError>
+/// [`TaskError::Write`].
+pub fn write_runs<R, E>(out: &OutputDir, runs: &[SeriesRun<E>]) -> Result<(), TaskError>
 where
     R: Serialize + Default + for<'s> From<&'s Sample<7>>,
 {
-    let r = simulate_in_paper_layout::<7>(
-        &ctx.plant,
-        spec,
-        x0,
-        Recording::Every {
-            step_s: output_step_s,
-        },
-    )?;
-    out.write_table(file, r.trajectory.iter().map(R::from))?;
-    Ok(r)
+    for run in runs {
+        let rows = run.result.trajectory.iter().map(R::from);
+        out.write_table(&format!("{}.csv", run.key), rows)?;
+    }
+    Ok(())
 }
 
 /// The printed line of a run, `label: peak_theta_deg_after_action = …, …`.
@@ -122,11 +94,9 @@ impl Overlay {
     }
 }
 
-/// One run of a [`SwayRuns`] task.
+/// How a run of a [`SwayRuns`] task is printed and drawn.
 #[derive(Debug, Clone)]
-pub struct OverlayRun<E> {
-    /// its key in `summary.json` and the stem of its CSV file (`T2`, `braking`)
-    pub key: String,
+pub struct RunStyle {
     /// the label of its printed metrics line
     pub line: String,
     /// its legend label
@@ -135,20 +105,15 @@ pub struct OverlayRun<E> {
     pub color: Rgb,
     /// the stroke of its speed curve
     pub speed_stroke: Stroke,
-    /// the simulation
-    pub spec: SimSpec,
-    /// what distinguishes it in `summary.json`
-    pub about: E,
 }
 
 /// A task of several runs from the sway cycle drawn over each other (`fig3b`, `fig4c`).
-/// Its config (as written: speeds may be relative to the vehicle, see
-/// [`sway::sim::speeds`]) says what differs; the speeds are resolved once per run, then the
-/// plan, the settling run, the runs' CSV files, the figure (θ(t) and V(t) of all runs, see
-/// [`Overlay`]) and `summary.json` (one [`RunEntry`] per run, keyed by
-/// [`OverlayRun::key`], and the resolved speeds) are written once, by the [`Prepared`] of
-/// [`Configured`] configs of this trait. A vehicle the speeds do not resolve for (no V_crit:
-/// no sway to start from) gets a summary with the reason ([`nothing_to_show`]).
+/// Its study computes the runs (the speeds of the config resolved for the vehicle, see
+/// [`sway::sim::speeds`]); the runs' CSV files, the figure (θ(t) and V(t) of all runs, see
+/// [`Overlay`]) and `summary.json` (one [`RunEntry`] per run, keyed by its key, and the
+/// resolved speeds) are written once, by the [`Prepared`] of [`Configured`] configs of this
+/// trait. A vehicle the speeds do not resolve for (no V_crit: no sway to start from) gets a
+/// summary with the reason ([`NothingToShow`]).
 pub trait SwayRuns: TaskConfig + Serialize + ResolveSpeeds {
     /// the task's name (results directory and figure stem), its progress label and the
     /// plan's description of its runs
@@ -158,19 +123,26 @@ pub trait SwayRuns: TaskConfig + Serialize + ResolveSpeeds {
     /// what the task has nothing to show of when its speeds do not resolve
     const NOTHING: &'static str;
     /// what distinguishes a run in `summary.json`
-    type About: Serialize;
-    /// The empty overlay (the panel titles) and the runs in drawing order.
-    fn runs(c: &Self::Resolved) -> (Overlay, Vec<OverlayRun<Self::About>>);
-    /// The start on the sway cycle, (horizon, output step) \[s\] and the run settings.
-    fn setup(c: &Self::Resolved) -> (&SwayStart, (f64, f64), &RunSettings);
-    /// Checks the resolved config (as [`TaskConfig::check`] checks one given in numbers).
+    type About: Serialize + Clone;
+    /// The task's study on the vehicle of `ctx` (`file` names the config in messages).
     ///
     /// # Errors
-    /// [`TaskError::Config`] naming the key.
-    fn check_resolved(c: &Self::Resolved, file: &Path) -> Result<(), TaskError>;
+    /// A config error of the resolved config, or numerical failures.
+    fn compute(
+        &self,
+        ctx: &TaskContext<'_>,
+        file: &Path,
+    ) -> Result<Resolution<SwayRunsOf<Self>>, SwayError>;
+    /// The empty overlay (the panel titles) and the horizon \[s\] of the resolved config.
+    fn overlay(c: &Self::Resolved) -> (Overlay, f64);
+    /// How the `i`-th run is printed and drawn.
+    fn style(i: usize, run: &SeriesRun<Self::About>) -> RunStyle;
     /// (settling time, (horizon, output step), runs) for the plan, before resolution.
     fn plan_shape(&self) -> (f64, (f64, f64), usize);
 }
+
+/// The runs a [`SwayRuns`] task computes, and the config they ran with.
+pub type SwayRunsOf<C> = Runs<<C as ResolveSpeeds>::Resolved, <C as SwayRuns>::About>;
 
 /// `summary.json` of a task whose speeds resolved: its headline, then the relative speeds
 /// and their values for this vehicle (`"resolved_speeds"`, absent when every speed is a
@@ -198,9 +170,62 @@ pub struct NothingToShow {
     pub v_fold_mps: Option<f64>,
 }
 
+impl NothingToShow {
+    /// The summary of task `name` with nothing to show for this vehicle, and its printed
+    /// line: `what` (e.g. "no sway to brake from") and the speed that does not resolve.
+    pub fn of(
+        name: &str,
+        what: &str,
+        unresolved: &UnresolvedSpeed,
+        references: &SpeedReferences,
+    ) -> (Self, Vec<String>) {
+        let reason = format!("{what}: {}", unresolved.reason);
+        let lines = vec![format!(
+            "{name}: nothing to show for this vehicle — {reason}"
+        )];
+        let summary = Self {
+            reason,
+            unresolved_key: unresolved.key.clone(),
+            v_crit_mps: references.v_crit_mps,
+            v_fold_mps: references.v_fold_mps,
+        };
+        (summary, lines)
+    }
+}
+
+/// `summary.json` of a task whose speeds may not resolve for the vehicle: its headline with
+/// the resolved speeds, or why there is nothing to show.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum SeriesHeadline<H> {
+    /// the speeds resolved
+    Shown(WithSpeeds<H>),
+    /// they did not
+    Nothing(NothingToShow),
+}
+
+/// The headline of `summary.json` and the printed lines of a task.
+pub type Headed<H> = (SeriesHeadline<H>, Vec<String>);
+
+/// The outcome of a study whose speeds resolved and those speeds, or (`Err`) the summary
+/// and printed line of task `name` with nothing to show: `what` (e.g. "no sway to brake
+/// from") and the speed that does not resolve ([`NothingToShow::of`]).
+pub fn resolved<T, H>(
+    name: &str,
+    what: &str,
+    resolution: Resolution<T>,
+) -> Result<(T, Vec<ResolvedSpeed>), Headed<H>> {
+    match resolution.outcome {
+        Ok(study) => Ok((study, resolution.speeds)),
+        Err(u) => {
+            let (summary, lines) = NothingToShow::of(name, what, &u, &resolution.references);
+            Err((SeriesHeadline::Nothing(summary), lines))
+        }
+    }
+}
+
 /// Writes the summary of a task with nothing to show for this vehicle (no figure) and
-/// reports the reason: `what` (e.g. "no sway to brake from") and the speed that does not
-/// resolve.
+/// reports the reason ([`NothingToShow::of`]).
 ///
 /// # Errors
 /// [`TaskError::Write`].
@@ -213,48 +238,24 @@ pub fn nothing_to_show<C: Serialize>(
     config: &C,
     file: &Path,
 ) -> Result<Report, TaskError> {
-    let reason = format!("{what}: {}", unresolved.reason);
     ctx.run_staged(
         name,
         &format!("{name}: nothing to show"),
         1,
         config,
         file,
-        |_| {
-            let lines = vec![format!(
-                "{name}: nothing to show for this vehicle — {reason}"
-            )];
-            let summary = NothingToShow {
-                reason,
-                unresolved_key: unresolved.key.clone(),
-                v_crit_mps: references.v_crit_mps,
-                v_fold_mps: references.v_fold_mps,
-            };
-            Ok((summary, lines))
-        },
+        |_| Ok(NothingToShow::of(name, what, unresolved, references)),
     )
 }
 
 /// A config check on the resolved speeds: a config error says the speeds were resolved
-/// for this vehicle, and to what.
+/// for this vehicle, and to what ([`with_resolved_speeds`]).
 pub fn resolved_check(r: Result<(), TaskError>, speeds: &[ResolvedSpeed]) -> Result<(), TaskError> {
-    let note = || {
-        let list: Vec<String> = speeds
-            .iter()
-            .map(|s| format!("{} = {} m/s", s.key, s.speed_mps))
-            .collect();
-        format!(
-            " (with the relative speeds resolved for this vehicle: {})",
-            list.join(", ")
-        )
-    };
     r.map_err(|e| match e {
-        TaskError::Config { file, key, problem } if !speeds.is_empty() => {
-            TaskError::config(file, key, format!("{problem}{}", note()))
+        TaskError::Config { file, key, problem } => {
+            with_resolved_speeds(SwayError::Config { file, key, problem }, speeds).into()
         }
-        TaskError::Sway(SwayError::Config { file, key, problem }) if !speeds.is_empty() => {
-            TaskError::config(file, key, format!("{problem}{}", note()))
-        }
+        TaskError::Sway(e) => with_resolved_speeds(e, speeds).into(),
         other => other,
     })
 }
@@ -274,49 +275,22 @@ impl<C: SwayRuns> Prepared for Configured<C> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = C::LABELS.0;
-        let resolution = resolve_speeds(&ctx.plant, &ctx.limits, &self.config)?;
-        let c = match &resolution.outcome {
-            Ok(c) => c,
-            Err(u) => {
-                return nothing_to_show(
-                    ctx,
-                    name,
-                    C::NOTHING,
-                    u,
-                    &resolution.references,
-                    &self.config,
-                    &self.file,
-                );
-            }
-        };
-        resolved_check(C::check_resolved(c, &self.file), &resolution.speeds)?;
-        let (start, (horizon_s, output_step_s), settings) = C::setup(c);
-        let (mut figure, runs) = C::runs(c);
-        let steps = runs.len() as u64 + 1;
+        let steps = self.config.plan_shape().2 as u64 + 1;
         ctx.run_staged(name, C::LABELS.1, steps, &self.config, &self.file, |out| {
-            let x0 = start.initial().state7(&ctx.plant, &settings.solver)?;
-            ctx.progress.advance(1);
+            let resolution = self.config.compute(ctx, &self.file)?;
+            let (study, speeds) = match resolved(name, C::NOTHING, resolution) {
+                Ok(resolved) => resolved,
+                Err(nothing) => return Ok(nothing),
+            };
+            write_runs::<SeriesRow, _>(out, &study.runs)?;
+            let (mut figure, horizon_s) = C::overlay(&study.config);
             let mut summary = Keyed::default();
             let mut lines = Vec::new();
-            for run in runs {
-                let r = run_and_write::<SeriesRow>(
-                    ctx,
-                    out,
-                    &run.spec,
-                    x0,
-                    output_step_s,
-                    &format!("{}.csv", run.key),
-                )?;
-                lines.push(line(&run.line, &r));
-                figure.add(&r, run.color, &run.label, run.speed_stroke);
-                summary.0.push((
-                    run.key,
-                    RunEntry {
-                        metrics: r.metrics,
-                        about: run.about,
-                    },
-                ));
-                ctx.progress.advance(1);
+            for (i, run) in study.runs.iter().enumerate() {
+                let style = C::style(i, run);
+                lines.push(line(&style.line, &run.result));
+                figure.add(&run.result, style.color, &style.label, style.speed_stroke);
+                summary.0.push((run.key.clone(), run.entry()));
             }
             let (p_th, p_v) = figure.panels(horizon_s);
             let panels = if C::SPEED_FIRST {
@@ -327,9 +301,9 @@ impl<C: SwayRuns> Prepared for Configured<C> {
             Figure::column(panels).render(&out.path(name))?;
             let summary = WithSpeeds {
                 headline: summary,
-                resolved_speeds: resolution.speeds.clone(),
+                resolved_speeds: speeds,
             };
-            Ok((summary, lines))
+            Ok((SeriesHeadline::Shown(summary), lines))
         })
     }
 }

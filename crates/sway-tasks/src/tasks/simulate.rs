@@ -7,12 +7,11 @@
 
 use std::path::Path;
 
-use serde::Serialize;
 use sway::ranging::SpeedSpec;
-use sway::ranging::resolve_speeds;
 use sway::sim::{ScenarioConfig, SimResult};
+pub use sway_studies::simulate::{Scenario, ScenarioRun, ScenarioSummary, compute};
 
-use super::series::{RunEntry, WithSpeeds, line, nothing_to_show, resolved_check, run_and_write};
+use super::series::{SeriesHeadline, WithSpeeds, line, resolved, write_runs};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
 use crate::config_file::{Configured, TaskConfig};
@@ -27,48 +26,6 @@ pub const TASK: Task = Task::configured::<ScenarioConfig<SpeedSpec>>(
     "scenario_example.toml",
 )
 .any_model();
-
-/// What a scenario's `summary.json` says about the run beside its metrics.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ScenarioRun {
-    /// when the action started \[s\]
-    pub action_s: f64,
-    /// where the run ended \[s\] (the horizon, or the loss of control)
-    pub t_end_s: f64,
-    /// accepted solver steps
-    pub accepted_steps: usize,
-    /// rejected solver steps
-    pub rejected_steps: usize,
-}
-
-/// `summary.json` of a scenario (before the common fields of [`crate::io::Summary`]):
-/// `name`, the run's metrics, `action_s`, `t_end_s`, `accepted_steps`, `rejected_steps`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ScenarioSummary {
-    /// the scenario's name (its results directory)
-    pub name: String,
-    /// metrics and run facts
-    #[serde(flatten)]
-    pub run: RunEntry<ScenarioRun>,
-}
-
-impl ScenarioSummary {
-    /// The summary of the run `r` of scenario `name` (action at `action_s` \[s\]).
-    pub fn of_run<const N: usize>(name: &str, action_s: f64, r: &sway::sim::SimResult<N>) -> Self {
-        Self {
-            name: name.to_string(),
-            run: RunEntry {
-                metrics: r.metrics,
-                about: ScenarioRun {
-                    action_s,
-                    t_end_s: r.t_end,
-                    accepted_steps: r.stats.accepted,
-                    rejected_steps: r.stats.rejected,
-                },
-            },
-        }
-    }
-}
 
 impl TaskConfig for ScenarioConfig<SpeedSpec> {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
@@ -145,44 +102,24 @@ impl Prepared for Configured<ScenarioConfig<SpeedSpec>> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let name = self.config.name.as_str();
-        let resolution = resolve_speeds(&ctx.plant, &ctx.limits, &self.config)?;
-        let cfg = match &resolution.outcome {
-            Ok(c) => c,
-            Err(u) => {
-                return nothing_to_show(
-                    ctx,
-                    name,
-                    "no scenario for this vehicle",
-                    u,
-                    &resolution.references,
-                    &self.config,
-                    &self.file,
-                );
-            }
-        };
-        resolved_check(cfg.validate(&self.file).map_err(Into::into), &resolution.speeds)?;
         let stage = format!("simulate {name}");
         ctx.run_staged(name, &stage, 2, &self.config, &self.file, |out| {
-            let x0 = cfg.initial.state7(&ctx.plant, &cfg.settings.solver)?;
-            ctx.progress.advance(1);
-            let spec = cfg.spec();
-            let r = run_and_write::<TrajectoryRow>(
-                ctx,
-                out,
-                &spec,
-                x0,
-                cfg.output_step_s.get(),
-                "trajectory.csv",
-            )?;
-            ctx.progress.advance(1);
-            figure(cfg, spec.action_s, &r).render(&out.path("trajectory"))?;
-            let summary = ScenarioSummary::of_run(&cfg.name, spec.action_s, &r);
-            let lines = vec![line(&cfg.name, &r), class_line(&cfg.name, &r)];
-            let summary = WithSpeeds {
-                headline: summary,
-                resolved_speeds: resolution.speeds.clone(),
+            let (plant, limits) = (&ctx.plant, &ctx.limits);
+            let resolution = compute(&self.config, plant, limits, &self.file, true, ctx.progress)?;
+            let what = "no scenario for this vehicle";
+            let (scenario, speeds) = match resolved(name, what, resolution) {
+                Ok(resolved) => resolved,
+                Err(nothing) => return Ok(nothing),
             };
-            Ok((summary, lines))
+            let (cfg, run) = (&scenario.config, &scenario.run);
+            write_runs::<TrajectoryRow, _>(out, std::slice::from_ref(run))?;
+            figure(cfg, run.spec.action_s, &run.result).render(&out.path("trajectory"))?;
+            let lines = vec![line(&cfg.name, &run.result), class_line(&cfg.name, &run.result)];
+            let summary = WithSpeeds {
+                headline: scenario.summary(),
+                resolved_speeds: speeds,
+            };
+            Ok((SeriesHeadline::Shown(summary), lines))
         })
     }
 }

@@ -440,13 +440,27 @@ pub fn straight_running<P: Vehicle<N>, const N: usize>(
     (v_min, v_max): (f64, f64),
     root_degree: usize,
 ) -> Result<(Branch, HopfPoint), SwayError> {
-    let StraightStart {
-        ctx,
-        cont: cont_eq,
-        mut eq,
-        branch: mut equilibria,
-        points: n_eq,
-    } = start_straight_running(problem, params, (v_min, v_max), root_degree)?;
+    let ctx = format!(
+        "straight running (D = {} s, τ = {} s)",
+        params[GAIN], params[DELAY]
+    );
+    let cont_eq = Continuation::new(ContinuationOptions {
+        initial_step: 0.5,
+        max_step: 0.5,
+        parameter_range: (v_min, v_max),
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = v_min;
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
+        .map_err(num(ctx.clone()))?;
+    let dir = eq.parameter_direction();
+    let mut start = vec![0.0; N + 1];
+    start[N] = v_min;
+    let mut equilibria = cont_eq
+        .start(&mut eq, &start, &dir)
+        .map_err(num(format!("{ctx} at V = {v_min} m/s")))?;
+    let n_eq = ((v_max - v_min) / 0.5).ceil() as usize + 8;
     cont_eq
         .extend(&mut eq, &mut equilibria, n_eq)
         .map_err(num(ctx.clone()))?;
@@ -462,67 +476,6 @@ pub fn straight_running<P: Vehicle<N>, const N: usize>(
         .hopf_point(&equilibria.points[ih].u, sp.transversality.unwrap_or(1.0))
         .map_err(num(format!("{ctx}: Hopf point")))?;
     Ok((equilibria, hopf))
-}
-
-/// Straight running started at the lowest speed of a range ([`start_straight_running`]).
-struct StraightStart<'a, P: Vehicle<N>, const N: usize> {
-    /// what the errors name: "straight running (D = …, τ = …)"
-    ctx: String,
-    /// the continuation on the range in steps of 0.5 m/s ([`equilibrium_continuation`])
-    cont: Continuation,
-    /// the equilibrium system
-    eq: EquilibriumSystem<'a, ClosedLoop<'a, P, N>, ChebyshevRoots>,
-    /// the branch of its first point
-    branch: Branch,
-    /// the points that cover the range (its width in steps, and 8 more)
-    points: usize,
-}
-
-/// Straight running x = 0 of `problem` at the gain and delay of `params` = [V, D, τ],
-/// started at `v_lo` for a continuation to `v_hi`.
-///
-/// # Errors
-/// [`SwayError::Numerical`] if the equilibrium system cannot be set up or its first point
-/// not found.
-fn start_straight_running<'a, P: Vehicle<N>, const N: usize>(
-    problem: &'a ClosedLoop<'a, P, N>,
-    params: &[f64],
-    (v_lo, v_hi): (f64, f64),
-    root_degree: usize,
-) -> Result<StraightStart<'a, P, N>, SwayError> {
-    let ctx = format!(
-        "straight running (D = {} s, τ = {} s)",
-        params[GAIN], params[DELAY]
-    );
-    let cont = equilibrium_continuation(v_lo, v_hi);
-    let mut p = params.to_vec();
-    p[SPEED] = v_lo;
-    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
-        .map_err(num(ctx.clone()))?;
-    let dir = eq.parameter_direction();
-    let mut start = vec![0.0; N + 1];
-    start[N] = v_lo;
-    let branch = cont
-        .start(&mut eq, &start, &dir)
-        .map_err(num(format!("{ctx} at V = {v_lo} m/s")))?;
-    let points = ((v_hi - v_lo) / 0.5).ceil() as usize + 8;
-    Ok(StraightStart {
-        ctx,
-        cont,
-        eq,
-        branch,
-        points,
-    })
-}
-
-/// The continuation of straight running on [v_lo, v_hi] \[m/s\], in steps of 0.5 m/s.
-fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
-    Continuation::new(ContinuationOptions {
-        initial_step: 0.5,
-        max_step: 0.5,
-        parameter_range: (v_lo, v_hi),
-        ..Default::default()
-    })
 }
 
 /// How far a cycle branch is continued.

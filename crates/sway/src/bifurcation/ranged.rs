@@ -15,8 +15,8 @@
 //! range, a branch ended by the guard ([`BranchEnd`] and [`Diagram::fold_reason`]).
 
 use continuation::{
-    Branch, Criticality, Decision, EquilibriumSystem, HopfPoint, Location, PeriodicOrbitSystem,
-    SpecialKind, Stop,
+    Branch, Continuation, ContinuationOptions, Criticality, Decision, EquilibriumSystem, HopfPoint,
+    Location, PeriodicOrbitSystem, SpecialKind, Stop,
 };
 use serde::{Deserialize, Serialize};
 use sway_model::config::Absent;
@@ -307,13 +307,23 @@ pub fn straight_running_to_first_loss<P: Vehicle<N>, const N: usize>(
     (v_lo, v_hi): (f64, f64),
     root_degree: usize,
 ) -> Result<(Branch, FirstLoss), SwayError> {
-    let super::StraightStart {
-        ctx,
-        cont,
-        mut eq,
-        mut branch,
-        points: n,
-    } = super::start_straight_running(problem, params, (v_lo, v_hi), root_degree)?;
+    let ctx = format!(
+        "straight running (D = {} s, τ = {} s)",
+        params[super::GAIN],
+        params[super::DELAY]
+    );
+    let cont = equilibrium_continuation(v_lo, v_hi);
+    let mut p = params.to_vec();
+    p[SPEED] = v_lo;
+    let mut eq = EquilibriumSystem::new(problem, p, SPEED, root_finder(root_degree))
+        .map_err(num(ctx.clone()))?;
+    let dir = eq.parameter_direction();
+    let mut start = vec![0.0; N + 1];
+    start[N] = v_lo;
+    let mut branch = cont
+        .start(&mut eq, &start, &dir)
+        .map_err(num(format!("{ctx} at V = {v_lo} m/s")))?;
+    let n = ((v_hi - v_lo) / 0.5).ceil() as usize + 8;
     // stop at the first regular point after the first loss of stability
     let mut past_loss = |b: &Branch| match first_loss_index(b) {
         Some(i) if b.points.len() > i + 1 => Decision::Stop,
@@ -447,6 +457,15 @@ fn first_loss_index(b: &Branch) -> Option<usize> {
     b.special_points()
         .find(|(_, sp)| loses_stability(sp.kind))
         .map(|(i, _)| i)
+}
+
+fn equilibrium_continuation(v_lo: f64, v_hi: f64) -> Continuation {
+    Continuation::new(ContinuationOptions {
+        initial_step: 0.5,
+        max_step: 0.5,
+        parameter_range: (v_lo, v_hi),
+        ..Default::default()
+    })
 }
 
 /// The first tripped validity condition on the cycle `u` of `sys` (checked at the
@@ -875,7 +894,7 @@ fn diagram_with_law<P: Vehicle<N>, const N: usize>(
         .unwrap_or_else(|| v_high.max(1.1 * vh).min(hi));
     // straight running on to the figure's end (equilibria.csv)
     if figure_equilibria && plot_hi > vh {
-        let cont = super::equilibrium_continuation(lo, plot_hi);
+        let cont = equilibrium_continuation(lo, plot_hi);
         let mut p = params.clone();
         p[SPEED] = vh;
         let mut eq = EquilibriumSystem::new(&problem, p, SPEED, root_finder(settings.root_degree))

@@ -531,15 +531,25 @@ pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
     ),
     SwayError,
 > {
-    let CycleStart {
-        ctx,
-        cont,
-        mut po,
-        gauge,
-        mut cycles,
-    } = start_cycles(problem, params, hopf, o)?;
-    // the gauge stops a branch that shrinks back onto straight running (a Hopf bubble)
-    // there instead of following it as a "cycle"
+    let ctx = format!(
+        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
+        hopf.parameter, params[GAIN], params[DELAY]
+    );
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = hopf.parameter;
+    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
+        .map_err(num(ctx.clone()))?;
+    // a second system on the same mesh measures the cycles: a branch that shrinks back onto
+    // straight running (a Hopf bubble) stops there instead of following it as a "cycle"
+    let gauge =
+        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
     let mut amplitudes: Vec<(f64, f64)> = Vec::new();
     let mut rejoin = |b: &Branch| {
         let Some(last) = b.points.last() else {
@@ -552,6 +562,8 @@ pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
             Decision::Continue
         }
     };
+    let mut cycles = first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
+        .map_err(num(format!("{ctx}: first cycle")))?;
     match extent {
         CycleExtent::WholeRange => {
             cont.extend_observed(&mut po, &mut cycles, max_points, &mut rejoin)
@@ -571,81 +583,15 @@ pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
             }
         }
     }
-    let crit = branch_criticality(hopf, &cycles, &ctx)?;
-    Ok((po, cycles, crit))
-}
-
-/// A cycle branch started at a Hopf point ([`start_cycles`]).
-struct CycleStart<'a, P: Vehicle<N>, const N: usize> {
-    /// what the errors name: "cycles from the Hopf point V = …"
-    ctx: String,
-    /// the continuation on the options' speed range
-    cont: Continuation,
-    /// the collocation system of the branch
-    po: PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
-    /// a second system on the same (fixed) mesh, to measure the branch's cycles
-    gauge: PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>,
-    /// the branch of its first cycle ([`first_cycle`])
-    cycles: Branch,
-}
-
-/// The continuation of the cycles born at `hopf` (parameters `params`, options `o`) and
-/// the first cycle.
-///
-/// # Errors
-/// [`SwayError::Numerical`] if the collocation system cannot be set up or the first cycle
-/// cannot be found.
-fn start_cycles<'a, P: Vehicle<N>, const N: usize>(
-    problem: &'a ClosedLoop<'a, P, N>,
-    params: &[f64],
-    hopf: &HopfPoint,
-    o: &DiagramOptions,
-) -> Result<CycleStart<'a, P, N>, SwayError> {
-    let ctx = format!(
-        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
-        hopf.parameter, params[GAIN], params[DELAY]
-    );
-    let cont = Continuation::new(ContinuationOptions {
-        initial_step: o.initial_step,
-        max_step: o.max_step,
-        parameter_range: (o.v_min_mps, o.v_max_mps),
-        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
-        ..Default::default()
-    });
-    let mut p = params.to_vec();
-    p[SPEED] = hopf.parameter;
-    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
-        .map_err(num(ctx.clone()))?;
-    let gauge =
-        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
-    let cycles = first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
-        .map_err(num(format!("{ctx}: first cycle")))?;
-    Ok(CycleStart {
-        ctx,
-        cont,
-        po,
-        gauge,
-        cycles,
-    })
-}
-
-/// The criticality of the Hopf point `hopf` shown by its cycle branch `cycles`.
-///
-/// # Errors
-/// [`SwayError::Numerical`] (context `ctx`) if the branch does not leave the Hopf point.
-fn branch_criticality(
-    hopf: &HopfPoint,
-    cycles: &Branch,
-    ctx: &str,
-) -> Result<Criticality, SwayError> {
-    criticality(hopf, cycles).ok_or_else(|| {
+    let crit = criticality(hopf, &cycles).ok_or_else(|| {
         SwayError::numerical(
-            ctx.to_string(),
+            ctx.clone(),
             continuation::Error::InvalidInput(
                 "the cycle branch does not leave the Hopf point".into(),
             ),
         )
-    })
+    })?;
+    Ok((po, cycles, crit))
 }
 
 /// Computes the bifurcation diagram of straight running and sway for one feedback setting:

@@ -16,15 +16,15 @@
 
 use continuation::{
     Branch, Continuation, ContinuationOptions, Criticality, Decision, EquilibriumSystem, HopfPoint,
-    Location, PeriodicOrbitSystem, SpecialKind, Stop,
+    Location, PeriodicOrbitSystem, SpecialKind, Stop, criticality,
 };
 use serde::{Deserialize, Serialize};
 use sway_model::config::Absent;
 use sway_model::vehicle::Vehicle;
 
 use super::{
-    ClosedLoop, CycleExtent, Diagram, DiagramOptions, DiagramSpec, Feedback, LoopLaw, SPEED,
-    fold_of, num, root_finder, summarise,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, DiagramSpec, Feedback,
+    LoopLaw, SPEED, collocation, fold_of, num, root_finder, summarise,
 };
 use crate::SwayError;
 use crate::sim::LossOfControl;
@@ -517,14 +517,28 @@ fn cycles_with_stop_rules<'a, P: Vehicle<N>, const N: usize>(
     v_stop: Option<f64>,
     extent: CycleExtent,
 ) -> Result<StoppedCycles<'a, P, N>, SwayError> {
-    // the gauge evaluates the cycles' profiles for the guard
-    let super::CycleStart {
-        ctx,
-        cont,
-        mut po,
-        gauge: guard_sys,
-        mut cycles,
-    } = super::start_cycles(problem, params, hopf, o)?;
+    let ctx = format!(
+        "cycles from the Hopf point V = {} m/s (D = {} s, τ = {} s)",
+        hopf.parameter,
+        params[super::GAIN],
+        params[super::DELAY]
+    );
+    let cont = Continuation::new(ContinuationOptions {
+        initial_step: o.initial_step,
+        max_step: o.max_step,
+        parameter_range: (o.v_min_mps, o.v_max_mps),
+        branch_points: o.cycle_branch_points == BranchPointTest::Watch,
+        ..Default::default()
+    });
+    let mut p = params.to_vec();
+    p[SPEED] = hopf.parameter;
+    let mut po = PeriodicOrbitSystem::new(problem, p.clone(), SPEED, collocation(o))
+        .map_err(num(ctx.clone()))?;
+    // a second system on the same (fixed) mesh evaluates the profiles for the guard
+    let guard_sys =
+        PeriodicOrbitSystem::new(problem, p, SPEED, collocation(o)).map_err(num(ctx.clone()))?;
+    let mut cycles = super::first_cycle(&cont, &mut po, hopf, o.hopf_amplitude)
+        .map_err(num(format!("{ctx}: first cycle")))?;
     let mut end = None;
     // (V, max |θ|) of the branch's points so far, for the rejoin test
     let mut amplitudes: Vec<(f64, f64)> = Vec::new();
@@ -581,7 +595,14 @@ fn cycles_with_stop_rules<'a, P: Vehicle<N>, const N: usize>(
         },
         Stop::StepSizeUnderflow { .. } => BranchEnd::StepUnderflow { speed_mps: last_v },
     };
-    let crit = super::branch_criticality(hopf, &cycles, &ctx)?;
+    let crit = criticality(hopf, &cycles).ok_or_else(|| {
+        SwayError::numerical(
+            ctx.clone(),
+            continuation::Error::InvalidInput(
+                "the cycle branch does not leave the Hopf point".into(),
+            ),
+        )
+    })?;
     Ok((po, cycles, crit, end))
 }
 

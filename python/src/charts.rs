@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use sway::bifurcation::{CycleExtent, DiagramSettings, Feedback};
+use sway::bifurcation::{CycleExtent, DiagramSettings, LoopLaw};
 use sway_studies::fig4b::{PairDiagram, closed_loop_diagram};
 use sway_tasks::config_file::{Configured, TaskConfig};
 use sway_tasks::tasks::Prepared;
@@ -219,10 +219,7 @@ fn bifurcation_diagram<'py>(
                 load_config_over(settings, what, &DiagramSettings::closed_loop())?;
             validate_settings(&s, &file, "continuation").map_err(py_err)?;
             let plant = vehicle.plant().clone();
-            let fb = Feedback {
-                gain_d_s: gain,
-                delay_s: delay,
-            };
+            let fb = LoopLaw::paper(gain, delay);
             let pd = interruptible(py, 1.0, None, move || {
                 let limits = SpeedLimits::default();
                 trailer_model::with_plant!(&plant, m => closed_loop_diagram(m, fb, &s, &limits, CycleExtent::WholeRange))

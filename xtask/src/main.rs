@@ -412,15 +412,12 @@ fn roots(args: &[String]) -> Result<()> {
                 a.actuator
             )
         })?;
-    let controller = sway::control::Controller {
-        structure,
-        actuator,
-        gains: sway::control::Gains {
-            yaw_rate: a.gain,
-            hitch_angle: a.hitch_angle_gain,
-            hitch_rate: a.hitch_rate_gain,
-        },
+    let gains = sway::control::Gains {
+        yaw_rate: a.gain,
+        hitch_angle: a.hitch_angle_gain,
+        hitch_rate: a.hitch_rate_gain,
     };
+    let law = sway::control::LoopLaw::new(structure, actuator, gains, a.delay);
     if a.check {
         sway_tasks::tasks::roots::validate_args(a.speed, a.gain, a.delay, a.count)?;
         println!(
@@ -436,9 +433,8 @@ fn roots(args: &[String]) -> Result<()> {
     };
     let point = sway_tasks::tasks::roots::RootsConfig {
         speed_mps: a.speed,
-        delay_s: a.delay,
         count: a.count,
-        controller,
+        law,
     };
     let roots = sway_tasks::tasks::roots::run(
         &loaded.plant,

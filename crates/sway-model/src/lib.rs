@@ -4,7 +4,7 @@
 //! - [`vehicle`]: the one vehicle abstraction of the engines ([`vehicle::Vehicle`]) and its
 //!   object-safe view for the linear loops ([`vehicle::LoopModel`], [`linear_view!`]);
 //! - [`law`]: the loop laws — controller structures, actuators and gains, the predictor's
-//!   realisation, and the controller of a simulation ([`law::simulation`]);
+//!   realisation, and the one feedback law every engine takes ([`law::LoopLaw`]);
 //! - [`speeds`]: the limits of every automatic range ([`speeds::SpeedLimits`]), the open-loop
 //!   critical-speed search, speeds given relative to the vehicle ([`speeds::SpeedSpec`]) and
 //!   their resolution in a config ([`speeds::resolve`]);

@@ -15,8 +15,8 @@ use trailer_model::{AnyVehicleModel, Model, VehicleParams, VehicleSpec};
 use sway::SwayError;
 use sway::bifurcation::chart::ChartOptions;
 use sway::control::{
-    Actuator, Controller, DelayBudget, Design, DesignSearch, GainName, Gains, LoopModel,
-    Robustness, SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
+    Actuator, DelayBudget, Design, DesignSearch, GainName, Gains, LoopLaw, LoopModel, Robustness,
+    SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
     robust_critical_speed,
 };
 use sway::control::{design_from_start, perfect_predictor_designs};
@@ -213,8 +213,7 @@ pub fn control_study(
     let prediction = prediction_model.as_ref().map(|m| m as &dyn LoopModel);
     let open = sway::control::critical_speed(
         model,
-        &Controller::paper(0.0),
-        0.0,
+        &LoopLaw::OPEN_LOOP,
         None,
         &s.search.speed,
     )?
@@ -281,17 +280,12 @@ pub fn control_study(
         }
         Job::Robust { c, d } => {
             let design = &designs[c][d];
-            let controller = Controller {
-                structure: design.structure,
-                actuator: design.actuator,
-                gains: design.gains,
-            };
+            let controller = design.law();
             match (vehicle.paper, vehicle.prediction) {
                 (Some((_, params)), None) => robust_critical_speed(
                     params,
                     None,
                     &controller,
-                    design.tau_s,
                     &s.uncertainty,
                     &s.robustness_speed,
                 ),
@@ -299,7 +293,6 @@ pub fn control_study(
                     vehicle.spec,
                     vehicle.prediction,
                     &controller,
-                    design.tau_s,
                     &s.uncertainty,
                     &s.robustness_speed,
                 ),
@@ -523,12 +516,7 @@ fn design_fold(
             away_from_corner: None,
         });
     };
-    let c = Controller {
-        structure: d.structure,
-        actuator: d.actuator,
-        gains: d.gains,
-    };
-    let r = hopf_and_fold(model, &c, d.tau_s, &s.fold, &s.robustness_speed)?;
+    let r = hopf_and_fold(model, &d.law(), &s.fold, &s.robustness_speed)?;
     let v_fold_mps = r.fold.map(|f| f.v_mps);
     let away_from_corner = match (d.at_double_hopf, v_fold_mps) {
         (true, Some(_)) if s.away_from_corner_samples > 0 => away_from_corner(model, d, s)?,
@@ -566,12 +554,8 @@ fn away_from_corner(
         .collect();
     let folds: Vec<Result<Option<f64>, SwayError>> =
         map(&gains, Split::OnePerTask, &|_, &gains| {
-            let c = Controller {
-                structure: d.structure,
-                actuator: d.actuator,
-                gains,
-            };
-            fold_speed(model, &c, d.tau_s, &s.fold, &s.robustness_speed).map(|(v, _)| v)
+            let law = d.law().with_gains(gains);
+            fold_speed(model, &law, &s.fold, &s.robustness_speed).map(|(v, _)| v)
         });
     let mut best: Option<(Gains, f64)> = None;
     let mut tried = 0;
@@ -586,12 +570,8 @@ fn away_from_corner(
     }
     let best = match best {
         Some((gains, v_fold_mps)) => {
-            let c = Controller {
-                structure: d.structure,
-                actuator: d.actuator,
-                gains,
-            };
-            let v_crit = sway::control::critical_speed(model, &c, d.tau_s, None, &s.search.speed)?
+            let law = d.law().with_gains(gains);
+            let v_crit = sway::control::critical_speed(model, &law, None, &s.search.speed)?
                 .unwrap_or(s.search.speed.v_max_mps);
             Some(AwayFromCorner {
                 gains,

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use sway::SwayError;
 use sway::bifurcation::chart::{ChartOptions, critical_speeds};
 use sway::bifurcation::{
-    CycleExtent, Diagram, DiagramOutcome, DiagramSettings, Feedback, NoHopf, vehicle_diagram,
+    CycleExtent, Diagram, DiagramOutcome, DiagramSettings, LoopLaw, NoHopf, vehicle_diagram,
 };
 use sway::config::{Positive, ensure};
 use sway::parallel::Split;
@@ -23,7 +23,7 @@ use sway::ranging::{RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec};
 use sway::sim::speeds::{
     ResolveSpeeds, ResolvedSpeed, Resolver, SpeedValue, UnresolvedSpeed, resolve_against,
 };
-use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile};
+use sway::sim::{RunSettings, SimSpec, SpeedProfile};
 use sway_model::vehicle::Vehicle;
 use trailer_model::AnyVehicleModel;
 
@@ -188,7 +188,7 @@ impl PanelsConfig {
             profile: SpeedProfile::Constant {
                 speed_mps: self.speed_mps,
             },
-            controller: Controller::None,
+            controller: None,
             horizon_s: self.horizon_s.get(),
             action_s: 0.0,
             settings: self.settings,
@@ -375,7 +375,7 @@ fn diagram_on<P: Vehicle<N>, const N: usize>(
 ) -> Result<DiagramStudy, SwayError> {
     let outcome = vehicle_diagram(
         model,
-        Feedback::OPEN_LOOP,
+        LoopLaw::OPEN_LOOP,
         &cfg.options,
         limits,
         CycleExtent::WholeRange,

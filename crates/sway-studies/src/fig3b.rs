@@ -11,7 +11,7 @@ use sway::config::{Positive, ensure};
 use sway::progress::Progress;
 use sway::ranging::{SpeedLimits, SpeedSpec};
 use sway::sim::speeds::{Resolution, ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
-use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile, SwayStart};
+use sway::sim::{RunSettings, SimSpec, SpeedProfile, SwayStart};
 use trailer_model::AnyVehicleModel;
 
 use crate::simulate::{FromSwayCycle, Runs, sway_runs};
@@ -68,7 +68,7 @@ impl Fig3bConfig {
                 duration_s,
                 shape: Default::default(),
             },
-            controller: Controller::None,
+            controller: None,
             horizon_s: self.horizon_s.get(),
             action_s: self.brake_start_s,
             settings: self.settings,

@@ -105,9 +105,9 @@ pub struct Fig4aConfig {
     #[serde(default)]
     pub numerics: NumericsConfig,
     /// the controller whose gain D is the chart's axis (omitted: the paper's yaw-rate
-    /// steering, [`sway::charts::ChartController`])
+    /// steering, [`sway::charts::ChartControllerTable`])
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub controller: Option<sway::charts::ChartController>,
+    pub controller: Option<sway::charts::ChartControllerTable>,
 }
 
 impl Fig4aConfig {
@@ -313,7 +313,7 @@ pub fn compute<M: LoopModel + ?Sized>(
             compute_loop(
                 &sway::charts::Controlled {
                     model,
-                    controller: c,
+                    law: c.law(),
                 },
                 cfg,
                 b,

@@ -12,7 +12,7 @@ use sway_model::vehicle::Vehicle;
 use sway::SwayError;
 use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
 use sway::bifurcation::{
-    BranchEnd, CycleExtent, Diagram, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram,
+    BranchEnd, CycleExtent, Diagram, DiagramOutcome, DiagramSettings, LoopLaw, vehicle_diagram,
 };
 use sway::progress::Progress;
 use sway::ranging::SpeedLimits;
@@ -30,7 +30,7 @@ pub enum PairDiagram {
     /// straight running has no Hopf point in the searched range
     NoHopf {
         /// the feedback
-        feedback: Feedback,
+        feedback: LoopLaw,
         /// what straight running does instead
         outcome: sway::bifurcation::NoHopf,
     },
@@ -46,10 +46,10 @@ impl PairDiagram {
     }
 
     /// The summary entry (`"pairs"` of fig4b's `summary.json`).
-    pub fn summary(&self, feedback: Feedback) -> PairSummary {
+    pub fn summary(&self, feedback: LoopLaw) -> PairSummary {
         let base = PairSummary {
             tau_s: feedback.delay_s,
-            d_s: feedback.gain_d_s,
+            d_s: feedback.gains.yaw_rate,
             hopf_v_mps: None,
             fold_v_mps: None,
             criticality: None,
@@ -147,7 +147,7 @@ pub struct PairSummary {
 /// Numerical failures naming the stage.
 pub fn closed_loop_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
-    feedback: Feedback,
+    feedback: LoopLaw,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
     extent: CycleExtent,
@@ -170,7 +170,7 @@ pub fn closed_loop_diagram<P: Vehicle<N>, const N: usize>(
 /// The first failing setting's error (in their order).
 pub fn closed_loop_diagrams<P: Vehicle<N>, const N: usize>(
     model: &P,
-    feedbacks: &[Feedback],
+    feedbacks: &[LoopLaw],
     settings: &DiagramSettings,
     limits: &SpeedLimits,
     progress: &dyn Progress,

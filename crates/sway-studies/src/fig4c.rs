@@ -12,7 +12,7 @@ use sway::config::Positive;
 use sway::progress::Progress;
 use sway::ranging::{SpeedLimits, SpeedSpec};
 use sway::sim::speeds::{Resolution, ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
-use sway::sim::{Controller, RunSettings, SimSpec, SpeedProfile, SwayStart};
+use sway::sim::{LoopLaw, RunSettings, SimSpec, SpeedProfile, SwayStart};
 use trailer_model::AnyVehicleModel;
 
 use crate::simulate::{FromSwayCycle, Runs, sway_runs};
@@ -109,17 +109,10 @@ impl Fig4cConfig {
             } else {
                 SpeedProfile::Constant { speed_mps: v0 }
             },
-            controller: if steering {
-                Controller::YawRateFeedback {
-                    gain_s: self.steering.gain_s,
-                    delay_s: self.steering.delay_s,
-                    on_s: self.action_s,
-                    off_s: self.steering.off_s,
-                    actuator: Default::default(),
-                }
-            } else {
-                Controller::None
-            },
+            controller: steering.then(|| {
+                LoopLaw::paper(self.steering.gain_s, self.steering.delay_s)
+                    .switched(self.action_s, self.steering.off_s)
+            }),
             horizon_s: self.horizon_s.get(),
             action_s: self.action_s,
             settings: self.settings,
@@ -140,8 +133,13 @@ impl Fig4cConfig {
             .validate()
             .map_err(|(k, p)| SwayError::config(file, format!("braking ({k})"), p))?;
         spec.controller
-            .validate()
-            .map_err(|(k, p)| SwayError::config(file, format!("steering.{k}"), p))?;
+            .as_ref()
+            .map_or(Ok(()), LoopLaw::validate)
+            .map_err(|(k, p)| {
+                // the steering table writes D as `gain_s`
+                let k = if k == "gains.yaw_rate" { "gain_s" } else { k };
+                SwayError::config(file, format!("steering.{k}"), p)
+            })?;
         self.settings.solver.validate_at(file, "solver")
     }
 }

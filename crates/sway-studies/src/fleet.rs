@@ -18,7 +18,7 @@ use sway::gain_design::{GainSearch, linear_optimum};
 use sway::ranging::{
     OpenLoopStability, Reference, SpeedLimits, open_loop_critical_speed, open_loop_references,
 };
-use sway::sim::{Controller, InitialCondition, SpeedProfile};
+use sway::sim::{ControllerTable, InitialCondition, SpeedProfile};
 use sway::sim::{MetricSettings, RunSettings, SolverSettings};
 
 /// Settings of the fleet table (`configs/fleet.toml`).
@@ -212,7 +212,7 @@ pub fn threshold_at(
         horizon_s: o.threshold.horizon_s,
         action_s: Some(0.0),
         speed: SpeedProfile::Constant { speed_mps: v },
-        controller: Controller::None,
+        controller: ControllerTable::None,
         initial: InitialCondition::State {
             sigma1_mps: 0.0,
             sigma2_per_s: 0.0,

@@ -5,19 +5,17 @@
 
 use stability::Complex64;
 use sway::SwayError;
-use sway::control::{Controller, LinearLoop, LoopModel};
+use sway::control::{LinearLoop, LoopLaw, LoopModel};
 
 /// The point of the loop and how many roots.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RootsConfig {
     /// speed V \[m/s\]
     pub speed_mps: f64,
-    /// delay τ \[s\]
-    pub delay_s: f64,
     /// how many roots (one more where the last two are a conjugate pair)
     pub count: usize,
-    /// the controller (structure, actuator, gains)
-    pub controller: Controller,
+    /// the law (structure, actuator, gains, delay τ)
+    pub law: LoopLaw,
 }
 
 impl RootsConfig {
@@ -26,9 +24,8 @@ impl RootsConfig {
     pub fn paper(speed_mps: f64, gain_s: f64, delay_s: f64, count: usize) -> Self {
         Self {
             speed_mps,
-            delay_s,
             count,
-            controller: Controller::paper(gain_s),
+            law: LoopLaw::paper(gain_s, delay_s),
         }
     }
 }
@@ -58,24 +55,23 @@ pub fn compute<M: LoopModel + ?Sized>(
 ) -> Result<Vec<Complex64>, SwayError> {
     let RootsConfig {
         speed_mps: speed,
-        delay_s: delay,
         count,
-        controller,
+        law,
     } = *cfg;
-    let gain = controller.gains.yaw_rate;
+    let (gain, delay) = (law.gains.yaw_rate, law.delay_s);
     // one more root than asked, so that a conjugate pair is never split
-    if controller == Controller::paper(gain) {
+    if law.is_paper_structure() && law.gains == sway::control::Gains::yaw_rate(gain) {
         let r = sway::charts::rightmost_roots(model, speed, gain, delay, count + 1)?;
         return Ok(without_split_pair(r, count));
     }
     let ctx = || {
         format!(
             "rightmost roots of the {} loop with {} at V = {speed} m/s, τ = {delay} s",
-            controller.structure.as_str(),
-            controller.actuator.as_str()
+            law.structure.as_str(),
+            law.actuator.as_str()
         )
     };
-    let l = LinearLoop::new(model, &controller, speed, delay, prediction)?;
+    let l = LinearLoop::new(model, &law, speed, prediction)?;
     let r = l
         .rightmost_roots(count + 1)
         .map_err(|e| SwayError::numerical(ctx(), e))?;

@@ -323,7 +323,7 @@ pub fn compute(
                 Recording::None
             };
             let x0 = initial_state(vehicle, &c.initial, &c.settings.solver, progress)?;
-            let run = run(vehicle, x0, ("trajectory".into(), (), c.spec()), recording)?;
+            let run = run(vehicle, x0, ("trajectory".into(), (), c.spec()?), recording)?;
             progress.advance(1);
             Ok(Scenario { config: c, run })
         },

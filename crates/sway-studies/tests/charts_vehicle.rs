@@ -331,15 +331,12 @@ fn a_flagged_fold_where_v_does_not_turn_is_not_corrected() {
     // reported. Reference: the meshes L = 20 and 40 pass that speed smoothly with no fold
     // above the box's 5 m/s.
     use sway::bifurcation::chart::critical_speeds;
-    use sway::bifurcation::{CycleExtent, Feedback, bifurcation_diagram_until};
+    use sway::bifurcation::{CycleExtent, LoopLaw, bifurcation_diagram_until};
     const FLAGGED_ON_THE_UNIFORM_MESH_MPS: f64 = 5.64;
     let m = low_critical_speed();
     let o = small_chart().resolve(&m, &BOUNDS).unwrap().options;
     let d = o.seed_gains_s[0];
-    let fb = Feedback {
-        gain_d_s: d,
-        delay_s: 0.0,
-    };
+    let fb = LoopLaw::paper(d, 0.0);
     let diagram = |intervals: usize| {
         let opts = DiagramOptions {
             v_min_mps: o.v_min_mps,
@@ -390,13 +387,13 @@ fn chart_controller_charts_the_loop_of_that_controller() {
     // reference: the critical speed of the same controller from `control` (its loop built
     // with the gains inside q, gain 1), against the chart's, where D multiplies q of the row
     // per unit of D: two formulations of one loop; equal to the bisection tolerances (1e-9)
-    use sway::control::{Actuator, Controller, Gains, SpeedSearch, Structure};
+    use sway::control::{Actuator, Gains, LoopLaw, SpeedSearch, Structure};
     let m = trailer_model::AnyVehicleModel::new(
         &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
     )
     .unwrap();
     let scale = Actuator::DifferentialBraking.scale(sway::control::LoopModel::paper_model(&m));
-    let chart = sway::charts::ChartController {
+    let chart = sway::charts::ChartControllerTable {
         structure: Structure::YawRateHitch,
         actuator: Actuator::DifferentialBraking,
         hitch_angle_per_d: 0.4,
@@ -404,7 +401,7 @@ fn chart_controller_charts_the_loop_of_that_controller() {
     };
     let controlled = sway::charts::Controlled {
         model: &m,
-        controller: chart,
+        law: chart.law(),
     };
     let s = SpeedSearch::default();
     for (d, tau) in [(0.1 * scale, 0.2), (0.05 * scale, 0.4)] {
@@ -418,23 +415,25 @@ fn chart_controller_charts_the_loop_of_that_controller() {
             s.tolerance_mps,
         )
         .unwrap();
-        let c = Controller {
-            structure: Structure::YawRateHitch,
-            actuator: Actuator::DifferentialBraking,
-            gains: Gains {
-                yaw_rate: d,
-                hitch_angle: 0.4 * d,
-                hitch_rate: 0.2 * d,
-            },
+        let gains = Gains {
+            yaw_rate: d,
+            hitch_angle: 0.4 * d,
+            hitch_rate: 0.2 * d,
         };
-        let by_control = sway::control::critical_speed(&m, &c, tau, None, &s).unwrap();
+        let c = LoopLaw::new(
+            Structure::YawRateHitch,
+            Actuator::DifferentialBraking,
+            gains,
+            tau,
+        );
+        let by_control = sway::control::critical_speed(&m, &c, None, &s).unwrap();
         match (by_chart, by_control) {
             (Some(a), Some(b)) => assert!((a - b).abs() <= 2e-9, "{a} vs {b}"),
             (a, b) => assert_eq!(a, b),
         }
     }
     assert!(
-        sway::charts::ChartController {
+        sway::charts::ChartControllerTable {
             structure: Structure::Predictor,
             ..chart
         }

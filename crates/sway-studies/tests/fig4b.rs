@@ -1,6 +1,6 @@
 //! fig4b's computation: the open-loop pair against the committed results.
 
-use sway::bifurcation::{CycleExtent, DiagramSettings, Feedback};
+use sway::bifurcation::{CycleExtent, DiagramSettings, LoopLaw};
 use sway_studies::fig4b::closed_loop_diagram;
 use trailer_model::{Model, VehicleParams};
 
@@ -33,13 +33,13 @@ fn derived_range_reproduces_table_i_fig4b_open_loop_pair() {
     let m = model();
     let p = closed_loop_diagram(
         &m,
-        Feedback::OPEN_LOOP,
+        LoopLaw::OPEN_LOOP,
         &DiagramSettings::closed_loop(),
         &sway::ranging::SpeedLimits::default(),
         CycleExtent::WholeRange,
     )
     .unwrap();
-    let s = p.summary(Feedback::OPEN_LOOP);
+    let s = p.summary(LoopLaw::OPEN_LOOP);
     let hopf = committed("fig4b", &["pairs", "0", "hopf_v_mps"]);
     let fold = committed("fig4b", &["pairs", "0", "fold_v_mps"]);
     assert!((s.hopf_v_mps.unwrap() - hopf).abs() <= 1e-9 * hopf, "{s:?}");

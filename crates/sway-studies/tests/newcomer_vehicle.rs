@@ -34,11 +34,9 @@ use continuation::Criticality;
 use nalgebra::SVector;
 use num_dual::DualNum;
 use sway::bifurcation::{
-    BranchEnd, CycleExtent, CycleKind, Diagram, DiagramSettings, Feedback, vehicle_diagram,
+    BranchEnd, CycleExtent, CycleKind, Diagram, DiagramSettings, LoopLaw, vehicle_diagram,
 };
-use sway::sim::{
-    Controller, EarlyStop, Outcome, Recording, RunSettings, SimSpec, SpeedProfile, simulate,
-};
+use sway::sim::{EarlyStop, Outcome, Recording, RunSettings, SimSpec, SpeedProfile, simulate};
 use sway_model::speeds::{OpenLoopStability, SpeedLimits, open_loop_critical_speed};
 use sway_model::vehicle::Vehicle;
 use tires::{TireLawSpec, TireModel};
@@ -470,7 +468,7 @@ fn critical_speed_and_eigenvalues_are_the_paper_models() {
 fn open_loop_diagram<P: Vehicle<4>>(model: &P, settings: &DiagramSettings) -> Diagram {
     let out = vehicle_diagram(
         model,
-        Feedback::OPEN_LOOP,
+        LoopLaw::OPEN_LOOP,
         settings,
         &SpeedLimits::default(),
         CycleExtent::WholeRange,
@@ -575,7 +573,7 @@ fn bifurcation_diagram_of_linear_tyres() {
 fn kick_run(speed: f64, horizon: f64) -> SimSpec {
     SimSpec {
         profile: SpeedProfile::Constant { speed_mps: speed },
-        controller: Controller::None,
+        controller: None,
         horizon_s: horizon,
         action_s: 0.0,
         settings: RunSettings::default(),

@@ -8,8 +8,7 @@ use std::path::Path;
 use sway::ranging::{SpeedLimits, SpeedReferences, SpeedSpec, resolve_speeds};
 use sway::sim::speeds::{ResolveSpeeds, resolve_against};
 use sway::sim::{
-    Controller, InitialCondition, Outcome, Recording, ScenarioConfig, SimSpec, SpeedProfile,
-    simulate,
+    InitialCondition, Outcome, Recording, ScenarioConfig, SimSpec, SpeedProfile, simulate,
 };
 use sway_studies::mitigation::MitigationConfig;
 use sway_studies::sweep::SweepConfig;
@@ -195,7 +194,7 @@ fn a_nose_heavy_trailer_resolves_to_its_own_speeds_and_runs() {
         let spec = SimSpec {
             early_stop: sway::sim::EarlyStop::Never,
             profile: s.speed.clone(),
-            controller: Controller::None,
+            controller: None,
             horizon_s: 20.0,
             action_s: 0.0,
             settings: s.settings,

@@ -7,8 +7,8 @@ use common::{model, x7};
 use sway::config::Positive;
 use sway::progress::NoProgress;
 use sway::sim::{
-    Controller, InitialCondition, MetricSettings, Outcome, Recording, RunSettings, SimSpec,
-    SolverSettings, SpeedProfile, ValidityGuard, simulate,
+    InitialCondition, MetricSettings, Outcome, Recording, RunSettings, SimSpec, SolverSettings,
+    SpeedProfile, ValidityGuard, simulate,
 };
 use sway_studies::sweep::{
     Axis, AxisParameter, BaseScenario, Sweep, SweepConfig, SweepParameter, run_sweep,
@@ -36,7 +36,7 @@ fn small_sweep() -> SweepConfig {
             horizon_s: Positive::new(8.0).unwrap(),
             action_s: Some(0.0),
             speed: SpeedProfile::Constant { speed_mps: 33.0 },
-            controller: Controller::None,
+            controller: sway::sim::ControllerTable::None,
             initial: InitialCondition::State {
                 sigma1_mps: 0.0,
                 sigma2_per_s: 0.0,
@@ -87,7 +87,7 @@ fn sweep_is_deterministic_across_thread_counts_and_matches_single_runs() {
     let s = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: 35.0 },
-        controller: Controller::None,
+        controller: None,
         horizon_s: 8.0,
         action_s: 0.0,
         settings: RunSettings {

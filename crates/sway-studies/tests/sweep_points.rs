@@ -1,9 +1,9 @@
 use std::path::Path;
 use sway::ranging::SpeedLimits;
 
-use sway::sim::Controller;
 use sway::sim::SwayClass;
 use sway::sim::speeds::ResolveSpeeds;
+use sway::sim::{ControllerTable, LoopLaw};
 use sway_studies::sweep::*;
 use trailer_model::Model;
 use trailer_model::VehicleParams;
@@ -46,7 +46,7 @@ points = 3
     let model = Model::new(edited).unwrap();
     let reference = linear_critical_speed(
         &model,
-        &Controller::None,
+        None,
         &AnalysisOptions::default(),
         &SpeedLimits::default(),
     )
@@ -99,7 +99,7 @@ files = ["a.toml", "b.toml"]
     let sweep = Sweep::new(&VehicleParams::default(), &fleet, &cfg).unwrap();
     let reference = linear_critical_speed(
         &Model::new(heavy).unwrap(),
-        &Controller::None,
+        None,
         &AnalysisOptions::default(),
         &SpeedLimits::default(),
     )
@@ -238,7 +238,7 @@ max = 2.85
     v.trailer.axle = r.values[1];
     let reference = linear_critical_speed(
         &Model::new(v).unwrap(),
-        &Controller::None,
+        None,
         &cfg.analysis,
         &SpeedLimits::default(),
     )
@@ -316,7 +316,7 @@ fn open_loop_search_agrees_with_the_model_critical_speed() {
             .unwrap();
         let ours = linear_critical_speed(
             &model,
-            &Controller::None,
+            None,
             &AnalysisOptions::default(),
             &SpeedLimits::default(),
         )
@@ -401,20 +401,10 @@ fn loop_controllers_are_analysed_as_the_paper_controller_they_contain() {
     // same fold-of-cycles system, seeded from branches whose points differ).
     let model = Model::new(VehicleParams::default()).unwrap();
     let (d, tau) = (0.1, 0.2);
-    let paper = Controller::YawRateFeedback {
-        gain_s: d,
-        delay_s: tau,
-        on_s: 0.0,
-        off_s: None,
-        actuator: Default::default(),
-    };
-    let hitch = Controller::YawRateHitch {
-        gains: sway::control::Gains::yaw_rate(d),
-        delay_s: tau,
-        actuator: sway::control::Actuator::Steering,
-        on_s: 0.0,
-        off_s: None,
-        limit: Default::default(),
+    let paper = LoopLaw::paper(d, tau);
+    let hitch = LoopLaw {
+        structure: sway::control::Structure::YawRateHitch,
+        ..paper
     };
     // a coarser mesh than fig3a's (L = 30): both paths use it
     let mut o = AnalysisOptions {
@@ -423,15 +413,15 @@ fn loop_controllers_are_analysed_as_the_paper_controller_they_contain() {
     };
     o.diagram.intervals = 30;
     let limits = SpeedLimits::default();
-    let a = linear_critical_speed(&model, &paper, &o, &limits).unwrap();
-    let b = linear_critical_speed(&model, &hitch, &o, &limits).unwrap();
+    let a = linear_critical_speed(&model, Some(&paper), &o, &limits).unwrap();
+    let b = linear_critical_speed(&model, Some(&hitch), &o, &limits).unwrap();
     let (va, vb) = (a.v_crit_mps.unwrap(), b.v_crit_mps.unwrap());
     assert!((va - vb).abs() < 1e-8, "{va} vs {vb}");
     let (wa, wb) = (a.hopf_omega_rad_s.unwrap(), b.hopf_omega_rad_s.unwrap());
     assert!((wa - wb).abs() < 1e-6, "{wa} vs {wb}");
 
-    let a = hopf_fold_speeds(&model, &paper, &o, &limits).unwrap();
-    let b = hopf_fold_speeds(&model, &hitch, &o, &limits).unwrap();
+    let a = hopf_fold_speeds(&model, Some(&paper), &o, &limits).unwrap();
+    let b = hopf_fold_speeds(&model, Some(&hitch), &o, &limits).unwrap();
     let (ha, hb) = (a.hopf_v_mps.unwrap(), b.hopf_v_mps.unwrap());
     assert!((ha - hb).abs() < 1e-8, "{ha} vs {hb}");
     assert_eq!(a.criticality, b.criticality);
@@ -439,11 +429,12 @@ fn loop_controllers_are_analysed_as_the_paper_controller_they_contain() {
     assert!((fa - fb).abs() < 1e-5, "{fa} vs {fb}");
 
     // the predictor: its V_crit through its own loop; no continuation problem (a reason)
-    let predictor: Controller =
+    let predictor: ControllerTable =
         toml::from_str("kind = \"predictor\"\ndelay_s = 0.6\ngains = { yaw_rate = 0.05 }\n")
             .unwrap();
-    let p = linear_critical_speed(&model, &predictor, &o, &limits).unwrap();
+    let predictor = predictor.law().unwrap();
+    let p = linear_critical_speed(&model, predictor.as_ref(), &o, &limits).unwrap();
     assert!(p.v_crit_mps.is_some_and(|v| v > 34.7), "{p:?}");
-    let p = hopf_fold_speeds(&model, &predictor, &o, &limits).unwrap();
+    let p = hopf_fold_speeds(&model, predictor.as_ref(), &o, &limits).unwrap();
     assert!(p.fold_v_mps.is_none() && p.reason.is_some_and(|r| r.contains("predictor")));
 }

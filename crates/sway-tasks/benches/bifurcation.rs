@@ -3,7 +3,7 @@
 //! default config, parallel over pairs; target ≤ 10 s on 2 cores).
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use sway::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
+use sway::bifurcation::{DiagramOptions, LoopLaw, bifurcation_diagram};
 use sway::progress::NoProgress;
 use sway_tasks::tasks::fig4b::{Fig4bConfig, diagrams};
 use trailer_model::{Model, VehicleParams};
@@ -14,7 +14,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("fig3a_diagram", |b| {
         b.iter(|| {
-            let d = bifurcation_diagram(&model, Feedback::OPEN_LOOP, &DiagramOptions::default())
+            let d = bifurcation_diagram(&model, LoopLaw::OPEN_LOOP, &DiagramOptions::default())
                 .expect("diagram");
             assert!(d.cycle_summary.len() >= 100);
             black_box(d)
@@ -33,7 +33,7 @@ fn bench(c: &mut Criterion) {
             black_box(
                 sway::bifurcation::vehicle_diagram(
                     &model,
-                    Feedback::OPEN_LOOP,
+                    LoopLaw::OPEN_LOOP,
                     &sway::bifurcation::DiagramSettings::default(),
                     &limits,
                     sway::bifurcation::CycleExtent::WholeRange,

@@ -377,11 +377,11 @@ pub fn load_named_vehicle(
 /// # Errors
 /// As [`load_named_vehicle`] under `key.prediction_vehicle`.
 pub fn load_prediction_vehicle(
-    controller: &mut sway::sim::Controller,
+    controller: &mut sway::sim::ControllerTable,
     file: &Path,
     key: &str,
 ) -> Result<(), TaskError> {
-    if let sway::sim::Controller::Predictor {
+    if let sway::sim::ControllerTable::Predictor {
         prediction_vehicle: Some(p),
         ..
     } = controller

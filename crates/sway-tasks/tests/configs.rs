@@ -132,7 +132,7 @@ fn a_predictor_reads_its_prediction_vehicle_beside_the_scenario() {
     let mut c: ScenarioConfig<SpeedSpec> = load_toml(&file).unwrap();
     c.load_named_files(&file).unwrap();
     c.check(&file).unwrap();
-    let sway::sim::Controller::Predictor {
+    let sway::sim::ControllerTable::Predictor {
         prediction_vehicle: Some(p),
         ..
     } = &c.controller
@@ -159,7 +159,7 @@ fn a_predictor_reads_its_prediction_vehicle_beside_the_scenario() {
     let sweep = dir.path().join("sweep.toml");
     let base = std::fs::read_to_string(configs.join("sweep_threshold.toml")).unwrap();
     let mut s: SweepConfig<SpeedSpec> = toml::from_str(&base).unwrap();
-    s.base.controller = sway::sim::Controller::Predictor {
+    s.base.controller = sway::sim::ControllerTable::Predictor {
         gains: sway::control::Gains::yaw_rate(0.05),
         delay_s: 0.6,
         actuator: sway::control::Actuator::Steering,

@@ -565,16 +565,14 @@ fn period_by_simulation(
     theta0: f64,
     settle_s: f64,
 ) -> f64 {
-    use sway::sim::{
-        Controller, Recording, RunSettings, SimSpec, SpeedProfile, simulate_in_paper_layout,
-    };
+    use sway::sim::{Recording, RunSettings, SimSpec, SpeedProfile, simulate_in_paper_layout};
     let mut settings = RunSettings::default();
     settings.solver.rtol = 1e-6;
     settings.solver.atol = 1e-8;
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: v },
-        controller: Controller::None,
+        controller: None,
         horizon_s: settle_s + sway_studies::mitigation::CYCLE_SEARCH_S,
         action_s: 0.0,
         settings,

@@ -30,15 +30,12 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use sway::bifurcation::{BranchPointTest, DiagramOptions, Feedback, bifurcation_diagram};
+use sway::bifurcation::{BranchPointTest, DiagramOptions, LoopLaw, bifurcation_diagram};
 use trailer_model::{Model, VehicleParams};
 
 fn diagrams(c: &mut Criterion) {
     let model = Model::new(VehicleParams::default()).expect("Table I model");
-    let feedback = Feedback {
-        gain_d_s: 0.1,
-        delay_s: 0.2,
-    };
+    let feedback = LoopLaw::paper(0.1, 0.2);
     let mut g = c.benchmark_group("closed_loop_mesh");
     g.sample_size(10);
     for (test, name) in [

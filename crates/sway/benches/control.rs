@@ -1,11 +1,11 @@
-//! Issue 22: one spectral-abscissa evaluation (the loop built at one speed, its rightmost
+//! One spectral-abscissa evaluation (the loop built at one speed, its rightmost
 //! root) per controller structure at one (V, gains, τ), with steering; target ≤ 100 µs.
 //! The predictor twice: with a perfect model (its loop is the delay-free one, a polynomial)
 //! and with a model 10 % off in trailer mass (the cleared quasi-polynomial of degree 8).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use sway::control::{Actuator, Controller, Gains, LinearLoop, Structure};
+use sway::control::{Actuator, Gains, LinearLoop, LoopLaw, Structure};
 use trailer_model::{Model, VehicleParams};
 
 fn spectral_abscissa(c: &mut Criterion) {
@@ -27,28 +27,24 @@ fn spectral_abscissa(c: &mut Criterion) {
     off.trailer.mass *= 1.1;
     let off = Model::new(off).expect("Table I with 10 % more trailer mass");
     let mut group = c.benchmark_group("spectral_abscissa");
-    let predictor = Controller {
-        structure: Structure::Predictor,
-        actuator: Actuator::Steering,
-        gains: Gains::yaw_rate(0.05),
-    };
+    let predictor = LoopLaw::new(
+        Structure::Predictor,
+        Actuator::Steering,
+        Gains::yaw_rate(0.05),
+        tau,
+    );
     group.bench_function("predictor_model_off_10pct", |b| {
         b.iter(|| {
-            let l = LinearLoop::new(&model, black_box(&predictor), speed, tau, Some(&off))
-                .expect("loop");
+            let l =
+                LinearLoop::new(&model, black_box(&predictor), speed, Some(&off)).expect("loop");
             l.rightmost_roots(1).expect("roots")[0].re
         })
     });
     for (structure, gains) in cases {
-        let controller = Controller {
-            structure,
-            actuator: Actuator::Steering,
-            gains,
-        };
+        let controller = LoopLaw::new(structure, Actuator::Steering, gains, tau);
         group.bench_function(structure.as_str(), |b| {
             b.iter(|| {
-                let l = LinearLoop::new(&model, black_box(&controller), speed, tau, None)
-                    .expect("loop");
+                let l = LinearLoop::new(&model, black_box(&controller), speed, None).expect("loop");
                 l.rightmost_roots(1).expect("roots")[0].re
             })
         });

@@ -41,28 +41,17 @@ use common::spec;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use sway::progress::NoProgress;
-use sway::sim::{Controller, Recording, SpeedProfile, simulate, simulate_in_paper_layout};
+use sway::sim::{LoopLaw, Recording, SpeedProfile, simulate, simulate_in_paper_layout};
 use sway_studies::sweep::{Sweep, SweepConfig, run_sweep};
 use trailer_model::State7;
 
 fn single_runs(c: &mut Criterion) {
     let model = common::model();
     let x0 = State7::from_column_slice(&[0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0]);
-    let s1 = spec(
-        SpeedProfile::Constant { speed_mps: 33.0 },
-        Controller::None,
-        60.0,
-        1e-8,
-    );
+    let s1 = spec(SpeedProfile::Constant { speed_mps: 33.0 }, None, 60.0, 1e-8);
     let s3 = spec(
         SpeedProfile::Constant { speed_mps: 35.0 },
-        Controller::YawRateFeedback {
-            gain_s: 0.1,
-            delay_s: 0.2,
-            on_s: 0.0,
-            off_s: None,
-            actuator: Default::default(),
-        },
+        Some(LoopLaw::paper(0.1, 0.2)),
         40.0,
         1e-8,
     );

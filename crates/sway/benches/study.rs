@@ -38,7 +38,7 @@ fn overhead(c: &mut Criterion) {
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
         profile: cfg.base.speed.clone(),
-        controller: cfg.base.controller,
+        controller: cfg.base.controller.law().unwrap(),
         horizon_s: 60.0,
         action_s: 0.0,
         settings: cfg.base.settings,

@@ -38,7 +38,7 @@ use sway_model::vehicle::LoopModel;
 
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, NonlinearChart, critical_speeds, nonlinear_chart};
-use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
+use crate::bifurcation::{CycleExtent, DiagramOptions, LoopLaw, bifurcation_diagram_until};
 use crate::charts::critical_speed_at_gain;
 
 /// Settings of the search for the best gain at one delay.
@@ -585,10 +585,7 @@ pub fn open_loop_fold_speed(model: &Model, chart: &ChartOptions) -> Result<Optio
         v_max_mps: chart.v_max_mps,
         ..chart.cycles.clone()
     };
-    let feedback = Feedback {
-        gain_d_s: 0.0,
-        delay_s: 0.0,
-    };
+    let feedback = LoopLaw::paper(0.0, 0.0);
     let diagram = bifurcation_diagram_until(model, feedback, &options, CycleExtent::FirstFold)?;
     Ok(critical_speeds(model, &diagram, chart)?
         .fold

@@ -13,7 +13,7 @@ use sway_model::vehicle::Vehicle;
 
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until};
+use crate::bifurcation::{CycleExtent, DiagramOptions, LoopLaw, bifurcation_diagram_until};
 use crate::sim::VehicleForm;
 
 /// The open-loop reference speeds of `model` that `need` asks for: V_crit
@@ -82,7 +82,7 @@ pub fn open_loop_fold<P: Vehicle<N>, const N: usize>(
         ..DiagramOptions::default()
     };
     let diagram =
-        bifurcation_diagram_until(model, Feedback::OPEN_LOOP, &options, CycleExtent::FirstFold)?;
+        bifurcation_diagram_until(model, LoopLaw::OPEN_LOOP, &options, CycleExtent::FirstFold)?;
     if diagram.fold.is_none() {
         return Ok(Err(format!(
             "the open loop has no fold of cycles between {:.3} and {:.3} m/s ({:?} Hopf point at V_crit = {v_crit} m/s): no bistable range",

@@ -6,8 +6,8 @@
 mod common;
 
 use sway::sim::{
-    ActuatorLimits, Controller, KinkLandingMode, Recording, SimResult, SolverSettings,
-    SpeedProfile, settle, simulate,
+    ActuatorLimits, KinkLandingMode, LoopLaw, Recording, SimResult, SolverSettings, SpeedProfile,
+    settle, simulate,
 };
 use trailer_model::State4;
 
@@ -20,13 +20,10 @@ fn on_the_cycle() -> State4 {
 
 fn run(actuator: ActuatorLimits, horizon_s: f64) -> SimResult<4> {
     let model = common::model();
-    let controller = Controller::YawRateFeedback {
-        gain_s: 0.1,
-        delay_s: 0.2,
-        on_s: 1.0,
-        off_s: None,
-        actuator,
-    };
+    let controller = Some(LoopLaw {
+        steering_limits: actuator,
+        ..LoopLaw::paper(0.1, 0.2).switched(1.0, None)
+    });
     let mut spec = common::spec(
         SpeedProfile::Constant { speed_mps: 35.0 },
         controller,
@@ -162,37 +159,21 @@ fn a_fast_unlimited_actuator_converges_to_the_ideal_controller() {
 
 // ---- the `yaw_rate_hitch` and `predictor` controller kinds, simulated ----
 
-use sway::control::{self, Actuator, Gains, LinearLoop, SpeedSearch, Structure, critical_speed};
-use sway::sim::{CommandLimit, ModelError};
+use sway::control::{Actuator, Gains, LinearLoop, SpeedSearch, Structure, critical_speed};
+use sway::sim::{ControllerTable, ModelError};
 
-/// The scenario controller of a structure (`yaw_rate_hitch` or `predictor`).
+/// The law of a structure (`yaw_rate_hitch` or `predictor`) as a scenario runs it.
 fn loop_controller(
     structure: Structure,
     actuator: Actuator,
     gains: Gains,
     delay_s: f64,
     model_error: ModelError,
-) -> Controller {
-    match structure {
-        Structure::Predictor => Controller::Predictor {
-            gains,
-            delay_s,
-            actuator,
-            on_s: 0.0,
-            off_s: None,
-            limit: CommandLimit::default(),
-            model_error,
-            prediction_vehicle: None,
-        },
-        _ => Controller::YawRateHitch {
-            gains,
-            delay_s,
-            actuator,
-            on_s: 0.0,
-            off_s: None,
-            limit: CommandLimit::default(),
-        },
-    }
+) -> Option<LoopLaw> {
+    Some(LoopLaw {
+        model_error,
+        ..LoopLaw::new(structure, actuator, gains, delay_s)
+    })
 }
 
 /// The growth rate \[1/s\] of θ of a run recorded every 2 ms: the ratio of local maxima of
@@ -276,17 +257,18 @@ fn new_controller_kinds_grow_at_the_rightmost_root() {
         ),
     ];
     for (structure, actuator, gains, tau, error) in cases {
-        let c = control::Controller {
-            structure,
-            actuator,
-            gains,
-        };
+        let c = LoopLaw::new(structure, actuator, gains, 0.0);
         let prediction = trailer_model::Model::new(error.apply(model.params())).unwrap();
-        let vc = critical_speed(&model, &c, tau, Some(&prediction), &SpeedSearch::default())
-            .unwrap()
-            .expect("a critical speed below 100 m/s");
+        let vc = critical_speed(
+            &model,
+            &c.with_delay(tau),
+            Some(&prediction),
+            &SpeedSearch::default(),
+        )
+        .unwrap()
+        .expect("a critical speed below 100 m/s");
         let v = vc - 0.3;
-        let root = LinearLoop::new(&model, &c, v, tau, Some(&prediction))
+        let root = LinearLoop::new(&model, &c.with_delay(tau), v, Some(&prediction))
             .unwrap()
             .rightmost_roots(2)
             .unwrap()[0];
@@ -324,12 +306,12 @@ fn new_controller_kinds_grow_at_the_rightmost_root() {
 #[test]
 fn new_controller_kinds_are_typed_in_toml() {
     // reference: the keys by hand; defaults: steering, on at 0, perfect model, w = 1.6 m
-    let c: Controller = toml::from_str(
+    let c: ControllerTable = toml::from_str(
         "kind = \"yaw_rate_hitch\"\ndelay_s = 0.6\ngains = { yaw_rate = 0.1, hitch_angle = 0.2 }\n",
     )
     .unwrap();
     assert_eq!(
-        c,
+        c.law().unwrap(),
         loop_controller(
             Structure::YawRateHitch,
             Actuator::Steering,
@@ -343,14 +325,14 @@ fn new_controller_kinds_are_typed_in_toml() {
         )
     );
     assert_eq!(c.validate(), Ok(()));
-    let c: Controller = toml::from_str(
+    let c: ControllerTable = toml::from_str(
         "kind = \"predictor\"\ndelay_s = 0.6\nactuator = \"differential_braking\"\ngains = { yaw_rate = 900.0 }\nmodel_error = { trailer_mass_factor = 1.1 }\n",
     )
     .unwrap();
     assert_eq!(c.validate(), Ok(()));
-    assert_eq!(c.extra_states(), 4);
+    assert_eq!(c.law().unwrap().unwrap().extra_states(), 4);
     let bad = |text: &str| {
-        let c: Controller = toml::from_str(text).unwrap();
+        let c: ControllerTable = toml::from_str(text).unwrap();
         c.validate().unwrap_err().0
     };
     assert_eq!(
@@ -374,7 +356,7 @@ fn new_controller_kinds_are_typed_in_toml() {
         "limit.max_yaw_moment_nm"
     );
     // an unknown actuator is a parse error naming the variants
-    let e = toml::from_str::<Controller>(
+    let e = toml::from_str::<ControllerTable>(
         "kind = \"predictor\"\ndelay_s = 0.6\nactuator = \"rudder\"\ngains = { yaw_rate = 0.1 }\n",
     )
     .unwrap_err();
@@ -400,7 +382,7 @@ fn braking_is_saturated_at_the_friction_limit() {
     );
     let profile = SpeedProfile::Constant { speed_mps: 35.0 };
     let x = on_the_cycle();
-    let plant = sway::sim::SimProblem::<_, 4, 4>::new(&model, &profile, c.clone(), x).unwrap();
+    let plant = sway::sim::SimProblem::<_, 4, 4>::new(&model, &profile, c, x).unwrap();
     let mz = plant.yaw_moment(1.0, &x, &[x]);
     assert_eq!(mz.abs(), limit, "M_z = {mz}, limit {limit}");
     let spec = common::spec(profile, c, 10.0, 1e-8);
@@ -421,7 +403,7 @@ fn a_prediction_vehicle_is_the_model_the_predictor_predicts_with() {
     };
     let profile = SpeedProfile::Constant { speed_mps: 30.0 };
     let x = on_the_cycle();
-    let run = |c: Controller| {
+    let run = |c: Option<LoopLaw>| {
         let spec = common::spec(profile.clone(), c, 5.0, 1e-8);
         simulate(&model, &spec, x, Recording::Every { step_s: 0.1 }).unwrap()
     };
@@ -435,15 +417,10 @@ fn a_prediction_vehicle_is_the_model_the_predictor_predicts_with() {
         )
     };
     let with_vehicle = |params, error| {
-        let mut c = predictor(error);
-        if let Controller::Predictor {
-            prediction_vehicle, ..
-        } = &mut c
-        {
-            *prediction_vehicle =
-                Some(sway::sim::PredictionVehicle::loaded("heavier.toml", params));
-        }
-        c
+        predictor(error).map(|law| LoopLaw {
+            prediction_vehicle: Some(params),
+            ..law
+        })
     };
     let factor = run(predictor(off));
     let file = run(with_vehicle(
@@ -456,11 +433,10 @@ fn a_prediction_vehicle_is_the_model_the_predictor_predicts_with() {
     assert_eq!(perfect.trajectory, itself.trajectory);
     assert_ne!(perfect.trajectory, factor.trajectory);
     // a file nobody loaded is an error naming it, not the vehicle silently
-    let unloaded: Controller = toml::from_str(
+    let unloaded: ControllerTable = toml::from_str(
         "kind = \"predictor\"\ndelay_s = 0.6\ngains = { yaw_rate = 0.05 }\nprediction_vehicle = \"heavier.toml\"\n",
     )
     .unwrap();
-    let spec = common::spec(profile.clone(), unloaded, 5.0, 1e-8);
-    let e = simulate(&model, &spec, x, Recording::None).unwrap_err();
+    let e = unloaded.law().unwrap_err();
     assert!(e.to_string().contains("heavier.toml"), "{e}");
 }

@@ -7,7 +7,7 @@ use common::{braking_35_to_25, model, spec, x7};
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::SVector;
 use sway::sim::{
-    Controller, LossOfControl, Outcome, Recording, SimProblem, SimResult, SimSpec, SolverSettings,
+    LoopLaw, LossOfControl, Outcome, Recording, SimProblem, SimResult, SimSpec, SolverSettings,
     SpeedProfile, ValidityGuard, settle, simulate,
 };
 use trailer_model::{Inputs, State4, State7};
@@ -17,13 +17,7 @@ fn plant_rhs_matches_the_model_rhs7() {
     // reference: trailer_model's own 7-state right-hand side (eq. 5–6), written separately
     let m = model();
     let profile = braking_35_to_25(1.0, 5.0);
-    let ctl = Controller::YawRateFeedback {
-        gain_s: 0.1,
-        delay_s: 0.2,
-        on_s: 0.5,
-        off_s: None,
-        actuator: Default::default(),
-    };
+    let ctl = Some(LoopLaw::paper(0.1, 0.2).switched(0.5, None));
     let x = State7::from_column_slice(&[0.3, -0.05, 0.2, 0.15, 0.4, 10.0, -2.0]);
     let xd = State7::from_column_slice(&[0.1, 0.08, -0.1, 0.05, 0.3, 9.0, -1.5]);
     let plant = SimProblem::<_, 4, 7>::new(&m, &profile, ctl, x).unwrap();
@@ -67,14 +61,8 @@ fn open_loop_equals_delay_solver_with_zero_gain() {
     // sway (measured largest difference 1.9e-7, in σ3), so they must agree to 1e-6
     let m = model();
     let p = SpeedProfile::Constant { speed_mps: 33.0 };
-    let ode = spec(p.clone(), Controller::None, 20.0, 1e-10);
-    let ctl = Controller::YawRateFeedback {
-        gain_s: 0.0,
-        delay_s: 0.2,
-        on_s: 0.0,
-        off_s: None,
-        actuator: Default::default(),
-    };
+    let ode = spec(p.clone(), None, 20.0, 1e-10);
+    let ctl = Some(LoopLaw::paper(0.0, 0.2));
     let dde_spec = spec(p, ctl, 20.0, 1e-10);
     let rec = Recording::Every { step_s: 0.05 };
     let a = simulate(&m, &ode, x7(8.0), rec).unwrap();
@@ -93,7 +81,7 @@ fn open_loop_equals_delay_solver_with_zero_gain() {
 /// at the constant speed `speed_mps` \[m/s\] from θ(0) = `theta0_deg` \[deg\].
 fn refinement_errors(
     speed_mps: f64,
-    controller: Controller,
+    controller: Option<LoopLaw>,
     horizon_s: f64,
     theta0_deg: f64,
 ) -> Vec<f64> {
@@ -101,7 +89,7 @@ fn refinement_errors(
     let run = |rtol: f64| {
         let s = spec(
             SpeedProfile::Constant { speed_mps },
-            controller.clone(),
+            controller,
             horizon_s,
             rtol,
         );
@@ -124,7 +112,7 @@ fn tolerance_refinement_converges() {
     // with DOP853 landing on the tyre kinks: 8.9e-9, 2.5e-8, 6.8e-10 rad — at this level the
     // error no longer falls strictly with every decade; with Dormand–Prince 5(4) stepping
     // across the kinks it was 1.1e-4, 2.3e-5, 1.8e-7 rad)
-    let errs = refinement_errors(33.0, Controller::None, 20.0, 8.0);
+    let errs = refinement_errors(33.0, None, 20.0, 8.0);
     for (e, rtol) in errs.iter().zip([1e-5, 1e-7, 1e-9]) {
         assert!(*e < 100.0 * rtol, "{errs:?}");
     }
@@ -135,13 +123,7 @@ fn tolerance_refinement_converges() {
 #[test]
 fn closed_loop_tolerance_refinement_converges() {
     // the DDE path: V = 35 m/s, D = 0.1 s, τ = 0.2 s switched on at t = 1 s
-    let ctl = Controller::YawRateFeedback {
-        gain_s: 0.1,
-        delay_s: 0.2,
-        on_s: 1.0,
-        off_s: None,
-        actuator: Default::default(),
-    };
+    let ctl = Some(LoopLaw::paper(0.1, 0.2).switched(1.0, None));
     let errs = refinement_errors(35.0, ctl, 10.0, 10.0);
     eprintln!("closed-loop errors {errs:?}");
     assert!(errs[0] > errs[2], "{errs:?}");
@@ -161,12 +143,7 @@ fn sway_amplitude_at_35_agrees_with_tight_tolerance_run() {
     let x4 = settle(&m, 35.0, 0.1, 100.0, &tight).unwrap();
     let x0 = State7::from_column_slice(&[x4[0], x4[1], x4[2], x4[3], 0.0, 0.0, 0.0]);
     let amp = |solver: SolverSettings| {
-        let mut s = spec(
-            SpeedProfile::Constant { speed_mps: 35.0 },
-            Controller::None,
-            10.0,
-            1e-8,
-        );
+        let mut s = spec(SpeedProfile::Constant { speed_mps: 35.0 }, None, 10.0, 1e-8);
         s.settings.solver = solver;
         simulate(&m, &s, x0, Recording::None)
             .unwrap()
@@ -192,12 +169,7 @@ fn sampled_run(
     action_s: f64,
     theta0_deg: f64,
 ) -> (SimSpec, SimResult<7>) {
-    let mut s = spec(
-        SpeedProfile::Constant { speed_mps },
-        Controller::None,
-        horizon_s,
-        1e-9,
-    );
+    let mut s = spec(SpeedProfile::Constant { speed_mps }, None, horizon_s, 1e-9);
     s.action_s = action_s;
     let r = simulate(
         &model(),
@@ -264,7 +236,7 @@ fn guard_stops_hard_braking_exactly_at_axle_saturation() {
     let x4 = settle(&m, 35.0, 0.1, 200.0, &SolverSettings::default()).unwrap();
     let x0 = State7::from_column_slice(&[x4[0], x4[1], x4[2], x4[3], 0.0, 0.0, 0.0]);
     let profile = braking_35_to_25(2.0, 2.0);
-    let mut s = spec(profile.clone(), Controller::None, 40.0, 1e-8);
+    let mut s = spec(profile.clone(), None, 40.0, 1e-8);
     s.action_s = 2.0;
     let r = simulate(&m, &s, x0, Recording::None).unwrap();
     assert_eq!(r.metrics.outcome, Outcome::LossOfControl);
@@ -340,12 +312,11 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
     // over the plant; every number of these runs must be identical (no tolerance)
     let m = model();
     let rec = Recording::Every { step_s: 0.05 };
-    let feedback = |actuator| Controller::YawRateFeedback {
-        gain_s: 0.1,
-        delay_s: 0.2,
-        on_s: 1.0,
-        off_s: None,
-        actuator,
+    let feedback = |actuator| {
+        Some(LoopLaw {
+            steering_limits: actuator,
+            ..LoopLaw::paper(0.1, 0.2).switched(1.0, None)
+        })
     };
     let limited = sway::sim::ActuatorLimits {
         max_angle_deg: Some(1.0),
@@ -353,24 +324,21 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         time_constant_s: 0.05,
     };
     let gains = sway::control::Gains::yaw_rate(0.1);
-    let predictor = Controller::Predictor {
+    let predictor = Some(LoopLaw::new(
+        sway::control::Structure::Predictor,
+        sway::control::Actuator::Steering,
         gains,
-        delay_s: 0.3,
-        actuator: sway::control::Actuator::Steering,
-        on_s: 0.0,
-        off_s: None,
-        limit: Default::default(),
-        model_error: Default::default(),
-        prediction_vehicle: None,
-    };
-    let braking = Controller::YawRateHitch {
-        gains: sway::control::Gains::yaw_rate(2e4),
-        delay_s: 0.2,
-        actuator: sway::control::Actuator::DifferentialBraking,
-        on_s: 0.5,
-        off_s: None,
-        limit: Default::default(),
-    };
+        0.3,
+    ));
+    let braking = Some(
+        LoopLaw::new(
+            sway::control::Structure::YawRateHitch,
+            sway::control::Actuator::DifferentialBraking,
+            sway::control::Gains::yaw_rate(2e4),
+            0.2,
+        )
+        .switched(0.5, None),
+    );
     let v35 = SpeedProfile::Constant { speed_mps: 35.0 };
     let runs: Vec<(&str, u64)> = vec![
         (
@@ -378,12 +346,7 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
             digest(
                 &simulate(
                     &m,
-                    &spec(
-                        SpeedProfile::Constant { speed_mps: 33.0 },
-                        Controller::None,
-                        30.0,
-                        1e-8,
-                    ),
+                    &spec(SpeedProfile::Constant { speed_mps: 33.0 }, None, 30.0, 1e-8),
                     x7(5.7),
                     rec,
                 )
@@ -435,7 +398,7 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
             digest(
                 &simulate(
                     &m,
-                    &spec(braking_35_to_25(0.0, 0.3), Controller::None, 10.0, 1e-8),
+                    &spec(braking_35_to_25(0.0, 0.3), None, 10.0, 1e-8),
                     x7(8.0),
                     rec,
                 )
@@ -497,7 +460,7 @@ fn relaxed_vehicle_simulation_matches_an_independent_rk4() {
     let vm = trailer_model::VehicleModel::<7>::new(&spec_r).unwrap();
     let s = spec(
         SpeedProfile::Constant { speed_mps: 33.0 },
-        Controller::None,
+        None,
         10.0,
         1e-10,
     );
@@ -526,12 +489,7 @@ fn relaxation_length_to_zero_converges_to_the_paper_trajectory() {
     // reference: the paper's model (σ = 0); the first-order slip lag moves the trajectory
     // by O(σ), so halving σ halves the distance in the reduced states (ratio 2 within 10 %),
     // and at σ = 1 cm it is below 2 % of their size (measured 1.2 %)
-    let s = spec(
-        SpeedProfile::Constant { speed_mps: 33.0 },
-        Controller::None,
-        5.0,
-        1e-10,
-    );
+    let s = spec(SpeedProfile::Constant { speed_mps: 33.0 }, None, 5.0, 1e-10);
     let x0 = x7(2.0);
     let paper = simulate(&model(), &s, x0, Recording::None).unwrap();
     let distance = |sigma: f64| {
@@ -565,15 +523,10 @@ fn relaxed_s1_at_bench_settings_matches_a_converged_run() {
         &trailer_model::VehicleSpec::table_i_with_relaxation(0.3),
     )
     .unwrap();
-    let s1 = spec(
-        SpeedProfile::Constant { speed_mps: 33.0 },
-        Controller::None,
-        60.0,
-        1e-8,
-    );
+    let s1 = spec(SpeedProfile::Constant { speed_mps: 33.0 }, None, 60.0, 1e-8);
     let mut converged = spec(
         SpeedProfile::Constant { speed_mps: 33.0 },
-        Controller::None,
+        None,
         60.0,
         1e-12,
     );

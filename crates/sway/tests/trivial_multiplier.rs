@@ -3,7 +3,7 @@
 //! measures the accuracy of the Floquet computation of the C¹ (kinked) trailer model.
 
 use continuation::BranchPoint;
-use sway::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
+use sway::bifurcation::{DiagramOptions, LoopLaw, bifurcation_diagram};
 use trailer_model::{Model, VehicleParams};
 
 /// max |μ_trivial − 1| over the points of `points` at least `gap` m/s from `fold` (the
@@ -30,7 +30,7 @@ fn worst_trivial(points: &[BranchPoint], fold: Option<f64>, gap: f64) -> (f64, f
     (worst.0, worst.1, checked)
 }
 
-fn check(feedback: Feedback, options: DiagramOptions) {
+fn check(feedback: LoopLaw, options: DiagramOptions) {
     let model = Model::new(VehicleParams::default()).expect("Table I model");
     let d = bifurcation_diagram(&model, feedback, &options).expect("diagram");
     let fold = d.fold.map(|f| f.speed_mps);
@@ -56,7 +56,7 @@ fn trivial_multiplier_of_open_loop_sway_cycles_is_one() {
     // reference: exactly 1 (autonomous system); tolerance 1e-6, on the
     // fig3a branch with a coarser mesh (L = 20; fig3a uses 60): measured 7.3e-8
     check(
-        Feedback::OPEN_LOOP,
+        LoopLaw::OPEN_LOOP,
         DiagramOptions {
             intervals: 20,
             max_cycle_points: 80,
@@ -71,10 +71,7 @@ fn trivial_multiplier_of_delayed_closed_loop_sway_cycles_is_one() {
     // with fig4b's mesh L = 40 (measured 1.6e-7; 3.6e-6 on L = 20, 2.5e-4 there with mesh
     // points at the switching times only, not at the kinks carried along the delay)
     check(
-        Feedback {
-            gain_d_s: 0.1,
-            delay_s: 0.2,
-        },
+        LoopLaw::paper(0.1, 0.2),
         DiagramOptions {
             intervals: 40,
             max_cycle_points: 80,

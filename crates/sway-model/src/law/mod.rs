@@ -18,11 +18,15 @@
 //! Gains carry the actuator's units: for steering D and D_θ in s, K_θ in rad/rad; for
 //! braking D and D_θ in N m s/rad, K_θ in N m/rad.
 //!
-//! [`simulation`] holds the controller of a simulation: a law switched on and off in time,
-//! with the actuator's limits, as scenario files write it.
+//! [`LoopLaw`] is the one feedback law every engine takes (structure, gains, delay,
+//! actuator, on/off times, limits); [`table`] holds the controller tables of the config
+//! files that convert into it.
 
+mod limits;
 pub mod predictor;
-pub mod simulation;
+pub mod table;
+
+pub use limits::{ActuatorLimits, CommandLimit, ModelError};
 
 use nalgebra::{DMatrix, DVector, RowDVector, RowVector4, Vector4};
 use serde::{Deserialize, Serialize};
@@ -238,26 +242,279 @@ impl Gains {
     }
 }
 
-/// A controller: structure, actuator and gains. The predictor's model of the vehicle is
-/// given where its loop is built (`sway::control::LinearLoop::new`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Controller {
+/// A feedback law, the one type every engine takes: what it measures and moves
+/// ([`Structure`], [`Actuator`]), its [`Gains`], the loop delay τ, when it acts
+/// (t_on ≤ t < t_off), the actuator's limits and, for the predictor, the model it predicts
+/// with.
+///
+/// - A simulation runs all of it (`sway::sim`).
+/// - The linear engines (roots, charts, gain and control design) read structure, actuator,
+///   gains and τ: a linear loop is always on and unsaturated.
+/// - Continuation (`sway::bifurcation`) reads the actuator and the gains, with D and τ as
+///   the parameters p = [V, D, τ] it may free; the braking limit is not modelled there and
+///   the predictor is not a continuation problem.
+///
+/// The config files write it as a controller table ([`table::ControllerTable`]), which
+/// converts into it.
+///
+/// ```
+/// use sway_model::law::{Actuator, Gains, LoopLaw, Structure};
+///
+/// // the paper's δ(t) = −D·ψ̇(t − τ), D = 0.1 s, τ = 0.2 s, switched on at 5 s
+/// let law = LoopLaw::paper(0.1, 0.2).switched(5.0, None);
+/// assert_eq!(law.steering_angle(4.0, 1.0), 0.0);
+/// assert_eq!(law.steering_angle(5.0, 1.0), -0.1);
+/// // a hitch-angle sensor and differential braking
+/// let braking = LoopLaw::new(
+///     Structure::YawRateHitch,
+///     Actuator::DifferentialBraking,
+///     Gains { yaw_rate: 2000.0, hitch_angle: 5000.0, hitch_rate: 0.0 },
+///     0.3,
+/// );
+/// assert!(braking.validate().is_ok());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopLaw {
     /// what is measured and how
     pub structure: Structure,
     /// what is moved
     pub actuator: Actuator,
     /// the gains (only those of the structure are read)
     pub gains: Gains,
+    /// loop delay τ \[s\] (sensing, computation, actuation; 0.2–0.4 s in production cars);
+    /// the predictor's prediction horizon
+    pub delay_s: f64,
+    /// t_on \[s\]: switched on (0: from the start)
+    pub on_s: f64,
+    /// t_off \[s\]: switched off (never when `None`)
+    pub off_s: Option<f64>,
+    /// saturation and rate limit of the steering (the `yaw_rate` structure on the
+    /// steering; none by default)
+    pub steering_limits: ActuatorLimits,
+    /// the limit of the braking yaw moment (differential braking only)
+    pub braking_limit: CommandLimit,
+    /// how the predictor's model differs from its vehicle (perfect by default)
+    pub model_error: ModelError,
+    /// the predictor's vehicle when it is not the controlled one (paper-form parameters of
+    /// its equivalent single-axle vehicle)
+    pub prediction_vehicle: Option<trailer_model::VehicleParams>,
 }
 
-impl Controller {
-    /// The paper's controller δ = −D·ψ̇(t − τ).
-    pub fn paper(d: f64) -> Self {
+impl Default for LoopLaw {
+    fn default() -> Self {
+        Self::OPEN_LOOP
+    }
+}
+
+impl LoopLaw {
+    /// No steering control: the paper's law with D = 0 and τ = 0 (δ ≡ 0).
+    pub const OPEN_LOOP: Self = Self::paper(0.0, 0.0);
+
+    /// The paper's law δ(t) = −D·ψ̇(t − τ) (eq. 8): gain D \[s\], delay τ \[s\], always on, no
+    /// limits.
+    pub const fn paper(gain_s: f64, delay_s: f64) -> Self {
+        Self::new(
+            Structure::YawRate,
+            Actuator::Steering,
+            Gains {
+                yaw_rate: gain_s,
+                hitch_angle: 0.0,
+                hitch_rate: 0.0,
+            },
+            delay_s,
+        )
+    }
+
+    /// `structure` moving `actuator` with `gains` and delay τ \[s\], always on, no limits
+    /// beyond the braking's friction limit, a perfect prediction model.
+    pub const fn new(structure: Structure, actuator: Actuator, gains: Gains, delay_s: f64) -> Self {
         Self {
-            structure: Structure::YawRate,
-            actuator: Actuator::Steering,
-            gains: Gains::yaw_rate(d),
+            structure,
+            actuator,
+            gains,
+            delay_s,
+            on_s: 0.0,
+            off_s: None,
+            steering_limits: ActuatorLimits::NONE,
+            braking_limit: CommandLimit::FRICTION,
+            model_error: ModelError::PERFECT,
+            prediction_vehicle: None,
         }
+    }
+
+    /// This law with the delay τ \[s\].
+    #[must_use]
+    pub fn with_delay(self, delay_s: f64) -> Self {
+        Self { delay_s, ..self }
+    }
+
+    /// This law with `gains`.
+    #[must_use]
+    pub fn with_gains(self, gains: Gains) -> Self {
+        Self { gains, ..self }
+    }
+
+    /// This law switched on at t_on \[s\] and off at t_off \[s\] (never when `None`).
+    #[must_use]
+    pub fn switched(self, on_s: f64, off_s: Option<f64>) -> Self {
+        Self {
+            on_s,
+            off_s,
+            ..self
+        }
+    }
+
+    /// The paper's loop: the yaw rate alone on the steering (the structure whose command is
+    /// a function of the delayed yaw rate only, with the steering's limits).
+    #[inline]
+    pub fn is_paper_structure(&self) -> bool {
+        self.structure == Structure::YawRate && self.actuator == Actuator::Steering
+    }
+
+    /// The closed loop is a delay equation: τ > 0 (for every gain, also 0, so that the
+    /// structure does not change when D is continued through 0).
+    pub fn is_delayed(&self) -> bool {
+        self.delay_s > 0.0
+    }
+
+    /// The hitch gains (K_θ, D_θ) the command feeds back: those of `yaw_rate_hitch`, (0, 0)
+    /// for the other structures.
+    pub fn hitch_gains(&self) -> (f64, f64) {
+        match self.structure {
+            Structure::YawRateHitch => (self.gains.hitch_angle, self.gains.hitch_rate),
+            Structure::YawRate | Structure::Predictor => (0.0, 0.0),
+        }
+    }
+
+    /// Whether the law acts at time t (t_on ≤ t < t_off).
+    #[inline]
+    pub fn is_on(&self, t: f64) -> bool {
+        t >= self.on_s && self.off_s.is_none_or(|off| t < off)
+    }
+
+    /// Number of states a simulation adds to the vehicle's: 1 for a rate-limited steering
+    /// (δ), 4 for the predictor (z), else 0.
+    pub fn extra_states(&self) -> usize {
+        match self.structure {
+            Structure::Predictor => 4,
+            _ => usize::from(self.has_actuator_state()),
+        }
+    }
+
+    /// Whether the steering angle is a state of a simulation (a rate limit is set).
+    pub fn has_actuator_state(&self) -> bool {
+        self.steering_limits.has_rate_limit()
+    }
+
+    /// The paper loop's steering command δ_c(t) \[rad\] given the delayed yaw rate
+    /// ψ̇(t − τ) \[rad/s\]: −D·ψ̇(t − τ) saturated at ±δ_max while the law is on, 0 while it
+    /// is off (eq. 8). It is the steering angle itself unless a rate limit is set
+    /// ([`ActuatorLimits`]).
+    #[inline]
+    pub fn steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
+        self.steering_limits
+            .saturate(self.raw_steering_angle(t, delayed_yaw_rate))
+    }
+
+    /// The paper loop's command before saturation \[rad\]: −D·ψ̇(t − τ) while the law is on,
+    /// 0 while it is off (0 for the other structures and for braking, whose commands a
+    /// simulation computes from the whole delayed state).
+    #[inline]
+    pub fn raw_steering_angle(&self, t: f64, delayed_yaw_rate: f64) -> f64 {
+        if self.is_paper_structure() && self.is_on(t) {
+            -self.gains.yaw_rate * delayed_yaw_rate
+        } else {
+            0.0
+        }
+    }
+
+    /// Times \[s\] where the command may jump: switching on and off, and for the predictor
+    /// the same times τ later (u(t − τ) enters its ż).
+    pub fn breakpoints(&self) -> Vec<f64> {
+        let (on, off) = (self.on_s, self.off_s);
+        match self.structure {
+            Structure::Predictor => {
+                let tau = self.delay_s;
+                let mut v = vec![on, on + tau];
+                v.extend(off.iter().flat_map(|o| [*o, o + tau]));
+                v
+            }
+            Structure::YawRate | Structure::YawRateHitch => {
+                let mut v = vec![on];
+                v.extend(off.iter());
+                v
+            }
+        }
+    }
+
+    /// The largest braking command M_max \[N m\] on `model` (`None` for steering).
+    pub fn max_command(&self, model: &Model) -> Option<f64> {
+        self.braking_limit.max_command(self.actuator, model)
+    }
+
+    /// The parameters of the predictor's model for a vehicle with `params`: the
+    /// `prediction_vehicle` (else the vehicle) with `model_error`'s factors applied.
+    pub fn prediction_params(
+        &self,
+        params: &trailer_model::VehicleParams,
+    ) -> trailer_model::VehicleParams {
+        self.model_error
+            .apply(&self.prediction_vehicle.unwrap_or(*params))
+    }
+
+    /// Checks; `Err((key, problem))` names the offending key as the controller tables
+    /// write it ([`table::ControllerTable`]).
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        let g = self.gains;
+        for (key, v) in [
+            ("gains.yaw_rate", g.yaw_rate),
+            ("gains.hitch_angle", g.hitch_angle),
+            ("gains.hitch_rate", g.hitch_rate),
+        ] {
+            if !v.is_finite() {
+                return Err((key, format!("expected a finite gain, got {v}")));
+            }
+        }
+        if self.structure != Structure::YawRateHitch {
+            for (key, v) in [
+                ("gains.hitch_angle", g.hitch_angle),
+                ("gains.hitch_rate", g.hitch_rate),
+            ] {
+                if v != 0.0 {
+                    return Err((
+                        key,
+                        format!(
+                            "the {} structure feeds back only gains.yaw_rate; got {v}",
+                            self.structure.as_str()
+                        ),
+                    ));
+                }
+            }
+        }
+        let (delay_s, on_s) = (self.delay_s, self.on_s);
+        if !(delay_s.is_finite() && delay_s >= 0.0) {
+            return Err(("delay_s", format!("expected a delay >= 0 s, got {delay_s}")));
+        }
+        if !(on_s.is_finite() && on_s >= 0.0) {
+            return Err(("on_s", format!("expected a time >= 0 s, got {on_s}")));
+        }
+        if let Some(off) = self.off_s
+            && !(off.is_finite() && off > on_s)
+        {
+            return Err((
+                "off_s",
+                format!("expected off_s > on_s = {on_s}, got {off}"),
+            ));
+        }
+        self.steering_limits.validate()?;
+        if !self.steering_limits.is_default() && !self.is_paper_structure() {
+            return Err((
+                "actuator",
+                "steering limits act on the yaw-rate loop on the steering only".into(),
+            ));
+        }
+        self.braking_limit.validate()?;
+        self.model_error.validate()
     }
 }
 

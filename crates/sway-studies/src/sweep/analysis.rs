@@ -10,13 +10,13 @@ use trailer_model::{AnyVehicleModel, Inputs, Model, State4, sorted_eigenvalues};
 use super::PointKind;
 use sway::SwayError;
 use sway::bifurcation::chart::{ChartOptions, critical_speeds};
-use sway::bifurcation::{CycleExtent, Feedback};
+use sway::bifurcation::{CycleExtent, LoopLaw};
 use sway::bifurcation::{DiagramOutcome, DiagramSettings, vehicle_diagram};
 use sway::charts::{critical_speed_at_gain, rightmost_roots};
 use sway::config::ensure;
 use sway::control;
 use sway::ranging::SpeedLimits;
-use sway::sim::{Controller, VehicleForm};
+use sway::sim::VehicleForm;
 
 /// Settings of the linear and bifurcation point kinds (`[analysis]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -141,34 +141,29 @@ pub struct HopfFoldSpeeds {
     pub reason: Option<String>,
 }
 
-/// A `yaw_rate_hitch` or `predictor` controller as a loop of [`sway::control`]: its
-/// structure, actuator and gains, the delay τ \[s\] and, for the predictor, the model it
-/// predicts with ([`sway::sim::LoopLaw::prediction_params`]).
+/// A law other than the paper's (`yaw_rate_hitch`, `predictor`, or braking) as a loop of
+/// [`sway::control`], with, for the predictor, the model it predicts with
+/// ([`LoopLaw::prediction_params`]).
 struct AnalysedLoop {
-    controller: control::Controller,
-    delay_s: f64,
+    law: LoopLaw,
     prediction: Option<Model>,
 }
 
 impl AnalysedLoop {
-    /// The loop of `controller` on `model`; None for the open loop and `yaw_rate_feedback`.
-    fn of(model: &Model, controller: &Controller) -> Result<Option<Self>, String> {
-        let Some(law) = controller.loop_law() else {
+    /// The loop of `law` on `model`; None for the open loop and the paper's structure
+    /// (analysed as the feedback (D, τ), [`feedback`]).
+    fn of(model: &Model, law: Option<&LoopLaw>) -> Result<Option<Self>, String> {
+        let Some(law) = law.filter(|l| !l.is_paper_structure()) else {
             return Ok(None);
         };
         let prediction = if law.structure == control::Structure::Predictor {
-            let params = law.prediction_params(model.params())?;
+            let params = law.prediction_params(model.params());
             Some(Model::new(params).map_err(|e| format!("the predictor's model: {e}"))?)
         } else {
             None
         };
         Ok(Some(Self {
-            controller: control::Controller {
-                structure: law.structure,
-                actuator: law.actuator,
-                gains: law.gains,
-            },
-            delay_s: law.delay_s,
+            law: *law,
             prediction,
         }))
     }
@@ -194,28 +189,17 @@ impl AnalysedLoop {
             samples: o.closed_loop_samples,
             tolerance_mps: o.tolerance_mps,
         };
-        let v = control::critical_speed(
-            model,
-            &self.controller,
-            self.delay_s,
-            self.prediction(),
-            &search,
-        )
-        .map_err(|e| e.to_string())?;
+        let v = control::critical_speed(model, &self.law, self.prediction(), &search)
+            .map_err(|e| e.to_string())?;
         let omega = match v {
             Some(v) => {
-                let roots = control::LinearLoop::new(
-                    model,
-                    &self.controller,
-                    v,
-                    self.delay_s,
-                    self.prediction(),
-                )
-                .and_then(|l| {
-                    l.rightmost_roots(2)
-                        .map_err(|e| SwayError::numerical(format!("the roots at V = {v} m/s"), e))
-                })
-                .map_err(|e| e.to_string())?;
+                let roots = control::LinearLoop::new(model, &self.law, v, self.prediction())
+                    .and_then(|l| {
+                        l.rightmost_roots(2).map_err(|e| {
+                            SwayError::numerical(format!("the roots at V = {v} m/s"), e)
+                        })
+                    })
+                    .map_err(|e| e.to_string())?;
                 roots.first().map(|r| r.im.abs())
             }
             None => None,
@@ -246,7 +230,7 @@ impl AnalysedLoop {
             ..control::SpeedSearch::default()
         };
         let chart = ChartOptions::correcting(&o.diagram.options(lo, hi));
-        match sway::control::hopf_and_fold(model, &self.controller, self.delay_s, &chart, &search) {
+        match sway::control::hopf_and_fold(model, &self.law, &chart, &search) {
             Ok(r) => HopfFoldSpeeds {
                 hopf_v_mps: r.hopf.map(|h| h.0),
                 hopf_omega_rad_s: r.hopf.map(|h| h.1),
@@ -267,30 +251,18 @@ impl AnalysedLoop {
     }
 }
 
-/// The feedback (D, τ) of a controller for the linear and bifurcation analyses (open loop:
+/// The feedback (D, τ) of a law for the linear and bifurcation analyses (open loop:
 /// D = τ = 0); a rate-limited or saturated actuator is nonlinear and refused.
-fn feedback(controller: &Controller) -> Result<Feedback, String> {
-    match *controller {
-        Controller::None => Ok(Feedback::OPEN_LOOP),
-        Controller::YawRateHitch { .. } | Controller::Predictor { .. } => Err(
+fn feedback(law: Option<&LoopLaw>) -> Result<LoopLaw, String> {
+    match law {
+        None => Ok(LoopLaw::OPEN_LOOP),
+        Some(l) if !l.is_paper_structure() => Err(
             "a vehicle with model variants takes the open loop or a yaw_rate_feedback controller in the linear and bifurcation kinds of sweeps; yaw_rate_hitch and predictor are analysed on the paper's model (or simulated)".into(),
         ),
-        Controller::YawRateFeedback {
-            gain_s,
-            delay_s,
-            actuator,
-            ..
-        } => {
-            if !actuator.is_default() {
-                return Err(
-                    "the linear and bifurcation kinds need an actuator without limits".into(),
-                );
-            }
-            Ok(Feedback {
-                gain_d_s: gain_s,
-                delay_s,
-            })
+        Some(l) if !l.steering_limits.is_default() => {
+            Err("the linear and bifurcation kinds need an actuator without limits".into())
         }
+        Some(l) => Ok(LoopLaw::paper(l.gains.yaw_rate, l.delay_s)),
     }
 }
 
@@ -331,11 +303,11 @@ fn plant_critical_pair<P: trailer_model::Plant<M>, const M: usize>(
 /// variant is refused with a message).
 fn variant_linear_critical_speed(
     vehicle: &AnyVehicleModel,
-    controller: &Controller,
+    controller: Option<&LoopLaw>,
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<LinearCriticalSpeed, String> {
-    if feedback(controller)?.gain_d_s != 0.0 {
+    if feedback(controller)?.gains.yaw_rate != 0.0 {
         return Err(
             "the closed-loop critical speed of a vehicle with model variants is not \
              available in sweeps (open loop only, issue 21)"
@@ -430,7 +402,7 @@ fn open_loop_scan(
 /// A message naming the failing step.
 pub fn linear_critical_speed<'a>(
     vehicle: impl Into<VehicleForm<'a>>,
-    controller: &Controller,
+    controller: Option<&LoopLaw>,
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<LinearCriticalSpeed, String> {
@@ -445,7 +417,7 @@ pub fn linear_critical_speed<'a>(
         return l.critical_speed(model, (v_min, v_max), o);
     }
     let fb = feedback(controller)?;
-    let (v, omega) = if fb.gain_d_s == 0.0 {
+    let (v, omega) = if fb.gains.yaw_rate == 0.0 {
         match open_loop_critical_speed(model, o, limits)? {
             Some(v) => (Some(v), Some(critical_pair(model, v).1)),
             None => (None, None),
@@ -454,7 +426,7 @@ pub fn linear_critical_speed<'a>(
         let v = critical_speed_at_gain(
             model,
             fb.delay_s,
-            fb.gain_d_s,
+            fb.gains.yaw_rate,
             v_min,
             v_max,
             o.closed_loop_samples,
@@ -463,7 +435,7 @@ pub fn linear_critical_speed<'a>(
         .map_err(|e| e.to_string())?;
         let omega = match v {
             Some(v) => {
-                let roots = rightmost_roots(model, v, fb.gain_d_s, fb.delay_s, 2)
+                let roots = rightmost_roots(model, v, fb.gains.yaw_rate, fb.delay_s, 2)
                     .map_err(|e| e.to_string())?;
                 roots.first().map(|r| r.im.abs())
             }
@@ -489,7 +461,7 @@ pub fn linear_critical_speed<'a>(
 /// A message naming the failing stage.
 pub fn hopf_fold_speeds(
     model: &Model,
-    controller: &Controller,
+    controller: Option<&LoopLaw>,
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<HopfFoldSpeeds, String> {

@@ -26,7 +26,7 @@ use sway::progress::Progress;
 use sway::ranging::SpeedLimits;
 use sway::sampling::{About, Sampler, Sampling};
 use sway::sim::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
-use sway::sim::{Controller, Recording, SpeedProfile};
+use sway::sim::{ControllerTable, LoopLaw, Recording, SpeedProfile};
 use sway::sim::{
     InitialCondition, default_action_time, ensure_name, validate_parts, validate_spec_parts,
 };
@@ -464,7 +464,7 @@ pub fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(
             InitialCondition::SwayCycle { theta0_rad, .. } => *theta0_rad = v.to_radians(),
         },
         SweepParameter::GainS | SweepParameter::DelayS => match &mut s.controller {
-            Controller::YawRateFeedback {
+            ControllerTable::YawRateFeedback {
                 gain_s, delay_s, ..
             } => {
                 if p == SweepParameter::GainS {
@@ -473,15 +473,15 @@ pub fn set_scenario(s: &mut BaseScenario, p: SweepParameter, v: f64) -> Result<(
                     *delay_s = v;
                 }
             }
-            Controller::YawRateHitch { gains, delay_s, .. }
-            | Controller::Predictor { gains, delay_s, .. } => {
+            ControllerTable::YawRateHitch { gains, delay_s, .. }
+            | ControllerTable::Predictor { gains, delay_s, .. } => {
                 if p == SweepParameter::GainS {
                     gains.yaw_rate = v;
                 } else {
                     *delay_s = v;
                 }
             }
-            Controller::None => {
+            ControllerTable::None => {
                 return Err(format!(
                     "{} needs a yaw_rate_feedback, yaw_rate_hitch or predictor controller in [base.controller]",
                     p.as_str()
@@ -762,17 +762,26 @@ impl Sweep {
         let result = setup.and_then(|(model, s)| match (self.cfg.kind, &model) {
             (PointKind::Simulation, _) => simulate_point(&model, &s, s.horizon_s.get())
                 .map(|(m, steps)| (PointOutput::Simulation(m), steps)),
-            (PointKind::LinearCriticalSpeed, _) => analysis::linear_critical_speed(
-                &model,
-                &s.controller,
-                &self.cfg.analysis,
-                &self.limits,
-            )
-            .map(|r| (PointOutput::LinearCriticalSpeed(r), 0)),
-            (PointKind::HopfFoldSpeeds, PointModel::Paper(model)) => {
-                analysis::hopf_fold_speeds(model, &s.controller, &self.cfg.analysis, &self.limits)
-                    .map(|r| (PointOutput::HopfFoldSpeeds(r), 0))
-            }
+            (PointKind::LinearCriticalSpeed, _) => law_of(&s)
+                .and_then(|law| {
+                    analysis::linear_critical_speed(
+                        &model,
+                        law.as_ref(),
+                        &self.cfg.analysis,
+                        &self.limits,
+                    )
+                })
+                .map(|r| (PointOutput::LinearCriticalSpeed(r), 0)),
+            (PointKind::HopfFoldSpeeds, PointModel::Paper(model)) => law_of(&s)
+                .and_then(|law| {
+                    analysis::hopf_fold_speeds(
+                        model,
+                        law.as_ref(),
+                        &self.cfg.analysis,
+                        &self.limits,
+                    )
+                })
+                .map(|r| (PointOutput::HopfFoldSpeeds(r), 0)),
             (PointKind::HopfFoldSpeeds, PointModel::Variant(_)) => Err(
                 "Hopf and fold-of-cycles speeds of a vehicle with model variants are not \
                  available in sweeps yet (issue 21)"
@@ -848,13 +857,18 @@ pub fn simulate_point<'a>(
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),
         profile: s.speed.clone(),
-        controller: s.controller.clone(),
+        controller: law_of(s)?,
         horizon_s,
         settings: s.settings,
     };
     let r = simulate_in_paper_layout::<4>(vehicle, &spec, State4::from(x0), Recording::None)
         .map_err(|e| e.to_string())?;
     Ok((r.metrics, r.stats.accepted))
+}
+
+/// The law of a point's controller table (a predictor's `prediction_vehicle` loaded).
+fn law_of(s: &BaseScenario) -> Result<Option<LoopLaw>, String> {
+    s.controller.law().map_err(|e| e.to_string())
 }
 
 /// Runs every point in parallel on the current rayon pool; results in index order,

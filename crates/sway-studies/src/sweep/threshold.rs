@@ -21,11 +21,11 @@ use serde::{Deserialize, Serialize};
 use super::{AxisParameter, PointModel, PointOutput, PointResult, SweepConfig, SweepParameter};
 use super::{BaseScenario, PointKind, Sweep};
 use sway::SwayError;
-use sway::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, Feedback, vehicle_diagram};
+use sway::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, LoopLaw, vehicle_diagram};
 use sway::config::{Positive, ensure};
 use sway::ranging::SpeedLimits;
 use sway::sim::classify::SwayClass;
-use sway::sim::{Controller, InitialCondition, SpeedProfile, VehicleForm};
+use sway::sim::{ControllerTable, InitialCondition, SpeedProfile, VehicleForm};
 use trailer_model::Model;
 
 fn default_horizon() -> Positive {
@@ -93,7 +93,7 @@ impl ThresholdSearch {
         )?;
         if self.compare_cycles {
             ensure(
-                matches!(cfg.base.controller, Controller::None),
+                matches!(cfg.base.controller, ControllerTable::None),
                 file,
                 "threshold.compare_cycles",
                 || "the cycle comparison is for the open loop (controller = none)".into(),
@@ -332,7 +332,7 @@ fn reference(
 ) -> Result<CycleReference, SwayError> {
     let d = match vehicle_diagram(
         model,
-        Feedback::OPEN_LOOP,
+        LoopLaw::OPEN_LOOP,
         settings,
         limits,
         CycleExtent::WholeRange,

@@ -35,7 +35,7 @@ use sway_studies::control_design::{
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
 use sway::sim::{
     PredictionVehicle,
-    Controller, Recording, RunSettings, SimSpec, SpeedProfile, SwayClass, simulate,
+    LoopLaw, Recording, RunSettings, SimSpec, SpeedProfile, SwayClass, simulate,
 };
 use trailer_model::State4;
 
@@ -566,44 +566,6 @@ struct SimulatedDesign {
     class: SwayClass,
 }
 
-/// The scenario controller of a design (steering `yaw_rate`: the paper's kind); the
-/// predictor predicts with `prediction` (the vehicle itself when `None`).
-fn sim_controller(
-    structure: Structure,
-    actuator: Actuator,
-    gains: Gains,
-    tau: f64,
-    prediction: Option<PredictionVehicle>,
-) -> Controller {
-    match (structure, actuator) {
-        (Structure::YawRate, Actuator::Steering) => Controller::YawRateFeedback {
-            gain_s: gains.yaw_rate,
-            delay_s: tau,
-            on_s: 0.0,
-            off_s: None,
-            actuator: Default::default(),
-        },
-        (Structure::Predictor, _) => Controller::Predictor {
-            gains,
-            delay_s: tau,
-            actuator,
-            on_s: 0.0,
-            off_s: None,
-            limit: Default::default(),
-            model_error: Default::default(),
-            prediction_vehicle: prediction,
-        },
-        _ => Controller::YawRateHitch {
-            gains,
-            delay_s: tau,
-            actuator,
-            on_s: 0.0,
-            off_s: None,
-            limit: Default::default(),
-        },
-    }
-}
-
 type Curve = (String, Vec<(f64, f64)>);
 
 /// Runs the simulation check: the outcome and the θ(t) curves (open loop first); the
@@ -615,7 +577,7 @@ fn simulation_check(
     prediction: Option<&PredictionVehicle>,
 ) -> Result<(SimulationOutcome, Vec<Curve>), TaskError> {
     let speed = sc.speed_fraction * r.open_loop_v_crit_mps;
-    let run = |controller: Controller, kick_deg: f64| {
+    let run = |controller: Option<LoopLaw>, kick_deg: f64| {
         let spec = SimSpec {
             early_stop: sway::sim::EarlyStop::Never,
             profile: SpeedProfile::Constant { speed_mps: speed },
@@ -640,7 +602,7 @@ fn simulation_check(
     kicks.sort_by(f64::total_cmp);
     let mut open = None;
     for &k in &kicks {
-        let res = run(Controller::None, k)?;
+        let res = run(None, k)?;
         let sways = res.metrics.class == SwayClass::SustainedSway;
         open = Some((k, res, sways));
         if sways {
@@ -660,14 +622,11 @@ fn simulation_check(
         let Some(d) = c.designs.iter().find(|d| (d.tau_s - sc.delay_s).abs() < 1e-9) else {
             continue;
         };
-        let controller = sim_controller(
-            c.structure,
-            c.actuator,
-            d.gains,
-            d.tau_s,
-            prediction.cloned(),
-        );
-        let res = run(controller, kick_deg)?;
+        let law = LoopLaw {
+            prediction_vehicle: prediction.and_then(|p| p.params),
+            ..d.law()
+        };
+        let res = run(Some(law), kick_deg)?;
         curves.push(curve(
             format!("{} + {}", c.structure.as_str(), c.actuator.as_str()),
             &res,

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use crate::TaskError;
 use sway::bifurcation::chart::CriticalSpeeds;
-use sway::bifurcation::{Diagram, DiagramSettings, Feedback};
+use sway::bifurcation::{Diagram, DiagramSettings, LoopLaw};
 use sway_studies::fig4b::{PairDiagram, PairSummary, closed_loop_diagrams, common_range};
 use sway::config::ensure;
 
@@ -177,11 +177,8 @@ pub struct Fig4bSummary {
 }
 
 /// The feedback of a pair.
-fn feedback(p: &Pair) -> Feedback {
-    Feedback {
-        gain_d_s: p.gain_s,
-        delay_s: p.delay_s,
-    }
+fn feedback(p: &Pair) -> LoopLaw {
+    LoopLaw::paper(p.gain_s, p.delay_s)
 }
 
 /// All diagrams of the config with their corrected Hopf and fold speeds, in config order
@@ -195,7 +192,7 @@ pub fn diagrams<P: sway_model::vehicle::Vehicle<N>, const N: usize>(
     limits: &sway::ranging::SpeedLimits,
     progress: &dyn sway::progress::Progress,
 ) -> Result<Vec<PairDiagram>, TaskError> {
-    let feedbacks: Vec<Feedback> = cfg.pairs.iter().map(feedback).collect();
+    let feedbacks: Vec<LoopLaw> = cfg.pairs.iter().map(feedback).collect();
     Ok(closed_loop_diagrams(
         model,
         &feedbacks,

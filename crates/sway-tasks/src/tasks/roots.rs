@@ -54,8 +54,8 @@ pub fn run<M: LoopModel + ?Sized>(
 /// # Errors
 /// [`TaskError::Config`] naming the command-line option.
 pub fn validate(cfg: &RootsConfig) -> Result<(), TaskError> {
-    let g = &cfg.controller.gains;
-    validate_args(cfg.speed_mps, g.yaw_rate, cfg.delay_s, cfg.count)?;
+    let g = &cfg.law.gains;
+    validate_args(cfg.speed_mps, g.yaw_rate, cfg.law.delay_s, cfg.count)?;
     if !(g.hitch_angle.is_finite() && g.hitch_rate.is_finite()) {
         return Err(TaskError::config(
             "command line",

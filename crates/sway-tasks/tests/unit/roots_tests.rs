@@ -1,5 +1,5 @@
 use stability::Complex64;
-use sway::control::{Controller, LoopModel};
+use sway::control::{LoopLaw, LoopModel};
 use sway_tasks::tasks::roots::*;
 use trailer_model::{Model, VehicleParams};
 
@@ -70,21 +70,22 @@ fn controller_roots_of_a_relaxed_vehicle_satisfy_the_loop_equation() {
     )
     .unwrap();
     let scale = Actuator::DifferentialBraking.scale(&m);
-    let c = Controller {
-        structure: Structure::YawRateHitch,
-        actuator: Actuator::DifferentialBraking,
-        gains: Gains {
-            yaw_rate: 0.1 * scale,
-            hitch_angle: 0.05 * scale,
-            hitch_rate: 0.03 * scale,
-        },
-    };
     let (v, tau) = (40.0, 0.4);
+    let gains = Gains {
+        yaw_rate: 0.1 * scale,
+        hitch_angle: 0.05 * scale,
+        hitch_rate: 0.03 * scale,
+    };
+    let c = LoopLaw::new(
+        Structure::YawRateHitch,
+        Actuator::DifferentialBraking,
+        gains,
+        tau,
+    );
     let point = RootsConfig {
         speed_mps: v,
-        delay_s: tau,
         count: 4,
-        controller: c,
+        law: c,
     };
     let r = run(&plant, &point, None).unwrap();
     let lin = plant.loop_linearization(v);

@@ -28,7 +28,7 @@ use sway_model::vehicle::Vehicle;
 use trailer_model::HITCH_ANGLE;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, Feedback, GAIN, SPEED,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, GAIN, LoopLaw, SPEED,
     bifurcation_diagram_until, cycles_from_hopf, straight_running,
 };
 use crate::SwayError;
@@ -783,10 +783,7 @@ fn corrected_hopf<P: Vehicle<N>, const N: usize>(
     hopf: &HopfPoint,
     o: &ChartOptions,
 ) -> Result<Vec<f64>, SwayError> {
-    let ctx = format!(
-        "Hopf point at D = {d} s, τ = {} s",
-        problem.feedback().delay_s
-    );
+    let ctx = format!("Hopf point at D = {d} s, τ = {} s", problem.law().delay_s);
     let mut hs = hopf_system(problem, d, o)?;
     let (guess, dir) = hs.start_at_hopf(hopf, SPEED).map_err(num(ctx.clone()))?;
     let mut b = Continuation::default()
@@ -863,10 +860,10 @@ fn corrected_fold<'a, P: Vehicle<N>, const N: usize>(
     diagram: &Diagram,
     o: &ChartOptions,
 ) -> Result<Option<CorrectedFold<'a, P, N>>, SwayError> {
-    let fb = diagram.feedback;
+    let fb = diagram.law;
     let ctx = format!(
         "fold of cycles at D = {} s, τ = {} s",
-        fb.gain_d_s, fb.delay_s
+        fb.gains.yaw_rate, fb.delay_s
     );
     // the fold of cycles: the first flagged fold at which V has a local minimum
     // (`super::lower_fold`; a fold flag where V runs on is no turning point, and the
@@ -906,8 +903,8 @@ pub fn critical_speeds<P: Vehicle<N>, const N: usize>(
     diagram: &Diagram,
     o: &ChartOptions,
 ) -> Result<CriticalSpeeds, SwayError> {
-    let problem = ClosedLoop::with_law(model, diagram.feedback, diagram.law);
-    let d = diagram.feedback.gain_d_s;
+    let problem = ClosedLoop::new(model, diagram.law);
+    let d = diagram.law.gains.yaw_rate;
     // the two corrections are independent: side by side
     let (hu, fold) =
         crate::parallel::join(&|| corrected_hopf(&problem, d, &diagram.hopf, o), &|| {
@@ -935,7 +932,7 @@ pub fn fold_of_cycles<P: Vehicle<N>, const N: usize>(
     diagram: &Diagram,
     o: &ChartOptions,
 ) -> Result<Option<FoldCurvePoint>, SwayError> {
-    let problem = ClosedLoop::with_law(model, diagram.feedback, diagram.law);
+    let problem = ClosedLoop::new(model, diagram.law);
     fold_on(&problem, diagram, o)
 }
 
@@ -974,10 +971,7 @@ fn fold_curve<P: Vehicle<N>, const N: usize>(
     d: f64,
     o: &ChartOptions,
 ) -> Result<FoldStage, SwayError> {
-    let fb = Feedback {
-        gain_d_s: d,
-        delay_s: tau,
-    };
+    let fb = LoopLaw::paper(d, tau);
     let range = format!("[{}, {}] m/s", o.v_min_mps, o.v_max_mps);
     let diagram = match bifurcation_diagram_until(
         model,
@@ -1129,13 +1123,7 @@ pub fn hopf_curves<P: Vehicle<N>, const N: usize>(
     tau: f64,
     o: &ChartOptions,
 ) -> Result<(Vec<HopfCurve>, Vec<String>), SwayError> {
-    let problem = ClosedLoop::new(
-        model,
-        Feedback {
-            gain_d_s: 0.0,
-            delay_s: tau,
-        },
-    );
+    let problem = ClosedLoop::new(model, LoopLaw::paper(0.0, tau));
     let mut notes = Vec::new();
     let mut curves: Vec<HopfCurve> = Vec::new();
     for &d in &o.seed_gains_s {
@@ -1174,13 +1162,7 @@ pub fn hopf_speed_at<P: Vehicle<N>, const N: usize>(
     d: f64,
     o: &ChartOptions,
 ) -> Result<Option<f64>, SwayError> {
-    let problem = ClosedLoop::new(
-        model,
-        Feedback {
-            gain_d_s: 0.0,
-            delay_s: tau,
-        },
-    );
+    let problem = ClosedLoop::new(model, LoopLaw::paper(0.0, tau));
     lowest_hopf_speed(&problem, curves, d, o)
 }
 
@@ -1200,13 +1182,7 @@ pub fn nonlinear_chart<P: Vehicle<N>, const N: usize>(
             "no seed gain; give at least one in seed_gains_s".into(),
         ));
     };
-    let problem = ClosedLoop::new(
-        model,
-        Feedback {
-            gain_d_s: first_seed,
-            delay_s: tau,
-        },
-    );
+    let problem = ClosedLoop::new(model, LoopLaw::paper(first_seed, tau));
     // the Hopf curves with their criticality and the fold-of-cycles curve are independent:
     // computed side by side (each deterministic, so the result does not depend on threads)
     let (hopf_stage, fold_stage) = join(
@@ -1258,13 +1234,7 @@ pub fn nonlinear_chart<P: Vehicle<N>, const N: usize>(
 
 impl NonlinearChart {
     fn problem<'a, P: Vehicle<N>, const N: usize>(&self, model: &'a P) -> ClosedLoop<'a, P, N> {
-        ClosedLoop::new(
-            model,
-            Feedback {
-                gain_d_s: 0.0,
-                delay_s: self.tau_s,
-            },
-        )
+        ClosedLoop::new(model, LoopLaw::paper(0.0, self.tau_s))
     }
 
     /// The lowest speed \[m/s\] of the Hopf curves at gain D \[s\] (each crossing corrected

@@ -13,7 +13,7 @@
 //! them from [`trailer_model::Plant::switching_functions`] and
 //! [`trailer_model::Plant::guard_values`].
 //!
-//! **Controller structures** ([`LoopLaw`]): the command may also feed back the
+//! **Controller structures** (the [`LoopLaw`]'s): the command may also feed back the
 //! hitch angle and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) (`yaw_rate_hitch`, θ̇ the
 //! plant's nonlinear hitch-angle rate, as the simulations measure it), and drive either the
 //! steering angle δ \[rad\] or a yaw moment M_z \[N m\] on the tractor
@@ -25,10 +25,9 @@
 use continuation::Problem;
 use nalgebra::SVector;
 use num_dual::{Dual64, DualNum, DualSVec64, HyperDual64, jacobian};
-use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, Inputs, Model};
 
-use sway_model::law::Actuator;
+use sway_model::law::{Actuator, LoopLaw};
 use sway_model::vehicle::{LossOfControl, Vehicle, actuated_rhs, input_jacobian};
 
 /// index of the speed V \[m/s\] in the parameter vector
@@ -38,95 +37,36 @@ pub const GAIN: usize = 1;
 /// index of the feedback delay τ \[s\] in the parameter vector
 pub const DELAY: usize = 2;
 
-/// The steering feedback δ(t) = −D·ψ̇(t − τ) of eq. (8).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Feedback {
-    /// gain D \[s\]
-    pub gain_d_s: f64,
-    /// delay τ \[s\]
-    pub delay_s: f64,
-}
-
-impl Feedback {
-    /// no steering control (δ ≡ 0)
-    pub const OPEN_LOOP: Feedback = Feedback {
-        gain_d_s: 0.0,
-        delay_s: 0.0,
-    };
-
-    /// The closed loop is a delay equation: τ > 0 (for every gain D, also D = 0, so that
-    /// the structure does not change when D is continued through 0).
-    pub fn is_delayed(&self) -> bool {
-        self.delay_s > 0.0
-    }
-}
-
-/// The rest of the controller beyond the yaw-rate gain D and the delay τ of [`Feedback`]:
-/// the actuator the command drives and the gains on the delayed hitch angle
-/// and its rate, u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ). Units are the actuator's
-/// ([`sway_model::law`]): steering K_θ rad/rad, D_θ s; braking N m/rad, N m s/rad.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LoopLaw {
-    /// what the command moves
-    pub actuator: Actuator,
-    /// K_θ, on the hitch angle θ
-    pub hitch_angle: f64,
-    /// D_θ, on the hitch-angle rate θ̇
-    pub hitch_rate: f64,
-}
-
-impl Default for LoopLaw {
-    fn default() -> Self {
-        Self::PAPER
-    }
-}
-
-impl LoopLaw {
-    /// The paper's law: steering, yaw rate only.
-    pub const PAPER: LoopLaw = LoopLaw {
-        actuator: Actuator::Steering,
-        hitch_angle: 0.0,
-        hitch_rate: 0.0,
-    };
-
-    /// Only the yaw rate is fed back (the command is linear in the state).
-    fn yaw_rate_only(&self) -> bool {
-        self.hitch_angle == 0.0 && self.hitch_rate == 0.0
-    }
-}
-
 /// The closed loop as a continuation problem, parameters p = [V, D, τ] (indices [`SPEED`],
-/// [`GAIN`], [`DELAY`]); any of them may be free. The gain and the delay are read from p;
-/// the [`Feedback`] it was built with only fixes the structure (a DDE with one delay p\[τ\]
-/// if τ > 0, an ODE with instantaneous feedback otherwise) and the default parameter vector
-/// ([`ClosedLoop::parameters`]); the [`LoopLaw`] fixes the actuator and the hitch gains.
+/// [`GAIN`], [`DELAY`]); any of them may be free. The gain D and the delay τ are read from
+/// p; the [`LoopLaw`] it was built with fixes the structure (a DDE with one delay p\[τ\] if
+/// its τ > 0, an ODE with instantaneous feedback otherwise), the default parameter vector
+/// ([`ClosedLoop::parameters`]), the actuator and the hitch gains (K_θ, D_θ).
 /// Generic over the plant `P` with `N` reduced states (default: the paper's [`Model`]).
 #[derive(Debug, Clone, Copy)]
 pub struct ClosedLoop<'a, P = Model, const N: usize = 4> {
     model: &'a P,
-    feedback: Feedback,
     law: LoopLaw,
+    /// (K_θ, D_θ) fed back ([`LoopLaw::hitch_gains`])
+    hitch: (f64, f64),
     delayed: bool,
     /// gradient c of the yaw rate ψ̇ = c·x (linear in x, eq. 5)
     yaw_gradient: [f64; N],
 }
 
 impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
-    /// The closed loop of `model` with the paper's `feedback` δ = −D·ψ̇(t − τ).
-    pub fn new(model: &'a P, feedback: Feedback) -> Self {
-        Self::with_law(model, feedback, LoopLaw::PAPER)
-    }
-
-    /// The closed loop of `model` with the command u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) on
-    /// the actuator of `law` (D and τ from `feedback`).
-    pub fn with_law(model: &'a P, feedback: Feedback, law: LoopLaw) -> Self {
+    /// The closed loop of `model` with the command u = −(D·ψ̇ + K_θ·θ + D_θ·θ̇)(t − τ) of
+    /// `law` on its actuator (the paper's δ = −D·ψ̇(t − τ) for [`LoopLaw::paper`]). The
+    /// predictor's structure is not a problem of this module: its command is that of
+    /// `yaw_rate` here (callers refuse it first).
+    pub fn new(model: &'a P, law: LoopLaw) -> Self {
         let e = |i: usize| SVector::<f64, N>::from_fn(|k, _| if k == i { 1.0 } else { 0.0 });
         let yaw_gradient = std::array::from_fn(|i| model.yaw_rate(&e(i)));
         Self {
             model,
-            feedback,
             law,
-            delayed: feedback.is_delayed(),
+            hitch: law.hitch_gains(),
+            delayed: law.is_delayed(),
             yaw_gradient,
         }
     }
@@ -136,19 +76,14 @@ impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
         self.model
     }
 
-    /// The feedback it was built with.
-    pub fn feedback(&self) -> Feedback {
-        self.feedback
-    }
-
-    /// The controller law beyond D and τ.
+    /// The law it was built with.
     pub fn law(&self) -> LoopLaw {
         self.law
     }
 
     /// parameter vector [V, D, τ] with the built-in feedback
     pub fn parameters(&self, speed: f64) -> Vec<f64> {
-        vec![speed, self.feedback.gain_d_s, self.feedback.delay_s]
+        vec![speed, self.law.gains.yaw_rate, self.law.delay_s]
     }
 
     /// offset of the fed-back state in the stacked arguments (x(t − τ) or x(t))
@@ -168,6 +103,12 @@ impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
         (0..N).map(|k| self.yaw_gradient[k] * v[o + k]).sum()
     }
 
+    /// Only the yaw rate is fed back (the command is linear in the state).
+    #[inline]
+    fn yaw_rate_only(&self) -> bool {
+        self.hitch == (0.0, 0.0)
+    }
+
     /// the fed-back state of stacked arguments `v` with its directions a and b (hyper-dual;
     /// b = None: 0)
     fn fed_back_hyper(&self, v: &[f64], a: &[f64], b: Option<&[f64]>) -> SVector<HyperDual64, N> {
@@ -179,8 +120,7 @@ impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
 
     /// K_θ·θ + D_θ·θ̇ of the fed-back state, for any number type
     fn hitch_term<T: DualNum<Primitive = f64> + Copy>(&self, xf: &SVector<T, N>) -> T {
-        xf[HITCH_ANGLE] * self.law.hitch_angle
-            + self.model.hitch_angle_rate(xf) * self.law.hitch_rate
+        xf[HITCH_ANGLE] * self.hitch.0 + self.model.hitch_angle_rate(xf) * self.hitch.1
     }
 
     /// K_θ·θ + D_θ·θ̇ of the fed-back part of stacked arguments `v`
@@ -191,7 +131,7 @@ impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
 
     /// the command u at stacked arguments `v` with gain D
     fn command(&self, v: &[f64], gain: f64) -> f64 {
-        if self.law.yaw_rate_only() {
+        if self.yaw_rate_only() {
             -gain * self.fed_back_yaw(v)
         } else {
             -(gain * self.fed_back_yaw(v) + self.hitch_value(v))
@@ -200,7 +140,7 @@ impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
 
     /// the command along args + ε1·a + ε2·b (b = None: 0) with gain D
     fn command_hyper(&self, args: &[f64], a: &[f64], b: Option<&[f64]>, gain: f64) -> HyperDual64 {
-        if self.law.yaw_rate_only() {
+        if self.yaw_rate_only() {
             HyperDual64::new(
                 -gain * self.fed_back_yaw(args),
                 -gain * self.fed_back_yaw(a),
@@ -298,7 +238,7 @@ impl<P: Vehicle<N>, const N: usize> Problem for ClosedLoop<'_, P, N> {
         };
         // ∂u/∂x_τ
         let mut row = [0.0; N];
-        if self.law.yaw_rate_only() {
+        if self.yaw_rate_only() {
             for (k, r) in row.iter_mut().enumerate() {
                 *r = -gain * self.yaw_gradient[k];
             }

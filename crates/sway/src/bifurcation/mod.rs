@@ -10,10 +10,10 @@
 //! only C¹ at α = 0) and continued through the fold.
 //!
 //! ```no_run
-//! use sway::bifurcation::{DiagramOptions, Feedback, bifurcation_diagram};
+//! use sway::bifurcation::{DiagramOptions, LoopLaw, bifurcation_diagram};
 //! use trailer_model::{Model, VehicleParams};
 //! let model = Model::new(VehicleParams::default()).unwrap();
-//! let d = bifurcation_diagram(&model, Feedback::OPEN_LOOP, &DiagramOptions::default()).unwrap();
+//! let d = bifurcation_diagram(&model, LoopLaw::OPEN_LOOP, &DiagramOptions::default()).unwrap();
 //! println!("Hopf at {} m/s, fold at {:?} m/s", d.hopf.parameter, d.fold.map(|f| f.speed_mps));
 //! ```
 
@@ -33,11 +33,12 @@ pub mod chart;
 mod closed_loop;
 pub mod corners;
 pub(crate) mod ranged;
-pub use closed_loop::{ClosedLoop, DELAY, Feedback, GAIN, LoopLaw, SPEED};
+pub use closed_loop::{ClosedLoop, DELAY, GAIN, SPEED};
 pub use ranged::{
     BEYOND_HOPF, BranchEnd, DiagramOutcome, DiagramSettings, HopfBubble, MARGIN_BELOW, NoHopf,
-    cycle_diagram_with_law, cycle_loss_of_control, vehicle_diagram, vehicle_diagram_with_law,
+    cycle_diagram, cycle_loss_of_control, vehicle_diagram,
 };
+pub use sway_model::law::LoopLaw;
 
 /// The settings of the bifurcation diagram of one feedback setting, with the ends of its
 /// speed range as `S` and the derived end of its cycle branch as `B`: [`DiagramOptions`] on
@@ -207,10 +208,8 @@ pub struct CycleAt {
 /// A computed bifurcation diagram of one feedback setting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Diagram {
-    /// the feedback
-    pub feedback: Feedback,
-    /// the controller law beyond D and τ (actuator, hitch gains); not serialised (a
-    /// deserialised diagram has the paper's law)
+    /// the feedback law (D, τ, actuator, hitch gains); not serialised (a deserialised
+    /// diagram has the open loop)
     #[serde(skip)]
     pub law: LoopLaw,
     /// the options used
@@ -276,7 +275,7 @@ impl Diagram {
         model: &P,
         speed: f64,
     ) -> Result<Vec<CycleSummary>, SwayError> {
-        let problem = ClosedLoop::with_law(model, self.feedback, self.law);
+        let problem = ClosedLoop::new(model, self.law);
         let mut sys = self.cycle_system(&problem)?;
         let cont = Continuation::default();
         let pts = points_at_parameter(&cont, &mut sys, &self.cycles, speed)
@@ -594,7 +593,9 @@ pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
     Ok((po, cycles, crit))
 }
 
-/// Computes the bifurcation diagram of straight running and sway for one feedback setting:
+/// Computes the bifurcation diagram of straight running and sway for one feedback law
+/// (`LoopLaw::OPEN_LOOP`, the paper's [`LoopLaw::paper`] or any law continuation takes,
+/// [`ClosedLoop`]):
 /// the straight-running branch on [v_min, v_max] with its Hopf point, then the cycle branch
 /// from the Hopf point until it leaves [v_min, v_max] (through the fold, if any).
 ///
@@ -603,10 +604,10 @@ pub fn cycles_from_hopf<'a, P: Vehicle<N>, const N: usize>(
 /// divergence, ...).
 pub fn bifurcation_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
-    feedback: Feedback,
+    law: LoopLaw,
     options: &DiagramOptions,
 ) -> Result<Diagram, SwayError> {
-    bifurcation_diagram_until(model, feedback, options, CycleExtent::WholeRange)
+    bifurcation_diagram_until(model, law, options, CycleExtent::WholeRange)
 }
 
 /// [`bifurcation_diagram`] with the cycle branch continued as far as `extent` says.
@@ -615,27 +616,12 @@ pub fn bifurcation_diagram<P: Vehicle<N>, const N: usize>(
 /// As [`bifurcation_diagram`].
 pub fn bifurcation_diagram_until<P: Vehicle<N>, const N: usize>(
     model: &P,
-    feedback: Feedback,
-    options: &DiagramOptions,
-    extent: CycleExtent,
-) -> Result<Diagram, SwayError> {
-    bifurcation_diagram_with_law(model, feedback, LoopLaw::PAPER, options, extent)
-}
-
-/// [`bifurcation_diagram_until`] of the loop with the controller `law` (actuator, hitch
-/// gains) beside the gain and delay of `feedback`.
-///
-/// # Errors
-/// As [`bifurcation_diagram`].
-pub fn bifurcation_diagram_with_law<P: Vehicle<N>, const N: usize>(
-    model: &P,
-    feedback: Feedback,
     law: LoopLaw,
     options: &DiagramOptions,
     extent: CycleExtent,
 ) -> Result<Diagram, SwayError> {
     let o = options;
-    let problem = ClosedLoop::with_law(model, feedback, law);
+    let problem = ClosedLoop::new(model, law);
     let params = problem.parameters(o.v_min_mps);
     let (equilibria, hopf) =
         straight_running(&problem, &params, (o.v_min_mps, o.v_max_mps), o.root_degree)?;
@@ -674,7 +660,6 @@ pub fn bifurcation_diagram_with_law<P: Vehicle<N>, const N: usize>(
         BranchEnd::StepUnderflow { speed_mps: last_v }
     };
     Ok(Diagram {
-        feedback,
         law,
         options: o.clone(),
         equilibria,

@@ -23,8 +23,8 @@ use sway_model::config::Absent;
 use sway_model::vehicle::Vehicle;
 
 use super::{
-    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, DiagramSpec, Feedback,
-    LoopLaw, SPEED, collocation, fold_of, num, root_finder, summarise,
+    BranchPointTest, ClosedLoop, CycleExtent, Diagram, DiagramOptions, DiagramSpec, LoopLaw, SPEED,
+    collocation, fold_of, num, root_finder, summarise,
 };
 use crate::SwayError;
 use crate::sim::LossOfControl;
@@ -475,9 +475,9 @@ pub fn cycle_loss_of_control<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     u: &[f64],
 ) -> Option<LossOfControl> {
-    let fb = problem.feedback();
+    let law = problem.law();
     let speed = u[u.len() - 1];
-    let p = [speed, fb.gain_d_s, fb.delay_s];
+    let p = [speed, law.gains.yaw_rate, law.delay_s];
     let period = sys.period(u);
     let times = sys.node_times();
     let mut buf = [[0.0; N]; 3];
@@ -487,8 +487,8 @@ pub fn cycle_loss_of_control<P: Vehicle<N>, const N: usize>(
         now.copy_from_slice(&u[N * g..N * g + N]);
         args.clear();
         args.extend_from_slice(now);
-        if fb.is_delayed() {
-            sys.eval(u, s - fb.delay_s / period, delayed, dx);
+        if law.is_delayed() {
+            sys.eval(u, s - law.delay_s / period, delayed, dx);
             args.extend_from_slice(delayed);
         }
         if let Some(c) = problem.loss_of_control(&args, &p) {
@@ -739,50 +739,32 @@ fn rejoins_straight_running(amplitudes: &[(f64, f64)]) -> Option<Rejoin> {
 /// [`SwayError::Numerical`] saying which stage failed.
 pub fn vehicle_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
-    feedback: Feedback,
-    settings: &DiagramSettings,
-    limits: &SpeedLimits,
-    extent: CycleExtent,
-) -> Result<DiagramOutcome, SwayError> {
-    vehicle_diagram_with_law(model, feedback, LoopLaw::PAPER, settings, limits, extent)
-}
-
-/// [`vehicle_diagram`] of the loop with the controller `law` (actuator, hitch gains) beside
-/// the gain and delay of `feedback`.
-///
-/// # Errors
-/// As [`vehicle_diagram`].
-pub fn vehicle_diagram_with_law<P: Vehicle<N>, const N: usize>(
-    model: &P,
-    feedback: Feedback,
     law: LoopLaw,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
     extent: CycleExtent,
 ) -> Result<DiagramOutcome, SwayError> {
-    diagram_with_law(model, feedback, law, settings, limits, extent, true)
+    ranged_diagram(model, law, settings, limits, extent, true)
 }
 
-/// [`vehicle_diagram_with_law`] for a caller that needs the cycle branch only (its fold):
+/// [`vehicle_diagram`] for a caller that needs the cycle branch only (its fold):
 /// straight running ends just past its first loss of stability instead of being continued
 /// to the figure's end (the diagram's `equilibria` are not drawn).
 ///
 /// # Errors
 /// As [`vehicle_diagram`].
-pub fn cycle_diagram_with_law<P: Vehicle<N>, const N: usize>(
+pub fn cycle_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
-    feedback: Feedback,
     law: LoopLaw,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
     extent: CycleExtent,
 ) -> Result<DiagramOutcome, SwayError> {
-    diagram_with_law(model, feedback, law, settings, limits, extent, false)
+    ranged_diagram(model, law, settings, limits, extent, false)
 }
 
-fn diagram_with_law<P: Vehicle<N>, const N: usize>(
+fn ranged_diagram<P: Vehicle<N>, const N: usize>(
     model: &P,
-    feedback: Feedback,
     law: LoopLaw,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
@@ -790,17 +772,11 @@ fn diagram_with_law<P: Vehicle<N>, const N: usize>(
     figure_equilibria: bool,
 ) -> Result<DiagramOutcome, SwayError> {
     if let (Some(lo), Some(hi)) = (settings.v_min_mps, settings.v_max_mps) {
-        let d = super::bifurcation_diagram_with_law(
-            model,
-            feedback,
-            law,
-            &settings.options(lo, hi),
-            extent,
-        )?;
+        let d = super::bifurcation_diagram_until(model, law, &settings.options(lo, hi), extent)?;
         return Ok(DiagramOutcome::Computed(Box::new(d)));
     }
     let (lo, hi) = settings.searched(limits);
-    let problem = ClosedLoop::with_law(model, feedback, law);
+    let problem = ClosedLoop::new(model, law);
     let params = problem.parameters(lo);
     let (mut equilibria, loss) =
         straight_running_to_first_loss(&problem, &params, (lo, hi), settings.root_degree)?;
@@ -815,13 +791,10 @@ fn diagram_with_law<P: Vehicle<N>, const N: usize>(
         } else {
             "the maximum speed, --max-speed"
         };
-        let ctl = if feedback.gain_d_s == 0.0 {
+        let ctl = if law.gains.yaw_rate == 0.0 {
             String::new()
         } else {
-            format!(
-                " with D = {} s, τ = {} s",
-                feedback.gain_d_s, feedback.delay_s
-            )
+            format!(" with D = {} s, τ = {} s", law.gains.yaw_rate, law.delay_s)
         };
         return Ok(DiagramOutcome::NoHopf(match loss {
             _ if start_unstable => NoHopf {
@@ -929,7 +902,6 @@ fn diagram_with_law<P: Vehicle<N>, const N: usize>(
     let fold = fold_of(&cycles, &cycle_summary);
     Ok(DiagramOutcome::Computed(Box::new(Diagram {
         bubbles,
-        feedback,
         law,
         options: settings.options(plot_lo, plot_hi),
         equilibria,

@@ -13,7 +13,7 @@ use stability::{
     Axis, ChartOptions, Complex64, RankOneFeedback, RootOptions, StabilityChart, StabilityError,
     first_unstable_parameter, stability_charts,
 };
-use sway_model::law::{Actuator, Gains, LoopLinearization, Structure, loop_output_row};
+use sway_model::law::{Actuator, Gains, LoopLaw, LoopLinearization, Structure, loop_output_row};
 use sway_model::vehicle::LoopModel;
 
 pub mod auto_range;
@@ -32,15 +32,15 @@ pub fn closed_loop<M: LoopModel + ?Sized>(
     RankOneFeedback::from_state_space(&lin.a, &lin.b, &lin.c)
 }
 
-/// The controller of a (V, D) chart: the structure and actuator whose gain D is
-/// the chart's gain axis. For the chart to stay the D-subdivision of one quasi-polynomial
+/// The controller table of a (V, D) chart (`controller` of `fig4a`): the file form of the
+/// [`LoopLaw`] whose gain D is the chart's gain axis ([`ChartControllerTable::law`]). For the chart to stay the D-subdivision of one quasi-polynomial
 /// p(λ) + D·e^{−λτ}·q(λ), every gain is proportional to D: with `yaw_rate_hitch` the loop is
 /// u = −D·(ψ̇ + k_θ·θ + d_θ·θ̇)(t − τ), k_θ = `hitch_angle_per_d`, d_θ = `hitch_rate_per_d`.
 /// The default is the paper's yaw-rate steering (numbers unchanged). The predictor is not
 /// linear in D (its cleared function has D in both terms): charts refuse it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct ChartController {
+pub struct ChartControllerTable {
     /// `yaw_rate` (default) or `yaw_rate_hitch`
     pub structure: Structure,
     /// `steering` (default; D in s) or `differential_braking` (D in N m s/rad)
@@ -51,7 +51,7 @@ pub struct ChartController {
     pub hitch_rate_per_d: f64,
 }
 
-impl Default for ChartController {
+impl Default for ChartControllerTable {
     fn default() -> Self {
         Self {
             structure: Structure::YawRate,
@@ -62,7 +62,7 @@ impl Default for ChartController {
     }
 }
 
-impl ChartController {
+impl ChartControllerTable {
     /// The paper's controller δ = −D·ψ̇(t − τ).
     pub fn is_paper(&self) -> bool {
         *self == Self::default()
@@ -85,10 +85,21 @@ impl ChartController {
         }
         Ok(())
     }
+
+    /// The law per unit of D: gains (1, k_θ, d_θ) of the structure and actuator, τ = 0
+    /// (the chart's axes give D and τ).
+    pub fn law(&self) -> LoopLaw {
+        let gains = Gains {
+            yaw_rate: 1.0,
+            hitch_angle: self.hitch_angle_per_d,
+            hitch_rate: self.hitch_rate_per_d,
+        };
+        LoopLaw::new(self.structure, self.actuator, gains, 0.0)
+    }
 }
 
-/// A plant seen through a chart controller: its linearisation with B the actuator's column
-/// and C the controller's output row per unit of D, so that every chart function
+/// A plant seen through a law per unit of D ([`ChartControllerTable::law`]): its
+/// linearisation with B the actuator's column and C the law's output row, so that every chart function
 /// ([`closed_loop`], [`fig4a_charts`], [`critical_speed_at_gain`], [`auto_range`]) draws the
 /// chart of that controller with D as its gain. The paper's controller passes the plant's
 /// own B̃, C̃ through.
@@ -96,24 +107,19 @@ impl ChartController {
 pub struct Controlled<'a, M: LoopModel + ?Sized> {
     /// the plant
     pub model: &'a M,
-    /// the controller
-    pub controller: ChartController,
+    /// the law, its gains per unit of D (the chart's gain axis scales them)
+    pub law: LoopLaw,
 }
 
 impl<M: LoopModel + ?Sized> LoopModel for Controlled<'_, M> {
     fn loop_linearization(&self, speed: f64) -> LoopLinearization {
         let mut lin = self.model.loop_linearization(speed);
-        if self.controller.is_paper() {
+        let law = &self.law;
+        if law.is_paper_structure() {
             return lin;
         }
-        let c = self.controller;
-        let gains = Gains {
-            yaw_rate: 1.0,
-            hitch_angle: c.hitch_angle_per_d,
-            hitch_rate: c.hitch_rate_per_d,
-        };
-        let row = loop_output_row(&lin, c.structure, &gains);
-        lin.b = c.actuator.loop_input_column(&lin).clone();
+        let row = loop_output_row(&lin, law.structure, &law.gains);
+        lin.b = law.actuator.loop_input_column(&lin).clone();
         lin.c = row;
         lin
     }

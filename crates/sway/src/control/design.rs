@@ -24,7 +24,7 @@ use trailer_model::{Model, PARAMETERS, VehicleParams};
 
 use super::LoopModel;
 
-use super::{Actuator, Controller, GainName, Gains, LinearLoop, SpeedSearch, Structure};
+use super::{Actuator, GainName, Gains, LinearLoop, LoopLaw, SpeedSearch, Structure};
 use crate::SwayError;
 use crate::gain_design::{GainSearch, band_end, refine_sampled};
 use crate::sampling::{About, Sampler, Sampling, Statistics};
@@ -220,24 +220,21 @@ pub struct Design {
     pub evaluations: usize,
 }
 
-/// The controller with `gains` of `structure` and `actuator`.
-fn controller(structure: Structure, actuator: Actuator, gains: Gains) -> Controller {
-    Controller {
-        structure,
-        actuator,
-        gains,
+impl Design {
+    /// The designed law: the structure and actuator with the optimal gains at delay τ.
+    pub fn law(&self) -> LoopLaw {
+        LoopLaw::new(self.structure, self.actuator, self.gains, self.tau_s)
     }
 }
 
 /// The critical speed of a controller, the top of the range where stable on all of it.
 fn v_crit<M: LoopModel + ?Sized>(
     model: &M,
-    c: &Controller,
-    tau: f64,
+    c: &LoopLaw,
     prediction: Option<&dyn LoopModel>,
     search: &SpeedSearch,
 ) -> Result<f64, SwayError> {
-    Ok(super::critical_speed(model, c, tau, prediction, search)?.unwrap_or(search.v_max_mps))
+    Ok(super::critical_speed(model, c, prediction, search)?.unwrap_or(search.v_max_mps))
 }
 
 /// The best gains of `structure` with `actuator` at delay τ \[s\] (see the module docs);
@@ -369,13 +366,13 @@ fn finish<M: LoopModel + ?Sized>(
     (gains, v, bands, evaluations): Found,
     o: &DesignSearch,
 ) -> Result<Design, SwayError> {
-    let c = controller(structure, actuator, gains);
+    let c = LoopLaw::new(structure, actuator, gains, tau);
     // the several-gain search can push a pair to graze the axis between the scan's
     // samples: its optimum's V_crit is checked for such a window below it
     let scan_v_crit = v;
     let v = if structure == Structure::YawRateHitch {
         let scan = (v < o.speed.v_max_mps).then_some(v);
-        super::verified_critical_speed(model, &c, tau, prediction, &o.speed, scan)?.unwrap_or(v)
+        super::verified_critical_speed(model, &c, prediction, &o.speed, scan)?.unwrap_or(v)
     } else {
         v
     };
@@ -389,7 +386,7 @@ fn finish<M: LoopModel + ?Sized>(
             Some("stable up to the top of the speed range".to_string()),
         )
     } else {
-        match second_pair(model, &c, tau, prediction, v) {
+        match second_pair(model, &c, prediction, v) {
             Ok(Some(p)) => (Some(p), None),
             Ok(None) => (
                 None,
@@ -441,8 +438,8 @@ fn one_gain<M: LoopModel + ?Sized>(
         max_iterations: o.max_iterations,
     };
     let f = |d: f64| {
-        let c = controller(structure, actuator, Gains::yaw_rate(d));
-        v_crit(model, &c, tau, prediction, &o.speed)
+        let c = LoopLaw::new(structure, actuator, Gains::yaw_rate(d), tau);
+        v_crit(model, &c, prediction, &o.speed)
     };
     let gains = g.gains();
     let speeds = gains.iter().map(|&d| f(d)).collect::<Result<Vec<_>, _>>()?;
@@ -486,14 +483,8 @@ impl<M: LoopModel + ?Sized> MixedProblem for CriticalSpeedProblem<'_, M> {
     }
 
     fn cost(&self, _choice: usize, x: &[f64]) -> Result<f64, SwayError> {
-        let c = controller(self.structure, self.actuator, self.gains(x));
-        Ok(-v_crit(
-            self.model,
-            &c,
-            self.tau,
-            self.prediction,
-            &self.search,
-        )?)
+        let c = LoopLaw::new(self.structure, self.actuator, self.gains(x), self.tau);
+        Ok(-v_crit(self.model, &c, self.prediction, &self.search)?)
     }
 }
 
@@ -533,15 +524,15 @@ fn several_gains<M: LoopModel + ?Sized>(
     }
     let best = minimise(&problem, &starts, &o.optimiser)?;
     let gains = problem.gains(&best.x);
-    let c = controller(structure, actuator, gains);
-    let v = v_crit(model, &c, tau, prediction, &o.speed)?;
+    let c = LoopLaw::new(structure, actuator, gains, tau);
+    let v = v_crit(model, &c, prediction, &o.speed)?;
     let mut n = best.evaluations + 1;
     let mut bands = Vec::with_capacity(names.len());
     for (i, &name) in names.iter().enumerate() {
         let b = problem.bounds[i];
         let along = |x: f64| {
-            let c = controller(structure, actuator, gains.with(name, x));
-            v_crit(model, &c, tau, prediction, &o.speed)
+            let c = LoopLaw::new(structure, actuator, gains.with(name, x), tau);
+            v_crit(model, &c, prediction, &o.speed)
         };
         let thr = (1.0 - o.band_fraction) * v;
         let tol = o.gain_tolerance * scale.max(1.0);
@@ -566,12 +557,12 @@ fn several_gains<M: LoopModel + ?Sized>(
 /// six rightmost roots.
 fn second_pair<M: LoopModel + ?Sized>(
     model: &M,
-    c: &Controller,
-    tau: f64,
+    c: &LoopLaw,
     prediction: Option<&dyn LoopModel>,
     v: f64,
 ) -> Result<Option<[f64; 2]>, SwayError> {
-    let l = LinearLoop::new(model, c, v, tau, prediction)?;
+    let tau = c.delay_s;
+    let l = LinearLoop::new(model, c, v, prediction)?;
     let roots = l.rightmost_roots(6).map_err(|e| {
         SwayError::numerical(format!("rightmost roots at V = {v} m/s, τ = {tau} s"), e)
     })?;
@@ -764,8 +755,7 @@ fn sampler(s: &Sampling) -> Result<(Sampler, Vec<(usize, About)>), SwayError> {
 pub fn robust_critical_speed<D: VehicleDescription>(
     nominal: &D,
     prediction: Option<&D>,
-    controller: &Controller,
-    tau: f64,
+    controller: &LoopLaw,
     uncertainty: &VehicleUncertainty,
     search: &SpeedSearch,
 ) -> Result<Robustness, SwayError> {
@@ -808,7 +798,7 @@ pub fn robust_critical_speed<D: VehicleDescription>(
             }
             _ => None,
         };
-        v_crit(&model, controller, tau, prediction, search).ok()
+        v_crit(&model, controller, prediction, search).ok()
     };
     let values: Vec<Option<f64>> = map_indices(vehicle.len(), Split::Adaptive, &one);
     let failed_samples = values.iter().filter(|v| v.is_none()).count();

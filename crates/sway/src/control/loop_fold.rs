@@ -1,33 +1,15 @@
-//! The nonlinear side of a controller's loop: its continuation law ([`loop_law`]), the Hopf
+//! The nonlinear side of a controller's loop: the Hopf
 //! point where straight running first loses stability and the fold of cycles of the sway
 //! branch ([`hopf_and_fold`], [`fold_speed`]), for the `control_design` study and the
 //! sweeps' `hopf_fold_speeds` points.
 
 use trailer_model::Model;
 
-use super::{Controller, SpeedSearch, Structure};
+use super::{LoopLaw, SpeedSearch, Structure};
 use crate::SwayError;
 use crate::bifurcation::chart::{ChartOptions, fold_of_cycles};
-use crate::bifurcation::{
-    CycleExtent, DiagramOutcome, DiagramSettings, Feedback, LoopLaw, cycle_diagram_with_law,
-};
+use crate::bifurcation::{CycleExtent, DiagramOutcome, DiagramSettings, cycle_diagram};
 use sway_model::speeds::SpeedLimits;
-
-/// The law of the continuation problem of a controller: None for the predictor.
-pub fn loop_law(c: &Controller) -> Option<LoopLaw> {
-    match c.structure {
-        Structure::YawRate => Some(LoopLaw {
-            actuator: c.actuator,
-            ..LoopLaw::PAPER
-        }),
-        Structure::YawRateHitch => Some(LoopLaw {
-            actuator: c.actuator,
-            hitch_angle: c.gains.hitch_angle,
-            hitch_rate: c.gains.hitch_rate,
-        }),
-        Structure::Predictor => None,
-    }
-}
 
 /// The Hopf point and the fold of cycles of a controller's loop at one delay
 /// ([`hopf_and_fold`]).
@@ -45,12 +27,12 @@ pub struct LoopHopfFold {
 }
 
 /// The Hopf point and the fold of cycles of the sway branch of a controller's loop
-/// ([`crate::bifurcation::ClosedLoop`] with the controller's [`LoopLaw`]: u = −(D·ψ̇ +
+/// ([`crate::bifurcation::ClosedLoop`] with the [`LoopLaw`]: u = −(D·ψ̇ +
 /// K_θ·θ + D_θ·θ̇)(t − τ) on steering or a yaw moment), the fold corrected on the
 /// fold-of-cycles system as the nonlinear chart does. The cycle branch is continued without
 /// Floquet multipliers (the fold comes from the tangent, the criticality from the
 /// branch's direction). The diagram's speed range is derived from the vehicle
-/// ([`cycle_diagram_with_law`]: from the lowest speed of `search` past the Hopf point)
+/// ([`cycle_diagram`]: from the lowest speed of `search` past the Hopf point)
 /// unless `chart.cycles` gives both ends. Without a Hopf point (a stable loop, a static
 /// divergence), without a fold, for the predictor or when the continuation fails: None
 /// with the reason (one design's failure does not stop a study or a sweep).
@@ -59,8 +41,7 @@ pub struct LoopHopfFold {
 /// None today: every failure is a reason (the `Result` leaves room for the caller's).
 pub fn hopf_and_fold(
     model: &Model,
-    c: &Controller,
-    tau: f64,
+    law: &LoopLaw,
     chart: &ChartOptions,
     search: &SpeedSearch,
 ) -> Result<LoopHopfFold, SwayError> {
@@ -69,19 +50,15 @@ pub fn hopf_and_fold(
         fold: None,
         reason: Some(reason),
     };
-    let Some(law) = loop_law(c) else {
+    if law.structure == Structure::Predictor {
         return Ok(none(format!(
             "not computed: the predictor's distributed delay (the integral of the commands \
              over [t − τ, t]) is not a continuation problem of bifurcation::closed_loop \
              ({} + {})",
-            c.structure.as_str(),
-            c.actuator.as_str()
+            law.structure.as_str(),
+            law.actuator.as_str()
         )));
-    };
-    let feedback = Feedback {
-        gain_d_s: c.gains.yaw_rate,
-        delay_s: tau,
-    };
+    }
     let limits = SpeedLimits {
         min_speed_mps: search.v_min_mps,
         max_speed_mps: search.v_max_mps,
@@ -92,14 +69,7 @@ pub fn hopf_and_fold(
         ..DiagramSettings::from_options(&chart.cycles, None)
     };
     let failed = |e: SwayError| none(format!("the continuation failed: {e}"));
-    let diagram = match cycle_diagram_with_law(
-        model,
-        feedback,
-        law,
-        &settings,
-        &limits,
-        CycleExtent::FirstFold,
-    ) {
+    let diagram = match cycle_diagram(model, *law, &settings, &limits, CycleExtent::FirstFold) {
         Ok(DiagramOutcome::Computed(d)) => d,
         Ok(DiagramOutcome::NoHopf(n)) => return Ok(none(n.reason)),
         Err(e) => return Ok(failed(e)),
@@ -134,11 +104,10 @@ pub fn hopf_and_fold(
 /// As [`hopf_and_fold`].
 pub fn fold_speed(
     model: &Model,
-    c: &Controller,
-    tau: f64,
+    law: &LoopLaw,
     chart: &ChartOptions,
     search: &SpeedSearch,
 ) -> Result<(Option<f64>, Option<String>), SwayError> {
-    let r = hopf_and_fold(model, c, tau, chart, search)?;
+    let r = hopf_and_fold(model, law, chart, search)?;
     Ok((r.fold.map(|f| f.v_mps), r.reason))
 }

@@ -30,8 +30,8 @@ mod design;
 mod loop_fold;
 
 pub use sway_model::law::{
-    Actuator, Controller, GainName, Gains, LoopLinearization, Structure, loop_output_row,
-    output_row, predictor,
+    Actuator, GainName, Gains, LoopLaw, LoopLinearization, Structure, loop_output_row, output_row,
+    predictor,
 };
 pub use sway_model::vehicle::{LoopModel, VehicleDescription};
 
@@ -40,7 +40,7 @@ pub use design::{
     VehicleUncertainty, delay_budget, design, design_from_start, designs_over_delays,
     perfect_predictor_designs, robust_critical_speed,
 };
-pub use loop_fold::{LoopHopfFold, fold_speed, hopf_and_fold, loop_law};
+pub use loop_fold::{LoopHopfFold, fold_speed, hopf_and_fold};
 
 use serde::{Deserialize, Serialize};
 use stability::{Complex64, RankOneFeedback, RootOptions, StabilityError};
@@ -74,8 +74,8 @@ pub struct LinearLoop {
 }
 
 impl LinearLoop {
-    /// The loop of `controller` on `model` (the paper's [`trailer_model::Model`], a
-    /// [`trailer_model::VehicleModel`] or an [`trailer_model::AnyVehicleModel`]) at speed V \[m/s\] with delay τ \[s\]; the predictor predicts
+    /// The loop of `law` on `model` (the paper's [`trailer_model::Model`], a
+    /// [`trailer_model::VehicleModel`] or an [`trailer_model::AnyVehicleModel`]) at speed V \[m/s\] with the law's delay τ; the predictor predicts
     /// with `prediction_model` (the vehicle itself when `None`; it may have another state
     /// count than the vehicle).
     ///
@@ -83,51 +83,49 @@ impl LinearLoop {
     /// [`SwayError::Numerical`] if the linearisation is not finite.
     pub fn new<M: LoopModel + ?Sized>(
         model: &M,
-        controller: &Controller,
+        law: &LoopLaw,
         speed: f64,
-        delay: f64,
         prediction_model: Option<&dyn LoopModel>,
     ) -> Result<Self, SwayError> {
         let lin = model.loop_linearization(speed);
-        let model_lin = match (controller.structure, prediction_model) {
+        let model_lin = match (law.structure, prediction_model) {
             (Structure::Predictor, Some(m)) => Some(m.loop_linearization(speed)),
             _ => None,
         };
-        Self::from_linearization(&lin, controller, delay, model_lin.as_ref())
+        Self::from_linearization(&lin, law, model_lin.as_ref())
     }
 
-    /// The loop of `controller` on the linearisation `lin` with delay τ \[s\]; the predictor
+    /// The loop of `law` on the linearisation `lin` with the law's delay τ; the predictor
     /// predicts with `prediction` (`lin` itself when `None`).
     ///
     /// # Errors
     /// [`SwayError::Numerical`] if the linearisation is not finite.
     pub fn from_linearization(
         lin: &LoopLinearization,
-        controller: &Controller,
-        delay: f64,
+        law: &LoopLaw,
         prediction: Option<&LoopLinearization>,
     ) -> Result<Self, SwayError> {
-        let speed = lin.speed;
+        let (speed, delay) = (lin.speed, law.delay_s);
         let context = || {
             format!(
                 "{} loop with {} at V = {speed} m/s, τ = {delay} s",
-                controller.structure.as_str(),
-                controller.actuator.as_str()
+                law.structure.as_str(),
+                law.actuator.as_str()
             )
         };
-        let b = controller.actuator.loop_input_column(lin);
-        let built = match controller.structure {
+        let b = law.actuator.loop_input_column(lin);
+        let built = match law.structure {
             Structure::YawRate => RankOneFeedback::from_state_space(&lin.a, b, &lin.c)
-                .map(|f| (f, controller.gains.yaw_rate, Vec::new(), 1.0, false)),
+                .map(|f| (f, law.gains.yaw_rate, Vec::new(), 1.0, false)),
             Structure::YawRateHitch => {
-                let k = loop_output_row(lin, controller.structure, &controller.gains);
+                let k = loop_output_row(lin, law.structure, &law.gains);
                 RankOneFeedback::from_state_space(&lin.a, b, &k)
                     .map(|f| (f, 1.0, Vec::new(), 1.0, false))
             }
             Structure::Predictor => {
                 let model_lin = prediction.unwrap_or(lin);
-                let b_model = controller.actuator.loop_input_column(model_lin);
-                let k = &model_lin.c * controller.gains.yaw_rate;
+                let b_model = law.actuator.loop_input_column(model_lin);
+                let k = &model_lin.c * law.gains.yaw_rate;
                 if predictor::is_perfect_model(lin, model_lin) {
                     // P₁ ≡ 0 analytically (finite spectrum assignment): the loop is
                     // p + K adj(λI − A) B, the delay-free loop. Building the cleared form
@@ -262,18 +260,18 @@ impl Default for SpeedSearch {
 /// [`SwayError::Numerical`] if a loop cannot be built or counted.
 pub fn critical_speed<M: LoopModel + ?Sized>(
     model: &M,
-    controller: &Controller,
-    delay: f64,
+    law: &LoopLaw,
     prediction_model: Option<&dyn LoopModel>,
     search: &SpeedSearch,
 ) -> Result<Option<f64>, SwayError> {
+    let delay = law.delay_s;
     let unstable = |v: f64| -> Result<bool, SwayError> {
-        let l = LinearLoop::new(model, controller, v, delay, prediction_model)?;
+        let l = LinearLoop::new(model, law, v, prediction_model)?;
         l.unstable_root_count().map(|n| n > 0).map_err(|e| {
             SwayError::numerical(
                 format!(
                     "unstable roots of the {} loop at V = {v} m/s, τ = {delay} s",
-                    controller.structure.as_str()
+                    law.structure.as_str()
                 ),
                 e,
             )
@@ -308,17 +306,17 @@ const WINDOW_GOLDEN_STEPS: usize = 40;
 /// [`SwayError::Numerical`] if a loop cannot be built, counted or its roots confirmed.
 pub fn verified_critical_speed<M: LoopModel + ?Sized>(
     model: &M,
-    controller: &Controller,
-    delay: f64,
+    law: &LoopLaw,
     prediction_model: Option<&dyn LoopModel>,
     search: &SpeedSearch,
     v_crit: Option<f64>,
 ) -> Result<Option<f64>, SwayError> {
-    let at = |v: f64| LinearLoop::new(model, controller, v, delay, prediction_model);
+    let delay = law.delay_s;
+    let at = |v: f64| LinearLoop::new(model, law, v, prediction_model);
     let context = |v: f64| {
         format!(
             "the {} loop at V = {v} m/s, τ = {delay} s (window check)",
-            controller.structure.as_str()
+            law.structure.as_str()
         )
     };
     let abscissa = |v: f64| -> Result<f64, SwayError> {

@@ -34,7 +34,7 @@ use trailer_model::{HITCH_ANGLE, Model, State4};
 use crate::SwayError;
 use crate::parallel::{Split, map};
 use crate::sim::{
-    ActuatorLimits, Controller, EarlyStop, Metrics, Outcome, RampShape, Recording, RunSettings,
+    ActuatorLimits, EarlyStop, LoopLaw, Metrics, Outcome, RampShape, Recording, RunSettings,
     SimProblem, SimResult, SimSpec, SimulateOwn, SolverSettings, SpeedProfile, settle,
 };
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -105,7 +105,7 @@ fn open_loop<P: SimulateOwn<M>, const M: usize>(
     solver: &SolverSettings,
 ) -> Result<(SVector<f64, M>, Crossings<M>), SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
-    let plant = SimProblem::<P, M, M>::new(model, &profile, Controller::None, x0)?;
+    let plant = SimProblem::<P, M, M>::new(model, &profile, None, x0)?;
     let context = || format!("the sway cycle at V = {speed_mps} m/s over {duration_s} s");
     let mut obs = Crossings {
         times: Vec::new(),
@@ -117,7 +117,7 @@ fn open_loop<P: SimulateOwn<M>, const M: usize>(
         Direction::Rising,
         EventAction::Continue,
     )];
-    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options(&Controller::None))
+    let mut s = OdeSolver::new(&plant, 0.0, x0, solver.options(None))
         .map_err(|e| SwayError::numerical(context(), e))?;
     if duration_s > 0.0 {
         s.integrate(&plant, duration_s, &events, &mut obs)
@@ -294,17 +294,11 @@ impl Setting {
                 shape: iv.shape,
             }
         };
-        let controller = if iv.gain_s == 0.0 {
-            Controller::None
-        } else {
-            Controller::YawRateFeedback {
-                gain_s: iv.gain_s,
-                delay_s: self.delay_s,
-                on_s: lead_in_s + iv.on_s,
-                off_s: iv.off_s.map(|t| lead_in_s + t),
-                actuator: self.actuator,
-            }
-        };
+        let controller = (iv.gain_s != 0.0).then(|| LoopLaw {
+            steering_limits: self.actuator,
+            ..LoopLaw::paper(iv.gain_s, self.delay_s)
+                .switched(lead_in_s + iv.on_s, iv.off_s.map(|t| lead_in_s + t))
+        });
         SimSpec {
             early_stop: EarlyStop::Never,
             profile,

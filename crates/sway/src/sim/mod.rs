@@ -1,5 +1,5 @@
 //! Time-domain simulation of the car–trailer model: speed profiles V(t) (paper Fig. 3b),
-//! the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) (eq. 8), initial conditions (a state,
+//! a feedback law ([`LoopLaw`]; the paper's δ(t) = −D·ψ̇(t − τ), eq. 8), initial conditions (a state,
 //! or on the sway cycle), the validity guard, metrics computed on the fly, and parallel
 //! sweeps. The integration is done by the general-purpose [`dde`] crate: the open loop is an
 //! ODE, the closed loop a DDE with one constant delay.
@@ -12,7 +12,7 @@
 //! [`VehicleForm`]) in the paper's layout of 4 or 7 states.
 //!
 //! ```
-//! use sway::sim::{Controller, Outcome, Recording, SimSpec, SpeedProfile, simulate};
+//! use sway::sim::{Outcome, Recording, SimSpec, SpeedProfile, simulate};
 //! use trailer_model::{Model, State4, VehicleParams};
 //!
 //! let model = Model::new(VehicleParams::default()).unwrap();
@@ -20,7 +20,7 @@
 //! let spec = SimSpec {
 //!     early_stop: sway::sim::EarlyStop::Never,
 //!     profile: SpeedProfile::Constant { speed_mps: 33.0 },
-//!     controller: Controller::None,
+//!     controller: None,
 //!     horizon_s: 30.0,
 //!     action_s: 0.0,
 //!     settings: Default::default(),
@@ -56,8 +56,7 @@ pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, ensure_name, validate_parts,
     validate_spec_parts,
 };
-pub use sway_model::law::simulation::{
-    ActuatorLimits, CommandLimit, Controller, LoopLaw, ModelError, PredictionVehicle,
-};
+pub use sway_model::law::table::{ControllerTable, PredictionVehicle, UnloadedPrediction};
+pub use sway_model::law::{ActuatorLimits, CommandLimit, LoopLaw, ModelError};
 pub use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};
 pub use sway_model::vehicle::{LossOfControl, SLIP_TANGENT_FLOOR};

@@ -5,7 +5,7 @@
 //! e.g. the lagged slips α′ of relaxing axles), the kinematic states \[ψ, x_H, y_H\] when the
 //! path is wanted, the steering angle δ when the controller has a rate-limited actuator (see
 //! [`crate::sim::ActuatorLimits`]), or the predictor's integral z as the last four states (see
-//! [`Controller::Predictor`]). For the paper's [`Model`] (M = 4) that is 4 or 7 states, 5 or 8
+//! [`sway_model::law::table::ControllerTable::Predictor`]). For the paper's [`Model`] (M = 4) that is 4 or 7 states, 5 or 8
 //! with a rate-limited actuator, 8 or 11 with a predictor.
 
 use dde::{DdeProblem, OdeProblem};
@@ -13,10 +13,9 @@ use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
 use sway_model::vehicle::Vehicle;
 use trailer_model::{Inputs, Model, SlipAngles, State4};
 
-use super::{Controller, SpeedProfile};
+use super::SpeedProfile;
 use crate::SwayError;
-use sway_model::law::simulation::LoopLaw;
-use sway_model::law::{Actuator, Structure};
+use sway_model::law::{Actuator, ActuatorLimits, LoopLaw, Structure};
 
 /// What a `yaw_rate_hitch` or `predictor` controller needs at run time.
 #[derive(Debug, Clone)]
@@ -33,14 +32,14 @@ struct LoopCommand {
 }
 
 /// The closed (or open) loop: the plant `P` (M reduced states; the paper's eq. 5–7 for
-/// [`Model`]) with V(t), V̇(t) from a [`SpeedProfile`] and δ(t) from a [`Controller`]
-/// (eq. 8), as an `N`-state problem (the layout in the module docs). Implements
+/// [`Model`]) with V(t), V̇(t) from a [`SpeedProfile`] and the command from a [`LoopLaw`]
+/// (eq. 8; none in open loop), as an `N`-state problem (the layout in the module docs). Implements
 /// [`OdeProblem`] (δ ≡ 0) and [`DdeProblem`] (δ = −D·ψ̇(t − τ)).
 #[derive(Debug, Clone)]
 pub struct SimProblem<'a, P, const M: usize, const N: usize> {
     plant: &'a P,
     profile: &'a SpeedProfile,
-    controller: Controller,
+    controller: Option<LoopLaw>,
     /// x\[N − 1\] is the steering angle δ (rate-limited actuator)
     actuator_state: bool,
     /// the kinematic states ψ, x_H, y_H are x\[M..M + 3\]
@@ -78,8 +77,8 @@ pub fn reduced_state<const M: usize, const N: usize>(x: &SVector<f64, N>) -> SVe
 
 impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> {
     /// A problem starting from `x0` (also the history for t ≤ 0). `N` is M (+ 3 for the
-    /// kinematic states) + the controller's states ([`Controller::extra_states`]): with a
-    /// rate-limited controller ([`Controller::has_actuator_state`]) `x0[N − 1]` is δ(0), with a
+    /// kinematic states) + the controller's states ([`LoopLaw::extra_states`]): with a
+    /// rate-limited controller ([`LoopLaw::has_actuator_state`]) `x0[N − 1]` is δ(0), with a
     /// predictor `x0[N − 4..]` is z(0).
     ///
     /// # Errors
@@ -89,10 +88,10 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
     pub fn new(
         plant: &'a P,
         profile: &'a SpeedProfile,
-        controller: Controller,
+        controller: Option<LoopLaw>,
         x0: SVector<f64, N>,
     ) -> Result<Self, SwayError> {
-        let extra = controller.extra_states();
+        let extra = controller.map_or(0, |l| l.extra_states());
         let kinematics = match N.checked_sub(extra) {
             Some(s) if s == M => false,
             Some(s) if s == M + 3 => true,
@@ -110,17 +109,19 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
                 ));
             }
         };
-        let loop_command = match controller.loop_law() {
-            Some(law) => Some(loop_command(plant.paper_model(), profile, law)?),
-            None => None,
+        let loop_command = match controller {
+            Some(law) if !law.is_paper_structure() => {
+                Some(loop_command(plant.paper_model(), profile, law)?)
+            }
+            _ => None,
         };
         let mut breakpoints = profile.breakpoints();
-        breakpoints.extend(controller.breakpoints());
+        breakpoints.extend(controller.iter().flat_map(LoopLaw::breakpoints));
         breakpoints.retain(|&b| b > 0.0);
         breakpoints.sort_by(f64::total_cmp);
         breakpoints.dedup();
-        let actuator_state = controller.has_actuator_state();
-        let delays = match (controller.delay(), &loop_command) {
+        let actuator_state = controller.is_some_and(|l| l.has_actuator_state());
+        let delays = match (controller.map(|l| l.delay_s), &loop_command) {
             // u(t − τ) in ż needs x(t − 2τ)
             (Some(tau), Some(c)) if c.law.structure == Structure::Predictor => vec![tau, 2.0 * tau],
             (d, _) => d.into_iter().collect(),
@@ -145,8 +146,15 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
     }
 
     /// The controller.
-    pub fn controller(&self) -> &Controller {
-        &self.controller
+    pub fn controller(&self) -> Option<&LoopLaw> {
+        self.controller.as_ref()
+    }
+
+    /// The steering limits of the paper's loop (none without a controller).
+    #[inline]
+    fn steering_limits(&self) -> ActuatorLimits {
+        self.controller
+            .map_or(ActuatorLimits::NONE, |l| l.steering_limits)
     }
 
     /// The speed profile.
@@ -243,11 +251,9 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
     /// The steering command δ_c(t) \[rad\] given the delayed states (eq. 8 with saturation).
     #[inline]
     fn command(&self, t: f64, x_delayed: &[SVector<f64, N>]) -> f64 {
-        match x_delayed.first() {
-            Some(xd) => self
-                .controller
-                .steering_angle(t, self.plant.yaw_rate(&Self::xr(xd))),
-            None => 0.0,
+        match (&self.controller, x_delayed.first()) {
+            (Some(law), Some(xd)) => law.steering_angle(t, self.plant.yaw_rate(&Self::xr(xd))),
+            _ => 0.0,
         }
     }
 
@@ -295,11 +301,13 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         let (saturation, rate) = if let Some(c) = &self.loop_command {
             self.loop_switches(c, t, x, x_delayed)
         } else {
-            let actuator = self.controller.actuator();
+            let actuator = self.steering_limits();
             let delayed_yaw_rate = x_delayed
                 .first()
                 .map_or(0.0, |xd| self.plant.yaw_rate(&Self::xr(xd)));
-            let raw = self.controller.raw_steering_angle(t, delayed_yaw_rate);
+            let raw = self
+                .controller
+                .map_or(0.0, |l| l.raw_steering_angle(t, delayed_yaw_rate));
             let rate = if self.actuator_state {
                 actuator.rate_switch(self.command(t, x_delayed), x[N - 1])
             } else {
@@ -404,7 +412,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem
     fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
         let u = self.inputs(t, x, &[]);
         self.eval(&u, 0.0, x, dx);
-        if self.loop_command.is_some() && self.controller.extra_states() == 4 {
+        if self.loop_command.is_some() && self.controller.is_some_and(|l| l.extra_states() == 4) {
             // no delayed states: u ≡ 0, ż = Â z
             let z = Vector4::from_fn(|i, _| x[N - 4 + i]);
             if let Some(c) = &self.loop_command {
@@ -415,7 +423,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem
             }
         }
         if self.actuator_state {
-            dx[N - 1] = self.controller.actuator().rate(0.0, x[N - 1]);
+            dx[N - 1] = self.steering_limits().rate(0.0, x[N - 1]);
         }
     }
     fn breakpoints(&self) -> &[f64] {
@@ -464,7 +472,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> DdeProblem<N> for SimProblem
         }
         if self.actuator_state {
             let command = self.command(t, x_delayed);
-            dx[N - 1] = self.controller.actuator().rate(command, x[N - 1]);
+            dx[N - 1] = self.steering_limits().rate(command, x[N - 1]);
         }
     }
     fn breakpoints(&self) -> &[f64] {
@@ -485,7 +493,7 @@ fn loop_command(
     profile: &SpeedProfile,
     law: LoopLaw,
 ) -> Result<LoopCommand, SwayError> {
-    let limit = law.limit.max_command(law.actuator, model);
+    let limit = law.max_command(model);
     let mut c = LoopCommand {
         law,
         limit,
@@ -499,9 +507,7 @@ fn loop_command(
     if law.structure == Structure::Predictor {
         let speed = profile.speed(0.0);
         let context = || format!("the predictor's model at V = {speed} m/s");
-        let params = law
-            .prediction_params(model.params())
-            .map_err(|e| SwayError::numerical(context(), std::io::Error::other(e)))?;
+        let params = law.prediction_params(model.params());
         let prediction = Model::new(params).map_err(|e| SwayError::numerical(context(), e))?;
         let lin = prediction.linearize(speed);
         let e = (lin.a4 * law.delay_s).exp();

@@ -9,10 +9,11 @@ use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 use trailer_model::{HITCH_ANGLE, State4};
 
+use super::SpeedProfile;
 use super::classify::{MetricSettings, SwayClass, Window, Windows, classify};
 use super::plant::SimProblem;
-use super::{Controller, SpeedProfile};
 use crate::SwayError;
+use sway_model::law::LoopLaw;
 use sway_model::vehicle::{LossOfControl, Vehicle};
 
 /// The Runge–Kutta pair of the simulations (`method = "auto"`, `"dop853"` or `"dopri5"` in
@@ -109,10 +110,11 @@ impl Default for SolverSettings {
 impl SolverSettings {
     /// The [`dde::Options`] for these settings, for a run of `controller` (an ODE without
     /// a delay, a DDE with one).
-    pub fn options(&self, controller: &Controller) -> Options {
-        let delayed = controller.delay().is_some();
-        let actuator = controller.actuator();
-        let clamps = actuator.max_angle_deg.is_some() || actuator.has_rate_limit();
+    pub fn options(&self, controller: Option<&LoopLaw>) -> Options {
+        let delayed = controller.is_some();
+        let clamps = controller.is_some_and(|l| {
+            l.steering_limits.max_angle_deg.is_some() || l.steering_limits.has_rate_limit()
+        });
         Options {
             max_steps: self.max_steps,
             kink_landing: self.kink_landing.dde_landing(clamps),
@@ -132,15 +134,13 @@ impl SolverSettings {
 
     /// Checks the tolerances (names the key on failure).
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        self.options(&Controller::None)
-            .validate()
-            .map_err(|e| match e {
-                dde::Error::InvalidOptions { field: "atol", .. } => ("atol", e.to_string()),
-                dde::Error::InvalidOptions {
-                    field: "max_steps", ..
-                } => ("max_steps", e.to_string()),
-                _ => ("rtol", e.to_string()),
-            })
+        self.options(None).validate().map_err(|e| match e {
+            dde::Error::InvalidOptions { field: "atol", .. } => ("atol", e.to_string()),
+            dde::Error::InvalidOptions {
+                field: "max_steps", ..
+            } => ("max_steps", e.to_string()),
+            _ => ("rtol", e.to_string()),
+        })
     }
 }
 
@@ -247,8 +247,8 @@ pub struct Sample<const N: usize> {
 pub struct SimSpec {
     /// V(t)
     pub profile: SpeedProfile,
-    /// δ(t)
-    pub controller: Controller,
+    /// the feedback law (`None`: open loop, δ ≡ 0)
+    pub controller: Option<LoopLaw>,
     /// end time \[s\] (runs start at t = 0)
     pub horizon_s: f64,
     /// the action (braking / steering) starts here \[s\]; metrics "after action" count from it
@@ -380,7 +380,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> Observer<N>
 {
     fn on_step(&mut self, step: &StepView<'_, N>) -> Flow {
         let (t0, t1) = (step.t_start(), step.t_end());
-        if let Some(tau) = self.plant.controller().delay() {
+        if let Some(tau) = self.plant.controller().map(|l| l.delay_s) {
             self.delayed_at_end = step.eval_past(t1 - tau);
         }
         for tm in [self.action_s, self.previous_from, self.final_from] {
@@ -411,8 +411,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> Observer<N>
                 let delayed = self
                     .plant
                     .controller()
-                    .delay()
-                    .map(|tau| step.eval_past(t - tau).unwrap_or(x));
+                    .map(|l| step.eval_past(t - l.delay_s).unwrap_or(x));
                 let s = self.sample(t, x, delayed);
                 self.trajectory.push(s);
                 self.next_k += 1;
@@ -444,7 +443,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> Observer<N>
 /// the ODE solver; with a controller the DDE solver (history: x ≡ x0 for t ≤ 0). With a
 /// rate-limited actuator the steering angle is an extra state, starting at δ(0) = 0 (see
 /// [`crate::sim::ActuatorLimits`]), with a predictor its integral z, starting at z(0) = 0
-/// ([`Controller::Predictor`]); these are added here and dropped from the result, which has
+/// ([`sway_model::law::Structure::Predictor`]); these are added here and dropped from the result, which has
 /// `N` states all the same, and the recorded `steering_angle` is the applied steering angle
 /// (0 under differential braking). [`super::simulate_in_paper_layout`] runs the paper's
 /// model or a vehicle file's model from the paper's layout.
@@ -525,7 +524,7 @@ macro_rules! layouts {
                 x0: SVector<f64, $n>,
                 recording: Recording,
             ) -> Result<SimResult<$n>, SwayError> {
-                match spec.controller.extra_states() {
+                match spec.controller.map_or(0, |l| l.extra_states()) {
                     0 => run_problem::<P, M, $n>(plant, spec, x0, recording),
                     1 => with_controller_states::<P, M, $n, $actuator>(plant, spec, x0, recording),
                     4 => with_controller_states::<P, M, $n, $predictor>(plant, spec, x0, recording),
@@ -647,14 +646,14 @@ fn integrate<P: Vehicle<M>, const M: usize, const N: usize>(
     events: &[Event<'_, N>],
     obs: &mut MetricObserver<'_, '_, P, M, N>,
 ) -> Result<(Status<N>, f64, SVector<f64, N>, Stats), SwayError> {
-    let opts = spec.settings.solver.options(&spec.controller);
+    let opts = spec.settings.solver.options(spec.controller.as_ref());
     let context = || {
         format!(
             "simulation (profile {:?}, controller {:?}, horizon {} s)",
             spec.profile, spec.controller, spec.horizon_s
         )
     };
-    if spec.controller.delay().is_none() {
+    if spec.controller.is_none() {
         let mut s = OdeSolver::new(problem, 0.0, x0, opts)
             .map_err(|e| SwayError::numerical(context(), e))?;
         let st = s
@@ -718,7 +717,7 @@ fn run_problem<P: Vehicle<M>, const M: usize, const N: usize>(
     x0: SVector<f64, N>,
     recording: Recording,
 ) -> Result<SimResult<N>, SwayError> {
-    let problem = SimProblem::<P, M, N>::new(plant, &spec.profile, spec.controller.clone(), x0)?;
+    let problem = SimProblem::<P, M, N>::new(plant, &spec.profile, spec.controller, x0)?;
     let th_s = spec
         .settings
         .metrics
@@ -726,8 +725,7 @@ fn run_problem<P: Vehicle<M>, const M: usize, const N: usize>(
         .get()
         .to_radians();
     let mut events = metric_events(&problem, th_s);
-    let x0_delayed: Vec<SVector<f64, N>> =
-        spec.controller.delay().map(|_| x0).into_iter().collect();
+    let x0_delayed: Vec<SVector<f64, N>> = spec.controller.map(|_| x0).into_iter().collect();
     if spec.settings.guard == ValidityGuard::Stop {
         let v0 = problem.guard_values(0.0, &x0, &x0_delayed);
         if v0.iter().any(|&g| g >= 0.0) {
@@ -740,7 +738,7 @@ fn run_problem<P: Vehicle<M>, const M: usize, const N: usize>(
     let lost = match status {
         Status::Event(hit) if hit.index == 2 => {
             // which condition: the largest guard value at the event (the others are < 0)
-            let xd: Vec<SVector<f64, N>> = match spec.controller.delay() {
+            let xd: Vec<SVector<f64, N>> = match spec.controller.map(|l| l.delay_s) {
                 Some(_) => vec![obs.delayed_at_end.unwrap_or(hit.x)],
                 None => Vec::new(),
             };
@@ -849,9 +847,9 @@ pub fn settle<V: Vehicle<M>, const M: usize>(
 ) -> Result<SVector<f64, M>, SwayError> {
     let profile = SpeedProfile::Constant { speed_mps };
     let x0 = vehicle.initial_state(&State4::new(0.0, 0.0, 0.0, theta0_rad), speed_mps);
-    let problem = SimProblem::<V, M, M>::new(vehicle, &profile, Controller::None, x0)?;
+    let problem = SimProblem::<V, M, M>::new(vehicle, &profile, None, x0)?;
     let context = || format!("settling on the sway cycle at V = {speed_mps} m/s for {settle_s} s");
-    let mut s = OdeSolver::new(&problem, 0.0, x0, solver.options(&Controller::None))
+    let mut s = OdeSolver::new(&problem, 0.0, x0, solver.options(None))
         .map_err(|e| SwayError::numerical(context(), e))?;
     s.integrate(&problem, settle_s, &[], &mut NoObserver)
         .map_err(|e| SwayError::numerical(context(), e))?;

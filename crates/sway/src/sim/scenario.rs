@@ -9,7 +9,7 @@ use trailer_model::{State4, State7};
 use super::paper_layout::{VehicleForm, settle_in_paper_layout};
 use super::run::{RunSettings, SimSpec, SolverSettings};
 use super::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
-use super::{Controller, SpeedProfile};
+use super::{ControllerTable, SpeedProfile};
 use crate::SwayError;
 use crate::config::{Positive, ensure};
 
@@ -211,7 +211,7 @@ fn default_output_step() -> Positive {
 /// Declares a config struct with its own leading fields followed by the fields that define
 /// a run, in this order (so scenario and sweep files read and echo them alike): `action_s`,
 /// `speed`, `controller`, `initial` and the flattened run settings. The expansion names
-/// `SpeedProfile`, `Controller`, `InitialCondition`, `RunSettings`, `Serialize` and
+/// `SpeedProfile`, `ControllerTable`, `InitialCondition`, `RunSettings`, `Serialize` and
 /// `Deserialize`: the calling module imports them.
 #[doc(hidden)]
 #[macro_export]
@@ -234,7 +234,7 @@ macro_rules! with_run_fields {
             pub speed: SpeedProfile<S>,
             /// δ(t)
             #[serde(default)]
-            pub controller: Controller,
+            pub controller: ControllerTable,
             /// x(0)
             pub initial: InitialCondition<S>,
             /// validity guard (`guard = "stop"` or `"off"`), `[solver]`, `[metrics]`
@@ -284,7 +284,7 @@ pub fn validate_parts(
     file: &Path,
     prefix: &str,
     speed: &SpeedProfile,
-    controller: &Controller,
+    controller: &ControllerTable,
     initial: &InitialCondition,
     settings: &RunSettings,
 ) -> Result<(), SwayError> {
@@ -326,7 +326,10 @@ pub fn validate_spec_parts<S: SpeedValue>(
 }
 
 /// The default action time: the earliest of braking start and controller switch-on, else 0.
-pub fn default_action_time<S: SpeedValue>(speed: &SpeedProfile<S>, controller: &Controller) -> f64 {
+pub fn default_action_time<S: SpeedValue>(
+    speed: &SpeedProfile<S>,
+    controller: &ControllerTable,
+) -> f64 {
     match (speed.action_time(), controller.action_time()) {
         (Some(a), Some(b)) => a.min(b),
         (Some(a), None) | (None, Some(a)) => a,
@@ -408,17 +411,25 @@ impl ScenarioConfig {
     }
 
     /// The run specification.
-    pub fn spec(&self) -> SimSpec {
-        SimSpec {
+    ///
+    /// # Errors
+    /// [`SwayError::Numerical`] for a predictor whose `prediction_vehicle` was not loaded
+    /// (the caller that reads the file loads it).
+    pub fn spec(&self) -> Result<SimSpec, SwayError> {
+        let controller = self
+            .controller
+            .law()
+            .map_err(|e| SwayError::numerical("the predictor's model", e))?;
+        Ok(SimSpec {
             early_stop: crate::sim::EarlyStop::Never,
             profile: self.speed.clone(),
-            controller: self.controller.clone(),
+            controller,
             horizon_s: self.horizon_s.get(),
             action_s: self
                 .action_s
                 .unwrap_or_else(|| default_action_time(&self.speed, &self.controller)),
             settings: self.settings,
-        }
+        })
     }
 }
 

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use sway::sim::{
-    Controller, MetricSettings, RunSettings, SimSpec, SolverSettings, SpeedProfile, ValidityGuard,
+    LoopLaw, MetricSettings, RunSettings, SimSpec, SolverSettings, SpeedProfile, ValidityGuard,
 };
 use trailer_model::{Model, State7, VehicleParams};
 
@@ -14,7 +14,12 @@ pub fn model() -> Model {
 
 /// a run with the action at t = 0, the validity guard on, default metrics and the solver
 /// tolerances `rtol` and atol = rtol/100
-pub fn spec(profile: SpeedProfile, controller: Controller, horizon_s: f64, rtol: f64) -> SimSpec {
+pub fn spec(
+    profile: SpeedProfile,
+    controller: Option<LoopLaw>,
+    horizon_s: f64,
+    rtol: f64,
+) -> SimSpec {
     SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
         profile,

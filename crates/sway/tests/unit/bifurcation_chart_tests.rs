@@ -5,7 +5,7 @@ use std::sync::OnceLock;
 use sway::bifurcation::bifurcation_diagram;
 use sway::bifurcation::chart::*;
 use sway::bifurcation::{
-    ClosedLoop, CycleExtent, DiagramOptions, Feedback, bifurcation_diagram_until,
+    ClosedLoop, CycleExtent, DiagramOptions, LoopLaw, bifurcation_diagram_until,
 };
 use trailer_model::{Model, VehicleParams};
 
@@ -50,10 +50,7 @@ fn curves_pass_through_the_fig4b_hopf_and_fold_speeds() {
             .fold_speed_at(model(), 0.1)
             .unwrap()
             .expect("fold at 0.1");
-        let fb = Feedback {
-            gain_d_s: 0.1,
-            delay_s: tau,
-        };
+        let fb = LoopLaw::paper(0.1, tau);
         let d = bifurcation_diagram(model(), fb, &fig4b_options()).unwrap();
         let co = ChartOptions::correcting(&fig4b_options());
         let cs = critical_speeds(model(), &d, &co).unwrap();
@@ -124,13 +121,7 @@ fn double_hopf_point_at_tau_0_2() {
     // imaginary axis (|Re λ| < 1e-6) at the reported frequencies (1e-6 relative)
     let o = ChartOptions::default();
     let (curves, _) = hopf_curves(model(), 0.2, &o).unwrap();
-    let problem = ClosedLoop::new(
-        model(),
-        Feedback {
-            gain_d_s: 0.0,
-            delay_s: 0.2,
-        },
-    );
+    let problem = ClosedLoop::new(model(), LoopLaw::paper(0.0, 0.2));
     let sys = hopf_system(&problem, 0.0, &o).unwrap();
     let pts = dedup_codim2(curves.iter().flat_map(|c| hopf_codim2(&sys, c)).collect());
     let dh: Vec<&Codim2> = pts
@@ -170,10 +161,7 @@ fn mesh_doubling_moves_the_fold_curve_by_less_than_1e_5() {
     // in the test profile)
     let o = ChartOptions::default();
     for d in [0.0, 0.1, 0.2] {
-        let fb = Feedback {
-            gain_d_s: d,
-            delay_s: 0.2,
-        };
+        let fb = LoopLaw::paper(d, 0.2);
         let mut speeds = Vec::new();
         for l in [o.cycles.intervals, 2 * o.cycles.intervals] {
             let co = ChartOptions {
@@ -200,7 +188,7 @@ fn mesh_doubling_moves_the_fold_curve_by_less_than_1e_5() {
 
 /// the fold speed of the fig4b pipeline (cycle branch to its first fold, corrected at
 /// fixed D) at feedback `fb` on L intervals with the fold's mesh `mesh`
-fn fold_on(fb: Feedback, l: usize, mesh: MeshAdaptation) -> f64 {
+fn fold_on(fb: LoopLaw, l: usize, mesh: MeshAdaptation) -> f64 {
     let o = ChartOptions {
         fold_mesh: mesh,
         ..ChartOptions::default()
@@ -230,7 +218,7 @@ fn adapted_fold_agrees_with_the_4x_finer_mesh_to_1e_8() {
     // The delayed closed loop (τ = 0.2 s, D = 0.1 s) measured once, too slow for CI:
     // adapted L = 40 39.69233727 vs L = 160 39.69233729 m/s (5e-10); uniform L = 40 / 80:
     // 39.6920614 / 39.6923147.
-    let fb = Feedback::OPEN_LOOP;
+    let fb = LoopLaw::OPEN_LOOP;
     let adapted = [40, 160].map(|l| fold_on(fb, l, MeshAdaptation::Adapted));
     let fixed = [40, 160].map(|l| fold_on(fb, l, MeshAdaptation::Fixed));
     let rel = |a: [f64; 2]| (a[0] - a[1]).abs() / a[1];

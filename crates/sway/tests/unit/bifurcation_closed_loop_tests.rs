@@ -6,7 +6,7 @@ use continuation::Problem;
 use continuation::{fd_dfdp, fd_jacobian, fd_jacobian_dp, fd_second_derivative};
 use std::sync::OnceLock;
 use sway::bifurcation::*;
-use sway::control::Actuator;
+use sway::control::{Actuator, Gains, Structure};
 use trailer_model::Model;
 use trailer_model::{VehicleModel, VehicleParams, VehicleSpec};
 
@@ -39,34 +39,40 @@ fn braking_scale() -> f64 {
 }
 
 /// the controller laws: hitch gains on steering, braking alone and with the
-/// hitch gains (K_θ, D_θ in steering units, scaled for braking)
+/// hitch gains (K_θ, D_θ in steering units, scaled for braking); D and τ set per loop
 fn laws() -> [(LoopLaw, f64); 3] {
     let s = braking_scale();
+    let hitch = |actuator, hitch_angle, hitch_rate| {
+        let gains = Gains {
+            yaw_rate: 0.0,
+            hitch_angle,
+            hitch_rate,
+        };
+        LoopLaw::new(Structure::YawRateHitch, actuator, gains, 0.0)
+    };
     [
-        (
-            LoopLaw {
-                actuator: Actuator::Steering,
-                hitch_angle: 0.3,
-                hitch_rate: -0.1,
-            },
-            1.0,
-        ),
+        (hitch(Actuator::Steering, 0.3, -0.1), 1.0),
         (
             LoopLaw {
                 actuator: Actuator::DifferentialBraking,
-                ..LoopLaw::PAPER
+                ..LoopLaw::OPEN_LOOP
             },
             s,
         ),
-        (
-            LoopLaw {
-                actuator: Actuator::DifferentialBraking,
-                hitch_angle: 0.3 * s,
-                hitch_rate: 0.1 * s,
-            },
-            s,
-        ),
+        (hitch(Actuator::DifferentialBraking, 0.3 * s, 0.1 * s), s),
     ]
+}
+
+/// `law` with the gain D and the delay τ of one loop
+fn with_feedback(law: LoopLaw, gain: f64, tau: f64) -> LoopLaw {
+    LoopLaw {
+        gains: Gains {
+            yaw_rate: gain,
+            ..law.gains
+        },
+        delay_s: tau,
+        ..law
+    }
 }
 
 /// the settings: ODE (τ = 0) and DDE (τ = 0.2 s) loops, gains of both signs and zero; then
@@ -75,11 +81,7 @@ fn loops() -> Vec<(ClosedLoop<'static>, Vec<f64>)> {
     let mut out = Vec::new();
     for (law, scale) in laws() {
         for (tau, gain, speed) in [(0.0, 0.1, 35.0), (0.2, 0.15, 45.0)] {
-            let fb = Feedback {
-                gain_d_s: gain * scale,
-                delay_s: tau,
-            };
-            let cl = ClosedLoop::with_law(model(), fb, law);
+            let cl = ClosedLoop::new(model(), with_feedback(law, gain * scale, tau));
             let p = cl.parameters(speed);
             out.push((cl, p));
         }
@@ -91,10 +93,7 @@ fn loops() -> Vec<(ClosedLoop<'static>, Vec<f64>)> {
         (0.2, 0.0, 40.0),
         (0.4, 0.3, 60.0),
     ] {
-        let fb = Feedback {
-            gain_d_s: gain,
-            delay_s: tau,
-        };
+        let fb = LoopLaw::paper(gain, tau);
         let cl = ClosedLoop::new(model(), fb);
         let p = cl.parameters(speed);
         out.push((cl, p));
@@ -201,13 +200,7 @@ fn jacobian_dp_agrees_with_differences_of_the_jacobian() {
 fn structure_does_not_switch_with_the_gain() {
     // a loop with τ > 0 is a DDE with delay p[τ] for every D (also D = 0, where the delayed
     // argument has no effect); the delay's only parameter dependence is ∂τ/∂τ = 1
-    let cl = ClosedLoop::new(
-        model(),
-        Feedback {
-            gain_d_s: 0.0,
-            delay_s: 0.3,
-        },
-    );
+    let cl = ClosedLoop::new(model(), LoopLaw::paper(0.0, 0.3));
     assert_eq!(cl.n_delays(), 1);
     let p = [40.0, 0.0, 0.3];
     assert_eq!(cl.delay(0, &p), 0.3);
@@ -226,7 +219,7 @@ fn structure_does_not_switch_with_the_gain() {
     cl.rhs(&args, &[40.0, 0.2, 0.3], &mut f1);
     assert_ne!(f0, f1);
     assert_eq!(
-        ClosedLoop::new(model(), Feedback::OPEN_LOOP).n_delays(),
+        ClosedLoop::new(model(), LoopLaw::OPEN_LOOP).n_delays(),
         0,
         "τ = 0 is an ODE"
     );
@@ -239,13 +232,9 @@ fn relaxation_plant_loop_derivatives_agree_with_central_differences() {
     let plant = VehicleModel::<7>::new(&VehicleSpec::table_i_with_relaxation(0.3)).unwrap();
     let scale7 = [0.8, 0.3, 0.3, 0.2, 0.05, 0.05, 0.05];
     let mut rng = Lcg(17);
-    for (law, scale) in laws().into_iter().chain([(LoopLaw::PAPER, 1.0)]) {
+    for (law, scale) in laws().into_iter().chain([(LoopLaw::OPEN_LOOP, 1.0)]) {
         for (tau, gain, speed) in [(0.0, 0.1, 35.0), (0.2, 0.15, 45.0)] {
-            let fb = Feedback {
-                gain_d_s: gain * scale,
-                delay_s: tau,
-            };
-            let cl = ClosedLoop::with_law(&plant, fb, law);
+            let cl = ClosedLoop::new(&plant, with_feedback(law, gain * scale, tau));
             let p = cl.parameters(speed);
             let na = cl.n_args();
             let mut g = vec![0.0; cl.n_switching()];

@@ -1,6 +1,7 @@
 //! Tests of the corner analysis on the vehicle model.
 
 use std::sync::OnceLock;
+use sway::bifurcation::LoopLaw;
 use sway::bifurcation::corners::motion::MotionClass;
 use sway::bifurcation::corners::*;
 use sway::charts::rightmost_roots;
@@ -114,10 +115,7 @@ fn quasi_periodic_classification_agrees_with_the_torus_curve() {
     // 400 s at 0.0053 s below T2), so |D − D_T2| > 2.1e-3 s is needed; δ = 4e-3 s is twice
     // that and ≫ the curve's mesh error (≤ 1e-4 s at L = 16). Tolerance: the class itself.
     let p = points(0.2)[0];
-    let fb = sway::bifurcation::Feedback {
-        gain_d_s: p.d_s,
-        delay_s: p.tau_s,
-    };
+    let fb = LoopLaw::paper(p.d_s, p.tau_s);
     let problem = sway::bifurcation::ClosedLoop::new(model(), fb);
     let o = TorusContinuation {
         intervals: 16,

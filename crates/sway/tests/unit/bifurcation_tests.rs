@@ -27,7 +27,7 @@ fn model() -> &'static Model {
 fn open_loop() -> &'static Diagram {
     static D: OnceLock<Diagram> = OnceLock::new();
     D.get_or_init(|| {
-        bifurcation_diagram(model(), Feedback::OPEN_LOOP, &DiagramOptions::default())
+        bifurcation_diagram(model(), LoopLaw::OPEN_LOOP, &DiagramOptions::default())
             .expect("diagram")
     })
 }
@@ -94,7 +94,7 @@ fn amplitude_and_period(eval: impl Fn(f64) -> State4, t0: f64, t1: f64) -> (f64,
 
 /// profile of a cycle at speed V as a function of time (periodic), from the diagram
 fn cycle_profile(d: &Diagram, speed: f64, stable: bool) -> (Vec<f64>, f64) {
-    let problem = ClosedLoop::with_law(model(), d.feedback, d.law);
+    let problem = ClosedLoop::new(model(), d.law);
     let mut sys = d.cycle_system(&problem).unwrap();
     let pts = points_at_parameter(&Continuation::default(), &mut sys, &d.cycles, speed).unwrap();
     let p = pts
@@ -106,7 +106,7 @@ fn cycle_profile(d: &Diagram, speed: f64, stable: bool) -> (Vec<f64>, f64) {
 }
 
 fn eval_profile(d: &Diagram, u: &[f64], t: f64, period: f64) -> State4 {
-    let problem = ClosedLoop::with_law(model(), d.feedback, d.law);
+    let problem = ClosedLoop::new(model(), d.law);
     let sys = d.cycle_system(&problem).unwrap();
     let mut x = [0.0; 4];
     let mut dx = [0.0; 4];
@@ -152,7 +152,7 @@ fn mesh_doubling_changes_fold_and_amplitudes_by_less_than_1e_4() {
         intervals: 2 * coarse.options.intervals,
         ..coarse.options.clone()
     };
-    let fine = bifurcation_diagram(model(), Feedback::OPEN_LOOP, &fine_opts).unwrap();
+    let fine = bifurcation_diagram(model(), LoopLaw::OPEN_LOOP, &fine_opts).unwrap();
     let (fc, ff) = (coarse.fold.unwrap(), fine.fold.unwrap());
     assert_relative_eq!(fc.speed_mps, ff.speed_mps, max_relative = 1e-4);
     assert_relative_eq!(fc.amplitude_deg, ff.amplitude_deg, max_relative = 1e-4);
@@ -178,7 +178,7 @@ fn stable_cycles_agree_with_long_simulations() {
         let (u, period) = cycle_profile(d, v, true);
         let x0 = eval_profile(d, &u, 0.0, period);
         let sim = Sim {
-            problem: ClosedLoop::with_law(model(), d.feedback, d.law),
+            problem: ClosedLoop::new(model(), d.law),
             speed: v,
             delays: [0.0],
             history: |_t| x0,
@@ -227,7 +227,7 @@ fn unstable_cycle_at_33_separates_decay_from_sway() {
     for (scale, grows) in [(0.97, false), (1.03, true)] {
         let x0 = x_star * scale;
         let sim = Sim {
-            problem: ClosedLoop::with_law(model(), d.feedback, d.law),
+            problem: ClosedLoop::new(model(), d.law),
             speed: 33.0,
             delays: [0.0],
             history: |_t| x0,
@@ -257,7 +257,7 @@ fn floquet_multipliers_agree_with_simulated_monodromy_matrix() {
     let (u, _) = cycle_profile(d, v, true);
     // the orbit for the simulation: the same cycle corrected on a 160-interval mesh, so that
     // the start point and period of the reference do not carry the coarse mesh's error
-    let problem = ClosedLoop::with_law(model(), d.feedback, d.law);
+    let problem = ClosedLoop::new(model(), d.law);
     let coarse = d.cycle_system(&problem).unwrap();
     let mut fine = PeriodicOrbitSystem::new(
         &problem,
@@ -285,7 +285,7 @@ fn floquet_multipliers_agree_with_simulated_monodromy_matrix() {
     let x0 = State4::from_column_slice(&x);
     let flow = |x: State4| -> State4 {
         let sim = Sim {
-            problem: ClosedLoop::with_law(model(), d.feedback, d.law),
+            problem: ClosedLoop::new(model(), d.law),
             speed: v,
             delays: [0.0],
             history: |_t| x,
@@ -334,10 +334,7 @@ fn closed_loop_hopf_points_equal_the_stability_chart_boundary() {
     // reference: the stability crate (exact crossing counts of the quasi-polynomial of eq. 13,
     // bisection to 1e-9 m/s) on the model crate's linearisation; agreement to 1e-6 m/s
     for (tau, dgain) in [(0.1, 0.1), (0.2, 0.1), (0.2, 0.2)] {
-        let fb = Feedback {
-            gain_d_s: dgain,
-            delay_s: tau,
-        };
+        let fb = LoopLaw::paper(dgain, tau);
         let opts = DiagramOptions {
             intervals: 20,
             max_cycle_points: 3,
@@ -361,10 +358,7 @@ fn closed_loop_hopf_points_equal_the_stability_chart_boundary() {
 fn delayed_cycle_agrees_with_simulation() {
     // reference: dde crate (DDE solver, rtol 1e-10) with the periodic profile as history,
     // run for 15 periods: amplitude to 0.01°, period to 1e-4 s
-    let fb = Feedback {
-        gain_d_s: 0.1,
-        delay_s: 0.2,
-    };
+    let fb = LoopLaw::paper(0.1, 0.2);
     let opts = DiagramOptions {
         intervals: 40,
         ..DiagramOptions::default()
@@ -428,7 +422,7 @@ fn derived(params: VehicleParams, settings: &DiagramSettings) -> (Model, Diagram
     let m = Model::new(params).expect("valid vehicle");
     let out = vehicle_diagram(
         &m,
-        Feedback::OPEN_LOOP,
+        LoopLaw::OPEN_LOOP,
         settings,
         &sway::ranging::SpeedLimits::default(),
         CycleExtent::WholeRange,
@@ -551,8 +545,8 @@ fn vehicle_stable_up_to_the_maximum_speed_has_no_hopf_point_as_an_outcome() {
 
 /// yaw_rate_hitch on steering, yaw_rate and yaw_rate_hitch on braking (gains in steering
 /// units times the braking scale C_F·(f − c)), with their delays
-fn controller_cases() -> Vec<(sway::control::Controller, f64)> {
-    use sway::control::{Actuator, Controller, Gains, Structure};
+fn controller_cases() -> Vec<(sway::control::LoopLaw, f64)> {
+    use sway::control::{Actuator, Gains, Structure};
     let s = Actuator::DifferentialBraking.scale(model());
     let hitch = |k: f64| Gains {
         yaw_rate: 0.1 * k,
@@ -561,27 +555,25 @@ fn controller_cases() -> Vec<(sway::control::Controller, f64)> {
     };
     vec![
         (
-            Controller {
-                structure: Structure::YawRateHitch,
-                actuator: Actuator::Steering,
-                gains: hitch(1.0),
-            },
+            LoopLaw::new(Structure::YawRateHitch, Actuator::Steering, hitch(1.0), 0.0),
             0.4,
         ),
         (
-            Controller {
-                structure: Structure::YawRate,
-                actuator: Actuator::DifferentialBraking,
-                gains: Gains::yaw_rate(0.1 * s),
-            },
+            LoopLaw::new(
+                Structure::YawRate,
+                Actuator::DifferentialBraking,
+                Gains::yaw_rate(0.1 * s),
+                0.0,
+            ),
             0.4,
         ),
         (
-            Controller {
-                structure: Structure::YawRateHitch,
-                actuator: Actuator::DifferentialBraking,
-                gains: hitch(s),
-            },
+            LoopLaw::new(
+                Structure::YawRateHitch,
+                Actuator::DifferentialBraking,
+                hitch(s),
+                0.0,
+            ),
             0.6,
         ),
     ]
@@ -600,14 +592,10 @@ fn controller_hopf_points_are_the_linear_critical_speeds() {
         tolerance_mps: 1e-10,
     };
     for (c, tau) in controller_cases() {
-        let v_lin = sway::control::critical_speed(model(), &c, tau, None, &search)
+        let v_lin = sway::control::critical_speed(model(), &c.with_delay(tau), None, &search)
             .unwrap()
             .expect("a critical speed");
-        let fb = Feedback {
-            gain_d_s: c.gains.yaw_rate,
-            delay_s: tau,
-        };
-        let problem = ClosedLoop::with_law(model(), fb, sway::control::loop_law(&c).unwrap());
+        let problem = ClosedLoop::new(model(), c.with_delay(tau));
         let (_, hopf) = straight_running(
             &problem,
             &problem.parameters(5.0),
@@ -629,25 +617,14 @@ fn controller_cycle_agrees_with_simulation() {
     // run for 15 periods: amplitude to 0.01°, period to 1e-4 s (as for the paper's loop)
     let mut checked = 0;
     for (c, tau) in controller_cases() {
-        let fb = Feedback {
-            gain_d_s: c.gains.yaw_rate,
-            delay_s: tau,
-        };
-        let law = sway::control::loop_law(&c).unwrap();
+        let law = c.with_delay(tau);
         let settings = DiagramSettings {
             intervals: 40,
             ..DiagramSettings::default()
         };
         let limits = sway::ranging::SpeedLimits::default();
-        let d = match vehicle_diagram_with_law(
-            model(),
-            fb,
-            law,
-            &settings,
-            &limits,
-            CycleExtent::WholeRange,
-        )
-        .unwrap()
+        let d = match vehicle_diagram(model(), law, &settings, &limits, CycleExtent::WholeRange)
+            .unwrap()
         {
             DiagramOutcome::Computed(d) => d,
             DiagramOutcome::NoHopf(n) => panic!("{c:?}: {}", n.reason),
@@ -692,7 +669,7 @@ fn controller_cycle_agrees_with_simulation() {
         checked += usize::from(is_stable);
         let (u, period) = cycle_profile(&d, v, is_stable);
         let sim = Sim {
-            problem: ClosedLoop::with_law(model(), fb, law),
+            problem: ClosedLoop::new(model(), law),
             speed: v,
             delays: [tau],
             history: |t| eval_profile(&d, &u, t, period),
@@ -754,7 +731,7 @@ fn relaxation_plant_diagram_hopf_is_its_critical_speed_and_fold_converges() {
         };
         let d = match vehicle_diagram(
             &plant,
-            Feedback::OPEN_LOOP,
+            LoopLaw::OPEN_LOOP,
             &settings,
             &limits,
             CycleExtent::FirstFold,
@@ -804,17 +781,13 @@ fn hopf_point_only_detected_on_the_grid_is_located_at_the_critical_speed() {
     let (d, tau) = (0.14047194868615961, 1.8);
     let v_crit = sway::control::critical_speed(
         m,
-        &sway::control::Controller::paper(d),
-        tau,
+        &LoopLaw::paper(d, tau),
         None,
         &sway::control::SpeedSearch::default(),
     )
     .unwrap()
     .unwrap();
-    let fb = Feedback {
-        gain_d_s: d,
-        delay_s: tau,
-    };
+    let fb = LoopLaw::paper(d, tau);
     let problem = ClosedLoop::new(m, fb);
     let params = problem.parameters(1.0);
     let (_, loss) = straight_running_to_first_loss(

@@ -34,13 +34,15 @@ fn yaw_rate_structure_is_the_papers_loop() {
             s.tolerance_mps,
         )
         .unwrap();
-        let ours = critical_speed(&m, &Controller::paper(d), tau, None, &s).unwrap();
+        let ours = critical_speed(&m, &LoopLaw::paper(d, tau), None, &s).unwrap();
         assert_eq!(ours, reference, "D = {d}, τ = {tau}");
-        let hitch = Controller {
+        let hitch = LoopLaw {
             structure: Structure::YawRateHitch,
-            ..Controller::paper(d)
+            ..LoopLaw::paper(d, 0.0)
         };
-        let v = critical_speed(&m, &hitch, tau, None, &s).unwrap().unwrap();
+        let v = critical_speed(&m, &hitch.with_delay(tau), None, &s)
+            .unwrap()
+            .unwrap();
         assert!(
             (v - reference.unwrap()).abs() <= 2e-9,
             "{v} vs {reference:?}"
@@ -53,7 +55,7 @@ fn yaw_rate_structure_is_the_papers_loop() {
 /// kinematics of the delayed state.
 struct NonlinearLoop<'a> {
     model: &'a Model,
-    controller: Controller,
+    controller: LoopLaw,
     speed: f64,
     delays: [f64; 1],
     x0: State4,
@@ -182,17 +184,13 @@ fn characteristic_equation_matches_the_growth_of_a_small_perturbation() {
         ),
     ];
     for (structure, actuator, gains, v, tau) in cases {
-        let c = Controller {
-            structure,
-            actuator,
-            gains,
-        };
+        let c = LoopLaw::new(structure, actuator, gains, 0.0);
         // just below this loop's critical speed: the critical pair decays slowly and
         // dominates the run, the other roots are far to its left
-        let v = critical_speed(&m, &c, tau, None, &SpeedSearch::default())
+        let v = critical_speed(&m, &c.with_delay(tau), None, &SpeedSearch::default())
             .unwrap()
             .map_or(v, |vc| vc - v);
-        let root = LinearLoop::new(&m, &c, v, tau, None)
+        let root = LinearLoop::new(&m, &c.with_delay(tau), v, None)
             .unwrap()
             .rightmost_roots(2)
             .unwrap()[0];
@@ -272,12 +270,12 @@ fn predictor_with_a_perfect_model_has_the_delay_free_spectrum() {
             .saturating_sub(spurious.iter().filter(|z| z.re > 0.0).count());
         assert_eq!(cleared_count, unstable, "cleared form, V = {v}");
         // LinearLoop, with the vehicle as its own model and with an equal model file
-        let c = Controller {
+        let c = LoopLaw {
             structure: Structure::Predictor,
-            ..Controller::paper(d)
+            ..LoopLaw::paper(d, 0.0)
         };
         for prediction in [None, Some(&m as &dyn LoopModel)] {
-            let l = LinearLoop::new(&m, &c, v, tau, prediction).unwrap();
+            let l = LinearLoop::new(&m, &c.with_delay(tau), v, prediction).unwrap();
             assert!(l.delay_free);
             let roots = l.rightmost_roots(6).unwrap();
             assert_eq!(roots.len(), 4, "a perfect predictor's loop has n = 4 roots");
@@ -290,11 +288,11 @@ fn predictor_with_a_perfect_model_has_the_delay_free_spectrum() {
     // so its critical speed is the delay-free loop's, at any delay
     let s = SpeedSearch::default();
     let free = critical_speed_at_gain(&m, 0.0, 0.2, 1.0, 100.0, 100, 1e-9).unwrap();
-    let c = Controller {
+    let c = LoopLaw {
         structure: Structure::Predictor,
-        ..Controller::paper(0.2)
+        ..LoopLaw::paper(0.2, 0.0)
     };
-    let predicted = critical_speed(&m, &c, 1.5, None, &s).unwrap();
+    let predicted = critical_speed(&m, &c.with_delay(1.5), None, &s).unwrap();
     match (free, predicted) {
         (Some(a), Some(b)) => assert!((a - b).abs() < 1e-8, "{a} vs {b}"),
         (a, b) => assert_eq!(a, b),
@@ -310,12 +308,12 @@ fn predictor_with_a_wrong_model_is_counted_consistently() {
     let mut p = VehicleParams::default();
     p.trailer.mass *= 1.1;
     let wrong = Model::new(p).unwrap();
-    let c = Controller {
+    let c = LoopLaw {
         structure: Structure::Predictor,
-        ..Controller::paper(0.3)
+        ..LoopLaw::paper(0.3, 0.0)
     };
     for &(v, tau) in &[(30.0, 0.5), (45.0, 1.0), (60.0, 1.5)] {
-        let l = LinearLoop::new(&m, &c, v, tau, Some(&wrong)).unwrap();
+        let l = LinearLoop::new(&m, &c.with_delay(tau), v, Some(&wrong)).unwrap();
         let roots = l.rightmost_roots(6).unwrap();
         let by_roots = roots.iter().filter(|z| z.re > 0.0).count();
         assert_eq!(
@@ -455,13 +453,9 @@ fn hitch_sensor_design_beats_the_yaw_rate_design_and_is_confirmed_by_the_roots()
     )
     .unwrap();
     assert!(three.v_crit_mps >= one.v_crit_mps, "{three:?} vs {one:?}");
-    let c = Controller {
-        structure: three.structure,
-        actuator: three.actuator,
-        gains: three.gains,
-    };
+    let c = LoopLaw::new(three.structure, three.actuator, three.gains, 0.0);
     let re = |v: f64| {
-        LinearLoop::new(&m, &c, v, tau, None)
+        LinearLoop::new(&m, &c.with_delay(tau), v, None)
             .unwrap()
             .rightmost_roots(1)
             .unwrap()[0]
@@ -480,7 +474,7 @@ fn relaxed() -> trailer_model::AnyVehicleModel {
 }
 
 /// The controllers of the relaxed-plant checks (steering and braking, every structure).
-fn relaxed_controllers() -> Vec<Controller> {
+fn relaxed_controllers() -> Vec<LoopLaw> {
     let mut out = Vec::new();
     for actuator in Actuator::ALL {
         let s = if actuator == Actuator::Steering {
@@ -500,11 +494,7 @@ fn relaxed_controllers() -> Vec<Controller> {
             ),
             (Structure::Predictor, Gains::yaw_rate(0.12 * s)),
         ] {
-            out.push(Controller {
-                structure,
-                actuator,
-                gains,
-            });
+            out.push(LoopLaw::new(structure, actuator, gains, 0.0));
         }
     }
     out
@@ -533,7 +523,7 @@ fn relaxed_plant_loops_at_zero_delay_have_the_spectrum_of_a_minus_bk() {
             let b = c.actuator.loop_input_column(&lin);
             let k = loop_output_row(&lin, c.structure, &c.gains);
             let expected = eigenvalues_dyn(&(&lin.a - b * &k))[0];
-            let l = LinearLoop::new(&plant, &c, v, 0.0, None).unwrap();
+            let l = LinearLoop::new(&plant, &c.with_delay(0.0), v, None).unwrap();
             let got = l.rightmost_roots(1).unwrap()[0];
             assert!(
                 (got - expected).norm() <= 1e-9 * expected.norm().max(1.0),
@@ -566,7 +556,7 @@ fn relaxed_plant_delayed_loops_match_chebyshev_collocation() {
         let lin = plant.loop_linearization(v);
         for c in relaxed_controllers() {
             let b = c.actuator.loop_input_column(&lin);
-            let l = LinearLoop::new(&plant, &c, v, tau, None).unwrap();
+            let l = LinearLoop::new(&plant, &c.with_delay(tau), v, None).unwrap();
             let got = l
                 .rightmost_roots(1)
                 .unwrap_or_else(|e| panic!("{c:?} V = {v} τ = {tau}: {e}"))[0];
@@ -577,7 +567,7 @@ fn relaxed_plant_delayed_loops_match_chebyshev_collocation() {
                     (got - expected).norm() <= 1e-8 * expected.norm().max(1.0),
                     "{c:?} at V = {v}, τ = {tau}: {got} vs {expected}"
                 );
-                let wrong = LinearLoop::new(&plant, &c, v, tau, Some(&paper)).unwrap();
+                let wrong = LinearLoop::new(&plant, &c.with_delay(tau), v, Some(&paper)).unwrap();
                 let root = wrong.rightmost_roots(1).unwrap_or_else(|e| {
                     panic!(
                         "{c:?} V = {v} τ = {tau}: {e} p = {:?} q = {:?}",
@@ -615,7 +605,7 @@ fn relaxed_plant_delayed_loops_match_chebyshev_collocation() {
 fn predictor_characteristic(
     lin: &LoopLinearization,
     model: &LoopLinearization,
-    c: &Controller,
+    c: &LoopLaw,
     tau: f64,
     lambda: Complex64,
 ) -> Complex64 {
@@ -649,7 +639,7 @@ fn predictor_characteristic(
 /// [`fold_speed`] continues.
 fn design_diagram(
     m: &Model,
-    c: &Controller,
+    c: &LoopLaw,
     tau: f64,
     search: &SpeedSearch,
 ) -> sway::bifurcation::DiagramOutcome {
@@ -658,13 +648,9 @@ fn design_diagram(
         max_speed_mps: search.v_max_mps,
         ..sway::ranging::SpeedLimits::default()
     };
-    sway::bifurcation::cycle_diagram_with_law(
+    sway::bifurcation::cycle_diagram(
         m,
-        sway::bifurcation::Feedback {
-            gain_d_s: c.gains.yaw_rate,
-            delay_s: tau,
-        },
-        loop_law(c).unwrap(),
+        c.with_delay(tau),
         &sway::bifurcation::DiagramSettings::from_options(&design_fold_chart(20).cycles, None),
         &limits,
         sway::bifurcation::CycleExtent::FirstFold,
@@ -703,9 +689,11 @@ fn fold_of_a_design_whose_hopf_point_lies_between_the_grid_speeds() {
     // relative (both on adapted meshes, whose fold converges far faster than that).
     let m = table_i();
     let (d, tau) = (0.14047194868615961, 1.8);
-    let c = Controller::paper(d);
+    let c = LoopLaw::paper(d, 0.0);
     let search = SpeedSearch::default();
-    let v_crit = critical_speed(&m, &c, tau, None, &search).unwrap().unwrap();
+    let v_crit = critical_speed(&m, &c.with_delay(tau), None, &search)
+        .unwrap()
+        .unwrap();
     let outcome = design_diagram(&m, &c, tau, &search);
     let hopf = outcome.diagram().expect("a Hopf point").hopf.parameter;
     assert!(
@@ -713,7 +701,13 @@ fn fold_of_a_design_whose_hopf_point_lies_between_the_grid_speeds() {
         "Hopf point {hopf} vs V_crit {v_crit}"
     );
     let fold = |intervals| {
-        let (v, why) = fold_speed(&m, &c, tau, &design_fold_chart(intervals), &search).unwrap();
+        let (v, why) = fold_speed(
+            &m,
+            &c.with_delay(tau),
+            &design_fold_chart(intervals),
+            &search,
+        )
+        .unwrap();
         v.unwrap_or_else(|| panic!("no fold on L = {intervals}: {why:?}"))
     };
     let (coarse, fine) = (fold(20), fold(40));
@@ -738,23 +732,26 @@ fn a_window_of_instability_between_scan_samples_is_found() {
     // exact unstable-root count on a 1 mm/s grid over [50.9, 51.1] m/s, the first unstable
     // speed to 1e-3 m/s (the verified value is bisected to 1e-9 m/s)
     let m = table_i();
-    let c = Controller {
-        structure: Structure::YawRateHitch,
-        actuator: Actuator::Steering,
-        gains: Gains {
+    let c = LoopLaw::new(
+        Structure::YawRateHitch,
+        Actuator::Steering,
+        Gains {
             yaw_rate: 0.03884622882829494,
             hitch_angle: 0.00865474295029367,
             hitch_rate: -0.010301524962843644,
         },
-    };
+        0.0,
+    );
     let tau = 2.0;
     let s = SpeedSearch::default();
-    let scan = critical_speed(&m, &c, tau, None, &s).unwrap().unwrap();
-    let verified = verified_critical_speed(&m, &c, tau, None, &s, Some(scan))
+    let scan = critical_speed(&m, &c.with_delay(tau), None, &s)
+        .unwrap()
+        .unwrap();
+    let verified = verified_critical_speed(&m, &c.with_delay(tau), None, &s, Some(scan))
         .unwrap()
         .unwrap();
     let unstable = |v: f64| {
-        LinearLoop::new(&m, &c, v, tau, None)
+        LinearLoop::new(&m, &c.with_delay(tau), v, None)
             .unwrap()
             .unstable_root_count()
             .unwrap()
@@ -773,20 +770,20 @@ fn a_window_of_instability_between_scan_samples_is_found() {
         "verified {verified}, reference {reference}"
     );
     // no window: the paper's loop at D = 0.1 s, τ = 0.2 s keeps its critical speed
-    let paper = Controller::paper(0.1);
-    let v = critical_speed(&m, &paper, 0.2, None, &s).unwrap();
+    let paper = LoopLaw::paper(0.1, 0.0);
+    let v = critical_speed(&m, &paper.with_delay(0.2), None, &s).unwrap();
     assert_eq!(
-        verified_critical_speed(&m, &paper, 0.2, None, &s, v).unwrap(),
+        verified_critical_speed(&m, &paper.with_delay(0.2), None, &s, v).unwrap(),
         v
     );
 }
 
 /// The speed between `a` and `b` (either order, on either side of one crossing) at which
 /// the exact unstable-root count of `c`'s loop changes, bisected to 1e-7 m/s.
-fn linear_crossing(m: &Model, c: &Controller, tau: f64, (a, b): (f64, f64)) -> f64 {
+fn linear_crossing(m: &Model, c: &LoopLaw, tau: f64, (a, b): (f64, f64)) -> f64 {
     let (mut a, mut b) = (a.min(b), a.max(b));
     let unstable = |v: f64| {
-        LinearLoop::new(m, c, v, tau, None)
+        LinearLoop::new(m, &c.with_delay(tau), v, None)
             .unwrap()
             .unstable_root_count()
             .unwrap()
@@ -810,24 +807,21 @@ fn linear_crossing(m: &Model, c: &Controller, tau: f64, (a, b): (f64, f64)) -> f
 /// last period \[deg\], loss of control).
 fn simulated_sway(
     m: &Model,
-    c: &Controller,
+    c: &LoopLaw,
     tau: f64,
     speed: f64,
     theta_deg: f64,
     horizon: f64,
 ) -> (Option<f64>, bool) {
     use sway::sim::{
-        Controller as Law, MetricSettings, Recording, RunSettings, SimSpec, SolverSettings,
-        SpeedProfile, ValidityGuard,
+        MetricSettings, Recording, RunSettings, SimSpec, SolverSettings, SpeedProfile,
+        ValidityGuard,
     };
-    let controller = Law::YawRateHitch {
-        gains: c.gains,
-        delay_s: tau,
-        actuator: c.actuator,
-        on_s: 0.0,
-        off_s: None,
-        limit: Default::default(),
-    };
+    // the simulation's general loop (hitch gains, either actuator), as a yaw_rate_hitch table
+    let controller = Some(LoopLaw {
+        structure: Structure::YawRateHitch,
+        ..c.with_delay(tau)
+    });
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: speed },
@@ -874,15 +868,16 @@ fn a_window_whose_cycles_rejoin_straight_running_is_passed_over() {
     // nonlinear loop simulated 1 m/s below V_crit: a 0.01° kick decays, a 0.1° kick grows
     // into loss of control (bistability below V_crit, which the old answer denied).
     let m = table_i();
-    let c = Controller {
-        structure: Structure::YawRateHitch,
-        actuator: Actuator::Steering,
-        gains: Gains {
+    let c = LoopLaw::new(
+        Structure::YawRateHitch,
+        Actuator::Steering,
+        Gains {
             yaw_rate: 0.06423543651575456,
             hitch_angle: -0.026208200825896144,
             hitch_rate: -0.006679639135814763,
         },
-    };
+        0.0,
+    );
     let tau = 1.8;
     let outcome = design_diagram(&m, &c, tau, &SpeedSearch::default());
     let d = outcome.diagram().expect("a Hopf point");
@@ -912,13 +907,9 @@ fn a_window_whose_cycles_rejoin_straight_running_is_passed_over() {
     );
     assert_eq!(d.criticality, continuation::Criticality::Subcritical);
     // on a range the settings give (50–60 m/s) the bubble is where the branch ends
-    let fixed = sway::bifurcation::bifurcation_diagram_with_law(
+    let fixed = sway::bifurcation::bifurcation_diagram_until(
         &m,
-        sway::bifurcation::Feedback {
-            gain_d_s: c.gains.yaw_rate,
-            delay_s: tau,
-        },
-        loop_law(&c).unwrap(),
+        c.with_delay(tau),
         &sway::bifurcation::DiagramOptions {
             v_min_mps: 50.0,
             v_max_mps: 60.0,
@@ -966,10 +957,13 @@ fn a_supercritical_hopf_point_whose_cycles_fold_back_has_its_fold_below() {
     // 0.5° kick decays, and 2 m/s below the lower fold, where the 20° kick decays too.
     let m = table_i();
     let (d, tau) = (0.14843621379603142, 0.4);
-    let c = Controller::paper(d);
+    let c = LoopLaw::paper(d, 0.0);
     let search = SpeedSearch::default();
-    let v_crit = critical_speed(&m, &c, tau, None, &search).unwrap().unwrap();
-    let (v_fold, why) = fold_speed(&m, &c, tau, &design_fold_chart(20), &search).unwrap();
+    let v_crit = critical_speed(&m, &c.with_delay(tau), None, &search)
+        .unwrap()
+        .unwrap();
+    let (v_fold, why) =
+        fold_speed(&m, &c.with_delay(tau), &design_fold_chart(20), &search).unwrap();
     let v_fold = v_fold.unwrap_or_else(|| panic!("no fold: {why:?}"));
     println!("V_crit {v_crit}, V_fold {v_fold}");
     assert!(v_fold < v_crit - 5.0, "V_fold {v_fold}, V_crit {v_crit}");

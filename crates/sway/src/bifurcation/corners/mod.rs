@@ -42,7 +42,7 @@ use super::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
 use crate::SwayError;
 use crate::charts::{closed_loop, fig4a_charts, rightmost_roots};
 use crate::parallel::{Split, join, map, try_map};
-use crate::sim::{Controller, Outcome, Recording, RunSettings, SimSpec, SimulateOwn, SpeedProfile};
+use crate::sim::{LoopLaw, Outcome, Recording, RunSettings, SimSpec, SimulateOwn, SpeedProfile};
 use sway_model::vehicle::LoopModel;
 
 /// Settings of the simulations at the probe points.
@@ -716,10 +716,7 @@ pub fn continued_torus_curves<P: Vehicle<N>, const N: usize>(
     window: [f64; 4],
     o: &TorusContinuation,
 ) -> (Vec<TorusCurve>, Vec<String>) {
-    let fb = super::Feedback {
-        gain_d_s: p.d_s,
-        delay_s: p.tau_s,
-    };
+    let fb = LoopLaw::paper(p.d_s, p.tau_s);
     let problem = super::ClosedLoop::new(model, fb);
     let results = map(&[0, 1], Split::Adaptive, &|_, &family| {
         (family, torus_curve(&problem, p, family, window, o))
@@ -1344,13 +1341,7 @@ fn run_once<P: SimulateOwn<N> + LoopModel, const N: usize>(
     let spec = SimSpec {
         early_stop: crate::sim::EarlyStop::Never,
         profile: SpeedProfile::Constant { speed_mps: v },
-        controller: Controller::YawRateFeedback {
-            gain_s: d,
-            delay_s: tau,
-            on_s: 0.0,
-            off_s: None,
-            actuator: Default::default(),
-        },
+        controller: Some(LoopLaw::paper(d, tau)),
         horizon_s: s.transient_s + s.window_s,
         action_s: 0.0,
         settings: s.settings,

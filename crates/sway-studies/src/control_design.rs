@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 use sway::parallel::{Split, map};
-use trailer_model::{AnyVehicleModel, Model, VehicleParams, VehicleSpec};
+use trailer_model::{AnyVehicleModel, Model, State4, VehicleParams, VehicleSpec};
 
 use sway::SwayError;
 use sway::bifurcation::chart::ChartOptions;
@@ -22,6 +22,9 @@ use sway::control::{
 use sway::control::{design_from_start, perfect_predictor_designs};
 use sway::control::{fold_speed, hopf_and_fold};
 use sway::progress::Progress;
+use sway::sim::{
+    PredictionVehicle, Recording, RunSettings, SimSpec, SpeedProfile, SwayClass, simulate,
+};
 
 /// What the study computes (plain data; the task reads it from its config).
 #[derive(Debug, Clone, PartialEq)]
@@ -583,4 +586,159 @@ fn away_from_corner(
         None => None,
     };
     Ok(best.map(|b| AwayFromCorner { tried, ..b }))
+}
+
+/// The simulation check: at `speed_fraction`·V_crit (open loop) and constant speed, the
+/// smallest of `kicks_deg` (a hitch-angle kick θ(0), the other states 0) that makes the
+/// open loop sway (class "sustained_sway" at the horizon) is applied to the loop closed by
+/// each structure's design at τ = `delay_s` (the study's optimum there, with
+/// `actuator`); a design passes when its run settles (|θ| below the settle threshold over
+/// the final window).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimulationCheck {
+    /// τ \[s\]: must be one of the grid's delays
+    pub delay_s: f64,
+    /// V / V_crit of the open loop \[-\]
+    pub speed_fraction: f64,
+    /// candidate kicks θ(0) \[deg\], tried in increasing order on the open loop
+    pub kicks_deg: Vec<f64>,
+    /// simulated time \[s\]
+    pub horizon_s: f64,
+    /// the actuator of the checked designs
+    pub actuator: Actuator,
+}
+
+impl Default for SimulationCheck {
+    fn default() -> Self {
+        Self {
+            delay_s: 0.6,
+            speed_fraction: 0.95,
+            kicks_deg: vec![2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0],
+            horizon_s: 60.0,
+            actuator: Actuator::Steering,
+        }
+    }
+}
+
+/// The outcome of the simulation check ([`simulation_check`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SimulationOutcome {
+    pub delay_s: f64,
+    pub speed_mps: f64,
+    /// the kick θ(0) \[deg\] (the smallest candidate that makes the open loop sway)
+    pub kick_deg: f64,
+    pub open_loop_sways: bool,
+    pub open_loop_final_amplitude_deg: Option<f64>,
+    pub designs: Vec<SimulatedDesign>,
+}
+
+/// One design's run in the simulation check.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SimulatedDesign {
+    pub structure: &'static str,
+    pub actuator: &'static str,
+    pub gains: Gains,
+    /// the run settled (|θ| below the settle threshold over the final window)
+    pub decays: bool,
+    /// max |θ| over the final window \[deg\]
+    pub final_amplitude_deg: Option<f64>,
+    /// the run's class (`settled`, `sustained_sway`, …)
+    pub class: SwayClass,
+}
+
+/// A labelled θ(t) curve: (label, [(t \[s\], θ \[deg\])]).
+pub type Curve = (String, Vec<(f64, f64)>);
+
+/// Runs the simulation check `sc` of the study `r` on `model`: the outcome and the θ(t)
+/// curves (open loop first); the predictor predicts with `prediction` (the vehicle itself
+/// when `None`).
+///
+/// # Errors
+/// [`SwayError::Config`] without kicks; [`SwayError::Numerical`] when a run fails.
+pub fn simulation_check(
+    model: &trailer_model::Model,
+    r: &ControlStudy,
+    sc: &SimulationCheck,
+    prediction: Option<&PredictionVehicle>,
+) -> Result<(SimulationOutcome, Vec<Curve>), SwayError> {
+    let speed = sc.speed_fraction * r.open_loop_v_crit_mps;
+    let run = |controller: Option<LoopLaw>, kick_deg: f64| {
+        let spec = SimSpec {
+            early_stop: sway::sim::EarlyStop::Never,
+            profile: SpeedProfile::Constant { speed_mps: speed },
+            controller,
+            horizon_s: sc.horizon_s,
+            action_s: 0.0,
+            settings: RunSettings::default(),
+        };
+        let x0 = State4::new(0.0, 0.0, 0.0, kick_deg.to_radians());
+        simulate(model, &spec, x0, Recording::Every { step_s: 0.02 })
+    };
+    let curve = |label: String, res: &sway::sim::SimResult<4>| -> Curve {
+        (
+            label,
+            res.trajectory
+                .iter()
+                .map(|s| (s.t, s.x[trailer_model::HITCH_ANGLE].to_degrees()))
+                .collect(),
+        )
+    };
+    let mut kicks = sc.kicks_deg.clone();
+    kicks.sort_by(f64::total_cmp);
+    let mut open = None;
+    for &k in &kicks {
+        let res = run(None, k)?;
+        let sways = res.metrics.class == SwayClass::SustainedSway;
+        open = Some((k, res, sways));
+        if sways {
+            break;
+        }
+    }
+    let Some((kick_deg, open_run, open_loop_sways)) = open else {
+        return Err(SwayError::config(
+            std::path::Path::new("control_design.toml"),
+            "simulation_check.kicks_deg",
+            "expected at least one kick",
+        ));
+    };
+    let mut curves = vec![curve("open loop".into(), &open_run)];
+    let mut designs = Vec::new();
+    for c in r.combinations.iter().filter(|c| c.actuator == sc.actuator) {
+        let Some(d) = c
+            .designs
+            .iter()
+            .find(|d| (d.tau_s - sc.delay_s).abs() < 1e-9)
+        else {
+            continue;
+        };
+        let law = LoopLaw {
+            prediction_vehicle: prediction.and_then(|p| p.params),
+            ..d.law()
+        };
+        let res = run(Some(law), kick_deg)?;
+        curves.push(curve(
+            format!("{} + {}", c.structure.as_str(), c.actuator.as_str()),
+            &res,
+        ));
+        designs.push(SimulatedDesign {
+            structure: c.structure.as_str(),
+            actuator: c.actuator.as_str(),
+            gains: d.gains,
+            decays: res.metrics.class == SwayClass::Settled,
+            final_amplitude_deg: res.metrics.final_amplitude_deg,
+            class: res.metrics.class,
+        });
+    }
+    Ok((
+        SimulationOutcome {
+            delay_s: sc.delay_s,
+            speed_mps: speed,
+            kick_deg,
+            open_loop_sways,
+            open_loop_final_amplitude_deg: open_run.metrics.final_amplitude_deg,
+            designs,
+        },
+        curves,
+    ))
 }

@@ -29,15 +29,11 @@ use sway::control::{
     VehicleUncertainty,
 };
 use sway_studies::control_design::{
-    AwayFromCorner, CheckedDesign, Combination, ControlStudy, StudySettings, StudyVehicle,
-    control_study,
+    AwayFromCorner, CheckedDesign, Combination, ControlStudy, Curve, SimulationCheck,
+    SimulationOutcome, StudySettings, StudyVehicle, control_study, simulation_check,
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
-use sway::sim::{
-    PredictionVehicle,
-    LoopLaw, Recording, RunSettings, SimSpec, SpeedProfile, SwayClass, simulate,
-};
-use trailer_model::State4;
+use sway::sim::PredictionVehicle;
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
@@ -240,39 +236,6 @@ impl ControlDesignConfig {
             .as_ref()
             .map(|p| crate::config_file::load_named_vehicle(file, "prediction_vehicle", p))
             .transpose()
-    }
-}
-
-/// The simulation check: at `speed_fraction`·V_crit (open loop) and constant speed, the
-/// smallest of `kicks_deg` (a hitch-angle kick θ(0), the other states 0) that makes the
-/// open loop sway (class "sustained_sway" at the horizon) is applied to the loop closed by
-/// each structure's design at τ = `delay_s` (the study's optimum there, with
-/// `actuator`); a design passes when its run settles (|θ| below the settle threshold over
-/// the final window).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SimulationCheck {
-    /// τ \[s\]: must be one of the grid's delays
-    pub delay_s: f64,
-    /// V / V_crit of the open loop \[-\]
-    pub speed_fraction: f64,
-    /// candidate kicks θ(0) \[deg\], tried in increasing order on the open loop
-    pub kicks_deg: Vec<f64>,
-    /// simulated time \[s\]
-    pub horizon_s: f64,
-    /// the actuator of the checked designs
-    pub actuator: Actuator,
-}
-
-impl Default for SimulationCheck {
-    fn default() -> Self {
-        Self {
-            delay_s: 0.6,
-            speed_fraction: 0.95,
-            kicks_deg: vec![2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0],
-            horizon_s: 60.0,
-            actuator: Actuator::Steering,
-        }
     }
 }
 
@@ -539,118 +502,6 @@ struct Summary {
     simulation_check: Option<SimulationOutcome>,
     #[serde(skip_serializing_if = "Option::is_none")]
     simulation_check_reason: Option<String>,
-}
-
-/// The simulation check in `summary.json`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-struct SimulationOutcome {
-    delay_s: f64,
-    speed_mps: f64,
-    /// the kick θ(0) \[deg\] (the smallest candidate that makes the open loop sway)
-    kick_deg: f64,
-    open_loop_sways: bool,
-    open_loop_final_amplitude_deg: Option<f64>,
-    designs: Vec<SimulatedDesign>,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize)]
-struct SimulatedDesign {
-    structure: &'static str,
-    actuator: &'static str,
-    gains: Gains,
-    /// the run settled (|θ| below the settle threshold over the final window)
-    decays: bool,
-    /// max |θ| over the final window \[deg\]
-    final_amplitude_deg: Option<f64>,
-    /// the run's class (`settled`, `sustained_sway`, …)
-    class: SwayClass,
-}
-
-type Curve = (String, Vec<(f64, f64)>);
-
-/// Runs the simulation check: the outcome and the θ(t) curves (open loop first); the
-/// predictor predicts with `prediction` (the vehicle itself when `None`).
-fn simulation_check(
-    model: &trailer_model::Model,
-    r: &ControlStudy,
-    sc: &SimulationCheck,
-    prediction: Option<&PredictionVehicle>,
-) -> Result<(SimulationOutcome, Vec<Curve>), TaskError> {
-    let speed = sc.speed_fraction * r.open_loop_v_crit_mps;
-    let run = |controller: Option<LoopLaw>, kick_deg: f64| {
-        let spec = SimSpec {
-            early_stop: sway::sim::EarlyStop::Never,
-            profile: SpeedProfile::Constant { speed_mps: speed },
-            controller,
-            horizon_s: sc.horizon_s,
-            action_s: 0.0,
-            settings: RunSettings::default(),
-        };
-        let x0 = State4::new(0.0, 0.0, 0.0, kick_deg.to_radians());
-        simulate(model, &spec, x0, Recording::Every { step_s: 0.02 })
-    };
-    let curve = |label: String, res: &sway::sim::SimResult<4>| -> Curve {
-        (
-            label,
-            res.trajectory
-                .iter()
-                .map(|s| (s.t, s.x[trailer_model::HITCH_ANGLE].to_degrees()))
-                .collect(),
-        )
-    };
-    let mut kicks = sc.kicks_deg.clone();
-    kicks.sort_by(f64::total_cmp);
-    let mut open = None;
-    for &k in &kicks {
-        let res = run(None, k)?;
-        let sways = res.metrics.class == SwayClass::SustainedSway;
-        open = Some((k, res, sways));
-        if sways {
-            break;
-        }
-    }
-    let Some((kick_deg, open_run, open_loop_sways)) = open else {
-        return Err(TaskError::config(
-            Path::new("control_design.toml"),
-            "simulation_check.kicks_deg",
-            "expected at least one kick",
-        ));
-    };
-    let mut curves = vec![curve("open loop".into(), &open_run)];
-    let mut designs = Vec::new();
-    for c in r.combinations.iter().filter(|c| c.actuator == sc.actuator) {
-        let Some(d) = c.designs.iter().find(|d| (d.tau_s - sc.delay_s).abs() < 1e-9) else {
-            continue;
-        };
-        let law = LoopLaw {
-            prediction_vehicle: prediction.and_then(|p| p.params),
-            ..d.law()
-        };
-        let res = run(Some(law), kick_deg)?;
-        curves.push(curve(
-            format!("{} + {}", c.structure.as_str(), c.actuator.as_str()),
-            &res,
-        ));
-        designs.push(SimulatedDesign {
-            structure: c.structure.as_str(),
-            actuator: c.actuator.as_str(),
-            gains: d.gains,
-            decays: res.metrics.class == SwayClass::Settled,
-            final_amplitude_deg: res.metrics.final_amplitude_deg,
-            class: res.metrics.class,
-        });
-    }
-    Ok((
-        SimulationOutcome {
-            delay_s: sc.delay_s,
-            speed_mps: speed,
-            kick_deg,
-            open_loop_sways,
-            open_loop_final_amplitude_deg: open_run.metrics.final_amplitude_deg,
-            designs,
-        },
-        curves,
-    ))
 }
 
 fn simulation_figure(o: &SimulationOutcome, curves: &[Curve]) -> Figure {

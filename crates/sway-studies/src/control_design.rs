@@ -19,7 +19,7 @@ use sway::control::{
     SpeedSearch, Structure, VehicleUncertainty, delay_budget, designs_over_delays,
     robust_critical_speed,
 };
-use sway::control::{design_from_start, perfect_predictor_designs};
+use sway::control::{DesignStart, design, perfect_predictor_designs};
 use sway::control::{fold_speed, hopf_and_fold};
 use sway::progress::Progress;
 use sway::sim::{
@@ -453,14 +453,14 @@ fn all_designs(
                     let mut hitch: Vec<Design> = Vec::with_capacity(s.delays_s.len());
                     for (i, &tau) in s.delays_s.iter().enumerate() {
                         let warm = hitch.last().map(|d| d.gains);
-                        hitch.push(design_from_start(
+                        hitch.push(design(
                             model,
-                            Structure::YawRateHitch,
-                            a,
-                            tau,
+                            &LoopLaw::new(Structure::YawRateHitch, a, Gains::default(), tau),
                             None,
-                            warm.as_ref(),
-                            &out[0].1[i],
+                            DesignStart {
+                                warm: warm.as_ref(),
+                                yaw_rate: Some(&out[0].1[i]),
+                            },
                             &s.search,
                         )?);
                     }

@@ -16,7 +16,7 @@ use sway::bifurcation::chart::{ChartOptions, critical_speeds};
 use sway::bifurcation::{
     CycleExtent, Diagram, DiagramOutcome, DiagramSettings, LoopLaw, NoHopf, vehicle_diagram,
 };
-use sway::config::{Positive, ensure};
+use sway::config::{Positive, ensure, ensure_positive};
 use sway::parallel::Split;
 use sway::progress::Progress;
 use sway::ranging::{RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec};
@@ -144,11 +144,11 @@ impl PanelsConfig {
     /// # Errors
     /// [`SwayError::Config`] naming the file and key.
     pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
-        ensure(
-            self.speed_mps.is_finite() && self.speed_mps > 0.0,
+        ensure_positive(
+            self.speed_mps,
             file,
             &format!("{prefix}.speed_mps"),
-            || format!("expected a speed > 0 m/s, got {}", self.speed_mps),
+            "a speed > 0 m/s",
         )?;
         ensure(
             !self.theta0_deg.is_empty()

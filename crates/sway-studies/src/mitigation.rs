@@ -14,7 +14,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use sway::SwayError;
-use sway::config::{Positive, ensure};
+use sway::config::{Positive, ensure, ensure_positive};
 use sway::mitigation::{
     DecisionBounds, Evaluation, Intervention, MitigationProblem, Optimum, PhaseStarts, Setting,
     SwayCycle, evaluate, find_sway_cycle, optimise, settled,
@@ -261,11 +261,11 @@ impl MitigationConfig {
             "delay_s",
             || format!("expected a delay ≥ 0 s, got {}", self.delay_s),
         )?;
-        ensure(
-            self.min_final_speed_mps.is_finite() && self.min_final_speed_mps > 0.0,
+        ensure_positive(
+            self.min_final_speed_mps,
             file,
             "min_final_speed_mps",
-            || format!("expected a speed > 0 m/s, got {}", self.min_final_speed_mps),
+            "a speed > 0 m/s",
         )?;
         ensure(
             self.output_step_s.get() <= self.horizon_s.get(),

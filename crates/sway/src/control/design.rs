@@ -237,97 +237,238 @@ fn v_crit<M: LoopModel + ?Sized>(
     Ok(super::critical_speed(model, c, prediction, search)?.unwrap_or(search.v_max_mps))
 }
 
-/// The best gains of `structure` with `actuator` at delay τ \[s\] (see the module docs);
-/// `warm` is a previous optimum to start from (several-gain structures).
+/// What a design starts from beside its own search: a previous optimum `warm` (the design
+/// at the neighbouring delay), and for a several-gain structure (`yaw_rate_hitch`) the
+/// `yaw_rate` design of the same actuator at the same delay (which [`design`] otherwise
+/// computes first: the same result without computing that design twice).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DesignStart<'a> {
+    /// a previous optimum to start from (several-gain structures)
+    pub warm: Option<&'a Gains>,
+    /// the `yaw_rate` design of the same actuator and delay (several-gain structures)
+    pub yaw_rate: Option<&'a Design>,
+}
+
+/// The best gains of `law`'s structure with its actuator at its delay τ (its gains are
+/// what the design sets; see the module docs), started from `start`.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if a critical speed cannot be computed.
 pub fn design<M: LoopModel + ?Sized>(
     model: &M,
-    structure: Structure,
-    actuator: Actuator,
-    tau: f64,
+    law: &LoopLaw,
     prediction: Option<&dyn LoopModel>,
-    warm: Option<&Gains>,
+    start: DesignStart<'_>,
     o: &DesignSearch,
 ) -> Result<Design, SwayError> {
-    designed(model, structure, actuator, tau, prediction, warm, None, o)
-}
-
-/// [`design`] of a several-gain structure (`yaw_rate_hitch`) started from `start`, the
-/// `yaw_rate` design of the same actuator at the same delay (which [`design`] would compute
-/// first): the same result without computing that design twice.
-///
-/// # Errors
-/// As [`design`].
-#[allow(clippy::too_many_arguments)]
-pub fn design_from_start<M: LoopModel + ?Sized>(
-    model: &M,
-    structure: Structure,
-    actuator: Actuator,
-    tau: f64,
-    prediction: Option<&dyn LoopModel>,
-    warm: Option<&Gains>,
-    start: &Design,
-    o: &DesignSearch,
-) -> Result<Design, SwayError> {
-    debug_assert!(
-        start.structure == Structure::YawRate && start.actuator == actuator && start.tau_s == tau
-    );
-    let start = (&start.gains, start.evaluations);
-    designed(
+    debug_assert!(start.yaw_rate.is_none_or(|d| {
+        d.structure == Structure::YawRate && d.actuator == law.actuator && d.tau_s == law.delay_s
+    }));
+    let target = Target {
         model,
-        structure,
-        actuator,
-        tau,
+        law: *law,
         prediction,
-        warm,
-        Some(start),
         o,
+    };
+    target.design(
+        start.warm,
+        start.yaw_rate.map(|d| (&d.gains, d.evaluations)),
     )
 }
 
-/// [`design`], the `yaw_rate_hitch` search started from `start` (the `yaw_rate` optimum's
-/// gains and its evaluations) when given, else from that optimum computed here.
-#[allow(clippy::too_many_arguments)]
-fn designed<M: LoopModel + ?Sized>(
-    model: &M,
-    structure: Structure,
-    actuator: Actuator,
-    tau: f64,
-    prediction: Option<&dyn LoopModel>,
-    warm: Option<&Gains>,
-    start: Option<(&Gains, usize)>,
-    o: &DesignSearch,
-) -> Result<Design, SwayError> {
-    let scale = actuator.scale(model.paper_model());
-    let found = match structure {
-        Structure::YawRate | Structure::Predictor => {
-            one_gain(model, structure, actuator, tau, prediction, scale, o)?
+/// One design's target: the loop of a structure with an actuator at one delay τ on `model`
+/// (`law`'s gains are what the search sets), the predictor's model and the search options.
+struct Target<'a, M: LoopModel + ?Sized> {
+    model: &'a M,
+    law: LoopLaw,
+    prediction: Option<&'a dyn LoopModel>,
+    o: &'a DesignSearch,
+}
+
+impl<M: LoopModel + ?Sized> Target<'_, M> {
+    /// The critical speed of the loop with `gains` on the search's speed range.
+    fn v_crit(&self, gains: Gains, search: &SpeedSearch) -> Result<f64, SwayError> {
+        v_crit(
+            self.model,
+            &self.law.with_gains(gains),
+            self.prediction,
+            search,
+        )
+    }
+
+    /// The command per radian of equivalent steering of the actuator.
+    fn scale(&self) -> f64 {
+        self.law.actuator.scale(self.model.paper_model())
+    }
+
+    /// [`design`], the `yaw_rate_hitch` search started from `start` (the `yaw_rate`
+    /// optimum's gains and its evaluations) when given, else from that optimum computed
+    /// here.
+    fn design(
+        &self,
+        warm: Option<&Gains>,
+        start: Option<(&Gains, usize)>,
+    ) -> Result<Design, SwayError> {
+        let found = match self.law.structure {
+            Structure::YawRate | Structure::Predictor => self.one_gain()?,
+            Structure::YawRateHitch => {
+                let computed;
+                let (start_gains, start_evaluations) = match start {
+                    Some(s) => s,
+                    None => {
+                        let yaw_rate = Target {
+                            law: LoopLaw {
+                                structure: Structure::YawRate,
+                                ..self.law
+                            },
+                            prediction: None,
+                            ..*self
+                        };
+                        computed = yaw_rate.one_gain()?;
+                        (&computed.0, computed.3)
+                    }
+                };
+                let (g, v, b, n) = self.several_gains(start_gains, warm)?;
+                (g, v, b, n + start_evaluations)
+            }
+        };
+        self.finish(found)
+    }
+
+    /// The design from the optimum found: the double-Hopf check at V_crit.
+    fn finish(&self, (gains, v, bands, evaluations): Found) -> Result<Design, SwayError> {
+        let (model, prediction, o) = (self.model, self.prediction, self.o);
+        let LoopLaw {
+            structure,
+            actuator,
+            delay_s: tau,
+            ..
+        } = self.law;
+        let c = self.law.with_gains(gains);
+        // the several-gain search can push a pair to graze the axis between the scan's
+        // samples: its optimum's V_crit is checked for such a window below it
+        let scan_v_crit = v;
+        let v = if structure == Structure::YawRateHitch {
+            let scan = (v < o.speed.v_max_mps).then_some(v);
+            super::verified_critical_speed(model, &c, prediction, &o.speed, scan)?.unwrap_or(v)
+        } else {
+            v
+        };
+        let speed_capped = v >= o.speed.v_max_mps;
+        // the rightmost roots at V_crit: a second critical pair marks a double-Hopf corner; where
+        // the roots cannot be confirmed (the predictor's cleared quasi-polynomial of degree 2n is
+        // ill-conditioned for the spectral seeds) the design stands, with the reason
+        let (second_pair, second_pair_note) = if speed_capped {
+            (
+                None,
+                Some("stable up to the top of the speed range".to_string()),
+            )
+        } else {
+            match second_pair(model, &c, prediction, v) {
+                Ok(Some(p)) => (Some(p), None),
+                Ok(None) => (
+                    None,
+                    Some("no second root pair among the six rightmost".into()),
+                ),
+                Err(e) => (None, Some(format!("rightmost roots not confirmed: {e}"))),
+            }
+        };
+        Ok(Design {
+            structure,
+            actuator,
+            tau_s: tau,
+            gains,
+            v_crit_mps: v,
+            v_crit_scan_mps: (v != scan_v_crit).then_some(scan_v_crit),
+            speed_capped,
+            bands,
+            at_double_hopf: second_pair
+                .is_some_and(|[re, _]| re.abs() <= o.double_hopf_tolerance_per_s),
+            second_pair,
+            second_pair_note,
+            evaluations,
+        })
+    }
+
+    /// One gain (D): `gain_design`'s scan, Brent refinement and band, on this structure's loop.
+    fn one_gain(&self) -> Result<Found, SwayError> {
+        let (model, o, scale) = (self.model, self.o, self.scale());
+        let bound = o.gain_bound(GainName::YawRate, self.law.actuator, model.paper_model());
+        let g = GainSearch {
+            d_min_s: bound.lo,
+            d_max_s: bound.hi,
+            gain_samples: o.gain_samples,
+            v_min_mps: o.speed.v_min_mps,
+            v_max_mps: o.speed.v_max_mps,
+            speed_samples: o.speed.samples,
+            speed_tolerance_mps: o.speed.tolerance_mps,
+            gain_tolerance_s: o.gain_tolerance * scale,
+            band_fraction: o.band_fraction,
+            max_iterations: o.max_iterations,
+        };
+        let f = |d: f64| self.v_crit(Gains::yaw_rate(d), &o.speed);
+        let gains = g.gains();
+        let speeds = gains.iter().map(|&d| f(d)).collect::<Result<Vec<_>, _>>()?;
+        let (d, v, band, n) = refine_sampled(&f, &gains, &speeds, &g)?;
+        let band = GainBand {
+            gain: GainName::YawRate,
+            lo: band[0],
+            hi: band[1],
+        };
+        Ok((Gains::yaw_rate(d), v, vec![band], gains.len() + n))
+    }
+
+    /// Several gains: −V_crit minimised by Nelder–Mead from the `yaw_rate` optimum and
+    /// `warm`, then the band of each gain.
+    fn several_gains(
+        &self,
+        one_gain_optimum: &Gains,
+        warm: Option<&Gains>,
+    ) -> Result<Found, SwayError> {
+        let (model, o, scale) = (self.model, self.o, self.scale());
+        let names = self.law.structure.gain_names();
+        let problem = CriticalSpeedProblem {
+            target: self,
+            names,
+            bounds: names
+                .iter()
+                .map(|&n| o.gain_bound(n, self.law.actuator, model.paper_model()))
+                .collect(),
+            search: SpeedSearch {
+                tolerance_mps: o.search_tolerance_mps,
+                ..o.speed
+            },
+        };
+        let as_point = |g: &Gains| names.iter().map(|&n| g.get(n)).collect::<Vec<f64>>();
+        let mut starts = vec![as_point(one_gain_optimum)];
+        if let Some(w) = warm {
+            starts.push(as_point(w));
         }
-        Structure::YawRateHitch => {
-            let computed;
-            let (start_gains, start_evaluations) = match start {
-                Some(s) => s,
-                None => {
-                    computed = one_gain(model, Structure::YawRate, actuator, tau, None, scale, o)?;
-                    (&computed.0, computed.3)
+        let best = minimise(&problem, &starts, &o.optimiser)?;
+        let gains = problem.gains(&best.x);
+        let v = self.v_crit(gains, &o.speed)?;
+        let mut n = best.evaluations + 1;
+        let mut bands = Vec::with_capacity(names.len());
+        for (i, &name) in names.iter().enumerate() {
+            let b = problem.bounds[i];
+            let along = |x: f64| self.v_crit(gains.with(name, x), &o.speed);
+            let thr = (1.0 - o.band_fraction) * v;
+            let tol = o.gain_tolerance * scale.max(1.0);
+            let at = gains.get(name);
+            let mut end = |toward: f64| -> Result<f64, SwayError> {
+                n += 1;
+                if along(toward)? >= thr {
+                    return Ok(toward);
                 }
+                let (e, m) = band_end(&along, at, toward, thr, tol)?;
+                n += m;
+                Ok(e)
             };
-            let (g, v, b, n) = several_gains(
-                model,
-                structure,
-                actuator,
-                tau,
-                prediction,
-                start_gains,
-                warm,
-                o,
-            )?;
-            (g, v, b, n + start_evaluations)
+            let (lo, hi) = (end(b.lo)?, end(b.hi)?);
+            bands.push(GainBand { gain: name, lo, hi });
         }
-    };
-    finish(model, structure, actuator, tau, prediction, found, o)
+        Ok((gains, v, bands, n))
+    }
 }
 
 /// The designs of the perfectly predicted `predictor` (its model the vehicle itself) at
@@ -346,7 +487,13 @@ pub fn perfect_predictor_designs<M: LoopModel + ?Sized>(
     let Some(&first) = taus.first() else {
         return Ok(Vec::new());
     };
-    let d = design(model, Structure::Predictor, actuator, first, None, None, o)?;
+    let d = design(
+        model,
+        &LoopLaw::new(Structure::Predictor, actuator, Gains::default(), first),
+        None,
+        DesignStart::default(),
+        o,
+    )?;
     Ok(taus
         .iter()
         .map(|&tau| Design {
@@ -356,109 +503,11 @@ pub fn perfect_predictor_designs<M: LoopModel + ?Sized>(
         .collect())
 }
 
-/// The design from the optimum found: the double-Hopf check at V_crit.
-fn finish<M: LoopModel + ?Sized>(
-    model: &M,
-    structure: Structure,
-    actuator: Actuator,
-    tau: f64,
-    prediction: Option<&dyn LoopModel>,
-    (gains, v, bands, evaluations): Found,
-    o: &DesignSearch,
-) -> Result<Design, SwayError> {
-    let c = LoopLaw::new(structure, actuator, gains, tau);
-    // the several-gain search can push a pair to graze the axis between the scan's
-    // samples: its optimum's V_crit is checked for such a window below it
-    let scan_v_crit = v;
-    let v = if structure == Structure::YawRateHitch {
-        let scan = (v < o.speed.v_max_mps).then_some(v);
-        super::verified_critical_speed(model, &c, prediction, &o.speed, scan)?.unwrap_or(v)
-    } else {
-        v
-    };
-    let speed_capped = v >= o.speed.v_max_mps;
-    // the rightmost roots at V_crit: a second critical pair marks a double-Hopf corner; where
-    // the roots cannot be confirmed (the predictor's cleared quasi-polynomial of degree 2n is
-    // ill-conditioned for the spectral seeds) the design stands, with the reason
-    let (second_pair, second_pair_note) = if speed_capped {
-        (
-            None,
-            Some("stable up to the top of the speed range".to_string()),
-        )
-    } else {
-        match second_pair(model, &c, prediction, v) {
-            Ok(Some(p)) => (Some(p), None),
-            Ok(None) => (
-                None,
-                Some("no second root pair among the six rightmost".into()),
-            ),
-            Err(e) => (None, Some(format!("rightmost roots not confirmed: {e}"))),
-        }
-    };
-    Ok(Design {
-        structure,
-        actuator,
-        tau_s: tau,
-        gains,
-        v_crit_mps: v,
-        v_crit_scan_mps: (v != scan_v_crit).then_some(scan_v_crit),
-        speed_capped,
-        bands,
-        at_double_hopf: second_pair
-            .is_some_and(|[re, _]| re.abs() <= o.double_hopf_tolerance_per_s),
-        second_pair,
-        second_pair_note,
-        evaluations,
-    })
-}
-
 type Found = (Gains, f64, Vec<GainBand>, usize);
-
-/// One gain (D): `gain_design`'s scan, Brent refinement and band, on this structure's loop.
-fn one_gain<M: LoopModel + ?Sized>(
-    model: &M,
-    structure: Structure,
-    actuator: Actuator,
-    tau: f64,
-    prediction: Option<&dyn LoopModel>,
-    scale: f64,
-    o: &DesignSearch,
-) -> Result<Found, SwayError> {
-    let bound = o.gain_bound(GainName::YawRate, actuator, model.paper_model());
-    let g = GainSearch {
-        d_min_s: bound.lo,
-        d_max_s: bound.hi,
-        gain_samples: o.gain_samples,
-        v_min_mps: o.speed.v_min_mps,
-        v_max_mps: o.speed.v_max_mps,
-        speed_samples: o.speed.samples,
-        speed_tolerance_mps: o.speed.tolerance_mps,
-        gain_tolerance_s: o.gain_tolerance * scale,
-        band_fraction: o.band_fraction,
-        max_iterations: o.max_iterations,
-    };
-    let f = |d: f64| {
-        let c = LoopLaw::new(structure, actuator, Gains::yaw_rate(d), tau);
-        v_crit(model, &c, prediction, &o.speed)
-    };
-    let gains = g.gains();
-    let speeds = gains.iter().map(|&d| f(d)).collect::<Result<Vec<_>, _>>()?;
-    let (d, v, band, n) = refine_sampled(&f, &gains, &speeds, &g)?;
-    let band = GainBand {
-        gain: GainName::YawRate,
-        lo: band[0],
-        hi: band[1],
-    };
-    Ok((Gains::yaw_rate(d), v, vec![band], gains.len() + n))
-}
 
 /// Several gains: −V_crit minimised by Nelder–Mead from the given starts.
 struct CriticalSpeedProblem<'a, M: LoopModel + ?Sized> {
-    model: &'a M,
-    structure: Structure,
-    actuator: Actuator,
-    tau: f64,
-    prediction: Option<&'a dyn LoopModel>,
+    target: &'a Target<'a, M>,
     names: &'static [GainName],
     bounds: Vec<Bound>,
     search: SpeedSearch,
@@ -483,73 +532,8 @@ impl<M: LoopModel + ?Sized> MixedProblem for CriticalSpeedProblem<'_, M> {
     }
 
     fn cost(&self, _choice: usize, x: &[f64]) -> Result<f64, SwayError> {
-        let c = LoopLaw::new(self.structure, self.actuator, self.gains(x), self.tau);
-        Ok(-v_crit(self.model, &c, self.prediction, &self.search)?)
+        Ok(-self.target.v_crit(self.gains(x), &self.search)?)
     }
-}
-
-#[allow(clippy::too_many_arguments)]
-fn several_gains<M: LoopModel + ?Sized>(
-    model: &M,
-    structure: Structure,
-    actuator: Actuator,
-    tau: f64,
-    prediction: Option<&dyn LoopModel>,
-    one_gain_optimum: &Gains,
-    warm: Option<&Gains>,
-    o: &DesignSearch,
-) -> Result<Found, SwayError> {
-    let scale = actuator.scale(model.paper_model());
-    let names = structure.gain_names();
-    let problem = CriticalSpeedProblem {
-        model,
-        structure,
-        actuator,
-        tau,
-        prediction,
-        names,
-        bounds: names
-            .iter()
-            .map(|&n| o.gain_bound(n, actuator, model.paper_model()))
-            .collect(),
-        search: SpeedSearch {
-            tolerance_mps: o.search_tolerance_mps,
-            ..o.speed
-        },
-    };
-    let as_point = |g: &Gains| names.iter().map(|&n| g.get(n)).collect::<Vec<f64>>();
-    let mut starts = vec![as_point(one_gain_optimum)];
-    if let Some(w) = warm {
-        starts.push(as_point(w));
-    }
-    let best = minimise(&problem, &starts, &o.optimiser)?;
-    let gains = problem.gains(&best.x);
-    let c = LoopLaw::new(structure, actuator, gains, tau);
-    let v = v_crit(model, &c, prediction, &o.speed)?;
-    let mut n = best.evaluations + 1;
-    let mut bands = Vec::with_capacity(names.len());
-    for (i, &name) in names.iter().enumerate() {
-        let b = problem.bounds[i];
-        let along = |x: f64| {
-            let c = LoopLaw::new(structure, actuator, gains.with(name, x), tau);
-            v_crit(model, &c, prediction, &o.speed)
-        };
-        let thr = (1.0 - o.band_fraction) * v;
-        let tol = o.gain_tolerance * scale.max(1.0);
-        let at = gains.get(name);
-        let mut end = |toward: f64| -> Result<f64, SwayError> {
-            n += 1;
-            if along(toward)? >= thr {
-                return Ok(toward);
-            }
-            let (e, m) = band_end(&along, at, toward, thr, tol)?;
-            n += m;
-            Ok(e)
-        };
-        let (lo, hi) = (end(b.lo)?, end(b.hi)?);
-        bands.push(GainBand { gain: name, lo, hi });
-    }
-    Ok((gains, v, bands, n))
 }
 
 /// The rightmost root pair at V \[m/s\] whose frequency differs from the critical pair's
@@ -594,11 +578,12 @@ pub fn designs_over_delays<M: LoopModel + ?Sized>(
         let warm = out.last().map(|d| d.gains);
         out.push(design(
             model,
-            structure,
-            actuator,
-            tau,
+            &LoopLaw::new(structure, actuator, Gains::default(), tau),
             prediction,
-            warm.as_ref(),
+            DesignStart {
+                warm: warm.as_ref(),
+                yaw_rate: None,
+            },
             o,
         )?);
     }
@@ -671,11 +656,12 @@ pub fn delay_budget<M: LoopModel + ?Sized>(
     let g = |tau: f64| {
         design(
             model,
-            base.structure,
-            base.actuator,
-            tau,
+            &LoopLaw::new(base.structure, base.actuator, Gains::default(), tau),
             prediction,
-            Some(&base.gains),
+            DesignStart {
+                warm: Some(&base.gains),
+                yaw_rate: None,
+            },
             o,
         )
         .map(|d| d.v_crit_mps)

@@ -36,8 +36,8 @@ pub use sway_model::law::{
 pub use sway_model::vehicle::{LoopModel, VehicleDescription};
 
 pub use design::{
-    CommandLimits, DelayBudget, Design, DesignSearch, GainBand, GainBounds, Robustness,
-    VehicleUncertainty, delay_budget, design, design_from_start, designs_over_delays,
+    CommandLimits, DelayBudget, Design, DesignSearch, DesignStart, GainBand, GainBounds,
+    Robustness, VehicleUncertainty, delay_budget, design, designs_over_delays,
     perfect_predictor_designs, robust_critical_speed,
 };
 pub use loop_fold::{LoopHopfFold, fold_speed, hopf_and_fold};

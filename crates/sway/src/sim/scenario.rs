@@ -11,7 +11,7 @@ use super::run::{RunSettings, SimSpec, SolverSettings};
 use super::speeds::{ResolveSpeeds, Resolver, SpeedValue, UnresolvedSpeed};
 use super::{ControllerTable, SpeedProfile};
 use crate::SwayError;
-use crate::config::{Positive, ensure};
+use crate::config::{Positive, ensure, ensure_positive};
 
 /// The initial state at t = 0 (`S`: the type of the settling speed, as in
 /// [`SpeedProfile`]).
@@ -178,11 +178,11 @@ impl InitialCondition {
                 settle_s,
                 theta0_rad,
             } => {
-                ensure(
-                    speed_mps.is_finite() && speed_mps > 0.0,
+                ensure_positive(
+                    speed_mps,
                     file,
                     &format!("{key}.speed_mps"),
-                    || format!("expected a speed > 0 m/s, got {speed_mps}"),
+                    "a speed > 0 m/s",
                 )?;
                 ensure(
                     settle_s.is_finite() && settle_s >= 0.0,
@@ -483,11 +483,11 @@ impl SwayStart {
     /// # Errors
     /// [`SwayError::Config`].
     pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), SwayError> {
-        ensure(
-            self.speed_mps.is_finite() && self.speed_mps > 0.0,
+        ensure_positive(
+            self.speed_mps,
             file,
             &format!("{prefix}.speed_mps"),
-            || format!("expected a speed > 0 m/s, got {}", self.speed_mps),
+            "a speed > 0 m/s",
         )?;
         ensure(
             self.theta0_rad.is_finite() && self.theta0_rad.abs() < 1.5,

@@ -340,11 +340,14 @@ fn one_gain_design_is_gain_design() {
     let tau = 0.2;
     let ours = design(
         &m,
-        Structure::YawRate,
-        Actuator::Steering,
-        tau,
+        &LoopLaw::new(
+            Structure::YawRate,
+            Actuator::Steering,
+            Gains::default(),
+            tau,
+        ),
         None,
-        None,
+        DesignStart::default(),
         &o,
     )
     .unwrap();
@@ -395,11 +398,14 @@ fn perfect_predictor_design_sits_at_the_physical_gain_limit() {
     };
     let d = design(
         &m,
-        Structure::Predictor,
-        Actuator::Steering,
-        0.6,
+        &LoopLaw::new(
+            Structure::Predictor,
+            Actuator::Steering,
+            Gains::default(),
+            0.6,
+        ),
         None,
-        None,
+        DesignStart::default(),
         &o,
     )
     .unwrap();
@@ -434,21 +440,27 @@ fn hitch_sensor_design_beats_the_yaw_rate_design_and_is_confirmed_by_the_roots()
     let tau = 0.6;
     let one = design(
         &m,
-        Structure::YawRate,
-        Actuator::Steering,
-        tau,
+        &LoopLaw::new(
+            Structure::YawRate,
+            Actuator::Steering,
+            Gains::default(),
+            tau,
+        ),
         None,
-        None,
+        DesignStart::default(),
         &o,
     )
     .unwrap();
     let three = design(
         &m,
-        Structure::YawRateHitch,
-        Actuator::Steering,
-        tau,
+        &LoopLaw::new(
+            Structure::YawRateHitch,
+            Actuator::Steering,
+            Gains::default(),
+            tau,
+        ),
         None,
-        None,
+        DesignStart::default(),
         &o,
     )
     .unwrap();

@@ -9,7 +9,7 @@ use sway::config::Grid;
 use sway::control::LoopModel;
 use sway::linear::{
     EigenTable, Sensitivity, SensitivityOptions, derived_speed_grid, eigen_table, parameter_index,
-    sensitivities, sensitivities_spec, v_crit_curve, v_crit_curve_spec,
+    sensitivities, v_crit_curve,
 };
 use sway::progress::Progress;
 use sway::ranging::SpeedLimits;
@@ -209,7 +209,7 @@ fn rounding_study(
         let values: Vec<f64> = offsets.iter().map(|o| p0 + o).collect();
         match vehicle.spec {
             None => v_crit_curve(vehicle.params, i, &values, v_crit),
-            Some(spec) => v_crit_curve_spec(spec, i, &values, v_crit),
+            Some(spec) => v_crit_curve(spec, i, &values, v_crit),
         }
     };
     let (by_h, by_l) = (along(ih, h0)?, along(il, l0)?);
@@ -277,7 +277,7 @@ pub fn compute(
             &cfg.sensitivity,
             search.tolerance,
         )?,
-        Some(spec) => sensitivities_spec(spec, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?,
+        Some(spec) => sensitivities(spec, vc.v_crit_mps, &cfg.sensitivity, search.tolerance)?,
     };
     let rounding = rounding_study(vehicle, &sens, vc.v_crit_mps, cfg.length_rounding_m)?;
     progress.advance(1);

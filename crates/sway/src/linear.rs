@@ -4,13 +4,11 @@
 
 use nalgebra::Complex;
 use serde::{Deserialize, Serialize};
-use trailer_model::{
-    AnyVehicleModel, CriticalSpeedOptions, Model, PARAMETERS, VehicleParams, VehicleSpec,
-};
+use trailer_model::{CriticalSpeedOptions, PARAMETERS, VehicleParams};
 
 use crate::SwayError;
 use crate::config::Grid;
-use sway_model::vehicle::LoopModel;
+use sway_model::vehicle::{LoopModel, VehicleDescription};
 
 /// Eigenvalues of Ã along a speed grid, each column following one eigenvalue
 /// continuously (matched to the previous speed by nearest distance); n columns for a plant
@@ -174,23 +172,27 @@ fn v_crit_near<M: LoopModel + ?Sized>(
 }
 
 /// dV_crit/dp for every parameter of [`PARAMETERS`] by central differences of V_crit
-/// (each V_crit solved by bisection to `tolerance`). The loads, μ0, μ and g do not enter
-/// the linearisation (the brush tire's slope at α = 0 is C), so their sensitivities are 0.
+/// (each V_crit solved by bisection to `tolerance`) of `vehicle`: the paper's parameters, or
+/// a vehicle file of any form (tyre relaxation, tyre laws, axle lists, hitch damping), each
+/// parameter changed on the file about its equivalent single-axle value
+/// ([`VehicleDescription::with_paper_value`]); a key the file does not have (an axle key of
+/// a unit given as a list of axles) gets NaN. The loads, μ0, μ and g do not enter the
+/// linearisation (the brush tire's slope at α = 0 is C), so their sensitivities are 0.
 ///
 /// # Errors
-/// If a perturbed vehicle has no critical speed near the nominal one.
-pub fn sensitivities(
-    params: &VehicleParams,
+/// If the file is invalid or a changed vehicle has no critical speed near the nominal one.
+pub fn sensitivities<D: VehicleDescription>(
+    vehicle: &D,
     v_crit: f64,
     opts: &SensitivityOptions,
     tolerance: f64,
 ) -> Result<Vec<Sensitivity>, SwayError> {
     central_differences(
-        params,
+        &vehicle.paper_values()?,
         v_crit,
         opts,
-        |i, value| Some(params.with(i, value)),
-        |p| v_crit_near(&Model::new(*p)?, v_crit, 3.0, tolerance),
+        |i, value| vehicle.with_paper_value(i, value).ok(),
+        |changed| v_crit_near(&changed.model()?, v_crit, 3.0, tolerance),
     )
 }
 
@@ -235,22 +237,24 @@ fn central_differences<T>(
         .collect()
 }
 
-/// V_crit as parameter `index` of [`PARAMETERS`] takes each of `values`; None where the
-/// changed vehicle has no critical speed within ±0.9·`around` (it became stable there, or
-/// its V_crit moved far: a vehicle near the edge of stability).
+/// V_crit of `vehicle` as parameter `index` of [`PARAMETERS`] takes each of `values`; None
+/// where the changed vehicle has no critical speed within ±0.9·`around` (it became stable
+/// there, or its V_crit moved far: a vehicle near the edge of stability), and every value
+/// None where a vehicle file does not have the key (an axle key of a unit given as a list
+/// of axles).
 ///
 /// # Errors
 /// If a changed vehicle is invalid, or its eigenvalues are not finite.
-pub fn v_crit_curve(
-    params: &VehicleParams,
+pub fn v_crit_curve<D: VehicleDescription>(
+    vehicle: &D,
     index: usize,
     values: &[f64],
     around: f64,
 ) -> Result<Vec<(f64, Option<f64>)>, SwayError> {
     curve(
         values,
-        |p| Some(params.with(index, p)),
-        |changed| v_crit_near(&Model::new(*changed)?, around, 0.9 * around, 1e-9),
+        |p| vehicle.with_paper_value(index, p).ok(),
+        |changed| v_crit_near(&changed.model()?, around, 0.9 * around, 1e-9),
     )
 }
 
@@ -275,47 +279,6 @@ fn curve<T>(
             Ok((p, v))
         })
         .collect()
-}
-
-/// [`sensitivities`] of a vehicle file of any form (tyre relaxation, tyre laws, axle
-/// lists, hitch damping): each parameter of [`PARAMETERS`] changed on the file
-/// ([`VehicleSpec::with_parameter`], about its equivalent single-axle value) and V_crit of
-/// the changed plant. A key the file does not have (an axle key of a unit given as a list
-/// of axles) gets NaN.
-///
-/// # Errors
-/// If the file is invalid or a changed vehicle has no critical speed near the nominal one.
-pub fn sensitivities_spec(
-    spec: &VehicleSpec,
-    v_crit: f64,
-    opts: &SensitivityOptions,
-    tolerance: f64,
-) -> Result<Vec<Sensitivity>, SwayError> {
-    central_differences(
-        &spec.equivalent_params()?,
-        v_crit,
-        opts,
-        |i, value| spec.with_parameter(i, value).ok(),
-        |s| v_crit_near(&AnyVehicleModel::new(s)?, v_crit, 3.0, tolerance),
-    )
-}
-
-/// [`v_crit_curve`] of a vehicle file of any form; every value None where the file does
-/// not have the key (an axle key of a unit given as a list of axles).
-///
-/// # Errors
-/// If a changed vehicle is invalid, or its eigenvalues are not finite.
-pub fn v_crit_curve_spec(
-    spec: &VehicleSpec,
-    index: usize,
-    values: &[f64],
-    around: f64,
-) -> Result<Vec<(f64, Option<f64>)>, SwayError> {
-    curve(
-        values,
-        |p| spec.with_parameter(index, p).ok(),
-        |changed| v_crit_near(&AnyVehicleModel::new(changed)?, around, 0.9 * around, 1e-9),
-    )
 }
 
 /// Index of a parameter of [`PARAMETERS`] by its paper symbol.

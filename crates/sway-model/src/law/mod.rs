@@ -28,9 +28,10 @@ pub mod table;
 
 pub use limits::{ActuatorLimits, CommandLimit, ModelError};
 
-use nalgebra::{DMatrix, DVector, RowDVector, RowVector4, Vector4};
+use nalgebra::{DMatrix, DVector, RowDVector, RowVector4, SVector, Vector4};
+use num_dual::DualNum;
 use serde::{Deserialize, Serialize};
-use trailer_model::{HITCH_ANGLE, Linearization, Model, PlantLinearization};
+use trailer_model::{HITCH_ANGLE, Linearization, Model, Plant, PlantLinearization};
 
 /// The linearisation of a plant of any state count n about straight running at one speed
 /// V: x' = A x + B δ + B_M M_z, ψ̇ = C x (eq. 9–11 for the paper's model, n = 4), as
@@ -426,6 +427,41 @@ impl LoopLaw {
         } else {
             0.0
         }
+    }
+
+    /// The measured output y of an output-feedback structure at the (delayed) state `x` of
+    /// `plant`, in a simulation: u(t) = −y(t − τ) with y = D·ψ̇ + K_θ·θ + D_θ·θ̇ (`yaw_rate`:
+    /// D·ψ̇, its hitch gains 0; θ̇ the plant's nonlinear hitch-angle rate). The predictor's
+    /// command is not a function of one delayed state (its realisation is in the
+    /// simulation): 0.
+    #[inline]
+    pub fn measured_output<P: Plant<M>, const M: usize>(
+        &self,
+        plant: &P,
+        x: &SVector<f64, M>,
+    ) -> f64 {
+        let g = &self.gains;
+        match self.structure {
+            Structure::YawRate | Structure::YawRateHitch => {
+                g.yaw_rate * plant.yaw_rate(x)
+                    + g.hitch_angle * x[HITCH_ANGLE]
+                    + g.hitch_rate * plant.hitch_angle_rate(x)
+            }
+            Structure::Predictor => 0.0,
+        }
+    }
+
+    /// The part of the measured output beyond the yaw rate, K_θ·θ + D_θ·θ̇ of
+    /// [`LoopLaw::hitch_gains`], for any number type (the continuation's exact derivatives);
+    /// 0 where the structure feeds back the yaw rate alone.
+    #[inline]
+    pub fn output_beyond_yaw_rate<T, P, const M: usize>(&self, plant: &P, x: &SVector<T, M>) -> T
+    where
+        T: DualNum<Primitive = f64> + Copy,
+        P: Plant<M>,
+    {
+        let (hitch_angle, hitch_rate) = self.hitch_gains();
+        x[HITCH_ANGLE] * hitch_angle + plant.hitch_angle_rate(x) * hitch_rate
     }
 
     /// Times \[s\] where the command may jump: switching on and off, and for the predictor

@@ -25,7 +25,7 @@
 use continuation::Problem;
 use nalgebra::SVector;
 use num_dual::{Dual64, DualNum, DualSVec64, HyperDual64, jacobian};
-use trailer_model::{HITCH_ANGLE, Inputs, Model};
+use trailer_model::{Inputs, Model};
 
 use sway_model::law::{Actuator, LoopLaw};
 use sway_model::vehicle::{LossOfControl, Vehicle, actuated_rhs, input_jacobian};
@@ -119,8 +119,9 @@ impl<'a, P: Vehicle<N>, const N: usize> ClosedLoop<'a, P, N> {
     }
 
     /// K_θ·θ + D_θ·θ̇ of the fed-back state, for any number type
+    /// ([`LoopLaw::output_beyond_yaw_rate`])
     fn hitch_term<T: DualNum<Primitive = f64> + Copy>(&self, xf: &SVector<T, N>) -> T {
-        xf[HITCH_ANGLE] * self.hitch.0 + self.model.hitch_angle_rate(xf) * self.hitch.1
+        self.law.output_beyond_yaw_rate(self.model, xf)
     }
 
     /// K_θ·θ + D_θ·θ̇ of the fed-back part of stacked arguments `v`

@@ -199,13 +199,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
                 let z = Vector4::from_fn(|i, _| current[N - 4 + i]);
                 -((c.k_e * xd)[(0, 0)] + (c.k * z)[(0, 0)])
             }
-            _ => {
-                let xd = Self::xr(delayed);
-                let g = &c.law.gains;
-                -(g.yaw_rate * self.plant.yaw_rate(&xd)
-                    + g.hitch_angle * xd[trailer_model::HITCH_ANGLE]
-                    + g.hitch_rate * self.plant.hitch_angle_rate(&xd))
-            }
+            _ => -c.law.measured_output(self.plant, &Self::xr(delayed)),
         }
     }
     /// The command u(t) applied by a loop \[rad or N m\] (saturated for braking) and its

@@ -444,6 +444,18 @@ mod tests {
         a
     }
 
+    /// the solution of A x = `b` by the band LU of A and by nalgebra's dense LU of `a` = A
+    fn solve_both(lu: &BandedLu, a: &DMatrix<f64>, b: Vec<f64>) -> (DVector<f64>, DVector<f64>) {
+        let mut x = b.clone();
+        lu.solve(&mut x);
+        let reference = a
+            .clone()
+            .lu()
+            .solve(&DVector::from_vec(b))
+            .expect("regular");
+        (DVector::from_vec(x), reference)
+    }
+
     /// solution and determinant against nalgebra's dense LU (independent), 1e-10
     /// relative: the band LU pivots within the band, so its rounding differs. The stiff
     /// mode (e^(−2000) over the period) is the case the backward elimination failed.
@@ -454,14 +466,8 @@ mod tests {
         assert_eq!(lu.layout.wraps.len(), 4);
         let a = dense(n, &e);
         let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
-        let mut x = b.clone();
-        lu.solve(&mut x);
-        let reference = a
-            .clone()
-            .lu()
-            .solve(&DVector::from_vec(b))
-            .expect("regular");
-        let err = (DVector::from_vec(x) - &reference).amax() / reference.amax();
+        let (x, reference) = solve_both(&lu, &a, b);
+        let err = (x - &reference).amax() / reference.amax();
         assert!(err < 1e-10, "solution error {err:e}");
         let det = a.determinant();
         let d = lu.determinant();
@@ -485,14 +491,8 @@ mod tests {
         let lu = BandedLu::new(n, &e, Some(&order)).expect("banded");
         let a = dense(n, &e);
         let b: Vec<f64> = (0..n).map(|i| 1.0 + (i % 7) as f64).collect();
-        let mut x = b.clone();
-        lu.solve(&mut x);
-        let reference = a
-            .clone()
-            .lu()
-            .solve(&DVector::from_vec(b))
-            .expect("regular");
-        assert!((DVector::from_vec(x) - &reference).amax() < 1e-9 * reference.amax());
+        let (x, reference) = solve_both(&lu, &a, b);
+        assert!((x - &reference).amax() < 1e-9 * reference.amax());
         assert_eq!(lu.determinant().sign, a.determinant().signum());
     }
 

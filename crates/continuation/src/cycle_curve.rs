@@ -14,6 +14,8 @@
 //!   rows of the residual and the Jacobian, weights, the node-interleaved column order, the
 //!   mesh structure, the extrapolation of a curve's end to zero amplitude), and the curve
 //!   loop with stop rules;
+//! - the one [`ContinuationSystem`] implementation of the three systems: the cycle's part
+//!   written once, the extra equations from each system's [`CycleRows`];
 //! - the rows of a *real* mode v on the cycle's mesh, y'(s) = T Σ_j J_j(s) y(s − τ_j/T),
 //!   either periodic with a period component v_T (the null vector of the linearised
 //!   periodic problem: folds of cycles) or antiperiodic, v(s + 1) = −v(s) (the Floquet mode
@@ -28,7 +30,7 @@ use crate::linalg::{Entry, MeshStructure};
 use crate::linear_solver::{Factorisation, LinearSolver, SparseLu};
 use crate::periodic::{Loc, PeriodicOrbitSystem};
 use crate::problem::Problem;
-use crate::stability::Stability;
+use crate::stability::{SpecialKind, Stability};
 use crate::{BranchPoint, CollocationOptions};
 use num_complex::Complex64;
 
@@ -265,7 +267,8 @@ pub trait CycleExtension {
 /// [`crate::FoldOfCyclesSystem`], [`crate::PeriodDoublingCurveSystem`] and
 /// [`crate::TorusCurveSystem`], whose documentation gives their equations. The unknowns
 /// are u = [x, T, p1, p2, extra…] (x the n·L·m profile values, T the period); the
-/// constructors and the getters of the cycle are those of all three.
+/// constructors, the getters of the cycle and the [`ContinuationSystem`] implementation
+/// (p1, p2, the cycle's rows first, then the extra equations of `E`) are those of all three.
 #[derive(Debug)]
 pub struct CycleCurveSystem<'a, P: Problem, E> {
     pub(crate) base: CycleCurve<'a, P>,
@@ -395,6 +398,120 @@ impl<'a, P: Problem, E> CycleCurveSystem<'a, P, E> {
             }
         }
         Ok(Some(Stability::from_multipliers(mu)))
+    }
+}
+
+/// The extra equations of a two-parameter cycle system, what each extension adds to the one
+/// [`ContinuationSystem`] implementation of [`CycleCurveSystem`]. That implementation holds
+/// what the three systems share: p1 and p2 at u\[np + 1\] and u\[np + 2\], the cycle's rows
+/// first and their Jacobian, the finiteness checks of the extra rows, the weights, the mesh
+/// structure, the node-interleaved column order and the cycle as the phase reference of an
+/// accepted point. The functions take the whole system: the extra rows read the cycle.
+pub(crate) trait CycleRows: CycleExtension + Sized {
+    /// the number of unknowns, [x, T, p1, p2] and the extra ones, with `np` profile unknowns
+    fn n_unknowns(np: usize) -> usize;
+
+    /// the first columns of the extra unknowns' profile-sized blocks (interleaved with the
+    /// cycle node by node, and the blocks of the mesh structure) and the border columns,
+    /// eliminated last (see [`CycleCurve::interleaved_order`])
+    fn column_blocks(np: usize) -> (Vec<usize>, Vec<usize>);
+
+    /// the extra rows `rows` of the residual at u (p1 and p2 already set from u)
+    fn residual_rows<P: Problem>(
+        sys: &mut CycleCurveSystem<'_, P, Self>,
+        u: &[f64],
+        rows: &mut [f64],
+    ) -> Result<()>;
+
+    /// entries of the extra rows copied from the cycle's Jacobian `entries[cycle..]`,
+    /// appended; like the cycle's own entries they are not checked finite (default: none)
+    fn repeat_cycle_entries(_np: usize, _entries: &mut Vec<Entry>, _cycle: usize) {}
+
+    /// the Jacobian entries of the extra rows at u (and of the cycle's rows in the extra
+    /// columns, such as p2's), appended
+    fn jacobian_rows<P: Problem>(
+        sys: &mut CycleCurveSystem<'_, P, Self>,
+        u: &[f64],
+        entries: &mut Vec<Entry>,
+    ) -> Result<()>;
+
+    /// the references of the accepted point u other than its cycle (set already)
+    fn set_reference<P: Problem>(sys: &mut CycleCurveSystem<'_, P, Self>, u: &[f64]);
+
+    /// the stability of the point u (see [`CycleCurveSystem::stability_without`])
+    fn stability<P: Problem>(
+        sys: &mut CycleCurveSystem<'_, P, Self>,
+        u: &[f64],
+    ) -> Result<Option<Stability>>;
+
+    /// which special point, if any, lies between two stabilities (default: none)
+    fn classify(_a: &Stability, _b: &Stability) -> Option<SpecialKind> {
+        None
+    }
+}
+
+/// The continuation system of every two-parameter cycle curve: p1 at u\[np + 1\], p2 at
+/// u\[np + 2\], the cycle's rows (collocation and phase) first, then the rows of the extra
+/// equations, each system's own (see the type's documentation).
+impl<P: Problem, E: CycleRows> ContinuationSystem for CycleCurveSystem<'_, P, E> {
+    fn n_unknowns(&self) -> usize {
+        E::n_unknowns(self.np())
+    }
+    fn parameter_index(&self) -> usize {
+        self.np() + 1
+    }
+    fn secondary_parameter_index(&self) -> Option<usize> {
+        Some(self.np() + 2)
+    }
+
+    fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
+        let rows = self.base.cycle_residual(u, r)?;
+        E::residual_rows(self, u, rows)?;
+        self.base.finite(u, rows.iter().all(|x| x.is_finite()))
+    }
+
+    fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
+        let cycle = entries.len();
+        self.base.cycle_jacobian(u, entries)?;
+        E::repeat_cycle_entries(self.np(), entries, cycle);
+        let start = entries.len();
+        E::jacobian_rows(self, u, entries)?;
+        self.base
+            .finite(u, entries[start..].iter().all(|e| e.val.is_finite()))
+    }
+
+    /// the cycle and the extra profile-sized blocks interleaved node by node (each node's
+    /// state of the cycle, then of each block), the border columns (T, p1, p2 and the extra
+    /// scalars) last: the Jacobian is then banded like the cycle's
+    fn column_order(&self) -> Option<Vec<usize>> {
+        let (blocks, border) = E::column_blocks(self.np());
+        Some(self.base.interleaved_order(&blocks, &border))
+    }
+
+    /// the cycle's weights ([`PeriodicOrbitSystem`]), p2 weighted like p1, the extra
+    /// unknowns not at all
+    fn weights(&self) -> Vec<f64> {
+        self.base.weights(self.n_unknowns())
+    }
+
+    /// the cycle and the extra profile-sized blocks on the mesh (see
+    /// [`LinearSolver::Krylov`])
+    fn mesh_structure(&self) -> Option<MeshStructure> {
+        let (blocks, _) = E::column_blocks(self.np());
+        self.base.mesh_structure(blocks.len())
+    }
+
+    fn accept(&mut self, u: &[f64]) {
+        self.base.accept(u);
+        E::set_reference(self, u);
+    }
+
+    fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
+        E::stability(self, u)
+    }
+
+    fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
+        E::classify(a, b)
     }
 }
 
@@ -554,12 +671,13 @@ impl ModeScratch {
     }
 }
 
-/// where the real-mode terms go
+/// where the rows of a mode go (the real mode's here, the complex torus mode's in
+/// [`crate::torus`])
 pub(crate) enum Out<'b> {
-    /// the n·L·m mode rows
+    /// the mode's rows of the residual
     Residual(&'b mut [f64]),
-    /// Jacobian rows of the mode (second-order terms; for an antiperiodic mode also the
-    /// mode's own columns) and the p2 column of R
+    /// their Jacobian entries and the p2 column of R (real mode: the second-order terms, for
+    /// an antiperiodic mode also the mode's own columns)
     Jacobian(&'b mut Vec<Entry>),
 }
 

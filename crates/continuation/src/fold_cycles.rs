@@ -6,12 +6,12 @@
 
 use crate::BranchPoint;
 use crate::cycle_curve::{
-    CycleCurve, CycleCurveSystem, CycleExtension, ModeScratch, Out, RealMode, extend_checked,
-    set_reference_mode,
+    CycleCurve, CycleCurveSystem, CycleExtension, CycleRows, ModeScratch, Out, RealMode,
+    extend_checked, set_reference_mode,
 };
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, MeshStructure};
+use crate::linalg::Entry;
 use crate::periodic::PeriodicOrbitSystem;
 use crate::problem::Problem;
 use crate::stability::{Location, SpecialKind, SpecialPoint, Stability};
@@ -400,28 +400,35 @@ impl<'a, P: Problem> FoldOfCyclesSystem<'a, P> {
     }
 }
 
-impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
-    fn n_unknowns(&self) -> usize {
-        2 * self.np() + 4
-    }
-    fn parameter_index(&self) -> usize {
-        self.np() + 1
-    }
-    fn secondary_parameter_index(&self) -> Option<usize> {
-        Some(self.np() + 2)
+impl CycleRows for FoldExtension {
+    /// u = [x, T, p1, p2, v, v_T]
+    fn n_unknowns(np: usize) -> usize {
+        2 * np + 4
     }
 
-    fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
-        let np = self.np();
-        let r_null = self.base.cycle_residual(u, r)?;
-        self.base.real_mode_rows(
+    /// x and v interleaved node by node (each node's state of the cycle, then of the null
+    /// vector), the borders (T, v_T, p1, p2) last: the doubled Jacobian [[A, 0], [B(v), A]]
+    /// is then banded like A, and the fill of simplicial factors stays in that band (large
+    /// systems are factorised with supernodes in COLAMD order instead, see the engine)
+    fn column_blocks(np: usize) -> (Vec<usize>, Vec<usize>) {
+        (vec![np + 3], vec![np, 2 * np + 3, np + 1, np + 2])
+    }
+
+    /// ∂R/∂(x, T)·(v, v_T), φ·v and the normalisation ⟨v_ref, (v, v_T)⟩ − 1
+    fn residual_rows<P: Problem>(
+        sys: &mut FoldOfCyclesSystem<'_, P>,
+        u: &[f64],
+        r_null: &mut [f64],
+    ) -> Result<()> {
+        let np = sys.np();
+        sys.base.real_mode_rows(
             u,
             RealMode::Periodic,
-            &mut self.ext.s,
+            &mut sys.ext.s,
             Out::Residual(&mut r_null[..np]),
         )?;
         let v = &u[np + 3..];
-        r_null[np] = self
+        r_null[np] = sys
             .base
             .po
             .phase_row
@@ -429,67 +436,52 @@ impl<P: Problem> ContinuationSystem for FoldOfCyclesSystem<'_, P> {
             .zip(v)
             .map(|(a, b)| a * b)
             .sum();
-        r_null[np + 1] = self.inner(&self.ext.v_ref, v) - 1.0;
-        self.base.finite(u, r_null.iter().all(|x| x.is_finite()))
+        r_null[np + 1] = sys.inner(&sys.ext.v_ref, v) - 1.0;
+        Ok(())
     }
 
-    fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
-        let np = self.np();
-        let start = entries.len();
-        self.base.cycle_jacobian(u, entries)?;
-        // the null-vector rows contain A itself: the cycle's (x, T) columns, shifted
-        for idx in start..entries.len() {
+    /// the null-vector rows contain A itself: the cycle's (x, T) columns, shifted
+    fn repeat_cycle_entries(np: usize, entries: &mut Vec<Entry>, cycle: usize) {
+        for idx in cycle..entries.len() {
             let (row, col, val) = (entries[idx].row, entries[idx].col, entries[idx].val);
             if col <= np {
                 entries.push(Entry::new(row + np + 1, col + np + 3, val));
             }
         }
-        let second = entries.len();
-        self.base.real_mode_rows(
+    }
+
+    fn jacobian_rows<P: Problem>(
+        sys: &mut FoldOfCyclesSystem<'_, P>,
+        u: &[f64],
+        entries: &mut Vec<Entry>,
+    ) -> Result<()> {
+        let np = sys.np();
+        sys.base.real_mode_rows(
             u,
             RealMode::Periodic,
-            &mut self.ext.s,
+            &mut sys.ext.s,
             Out::Jacobian(entries),
         )?;
-        let w = 1.0 / self.base.po.n_nodes() as f64;
-        for (i, &v) in self.ext.v_ref[..np].iter().enumerate() {
+        let w = 1.0 / sys.base.po.n_nodes() as f64;
+        for (i, &v) in sys.ext.v_ref[..np].iter().enumerate() {
             entries.push(Entry::new(2 * np + 2, np + 3 + i, v * w));
         }
-        entries.push(Entry::new(2 * np + 2, 2 * np + 3, self.ext.v_ref[np]));
-        self.base
-            .finite(u, entries[second..].iter().all(|e| e.val.is_finite()))
+        entries.push(Entry::new(2 * np + 2, 2 * np + 3, sys.ext.v_ref[np]));
+        Ok(())
     }
 
-    /// x and v interleaved node by node (each node's state of the cycle, then of the null
-    /// vector), the borders (T, v_T, p1, p2) last: the doubled Jacobian [[A, 0], [B(v), A]]
-    /// is then banded like A, and the fill of simplicial factors stays in that band (large
-    /// systems are factorised with supernodes in COLAMD order instead, see the engine)
-    fn column_order(&self) -> Option<Vec<usize>> {
-        let np = self.np();
-        Some(
-            self.base
-                .interleaved_order(&[np + 3], &[np, 2 * np + 3, np + 1, np + 2]),
-        )
-    }
-
-    fn weights(&self) -> Vec<f64> {
-        self.base.weights(self.n_unknowns())
-    }
-
-    /// the cycle and the null vector on the mesh (see [`crate::LinearSolver::Krylov`])
-    fn mesh_structure(&self) -> Option<MeshStructure> {
-        self.base.mesh_structure(1)
-    }
-
-    fn accept(&mut self, u: &[f64]) {
-        let np = self.np();
-        self.base.accept(u);
+    fn set_reference<P: Problem>(sys: &mut FoldOfCyclesSystem<'_, P>, u: &[f64]) {
+        let np = sys.np();
         let v = &u[np + 3..];
-        let norm = self.inner(v, v).sqrt();
-        set_reference_mode(&mut self.ext.v_ref, v, norm);
+        let norm = sys.inner(v, v).sqrt();
+        set_reference_mode(&mut sys.ext.v_ref, v, norm);
     }
 
-    fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
-        self.stability_without(u, self.ext.options.multipliers, &[])
+    /// all the cycle's multipliers (the fold's own, ≈ 1, among them)
+    fn stability<P: Problem>(
+        sys: &mut FoldOfCyclesSystem<'_, P>,
+        u: &[f64],
+    ) -> Result<Option<Stability>> {
+        sys.stability_without(u, sys.ext.options.multipliers, &[])
     }
 }

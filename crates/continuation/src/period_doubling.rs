@@ -6,12 +6,12 @@
 
 use crate::BranchPoint;
 use crate::cycle_curve::{
-    CycleCurveSystem, CycleExtension, ModeScratch, Out, RealMode, generic_start, inverse_iteration,
-    set_reference_mode,
+    CycleCurveSystem, CycleExtension, CycleRows, ModeScratch, Out, RealMode, generic_start,
+    inverse_iteration, set_reference_mode,
 };
 use crate::engine::ContinuationSystem;
 use crate::error::{Error, Result};
-use crate::linalg::{Entry, MeshStructure};
+use crate::linalg::Entry;
 use crate::periodic::PeriodicOrbitSystem;
 use crate::problem::Problem;
 use crate::stability::{SpecialKind, Stability};
@@ -146,84 +146,71 @@ impl<'a, P: Problem> PeriodDoublingCurveSystem<'a, P> {
     }
 }
 
-impl<P: Problem> ContinuationSystem for PeriodDoublingCurveSystem<'_, P> {
-    fn n_unknowns(&self) -> usize {
-        2 * self.np() + 3
-    }
-    fn parameter_index(&self) -> usize {
-        self.np() + 1
-    }
-    fn secondary_parameter_index(&self) -> Option<usize> {
-        Some(self.np() + 2)
-    }
-
-    fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
-        let np = self.np();
-        let r_mode = self.base.cycle_residual(u, r)?;
-        self.base.real_mode_rows(
-            u,
-            RealMode::Antiperiodic,
-            &mut self.ext.s,
-            Out::Residual(&mut r_mode[..np]),
-        )?;
-        r_mode[np] = self.base.mean_dot(&self.ext.v_ref, &u[np + 3..]) - 1.0;
-        self.base.finite(u, r_mode.iter().all(|x| x.is_finite()))
-    }
-
-    fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
-        let np = self.np();
-        self.base.cycle_jacobian(u, entries)?;
-        let start = entries.len();
-        self.base.real_mode_rows(
-            u,
-            RealMode::Antiperiodic,
-            &mut self.ext.s,
-            Out::Jacobian(entries),
-        )?;
-        let w = 1.0 / self.base.po.n_nodes() as f64;
-        for (g, &v) in self.ext.v_ref.iter().enumerate() {
-            entries.push(Entry::new(2 * np + 1, np + 3 + g, v * w));
-        }
-        self.base
-            .finite(u, entries[start..].iter().all(|e| e.val.is_finite()))
+impl CycleRows for PeriodDoublingExtension {
+    /// u = [x, T, p1, p2, v]
+    fn n_unknowns(np: usize) -> usize {
+        2 * np + 3
     }
 
     /// the cycle x and the mode v interleaved node by node, the border (T, p1, p2) last
-    fn column_order(&self) -> Option<Vec<usize>> {
-        let np = self.np();
-        Some(
-            self.base
-                .interleaved_order(&[np + 3], &[np, np + 1, np + 2]),
-        )
+    fn column_blocks(np: usize) -> (Vec<usize>, Vec<usize>) {
+        (vec![np + 3], vec![np, np + 1, np + 2])
     }
 
-    /// the cycle's weights ([`PeriodicOrbitSystem`]), p2 weighted like p1, the mode not
-    /// at all
-    fn weights(&self) -> Vec<f64> {
-        self.base.weights(self.n_unknowns())
+    /// (PD1) at the collocation points and (PD3)
+    fn residual_rows<P: Problem>(
+        sys: &mut PeriodDoublingCurveSystem<'_, P>,
+        u: &[f64],
+        r_mode: &mut [f64],
+    ) -> Result<()> {
+        let np = sys.np();
+        sys.base.real_mode_rows(
+            u,
+            RealMode::Antiperiodic,
+            &mut sys.ext.s,
+            Out::Residual(&mut r_mode[..np]),
+        )?;
+        r_mode[np] = sys.base.mean_dot(&sys.ext.v_ref, &u[np + 3..]) - 1.0;
+        Ok(())
     }
 
-    /// the cycle and the mode on the mesh (see [`crate::LinearSolver::Krylov`])
-    fn mesh_structure(&self) -> Option<MeshStructure> {
-        self.base.mesh_structure(1)
+    fn jacobian_rows<P: Problem>(
+        sys: &mut PeriodDoublingCurveSystem<'_, P>,
+        u: &[f64],
+        entries: &mut Vec<Entry>,
+    ) -> Result<()> {
+        let np = sys.np();
+        sys.base.real_mode_rows(
+            u,
+            RealMode::Antiperiodic,
+            &mut sys.ext.s,
+            Out::Jacobian(entries),
+        )?;
+        let w = 1.0 / sys.base.po.n_nodes() as f64;
+        for (g, &v) in sys.ext.v_ref.iter().enumerate() {
+            entries.push(Entry::new(2 * np + 1, np + 3 + g, v * w));
+        }
+        Ok(())
     }
 
-    fn accept(&mut self, u: &[f64]) {
-        let np = self.np();
-        self.base.accept(u);
+    fn set_reference<P: Problem>(sys: &mut PeriodDoublingCurveSystem<'_, P>, u: &[f64]) {
+        let np = sys.np();
         let v = &u[np + 3..];
-        let norm = self.base.mean_dot(v, v).sqrt();
-        set_reference_mode(&mut self.ext.v_ref, v, norm);
+        let norm = sys.base.mean_dot(v, v).sqrt();
+        set_reference_mode(&mut sys.ext.v_ref, v, norm);
     }
 
     /// the cycle's multipliers with the critical −1 removed, so that a change of the number
     /// outside the unit circle marks a codimension-two point of the curve
-    fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
+    fn stability<P: Problem>(
+        sys: &mut PeriodDoublingCurveSystem<'_, P>,
+        u: &[f64],
+    ) -> Result<Option<Stability>> {
         let minus_one = Complex64::new(-1.0, 0.0);
-        self.stability_without(u, self.ext.options.multipliers, &[minus_one])
+        sys.stability_without(u, sys.ext.options.multipliers, &[minus_one])
     }
 
-    fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
+    fn classify(a: &Stability, b: &Stability) -> Option<SpecialKind> {
         Stability::multiplier_crossing(a, b)
     }
 }

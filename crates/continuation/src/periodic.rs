@@ -428,20 +428,37 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     /// discretised problem (the discrete cycle depends on its phase relative to the mesh at
     /// the level of the discretisation error).
     pub fn shifted(&self, u: &[f64], shift: f64) -> Vec<f64> {
-        let n = self.dim();
         let np = self.period_index();
-        let mut x = vec![0.0; n];
-        let mut dx = vec![0.0; n];
-        let mut out: Vec<f64> = self
-            .node_times()
-            .into_iter()
-            .flat_map(|s| {
-                self.eval(u, s + shift, &mut x, &mut dx);
-                x.clone()
-            })
-            .collect();
+        let times = self.node_times().into_iter().map(|s| s + shift);
+        let mut out = self.profile_at(u, times);
         out.extend_from_slice(&u[np..]);
         out
+    }
+
+    /// the profile x(s) of the unknowns u at the times s of `times`, one state after the
+    /// other (see [`PeriodicOrbitSystem::eval`])
+    fn profile_at(&self, u: &[f64], times: impl IntoIterator<Item = f64>) -> Vec<f64> {
+        let n = self.dim();
+        let mut x = vec![0.0; n];
+        let mut dx = vec![0.0; n];
+        times
+            .into_iter()
+            .flat_map(|s| {
+                self.eval(u, s, &mut x, &mut dx);
+                x.clone()
+            })
+            .collect()
+    }
+
+    /// the same system (problem, parameters, free parameter and options) on `mesh`
+    fn on_mesh(&self, mesh: Vec<f64>) -> Result<Self> {
+        Self::with_mesh(
+            self.problem,
+            self.params.clone(),
+            self.ip,
+            mesh,
+            self.options.clone(),
+        )
     }
 
     /// The same system (problem, free parameter, mesh and options) at `params`, with its
@@ -654,13 +671,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
                     }
                 }
                 fmesh.sort_by(f64::total_cmp);
-                let mut target = Self::with_mesh(
-                    self.problem,
-                    self.params.clone(),
-                    self.ip,
-                    fmesh,
-                    self.options.clone(),
-                )?;
+                let mut target = self.on_mesh(fmesh)?;
                 let orbit = self.remesh(u, &target);
                 target.monodromy_multipliers(&orbit, None)
             }
@@ -818,13 +829,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     fn kink_resolved(&mut self, u: &[f64]) -> Result<(Self, Vec<f64>, SparseLu)> {
         let times = self.kink_times(u, KINK_GENERATIONS);
         let mesh = Self::mesh_with_points(&self.mesh, &times);
-        let mut target = Self::with_mesh(
-            self.problem,
-            self.params.clone(),
-            self.ip,
-            mesh,
-            self.options.clone(),
-        )?;
+        let mut target = self.on_mesh(mesh)?;
         target.linear_solver = self.linear_solver;
         let v = self.remesh(u, &target);
         target.set_reference(&v);
@@ -977,17 +982,7 @@ impl<'a, P: Problem> PeriodicOrbitSystem<'a, P> {
     /// Interpolate the solution `u` of this system onto the mesh of `target`
     /// (for mesh refinement); period and parameter are copied.
     pub fn remesh(&self, u: &[f64], target: &PeriodicOrbitSystem<'_, P>) -> Vec<f64> {
-        let n = self.dim();
-        let mut x = vec![0.0; n];
-        let mut dx = vec![0.0; n];
-        let mut v: Vec<f64> = target
-            .node_times()
-            .into_iter()
-            .flat_map(|s| {
-                self.eval(u, s, &mut x, &mut dx);
-                x.clone()
-            })
-            .collect();
+        let mut v = self.profile_at(u, target.node_times());
         v.push(self.period(u));
         v.push(u[u.len() - 1]);
         v

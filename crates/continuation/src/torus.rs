@@ -76,14 +76,14 @@
 
 use crate::collocation::{MAX_DEGREE, lagrange};
 use crate::cycle_curve::{
-    CycleCurveSystem, CycleExtension, extend_checked, generic_start, inverse_iteration,
-    second_derivative_matrix, set_reference_mode,
+    CycleCurveSystem, CycleExtension, CycleRows, Out, extend_checked, generic_start,
+    inverse_iteration, second_derivative_matrix, set_reference_mode,
 };
 use crate::engine::{Branch, Continuation, ContinuationSystem, Stop};
 use crate::equilibrium::HopfPoint;
 use crate::error::{Error, Result};
 use crate::hopf_curve::HopfCurveSystem;
-use crate::linalg::{Entry, MeshStructure};
+use crate::linalg::Entry;
 use crate::periodic::{Loc, PeriodicOrbitSystem};
 use crate::problem::Problem;
 use crate::roots::CharacteristicRoots;
@@ -470,12 +470,6 @@ impl CycleExtension for TorusExtension {
             s,
         }
     }
-}
-
-/// where the eigen-row terms go
-enum Out<'b> {
-    Residual(&'b mut [f64]),
-    Jacobian(&'b mut Vec<Entry>),
 }
 
 impl<'a, P: Problem> TorusCurveSystem<'a, P> {
@@ -1098,86 +1092,76 @@ impl<P: Problem> TorusCurveSystem<'_, P> {
     }
 }
 
-impl<P: Problem> ContinuationSystem for TorusCurveSystem<'_, P> {
-    fn n_unknowns(&self) -> usize {
-        3 * self.np() + 4
-    }
-    fn parameter_index(&self) -> usize {
-        self.np() + 1
-    }
-    fn secondary_parameter_index(&self) -> Option<usize> {
-        Some(self.np() + 2)
-    }
-
-    fn residual(&mut self, u: &[f64], r: &mut [f64]) -> Result<()> {
-        let np = self.np();
-        let r_mode = self.base.cycle_residual(u, r)?;
-        self.eigen_rows(u, Out::Residual(&mut r_mode[..2 * np]))?;
-        let (a, b) = self.mode(u);
-        let (base, e) = (&self.base, &self.ext);
-        let re = base.mean_dot(&e.a_ref, a) + base.mean_dot(&e.b_ref, b) - 1.0;
-        let im = base.mean_dot(&e.a_ref, b) - base.mean_dot(&e.b_ref, a);
-        r_mode[2 * np] = re;
-        r_mode[2 * np + 1] = im;
-        self.base.finite(u, r_mode.iter().all(|x| x.is_finite()))
-    }
-
-    fn jacobian(&mut self, u: &[f64], entries: &mut Vec<Entry>) -> Result<()> {
-        let np = self.np();
-        self.base.cycle_jacobian(u, entries)?;
-        let start = entries.len();
-        self.eigen_rows(u, Out::Jacobian(entries))?;
-        let w = 1.0 / self.base.po.n_nodes() as f64;
-        let (row_re, row_im) = (3 * np + 1, 3 * np + 2);
-        for (g, (&ar, &br)) in self.ext.a_ref.iter().zip(&self.ext.b_ref).enumerate() {
-            entries.push(Entry::new(row_re, np + 3 + g, ar * w));
-            entries.push(Entry::new(row_re, 2 * np + 3 + g, br * w));
-            entries.push(Entry::new(row_im, 2 * np + 3 + g, ar * w));
-            entries.push(Entry::new(row_im, np + 3 + g, -br * w));
-        }
-        self.base
-            .finite(u, entries[start..].iter().all(|e| e.val.is_finite()))
+impl CycleRows for TorusExtension {
+    /// u = [x, T, p1, p2, a, b, θ]
+    fn n_unknowns(np: usize) -> usize {
+        3 * np + 4
     }
 
     /// the cycle x and the mode (a, b) interleaved node by node (each node's state of x,
     /// then of a, then of b), the border (T, θ, p1, p2) last: the Jacobian is then banded
     /// like the cycle's, in blocks three times as wide
-    fn column_order(&self) -> Option<Vec<usize>> {
-        let np = self.np();
-        Some(
-            self.base
-                .interleaved_order(&[np + 3, 2 * np + 3], &[np, 3 * np + 3, np + 1, np + 2]),
+    fn column_blocks(np: usize) -> (Vec<usize>, Vec<usize>) {
+        (
+            vec![np + 3, 2 * np + 3],
+            vec![np, 3 * np + 3, np + 1, np + 2],
         )
     }
 
-    /// the cycle's weights ([`PeriodicOrbitSystem`]), p2 weighted like p1, the mode and θ
-    /// not at all
-    fn weights(&self) -> Vec<f64> {
-        self.base.weights(self.n_unknowns())
+    /// (T1), real and imaginary parts, and (T3)
+    fn residual_rows<P: Problem>(
+        sys: &mut TorusCurveSystem<'_, P>,
+        u: &[f64],
+        r_mode: &mut [f64],
+    ) -> Result<()> {
+        let np = sys.np();
+        sys.eigen_rows(u, Out::Residual(&mut r_mode[..2 * np]))?;
+        let (a, b) = sys.mode(u);
+        let (base, e) = (&sys.base, &sys.ext);
+        let re = base.mean_dot(&e.a_ref, a) + base.mean_dot(&e.b_ref, b) - 1.0;
+        let im = base.mean_dot(&e.a_ref, b) - base.mean_dot(&e.b_ref, a);
+        r_mode[2 * np] = re;
+        r_mode[2 * np + 1] = im;
+        Ok(())
     }
 
-    /// the cycle and the two parts of the mode on the mesh (see
-    /// [`crate::LinearSolver::Krylov`])
-    fn mesh_structure(&self) -> Option<MeshStructure> {
-        self.base.mesh_structure(2)
+    fn jacobian_rows<P: Problem>(
+        sys: &mut TorusCurveSystem<'_, P>,
+        u: &[f64],
+        entries: &mut Vec<Entry>,
+    ) -> Result<()> {
+        let np = sys.np();
+        sys.eigen_rows(u, Out::Jacobian(entries))?;
+        let w = 1.0 / sys.base.po.n_nodes() as f64;
+        let (row_re, row_im) = (3 * np + 1, 3 * np + 2);
+        for (g, (&ar, &br)) in sys.ext.a_ref.iter().zip(&sys.ext.b_ref).enumerate() {
+            entries.push(Entry::new(row_re, np + 3 + g, ar * w));
+            entries.push(Entry::new(row_re, 2 * np + 3 + g, br * w));
+            entries.push(Entry::new(row_im, 2 * np + 3 + g, ar * w));
+            entries.push(Entry::new(row_im, np + 3 + g, -br * w));
+        }
+        Ok(())
     }
 
-    fn accept(&mut self, u: &[f64]) {
-        self.base.accept(u);
-        let (a, b) = self.mode(u);
-        let norm = (self.base.mean_dot(a, a) + self.base.mean_dot(b, b)).sqrt();
-        set_reference_mode(&mut self.ext.a_ref, a, norm);
-        set_reference_mode(&mut self.ext.b_ref, b, norm);
+    fn set_reference<P: Problem>(sys: &mut TorusCurveSystem<'_, P>, u: &[f64]) {
+        let (a, b) = sys.mode(u);
+        let norm = (sys.base.mean_dot(a, a) + sys.base.mean_dot(b, b)).sqrt();
+        set_reference_mode(&mut sys.ext.a_ref, a, norm);
+        set_reference_mode(&mut sys.ext.b_ref, b, norm);
     }
 
-    fn stability(&mut self, u: &[f64]) -> Result<Option<Stability>> {
-        let pair = Complex64::from_polar(1.0, self.theta(u));
-        self.stability_without(u, self.ext.options.multipliers, &[pair, pair.conj()])
+    /// the cycle's multipliers with the critical pair e^{±iθ} removed
+    fn stability<P: Problem>(
+        sys: &mut TorusCurveSystem<'_, P>,
+        u: &[f64],
+    ) -> Result<Option<Stability>> {
+        let pair = Complex64::from_polar(1.0, sys.theta(u));
+        sys.stability_without(u, sys.ext.options.multipliers, &[pair, pair.conj()])
     }
 
     /// a change of the number of unstable multipliers (the critical pair removed): the
     /// multiplier that crossed says which codimension-two point lies between
-    fn classify(&self, a: &Stability, b: &Stability) -> Option<SpecialKind> {
+    fn classify(a: &Stability, b: &Stability) -> Option<SpecialKind> {
         Stability::multiplier_crossing(a, b)
     }
 }

@@ -417,23 +417,12 @@ impl<const N: usize> Core<N> {
         (100.0 * h0).min(h1).min(h_cap)
     }
 
-    /// Integrates to `t_end` with the pair of the options.
-    fn run<R: Rhs<N>>(
-        &mut self,
-        rhs: &mut R,
-        t_end: f64,
-        events: &[Event<'_, N>],
-        obs: &mut dyn Observer<N>,
-    ) -> Result<Status<N>, Error> {
-        self.run_with(rhs, t_end, events, obs)
-    }
-
     /// Integrates to `t_end`: attempt, judge, accept, record, detect events, advance and
     /// report, one step of the options' pair after the other. The pair is a value
     /// ([`Pair`]), not a type parameter: one stepping loop is compiled per problem, not one
     /// per problem and pair (the loop, the events and the kink location are most of the
     /// solver's code; the per-pair stage arithmetic sits behind one `match` per call).
-    fn run_with<R: Rhs<N>>(
+    fn run<R: Rhs<N>>(
         &mut self,
         rhs: &mut R,
         t_end: f64,

@@ -62,6 +62,21 @@ impl<const N: usize> Plan<N> {
             self.t + self.h
         }
     }
+
+    /// The stage `f(t_c, x + h·sum)` at the time `t_c` of its node, with `sum = Σⱼ aᵢⱼ kⱼ`
+    /// (the row of the Runge–Kutta matrix applied to the earlier stages).
+    #[inline]
+    pub(crate) fn stage_at<R: Rhs<N>>(&self, rhs: &R, t_c: f64, sum: SV<N>) -> SV<N> {
+        let mut k = SV::<N>::zeros();
+        rhs.eval(t_c, &(self.x + sum * self.h), &mut k);
+        k
+    }
+
+    /// The stage of the node `c`, at `t + c·h` (see [`Plan::stage_at`]).
+    #[inline]
+    pub(crate) fn stage<R: Rhs<N>>(&self, rhs: &R, c: f64, sum: SV<N>) -> SV<N> {
+        self.stage_at(rhs, self.t + c * self.h, sum)
+    }
 }
 
 /// The mixed error weights `atol + rtol · max(|xᵢ|, |x_newᵢ|)` of the error norms.

@@ -571,30 +571,9 @@ impl RankOneFeedback {
     /// The zero of φ' on [lo, hi] where φ' is monotone and changes sign (`increasing`: φ' < 0
     /// at lo), by Newton with φ'' safeguarded by bisection.
     fn solve_slope_zero(&self, lo: f64, hi: f64, increasing: bool, tau: f64) -> f64 {
-        let (mut a, mut b) = (lo, hi);
-        let mut x = 0.5 * (a + b);
-        for _ in 0..200 {
-            let (f, df) = self.phase_slope(x, tau);
-            if f == 0.0 {
-                return x;
-            }
-            if (f < 0.0) == increasing {
-                a = x;
-            } else {
-                b = x;
-            }
-            let newton = x - f / df;
-            let next = if newton > a && newton < b && newton.is_finite() {
-                newton
-            } else {
-                0.5 * (a + b)
-            };
-            if (next - x).abs() <= 4.0 * f64::EPSILON * x.abs() || b - a <= 4.0 * f64::EPSILON * b {
-                return next;
-            }
-            x = next;
-        }
-        x
+        bracketed_newton(lo, hi, increasing, (4.0 * f64::EPSILON, 0.0), |x| {
+            self.phase_slope(x, tau)
+        })
     }
 
     /// A lower bound of |D(ω)| = |p(iω)|/|q(iω)| for ω in [l, r]: each factor |iω − z| is
@@ -817,35 +796,11 @@ impl RankOneFeedback {
 
     /// Solves φ(ω) = level on [lo, hi] (φ − level changes sign there) by safeguarded Newton.
     fn solve_level(&self, lo: f64, hi: f64, level: f64, tau: f64) -> f64 {
-        let f_lo = self.phase(lo, tau).0 - level;
-        let (mut a, mut b) = (lo, hi);
-        let increasing = f_lo < 0.0;
-        let mut x = 0.5 * (a + b);
-        for _ in 0..200 {
+        let increasing = self.phase(lo, tau).0 - level < 0.0;
+        bracketed_newton(lo, hi, increasing, (1e-15, 1e-300), |x| {
             let (phi, dphi) = self.phase(x, tau);
-            let f = phi - level;
-            if f == 0.0 {
-                return x;
-            }
-            if (f < 0.0) == increasing {
-                a = x;
-            } else {
-                b = x;
-            }
-            let newton = x - f / dphi;
-            let next = if newton > a && newton < b && dphi.is_finite() {
-                newton
-            } else {
-                0.5 * (a + b)
-            };
-            if (next - x).abs() <= 1e-15 * x.abs().max(1e-300)
-                || b - a <= 4.0 * f64::EPSILON * b.abs()
-            {
-                return next;
-            }
-            x = next;
-        }
-        x
+            (phi - level, dphi)
+        })
     }
 
     /// Number of characteristic roots with Re λ > 0 at gain `d`, from the open-loop count and the
@@ -906,6 +861,44 @@ impl RankOneFeedback {
         }
         Ok(out)
     }
+}
+
+/// The zero of f on [lo, hi] where f changes sign (`increasing`: f < 0 at lo), by Newton
+/// safeguarded by bisection; `eval(x)` = (f(x), f'(x)). It stops when a step is at most
+/// `rel`·max(|x|, `floor`) or the bracket [a, b] at most 4ε·|b| wide.
+fn bracketed_newton(
+    lo: f64,
+    hi: f64,
+    increasing: bool,
+    (rel, floor): (f64, f64),
+    mut eval: impl FnMut(f64) -> (f64, f64),
+) -> f64 {
+    let (mut a, mut b) = (lo, hi);
+    let mut x = 0.5 * (a + b);
+    for _ in 0..200 {
+        let (f, df) = eval(x);
+        if f == 0.0 {
+            return x;
+        }
+        if (f < 0.0) == increasing {
+            a = x;
+        } else {
+            b = x;
+        }
+        // x is now a or b, so a step that is not finite, or none (f' not finite), is not
+        // strictly inside the bracket: bisection then
+        let newton = x - f / df;
+        let next = if newton > a && newton < b {
+            newton
+        } else {
+            0.5 * (a + b)
+        };
+        if (next - x).abs() <= rel * x.abs().max(floor) || b - a <= 4.0 * f64::EPSILON * b.abs() {
+            return next;
+        }
+        x = next;
+    }
+    x
 }
 
 /// Roots of a real polynomial (ascending coefficients, last one nonzero) via the eigenvalues of

@@ -212,12 +212,8 @@ impl<const N: usize> Scheme<N> for Dop853<N> {
     const BETA_WEIGHT: f64 = 0.2;
 
     fn attempt<R: Rhs<N>>(rhs: &R, p: &Plan<N>) -> Self {
-        let (t, x, k1, h) = (p.t, p.x, p.k1, p.h);
-        let stage = |c: f64, sum: SV<N>| {
-            let mut k = SV::<N>::zeros();
-            rhs.eval(t + c * h, &(x + sum * h), &mut k);
-            k
-        };
+        let (x, k1, h) = (p.x, p.k1, p.h);
+        let stage = |c: f64, sum: SV<N>| p.stage(rhs, c, sum);
         let k2 = stage(C2, k1 * A21);
         let k3 = stage(C3, k1 * A31 + k2 * A32);
         let k4 = stage(C4, k1 * A41 + k3 * A43);
@@ -245,7 +241,6 @@ impl<const N: usize> Scheme<N> for Dop853<N> {
                 + k10 * A1110,
         );
         // the 12th stage sits at the step's end (its left limit at a breakpoint)
-        let mut k12 = SV::<N>::zeros();
         let sum12 = k1 * A121
             + k4 * A124
             + k5 * A125
@@ -255,7 +250,7 @@ impl<const N: usize> Scheme<N> for Dop853<N> {
             + k9 * A129
             + k10 * A1210
             + k11 * A1211;
-        rhs.eval(p.t_end_stage(), &(x + sum12 * h), &mut k12);
+        let k12 = p.stage_at(rhs, p.t_end_stage(), sum12);
         let increment =
             k1 * B1 + k6 * B6 + k7 * B7 + k8 * B8 + k9 * B9 + k10 * B10 + k11 * B11 + k12 * B12;
         let x_new = x + increment * h;
@@ -307,11 +302,7 @@ impl<const N: usize> Scheme<N> for Dop853<N> {
         let [k1, _, _, _, _, k6, k7, k8, k9, k10, k11, k12] = self.k;
         let (t, x, h) = (p.t, p.x, p.h);
         let k13 = self.f_new;
-        let stage = |c: f64, sum: SV<N>| {
-            let mut k = SV::<N>::zeros();
-            rhs.eval(t + c * h, &(x + sum * h), &mut k);
-            k
-        };
+        let stage = |c: f64, sum: SV<N>| p.stage(rhs, c, sum);
         let k14 = stage(
             C14,
             k1 * A141

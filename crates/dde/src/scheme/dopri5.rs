@@ -69,30 +69,19 @@ impl<const N: usize> Scheme<N> for Dopri5<N> {
 
     fn attempt<R: Rhs<N>>(rhs: &R, p: &Plan<N>) -> Self {
         let (t, x, k1, h) = (p.t, p.x, p.k1, p.h);
+        // the second stage multiplies h·a21 first, not (a21 k1)·h as `Plan::stage` does
         let mut k2 = SV::<N>::zeros();
-        let mut k3 = SV::<N>::zeros();
-        let mut k4 = SV::<N>::zeros();
-        let mut k5 = SV::<N>::zeros();
-        let mut k6 = SV::<N>::zeros();
-        let mut k7 = SV::<N>::zeros();
         rhs.eval(t + C2 * h, &(x + k1 * (h * A21)), &mut k2);
-        rhs.eval(t + C3 * h, &(x + (k1 * A31 + k2 * A32) * h), &mut k3);
-        rhs.eval(
-            t + C4 * h,
-            &(x + (k1 * A41 + k2 * A42 + k3 * A43) * h),
-            &mut k4,
-        );
-        rhs.eval(
-            t + C5 * h,
-            &(x + (k1 * A51 + k2 * A52 + k3 * A53 + k4 * A54) * h),
-            &mut k5,
-        );
-        rhs.eval(
+        let k3 = p.stage(rhs, C3, k1 * A31 + k2 * A32);
+        let k4 = p.stage(rhs, C4, k1 * A41 + k2 * A42 + k3 * A43);
+        let k5 = p.stage(rhs, C5, k1 * A51 + k2 * A52 + k3 * A53 + k4 * A54);
+        let k6 = p.stage_at(
+            rhs,
             p.t_end_stage(),
-            &(x + (k1 * A61 + k2 * A62 + k3 * A63 + k4 * A64 + k5 * A65) * h),
-            &mut k6,
+            k1 * A61 + k2 * A62 + k3 * A63 + k4 * A64 + k5 * A65,
         );
         let x_new = x + (k1 * A71 + k3 * A73 + k4 * A74 + k5 * A75 + k6 * A76) * h;
+        let mut k7 = SV::<N>::zeros();
         rhs.eval(p.t_last, &x_new, &mut k7);
         Dopri5 {
             k: [k1, k2, k3, k4, k5, k6, k7],

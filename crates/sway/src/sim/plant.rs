@@ -154,6 +154,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
     #[inline]
     fn steering_limits(&self) -> ActuatorLimits {
         self.controller
+            .as_ref()
             .map_or(ActuatorLimits::NONE, |l| l.steering_limits)
     }
 
@@ -301,6 +302,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
                 .map_or(0.0, |xd| self.plant.yaw_rate(&Self::xr(xd)));
             let raw = self
                 .controller
+                .as_ref()
                 .map_or(0.0, |l| l.raw_steering_angle(t, delayed_yaw_rate));
             let rate = if self.actuator_state {
                 actuator.rate_switch(self.command(t, x_delayed), x[N - 1])
@@ -406,7 +408,9 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem
     fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
         let u = self.inputs(t, x, &[]);
         self.eval(&u, 0.0, x, dx);
-        if self.loop_command.is_some() && self.controller.is_some_and(|l| l.extra_states() == 4) {
+        if self.loop_command.is_some()
+            && self.controller.as_ref().is_some_and(|l| l.extra_states() == 4)
+        {
             // no delayed states: u ≡ 0, ż = Â z
             let z = Vector4::from_fn(|i, _| x[N - 4 + i]);
             if let Some(c) = &self.loop_command {

@@ -672,7 +672,7 @@ impl ModeScratch {
 }
 
 /// where the rows of a mode go (the real mode's here, the complex torus mode's in
-/// [`crate::torus`])
+/// the torus system)
 pub(crate) enum Out<'b> {
     /// the mode's rows of the residual
     Residual(&'b mut [f64]),

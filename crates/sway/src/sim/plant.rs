@@ -409,7 +409,10 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem
         let u = self.inputs(t, x, &[]);
         self.eval(&u, 0.0, x, dx);
         if self.loop_command.is_some()
-            && self.controller.as_ref().is_some_and(|l| l.extra_states() == 4)
+            && self
+                .controller
+                .as_ref()
+                .is_some_and(|l| l.extra_states() == 4)
         {
             // no delayed states: u ≡ 0, ż = Â z
             let z = Vector4::from_fn(|i, _| x[N - 4 + i]);

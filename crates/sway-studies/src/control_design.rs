@@ -666,6 +666,7 @@ pub fn simulation_check(
     let run = |controller: Option<LoopLaw>, kick_deg: f64| {
         let spec = SimSpec {
             early_stop: sway::sim::EarlyStop::Never,
+            steering: Default::default(),
             profile: SpeedProfile::Constant { speed_mps: speed },
             controller,
             horizon_s: sc.horizon_s,

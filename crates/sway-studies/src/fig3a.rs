@@ -185,6 +185,7 @@ impl PanelsConfig {
     pub fn spec(&self) -> SimSpec {
         SimSpec {
             early_stop: sway::sim::EarlyStop::Never,
+            steering: Default::default(),
             profile: SpeedProfile::Constant {
                 speed_mps: self.speed_mps,
             },

@@ -61,6 +61,7 @@ impl Fig3bConfig {
     pub fn spec(&self, duration_s: f64) -> SimSpec {
         SimSpec {
             early_stop: sway::sim::EarlyStop::Never,
+            steering: Default::default(),
             profile: SpeedProfile::Ramp {
                 initial_mps: self.start.speed_mps,
                 change_mps: self.speed_change_mps,

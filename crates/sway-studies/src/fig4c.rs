@@ -98,6 +98,7 @@ impl Fig4cConfig {
         let v0 = self.start.speed_mps;
         SimSpec {
             early_stop: sway::sim::EarlyStop::Never,
+            steering: Default::default(),
             profile: if braking {
                 SpeedProfile::Ramp {
                     initial_mps: v0,

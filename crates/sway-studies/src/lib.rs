@@ -56,6 +56,7 @@ pub mod fig4c;
 pub mod fleet;
 pub mod gain_design;
 pub mod keyed;
+pub mod lateral_stability;
 pub mod linear;
 pub mod loading;
 pub mod mitigation;

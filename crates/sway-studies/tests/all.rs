@@ -12,6 +12,8 @@
 mod charts_vehicle;
 #[path = "fig4b.rs"]
 mod fig4b;
+#[path = "lateral_stability.rs"]
+mod lateral_stability;
 #[path = "newcomer_vehicle.rs"]
 mod newcomer_vehicle;
 #[path = "scenario_speeds.rs"]

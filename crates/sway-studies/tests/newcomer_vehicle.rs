@@ -578,6 +578,7 @@ fn kick_run(speed: f64, horizon: f64) -> SimSpec {
         action_s: 0.0,
         settings: RunSettings::default(),
         early_stop: EarlyStop::Never,
+        steering: Default::default(),
     }
 }
 

@@ -193,6 +193,7 @@ fn a_nose_heavy_trailer_resolves_to_its_own_speeds_and_runs() {
         );
         let spec = SimSpec {
             early_stop: sway::sim::EarlyStop::Never,
+            steering: Default::default(),
             profile: s.speed.clone(),
             controller: None,
             horizon_s: 20.0,

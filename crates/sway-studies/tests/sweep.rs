@@ -86,6 +86,7 @@ fn sweep_is_deterministic_across_thread_counts_and_matches_single_runs() {
     // the sweep's 4-state run equals a 7-state simulate to tolerance level
     let s = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
+        steering: Default::default(),
         profile: SpeedProfile::Constant { speed_mps: 35.0 },
         controller: None,
         horizon_s: 8.0,

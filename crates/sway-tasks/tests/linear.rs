@@ -571,6 +571,7 @@ fn period_by_simulation(
     settings.solver.atol = 1e-8;
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
+        steering: Default::default(),
         profile: SpeedProfile::Constant { speed_mps: v },
         controller: None,
         horizon_s: settle_s + sway_studies::mitigation::CYCLE_SEARCH_S,

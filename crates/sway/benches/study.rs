@@ -37,6 +37,7 @@ fn overhead(c: &mut Criterion) {
     let model = Model::new(VehicleParams::default()).unwrap();
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
+        steering: Default::default(),
         profile: cfg.base.speed.clone(),
         controller: cfg.base.controller.law().unwrap(),
         horizon_s: 60.0,

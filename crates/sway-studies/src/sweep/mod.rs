@@ -853,6 +853,7 @@ pub fn simulate_point<'a>(
         .map_err(|e| e.to_string())?;
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
+        steering: Default::default(),
         action_s: s
             .action_s
             .unwrap_or_else(|| default_action_time(&s.speed, &s.controller)),

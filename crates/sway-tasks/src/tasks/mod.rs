@@ -49,6 +49,7 @@ registry! {
     sweep => [TASK, BRAKE_TIMING, UNCERTAINTY, FLEET],
     fleet => [TASK],
     variants => [TASK],
+    lateral_stability => [TASK],
 }
 
 pub mod fig3a_diagram;

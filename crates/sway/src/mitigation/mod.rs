@@ -301,6 +301,7 @@ impl Setting {
         });
         SimSpec {
             early_stop: EarlyStop::Never,
+            steering: Default::default(),
             profile,
             controller,
             horizon_s: lead_in_s + self.horizon_s,

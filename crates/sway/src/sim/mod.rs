@@ -19,6 +19,7 @@
 //! // V = 33 m/s (bistable range), small hitch-angle perturbation of 2°: it dies out
 //! let spec = SimSpec {
 //!     early_stop: sway::sim::EarlyStop::Never,
+//!     steering: Default::default(),
 //!     profile: SpeedProfile::Constant { speed_mps: 33.0 },
 //!     controller: None,
 //!     horizon_s: 30.0,
@@ -32,11 +33,13 @@
 //! ```
 
 pub mod classify;
+pub mod decay;
 mod paper_layout;
 mod plant;
 mod profile;
 mod run;
 mod scenario;
+mod steering;
 pub use sway_model::speeds::resolve as speeds;
 
 pub use classify::{MetricSettings, SwayClass};
@@ -56,6 +59,7 @@ pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, ensure_name, validate_parts,
     validate_spec_parts,
 };
+pub use steering::{PulseShape, SteeringInput};
 pub use sway_model::law::table::{ControllerTable, PredictionVehicle, UnloadedPrediction};
 pub use sway_model::law::{ActuatorLimits, CommandLimit, LoopLaw, ModelError};
 pub use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, ResolvedSpeed, UnresolvedSpeed};

@@ -13,7 +13,7 @@ use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
 use sway_model::vehicle::Vehicle;
 use trailer_model::{Inputs, Model, SlipAngles, State4};
 
-use super::SpeedProfile;
+use super::{SpeedProfile, SteeringInput};
 use crate::SwayError;
 use sway_model::law::{Actuator, ActuatorLimits, LoopLaw, Structure};
 
@@ -52,6 +52,8 @@ pub struct SimProblem<'a, P, const M: usize, const N: usize> {
     history: SVector<f64, N>,
     /// `yaw_rate_hitch` and `predictor`
     loop_command: Option<LoopCommand>,
+    /// a steering input added to the law's command (none by default)
+    steering: SteeringInput,
 }
 
 /// The paper's model as a simulation problem (the name of [`SimProblem`] before it took any
@@ -137,7 +139,20 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
             breakpoints,
             history: x0,
             loop_command,
+            steering: SteeringInput::None,
         })
+    }
+
+    /// This problem with the steering input `steering` added to the law's command (its
+    /// jumps and kinks become breakpoints).
+    #[must_use]
+    pub fn with_steering(mut self, steering: SteeringInput) -> Self {
+        self.breakpoints.extend(steering.breakpoints());
+        self.breakpoints.retain(|&b| b > 0.0);
+        self.breakpoints.sort_by(f64::total_cmp);
+        self.breakpoints.dedup();
+        self.steering = steering;
+        self
     }
 
     /// The plant.
@@ -266,6 +281,11 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
             }
         } else {
             self.command(t, x_delayed)
+        };
+        let steering_angle = if self.steering.is_none() {
+            steering_angle
+        } else {
+            steering_angle + self.steering.angle(t)
         };
         Inputs {
             steering_angle,

@@ -249,6 +249,8 @@ pub struct SimSpec {
     pub profile: SpeedProfile,
     /// the feedback law (`None`: open loop, δ ≡ 0)
     pub controller: Option<LoopLaw>,
+    /// a steering input added to the law's command (a test's impulse; none by default)
+    pub steering: super::SteeringInput,
     /// end time \[s\] (runs start at t = 0)
     pub horizon_s: f64,
     /// the action (braking / steering) starts here \[s\]; metrics "after action" count from it
@@ -717,7 +719,8 @@ fn run_problem<P: Vehicle<M>, const M: usize, const N: usize>(
     x0: SVector<f64, N>,
     recording: Recording,
 ) -> Result<SimResult<N>, SwayError> {
-    let problem = SimProblem::<P, M, N>::new(plant, &spec.profile, spec.controller, x0)?;
+    let problem = SimProblem::<P, M, N>::new(plant, &spec.profile, spec.controller, x0)?
+        .with_steering(spec.steering);
     let th_s = spec
         .settings
         .metrics

@@ -422,6 +422,7 @@ impl ScenarioConfig {
             .map_err(|e| SwayError::numerical("the predictor's model", e))?;
         Ok(SimSpec {
             early_stop: crate::sim::EarlyStop::Never,
+            steering: Default::default(),
             profile: self.speed.clone(),
             controller,
             horizon_s: self.horizon_s.get(),

@@ -22,6 +22,7 @@ pub fn spec(
 ) -> SimSpec {
     SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
+        steering: Default::default(),
         profile,
         controller,
         horizon_s,

@@ -836,6 +836,7 @@ fn simulated_sway(
     });
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
+        steering: Default::default(),
         profile: SpeedProfile::Constant { speed_mps: speed },
         controller,
         horizon_s: horizon,

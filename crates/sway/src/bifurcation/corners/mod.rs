@@ -1340,6 +1340,7 @@ fn run_once<P: SimulateOwn<N> + LoopModel, const N: usize>(
     let s = &o.simulation;
     let spec = SimSpec {
         early_stop: crate::sim::EarlyStop::Never,
+        steering: Default::default(),
         profile: SpeedProfile::Constant { speed_mps: v },
         controller: Some(LoopLaw::paper(d, tau)),
         horizon_s: s.transient_s + s.window_s,

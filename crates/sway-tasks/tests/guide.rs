@@ -472,15 +472,14 @@ fn relative_links_resolve() {
                     broken.push(format!("{}: `{target}`: no such file", doc.display()));
                     continue;
                 }
-                if let Some(anchor) = anchor {
-                    if file.extension().is_some_and(|e| e == "md")
-                        && !anchors(&file).contains(anchor)
-                    {
-                        broken.push(format!(
-                            "{}: `{target}`: no heading `#{anchor}`",
-                            doc.display()
-                        ));
-                    }
+                if let Some(anchor) = anchor
+                    && file.extension().is_some_and(|e| e == "md")
+                    && !anchors(&file).contains(anchor)
+                {
+                    broken.push(format!(
+                        "{}: `{target}`: no heading `#{anchor}`",
+                        doc.display()
+                    ));
                 }
             }
         }
@@ -611,10 +610,10 @@ fn commands_in_the_guide_name_real_tasks_and_flags_and_checks_pass() {
                     }
                 }
             }
-            ["cargo", "bench", "--bench", name, ..] => {
-                if !benches.contains(&format!("name = \"{name}\"")) {
-                    problems.push(at(format!("no bench `{name}` in crates/benches")));
-                }
+            ["cargo", "bench", "--bench", name, ..]
+                if !benches.contains(&format!("name = \"{name}\"")) =>
+            {
+                problems.push(at(format!("no bench `{name}` in crates/benches")));
             }
             ["cargo", "run", ..] => {
                 let after =
@@ -682,15 +681,14 @@ fn python_in_the_guide_uses_the_packages_names() {
                 let name = parts.next().unwrap_or("");
                 if !exported.contains(name) {
                     problems.push(format!("{}: `ts.{name}` is not exported", doc.display()));
-                } else if name == "Vehicle" {
-                    if let Some(method) = parts.next().filter(|m| !m.is_empty()) {
-                        if !stub.contains(&format!("def {method}(")) {
-                            problems.push(format!(
-                                "{}: `ts.Vehicle.{method}` is not a method",
-                                doc.display()
-                            ));
-                        }
-                    }
+                } else if name == "Vehicle"
+                    && let Some(method) = parts.next().filter(|m| !m.is_empty())
+                    && !stub.contains(&format!("def {method}("))
+                {
+                    problems.push(format!(
+                        "{}: `ts.Vehicle.{method}` is not a method",
+                        doc.display()
+                    ));
                 }
             }
         }
@@ -709,10 +707,10 @@ fn no_issue_numbers_in_user_documentation() {
     {
         for (n, line) in read(&doc).lines().enumerate() {
             let lower = line.to_lowercase();
-            if let Some(i) = lower.find("issue ") {
-                if lower[i + 6..].starts_with(|c: char| c.is_ascii_digit()) {
-                    found.insert(format!("{}:{}", doc.display(), n + 1), line.to_string());
-                }
+            if let Some(i) = lower.find("issue ")
+                && lower[i + 6..].starts_with(|c: char| c.is_ascii_digit())
+            {
+                found.insert(format!("{}:{}", doc.display(), n + 1), line.to_string());
             }
         }
     }

@@ -12,6 +12,8 @@
 mod configs;
 #[path = "generated_inputs.rs"]
 mod generated_inputs;
+#[path = "guide.rs"]
+mod guide;
 #[path = "import_cycles.rs"]
 mod import_cycles;
 #[path = "layering.rs"]

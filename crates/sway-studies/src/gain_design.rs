@@ -345,7 +345,7 @@ pub fn compute<M: LoopModel + ?Sized>(
     let nonlinear_reason = match nonlinear_model {
         None if (0..delays.len()).any(|i| cfg.is_nonlinear(i)) => Some(
             "the fold-of-cycles optimum is computed for the paper's model only: this vehicle \
-             has model variants (issue 21), whose nonlinear chart is not wired into gain_design yet"
+             has model variants, whose nonlinear chart is not wired into gain_design yet"
                 .to_string(),
         ),
         _ => None,

@@ -5,8 +5,8 @@
 //! benchmarks' per-unit costs (the constants below, each with its source). A config whose
 //! work exceeds a limit is refused by [`bound`] with a message naming the file, the key,
 //! the value, the limit and the estimated cost. The limits are generous: 40× to 1000×
-//! the defaults (see the README table), so that only a typo or an unbounded value hits
-//! them.
+//! the defaults (the table of the guide's page `docs/src/limits.md`), so that only a
+//! typo or an unbounded value hits them.
 
 use std::path::Path;
 

@@ -310,7 +310,7 @@ fn variant_linear_critical_speed(
     if feedback(controller)?.gains.yaw_rate != 0.0 {
         return Err(
             "the closed-loop critical speed of a vehicle with model variants is not \
-             available in sweeps (open loop only, issue 21)"
+             available in sweeps (open loop only)"
                 .into(),
         );
     }

@@ -784,7 +784,7 @@ impl Sweep {
                 .map(|r| (PointOutput::HopfFoldSpeeds(r), 0)),
             (PointKind::HopfFoldSpeeds, PointModel::Variant(_)) => Err(
                 "Hopf and fold-of-cycles speeds of a vehicle with model variants are not \
-                 available in sweeps yet (issue 21)"
+                 available in sweeps yet"
                     .to_string(),
             ),
         });

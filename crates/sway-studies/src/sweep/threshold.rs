@@ -299,7 +299,7 @@ pub(super) fn run_reference_point(sweep: &Sweep) -> PointResult {
         return failed(
             Vec::new(),
             "the cycles of the bifurcation diagram of a vehicle with model variants are not \
-             available in sweeps yet (issue 21)"
+             available in sweeps yet"
                 .into(),
         );
     }

@@ -3,7 +3,7 @@
 //! width of the bistable range, the best gain D\* at τ = 0.2 s and the θ(0) threshold of
 //! sway at the middle of the bistable range. `summary.json`: `"vehicles"` (one entry per
 //! file, every null with its reason), `fleet.csv` (one row per file) and `fleet.md` (the
-//! table of the README). A file may be a vehicle with model variants: its
+//! table of the `fleet` page of the guide). A file may be a vehicle with model variants: its
 //! numbers are those of its own plant.
 
 use std::path::{Path, PathBuf};
@@ -106,7 +106,7 @@ fn cell(v: Option<f64>, digits: usize) -> String {
     v.map_or("–".into(), |v| format!("{v:.digits$}"))
 }
 
-/// The markdown table of the README.
+/// The markdown table of the `fleet` page of the guide.
 pub fn markdown(rows: &[FleetRow], delay_s: f64) -> String {
     let mut s = format!(
         "| vehicle file | V_crit [m/s] | V_fold [m/s] | bistable width [m/s] | D* at τ = {delay_s} s [s] (V_crit there [m/s]) | θ(0) threshold at the bistable midpoint [deg] (at V [m/s]) |\n|---|---|---|---|---|---|\n"

@@ -24,7 +24,7 @@ use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Shape, Stroke};
 /// The task.
 pub const TASK: Task = Task::configured::<VariantsConfig>(
     "variants",
-    "model variants (issue 21): V_crit, fold, bistable width, D* at τ = 0.2 s and threshold for Table I with tyre relaxation, Magic Formula tyres, a tandem axle, hitch friction",
+    "model variants: V_crit, fold, bistable width, D* at τ = 0.2 s and threshold for Table I with tyre relaxation, Magic Formula tyres, a tandem axle, hitch friction",
     "variants.toml",
 )
 .any_model();

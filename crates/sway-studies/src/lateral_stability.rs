@@ -472,3 +472,118 @@ pub fn compute(
         trace,
     })
 }
+
+/// How a recording is read ([`analyse_recording`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RecordingAnalysis {
+    /// the steering angle above which the impulse has started \[rad\] (a fraction of its
+    /// peak: 5 % by default)
+    pub impulse_fraction: f64,
+    /// cut-off of the zero-phase low-pass applied to the read signal \[Hz\] (well above the
+    /// sway frequency of ≈ 0.5–1 Hz, well below sensor noise)
+    pub low_pass_hz: f64,
+    /// the prominence a peak needs, as a fraction of the largest |signal| after the
+    /// impulse \[-\]
+    pub prominence_fraction: f64,
+    /// peaks skipped after the impulse ends
+    pub skip_peaks: usize,
+    /// periods averaged
+    pub periods: usize,
+}
+
+impl Default for RecordingAnalysis {
+    fn default() -> Self {
+        Self {
+            impulse_fraction: 0.05,
+            low_pass_hz: 3.0,
+            prominence_fraction: 0.05,
+            skip_peaks: 2,
+            periods: 3,
+        }
+    }
+}
+
+/// What one recording shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedDecay {
+    /// when the impulse started and ended \[s\]
+    pub impulse_s: (f64, f64),
+    /// the damping read from the filtered signal's peaks
+    pub decay: Decay,
+    /// the peaks used (t \[s\], value of the filtered signal)
+    pub peaks_used: Vec<(f64, f64)>,
+}
+
+/// Reads the damping of one recorded pulse-steer run: `t` \[s\] increasing, `steering`
+/// \[rad\] and the read `signal` (θ or a yaw rate, any unit) sampled at `t`. The impulse is
+/// where |steering| first exceeds `impulse_fraction` of its largest value until it falls
+/// back below; the signal after it is low-passed forwards and backwards (zero phase) and
+/// its peaks of sufficient prominence give the decrement.
+///
+/// # Errors
+/// A message naming the problem: too few samples, non-increasing time, a non-finite
+/// sample, no impulse, too few peaks.
+pub fn analyse_recording(
+    t: &[f64],
+    steering: &[f64],
+    signal: &[f64],
+    how: &RecordingAnalysis,
+) -> Result<RecordedDecay, String> {
+    let n = t.len();
+    if n < 10 || steering.len() != n || signal.len() != n {
+        return Err(format!(
+            "expected at least 10 samples of time, steering and signal of equal length, got {}, {} and {}",
+            n,
+            steering.len(),
+            signal.len()
+        ));
+    }
+    if let Some(i) =
+        (1..n).find(|&i| t[i].partial_cmp(&t[i - 1]) != Some(std::cmp::Ordering::Greater))
+    {
+        return Err(format!(
+            "time does not increase at row {i} ({} after {})",
+            t[i],
+            t[i - 1]
+        ));
+    }
+    for (name, v) in [("time", t), ("steering", steering), ("signal", signal)] {
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(format!("{name} is not finite at row {i}"));
+        }
+    }
+    let peak = steering.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let threshold = how.impulse_fraction * peak;
+    let start = steering
+        .iter()
+        .position(|v| v.abs() > threshold && peak > 0.0);
+    let Some(start) = start else {
+        return Err("no steering impulse found (the steering angle is zero)".into());
+    };
+    let end = (start..n)
+        .find(|&i| steering[i].abs() <= threshold)
+        .ok_or("the steering impulse does not end within the recording")?;
+    let filtered = sway::sim::decay::low_pass(t, signal, how.low_pass_hz);
+    let after = &filtered[end..];
+    let scale = after.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let p = peaks(t, &filtered, t[end], how.prominence_fraction * scale);
+    let d = decay(&p, how.skip_peaks, how.periods).ok_or_else(|| {
+        format!(
+            "too few peaks after the impulse: {} found, {} needed (skip {} and average {} periods)",
+            p.len(),
+            how.skip_peaks + how.periods + 2,
+            how.skip_peaks,
+            how.periods
+        )
+    })?;
+    Ok(RecordedDecay {
+        impulse_s: (t[start], t[end]),
+        decay: d,
+        peaks_used: p
+            .iter()
+            .skip(how.skip_peaks)
+            .take(how.periods + 2)
+            .map(|q| (q.t, q.value))
+            .collect(),
+    })
+}

@@ -12,14 +12,13 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use sway::SwayError;
-use sway::bifurcation::chart::{ChartOptions, critical_speeds};
-use sway::bifurcation::{
-    CycleExtent, Diagram, DiagramOutcome, DiagramSettings, LoopLaw, NoHopf, vehicle_diagram,
-};
+use sway::bifurcation::{Diagram, DiagramSettings, LoopLaw, NoHopf};
 use sway::config::{Positive, ensure, ensure_positive};
 use sway::parallel::Split;
 use sway::progress::Progress;
-use sway::ranging::{RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec};
+use sway::ranging::{
+    CorrectedDiagram, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, corrected_diagram,
+};
 use sway::sim::speeds::{
     ResolveSpeeds, ResolvedSpeed, Resolver, SpeedValue, UnresolvedSpeed, resolve_against,
 };
@@ -374,24 +373,13 @@ fn diagram_on<P: Vehicle<N>, const N: usize>(
     cfg: &DiagramConfig,
     limits: &SpeedLimits,
 ) -> Result<DiagramStudy, SwayError> {
-    let outcome = vehicle_diagram(
-        model,
-        LoopLaw::OPEN_LOOP,
-        &cfg.options,
-        limits,
-        CycleExtent::WholeRange,
-    )?;
-    let d = match outcome {
-        DiagramOutcome::Computed(d) => d,
-        DiagramOutcome::NoHopf(n) => return Ok(no_hopf_diagram(cfg, &n)),
-    };
-    // the Hopf point and the fold corrected on their defining systems, as fig4b and the
-    // nonlinear chart report them (one number per vehicle across the tasks)
-    let cs = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))?;
-    let refs = SpeedReferences {
-        v_crit_mps: Some(cs.hopf_v_mps),
-        v_fold_mps: cs.fold.map(|f| f.v_mps),
-        reason: d.fold_reason(),
+    let CorrectedDiagram {
+        diagram: d,
+        speeds: cs,
+        references: refs,
+    } = match corrected_diagram(model, LoopLaw::OPEN_LOOP, &cfg.options, limits)? {
+        Ok(c) => c,
+        Err(n) => return Ok(no_hopf_diagram(cfg, &n)),
     };
     let mut reasons = Keyed::default();
     let mut stable_amp = Keyed::default();

@@ -16,11 +16,10 @@
 
 use serde::{Deserialize, Serialize};
 use sway::SwayError;
-use sway::bifurcation::chart::{ChartOptions, critical_speeds};
-use sway::bifurcation::{CycleExtent, Diagram, DiagramOutcome, DiagramSettings, vehicle_diagram};
+use sway::bifurcation::{Diagram, DiagramSettings};
 use sway::parallel::{Split, try_map};
 use sway::progress::Progress;
-use sway::ranging::{RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec};
+use sway::ranging::{RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, corrected_diagram};
 use sway::sim::decay::{Decay, Peak, decay, local_damping, peaks};
 use sway::sim::{
     LoopLaw, Outcome, PulseShape, Recording, RunSettings, SimSpec, SpeedProfile, SteeringInput,
@@ -55,7 +54,8 @@ impl Default for PulseConfig {
 }
 
 impl PulseConfig {
-    fn input(&self, amplitude_deg: f64) -> SteeringInput {
+    /// The steering input of an impulse of `amplitude_deg` \[deg\] of this shape and timing.
+    pub fn input(&self, amplitude_deg: f64) -> SteeringInput {
         SteeringInput::Pulse {
             shape: self.shape,
             start_s: self.start_s,
@@ -338,37 +338,25 @@ fn fit_line(points: &[(f64, f64)]) -> Option<((f64, f64), Option<f64>)> {
     Some(((a, b), (b < 0.0).then(|| -a / b)))
 }
 
-/// The open loop's diagram and its corrected V_crit and V_fold.
+/// The open loop's diagram and its corrected V_crit and V_fold ([`corrected_diagram`]).
 fn diagram_on<P: Vehicle<N>, const N: usize>(
     model: &P,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
 ) -> Result<(Option<Diagram>, SpeedReferences), SwayError> {
-    match vehicle_diagram(
-        model,
-        LoopLaw::OPEN_LOOP,
-        settings,
-        limits,
-        CycleExtent::WholeRange,
-    )? {
-        DiagramOutcome::Computed(d) => {
-            let cs = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))?;
-            let refs = SpeedReferences {
-                v_crit_mps: Some(cs.hopf_v_mps),
-                v_fold_mps: cs.fold.map(|f| f.v_mps),
-                reason: d.fold_reason(),
-            };
-            Ok((Some(*d), refs))
-        }
-        DiagramOutcome::NoHopf(n) => Ok((
-            None,
-            SpeedReferences {
-                v_crit_mps: None,
-                v_fold_mps: None,
-                reason: Some(n.reason),
-            },
-        )),
-    }
+    Ok(
+        match corrected_diagram(model, LoopLaw::OPEN_LOOP, settings, limits)? {
+            Ok(c) => (Some(*c.diagram), c.references),
+            Err(n) => (
+                None,
+                SpeedReferences {
+                    v_crit_mps: None,
+                    v_fold_mps: None,
+                    reason: Some(n.reason),
+                },
+            ),
+        },
+    )
 }
 
 /// The unstable cycle's max |θ| at `speed` \[deg\] (the smallest unstable cycle there).

@@ -12,8 +12,11 @@ use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, resolve_against};
 use sway_model::vehicle::Vehicle;
 
 use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, critical_speeds};
-use crate::bifurcation::{CycleExtent, DiagramOptions, LoopLaw, bifurcation_diagram_until};
+use crate::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
+use crate::bifurcation::{
+    CycleExtent, Diagram, DiagramOptions, DiagramOutcome, DiagramSettings, LoopLaw, NoHopf,
+    bifurcation_diagram_until, vehicle_diagram,
+};
 use crate::sim::VehicleForm;
 
 /// The open-loop reference speeds of `model` that `need` asks for: V_crit
@@ -94,6 +97,48 @@ pub fn open_loop_fold<P: Vehicle<N>, const N: usize>(
         .fold
         .map(|f| f.v_mps)
         .ok_or_else(|| "the fold of cycles could not be corrected".to_string()))
+}
+
+/// A loop's whole diagram with its Hopf point and fold of cycles corrected on their
+/// defining systems ([`critical_speeds`], the numbers fig4b and the nonlinear chart report:
+/// one per vehicle across the tasks) and the reference speeds they give.
+#[derive(Debug, Clone)]
+pub struct CorrectedDiagram {
+    /// the diagram ([`vehicle_diagram`], the cycle branch over the whole range)
+    pub diagram: Box<Diagram>,
+    /// its Hopf point and fold, corrected
+    pub speeds: CriticalSpeeds,
+    /// V_crit and V_fold from them, with the reason where the fold is missing
+    pub references: SpeedReferences,
+}
+
+/// The diagram of `law`'s loop on `model` on the range `settings` give (derived from the
+/// vehicle where they give none), corrected ([`CorrectedDiagram`]); `Err(NoHopf)` when
+/// straight running does not lose stability below the maximum speed (an outcome).
+///
+/// # Errors
+/// A numerical failure of the continuation or the correction.
+pub fn corrected_diagram<P: Vehicle<N>, const N: usize>(
+    model: &P,
+    law: LoopLaw,
+    settings: &DiagramSettings,
+    limits: &SpeedLimits,
+) -> Result<Result<CorrectedDiagram, NoHopf>, SwayError> {
+    let d = match vehicle_diagram(model, law, settings, limits, CycleExtent::WholeRange)? {
+        DiagramOutcome::Computed(d) => d,
+        DiagramOutcome::NoHopf(n) => return Ok(Err(n)),
+    };
+    let speeds = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))?;
+    let references = SpeedReferences {
+        v_crit_mps: Some(speeds.hopf_v_mps),
+        v_fold_mps: speeds.fold.map(|f| f.v_mps),
+        reason: d.fold_reason(),
+    };
+    Ok(Ok(CorrectedDiagram {
+        diagram: d,
+        speeds,
+        references,
+    }))
 }
 
 /// Resolves `cfg` for `vehicle`: computes the references its speeds need (none, V_crit, or

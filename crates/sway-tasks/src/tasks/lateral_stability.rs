@@ -40,18 +40,16 @@ impl TaskConfig for LateralStabilityConfig {
     fn check(&self, file: &Path) -> Result<(), TaskError> {
         let p = &self.pulse;
         ensure(
-            p.start_s.is_finite() && p.start_s >= 0.0,
-            file,
-            "pulse.start_s",
-            || format!("expected a time >= 0 s, got {}", p.start_s),
-        )?;
-        ensure_positive(p.duration_s, file, "pulse.duration_s", "a duration > 0 s")?;
-        ensure(
             p.amplitude_deg.is_finite() && p.amplitude_deg > 0.0 && p.amplitude_deg < 30.0,
             file,
             "pulse.amplitude_deg",
             || format!("expected a steering angle in (0, 30) deg, got {}", p.amplitude_deg),
         )?;
+        // the pulse's times as every steering input checks them (its amplitude, in this
+        // task's degrees, is checked above)
+        p.input(p.amplitude_deg)
+            .validate()
+            .map_err(|(k, problem)| TaskError::config(file, format!("pulse.{k}"), problem))?;
         for (i, a) in self.amplitudes_deg.iter().enumerate() {
             ensure(
                 a.is_finite() && *a > 0.0 && *a < 30.0,

@@ -142,7 +142,7 @@ impl SteeringInput {
             }
             if !(amplitude_rad.is_finite() && amplitude_rad.abs() < 1.0) {
                 return Err((
-                    "amplitude",
+                    "amplitude_rad",
                     format!("expected a finite steering angle below 1 rad, got {amplitude_rad}"),
                 ));
             }

@@ -28,6 +28,7 @@ use serde::de::DeserializeOwned;
 use sway::SwayError;
 use sway_tasks::TaskError;
 mod charts;
+mod lateral;
 mod sweep;
 
 use sway::control::LoopModel;
@@ -917,6 +918,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(to_toml, m)?)?;
     charts::register(m)?;
+    lateral::register(m)?;
     sweep::register(m)?;
     Ok(())
 }

@@ -11,7 +11,10 @@ numbers as ``cargo xtask <task>``) and return numpy arrays:
 - :func:`bifurcation_diagram` — equilibria, cycles, Hopf and fold points over V;
 - :func:`stability_chart` — the linear (V, D) charts of Fig. 4(a);
 - :func:`nonlinear_chart` — Hopf and fold-of-cycles curves, codimension-two points;
-- :func:`sweep` — a parallel study, returned as a :class:`Table` of numpy columns.
+- :func:`sweep` — a parallel study, returned as a :class:`Table` of numpy columns;
+- :func:`lateral_stability` — the pulse-steer test (ISO 9815) on the model, and what it
+  misses in the bistable range; :func:`analyse_recording` — the same reading of a
+  recorded run.
 
 Units are SI throughout (speeds in m/s, gains D and delays τ in s, angles in rad unless a
 name says ``_deg``). Long calls release the GIL, run on rayon's threads and stop with
@@ -47,6 +50,10 @@ __all__ = [
     "nonlinear_chart",
     "Table",
     "sweep",
+    "LateralStability",
+    "lateral_stability",
+    "RecordedDecay",
+    "analyse_recording",
     "set_num_threads",
     "to_toml",
 ]
@@ -668,3 +675,236 @@ def sweep(
         config = {"name": "python", **config}
     name, kind, columns, order = _native.sweep(_vehicle(vehicle), config)
     return Table(columns, order, name, kind)
+
+
+# ---------------------------------------------------------------------------------------
+# the lateral stability test
+
+
+def _column(rows: Sequence[Mapping[str, Any]], key: str) -> np.ndarray:
+    """A float64 column of the rows, NaN where a value is null."""
+    return np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows], dtype=float)
+
+
+@dataclass(frozen=True)
+class LateralStability:
+    """The lateral stability test (ISO 9815 pulse steer) on the model, as
+    ``cargo xtask lateral_stability`` computes it.
+
+    Per test speed (float64 arrays, NaN where the task writes null): ``speed_mps``,
+    ``steering_amplitude_deg`` and ``peak_lateral_acceleration_mps2`` (the impulse),
+    ``damping_ratio`` D and ``frequency_hz`` of the decay of ``signal``'s peaks,
+    ``peaks_used``, ``zero_damping_amplitude_deg`` (where the impulses' local damping
+    D(A) crosses zero), ``unstable_cycle_amplitude_deg`` / ``stable_cycle_amplitude_deg``
+    (the sway cycles' max |θ| from continuation), ``triggering_impulse_deg`` (the smallest
+    impulse that triggers sway) and ``reasons`` (why a value is NaN; None where none is).
+    ``local_damping``: per speed an n × 2 array of (amplitude [deg], D).
+
+    ``test_critical_speed_mps`` (the fit of D(V) over the decaying runs extrapolated to
+    D = 0; ``fit_coefficients`` constant first), ``v_crit_mps``, ``v_fold_mps``,
+    ``overestimate_mps`` (test speed − V_fold), ``reason`` and ``stable_up_to_mps`` where
+    V_crit or V_fold is None. ``trace``: one run (``values``, ``steering_deg``,
+    ``peaks_used`` as n × 2 arrays of (t [s], value)). ``summary``: the task's
+    ``summary.json`` fields.
+    """
+
+    speed_mps: np.ndarray
+    steering_amplitude_deg: np.ndarray
+    peak_lateral_acceleration_mps2: np.ndarray
+    damping_ratio: np.ndarray
+    frequency_hz: np.ndarray
+    peaks_used: np.ndarray
+    zero_damping_amplitude_deg: np.ndarray
+    unstable_cycle_amplitude_deg: np.ndarray
+    stable_cycle_amplitude_deg: np.ndarray
+    triggering_impulse_deg: np.ndarray
+    reasons: list
+    local_damping: list
+    signal: str
+    test_critical_speed_mps: Optional[float]
+    fit_coefficients: np.ndarray
+    v_crit_mps: Optional[float]
+    v_fold_mps: Optional[float]
+    overestimate_mps: Optional[float]
+    reason: Optional[str]
+    stable_up_to_mps: Optional[float]
+    trace: Optional[dict]
+    summary: dict = field(repr=False)
+
+    def __repr__(self) -> str:
+        def f(v: Optional[float]) -> str:
+            return "None" if v is None else f"{v:.3f}"
+
+        return (
+            f"LateralStability({len(self.speed_mps)} speeds, test critical speed "
+            f"{f(self.test_critical_speed_mps)} m/s, V_crit {f(self.v_crit_mps)} m/s, "
+            f"V_fold {f(self.v_fold_mps)} m/s, overestimate {f(self.overestimate_mps)} m/s)"
+        )
+
+
+def lateral_stability(
+    vehicle: Optional[Vehicle] = None,
+    config: Union[Mapping[str, Any], PathLike, None] = None,
+    **keys: Any,
+) -> LateralStability:
+    """The lateral stability test on ``vehicle`` (default Table I; any model variant), as
+    ``cargo xtask lateral_stability``: ``config`` is a TOML file or a dict of
+    ``configs/lateral_stability.toml``'s shape; keyword arguments set its top-level keys
+    (``speeds``, ``signal``, ``skip_peaks``, ``periods``, ``fit``, ``amplitudes_deg``,
+    ``horizon_s``, ``sample_step_s``, ``pulse``, ``controller``, ``diagram``), e.g.
+    ``lateral_stability(speeds=[20.0, 30.0], amplitudes_deg=[])``. Absent keys take the
+    file's defaults."""
+    if config is None:
+        config = {}
+    if keys:
+        if not isinstance(config, Mapping):
+            raise TypeError("lateral_stability: give keyword arguments with a dict config, not a file")
+        config = {**config, **keys}
+    raw, arrays = _native.lateral_stability(_vehicle(vehicle), config)
+    s = json.loads(raw)
+    rows = s["speeds"]
+    fit = s.get("fit") or {}
+    return LateralStability(
+        speed_mps=_column(rows, "speed_mps"),
+        steering_amplitude_deg=_column(rows, "steering_amplitude_deg"),
+        peak_lateral_acceleration_mps2=_column(rows, "peak_lateral_acceleration_mps2"),
+        damping_ratio=_column(rows, "damping_ratio"),
+        frequency_hz=_column(rows, "frequency_hz"),
+        peaks_used=np.array([int(r["peaks_used"]) for r in rows], dtype=np.int64),
+        zero_damping_amplitude_deg=_column(rows, "zero_damping_amplitude_deg"),
+        unstable_cycle_amplitude_deg=_column(rows, "unstable_cycle_amplitude_deg"),
+        stable_cycle_amplitude_deg=_column(rows, "stable_cycle_amplitude_deg"),
+        triggering_impulse_deg=_column(rows, "triggering_impulse_deg"),
+        reasons=[r.get("reason") for r in rows],
+        local_damping=list(arrays["local_damping"]),
+        signal=s["signal"],
+        test_critical_speed_mps=s.get("test_critical_speed_mps"),
+        fit_coefficients=np.array(fit.get("coefficients", []), dtype=float),
+        v_crit_mps=s.get("v_crit_mps"),
+        v_fold_mps=s.get("v_fold_mps"),
+        overestimate_mps=s.get("overestimate_mps"),
+        reason=s.get("reason"),
+        stable_up_to_mps=s.get("stable_up_to_mps"),
+        trace=arrays.get("trace"),
+        summary=s,
+    )
+
+
+@dataclass(frozen=True)
+class RecordedDecay:
+    """One recorded pulse-steer run, read as ``cargo xtask lateral_stability
+    --recording`` reads it: ``damping_ratio`` D, ``log_decrement`` δ, ``frequency_hz``,
+    ``periods_used``, ``impulse_s`` (start, end [s]), ``peaks_used`` (n × 2: t [s], value
+    of the filtered signal), ``filtered`` (the zero-phase low-passed signal), ``signal``
+    (which one was read) and ``speed_mps`` (the mean speed from the impulse's end to the
+    last peak used; None without a speed)."""
+
+    damping_ratio: float
+    log_decrement: float
+    frequency_hz: float
+    periods_used: int
+    impulse_s: tuple
+    peaks_used: np.ndarray
+    filtered: np.ndarray = field(repr=False)
+    signal: str
+    speed_mps: Optional[float]
+
+
+_SIGNALS = ("hitch_angle", "trailer_yaw_rate", "car_yaw_rate")
+
+
+def _samples(values: Any, name: str) -> np.ndarray:
+    if isinstance(values, (str, bytes)):
+        raise TypeError(f"{name}: expected a sequence of numbers, got a string")
+    try:
+        a = np.ascontiguousarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{name}: expected a sequence of numbers ({e})") from None
+    if a.ndim != 1:
+        raise ValueError(f"{name}: expected a 1-d sequence, got shape {a.shape}")
+    return a
+
+
+def analyse_recording(
+    t: Any,
+    signals: Mapping[str, Any],
+    *,
+    signal: Optional[str] = None,
+    skip_peaks: int = 2,
+    periods: int = 3,
+    impulse_fraction: float = 0.05,
+    low_pass_hz: float = 3.0,
+    prominence_fraction: float = 0.05,
+) -> RecordedDecay:
+    """Reads the damping of one recorded pulse-steer run: ``t`` [s] increasing (≥ 20 Hz)
+    and ``signals``, a dict of sequences sampled at ``t``: ``"steering_angle"`` (any unit)
+    and at least one of ``"hitch_angle"``, ``"trailer_yaw_rate"``, ``"car_yaw_rate"`` (any
+    unit), optionally ``"speed"`` [m/s]. ``signal`` picks the one to read (default: the
+    first present in that order). The impulse is found from the steering, the signal is
+    low-passed forwards and backwards (zero phase) and its prominent peaks after the
+    impulse give D. Raises ``ValueError`` naming the problem (a key and row, counted from
+    0, or too few peaks)."""
+    if not isinstance(signals, Mapping):
+        raise TypeError(f"signals: expected a dict of sequences, got {type(signals).__name__}")
+    unknown = [k for k in signals if k not in ("steering_angle", "speed", *_SIGNALS)]
+    if unknown:
+        raise ValueError(
+            f"signals: unknown key(s) {unknown}; expected steering_angle, speed and one of {list(_SIGNALS)}"
+        )
+    if "steering_angle" not in signals:
+        raise ValueError("signals: missing 'steering_angle'")
+    present = [k for k in _SIGNALS if k in signals]
+    if signal is None:
+        if not present:
+            raise ValueError(f"signals: expected at least one of {list(_SIGNALS)}")
+        signal = present[0]
+    elif signal not in _SIGNALS:
+        raise ValueError(f"signal: expected one of {list(_SIGNALS)}, got {signal!r}")
+    elif signal not in signals:
+        raise ValueError(f"signal: {signal!r} is not among the signals given ({present})")
+    for name, v in (("skip_peaks", skip_peaks), ("periods", periods)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise TypeError(f"{name}: expected an int, got {type(v).__name__}")
+        if v < (1 if name == "periods" else 0):
+            raise ValueError(f"{name}: expected {'≥ 1' if name == 'periods' else '≥ 0'}, got {v}")
+    for name, v in (
+        ("impulse_fraction", impulse_fraction),
+        ("prominence_fraction", prominence_fraction),
+    ):
+        if not (isinstance(v, (int, float)) and 0.0 < float(v) < 1.0):
+            raise ValueError(f"{name}: expected a fraction in (0, 1), got {v!r}")
+    if not (isinstance(low_pass_hz, (int, float)) and math.isfinite(low_pass_hz) and low_pass_hz > 0):
+        raise ValueError(f"low_pass_hz: expected a cut-off > 0 Hz, got {low_pass_hz!r}")
+    tt = _samples(t, "t")
+    steering = _samples(signals["steering_angle"], "signals['steering_angle']")
+    y = _samples(signals[signal], f"signals[{signal!r}]")
+    for name, a in (("signals['steering_angle']", steering), (f"signals[{signal!r}]", y)):
+        if len(a) != len(tt):
+            raise ValueError(f"{name}: {len(a)} samples, t has {len(tt)}")
+    try:
+        r = _native.analyse_recording(
+            tt, steering, y, int(skip_peaks), int(periods),
+            float(impulse_fraction), float(low_pass_hz), float(prominence_fraction),
+        )
+    except ValueError as e:
+        # the library names its inputs time / steering / signal
+        msg = str(e).replace("steering is", "signals['steering_angle'] is").replace(
+            "signal is", f"signals[{signal!r}] is").replace("time is", "t is")
+        raise ValueError(msg) from None
+    speed = None
+    if "speed" in signals:
+        v = _samples(signals["speed"], "signals['speed']")
+        end = r["peaks_used"][-1, 0] if len(r["peaks_used"]) else r["impulse_s"][1]
+        window = (tt >= r["impulse_s"][1]) & (tt <= end)
+        speed = float(v[window].mean()) if window.any() else None
+    return RecordedDecay(
+        damping_ratio=r["damping_ratio"],
+        log_decrement=r["log_decrement"],
+        frequency_hz=r["frequency_hz"],
+        periods_used=r["periods_used"],
+        impulse_s=tuple(r["impulse_s"]),
+        peaks_used=r["peaks_used"],
+        filtered=r["filtered"],
+        signal=signal,
+        speed_mps=speed,
+    )

@@ -85,6 +85,9 @@ struct TaskArgs {
     /// stable up to here is reported as "stable up to" it
     #[arg(long, value_name = "MPS", default_value_t = sway::ranging::SpeedLimits::default().max_speed_mps)]
     max_speed: f64,
+    /// lateral_stability: analyse this recorded pulse-steer run (CSV; repeat for several)
+    #[arg(long, value_name = "FILE")]
+    recording: Vec<PathBuf>,
 }
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).
@@ -189,6 +192,9 @@ fn run() -> Result<()> {
     };
     let ctx = TaskContext::new(&vehicle, &configs_dir, &results, &progress)?.with_limits(limits);
 
+    if !opts.recording.is_empty() {
+        return run_recordings(&task_list, &opts, &configs_dir, &results, &ctx, &lanes);
+    }
     // Load and validate every config (and its resource plan) before any work: a bad
     // config stops the run here.
     let mut prepared = Vec::new();
@@ -225,6 +231,40 @@ fn run() -> Result<()> {
     }
     stop_cleanly_on_signals(&results, &lanes.bars, None)?;
     run_prepared(prepared, &ctx, &lanes)
+}
+
+/// `cargo xtask lateral_stability --recording FILE …`: the recorded runs analysed with the
+/// task's config into `results/lateral_stability_recordings/`.
+fn run_recordings(
+    task_list: &[Task],
+    opts: &TaskArgs,
+    configs_dir: &Path,
+    results: &Path,
+    ctx: &TaskContext<'_>,
+    lanes: &Lanes,
+) -> Result<()> {
+    let (task, config) = single_task(task_list, opts, configs_dir)?;
+    if task.name != tasks::lateral_stability::TASK.name {
+        bail!(
+            "--recording applies to lateral_stability, not to `{}`",
+            task.name
+        );
+    }
+    let prepared = tasks::lateral_stability::recordings(&config, &opts.recording)?;
+    if opts.check {
+        println!("[{}] valid (config {})", task.name, config.display());
+        for file in &opts.recording {
+            match sway_tasks::recording::read_recording(file) {
+                Ok(r) => println!("  {}: {} samples", file.display(), r.time_s.len()),
+                Err(e) => println!("  {e}"),
+            }
+        }
+        println!("results would go to {}", results.display());
+        return Ok(());
+    }
+    sway_tasks::io::ensure_writable(results)?;
+    stop_cleanly_on_signals(results, &lanes.bars, None)?;
+    run_prepared(vec![(task, Box::new(prepared))], ctx, lanes)
 }
 
 /// The one task and its config file of a sharded run.

@@ -10,6 +10,8 @@
 
 #[path = "interrupt.rs"]
 mod interrupt;
+#[path = "recordings.rs"]
+mod recordings;
 #[path = "shard_cli.rs"]
 mod shard_cli;
 #[path = "slurm.rs"]

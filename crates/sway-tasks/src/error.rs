@@ -28,6 +28,16 @@ pub enum TaskError {
         /// what is wrong and what was expected
         problem: String,
     },
+    /// A recording (`--recording`) cannot be read or analysed.
+    #[error("{}: {place}: {problem}", file.display())]
+    Recording {
+        /// the recording
+        file: PathBuf,
+        /// where: `column `name``, `line N`, …
+        place: String,
+        /// what is wrong
+        problem: String,
+    },
     /// A result could not be written.
     #[error("{}: cannot write: {source}", path.display())]
     Write {

@@ -13,6 +13,7 @@ pub mod figures;
 pub mod io;
 pub mod limits;
 pub mod plot;
+pub mod recording;
 pub mod report;
 pub mod shard;
 pub mod tasks;

@@ -193,6 +193,19 @@ pub enum SpeedSpec {
     Relative(RelativeSpeed),
 }
 
+impl std::fmt::Display for SpeedSpec {
+    /// As the config writes it: `33 m/s`, `{ of_v_crit = 0.5 }`, `{ in_bistable = 0.4 }`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SpeedSpec::Absolute(v) => write!(f, "{v} m/s"),
+            SpeedSpec::Relative(RelativeSpeed::OfVCrit(x)) => write!(f, "{{ of_v_crit = {x} }}"),
+            SpeedSpec::Relative(RelativeSpeed::InBistable(x)) => {
+                write!(f, "{{ in_bistable = {x} }}")
+            }
+        }
+    }
+}
+
 /// A speed relative to the open loop of the vehicle.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]

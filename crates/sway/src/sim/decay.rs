@@ -137,16 +137,19 @@ pub fn decay(peaks: &[Peak], skip: usize, periods: usize) -> Option<Decay> {
     })
 }
 
-/// The local damping between successive extrema against their mean amplitude: for each
-/// pair (yᵢ, yᵢ₊₁) half a period apart, δ = 2·ln(|yᵢ| / |yᵢ₊₁|) and D(δ), at the amplitude
-/// (|yᵢ| + |yᵢ₊₁|)/2. Where D changes sign the oscillation neither grows nor decays: a
-/// periodic orbit of that amplitude.
+/// The local damping of the oscillation against its amplitude: for each run of three
+/// successive extrema (yᵢ, yᵢ₊₁, yᵢ₊₂), one period between the outer two, δ = ln(|yᵢ| / |yᵢ₊₂|)
+/// and D(δ), at the amplitude |yᵢ₊₁| of the middle one (their geometric mean for one
+/// exponential mode). A full period, not half of one, so that whatever makes the positive
+/// and negative half-waves differ (a second, slower decaying mode near the sway frequency
+/// in a delayed loop; an offset) does not make successive values alternate. Where D changes
+/// sign the oscillation neither grows nor decays: a periodic orbit of that amplitude.
 pub fn local_damping(peaks: &[Peak]) -> Vec<(f64, f64)> {
     peaks
-        .windows(2)
+        .windows(3)
         .map(|w| {
-            let (a, b) = (w[0].value.abs(), w[1].value.abs());
-            (0.5 * (a + b), damping_ratio(2.0 * (a / b).ln()))
+            let (a, m, b) = (w[0].value.abs(), w[1].value.abs(), w[2].value.abs());
+            (m, damping_ratio((a / b).ln()))
         })
         .collect()
 }
@@ -221,9 +224,9 @@ mod tests {
     }
 
     #[test]
-    fn local_damping_is_the_decay_of_each_half_period() {
-        // reference: for one mode every half period decays by e^{σπ/ω}, so each local D is
-        // the mode's damping ratio (1e-5 as above)
+    fn local_damping_is_the_decay_of_each_period() {
+        // reference: for one mode every period decays by e^{2πσ/ω}, so each local D is the
+        // mode's damping ratio (1e-5 as above), read at the middle peak's amplitude
         let (t, y) = damped(-0.1, 3.0, 1e-3, 10.0);
         let exact = 0.1 / (0.01f64 + 9.0).sqrt();
         for (_, d) in local_damping(&peaks(&t, &y, 0.0, 1e-6)) {

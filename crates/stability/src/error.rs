@@ -69,7 +69,8 @@ pub enum StabilityError {
     /// finest allowed resolution.
     #[error(
         "rightmost roots not confirmed: the spectral discretisation at degree {degree} still moved \
-         under Newton polishing by {mismatch:e}; raise `max_degree` in the options"
+         under Newton polishing by {mismatch:e}; ask for fewer roots, or raise `max_degree` \
+         of `RootOptions` (the library's option; `RootOptions::for_count` sizes it)"
     )]
     Unconfirmed {
         /// last collocation degree tried

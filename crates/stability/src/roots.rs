@@ -24,6 +24,21 @@ pub struct RootOptions {
     pub newton: NewtonOptions,
 }
 
+impl RootOptions {
+    /// The default options with the degree cap raised to what `count` roots need: the
+    /// k-th conjugate pair of a delayed system lies near |Im λ|·τ ≈ 2πk, so `count` roots
+    /// reach |λ|·τ ≈ π·count, which the collocation resolves at N ≥ |λ|·τ / RESOLVED
+    /// (with a margin of 1.2).
+    pub fn for_count(count: usize) -> Self {
+        let needed = (1.2 * std::f64::consts::PI * count as f64 / RESOLVED).ceil() as usize;
+        let defaults = Self::default();
+        Self {
+            max_degree: defaults.max_degree.max(needed),
+            ..defaults
+        }
+    }
+}
+
 impl Default for RootOptions {
     fn default() -> Self {
         Self {

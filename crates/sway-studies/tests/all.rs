@@ -16,6 +16,8 @@ mod fig4b;
 mod lateral_stability;
 #[path = "newcomer_vehicle.rs"]
 mod newcomer_vehicle;
+#[path = "roots.rs"]
+mod roots;
 #[path = "scenario_speeds.rs"]
 mod scenario_speeds;
 #[path = "sweep.rs"]

@@ -178,7 +178,7 @@ pub fn rightmost_roots<M: LoopModel + ?Sized>(
 ) -> Result<Vec<Complex64>, SwayError> {
     let ctx = format!("rightmost roots at V = {speed} m/s, D = {gain} s, τ = {delay} s");
     let sys = closed_loop(model, speed).map_err(numerical(ctx.clone()))?;
-    sys.rightmost_roots(gain, delay, count, &RootOptions::default())
+    sys.rightmost_roots(gain, delay, count, &RootOptions::for_count(count))
         .map_err(numerical(ctx))
 }
 

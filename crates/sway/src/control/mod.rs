@@ -191,7 +191,8 @@ impl LinearLoop {
             stability::sort_rightmost(&mut roots);
             return Ok(predictor::without_spurious(roots, &self.spurious, count));
         }
-        let options = RootOptions::default();
+        // a collocation fine enough for the roots asked for (and the spurious ones)
+        let options = RootOptions::for_count(count + self.spurious.len());
         // the feedback is in μ = λ/s with the delay s·τ (s = 1 but for a predictor with
         // more than four states)
         let s = self.time_scale;

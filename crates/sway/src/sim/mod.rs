@@ -48,7 +48,7 @@ pub use paper_layout::{
 };
 #[allow(deprecated)]
 pub use plant::Plant;
-pub use plant::{SWITCHING_FUNCTIONS, SimProblem, reduced, reduced_state};
+pub use plant::{HeldInputs, SWITCHING_FUNCTIONS, SimProblem, reduced, reduced_state};
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{
     ControllerStates, EarlyStop, IntegrationMethod, KinkLandingMode, Layout, Metrics, Outcome,

@@ -11,7 +11,7 @@
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
 use sway_model::vehicle::Vehicle;
-use trailer_model::{Inputs, Model, SlipAngles, State4};
+use trailer_model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4};
 
 use super::{SpeedProfile, SteeringInput};
 use crate::SwayError;
@@ -54,6 +54,28 @@ pub struct SimProblem<'a, P, const M: usize, const N: usize> {
     loop_command: Option<LoopCommand>,
     /// a steering input added to the law's command (none by default)
     steering: SteeringInput,
+    /// inputs held by a co-simulation master (none by default)
+    held: HeldInputs,
+}
+
+/// Inputs that a co-simulation master holds constant between two communication points (the
+/// FMU's inputs, `sway-fmu`), applied on top of the run's own speed profile, law and
+/// steering input. All zero (none) by default; a change between two integration calls is a
+/// jump of the right-hand side, which the solver must be told of
+/// ([`dde::OdeSolver::input_jump`], [`dde::DdeSolver::input_jump`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HeldInputs {
+    /// the forward speed V \[m/s\] in place of the profile's, with V̇ = 0 while held; `None`:
+    /// the profile's V(t) and V̇(t)
+    pub speed_mps: Option<f64>,
+    /// a steering angle δ \[rad\] added to the law's command and the steering input
+    pub steering_angle_rad: f64,
+    /// a yaw moment M_z \[N m\] on the tractor (differential braking), added to a braking
+    /// loop's
+    pub yaw_moment_nm: f64,
+    /// a lateral force \[N\] on the trailer at its centre of gravity, positive to its left
+    /// (crosswind; [`trailer_model::Model::trailer_force_response`])
+    pub trailer_lateral_force_n: f64,
 }
 
 /// The paper's model as a simulation problem (the name of [`SimProblem`] before it took any
@@ -140,6 +162,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
             history: x0,
             loop_command,
             steering: SteeringInput::None,
+            held: HeldInputs::default(),
         })
     }
 
@@ -153,6 +176,16 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         self.breakpoints.dedup();
         self.steering = steering;
         self
+    }
+
+    /// Holds `held` from now on (see [`HeldInputs`]).
+    pub fn set_held_inputs(&mut self, held: HeldInputs) {
+        self.held = held;
+    }
+
+    /// The inputs held by a co-simulation master.
+    pub fn held_inputs(&self) -> &HeldInputs {
+        &self.held
     }
 
     /// The plant.
@@ -250,11 +283,13 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
     /// otherwise), given the delayed states.
     #[inline]
     pub fn yaw_moment(&self, t: f64, x: &SVector<f64, N>, x_delayed: &[SVector<f64, N>]) -> f64 {
+        let held = self.held.yaw_moment_nm;
         match &self.loop_command {
             Some(c) if c.law.actuator == Actuator::DifferentialBraking => {
-                self.loop_inputs(t, x, x_delayed)
+                let m = self.loop_inputs(t, x, x_delayed);
+                if held == 0.0 { m } else { m + held }
             }
-            _ => 0.0,
+            _ => held,
         }
     }
 
@@ -287,10 +322,20 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         } else {
             steering_angle + self.steering.angle(t)
         };
+        let held = &self.held;
+        let steering_angle = if held.steering_angle_rad == 0.0 {
+            steering_angle
+        } else {
+            steering_angle + held.steering_angle_rad
+        };
+        let (speed, acceleration) = match held.speed_mps {
+            Some(v) => (v, 0.0),
+            None => (self.profile.speed(t), self.profile.acceleration(t)),
+        };
         Inputs {
             steering_angle,
-            speed: self.profile.speed(t),
-            acceleration: self.profile.acceleration(t),
+            speed,
+            acceleration,
         }
     }
 
@@ -395,6 +440,15 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         for i in 0..M {
             dx[i] = r[i];
         }
+        let force = self.held.trailer_lateral_force_n;
+        if force != 0.0 {
+            let extra = self
+                .plant
+                .paper_model()
+                .trailer_force_response(x[HITCH_ANGLE], force);
+            dx[0] += extra[0];
+            dx[2] += extra[2];
+        }
         if self.kinematics {
             // ψ̇, ẋ_H = V cos ψ − σ1 sin ψ, ẏ_H = V sin ψ + σ1 cos ψ (eq. 5)
             let (sp, cp) = x[M].sin_cos();
@@ -427,7 +481,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem
     #[inline]
     fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
         let u = self.inputs(t, x, &[]);
-        self.eval(&u, 0.0, x, dx);
+        self.eval(&u, self.held.yaw_moment_nm, x, dx);
         if self.loop_command.is_some()
             && self
                 .controller

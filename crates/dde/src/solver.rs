@@ -446,7 +446,9 @@ impl<const N: usize> Core<N> {
         let mut previous: Option<Previous<N>> = None;
         loop {
             self.pass_reached_breakpoints();
-            if self.t >= t_end {
+            // reached, or closer than the resolution of t (a kink landed a few ulps before
+            // t_end: the sliver left is no step)
+            if self.t >= t_end || t_end - self.t <= 16.0 * f64::EPSILON * self.t.abs() {
                 return Ok(Status::Reached);
             }
             if attempts >= self.opts.max_steps {

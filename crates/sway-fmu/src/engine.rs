@@ -7,11 +7,11 @@
 //! The state counts are type parameters (the plant's M reduced states, N = M + 3 kinematic
 //! + the law's own states); [`build`] picks them at run time, as the simulations do.
 
-use dde::{DdeProblem, DdeSolver, Direction, Event, EventAction, Flow, Observer, OdeProblem};
+use dde::{DdeProblem, DdeSolver, Flow, Observer, OdeProblem};
 use dde::{OdeSolver, Status, StepView};
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
-use sway::sim::{HeldInputs, SimProblem, SolverSettings, SpeedProfile};
+use sway::sim::{HeldInputs, SimProblem, SolverSettings, SpeedProfile, guard_event, tripped};
 use sway_model::law::LoopLaw;
 use sway_model::vehicle::{LossOfControl, Vehicle};
 use trailer_model::{AnyVehicleModel, Model, State4, VehicleModel};
@@ -89,48 +89,33 @@ struct Progress<const N: usize> {
     lost: Option<(f64, usize)>,
 }
 
-/// [`HeldInputs`] as data.
+/// [`HeldInputs`] as data (compared to tell the solver of a jump of the inputs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-struct HeldSnapshot([f64; 4]);
+struct HeldSnapshot {
+    speed_mps: Option<f64>,
+    steering_angle_rad: f64,
+    yaw_moment_nm: f64,
+    trailer_lateral_force_n: f64,
+}
 
 impl From<HeldInputs> for HeldSnapshot {
     fn from(h: HeldInputs) -> Self {
-        Self([
-            h.speed_mps.unwrap_or(f64::NAN),
-            h.steering_angle_rad,
-            h.yaw_moment_nm,
-            h.trailer_lateral_force_n,
-        ])
+        Self {
+            speed_mps: h.speed_mps,
+            steering_angle_rad: h.steering_angle_rad,
+            yaw_moment_nm: h.yaw_moment_nm,
+            trailer_lateral_force_n: h.trailer_lateral_force_n,
+        }
     }
 }
 
 /// The engine of a plant `P` with M reduced states and N states in all.
 struct SimEngine<P: Vehicle<M> + 'static, const M: usize, const N: usize> {
-    /// borrows `plant` and `profile` (leaked boxes, freed in `Drop` after it)
-    problem: std::mem::ManuallyDrop<SimProblem<'static, P, M, N>>,
-    plant: *mut P,
-    profile: *mut SpeedProfile,
+    /// the problem, owning its plant and speed profile ([`SimProblem::new_owned`])
+    problem: SimProblem<'static, P, M, N>,
     x0: SVector<f64, N>,
     law: Option<LoopLaw>,
     progress: Progress<N>,
-}
-
-// SAFETY: the raw pointers are owned boxes of `Send` data, used by this engine alone.
-unsafe impl<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize> Send
-    for SimEngine<P, M, N>
-{
-}
-
-impl<P: Vehicle<M> + 'static, const M: usize, const N: usize> Drop for SimEngine<P, M, N> {
-    fn drop(&mut self) {
-        // SAFETY: the problem (the only borrower) goes first; the pointers came from
-        // `Box::into_raw` in `SimEngine::new` and are freed once, here.
-        unsafe {
-            std::mem::ManuallyDrop::drop(&mut self.problem);
-            drop(Box::from_raw(self.plant));
-            drop(Box::from_raw(self.profile));
-        }
-    }
 }
 
 impl<P: Vehicle<M> + 'static, const M: usize, const N: usize> std::fmt::Debug
@@ -160,65 +145,43 @@ fn numerical(context: &str, e: impl std::error::Error + Send + Sync + 'static) -
     }
 }
 
-impl<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize> SimEngine<P, M, N> {
+impl<P: Vehicle<M> + Send + Sync + 'static, const M: usize, const N: usize> SimEngine<P, M, N> {
     fn new(plant: P, spec: &EngineSpec) -> Result<Self, FmuError> {
-        let plant = Box::into_raw(Box::new(plant));
-        let profile = Box::into_raw(Box::new(SpeedProfile::Constant {
-            speed_mps: spec.speed_mps,
-        }));
-        // SAFETY: both boxes live until `Drop`, which frees them after the problem.
-        let (plant_ref, profile_ref): (&'static P, &'static SpeedProfile) =
-            unsafe { (&*plant, &*profile) };
         let x4 = State4::new(
             spec.initial[0],
             spec.initial[1],
             spec.initial[2],
             spec.initial[3],
         );
-        let xr = plant_ref.initial_state(&x4, spec.speed_mps);
+        let xr = plant.initial_state(&x4, spec.speed_mps);
         let x0 = SVector::<f64, N>::from_fn(|i, _| match i {
             i if i < M => xr[i],
             i if i < M + 3 => spec.initial[4 + i - M],
             _ => 0.0,
         });
-        // SAFETY (on the error paths): nothing borrows the boxes any more; freed once.
-        let free = || unsafe {
-            drop(Box::from_raw(plant));
-            drop(Box::from_raw(profile));
+        let profile = SpeedProfile::Constant {
+            speed_mps: spec.speed_mps,
         };
-        let problem = match SimProblem::<P, M, N>::new(plant_ref, profile_ref, spec.law, x0) {
-            Ok(p) => p,
-            Err(source) => {
-                free();
-                return Err(FmuError::Step {
+        let problem =
+            SimProblem::<P, M, N>::new_owned(plant, profile, spec.law, x0).map_err(|source| {
+                FmuError::Step {
                     t: spec.start_s,
                     t_end: spec.start_s,
                     source,
-                });
-            }
-        };
+                }
+            })?;
         let opts = spec.solver.options(spec.law.as_ref());
         let solver = if spec.law.is_some() {
             DdeSolver::new(&problem, spec.start_s, opts)
                 .map(Solver::Dde)
-                .map_err(|e| numerical("starting the DDE solver", e))
+                .map_err(|e| numerical("starting the DDE solver", e))?
         } else {
             OdeSolver::new(&problem, spec.start_s, x0, opts)
                 .map(Solver::Ode)
-                .map_err(|e| numerical("starting the ODE solver", e))
-        };
-        let solver = match solver {
-            Ok(s) => s,
-            Err(e) => {
-                drop(problem);
-                free();
-                return Err(e);
-            }
+                .map_err(|e| numerical("starting the ODE solver", e))?
         };
         Ok(Self {
-            problem: std::mem::ManuallyDrop::new(problem),
-            plant,
-            profile,
+            problem,
             x0,
             law: spec.law,
             progress: Progress {
@@ -261,7 +224,9 @@ impl<const N: usize> Observer<N> for Delayed<N> {
     }
 }
 
-impl<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize> Engine for SimEngine<P, M, N> {
+impl<P: Vehicle<M> + Send + Sync + 'static, const M: usize, const N: usize> Engine
+    for SimEngine<P, M, N>
+{
     fn time(&self) -> f64 {
         match &self.progress.solver {
             Solver::Ode(s) => s.t(),
@@ -284,17 +249,7 @@ impl<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize> Engine for 
         self.progress.held = Some(snapshot);
         self.problem.set_held_inputs(held);
         let problem: &SimProblem<'static, P, M, N> = &self.problem;
-        let guard = Event::with_delays(
-            move |t, x, xd| {
-                problem
-                    .guard_values(t, x, xd)
-                    .into_iter()
-                    .fold(f64::NEG_INFINITY, f64::max)
-            },
-            Direction::Rising,
-            EventAction::Stop,
-        );
-        let events = [guard];
+        let events = [guard_event(problem)];
         let mut observer = Delayed {
             delay_s: self.law.map(|l| l.delay_s),
             x0: self.x0,
@@ -317,9 +272,13 @@ impl<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize> Engine for 
             Status::Event(hit) => {
                 let xd = self.delayed_slice().to_vec();
                 let v = problem.guard_values(hit.t, &hit.x, &xd);
-                let k = (0..5).fold(0, |b, k| if v[k] > v[b] { k } else { b });
+                let why = tripped(v);
+                let k = LossOfControl::ALL
+                    .iter()
+                    .position(|l| *l == why)
+                    .unwrap_or(0);
                 self.progress.lost = Some((hit.t, k));
-                Ok(StepEnd::LostControl(hit.t, LossOfControl::ALL[k]))
+                Ok(StepEnd::LostControl(hit.t, why))
             }
             _ => Ok(StepEnd::Reached),
         }
@@ -402,7 +361,7 @@ impl<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize> Engine for 
     }
 }
 
-fn boxed<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize>(
+fn boxed<P: Vehicle<M> + Send + Sync + 'static, const M: usize, const N: usize>(
     plant: P,
     spec: &EngineSpec,
 ) -> Result<Box<dyn Engine>, FmuError> {
@@ -412,7 +371,7 @@ fn boxed<P: Vehicle<M> + Send + 'static, const M: usize, const N: usize>(
 /// `plant` with N = M + 3 + the law's own states (0, 1 for a rate-limited steering, 4 for
 /// the predictor): the three N of each M as literals.
 fn by_law<
-    P: Vehicle<M> + Send + 'static,
+    P: Vehicle<M> + Send + Sync + 'static,
     const M: usize,
     const N0: usize,
     const N1: usize,

@@ -32,13 +32,20 @@
 //! assert!(th.abs() < 0.1); // the sway decays at 33 m/s from 0.1 rad
 //! ```
 
+#[forbid(unsafe_code)]
 pub mod archive;
+#[forbid(unsafe_code)]
 pub mod config;
+#[forbid(unsafe_code)]
 pub mod description;
+#[forbid(unsafe_code)]
 pub mod engine;
+#[forbid(unsafe_code)]
 mod error;
 pub mod ffi;
+#[forbid(unsafe_code)]
 pub mod instance;
+#[forbid(unsafe_code)]
 pub mod variables;
 
 pub use error::FmuError;

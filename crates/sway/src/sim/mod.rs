@@ -53,7 +53,7 @@ pub use profile::{RampShape, SpeedProfile};
 pub use run::{
     ControllerStates, EarlyStop, IntegrationMethod, KinkLandingMode, Layout, Metrics, Outcome,
     Recording, RunSettings, Sample, SimResult, SimSpec, SimulateOwn, SolverSettings, ValidityGuard,
-    settle, simulate,
+    guard_event, settle, simulate, tripped,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, ensure_name, validate_parts,

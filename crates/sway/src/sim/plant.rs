@@ -17,6 +17,26 @@ use super::{SpeedProfile, SteeringInput};
 use crate::SwayError;
 use sway_model::law::{Actuator, ActuatorLimits, LoopLaw, Structure};
 
+/// The plant or the speed profile of a [`SimProblem`]: borrowed from the caller (the
+/// simulations, which keep their own for the run) or owned ([`SimProblem::new_owned`]: a
+/// problem that lives on its own, as the FMU's engine between two calls of the importer).
+#[derive(Debug, Clone)]
+enum Kept<'a, T> {
+    Borrowed(&'a T),
+    Owned(T),
+}
+
+impl<T> std::ops::Deref for Kept<'_, T> {
+    type Target = T;
+    #[inline]
+    fn deref(&self) -> &T {
+        match self {
+            Kept::Borrowed(t) => t,
+            Kept::Owned(t) => t,
+        }
+    }
+}
+
 /// What a `yaw_rate_hitch` or `predictor` controller needs at run time.
 #[derive(Debug, Clone)]
 struct LoopCommand {
@@ -37,8 +57,8 @@ struct LoopCommand {
 /// [`OdeProblem`] (δ ≡ 0) and [`DdeProblem`] (δ = −D·ψ̇(t − τ)).
 #[derive(Debug, Clone)]
 pub struct SimProblem<'a, P, const M: usize, const N: usize> {
-    plant: &'a P,
-    profile: &'a SpeedProfile,
+    plant: Kept<'a, P>,
+    profile: Kept<'a, SpeedProfile>,
     controller: Option<LoopLaw>,
     /// x\[N − 1\] is the steering angle δ (rate-limited actuator)
     actuator_state: bool,
@@ -115,6 +135,38 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         controller: Option<LoopLaw>,
         x0: SVector<f64, N>,
     ) -> Result<Self, SwayError> {
+        Self::kept(
+            Kept::Borrowed(plant),
+            Kept::Borrowed(profile),
+            controller,
+            x0,
+        )
+    }
+
+    /// A problem of its own plant and profile ([`SimProblem::new`] otherwise): one that
+    /// outlives the code that made it, as the FMU's engine does between two calls of the
+    /// importer.
+    ///
+    /// # Errors
+    /// As [`SimProblem::new`].
+    pub fn new_owned(
+        plant: P,
+        profile: SpeedProfile,
+        controller: Option<LoopLaw>,
+        x0: SVector<f64, N>,
+    ) -> Result<SimProblem<'static, P, M, N>, SwayError>
+    where
+        P: 'static,
+    {
+        SimProblem::kept(Kept::Owned(plant), Kept::Owned(profile), controller, x0)
+    }
+
+    fn kept(
+        plant: Kept<'a, P>,
+        profile: Kept<'a, SpeedProfile>,
+        controller: Option<LoopLaw>,
+        x0: SVector<f64, N>,
+    ) -> Result<Self, SwayError> {
         let extra = controller.map_or(0, |l| l.extra_states());
         let kinematics = match N.checked_sub(extra) {
             Some(s) if s == M => false,
@@ -135,7 +187,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         };
         let loop_command = match controller {
             Some(law) if !law.is_paper_structure() => {
-                Some(loop_command(plant.paper_model(), profile, law)?)
+                Some(loop_command(plant.paper_model(), &profile, law)?)
             }
             _ => None,
         };
@@ -145,6 +197,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         breakpoints.sort_by(f64::total_cmp);
         breakpoints.dedup();
         let actuator_state = controller.is_some_and(|l| l.has_actuator_state());
+        let plant_switching = plant.switching_count();
         let delays = match (controller.map(|l| l.delay_s), &loop_command) {
             // u(t − τ) in ż needs x(t − 2τ)
             (Some(tau), Some(c)) if c.law.structure == Structure::Predictor => vec![tau, 2.0 * tau],
@@ -156,7 +209,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
             controller,
             actuator_state,
             kinematics,
-            plant_switching: plant.switching_count(),
+            plant_switching,
             delays,
             breakpoints,
             history: x0,
@@ -190,7 +243,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
 
     /// The plant.
     pub fn plant(&self) -> &P {
-        self.plant
+        &self.plant
     }
 
     /// The controller.
@@ -208,7 +261,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
 
     /// The speed profile.
     pub fn profile(&self) -> &SpeedProfile {
-        self.profile
+        &self.profile
     }
 
     /// Whether the steering angle δ is the last state (rate-limited actuator).
@@ -248,7 +301,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
                 let z = Vector4::from_fn(|i, _| current[N - 4 + i]);
                 -((c.k_e * xd)[(0, 0)] + (c.k * z)[(0, 0)])
             }
-            _ => -c.law.measured_output(self.plant, &Self::xr(delayed)),
+            _ => -c.law.measured_output(&*self.plant, &Self::xr(delayed)),
         }
     }
     /// The command u(t) applied by a loop \[rad or N m\] (saturated for braking) and its
@@ -462,7 +515,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
 impl<const N: usize> SimProblem<'_, Model, 4, N> {
     /// The model.
     pub fn model(&self) -> &Model {
-        self.plant
+        &self.plant
     }
 
     /// Slip angles at (t, x) with the delayed states for δ.

@@ -100,12 +100,7 @@ fn v2(defaults: &Defaults, vars: &[Variable]) -> String {
             vr + 1,
             attributes(v, FmiVersion::V2)
         ));
-        let tag = match v.kind {
-            Kind::Real => "Real",
-            Kind::Integer => "Integer",
-            Kind::Boolean => "Boolean",
-            Kind::String => "String",
-        };
+        let tag = v.kind.fmi2_name();
         match &v.start {
             Some(s) => x.push_str(&format!("      <{tag} start=\"{}\"/>\n", start(s))),
             None => x.push_str(&format!("      <{tag}/>\n")),

@@ -19,6 +19,18 @@ pub enum Kind {
     String,
 }
 
+impl Kind {
+    /// Its FMI 2.0 type name (`Real`, `Integer`, `Boolean`, `String`).
+    pub fn fmi2_name(&self) -> &'static str {
+        match self {
+            Kind::Real => "Real",
+            Kind::Integer => "Integer",
+            Kind::Boolean => "Boolean",
+            Kind::String => "String",
+        }
+    }
+}
+
 /// What a variable is to the importer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Causality {

@@ -149,9 +149,7 @@ pub unsafe extern "C" fn fmi2Terminate(c: C) -> Status {
 pub unsafe extern "C" fn fmi2Reset(c: C) -> Status {
     unsafe {
         call(c, "fmi2Reset", |c| {
-            c.instance.reset();
-            c.terminated = false;
-            c.last_successful_s = 0.0;
+            c.reset();
             Ok(Status::Ok)
         })
     }

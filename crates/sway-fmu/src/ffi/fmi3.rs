@@ -115,9 +115,7 @@ pub unsafe extern "C" fn fmi3Terminate(c: C) -> Status {
 pub unsafe extern "C" fn fmi3Reset(c: C) -> Status {
     unsafe {
         call(c, "fmi3Reset", |c| {
-            c.instance.reset();
-            c.terminated = false;
-            c.last_successful_s = 0.0;
+            c.reset();
             Ok(Status::Ok)
         })
     }

@@ -65,6 +65,13 @@ pub struct Component {
 }
 
 impl Component {
+    /// Back to the start values (fmi2Reset, fmi3Reset).
+    pub fn reset(&mut self) {
+        self.instance.reset();
+        self.terminated = false;
+        self.last_successful_s = 0.0;
+    }
+
     /// Sends `message` to the importer's logger.
     pub fn log(&self, status: Status, category: &str, message: &str) {
         let category = CString::new(category).unwrap_or_default();

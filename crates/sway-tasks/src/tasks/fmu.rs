@@ -26,7 +26,7 @@ use sway_fmu::archive::fmu_bytes;
 use sway_fmu::config::{Defaults, FmuConfig};
 use sway_fmu::description::FmiVersion;
 use sway_fmu::instance::Instance;
-use sway_fmu::variables::{Causality, Kind, Value, Variable, variables};
+use sway_fmu::variables::{Causality, Value, Variable, variables};
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
@@ -128,12 +128,7 @@ fn variables_table(vars: &[Variable]) -> String {
             Causality::Output => "output",
             Causality::Independent => "independent",
         };
-        let kind = match v.kind {
-            Kind::Real => "Real",
-            Kind::Integer => "Integer",
-            Kind::Boolean => "Boolean",
-            Kind::String => "String",
-        };
+        let kind = v.kind.fmi2_name();
         let start = match &v.start {
             None => String::new(),
             Some(Value::Real(x)) => format!("{x:?}"),

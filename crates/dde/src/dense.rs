@@ -8,6 +8,7 @@ use crate::Error;
 /// form (*Solving ODEs I*, §II.6): with `θ = (t − t_start)/h`, `θ₁ = 1 − θ`,
 /// `x(t) = r₀ + θ(r₁ + θ₁(r₂ + θ(r₃ + θ₁(r₄ + θ(r₅ + θ₁(r₆ + θ r₇))))))`.
 /// Dormand–Prince 5(4) fills `r₀ … r₄` (order 4), DOP853 all eight (order 7).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment<const N: usize> {
     pub(crate) t_start: f64,
@@ -18,6 +19,7 @@ pub struct Segment<const N: usize> {
 }
 
 /// How many coefficients of the nested form a segment uses.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Degree {
     /// `r₀ … r₄` (Dormand–Prince 5(4))
@@ -104,6 +106,7 @@ impl<const N: usize> Segment<N> {
 
 /// The solution on the integrated range, evaluable at any t in it (requires
 /// [`crate::DenseOutput::Keep`]).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Solution<const N: usize> {
     pub(crate) segments: Vec<Segment<N>>,

@@ -3,6 +3,7 @@
 use crate::Error;
 
 /// How the step size is chosen.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum StepController {
     /// Proportional-integral control (Hairer–Nørsett–Wanner, *Solving ODEs I*, §IV.2 and the
@@ -29,6 +30,7 @@ impl Default for StepController {
 }
 
 /// The Runge–Kutta pair.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
     /// Dormand–Prince 5(4) (the DOPRI5 code): six right-hand sides per step, a continuous
@@ -50,6 +52,7 @@ pub enum Method {
 /// step's continuous extension carried over the next one locates the root and the next
 /// step lands there; a kink the look-ahead misses is found by the step that crosses it
 /// (which is then repeated, up to the root located on its own extension).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum KinkLanding {
     /// On the root, to [`Options::event_tol`]: a landing that overshoots the root is
@@ -67,6 +70,7 @@ pub enum KinkLanding {
 }
 
 /// What the solver keeps of the trajectory.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum DenseOutput {
     /// Keep nothing beyond what the delays need (ODE: nothing at all). Use an observer to
@@ -79,6 +83,7 @@ pub enum DenseOutput {
 }
 
 /// Options of the Runge–Kutta integrator. All fields have sensible defaults.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, PartialEq)]
 pub struct Options {
     /// the Runge–Kutta pair

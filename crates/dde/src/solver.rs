@@ -37,6 +37,7 @@ pub enum Status<const N: usize> {
 }
 
 /// Work counters.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Stats {
     /// accepted steps
@@ -168,6 +169,7 @@ impl<const N: usize> Rhs<N> for OdeRhs<'_, N> {
 }
 
 /// The computed past of a DDE, pruned to the longest delay.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone)]
 struct Past<const N: usize> {
     segs: VecDeque<Segment<N>>,
@@ -305,6 +307,7 @@ impl<const N: usize> Rhs<N> for DdeRhs<'_, N> {
 }
 
 /// Integration state shared by both solvers (cloneable: save and restore it freely).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone)]
 struct Core<const N: usize> {
     opts: Options,
@@ -443,7 +446,9 @@ impl<const N: usize> Core<N> {
         let mut previous: Option<Previous<N>> = None;
         loop {
             self.pass_reached_breakpoints();
-            if self.t >= t_end {
+            // reached, or closer than the resolution of t (a kink landed a few ulps before
+            // t_end: the sliver left is no step)
+            if self.t >= t_end || t_end - self.t <= 16.0 * f64::EPSILON * self.t.abs() {
                 return Ok(Status::Reached);
             }
             if attempts >= self.opts.max_steps {
@@ -502,6 +507,23 @@ impl<const N: usize> Core<N> {
                 segment: built.map_or_else(OnceCell::new, OnceCell::from),
             });
         }
+    }
+
+    /// The right-hand side jumps at the current time (an input changed between two calls):
+    /// `k1` becomes invalid (the next call evaluates the right limit), the switching
+    /// functions start afresh, and `later` (the jump carried along the delays) joins the
+    /// breakpoint schedule; the breakpoints already passed are dropped.
+    fn input_jump(&mut self, later: &[f64]) {
+        self.k1_valid = false;
+        self.switches.restart();
+        self.breakpoints.drain(..self.bp_next);
+        self.bp_next = 0;
+        let t = self.t;
+        self.breakpoints
+            .extend(later.iter().copied().filter(|&b| b > t));
+        self.breakpoints.sort_by(f64::total_cmp);
+        self.breakpoints
+            .dedup_by(|b, a| (*b - *a).abs() <= 64.0 * f64::EPSILON * a.abs().max(1.0));
     }
 
     /// Makes `k1 = f(t, x)` valid (after construction, a breakpoint or a terminal event).
@@ -854,6 +876,7 @@ impl<const N: usize, R: Rhs<N>> StepSource<N> for Shown<'_, '_, N, R> {
 
 /// The switching functions of the problem ([`OdeProblem::switching`]): their values at the
 /// current point and at the end of the attempted step, and the located kink ahead.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone)]
 struct Switches {
     /// gⱼ at the current point; exactly 0 for a switch whose root the step just landed on
@@ -882,6 +905,7 @@ struct Switches {
 }
 
 /// A located root of a switching function.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone, Copy)]
 struct Kink {
     t: f64,
@@ -1286,6 +1310,7 @@ macro_rules! core_accessors {
 
 /// Integration state of an ODE (cloneable: save and restore it freely). The problem is
 /// passed to every call; the solver never owns it.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone)]
 pub struct OdeSolver<const N: usize> {
     core: Core<N>,
@@ -1310,12 +1335,21 @@ impl<const N: usize> OdeSolver<N> {
         self.core.run(&mut OdeRhs(p), t_end, events, observer)
     }
 
+    /// Tells the solver that the right-hand side jumps at the current time, as when an input
+    /// held between two [`OdeSolver::integrate`] calls changes (a co-simulation master's
+    /// communication point): the next call starts from the right limit instead of the
+    /// derivative carried over (first same as last).
+    pub fn input_jump(&mut self) {
+        self.core.input_jump(&[]);
+    }
+
     core_accessors!();
 }
 
 /// Integration state of a DDE with constant delays: current state, the computed past
 /// (pruned to the longest delay) and the breakpoint schedule. Cloneable; the problem is passed
 /// to every call.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Debug, Clone)]
 pub struct DdeSolver<const N: usize> {
     core: Core<N>,
@@ -1401,6 +1435,25 @@ impl<const N: usize> DdeSolver<N> {
             h_cap,
         };
         self.core.run(&mut rhs, t_end, events, observer)
+    }
+
+    /// Tells the solver that the right-hand side jumps at the current time t, as when an
+    /// input held between two [`DdeSolver::integrate`] calls changes: the next call starts
+    /// from the right limit, and t + Σkⱼτⱼ (`1 ≤ Σkⱼ ≤ breakpoint_order`, the jump read back
+    /// through the delays) join the breakpoint schedule, as the problem's own breakpoints do.
+    pub fn input_jump(&mut self) {
+        let mut pos: Vec<f64> = self.delays.iter().copied().filter(|&d| d > 0.0).collect();
+        pos.sort_by(f64::total_cmp);
+        pos.dedup();
+        let mut later = Vec::new();
+        propagate(
+            self.core.t,
+            1,
+            &pos,
+            self.core.opts.breakpoint_order(),
+            &mut |b| later.push(b),
+        );
+        self.core.input_jump(&later);
     }
 
     core_accessors!();

@@ -10,6 +10,8 @@
 
 #[path = "dde_accuracy.rs"]
 mod dde_accuracy;
+#[path = "input_jump.rs"]
+mod input_jump;
 #[path = "mackey_glass.rs"]
 mod mackey_glass;
 #[path = "ode_accuracy.rs"]

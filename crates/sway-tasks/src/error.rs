@@ -66,6 +66,17 @@ pub enum TaskError {
     /// The library's errors (model, numerics, config validation of library types).
     #[error(transparent)]
     Sway(#[from] SwayError),
+    /// The FMU's errors (a start value it refuses, packing an archive).
+    #[error(transparent)]
+    Fmu(#[from] sway_fmu::FmuError),
+    /// Building an artefact the task packs failed (`cargo xtask fmu`'s shared library).
+    #[error("`{command}` failed: {problem}")]
+    Build {
+        /// the command that was run
+        command: String,
+        /// what went wrong
+        problem: String,
+    },
 }
 
 impl From<trailer_model::ModelError> for TaskError {

@@ -716,3 +716,24 @@ fn no_issue_numbers_in_user_documentation() {
     }
     assert!(found.is_empty(), "issue numbers: {found:#?}");
 }
+
+#[test]
+fn the_fmu_page_names_every_input_output_and_setting_of_the_fmu() {
+    // Reference: the FMU's own variable list (sway_fmu::variables), which its model
+    // descriptions are written from; the vehicle's keys are on the vehicle-file page and the
+    // initial states follow the outputs' names (`initial_<output>`).
+    use sway_fmu::variables::{Causality, Slot, variables};
+    let page = read(&root().join("docs/src/tasks/fmu.md"));
+    let vars = variables(&sway_fmu::config::Defaults::default()).expect("variables");
+    let missing: Vec<&str> = vars
+        .iter()
+        .filter(|v| !matches!(v.slot, Slot::Vehicle(_) | Slot::Initial(_) | Slot::Time))
+        .filter(|v| v.causality != Causality::Independent)
+        .map(|v| v.name.as_str())
+        .filter(|name| !page.contains(&format!("`{name}`")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "docs/src/tasks/fmu.md does not name: {missing:?}"
+    );
+}

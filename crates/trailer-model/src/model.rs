@@ -470,6 +470,27 @@ impl Model {
         self.rhs4_actuated(x, u, Some(yaw_moment))
     }
 
+    /// What a lateral force F \[N\] on the trailer at its centre of gravity C2 adds to the
+    /// reduced right-hand side \[σ̇1, σ̇2, σ̇3, θ̇\] at hitch angle θ: a crosswind or any
+    /// other external side load, perpendicular to the trailer's axis and positive to its
+    /// left (as the tyre forces, F_T of eq. 6). It enters eq. (6) as a trailer axle force at
+    /// h instead of l: σ̇1 gains F cos θ·J2·I1²·I2²/D(θ) (p9 with l = h) and σ̇3 loses F·h/I2
+    /// (p15/(I1·I2³) with l = h); σ̇2 and θ̇ are unaffected. The right-hand side is affine in
+    /// F, so this is exact for any state (checked against the Newton–Euler oracle).
+    pub fn trailer_force_response(&self, hitch_angle_rad: f64, force_n: f64) -> State4 {
+        let (sn, cs) = hitch_angle_rad.sin_cos();
+        let k = &self.k;
+        let denom = cs * cs * k.d_cos2 + sn * sn * k.d_sin2 + k.d0;
+        let j2 = self.params.trailer.yaw_inertia;
+        let h = self.params.trailer.cog;
+        Vector4::new(
+            force_n * cs * j2 * self.i1 * self.i1 * self.i2 * self.i2 / denom,
+            0.0,
+            -force_n * h / self.i2,
+            0.0,
+        )
+    }
+
     fn rhs4_actuated<D: DualNum<Primitive = f64> + Copy>(
         &self,
         x: &State4<D>,

@@ -81,6 +81,28 @@ fn equations_of_motion_match_newton_euler() {
 }
 
 #[test]
+fn trailer_force_matches_newton_euler() {
+    // Reference: the Newton–Euler oracle with a lateral force on the trailer at C2
+    // (tests/common/mod.rs, `newton_euler_with_loads`) against the Appellian right-hand side
+    // plus `trailer_force_response`. 2000 random states with |F| ≤ 5 kN (a strong gust on a
+    // caravan's side) and a yaw moment beside it; tolerance 1e-10 relative, as above.
+    let model = table_i();
+    let mut rng = ChaCha8Rng::seed_from_u64(78);
+    let mut worst: f64 = 0.0;
+    for (x, u, psi) in random_points(2026, 2000) {
+        let m = rng.random_range(-8000.0..8000.0);
+        let force = rng.random_range(-5000.0..5000.0);
+        let a = model.rhs4_with_yaw_moment(&x, &u, m) + model.trailer_force_response(x[3], force);
+        let b = common::newton_euler_with_loads(&model, &x, &u, psi, m, force);
+        for i in 0..4 {
+            let rel = (a[i] - b[i]).abs() / a[i].abs().max(b[i].abs()).max(1.0);
+            worst = worst.max(rel);
+        }
+    }
+    assert!(worst < 1e-10, "worst relative difference {worst:e}");
+}
+
+#[test]
 fn yaw_moment_matches_newton_euler() {
     // Reference: the Newton–Euler oracle with the moment as a free torque on the tractor
     // (tests/common/mod.rs), against the Appellian form, where it enters as a couple of

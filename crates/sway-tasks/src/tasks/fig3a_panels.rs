@@ -48,6 +48,7 @@ pub const TASK: Task = Task {
     config: "fig3a.toml",
     prepare,
     models: super::Models::Any,
+    runs: super::Runs::InAll,
 };
 
 /// The `"time_panels"` entry of `summary.json`: one entry per panel, keyed

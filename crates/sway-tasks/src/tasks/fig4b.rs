@@ -39,6 +39,7 @@ pub const TASK: Task = Task {
     config: "fig4b.toml",
     prepare,
     models: super::Models::Any,
+    runs: super::Runs::InAll,
 };
 
 /// One feedback setting: `{ delay_s = τ, gain_s = D }` in the config. The config echo in

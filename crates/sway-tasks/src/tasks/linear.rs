@@ -24,6 +24,7 @@ pub const TASK: Task = Task {
     config: "linear.toml",
     prepare,
     models: super::Models::Any,
+    runs: super::Runs::InAll,
 };
 
 /// One parameter's entry in `summary.json`'s `"sensitivities"` (keyed by its symbol).

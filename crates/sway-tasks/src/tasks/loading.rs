@@ -27,6 +27,7 @@ pub const TASK: Task = Task {
     config: "loading.toml",
     prepare,
     models: super::Models::Any,
+    runs: super::Runs::InAll,
 };
 
 /// `summary.json` of `loading` (before the common fields of [`crate::io::Summary`]).

@@ -48,12 +48,12 @@ pub use paper_layout::{
 };
 #[allow(deprecated)]
 pub use plant::Plant;
-pub use plant::{SWITCHING_FUNCTIONS, SimProblem, reduced, reduced_state};
+pub use plant::{HeldInputs, SWITCHING_FUNCTIONS, SimProblem, reduced, reduced_state};
 pub use profile::{RampShape, SpeedProfile};
 pub use run::{
     ControllerStates, EarlyStop, IntegrationMethod, KinkLandingMode, Layout, Metrics, Outcome,
     Recording, RunSettings, Sample, SimResult, SimSpec, SimulateOwn, SolverSettings, ValidityGuard,
-    settle, simulate,
+    guard_event, settle, simulate, tripped,
 };
 pub use scenario::{
     InitialCondition, ScenarioConfig, SwayStart, default_action_time, ensure_name, validate_parts,

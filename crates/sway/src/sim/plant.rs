@@ -11,11 +11,31 @@
 use dde::{DdeProblem, OdeProblem};
 use nalgebra::{Matrix4, RowVector4, SVector, Vector4};
 use sway_model::vehicle::Vehicle;
-use trailer_model::{Inputs, Model, SlipAngles, State4};
+use trailer_model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4};
 
 use super::{SpeedProfile, SteeringInput};
 use crate::SwayError;
 use sway_model::law::{Actuator, ActuatorLimits, LoopLaw, Structure};
+
+/// The plant or the speed profile of a [`SimProblem`]: borrowed from the caller (the
+/// simulations, which keep their own for the run) or owned ([`SimProblem::new_owned`]: a
+/// problem that lives on its own, as the FMU's engine between two calls of the importer).
+#[derive(Debug, Clone)]
+enum Kept<'a, T> {
+    Borrowed(&'a T),
+    Owned(T),
+}
+
+impl<T> std::ops::Deref for Kept<'_, T> {
+    type Target = T;
+    #[inline]
+    fn deref(&self) -> &T {
+        match self {
+            Kept::Borrowed(t) => t,
+            Kept::Owned(t) => t,
+        }
+    }
+}
 
 /// What a `yaw_rate_hitch` or `predictor` controller needs at run time.
 #[derive(Debug, Clone)]
@@ -37,8 +57,8 @@ struct LoopCommand {
 /// [`OdeProblem`] (δ ≡ 0) and [`DdeProblem`] (δ = −D·ψ̇(t − τ)).
 #[derive(Debug, Clone)]
 pub struct SimProblem<'a, P, const M: usize, const N: usize> {
-    plant: &'a P,
-    profile: &'a SpeedProfile,
+    plant: Kept<'a, P>,
+    profile: Kept<'a, SpeedProfile>,
     controller: Option<LoopLaw>,
     /// x\[N − 1\] is the steering angle δ (rate-limited actuator)
     actuator_state: bool,
@@ -54,6 +74,28 @@ pub struct SimProblem<'a, P, const M: usize, const N: usize> {
     loop_command: Option<LoopCommand>,
     /// a steering input added to the law's command (none by default)
     steering: SteeringInput,
+    /// inputs held by a co-simulation master (none by default)
+    held: HeldInputs,
+}
+
+/// Inputs that a co-simulation master holds constant between two communication points (the
+/// FMU's inputs, `sway-fmu`), applied on top of the run's own speed profile, law and
+/// steering input. All zero (none) by default; a change between two integration calls is a
+/// jump of the right-hand side, which the solver must be told of
+/// ([`dde::OdeSolver::input_jump`], [`dde::DdeSolver::input_jump`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HeldInputs {
+    /// the forward speed V \[m/s\] in place of the profile's, with V̇ = 0 while held; `None`:
+    /// the profile's V(t) and V̇(t)
+    pub speed_mps: Option<f64>,
+    /// a steering angle δ \[rad\] added to the law's command and the steering input
+    pub steering_angle_rad: f64,
+    /// a yaw moment M_z \[N m\] on the tractor (differential braking), added to a braking
+    /// loop's
+    pub yaw_moment_nm: f64,
+    /// a lateral force \[N\] on the trailer at its centre of gravity, positive to its left
+    /// (crosswind; [`trailer_model::Model::trailer_force_response`])
+    pub trailer_lateral_force_n: f64,
 }
 
 /// The paper's model as a simulation problem (the name of [`SimProblem`] before it took any
@@ -93,6 +135,38 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         controller: Option<LoopLaw>,
         x0: SVector<f64, N>,
     ) -> Result<Self, SwayError> {
+        Self::kept(
+            Kept::Borrowed(plant),
+            Kept::Borrowed(profile),
+            controller,
+            x0,
+        )
+    }
+
+    /// A problem of its own plant and profile ([`SimProblem::new`] otherwise): one that
+    /// outlives the code that made it, as the FMU's engine does between two calls of the
+    /// importer.
+    ///
+    /// # Errors
+    /// As [`SimProblem::new`].
+    pub fn new_owned(
+        plant: P,
+        profile: SpeedProfile,
+        controller: Option<LoopLaw>,
+        x0: SVector<f64, N>,
+    ) -> Result<SimProblem<'static, P, M, N>, SwayError>
+    where
+        P: 'static,
+    {
+        SimProblem::kept(Kept::Owned(plant), Kept::Owned(profile), controller, x0)
+    }
+
+    fn kept(
+        plant: Kept<'a, P>,
+        profile: Kept<'a, SpeedProfile>,
+        controller: Option<LoopLaw>,
+        x0: SVector<f64, N>,
+    ) -> Result<Self, SwayError> {
         let extra = controller.map_or(0, |l| l.extra_states());
         let kinematics = match N.checked_sub(extra) {
             Some(s) if s == M => false,
@@ -113,7 +187,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         };
         let loop_command = match controller {
             Some(law) if !law.is_paper_structure() => {
-                Some(loop_command(plant.paper_model(), profile, law)?)
+                Some(loop_command(plant.paper_model(), &profile, law)?)
             }
             _ => None,
         };
@@ -123,6 +197,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         breakpoints.sort_by(f64::total_cmp);
         breakpoints.dedup();
         let actuator_state = controller.is_some_and(|l| l.has_actuator_state());
+        let plant_switching = plant.switching_count();
         let delays = match (controller.map(|l| l.delay_s), &loop_command) {
             // u(t − τ) in ż needs x(t − 2τ)
             (Some(tau), Some(c)) if c.law.structure == Structure::Predictor => vec![tau, 2.0 * tau],
@@ -134,12 +209,13 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
             controller,
             actuator_state,
             kinematics,
-            plant_switching: plant.switching_count(),
+            plant_switching,
             delays,
             breakpoints,
             history: x0,
             loop_command,
             steering: SteeringInput::None,
+            held: HeldInputs::default(),
         })
     }
 
@@ -155,9 +231,19 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         self
     }
 
+    /// Holds `held` from now on (see [`HeldInputs`]).
+    pub fn set_held_inputs(&mut self, held: HeldInputs) {
+        self.held = held;
+    }
+
+    /// The inputs held by a co-simulation master.
+    pub fn held_inputs(&self) -> &HeldInputs {
+        &self.held
+    }
+
     /// The plant.
     pub fn plant(&self) -> &P {
-        self.plant
+        &self.plant
     }
 
     /// The controller.
@@ -175,7 +261,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
 
     /// The speed profile.
     pub fn profile(&self) -> &SpeedProfile {
-        self.profile
+        &self.profile
     }
 
     /// Whether the steering angle δ is the last state (rate-limited actuator).
@@ -215,7 +301,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
                 let z = Vector4::from_fn(|i, _| current[N - 4 + i]);
                 -((c.k_e * xd)[(0, 0)] + (c.k * z)[(0, 0)])
             }
-            _ => -c.law.measured_output(self.plant, &Self::xr(delayed)),
+            _ => -c.law.measured_output(&*self.plant, &Self::xr(delayed)),
         }
     }
     /// The command u(t) applied by a loop \[rad or N m\] (saturated for braking) and its
@@ -250,11 +336,13 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
     /// otherwise), given the delayed states.
     #[inline]
     pub fn yaw_moment(&self, t: f64, x: &SVector<f64, N>, x_delayed: &[SVector<f64, N>]) -> f64 {
+        let held = self.held.yaw_moment_nm;
         match &self.loop_command {
             Some(c) if c.law.actuator == Actuator::DifferentialBraking => {
-                self.loop_inputs(t, x, x_delayed)
+                let m = self.loop_inputs(t, x, x_delayed);
+                if held == 0.0 { m } else { m + held }
             }
-            _ => 0.0,
+            _ => held,
         }
     }
 
@@ -287,10 +375,20 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         } else {
             steering_angle + self.steering.angle(t)
         };
+        let held = &self.held;
+        let steering_angle = if held.steering_angle_rad == 0.0 {
+            steering_angle
+        } else {
+            steering_angle + held.steering_angle_rad
+        };
+        let (speed, acceleration) = match held.speed_mps {
+            Some(v) => (v, 0.0),
+            None => (self.profile.speed(t), self.profile.acceleration(t)),
+        };
         Inputs {
             steering_angle,
-            speed: self.profile.speed(t),
-            acceleration: self.profile.acceleration(t),
+            speed,
+            acceleration,
         }
     }
 
@@ -395,6 +493,15 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
         for i in 0..M {
             dx[i] = r[i];
         }
+        let force = self.held.trailer_lateral_force_n;
+        if force != 0.0 {
+            let extra = self
+                .plant
+                .paper_model()
+                .trailer_force_response(x[HITCH_ANGLE], force);
+            dx[0] += extra[0];
+            dx[2] += extra[2];
+        }
         if self.kinematics {
             // ψ̇, ẋ_H = V cos ψ − σ1 sin ψ, ẏ_H = V sin ψ + σ1 cos ψ (eq. 5)
             let (sp, cp) = x[M].sin_cos();
@@ -408,7 +515,7 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
 impl<const N: usize> SimProblem<'_, Model, 4, N> {
     /// The model.
     pub fn model(&self) -> &Model {
-        self.plant
+        &self.plant
     }
 
     /// Slip angles at (t, x) with the delayed states for δ.
@@ -427,7 +534,7 @@ impl<P: Vehicle<M>, const M: usize, const N: usize> OdeProblem<N> for SimProblem
     #[inline]
     fn rhs(&self, t: f64, x: &SVector<f64, N>, dx: &mut SVector<f64, N>) {
         let u = self.inputs(t, x, &[]);
-        self.eval(&u, 0.0, x, dx);
+        self.eval(&u, self.held.yaw_moment_nm, x, dx);
         if self.loop_command.is_some()
             && self
                 .controller

@@ -618,7 +618,7 @@ fn metric_events<'e, P: Vehicle<M>, const M: usize, const N: usize>(
 /// [`trailer_model::Plant::guard_values`], each "tripped when > 0"; one event on their maximum
 /// (continuous, and zero exactly when the first of them reaches zero) costs one slip
 /// evaluation per call instead of five events.
-fn guard_event<'e, P: Vehicle<M>, const M: usize, const N: usize>(
+pub fn guard_event<'e, P: Vehicle<M>, const M: usize, const N: usize>(
     problem: &'e SimProblem<'_, P, M, N>,
 ) -> Event<'e, N> {
     Event::with_delays(
@@ -633,8 +633,9 @@ fn guard_event<'e, P: Vehicle<M>, const M: usize, const N: usize>(
     )
 }
 
-/// Which condition of the guard tripped: the largest value.
-fn tripped(v: [f64; 5]) -> LossOfControl {
+/// Which condition of the guard tripped: the largest of
+/// [`SimProblem::guard_values`].
+pub fn tripped(v: [f64; 5]) -> LossOfControl {
     let k = (0..5).fold(0, |b, k| if v[k] > v[b] { k } else { b });
     LossOfControl::ALL[k]
 }

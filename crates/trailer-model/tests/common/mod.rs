@@ -25,6 +25,20 @@ pub fn newton_euler_with_yaw_moment(
     psi: f64,
     yaw_moment: f64,
 ) -> State4 {
+    newton_euler_with_loads(model, x, u, psi, yaw_moment, 0.0)
+}
+
+/// [`newton_euler_with_yaw_moment`] with a lateral force `trailer_force` \[N\] on the
+/// trailer at its centre of gravity C2, along E2 (the trailer's left, as its tyre force):
+/// it enters the trailer's translation and, acting at C2, no moment about it.
+pub fn newton_euler_with_loads(
+    model: &Model,
+    x: &State4,
+    u: &Inputs,
+    psi: f64,
+    yaw_moment: f64,
+    trailer_force: f64,
+) -> State4 {
     let p = model.params();
     let (m1, j1, f, d, c) = (
         p.tractor.mass,
@@ -97,7 +111,7 @@ pub fn newton_euler_with_yaw_moment(
         m[(3 + k, 0)] = m2 * e2[k];
         m[(3 + k, 2)] = -m2 * h * big_e2[k];
         m[(3 + k, 3 + k)] = 1.0;
-        rhs[3 + k] = f_t * big_e2[k] - m2 * a_c2_0[k];
+        rhs[3 + k] = (f_t + trailer_force) * big_e2[k] - m2 * a_c2_0[k];
     }
     // trailer rotation about C2: J2 ψ̈2 = (h − l) F_T + (h E1) × (−P)
     m[(5, 2)] = j2;

@@ -8,6 +8,8 @@
 // each file keeps its `mod common;` (a copy per module): the files stay as they were
 #![allow(clippy::duplicate_mod)]
 
+#[path = "fmu_task.rs"]
+mod fmu_task;
 #[path = "interrupt.rs"]
 mod interrupt;
 #[path = "recordings.rs"]

@@ -46,9 +46,17 @@ fn a_corrector_stagnating_at_rounding_level_accepts_and_records_it() {
     let p = &b.points[0];
     let s = p.stagnation.expect("the stagnation is recorded");
     assert!(s.residual <= 1e-11, "residual {:e}", s.residual);
-    assert!(s.update > 1e-10, "update {:e} above the tolerance", s.update);
+    assert!(
+        s.update > 1e-10,
+        "update {:e} above the tolerance",
+        s.update
+    );
     // |x|³ is the residual: the accepted point is within its cube root of the root x = 0
-    assert!(p.u[0].abs() <= s.residual.cbrt() * (1.0 + 1e-12), "x = {:e}", p.u[0]);
+    assert!(
+        p.u[0].abs() <= s.residual.cbrt() * (1.0 + 1e-12),
+        "x = {:e}",
+        p.u[0]
+    );
     assert_eq!(p.parameter, 0.0);
 
     let strict = Continuation::new(ContinuationOptions {
@@ -57,7 +65,9 @@ fn a_corrector_stagnating_at_rounding_level_accepts_and_records_it() {
         ..Default::default()
     });
     match strict.start(&mut TripleRoot, &[1e-2, 0.0], &[0.0, 1.0]) {
-        Err(Error::NewtonDivergence { residual, update, .. }) => {
+        Err(Error::NewtonDivergence {
+            residual, update, ..
+        }) => {
             assert!(residual <= 1e-11 && update > 1e-10);
         }
         other => panic!("expected the divergence error, got {other:?}"),

@@ -13,7 +13,7 @@
 //!   vehicles with three variants or more).
 //!
 //! The configs are the shipped ones with the continuation and simulation tasks at small
-//! resolutions (mesh L = 20, degree 4, short curves and horizons, coarse grids).
+//! resolutions (mesh L = 16, degree 4, short curves and horizons, coarse grids).
 
 use std::path::{Path, PathBuf};
 
@@ -29,95 +29,289 @@ fn configs_dir() -> PathBuf {
 }
 
 /// The CI-sized configs: (file name, text). The others are the shipped ones.
-const SMALL: [(&str, &str); 14] = [
+const SMALL: [(&str, &str); 15] = [
     (
         "fig3a.toml",
-        "[panels]\nspeed_mps = { of_v_crit = 0.9 }\ntheta0_deg = [2.0]\nhorizon_s = 2.0\noutput_step_s = 0.05\n\
-         [diagram]\nstable_speeds_mps = [{ of_v_crit = 1.05 }]\nunstable_speeds_mps = [{ in_bistable = 0.5 }]\n\
-         [diagram.continuation]\nintervals = 20\ndegree = 4\nmax_step = 0.5\n",
+        r#"[panels]
+speed_mps = { of_v_crit = 0.9 }
+theta0_deg = [2.0]
+horizon_s = 2.0
+output_step_s = 0.05
+[diagram]
+stable_speeds_mps = [{ of_v_crit = 1.05 }]
+unstable_speeds_mps = [{ in_bistable = 0.5 }]
+[diagram.continuation]
+intervals = 16
+degree = 4
+max_step = 0.5
+"#,
     ),
     (
         "fig4a.toml",
-        "speed = { cells = 30 }\ngain = { cells = 20 }\ndelays_s = [0.0, 0.2]\n",
+        r#"speed = { cells = 30 }
+gain = { cells = 20 }
+delays_s = [0.0, 0.2]
+"#,
     ),
     (
         "fig4b.toml",
-        "[[pairs]]\ndelay_s = 0.0\ngain_s = 0.0\n[[pairs]]\ndelay_s = 0.2\ngain_s = 0.1\n\
-         [continuation]\nintervals = 20\ndegree = 4\n",
+        r#"[[pairs]]
+delay_s = 0.0
+gain_s = 0.0
+[continuation]
+intervals = 16
+degree = 4
+"#,
     ),
     (
         "chart_nonlinear.toml",
-        "delays_s = [0.0, 0.2]\n[chart]\nhopf_max_step = 4.0\nhopf_max_points = 12\nfold_max_step = 4.0\n\
-         fold_max_points = 6\ncriticality_samples = 2\ncriticality_cycle_points = 2\n\
-         [chart.cycles]\nintervals = 20\ndegree = 4\nmax_step = 2.0\n[regions]\nspeed_cells = 8\ngain_cells = 6\n",
+        r#"delays_s = [0.0]
+[chart]
+hopf_max_step = 4.0
+hopf_max_points = 8
+fold_max_step = 4.0
+fold_max_points = 4
+criticality_samples = 2
+criticality_cycle_points = 2
+[chart.cycles]
+intervals = 16
+degree = 4
+max_step = 2.0
+[regions]
+speed_cells = 8
+gain_cells = 6
+"#,
     ),
     (
         "gain_design.toml",
-        "delays_s = { min = 0.0, max = 0.2, points = 2 }\nheadline_delays_s = [0.2]\n\
-         [search]\ngain_samples = 5\nspeed_samples = 25\ngain_tolerance_s = 1e-3\n\
-         [nonlinear]\nevery = 1\n[chart]\nfold_max_step = 4.0\nfold_max_points = 6\n\
-         [chart.cycles]\nintervals = 20\ndegree = 4\nmax_step = 2.0\n",
+        r#"delays_s = { min = 0.0, max = 0.2, points = 2 }
+headline_delays_s = [0.2]
+[search]
+gain_samples = 5
+speed_samples = 25
+gain_tolerance_s = 1e-3
+[nonlinear]
+every = 2
+[nonlinear.chart]
+fold_max_step = 4.0
+fold_max_points = 4
+[nonlinear.chart.cycles]
+intervals = 16
+degree = 4
+max_step = 2.0
+"#,
     ),
     (
         "corners.toml",
-        "delays_s = [0.2]\n[chart]\nhopf_max_step = 4.0\nhopf_max_points = 12\nfold_max_points = 4\n\
-         criticality_samples = 2\ncriticality_cycle_points = 2\n[chart.cycles]\nintervals = 20\ndegree = 4\n\
-         [corners]\nv_samples = 21\nzoom_curve_samples = 11\nzoom_cells = 6\nprobe_radii = [0.5]\n\
-         [corners.simulation]\ntransient_s = 10.0\nwindow_s = 20.0\nsample_step_s = 0.05\nkicks_deg = [5.0]\n\
-         [corners.torus_scan]\nspeed_offsets_mps = [0.0]\nd_samples = 2\ntolerance_s = 1e-2\n\
-         [corners.torus_curves]\nmax_points = 0\n",
+        r#"delays_s = [0.2]
+[chart]
+hopf_max_step = 4.0
+hopf_max_points = 8
+fold_max_points = 4
+criticality_samples = 2
+criticality_cycle_points = 2
+[chart.cycles]
+intervals = 16
+degree = 4
+[corners]
+v_samples = 11
+zoom_curve_samples = 5
+zoom_cells = 4
+probe_radii = [0.5]
+[corners.simulation]
+transient_s = 5.0
+window_s = 10.0
+sample_step_s = 0.05
+kicks_deg = [5.0]
+[corners.torus_scan]
+speed_offsets_mps = [0.0]
+d_samples = 2
+tolerance_s = 1e-2
+[corners.torus_curves]
+max_points = 0
+"#,
     ),
     (
         "control_design.toml",
-        "structures = [\"yaw_rate\"]\nactuators = [\"steering\"]\ndelays_s = { min = 0.0, max = 0.4, points = 2 }\n\
-         [search]\ngain_samples = 9\n[search.speed]\nv_min_mps = 1.0\nv_max_mps = 100.0\nsamples = 30\ntolerance_mps = 1e-6\n\
-         [robustness]\ndelays_s = [0.4]\n[robustness.uncertainty.vehicle]\nmethod = \"latin_hypercube\"\nsamples = 4\nseed = 1\n\
-         [[robustness.uncertainty.vehicle.fields]]\nkey = \"trailer.cog\"\nabout = \"offset\"\ndistribution = \"uniform\"\nmin = -0.05\nmax = 0.05\n",
+        r#"structures = ["yaw_rate"]
+actuators = ["steering"]
+delays_s = { min = 0.0, max = 0.6, points = 2 }
+[search]
+gain_samples = 9
+[search.speed]
+v_min_mps = 1.0
+v_max_mps = 100.0
+samples = 30
+tolerance_mps = 1e-6
+[robustness]
+delays_s = [0.6]
+[robustness.uncertainty.vehicle]
+method = "latin_hypercube"
+samples = 4
+seed = 1
+[[robustness.uncertainty.vehicle.fields]]
+key = "trailer.cog"
+about = "offset"
+distribution = "uniform"
+min = -0.05
+max = 0.05
+"#,
+    ),
+    (
+        "mitigation.toml",
+        r#"phases = 2
+refinement = 1
+horizon_s = 4.0
+delay_s = 0.2
+peak_limit_deg = 45.0
+min_final_speed_mps = { of_v_crit = 0.7194674553372917 }
+output_step_s = 0.1
+[start]
+speed_mps = { of_v_crit = 1.0072544374722083 }
+settle_s = 10.0
+theta0_rad = 0.1
+[bounds]
+speed_change_mps = { lo = -100.0, hi = 0.0 }
+duration_s = { lo = 1.0, hi = 3.0 }
+gain_s = { lo = 0.0, hi = 0.5 }
+on_s = { lo = 0.0, hi = 1.0 }
+on_duration_s = { lo = 2.0, hi = 4.0 }
+[paper]
+speed_change_mps = { of_v_crit = -0.2877869821349167 }
+duration_s = 2.0
+gain_s = 0.1
+[optimiser]
+seed = 1
+random_starts = 0
+max_iters = 2
+[search_solver]
+rtol = 1e-5
+atol = 1e-7
+[solver]
+rtol = 1e-6
+atol = 1e-8
+"#,
     ),
     (
         "loading.toml",
-        "trailer_mass_kg = { min = 500.0, max = 1800.0, points = 3 }\n\
-         trailer_cog_of_axle = { min = 0.8571428571428572, max = 1.0714285714285714, points = 3 }\n\
-         v_range_mps = [1.0, { of_v_crit = 3.453443785619 }]\n",
+        r#"trailer_mass_kg = { min = 500.0, max = 1800.0, points = 3 }
+trailer_cog_of_axle = { min = 0.8571428571428572, max = 1.0714285714285714, points = 3 }
+v_range_mps = [1.0, { of_v_crit = 3.453443785619 }]
+"#,
     ),
     (
         "fig3b.toml",
-        "brake_start_s = 1.0\nspeed_change_mps = { of_v_crit = -0.2877869821349167 }\nbrake_durations_s = [2.0]\n\
-         horizon_s = 4.0\noutput_step_s = 0.1\n[start]\nspeed_mps = { of_v_crit = 1.0072544374722083 }\n\
-         settle_s = 5.0\ntheta0_rad = 0.1\n[solver]\nrtol = 1e-6\natol = 1e-8\n",
+        r#"brake_start_s = 1.0
+speed_change_mps = { of_v_crit = -0.2877869821349167 }
+brake_durations_s = [2.0]
+horizon_s = 4.0
+output_step_s = 0.1
+[start]
+speed_mps = { of_v_crit = 1.0072544374722083 }
+settle_s = 5.0
+theta0_rad = 0.1
+[solver]
+rtol = 1e-6
+atol = 1e-8
+"#,
     ),
     (
         "fig4c.toml",
-        "action_s = 1.0\nhorizon_s = 4.0\noutput_step_s = 0.1\n[start]\nspeed_mps = { of_v_crit = 1.0072544374722083 }\n\
-         settle_s = 5.0\ntheta0_rad = 0.1\n[steering]\ngain_s = 0.1\ndelay_s = 0.2\n\
-         [braking]\nspeed_change_mps = { of_v_crit = -0.2877869821349167 }\nduration_s = 2.0\n[solver]\nrtol = 1e-6\natol = 1e-8\n",
+        r#"action_s = 1.0
+horizon_s = 4.0
+output_step_s = 0.1
+[start]
+speed_mps = { of_v_crit = 1.0072544374722083 }
+settle_s = 5.0
+theta0_rad = 0.1
+[steering]
+gain_s = 0.1
+delay_s = 0.2
+[braking]
+speed_change_mps = { of_v_crit = -0.2877869821349167 }
+duration_s = 2.0
+[solver]
+rtol = 1e-6
+atol = 1e-8
+"#,
     ),
     (
         "sweep_threshold.toml",
-        "name = \"hopf_point\"\nkind = \"hopf_fold_speeds\"\n[[axes]]\nparameter = \"speed_mps\"\nmin = 30.0\nmax = 30.0\npoints = 1\n\
-         [base]\nspeed = { kind = \"constant\", speed_mps = 30.0 }\ncontroller = { kind = \"none\" }\n\
-         initial = { kind = \"state\", theta0_deg = 0.0 }\n[analysis.diagram]\nintervals = 20\ndegree = 4\nmax_step = 0.5\n",
+        r#"name = "hopf_point"
+kind = "hopf_fold_speeds"
+[[axes]]
+parameter = "gain_s"
+min = 0.0
+max = 0.1
+points = 2
+[base]
+speed = { kind = "constant", speed_mps = 30.0 }
+controller = { kind = "yaw_rate_feedback", gain_s = 0.0, delay_s = 0.1 }
+initial = { kind = "state", theta0_deg = 0.0 }
+[analysis.diagram]
+intervals = 16
+degree = 4
+max_step = 0.5
+"#,
     ),
     (
         "sweep_brake_timing.toml",
-        "name = \"sweep_brake_timing\"\n[[axes]]\nparameter = \"brake_start_s\"\nmin = 2.0\nmax = 3.0\npoints = 2\n\
-         [[axes]]\nparameter = \"ramp_duration_s\"\nmin = 2.0\nmax = 4.0\npoints = 2\n[base]\nhorizon_s = 6.0\n\
-         speed = { kind = \"ramp\", initial_mps = { of_v_crit = 1.0072544374722083 }, change_mps = { of_v_crit = -0.2877869821349167 }, start_s = 2.0, duration_s = 5.0 }\n\
-         controller = { kind = \"none\" }\n\
-         initial = { kind = \"sway_cycle\", speed_mps = { of_v_crit = 1.0072544374722083 }, settle_s = 5.0, theta0_rad = 0.1 }\n\
-         guard = \"stop\"\n[base.solver]\nrtol = 1e-6\natol = 1e-8\n",
+        r#"name = "sweep_brake_timing"
+[[axes]]
+parameter = "brake_start_s"
+min = 2.0
+max = 3.0
+points = 2
+[[axes]]
+parameter = "ramp_duration_s"
+min = 2.0
+max = 4.0
+points = 2
+[base]
+horizon_s = 6.0
+speed = { kind = "ramp", initial_mps = { of_v_crit = 1.0072544374722083 }, change_mps = { of_v_crit = -0.2877869821349167 }, start_s = 2.0, duration_s = 5.0 }
+controller = { kind = "none" }
+initial = { kind = "sway_cycle", speed_mps = { of_v_crit = 1.0072544374722083 }, settle_s = 5.0, theta0_rad = 0.1 }
+guard = "stop"
+[base.solver]
+rtol = 1e-6
+atol = 1e-8
+"#,
     ),
     (
         "study_uncertainty.toml",
-        "name = \"study_uncertainty\"\nkind = \"linear_critical_speed\"\n[sampling]\nmethod = \"latin_hypercube\"\nsamples = 20\nseed = 2026\n\
-         [[sampling.fields]]\nkey = \"trailer.cog\"\nabout = \"offset\"\ndistribution = \"uniform\"\nmin = -0.05\nmax = 0.05\n\
-         [base]\nspeed = { kind = \"constant\", speed_mps = 30.0 }\ncontroller = { kind = \"none\" }\n\
-         initial = { kind = \"state\", theta0_deg = 0.0 }\n",
+        r#"name = "study_uncertainty"
+kind = "linear_critical_speed"
+[sampling]
+method = "latin_hypercube"
+samples = 20
+seed = 2026
+[[sampling.fields]]
+key = "trailer.cog"
+about = "offset"
+distribution = "uniform"
+min = -0.05
+max = 0.05
+[base]
+speed = { kind = "constant", speed_mps = 30.0 }
+controller = { kind = "none" }
+initial = { kind = "state", theta0_deg = 0.0 }
+"#,
     ),
     (
         "lateral_stability.toml",
-        "speeds = [{ of_v_crit = 0.7 }, { in_bistable = 0.5 }]\nskip_peaks = 2\nperiods = 3\namplitudes_deg = [1.0, 5.0]\n\
-         horizon_s = 20.0\nsample_step_s = 0.01\n[pulse]\nshape = \"half_sine\"\nstart_s = 0.5\nduration_s = 0.4\namplitude_deg = 0.05\n",
+        r#"speeds = [{ of_v_crit = 0.7 }, { in_bistable = 0.5 }]
+skip_peaks = 2
+periods = 3
+amplitudes_deg = [2.0]
+horizon_s = 15.0
+sample_step_s = 0.01
+[pulse]
+shape = "half_sine"
+start_s = 0.5
+duration_s = 0.4
+amplitude_deg = 0.05
+"#,
     ),
 ];
 

@@ -126,6 +126,9 @@ pub struct Run {
     pub error: Option<String>,
     /// the curves its summary reports as ended early
     pub ended_early: Vec<EndedCurve>,
+    /// wall time of the run \[s\] (not in `runs.csv`: it varies from run to run)
+    #[serde(skip)]
+    pub seconds: f64,
 }
 
 /// One row of `runs.csv`.
@@ -156,6 +159,8 @@ pub struct TaskTally {
     pub failures: usize,
     /// curves ended early in its runs
     pub curves_ended_early: usize,
+    /// wall time of its runs together \[s\] (vehicles side by side: a share of the machine)
+    pub seconds: f64,
 }
 
 /// `summary.json` of the study.
@@ -272,8 +277,10 @@ pub fn run_all(
             let runs = tasks
                 .iter()
                 .map(|t| {
+                    let start = std::time::Instant::now();
                     let r = run_one(t, &file, configs, &dir.join("results"), limits);
                     Run {
+                        seconds: start.elapsed().as_secs_f64(),
                         vehicle: v.name.clone(),
                         variants: variants.clone(),
                         task: t.clone(),
@@ -316,6 +323,7 @@ pub fn summarise(vehicles: &[GeneratedVehicle], tasks: &[String], runs: &[Run]) 
                 runs: mine.len(),
                 failures: mine.iter().filter(|r| r.error.is_some()).count(),
                 curves_ended_early: mine.iter().map(|r| r.ended_early.len()).sum(),
+                seconds: mine.iter().map(|r| r.seconds).sum(),
             }
         })
         .collect();
@@ -334,16 +342,19 @@ pub fn summarise(vehicles: &[GeneratedVehicle], tasks: &[String], runs: &[Run]) 
 /// The markdown table of the README: per task the runs, failures and curves ended early,
 /// then the reasons.
 pub fn markdown(s: &StudyGeneratedSummary) -> String {
-    let mut m = String::from("| task | runs | failures | curves ended early |\n|---|---|---|---|\n");
+    let mut m = String::from(
+        "| task | runs | failures | curves ended early | time [s] |\n|---|---|---|---|---|\n",
+    );
     for t in &s.per_task {
         m.push_str(&format!(
-            "| `{}` | {} | {} | {} |\n",
-            t.task, t.runs, t.failures, t.curves_ended_early
+            "| `{}` | {} | {} | {} | {:.0} |\n",
+            t.task, t.runs, t.failures, t.curves_ended_early, t.seconds
         ));
     }
     let ended: usize = s.curves_ended_early_by_reason.values().sum();
+    let seconds: f64 = s.per_task.iter().map(|t| t.seconds).sum();
     m.push_str(&format!(
-        "| **all** | **{}** | **{}** | **{ended}** |\n",
+        "| **all** | **{}** | **{}** | **{ended}** | **{seconds:.0}** |\n",
         s.runs, s.failures
     ));
     if !s.curves_ended_early_by_reason.is_empty() {

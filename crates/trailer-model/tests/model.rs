@@ -1357,6 +1357,9 @@ fn sorted_spectrum_is_nan_on_a_non_finite_matrix_and_exact_elsewhere() {
     let ev = trailer_model::sorted_spectrum(&m);
     let expected = [(-1.0, 0.0), (-2.0, 0.0), (-3.0, 4.0), (-3.0, -4.0)];
     for (z, (re, im)) in ev.iter().zip(expected) {
-        assert!((z.re - re).abs() < 1e-9 && (z.im - im).abs() < 1e-9, "{z} vs {re} {im}");
+        assert!(
+            (z.re - re).abs() < 1e-9 && (z.im - im).abs() < 1e-9,
+            "{z} vs {re} {im}"
+        );
     }
 }

@@ -655,15 +655,18 @@ impl Continuation {
             NeedsDeterminant::No
         };
         let mut iterations = Iterations::new(&b, iteration_determinant, "Newton corrector");
-        // the iterate with the smallest residual and that residual (for a stagnated corrector)
-        let mut best: Option<(Vec<f64>, f64)> = None;
+        // the iterate with the smallest residual and that residual (for a stagnated
+        // corrector; one buffer, reused)
+        let (mut best_u, mut best_res) = (Vec::with_capacity(u.len()), f64::INFINITY);
         for it in 1..=self.options.max_newton_iterations {
             let constraint = (0..u.len()).map(|i| b[i] * (u[i] - pred[i])).sum();
             let chord = kept.take().filter(|_| !refactorise(it));
             let (step, upd) = iterations.step(sys, &u, constraint, chord)?;
             res_norm = step.residual_norm;
-            if best.as_ref().is_none_or(|(_, r)| res_norm < *r) {
-                best = Some((u.clone(), res_norm));
+            if res_norm < best_res {
+                best_u.clear();
+                best_u.extend_from_slice(&u);
+                best_res = res_norm;
             }
             u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
             let tolerance = self.options.newton_tolerance * (1.0 + u[ip].abs());
@@ -690,10 +693,11 @@ impl Continuation {
             last_update = upd;
         }
         // stagnated at rounding level: the best iterate, with its numbers recorded
-        if let Some((ub, rb)) = best
-            && rb <= self.options.stagnation_residual * (1.0 + ub[ip].abs())
+        if !best_u.is_empty()
+            && best_res <= self.options.stagnation_residual * (1.0 + best_u[ip].abs())
             && last_update.is_finite()
         {
+            let (ub, rb) = (best_u, best_res);
             let det = self.needs_determinant(sys);
             let lu = iterations.factorise(sys, &ub, det, "Newton corrector (stagnated)")?;
             let stagnation = Stagnation {

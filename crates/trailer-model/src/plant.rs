@@ -249,7 +249,7 @@ fn input_columns<P: Plant<N> + ?Sized, const N: usize>(
 
 /// Eigenvalues of a real N×N matrix, sorted by decreasing real part, ties by decreasing
 /// imaginary part (a conjugate pair appears as (a + ib, a − ib)). A matrix with a non-finite
-/// entry, or one whose Schur iteration does not converge within [`SCHUR_MAX_ITERATIONS`],
+/// entry, or one whose Schur iteration does not converge within 10 000 iterations,
 /// has N NaN eigenvalues (nalgebra's `complex_eigenvalues` iterates without a bound and
 /// never returns on such a matrix).
 pub fn sorted_spectrum<const N: usize>(a: &SMatrix<f64, N, N>) -> Vec<Complex<f64>> {

@@ -27,8 +27,16 @@ fn the_fmu_task_writes_both_archives() {
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     for (file, version, library) in [
-        ("trailer_sway.fmu", "2.0", "binaries/linux64/trailer_sway.so"),
-        ("trailer_sway_fmi3.fmu", "3.0", "binaries/x86_64-linux/trailer_sway.so"),
+        (
+            "trailer_sway.fmu",
+            "2.0",
+            "binaries/linux64/trailer_sway.so",
+        ),
+        (
+            "trailer_sway_fmi3.fmu",
+            "3.0",
+            "binaries/x86_64-linux/trailer_sway.so",
+        ),
     ] {
         let (names, xml) = entries(&out.join(file));
         assert!(names.iter().any(|n| n == library), "{file}: {names:?}");

@@ -135,6 +135,26 @@ pub struct ContinuationOptions {
     /// how the corrector updates its Jacobian (default: a new factorisation every iteration)
     #[serde(default)]
     pub newton: NewtonUpdate,
+    /// a corrector whose updates stagnate above `newton_tolerance` while the residual's
+    /// max-norm is at or below `stagnation_residual`·(1 + |parameter|) (rounding level of an
+    /// ill-conditioned or nearly singular system) accepts its best iterate and records it
+    /// ([`BranchPoint::stagnation`]) instead of failing; 0 turns this off
+    #[serde(default = "stagnation_residual_default")]
+    pub stagnation_residual: f64,
+}
+
+/// A corrector that stopped at rounding level without its update converging: the numbers
+/// of its accepted iterate (the system is ill-conditioned or nearly singular there).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Stagnation {
+    /// max-norm of the residual at the accepted iterate
+    pub residual: f64,
+    /// max-norm of the last Newton update (above the tolerance)
+    pub update: f64,
+}
+
+fn stagnation_residual_default() -> f64 {
+    1e-11
 }
 
 /// How the Newton corrector treats the Jacobian between iterations.
@@ -178,6 +198,7 @@ impl Default for ContinuationOptions {
             max_location_iterations: 60,
             branch_points: true,
             newton: NewtonUpdate::Full,
+            stagnation_residual: stagnation_residual_default(),
         }
     }
 }
@@ -211,6 +232,10 @@ pub struct BranchPoint {
     pub special: Option<SpecialPoint>,
     /// Newton iterations the corrector needed
     pub newton_iterations: usize,
+    /// the corrector stagnated at rounding level here (accepted, see
+    /// [`ContinuationOptions::stagnation_residual`]); None: converged
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stagnation: Option<Stagnation>,
 }
 
 impl BranchPoint {
@@ -331,6 +356,8 @@ struct Corrected {
     /// determinant of the bordered Jacobian of the last Newton iteration (None when the
     /// engine does not watch this system for branch points)
     determinant: Option<Determinant>,
+    /// the corrector stagnated at rounding level (None: converged)
+    stagnation: Option<Stagnation>,
 }
 
 /// One assembled, factorised and solved bordered Newton system at `u`:
@@ -628,11 +655,19 @@ impl Continuation {
             NeedsDeterminant::No
         };
         let mut iterations = Iterations::new(&b, iteration_determinant, "Newton corrector");
+        // the iterate with the smallest residual and that residual (for a stagnated
+        // corrector; one buffer, reused)
+        let (mut best_u, mut best_res) = (Vec::with_capacity(u.len()), f64::INFINITY);
         for it in 1..=self.options.max_newton_iterations {
             let constraint = (0..u.len()).map(|i| b[i] * (u[i] - pred[i])).sum();
             let chord = kept.take().filter(|_| !refactorise(it));
             let (step, upd) = iterations.step(sys, &u, constraint, chord)?;
             res_norm = step.residual_norm;
+            if res_norm < best_res {
+                best_u.clear();
+                best_u.extend_from_slice(&u);
+                best_res = res_norm;
+            }
             u.iter_mut().zip(&step.update).for_each(|(a, b)| *a += b);
             let tolerance = self.options.newton_tolerance * (1.0 + u[ip].abs());
             if upd <= tolerance {
@@ -649,13 +684,28 @@ impl Continuation {
                     _ => step.lu,
                 };
                 let at_solution = iterations.moved <= tolerance;
-                return Self::corrected(lu, u, w, it, at_solution);
+                return Self::corrected(lu, u, w, it, at_solution, None);
             }
             kept = Some(step.lu);
             if it > 2 && upd > 2.0 * last_update {
                 break;
             }
             last_update = upd;
+        }
+        // stagnated at rounding level: the best iterate, with its numbers recorded
+        if !best_u.is_empty()
+            && best_res <= self.options.stagnation_residual * (1.0 + best_u[ip].abs())
+            && last_update.is_finite()
+        {
+            let (ub, rb) = (best_u, best_res);
+            let det = self.needs_determinant(sys);
+            let lu = iterations.factorise(sys, &ub, det, "Newton corrector (stagnated)")?;
+            let stagnation = Stagnation {
+                residual: rb,
+                update: last_update,
+            };
+            let its = self.options.max_newton_iterations;
+            return Self::corrected(lu, ub, w, its, true, Some(stagnation));
         }
         Err(Error::NewtonDivergence {
             parameter: u[ip],
@@ -673,6 +723,7 @@ impl Continuation {
         w: &[f64],
         iterations: usize,
         at_solution: bool,
+        stagnation: Option<Stagnation>,
     ) -> Result<Corrected> {
         let nu = u.len();
         let mut tau = vec![0.0; nu];
@@ -685,6 +736,7 @@ impl Continuation {
             iterations,
             determinant: lu.determinant(),
             newton: at_solution.then_some(lu),
+            stagnation,
         })
     }
 
@@ -720,6 +772,7 @@ impl Continuation {
             stability,
             special: None,
             newton_iterations: c.iterations,
+            stagnation: c.stagnation,
         })
     }
 
@@ -929,12 +982,13 @@ impl Continuation {
         let bracket = Bracket { a, ds, ga, gb };
         let mut point = match self.locate(sys, test, &bracket, w) {
             Ok(p) => p,
-            // a branch point that cannot be located is still reported, and the branch goes on
-            Err(_) if kind == SpecialKind::BranchPoint => {
+            // a special point that cannot be located (its corrector fails or the location
+            // does not converge near a singular point) is still reported as detected, and
+            // the branch goes on: the point is a result, its location an approximation
+            Err(_) => {
                 b.special = Some(self.detected(kind, b));
                 return Ok(None);
             }
-            Err(e) => return Err(e),
         };
         let dp = b.parameter - a.parameter;
         if let Some(sp) = point.special.as_mut()

@@ -121,8 +121,8 @@ pub use collocation::{MAX_DEGREE, gauss_legendre, lagrange, lagrange_d2};
 pub use cycle_curve::{CycleCurveSystem, CycleExtension};
 pub use engine::{
     Branch, BranchPoint, Continuation, ContinuationOptions, ContinuationState, ContinuationSystem,
-    Decision, NewtonMatrix, NewtonUpdate, NoObserver, Observer, SpecialPoints, Stop, newton_step,
-    points_at_parameter,
+    Decision, NewtonMatrix, NewtonUpdate, NoObserver, Observer, SpecialPoints, Stagnation, Stop,
+    newton_step, points_at_parameter,
 };
 pub use equilibrium::{EquilibriumSystem, HopfPoint};
 pub use error::{Error, Result};

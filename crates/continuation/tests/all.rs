@@ -26,6 +26,8 @@ mod normal_forms;
 mod ode;
 #[path = "period_doubling.rs"]
 mod period_doubling;
+#[path = "stagnation.rs"]
+mod stagnation;
 #[path = "torus.rs"]
 mod torus;
 

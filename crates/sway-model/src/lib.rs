@@ -12,6 +12,8 @@
 //!   [`config::Grid`]);
 //! - [`optimise`]: a bounded multi-start Nelder–Mead with a discrete choice;
 //! - [`sampling`]: Monte-Carlo and Latin-hypercube samples and their statistics;
+//! - [`generator`]: seeded plausible car–trailer combinations with random model-variant
+//!   mixes (the vehicles of `study_generated` and of the many-vehicle tests);
 //! - [`parallel`], [`progress`]: the parallel maps and the progress observer every engine
 //!   takes;
 //! - [`SwayError`]: the error of the floors above.
@@ -35,6 +37,7 @@
 
 pub mod config;
 mod error;
+pub mod generator;
 pub mod law;
 pub mod optimise;
 pub mod parallel;

@@ -9,12 +9,14 @@
 use serde::{Deserialize, Serialize};
 use stability::{Axis, StabilityChart};
 use sway::control::LoopModel;
-use sway::parallel::{Split, join, map, try_map};
+use sway::parallel::{Split, join, map};
 use sway_model::vehicle::Vehicle;
 
 use sway::SwayError;
 pub use sway::bifurcation::chart::ChartConfig;
-use sway::bifurcation::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
+use sway::bifurcation::chart::{
+    ChartOptions, CurveEnd, EndedCurve, NonlinearChart, nonlinear_chart,
+};
 use sway::charts::auto_range::{Derivation, SpeedBounds, middle, summary_gains};
 use sway::charts::fig4a_charts;
 
@@ -149,6 +151,8 @@ pub struct DelayResult {
     pub bistable_reason: Option<String>,
     /// the chart is all safe: straight running stable in every shading cell (None: not)
     pub safe_reason: Option<String>,
+    /// the curves that ended early and the speeds that could not be read off them
+    pub curves_ended_early: Vec<EndedCurve>,
 }
 
 /// The shading grid's axes: V from 0 to the box's top, D over the box.
@@ -168,33 +172,55 @@ pub fn grid_axes(r: &ResolvedChart) -> (Axis, Axis) {
     )
 }
 
+/// The speeds of the curves at gain `d`, and the read-offs that failed (a speed that
+/// cannot be corrected on its curve is null with the failure as its reason).
 fn speeds_at<P: Vehicle<N>, const N: usize>(
     model: &P,
     chart: &NonlinearChart,
     d: f64,
-) -> Result<CurvesAtGain, SwayError> {
+) -> (CurvesAtGain, Vec<EndedCurve>) {
     let o = &chart.options;
-    let v_hopf_mps = chart.hopf_speed_at(model, d)?;
-    let v_fold_mps = chart.fold_speed_at(model, d)?;
-    let range = format!("[{}, {}] m/s", o.v_min_mps, o.v_max_mps);
+    let mut failed = Vec::new();
     let mut why = Vec::new();
-    if v_hopf_mps.is_none() {
+    let mut read = |what: &str, r: Result<Option<f64>, SwayError>| match r {
+        Ok(v) => (v, true),
+        Err(e) => {
+            let end = CurveEnd::from_error(None, &e);
+            why.push(format!(
+                "the {what} at D = {d} s could not be corrected: {}",
+                end.describe()
+            ));
+            failed.push(EndedCurve {
+                curve: format!("{what} read off at D = {d} s"),
+                end,
+            });
+            (None, false)
+        }
+    };
+    let (v_hopf_mps, hopf_read) = read("Hopf speed", chart.hopf_speed_at(model, d));
+    let (v_fold_mps, fold_read) = read("fold-of-cycles speed", chart.fold_speed_at(model, d));
+    let range = format!("[{}, {}] m/s", o.v_min_mps, o.v_max_mps);
+    if v_hopf_mps.is_none() && hopf_read {
         why.push(format!(
             "no Hopf curve crosses D = {d} s in {range} (straight running stable there up to the box's top)"
         ));
     }
-    if v_fold_mps.is_none() {
+    if v_fold_mps.is_none() && fold_read {
         why.push(match &chart.fold_reason {
             Some(r) => r.clone(),
+            None if chart.fold_incomplete => format!(
+                "the fold-of-cycles curve ended early and does not reach D = {d} s: unknown there"
+            ),
             None => format!("the fold-of-cycles curve does not cross D = {d} s in {range}"),
         });
     }
-    Ok(CurvesAtGain {
+    let at = CurvesAtGain {
         d_s: d,
         v_hopf_mps,
         v_fold_mps,
         reason: (!why.is_empty()).then(|| why.join("; ")),
-    })
+    };
+    (at, failed)
 }
 
 /// The whole computation of one delay (no I/O), on any plant (the paper's
@@ -213,16 +239,26 @@ pub fn compute_delay<P: Vehicle<N> + LoopModel, const N: usize>(
     let (chart, linear) = join(&|| nonlinear_chart(model, tau, &r.options), &|| {
         linear_chart(model, r, tau)
     });
-    let (chart, linear) = (chart?, linear?);
+    // a chart that cannot be computed is a result (no curves, its cells unknown)
+    let (chart, linear) = (
+        chart.unwrap_or_else(|e| NonlinearChart::not_computed(tau, &r.options, &e)),
+        linear?,
+    );
     let gains: Vec<f64> = r
         .summary_gains_s
         .iter()
         .chain([&r.bistable_gain_s])
         .copied()
         .collect();
-    let mut curves = try_map(&gains, Split::Adaptive, &|_, &d| {
+    let read = map(&gains, Split::Adaptive, &|_, &d| {
         speeds_at(model, &chart, d)
-    })?;
+    });
+    let mut curves_ended_early = chart.curves_ended_early.clone();
+    let mut curves = Vec::with_capacity(read.len());
+    for (at, failed) in read {
+        curves.push(at);
+        curves_ended_early.extend(failed);
+    }
     let at = curves.pop().ok_or_else(|| {
         SwayError::numerical(
             format!("speeds at D = {} s, τ = {tau} s", r.bistable_gain_s),
@@ -253,6 +289,7 @@ pub fn compute_delay<P: Vehicle<N> + LoopModel, const N: usize>(
         bistable_width_mps,
         bistable_reason,
         safe_reason,
+        curves_ended_early,
     })
 }
 

@@ -102,6 +102,23 @@ pub struct CheckedDesign {
     pub v_fold_reason: Option<String>,
 }
 
+/// The open-loop critical speed \[m/s\] of the study's linear side (the reference of the
+/// budgets); None: straight running is stable up to the search's top speed without
+/// control, and there is nothing to design for.
+///
+/// # Errors
+/// [`SwayError::Numerical`] if the search fails.
+pub fn open_loop_critical_speed(
+    vehicle: StudyVehicle<'_>,
+    s: &StudySettings,
+) -> Result<Option<f64>, SwayError> {
+    let model: &dyn LoopModel = match vehicle.paper {
+        Some((m, _)) => m,
+        None => vehicle.plant,
+    };
+    sway::control::critical_speed(model, &LoopLaw::OPEN_LOOP, None, &s.search.speed)
+}
+
 /// The results of one structure × actuator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Combination {
@@ -196,7 +213,7 @@ enum Done {
 ///
 /// # Errors
 /// [`SwayError::Numerical`], also when the open loop has no critical speed in the search range
-/// (then nothing is to be raised).
+/// (then nothing is to be raised: [`open_loop_critical_speed`] says so beforehand).
 pub fn control_study(
     vehicle: StudyVehicle<'_>,
     s: &StudySettings,
@@ -214,13 +231,7 @@ pub fn control_study(
         .transpose()
         .map_err(|e| SwayError::numerical("the predictor's prediction vehicle", e))?;
     let prediction = prediction_model.as_ref().map(|m| m as &dyn LoopModel);
-    let open = sway::control::critical_speed(
-        model,
-        &LoopLaw::OPEN_LOOP,
-        None,
-        &s.search.speed,
-    )?
-    .ok_or_else(|| {
+    let open = open_loop_critical_speed(vehicle, s)?.ok_or_else(|| {
         SwayError::numerical(
             "the open-loop critical speed of the control study",
             std::io::Error::other(format!(

@@ -10,7 +10,7 @@ use sway::parallel::{Split, try_map};
 use sway_model::vehicle::Vehicle;
 
 use sway::SwayError;
-use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, critical_speeds};
+use sway::bifurcation::chart::{ChartOptions, CriticalSpeeds, EndedCurve, critical_speeds};
 use sway::bifurcation::{
     BranchEnd, CycleExtent, Diagram, DiagramOutcome, DiagramSettings, LoopLaw, vehicle_diagram,
 };
@@ -62,6 +62,7 @@ impl PairDiagram {
             cycle_branch_end: None,
             stable_up_to_mps: None,
             reason: None,
+            curves_ended_early: Vec::new(),
         };
         match self {
             PairDiagram::NoHopf { outcome, .. } => PairSummary {
@@ -75,9 +76,14 @@ impl PairDiagram {
                     (Criticality::Subcritical, Some(f)) => Some([f.v_mps, speeds.hopf_v_mps]),
                     _ => None,
                 };
-                let reason = match fold {
-                    Some(_) => None,
-                    None => Some(d.fold_reason().unwrap_or_else(|| {
+                let failed = speeds
+                    .curves_ended_early
+                    .iter()
+                    .find(|e| e.curve.starts_with("fold"));
+                let reason = match (fold, failed) {
+                    (Some(_), _) => None,
+                    (None, Some(e)) => Some(format!("the fold of cycles is unknown: its correction {}", e.end.describe())),
+                    (None, None) => Some(d.fold_reason().unwrap_or_else(|| {
                         "the fold of the cycle branch could not be corrected on the fold-of-cycles system".into()
                     })),
                 };
@@ -93,6 +99,7 @@ impl PairDiagram {
                     searched_mps: Some(d.searched_mps),
                     cycle_branch_end: Some(d.cycle_branch_end),
                     reason,
+                    curves_ended_early: speeds.curves_ended_early.clone(),
                     ..base
                 }
             }
@@ -137,6 +144,9 @@ pub struct PairSummary {
     /// branch ended by the guard or the budget)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// corrections on the defining systems that failed, each with its `end` (absent: none)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub curves_ended_early: Vec<EndedCurve>,
 }
 
 /// The diagram of `model` with `feedback` on the range of `settings` (derived from the

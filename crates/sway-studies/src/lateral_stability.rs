@@ -253,8 +253,9 @@ pub struct SpeedRow {
     /// the impulse's peak front-wheel angle \[deg\] (the config's, or the one found for
     /// its target lateral acceleration)
     pub steering_amplitude_deg: f64,
-    /// the car's peak lateral acceleration during the impulse \[m/s²\]
-    pub peak_lateral_acceleration_mps2: f64,
+    /// the car's peak lateral acceleration during the impulse \[m/s²\] (None: the runs
+    /// failed)
+    pub peak_lateral_acceleration_mps2: Option<f64>,
     /// D of the impulse \[-\] (None: too few peaks, with `reason`)
     pub damping_ratio: Option<f64>,
     /// the frequency of the sway \[Hz\]
@@ -766,6 +767,68 @@ fn zero_damping_at(
     })
 }
 
+/// What a test speed's row needs besides the runs.
+struct SpeedContext<'a> {
+    vehicle: &'a AnyVehicleModel,
+    diagram: Option<&'a Diagram>,
+    range: Range,
+    has_fold: bool,
+}
+
+/// The test at one speed: the impulse's decay, the family's D(A) and the cycles there.
+fn speed_row(
+    test: &TestLoop<'_>,
+    cfg: &LateralStabilityConfig,
+    v: f64,
+    c: &SpeedContext<'_>,
+) -> Result<(SpeedRow, Trace), SwayError> {
+    let (small, run_trace, steering_deg, peak_acceleration) = test.decay_at(cfg, v)?;
+    let Family {
+        points,
+        triggering_deg,
+    } = test.family(cfg, v)?;
+    let z = zero_damping_at(c.vehicle, c.diagram, c.range, c.has_fold, v, &points)?;
+    let reason = match small {
+        None => Some("too few peaks after the impulse".to_string()),
+        Some(_) => z.reason,
+    };
+    let row = SpeedRow {
+        speed_mps: v,
+        steering_amplitude_deg: steering_deg,
+        peak_lateral_acceleration_mps2: Some(peak_acceleration),
+        damping_ratio: small.map(|d| d.damping_ratio),
+        frequency_hz: small.map(|d| d.frequency_hz),
+        peaks_used: small.map_or(0, |d| d.periods_used + 2),
+        zero_damping_amplitude_deg: z.zero_deg,
+        unstable_cycle_amplitude_deg: z.unstable_deg,
+        stable_cycle_amplitude_deg: z.stable_deg,
+        triggering_impulse_deg: triggering_deg,
+        reason,
+        local_damping: points,
+    };
+    Ok((row, run_trace))
+}
+
+impl SpeedRow {
+    /// The row of a speed whose runs failed, with the error as its reason.
+    fn failed(speed_mps: f64, steering_amplitude_deg: f64, e: &SwayError) -> Self {
+        Self {
+            speed_mps,
+            steering_amplitude_deg,
+            peak_lateral_acceleration_mps2: None,
+            damping_ratio: None,
+            frequency_hz: None,
+            peaks_used: 0,
+            zero_damping_amplitude_deg: None,
+            unstable_cycle_amplitude_deg: None,
+            stable_cycle_amplitude_deg: None,
+            triggering_impulse_deg: None,
+            reason: Some(format!("the test's runs failed at this speed: {e}")),
+            local_damping: Vec::new(),
+        }
+    }
+}
+
 /// Runs the test on `vehicle` (any model variant; the config's controller in the loop, if
 /// any); `progress` advances by one per test speed.
 ///
@@ -805,41 +868,24 @@ pub fn compute(
     let mut rows = Vec::with_capacity(speeds.len());
     let mut trace: Option<Trace> = None;
     for &v in &speeds {
-        let (small, run_trace, steering_deg, peak_acceleration) = test.decay_at(cfg, v)?;
         let range = range_of(v, &refs);
-        if range != Range::Unstable {
-            trace = Some(run_trace);
-        }
-        let Family {
-            points,
-            triggering_deg,
-        } = test.family(cfg, v)?;
-        let z = zero_damping_at(
+        let context = SpeedContext {
             vehicle,
-            diagram.as_ref(),
+            diagram: diagram.as_ref(),
             range,
-            refs.v_fold_mps.is_some(),
-            v,
-            &points,
-        )?;
-        let reason = match small {
-            None => Some("too few peaks after the impulse".to_string()),
-            Some(_) => z.reason,
+            has_fold: refs.v_fold_mps.is_some(),
         };
-        rows.push(SpeedRow {
-            speed_mps: v,
-            steering_amplitude_deg: steering_deg,
-            peak_lateral_acceleration_mps2: peak_acceleration,
-            damping_ratio: small.map(|d| d.damping_ratio),
-            frequency_hz: small.map(|d| d.frequency_hz),
-            peaks_used: small.map_or(0, |d| d.periods_used + 2),
-            zero_damping_amplitude_deg: z.zero_deg,
-            unstable_cycle_amplitude_deg: z.unstable_deg,
-            stable_cycle_amplitude_deg: z.stable_deg,
-            triggering_impulse_deg: triggering_deg,
-            reason,
-            local_damping: points,
-        });
+        // a run that fails (a stiff variant beyond the solver's step budget) is this
+        // speed's result, with the reason; the other speeds go on
+        match speed_row(&test, cfg, v, &context) {
+            Ok((row, run_trace)) => {
+                if range != Range::Unstable {
+                    trace = Some(run_trace);
+                }
+                rows.push(row);
+            }
+            Err(e) => rows.push(SpeedRow::failed(v, cfg.pulse.amplitude_deg, &e)),
+        }
         progress.advance(1);
     }
     let decaying = decaying_runs(rows.iter().map(|r| (r.speed_mps, r.damping_ratio)));

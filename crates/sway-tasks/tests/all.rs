@@ -12,6 +12,8 @@
 mod configs;
 #[path = "generated_inputs.rs"]
 mod generated_inputs;
+#[path = "generated_vehicles.rs"]
+mod generated_vehicles;
 #[path = "guide.rs"]
 mod guide;
 #[path = "import_cycles.rs"]

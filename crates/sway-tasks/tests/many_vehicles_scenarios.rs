@@ -41,7 +41,7 @@ const DV: f64 = -0.2877869821349167;
 
 const LINEAR: &str = "";
 
-fn fig3b() -> String {
+pub(crate) fn fig3b() -> String {
     format!(
         "brake_start_s = 1.0
 speed_change_mps = {{ of_v_crit = {DV} }}
@@ -59,7 +59,7 @@ atol = 1e-8
     )
 }
 
-fn fig4c() -> String {
+pub(crate) fn fig4c() -> String {
     format!(
         "action_s = 1.0
 horizon_s = 4.0
@@ -96,7 +96,7 @@ atol = 1e-8
     )
 }
 
-fn mitigation() -> String {
+pub(crate) fn mitigation() -> String {
     format!(
         "phases = 2
 refinement = 1
@@ -133,7 +133,7 @@ atol = 1e-8
     )
 }
 
-const LOADING: &str = "\
+pub(crate) const LOADING: &str = "\
 trailer_mass_kg = { min = 500.0, max = 1800.0, points = 3 }
 trailer_cog_of_axle = { min = 0.8571428571428572, max = 1.0714285714285714, points = 3 }
 v_range_mps = [1.0, { of_v_crit = 3.453443785619 }]

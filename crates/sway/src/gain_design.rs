@@ -37,7 +37,9 @@ use trailer_model::Model;
 use sway_model::vehicle::LoopModel;
 
 use crate::SwayError;
-use crate::bifurcation::chart::{ChartOptions, NonlinearChart, critical_speeds, nonlinear_chart};
+use crate::bifurcation::chart::{
+    ChartOptions, CurveEnd, EndedCurve, NonlinearChart, critical_speeds, nonlinear_chart,
+};
 use crate::bifurcation::{CycleExtent, DiagramOptions, LoopLaw, bifurcation_diagram_until};
 use crate::charts::critical_speed_at_gain;
 
@@ -434,6 +436,8 @@ pub struct FoldResult {
     pub curve: Vec<(f64, f64)>,
     /// why there is no optimum, or the chart's notes
     pub notes: Vec<String>,
+    /// the curves that ended early (and fold speeds that could not be corrected), with how
+    pub curves_ended_early: Vec<EndedCurve>,
 }
 
 /// The chart options of the nonlinear search: `chart` with the gain range of `o`, and the
@@ -500,41 +504,98 @@ pub fn fold_optimum(
                 optimum: None,
                 curve: Vec::new(),
                 notes: vec![format!("no fold-of-cycles curve: {e}")],
+                curves_ended_early: vec![EndedCurve {
+                    curve: format!("nonlinear chart τ = {tau} s"),
+                    end: CurveEnd::from_error(None, &e),
+                }],
             });
         }
     };
     let mut notes = ch.notes.clone();
+    let ended = ch.curves_ended_early.clone();
     let curve = fold_points_in_range(&ch, o);
     // the curve may turn back in D: sorted by D for the bracket (stable, deterministic)
     let mut pts = curve.clone();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     if pts.is_empty() {
-        notes.push(format!(
-            "no fold-of-cycles curve in the gain range (the Hopf point at the seed gain D = {} s is supercritical or its cycles do not fold in the speed range)",
-            co.seed_gains_s.first().copied().unwrap_or(f64::NAN)
-        ));
+        notes.push(match (&ch.fold_reason, ch.fold_incomplete) {
+            (Some(why), true) => why.clone(),
+            _ => format!(
+                "no fold-of-cycles curve in the gain range (the Hopf point at the seed gain D = {} s is supercritical or its cycles do not fold in the speed range)",
+                co.seed_gains_s.first().copied().unwrap_or(f64::NAN)
+            ),
+        });
         return Ok(FoldResult {
             optimum: None,
             curve,
             notes,
+            curves_ended_early: ended,
         });
     }
+    match refined_fold_optimum(model, tau, o, &ch, &pts) {
+        Ok(optimum) => {
+            if ch.fold_incomplete {
+                notes.push(format!(
+                    "the fold-of-cycles curve ended early: the optimum is searched only on the gains it reaches, [{:.4}, {:.4}] s",
+                    pts[0].0,
+                    pts[pts.len() - 1].0
+                ));
+            }
+            Ok(FoldResult {
+                optimum: Some(optimum),
+                curve,
+                notes,
+                curves_ended_early: ended,
+            })
+        }
+        // a fold speed that cannot be corrected during the refinement: no optimum, the
+        // curve as far as it went and the reason
+        Err(e) => {
+            let end = CurveEnd::from_error(None, &e);
+            notes.push(format!("no fold-of-cycles optimum: {}", end.describe()));
+            let mut ended = ended;
+            ended.push(EndedCurve {
+                curve: format!("fold-of-cycles optimum τ = {tau} s"),
+                end,
+            });
+            Ok(FoldResult {
+                optimum: None,
+                curve,
+                notes,
+                curves_ended_early: ended,
+            })
+        }
+    }
+}
+
+/// The refinement of [`fold_optimum`] on the fold-of-cycles points `pts` (sorted by D) of
+/// `ch`: V_safe at the points, Brent between the neighbours of the best one (or the end of
+/// the gain range beyond the first or last point; the last point itself where the curve
+/// ended early, so that no gain it does not reach is taken as safe).
+fn refined_fold_optimum(
+    model: &Model,
+    tau: f64,
+    o: &GainSearch,
+    ch: &NonlinearChart,
+    pts: &[(f64, f64)],
+) -> Result<FoldOptimum, SwayError> {
     let xs: Vec<f64> = pts.iter().map(|p| p.0).collect();
     let ys = xs
         .iter()
-        .zip(&pts)
+        .zip(pts)
         .map(|(&d, p)| Ok(p.1.min(critical_speed(model, tau, d, o)?)))
         .collect::<Result<Vec<_>, SwayError>>()?;
-    let g = |d: f64| safe_speed(model, &ch, d, o).map(|s| s.0);
+    let g = |d: f64| safe_speed(model, ch, d, o).map(|s| s.0);
     let k = first_argmax(&ys);
     // the bracket: the neighbours of the best point, or the range end beyond the first or
-    // last point (the curve's points may stop short of it)
-    let a = if k == 0 { o.d_min_s } else { xs[k - 1] };
-    let b = if k + 1 == xs.len() {
-        o.d_max_s
+    // last point (the curve's points may stop short of it; not where it ended early)
+    let (lo, hi) = if ch.fold_incomplete {
+        (xs[0], xs[xs.len() - 1])
     } else {
-        xs[k + 1]
+        (o.d_min_s, o.d_max_s)
     };
+    let a = if k == 0 { lo } else { xs[k - 1] };
+    let b = if k + 1 == xs.len() { hi } else { xs[k + 1] };
     let mut known = (xs[k], g(xs[k])?);
     let mut n = 1;
     for end in [(k == 0).then_some(a), (k + 1 == xs.len()).then_some(b)]
@@ -547,28 +608,29 @@ pub fn fold_optimum(
             known = (end, v);
         }
     }
-    let (d, _, m) = maximise(g, (a, b), known, o.gain_tolerance_s, o.max_iterations)?;
+    let (d, m) = if a < b {
+        let (d, _, m) = maximise(g, (a, b), known, o.gain_tolerance_s, o.max_iterations)?;
+        (d, m)
+    } else {
+        (known.0, 0)
+    };
     let n = n + m;
-    let (v, vf, vc) = safe_speed(model, &ch, d, o)?;
+    let (v, vf, vc) = safe_speed(model, ch, d, o)?;
     let vf = vf.unwrap_or(f64::INFINITY);
-    Ok(FoldResult {
-        optimum: Some(FoldOptimum {
-            tau_s: tau,
-            d_fold_s: d,
-            v_fold_max_mps: v,
-            v_fold_at_optimum_mps: vf,
-            v_crit_at_optimum_mps: vc,
-            limited_by: if vf <= vc {
-                SafeSpeedLimit::FoldOfCycles
-            } else {
-                SafeSpeedLimit::CriticalSpeed
-            },
-            on_range_end: RangeEnd::of(d, o),
-            curve_points: pts.len(),
-            evaluations: n,
-        }),
-        curve,
-        notes,
+    Ok(FoldOptimum {
+        tau_s: tau,
+        d_fold_s: d,
+        v_fold_max_mps: v,
+        v_fold_at_optimum_mps: vf,
+        v_crit_at_optimum_mps: vc,
+        limited_by: if vf <= vc {
+            SafeSpeedLimit::FoldOfCycles
+        } else {
+            SafeSpeedLimit::CriticalSpeed
+        },
+        on_range_end: RangeEnd::of(d, o),
+        curve_points: pts.len(),
+        evaluations: n,
     })
 }
 

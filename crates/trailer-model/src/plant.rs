@@ -248,13 +248,27 @@ fn input_columns<P: Plant<N> + ?Sized, const N: usize>(
 }
 
 /// Eigenvalues of a real N×N matrix, sorted by decreasing real part, ties by decreasing
-/// imaginary part (a conjugate pair appears as (a + ib, a − ib)).
+/// imaginary part (a conjugate pair appears as (a + ib, a − ib)). A matrix with a non-finite
+/// entry, or one whose Schur iteration does not converge within 10 000 iterations,
+/// has N NaN eigenvalues (nalgebra's `complex_eigenvalues` iterates without a bound and
+/// never returns on such a matrix).
 pub fn sorted_spectrum<const N: usize>(a: &SMatrix<f64, N, N>) -> Vec<Complex<f64>> {
-    let ev = DMatrix::from_column_slice(N, N, a.as_slice()).complex_eigenvalues();
-    let mut out: Vec<Complex<f64>> = ev.iter().copied().collect();
+    let nan = || vec![Complex::new(f64::NAN, f64::NAN); N];
+    if !a.iter().all(|v| v.is_finite()) {
+        return nan();
+    }
+    let m = DMatrix::from_column_slice(N, N, a.as_slice());
+    let Some(schur) = nalgebra::Schur::try_new(m, f64::EPSILON, SCHUR_MAX_ITERATIONS) else {
+        return nan();
+    };
+    let mut out: Vec<Complex<f64>> = schur.complex_eigenvalues().iter().copied().collect();
     out.sort_by(by_decreasing_real_part);
     out
 }
+
+/// Most iterations of the Schur decomposition in [`sorted_spectrum`] (a handful per
+/// eigenvalue converge; this bound only ends a matrix on which the QR iteration cycles).
+pub const SCHUR_MAX_ITERATIONS: usize = 10_000;
 
 /// The order of [`sorted_spectrum`] (a `fn` item, not a closure: the sort is compiled once,
 /// not once per N).

@@ -1355,3 +1355,33 @@ fn critical_speed_of_table_i_is_the_committed_one() {
         .v_crit_mps;
     assert_eq!(v, 34.747923362676374);
 }
+
+/// `sorted_spectrum` returns (N NaN eigenvalues) on a matrix with a non-finite entry instead
+/// of iterating forever (nalgebra's unbounded `complex_eigenvalues` never returned on such a
+/// linearisation of a generated vehicle), and keeps its values elsewhere. Reference: the
+/// eigenvalues of a companion matrix with roots −1, −2, −3 ± 4i (to 1e-9).
+#[test]
+fn sorted_spectrum_is_nan_on_a_non_finite_matrix_and_exact_elsewhere() {
+    let mut a = nalgebra::SMatrix::<f64, 4, 4>::zeros();
+    a[(0, 1)] = f64::NAN;
+    let ev = trailer_model::sorted_spectrum(&a);
+    assert_eq!(ev.len(), 4);
+    assert!(ev.iter().all(|z| z.re.is_nan() && z.im.is_nan()));
+    // companion matrix of (s + 1)(s + 2)(s² + 6s + 25) = s⁴ + 9s³ + 45s² + 87s + 50
+    let c = [50.0, 87.0, 45.0, 9.0];
+    let mut m = nalgebra::SMatrix::<f64, 4, 4>::zeros();
+    for i in 0..3 {
+        m[(i, i + 1)] = 1.0;
+    }
+    for (j, cj) in c.iter().enumerate() {
+        m[(3, j)] = -cj;
+    }
+    let ev = trailer_model::sorted_spectrum(&m);
+    let expected = [(-1.0, 0.0), (-2.0, 0.0), (-3.0, 4.0), (-3.0, -4.0)];
+    for (z, (re, im)) in ev.iter().zip(expected) {
+        assert!(
+            (z.re - re).abs() < 1e-9 && (z.im - im).abs() < 1e-9,
+            "{z} vs {re} {im}"
+        );
+    }
+}

@@ -486,7 +486,15 @@ pub fn hopf_fold_speeds(
     };
     let c = critical_speeds(model, &d, &ChartOptions::correcting(&d.options))
         .map_err(|e| e.to_string())?;
-    let reason = if c.fold.is_none() {
+    // a correction that failed is the reason of its null (the located Hopf point stands)
+    let failed: Vec<String> = c
+        .curves_ended_early
+        .iter()
+        .map(|e| format!("{} {}", e.curve, e.end.describe()))
+        .collect();
+    let reason = if !failed.is_empty() {
+        Some(failed.join("; "))
+    } else if c.fold.is_none() {
         d.fold_reason()
     } else {
         None

@@ -21,7 +21,7 @@ pub use sway_studies::chart::{
     ChartConfig, ChartNonlinearConfig, ChartStudy, CurvesAtGain, DelayResult, RegionGrid, compute,
     compute_delay,
 };
-use sway::bifurcation::chart::{ChartOptions, Codim2Kind, Region};
+use sway::bifurcation::chart::{ChartOptions, Codim2Kind, CurveEnd, EndedCurve, Region};
 use sway::charts::auto_range::{Derivation, SpeedBounds};
 use sway::config::{ensure, ensure_positive};
 
@@ -150,6 +150,11 @@ pub struct DelayEntry {
     /// the chart is all safe (absent: it is not)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub safe_reason: Option<String>,
+    /// curves that ended early and speeds that could not be read off them, each with its
+    /// `end` (`reason` and numbers); the stable cells an incomplete fold-of-cycles curve does
+    /// not reach are unknown (absent: none)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub curves_ended_early: Vec<EndedCurve>,
 }
 
 impl From<&DelayResult> for DelayEntry {
@@ -174,6 +179,7 @@ impl From<&DelayResult> for DelayEntry {
             hopf_reason: r.chart.hopf_reason.clone(),
             fold_reason: r.chart.fold_reason.clone(),
             safe_reason: r.safe_reason.clone(),
+            curves_ended_early: r.curves_ended_early.clone(),
         }
     }
 }
@@ -412,9 +418,19 @@ fn panel(r: &DelayResult, c: &ChartOptions) -> Panel {
             "bistable (a kick triggers sway)",
         ),
         (Region::SelfExcited, Rgb::RED, "self-excited sway"),
+        (
+            Region::Unknown,
+            Rgb::GREY,
+            "unknown (the fold-of-cycles curve ended early)",
+        ),
     ] {
+        let rects = region_rects(&r.linear, &regions, which);
+        // the unknown region only where there is one (the other layers as always)
+        if which == Region::Unknown && rects.is_empty() {
+            continue;
+        }
         p = p.with(Layer::Rects {
-            rects: region_rects(&r.linear, &regions, which),
+            rects,
             color,
             opacity: 0.3,
             label: Some(label.into()),
@@ -468,6 +484,21 @@ fn panel(r: &DelayResult, c: &ChartOptions) -> Panel {
             label: Some("codimension-two points".into()),
         });
     }
+    // where curves stopped early: their last points, marked
+    let ends: Vec<(f64, f64)> = r
+        .curves_ended_early
+        .iter()
+        .filter_map(|e| end_point(&e.end))
+        .collect();
+    if !ends.is_empty() {
+        p = p.with(Layer::Markers {
+            points: ends,
+            color: Rgb::RED,
+            shape: Shape::Triangle,
+            size: 7,
+            label: Some("curve ended early".into()),
+        });
+    }
     for q in &r.chart.codim2_points {
         let freqs: Vec<String> = q.omega_rad_s.iter().map(|w| format!("{w:.1}")).collect();
         p = p.with(Layer::Text {
@@ -478,6 +509,20 @@ fn panel(r: &DelayResult, c: &ChartOptions) -> Panel {
         });
     }
     p
+}
+
+/// (V, D) of the last point of a curve that ended, where it has one.
+fn end_point(e: &CurveEnd) -> Option<(f64, f64)> {
+    match *e {
+        CurveEnd::StepUnderflow { d_s, v_mps } => Some((v_mps, d_s)),
+        CurveEnd::CorrectorFailure {
+            d_s: Some(d), v_mps: Some(v), ..
+        }
+        | CurveEnd::Failure {
+            d_s: Some(d), v_mps: Some(v), ..
+        } => Some((v, d)),
+        _ => None,
+    }
 }
 
 /// chart_nonlinear: the most points of one curve in one direction (`chart.hopf_max_points`,
@@ -601,6 +646,9 @@ impl Prepared for Configured<ChartNonlinearConfig> {
                 .flatten()
             {
                 lines.push(format!("τ = {} s: {why}", r.chart.tau_s));
+            }
+            for e in &r.curves_ended_early {
+                lines.push(format!("τ = {} s: {} {}", r.chart.tau_s, e.curve, e.end.describe()));
             }
         }
         let panels: Vec<Panel> = results.iter().map(|r| panel(r, &res.options)).collect();

@@ -30,7 +30,8 @@ use sway::control::{
 };
 use sway_studies::control_design::{
     AwayFromCorner, CheckedDesign, Combination, ControlStudy, Curve, SimulationCheck,
-    SimulationOutcome, StudySettings, StudyVehicle, control_study, simulation_check,
+    SimulationOutcome, StudySettings, StudyVehicle, control_study, open_loop_critical_speed,
+    simulation_check,
 };
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
 use sway::sim::PredictionVehicle;
@@ -484,8 +485,43 @@ fn key(c: &Combination) -> String {
     format!("{}_{}", c.structure.as_str(), c.actuator.as_str())
 }
 
+/// `summary.json` of a vehicle whose open loop is stable up to the search's top speed.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-struct Summary {
+struct StableOpenLoop {
+    designs: Vec<DesignEntry>,
+    open_loop_v_crit_mps: Option<f64>,
+    open_loop_stable_up_to_mps: f64,
+    reason: String,
+}
+
+impl StableOpenLoop {
+    fn line(cfg: &ControlDesignConfig) -> String {
+        format!(
+            "straight running is stable up to {} m/s without control: nothing to design for (raise search.speed.v_max_mps)",
+            cfg.settings().search.speed.v_max_mps
+        )
+    }
+
+    fn summary(cfg: &ControlDesignConfig) -> Summary {
+        Summary::Stable(Self {
+            designs: Vec::new(),
+            open_loop_v_crit_mps: None,
+            open_loop_stable_up_to_mps: cfg.settings().search.speed.v_max_mps,
+            reason: Self::line(cfg),
+        })
+    }
+}
+
+/// `summary.json`: the designs, or the reason there are none.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+enum Summary {
+    Designs(Box<Designs>),
+    Stable(StableOpenLoop),
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct Designs {
     designs: Vec<DesignEntry>,
     delay_budget_s: BTreeMap<String, Option<f64>>,
     delay_budget_at_grid_end: BTreeMap<String, bool>,
@@ -659,6 +695,11 @@ impl Prepared for Configured<ControlDesignConfig> {
                     paper: ctx.variant_key.is_none().then_some((&ctx.model, &ctx.vehicle)),
                     prediction: prediction.as_ref().map(|p| &p.spec),
                 };
+                // an open loop stable up to the search's top speed is an outcome: nothing to
+                // design for (summary with its reason, no designs)
+                if open_loop_critical_speed(vehicle, &cfg.settings())?.is_none() {
+                    return Ok((StableOpenLoop::summary(cfg), vec![StableOpenLoop::line(cfg)]));
+                }
                 let r = control_study(vehicle, &cfg.settings(), ctx.progress)?;
                 let entries: Vec<DesignEntry> = r
                     .combinations
@@ -707,7 +748,7 @@ impl Prepared for Configured<ControlDesignConfig> {
                     None
                 };
                 let lines = headlines(&r, &entries);
-                let summary = Summary {
+                let summary = Summary::Designs(Box::new(Designs {
                     delay_budget_s: r
                         .combinations
                         .iter()
@@ -745,7 +786,7 @@ impl Prepared for Configured<ControlDesignConfig> {
                             .to_string()
                     }),
                     simulation_check: simulation,
-                };
+                }));
                 Ok((summary, lines))
             },
         )

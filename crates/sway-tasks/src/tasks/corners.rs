@@ -24,6 +24,7 @@ use std::path::Path;
 
 use serde::Serialize;
 use crate::TaskError;
+use sway::bifurcation::chart::EndedCurve;
 use sway::bifurcation::corners::motion::MotionClass;
 pub use sway_studies::corners::{Corners, CornersConfig, ResolvedCorners, compute};
 use sway::bifurcation::corners::{
@@ -292,6 +293,10 @@ pub struct CornersSummary {
     pub simulations: Vec<SimulationRow>,
     /// what the pipeline noticed
     pub notes: Vec<String>,
+    /// curves that ended early and corners that could not be analysed, each with its
+    /// `end` (absent: none)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub curves_ended_early: Vec<EndedCurve>,
     /// per delay: the double-Hopf points found in the box, or why there is none
     pub per_tau: Vec<DelayOutcome>,
     /// the box, seeds and `beyond_gain_s` used (derived where the config omits them)
@@ -433,8 +438,13 @@ pub fn summary(c: &Corners) -> CornersSummary {
         quasi_periodic_examples: Vec::new(),
         simulations: Vec::new(),
         notes: Vec::new(),
+        curves_ended_early: Vec::new(),
     };
     for st in studies {
+        s.curves_ended_early.extend(st.curves_ended_early.iter().map(|e| EndedCurve {
+            curve: format!("τ = {} s: {}", st.tau_s, e.curve),
+            end: e.end.clone(),
+        }));
         s.double_hopf.extend(
             st.corners
                 .iter()
@@ -909,6 +919,9 @@ impl Prepared for Configured<CornersConfig> {
             s.simulations.len(),
             s.quasi_periodic_examples.len()
         ));
+        for e in &s.curves_ended_early {
+            lines.push(format!("{} {}", e.curve, e.end.describe()));
+        }
         Ok((s, lines))
         })
     }

@@ -26,6 +26,7 @@ pub use sway_studies::gain_design::{
     BudgetConfig, GainDesign, GainDesignConfig, GainSearchConfig, NonlinearConfig, ResolvedDesign,
     compute, default_chart,
 };
+use sway::bifurcation::chart::EndedCurve;
 use sway::gain_design::{RangeEnd, SafeSpeedLimit};
 
 use super::fig3a_diagram::validate_options;
@@ -193,6 +194,10 @@ pub struct OptimalGainEntry {
     /// nothing)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// curves of the nonlinear part that ended early (and fold speeds that could not be
+    /// corrected), each with its `end` (absent: none)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub curves_ended_early: Vec<EndedCurve>,
 }
 
 /// `summary.json` of gain_design (before the common fields of [`crate::io::Summary`]).
@@ -293,6 +298,10 @@ fn entries(r: &GainDesign) -> Vec<OptimalGainEntry> {
                     fold_limited_by: opt.map(|o| o.limited_by),
                     fold_on_range_end: opt.and_then(|o| o.on_range_end),
                     fold_notes: f.as_ref().map(|f| f.notes.clone()).unwrap_or_default(),
+                    curves_ended_early: f
+                        .as_ref()
+                        .map(|f| f.curves_ended_early.clone())
+                        .unwrap_or_default(),
                 }
             })
             .collect()
@@ -592,6 +601,11 @@ impl Prepared for Configured<GainDesignConfig> {
                 && cfg.headline_delays_s.iter().any(|t| (t - l.tau_s).abs() < 1e-9)
             {
                 lines.push(format!("τ = {} s: {why}", l.tau_s));
+            }
+        }
+        for (tau, f) in r.delays_s.iter().zip(&r.fold) {
+            for e in f.iter().flat_map(|f| &f.curves_ended_early) {
+                lines.push(format!("τ = {tau} s: {} {}", e.curve, e.end.describe()));
             }
         }
         let summary = GainDesignSummary {

@@ -148,7 +148,7 @@ pub struct Summary {
 struct CsvRow {
     speed_mps: f64,
     steering_amplitude_deg: f64,
-    peak_lateral_acceleration_mps2: f64,
+    peak_lateral_acceleration_mps2: Option<f64>,
     damping_ratio: Option<f64>,
     frequency_hz: Option<f64>,
     peaks_used: usize,

@@ -51,6 +51,7 @@ registry! {
     variants => [TASK],
     lateral_stability => [TASK],
     fmu => [TASK],
+    study_generated => [TASK],
 }
 
 pub mod fig3a_diagram;

@@ -35,7 +35,7 @@ use crate::SwayError;
 use crate::charts::auto_range::{
     BoxKeys, Derivation, SpeedBounds, SpeedGainBox, nonlinear_box, seed_gains,
 };
-use crate::parallel::{Split, join, try_map};
+use crate::parallel::{Split, join, map, try_map};
 use sway_model::config::Omittable;
 use sway_model::vehicle::LoopModel;
 
@@ -311,6 +311,9 @@ pub struct HopfCurve {
     pub points: Vec<HopfCurvePoint>,
     /// criticality at sample points, in curve order
     pub criticality: Vec<CriticalitySample>,
+    /// how each direction ended (decreasing D first)
+    #[serde(default)]
+    pub ends: Vec<CurveEnd>,
 }
 
 impl HopfCurve {
@@ -347,6 +350,173 @@ pub struct FoldCurve {
     pub branches: [Branch; 2],
     /// the points in order along the curve
     pub points: Vec<FoldCurvePoint>,
+    /// how each direction ended (decreasing D first)
+    #[serde(default)]
+    pub ends: Vec<CurveEnd>,
+}
+
+/// How one direction of a chart's curve ended (serialised with its `reason`). A curve
+/// that cannot go on is a result: its points so far are kept, its end says why it stops.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum CurveEnd {
+    /// it left the chart's (D, V) box or its parameter range (the whole curve in the box)
+    LeftBox {
+        /// gain of its last point \[s\]
+        d_s: f64,
+        /// speed of its last point \[m/s\]
+        v_mps: f64,
+    },
+    /// it used its point budget (`hopf_max_points`, `fold_max_points`)
+    Budget {
+        /// points computed in this direction
+        points: usize,
+    },
+    /// it ended at a codimension-two point where such a curve ends (a fold-of-cycles curve
+    /// on the Hopf curve where the criticality changes)
+    SingularPoint {
+        /// which point
+        kind: Codim2Kind,
+        /// its gain \[s\]
+        d_s: f64,
+        /// its speed \[m/s\]
+        v_mps: f64,
+    },
+    /// the continuation step fell below its minimum (a singular point of the extended
+    /// system the engine does not classify, or a curve too sharp to follow)
+    StepUnderflow {
+        /// gain of its last point \[s\]
+        d_s: f64,
+        /// speed of its last point \[m/s\]
+        v_mps: f64,
+    },
+    /// the Newton corrector failed (after the engine's step reductions)
+    CorrectorFailure {
+        /// gain of its last point \[s\] (None: no point in this direction)
+        d_s: Option<f64>,
+        /// speed of its last point \[m/s\]
+        v_mps: Option<f64>,
+        /// the corrector's free parameter where it failed
+        parameter: f64,
+        /// iterations done
+        iterations: usize,
+        /// max-norm of the residual at the last iterate
+        residual: f64,
+        /// max-norm of the last update
+        update: f64,
+    },
+    /// another numerical failure (a singular linear system, a non-finite value, …)
+    Failure {
+        /// gain of its last point \[s\] (None: no point in this direction)
+        d_s: Option<f64>,
+        /// speed of its last point \[m/s\]
+        v_mps: Option<f64>,
+        /// the error
+        message: String,
+    },
+}
+
+impl CurveEnd {
+    /// Whether the curve ended before its box, budget or natural end (step underflow,
+    /// corrector or other numerical failure): the part of the chart beyond it is unknown.
+    pub fn is_early(&self) -> bool {
+        matches!(
+            self,
+            Self::StepUnderflow { .. } | Self::CorrectorFailure { .. } | Self::Failure { .. }
+        )
+    }
+
+    /// The end of a direction that failed with `e` after its last point at (D, V) (None:
+    /// no point in this direction).
+    pub fn failed(last: Option<(f64, f64)>, e: &continuation::Error) -> Self {
+        let (d_s, v_mps) = (last.map(|l| l.0), last.map(|l| l.1));
+        match *e {
+            continuation::Error::NewtonDivergence {
+                parameter,
+                iterations,
+                residual,
+                update,
+            } => Self::CorrectorFailure {
+                d_s,
+                v_mps,
+                parameter,
+                iterations,
+                residual,
+                update,
+            },
+            _ => Self::Failure {
+                d_s,
+                v_mps,
+                message: e.to_string(),
+            },
+        }
+    }
+
+    /// The end of a direction (or a read-off) that failed with the engine error `e`:
+    /// the continuation error inside it where there is one.
+    pub fn from_error(last: Option<(f64, f64)>, e: &SwayError) -> Self {
+        let inner = match e {
+            SwayError::Numerical { cause, .. } => cause.downcast_ref::<continuation::Error>(),
+            _ => None,
+        };
+        match inner {
+            Some(c) => Self::failed(last, c),
+            None => Self::Failure {
+                d_s: last.map(|l| l.0),
+                v_mps: last.map(|l| l.1),
+                message: e.to_string(),
+            },
+        }
+    }
+
+    /// One line for the console and the notes.
+    pub fn describe(&self) -> String {
+        let at = |d: Option<f64>, v: Option<f64>| match (d, v) {
+            (Some(d), Some(v)) => format!(" after D = {d:.4} s, V = {v:.3} m/s"),
+            _ => " at its start".into(),
+        };
+        match self {
+            Self::LeftBox { d_s, v_mps } => {
+                format!("left the box at D = {d_s:.4} s, V = {v_mps:.3} m/s")
+            }
+            Self::Budget { points } => format!("used its budget of {points} points"),
+            Self::SingularPoint { kind, d_s, v_mps } => {
+                format!(
+                    "ends at a {} point, D = {d_s:.4} s, V = {v_mps:.3} m/s",
+                    kind.name()
+                )
+            }
+            Self::StepUnderflow { d_s, v_mps } => format!(
+                "stopped: the step fell below its minimum at D = {d_s:.4} s, V = {v_mps:.3} m/s"
+            ),
+            Self::CorrectorFailure {
+                d_s,
+                v_mps,
+                parameter,
+                iterations,
+                residual,
+                update,
+            } => format!(
+                "stopped{}: the Newton corrector did not converge at parameter {parameter:.6} after {iterations} iterations (residual {residual:.1e}, last update {update:.1e})",
+                at(*d_s, *v_mps)
+            ),
+            Self::Failure {
+                d_s,
+                v_mps,
+                message,
+            } => format!("stopped{}: {message}", at(*d_s, *v_mps)),
+        }
+    }
+}
+
+/// A curve (or a point read off one) of the chart that ended early, as `summary.json`
+/// reports it under `curves_ended_early`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EndedCurve {
+    /// which curve and direction
+    pub curve: String,
+    /// how it ended
+    pub end: CurveEnd,
 }
 
 /// The kinds of codimension-two points of the chart (serialised as in `summary.json`).
@@ -424,6 +594,13 @@ pub struct NonlinearChart {
     /// why there is no fold-of-cycles curve (None: there is one)
     #[serde(default)]
     pub fold_reason: Option<String>,
+    /// curves that ended early (and speeds that could not be read off them), with how
+    #[serde(default)]
+    pub curves_ended_early: Vec<EndedCurve>,
+    /// the fold-of-cycles curve is incomplete (ended early or could not be computed): the
+    /// stable cells it does not reach are [`Region::Unknown`], never safe
+    #[serde(default)]
+    pub fold_incomplete: bool,
 }
 
 /// The Hopf and fold speeds of one feedback setting, each corrected on its two-parameter
@@ -440,6 +617,10 @@ pub struct CriticalSpeeds {
     pub criticality: Criticality,
     /// the fold of cycles, if the branch has one in the speed range
     pub fold: Option<FoldCurvePoint>,
+    /// corrections that failed (the Hopf speed then is the located one, the fold None),
+    /// with how they ended
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub curves_ended_early: Vec<EndedCurve>,
 }
 
 fn num(context: String) -> impl FnOnce(continuation::Error) -> SwayError {
@@ -471,23 +652,94 @@ pub type HopfSystem<'a, P, const N: usize> =
     HopfCurveSystem<'a, ClosedLoop<'a, P, N>, ChebyshevRoots>;
 
 /// Extends `branch` in chunks until it stops, leaves the box (through the secondary
-/// parameter, which the engine does not watch) or has `max_points` points.
+/// parameter, which the engine does not watch) or has `max_points` points; how it ended
+/// (a failure keeps the points so far: `at` gives (D, V) of a point).
 fn extend_in_box<S: ContinuationSystem>(
     cont: &Continuation,
     sys: &mut S,
     branch: &mut Branch,
     max_points: usize,
     inside: impl Fn(&BranchPoint) -> bool,
-) -> Result<(), continuation::Error> {
+    at: impl Fn(&BranchPoint) -> (f64, f64),
+) -> CurveEnd {
     const CHUNK: usize = 8;
-    while branch.points.len() < max_points {
-        let stop = cont.extend(sys, branch, CHUNK)?;
+    let last = |b: &Branch| b.points.last().map(&at);
+    loop {
+        if branch.points.len() >= max_points {
+            return CurveEnd::Budget {
+                points: branch.points.len(),
+            };
+        }
+        let stop = match cont.extend(sys, branch, CHUNK) {
+            Ok(stop) => stop,
+            Err(e) => return CurveEnd::failed(last(branch), &e),
+        };
+        let (d_s, v_mps) = last(branch).unwrap_or((f64::NAN, f64::NAN));
         let out = branch.points.last().is_some_and(|p| !inside(p));
-        if stop != Stop::MaxPoints || out {
-            break;
+        match stop {
+            Stop::MaxPoints if !out => {}
+            Stop::StepSizeUnderflow { .. } => return CurveEnd::StepUnderflow { d_s, v_mps },
+            _ => return CurveEnd::LeftBox { d_s, v_mps },
         }
     }
-    Ok(())
+}
+
+/// Both directions of a curve from the corrected start `guess` along ±`dir`, each extended
+/// by `extend` (which says how it ended). A direction whose start fails keeps the other
+/// direction's first point (both start at the seed) and ends with the failure; None if
+/// both starts fail (the first failure).
+fn both_directions<S: ContinuationSystem>(
+    cont: &Continuation,
+    sys: &mut S,
+    guess: &[f64],
+    dir: &[f64],
+    at: impl Fn(&BranchPoint) -> (f64, f64),
+    mut extend: impl FnMut(&mut S, &mut Branch) -> CurveEnd,
+) -> Result<([Branch; 2], Vec<CurveEnd>), continuation::Error> {
+    // each direction started and extended in turn (the system's state as before this
+    // tolerated failures: the results of complete curves do not change)
+    let mut started: Vec<Result<Branch, continuation::Error>> = Vec::new();
+    let mut ends = Vec::new();
+    for sign in [-1.0, 1.0] {
+        sys.accept(guess);
+        let dir: Vec<f64> = dir.iter().map(|v| sign * v).collect();
+        let mut b = cont.start(sys, guess, &dir);
+        ends.push(match &mut b {
+            Ok(b) => extend(sys, b),
+            Err(e) => CurveEnd::failed(None, e),
+        });
+        started.push(b);
+    }
+    let seed = match (&started[0], &started[1]) {
+        (Ok(b), _) | (Err(_), Ok(b)) => b.points[0].clone(),
+        (Err(e), Err(_)) => return Err(e.clone()),
+    };
+    let branches: Vec<Branch> = started
+        .into_iter()
+        .map(|b| {
+            b.unwrap_or_else(|_| Branch {
+                points: vec![seed.clone()],
+                state: continuation::ContinuationState {
+                    step: cont.options.initial_step,
+                    accepted_steps: 0,
+                    rejected_steps: 0,
+                },
+            })
+        })
+        .collect();
+    for (end, b) in ends.iter_mut().zip(&branches) {
+        if let CurveEnd::CorrectorFailure { d_s, v_mps, .. } | CurveEnd::Failure { d_s, v_mps, .. } =
+            end
+            && d_s.is_none()
+        {
+            let (d, v) = at(&b.points[0]);
+            (*d_s, *v_mps) = (Some(d), Some(v));
+        }
+    }
+    let branches: [Branch; 2] = branches
+        .try_into()
+        .map_err(|_| continuation::Error::InvalidInput("two directions expected".into()))?;
+    Ok((branches, ends))
 }
 
 /// Points of a curve where the unknown `index` equals `value`: every bracketing pair of
@@ -606,7 +858,8 @@ fn hopf_curve_point(u: &[f64]) -> HopfCurvePoint {
     }
 }
 
-/// The Hopf curve through the located Hopf point `hopf` at gain `d`, both directions.
+/// The Hopf curve through the located Hopf point `hopf` at gain `d`, both directions; a
+/// direction that cannot go on ends with its reason ([`HopfCurve::ends`]).
 fn hopf_curve<P: Vehicle<N>, const N: usize>(
     problem: &ClosedLoop<'_, P, N>,
     d: f64,
@@ -617,27 +870,19 @@ fn hopf_curve<P: Vehicle<N>, const N: usize>(
     let mut sys = hopf_system(problem, d, o)?;
     let cont = o.continuation(o.hopf_step, o.hopf_max_step, (o.d_min_s, o.d_max_s));
     let inside = |p: &BranchPoint| o.in_box(hopf_d(&p.u), hopf_v(&p.u));
-    let mut branches = Vec::new();
+    let at = |p: &BranchPoint| (hopf_d(&p.u), hopf_v(&p.u));
     let (guess, dir) = sys.start_at_hopf(hopf, SPEED).map_err(num(ctx.clone()))?;
-    for sign in [-1.0, 1.0] {
-        sys.accept(&guess);
-        let dir: Vec<f64> = dir.iter().map(|v| sign * v).collect();
-        let mut b = cont
-            .start(&mut sys, &guess, &dir)
-            .map_err(num(ctx.clone()))?;
-        extend_in_box(&cont, &mut sys, &mut b, o.hopf_max_points, inside)
-            .map_err(num(ctx.clone()))?;
-        branches.push(b);
-    }
-    let branches: [Branch; 2] = branches
-        .try_into()
-        .map_err(|_| invalid(ctx.clone(), "two directions expected".into()))?;
+    let (branches, ends) = both_directions(&cont, &mut sys, &guess, &dir, at, |sys, b| {
+        extend_in_box(&cont, sys, b, o.hopf_max_points, inside, at)
+    })
+    .map_err(num(ctx))?;
     let points = joined(&branches).map(|p| hopf_curve_point(&p.u)).collect();
     Ok(HopfCurve {
         seed_d_s: d,
         branches,
         points,
         criticality: Vec::new(),
+        ends,
     })
 }
 
@@ -910,13 +1155,33 @@ pub fn critical_speeds<P: Vehicle<N>, const N: usize>(
         crate::parallel::join(&|| corrected_hopf(&problem, d, &diagram.hopf, o), &|| {
             fold_on(&problem, diagram, o)
         });
-    let (hu, fold) = (hu?, fold?);
+    // a correction that fails is a result: the located Hopf point stands for the Hopf
+    // speed, the fold is unknown; both say why
+    let mut ended = Vec::new();
+    let mut failed = |what: &str, e: &SwayError| {
+        ended.push(EndedCurve {
+            curve: format!("{what} corrected at D = {d} s"),
+            end: CurveEnd::from_error(None, e),
+        });
+    };
+    let (hopf_v_mps, hopf_omega_rad_s) = match &hu {
+        Ok(u) => (hopf_v(u), hopf_omega(u)),
+        Err(e) => {
+            failed("Hopf point", e);
+            (diagram.hopf.parameter, diagram.hopf.omega)
+        }
+    };
+    let fold = fold.unwrap_or_else(|e| {
+        failed("fold of cycles", &e);
+        None
+    });
     Ok(CriticalSpeeds {
         located_hopf: diagram.hopf.clone(),
-        hopf_v_mps: hopf_v(&hu),
-        hopf_omega_rad_s: hopf_omega(&hu),
+        hopf_v_mps,
+        hopf_omega_rad_s,
         criticality: diagram.criticality,
         fold,
+        curves_ended_early: ended,
     })
 }
 
@@ -1013,31 +1278,10 @@ fn fold_curve<P: Vehicle<N>, const N: usize>(
     let ctx = format!("fold-of-cycles curve from D = {d} s, τ = {tau} s");
     let cont = o.continuation(o.fold_step, o.fold_max_step, (o.v_min_mps, o.v_max_mps));
     let (iv, id) = fold_indices(&sys);
-    let mut branches = Vec::new();
+    let at = |p: &BranchPoint| (p.u[id], p.u[iv]);
     let mut codim2 = Vec::new();
-    for sign in [-1.0, 1.0] {
-        sys.accept(&u0);
-        let dir: Vec<f64> = dir.iter().map(|v| sign * v).collect();
-        let mut b = cont.start(&mut sys, &u0, &dir).map_err(num(ctx.clone()))?;
-        while b.points.len() < o.fold_max_points {
-            let stop = sys
-                .extend_curve(&cont, &mut b, 8)
-                .map_err(num(ctx.clone()))?;
-            let out = b.points.last().is_some_and(|p| !o.in_box(p.u[id], p.u[iv]));
-            match stop {
-                FoldCyclesStop::HopfEnd(end) => {
-                    codim2.push(Codim2 {
-                        kind: Codim2Kind::CriticalityChange,
-                        d_s: end.parameters[1],
-                        v_mps: end.parameters[0],
-                        omega_rad_s: vec![end.omega],
-                    });
-                    break;
-                }
-                FoldCyclesStop::Continuation(Stop::MaxPoints) if !out => {}
-                _ => break,
-            }
-        }
+    let extend = |sys: &mut FoldSystem<'_, P, N>, b: &mut Branch| {
+        let end = extend_fold_curve(&cont, sys, b, o, &mut codim2);
         codim2.extend(b.special_points().filter_map(|(i, sp)| {
             let located = sp.location == continuation::Location::Located;
             (sp.kind == SpecialKind::CuspOfCycles && located).then(|| Codim2 {
@@ -1047,11 +1291,10 @@ fn fold_curve<P: Vehicle<N>, const N: usize>(
                 omega_rad_s: Vec::new(),
             })
         }));
-        branches.push(b);
-    }
-    let branches: [Branch; 2] = branches
-        .try_into()
-        .map_err(|_| invalid(ctx.clone(), "two directions expected".into()))?;
+        end
+    };
+    let (branches, ends) =
+        both_directions(&cont, &mut sys, &u0, &dir, at, extend).map_err(num(ctx.clone()))?;
     let points = joined(&branches)
         .map(|p| fold_curve_point(&sys, &p.u))
         .collect::<Result<Vec<_>, _>>()
@@ -1061,9 +1304,57 @@ fn fold_curve<P: Vehicle<N>, const N: usize>(
             seed_d_s: d,
             branches,
             points,
+            ends,
         },
         codim2,
     )))
+}
+
+/// Extends one direction of a fold-of-cycles curve until it leaves the box, ends on the
+/// Hopf curve (pushed to `codim2`), uses its budget or cannot go on; how it ended.
+fn extend_fold_curve<P: Vehicle<N>, const N: usize>(
+    cont: &Continuation,
+    sys: &mut FoldSystem<'_, P, N>,
+    b: &mut Branch,
+    o: &ChartOptions,
+    codim2: &mut Vec<Codim2>,
+) -> CurveEnd {
+    let (iv, id) = fold_indices(sys);
+    let last = |b: &Branch| b.points.last().map(|p| (p.u[id], p.u[iv]));
+    loop {
+        if b.points.len() >= o.fold_max_points {
+            return CurveEnd::Budget {
+                points: b.points.len(),
+            };
+        }
+        let stop = match sys.extend_curve(cont, b, 8) {
+            Ok(stop) => stop,
+            Err(e) => return CurveEnd::failed(last(b), &e),
+        };
+        let (d_s, v_mps) = last(b).unwrap_or((f64::NAN, f64::NAN));
+        let out = !o.in_box(d_s, v_mps);
+        match stop {
+            FoldCyclesStop::HopfEnd(end) => {
+                let (d_s, v_mps) = (end.parameters[1], end.parameters[0]);
+                codim2.push(Codim2 {
+                    kind: Codim2Kind::CriticalityChange,
+                    d_s,
+                    v_mps,
+                    omega_rad_s: vec![end.omega],
+                });
+                return CurveEnd::SingularPoint {
+                    kind: Codim2Kind::CriticalityChange,
+                    d_s,
+                    v_mps,
+                };
+            }
+            FoldCyclesStop::Continuation(Stop::MaxPoints) if !out => {}
+            FoldCyclesStop::Continuation(Stop::StepSizeUnderflow { .. }) => {
+                return CurveEnd::StepUnderflow { d_s, v_mps };
+            }
+            _ => return CurveEnd::LeftBox { d_s, v_mps },
+        }
+    }
 }
 
 /// Codimension-two points the Hopf-curve system located on a curve.
@@ -1144,7 +1435,15 @@ pub fn hopf_curves<P: Vehicle<N>, const N: usize>(
             ));
             continue;
         }
-        curves.push(hopf_curve(&problem, d, &hopf, o)?);
+        match hopf_curve(&problem, d, &hopf, o) {
+            Ok(c) => curves.push(c),
+            // a curve that cannot start is noted: the linear chart still says where
+            // straight running is unstable
+            Err(e) => notes.push(format!(
+                "seed D = {d} s: the Hopf curve from V = {:.3} m/s could not start: {e}",
+                hopf.parameter
+            )),
+        }
     }
     Ok((curves, notes))
 }
@@ -1187,18 +1486,32 @@ pub fn nonlinear_chart<P: Vehicle<N>, const N: usize>(
     // computed side by side (each deterministic, so the result does not depend on threads)
     let (hopf_stage, fold_stage) = join(
         &|| -> Result<_, SwayError> {
-            let (mut curves, notes) = hopf_curves(model, tau, o)?;
-            let criticality = try_map(&curves, Split::Adaptive, &|_, c| {
+            let (mut curves, mut notes) = hopf_curves(model, tau, o)?;
+            let criticality = map(&curves, Split::Adaptive, &|_, c| {
                 sample_criticality(&problem, c, o)
-            })?;
+            });
             for (c, samples) in curves.iter_mut().zip(criticality) {
-                c.criticality = samples;
+                // criticality that cannot be computed stays unknown (no samples)
+                match samples {
+                    Ok(samples) => c.criticality = samples,
+                    Err(e) => notes.push(format!(
+                        "Hopf curve from D = {} s: criticality unknown: {e}",
+                        c.seed_d_s
+                    )),
+                }
             }
             Ok((curves, notes))
         },
         &|| fold_curve(model, tau, first_seed, o),
     );
     let (hopf_curves, notes) = hopf_stage?;
+    let mut ended: Vec<EndedCurve> = Vec::new();
+    for c in &hopf_curves {
+        ended.extend(early_ends(
+            &format!("Hopf curve from D = {} s", c.seed_d_s),
+            &c.ends,
+        ));
+    }
     let sys = hopf_system(&problem, first_seed, o)?;
     let mut codim2: Vec<Codim2> = hopf_curves
         .iter()
@@ -1206,12 +1519,30 @@ pub fn nonlinear_chart<P: Vehicle<N>, const N: usize>(
         .collect();
     let mut fold_curves = Vec::new();
     let mut fold_reason = None;
-    match fold_stage? {
-        Ok((f, c2)) => {
+    let mut fold_incomplete = false;
+    match fold_stage {
+        Ok(Ok((f, c2))) => {
+            let name = format!("fold-of-cycles curve from D = {} s", f.seed_d_s);
+            let early = early_ends(&name, &f.ends);
+            fold_incomplete = !early.is_empty();
+            ended.extend(early);
             fold_curves.push(f);
             codim2.extend(c2);
         }
-        Err(reason) => fold_reason = Some(reason),
+        Ok(Err(reason)) => fold_reason = Some(reason),
+        // the fold-of-cycles curve could not be computed: the bistable band is unknown
+        // (never painted safe), the rest of the chart stands
+        Err(e) => {
+            let end = CurveEnd::from_error(None, &e);
+            fold_reason = Some(format!(
+                "the fold-of-cycles curve from D = {first_seed} s could not be computed: {e}"
+            ));
+            fold_incomplete = true;
+            ended.push(EndedCurve {
+                curve: format!("fold-of-cycles curve from D = {first_seed} s"),
+                end,
+            });
+        }
     }
     let hopf_reason = hopf_curves.is_empty().then(|| {
         format!(
@@ -1229,10 +1560,48 @@ pub fn nonlinear_chart<P: Vehicle<N>, const N: usize>(
         notes,
         hopf_reason,
         fold_reason,
+        curves_ended_early: ended,
+        fold_incomplete,
     })
 }
 
+/// The directions of the curve `name` that ended early ([`CurveEnd::is_early`]).
+fn early_ends(name: &str, ends: &[CurveEnd]) -> Vec<EndedCurve> {
+    let directions = ["towards decreasing D", "towards increasing D"];
+    ends.iter()
+        .zip(directions)
+        .filter(|(e, _)| e.is_early())
+        .map(|(e, dir)| EndedCurve {
+            curve: format!("{name}, {dir}"),
+            end: e.clone(),
+        })
+        .collect()
+}
+
 impl NonlinearChart {
+    /// The chart of delay τ \[s\] that could not be computed (`e`): no curves, the reason
+    /// as its ended curve and its notes, the fold-of-cycles curve incomplete (its stable
+    /// cells [`Region::Unknown`]).
+    pub fn not_computed(tau: f64, options: &ChartOptions, e: &SwayError) -> Self {
+        Self {
+            tau_s: tau,
+            options: options.clone(),
+            hopf_curves: Vec::new(),
+            fold_curves: Vec::new(),
+            codim2_points: Vec::new(),
+            notes: vec![format!("nonlinear chart not computed: {e}")],
+            hopf_reason: Some(format!("the Hopf curves could not be computed: {e}")),
+            fold_reason: Some(format!(
+                "the fold-of-cycles curve could not be computed: {e}"
+            )),
+            curves_ended_early: vec![EndedCurve {
+                curve: format!("nonlinear chart τ = {tau} s"),
+                end: CurveEnd::from_error(None, e),
+            }],
+            fold_incomplete: true,
+        }
+    }
+
     fn problem<'a, P: Vehicle<N>, const N: usize>(&self, model: &'a P) -> ClosedLoop<'a, P, N> {
         ClosedLoop::new(model, LoopLaw::paper(0.0, self.tau_s))
     }
@@ -1306,6 +1675,9 @@ pub enum Region {
     Bistable,
     /// unstable (beyond a Hopf curve): sway starts by itself
     SelfExcited,
+    /// stable, but the fold-of-cycles curve this cell depends on ended early or could not
+    /// be computed ([`NonlinearChart::fold_incomplete`]): safe or bistable is not known
+    Unknown,
 }
 
 impl NonlinearChart {
@@ -1328,7 +1700,8 @@ impl NonlinearChart {
 
     /// The regions on the cells of a linear stability chart of the same τ (the `fig4a`
     /// computation: exact counts of unstable roots): self-excited where straight running is
-    /// unstable, bistable where it is stable at or beyond the fold-of-cycles curve, safe
+    /// unstable, bistable where it is stable at or beyond the fold-of-cycles curve, unknown
+    /// where it is stable at a gain the incomplete fold-of-cycles curve does not reach, safe
     /// elsewhere. Indexed like the chart's cells, `iv·d.len() + id`.
     pub fn regions(&self, linear: &stability::StabilityChart) -> Vec<Region> {
         let fold: Vec<Option<f64>> = linear
@@ -1343,6 +1716,8 @@ impl NonlinearChart {
                     Region::SelfExcited
                 } else if f.is_some_and(|f| v >= f) {
                     Region::Bistable
+                } else if f.is_none() && self.fold_incomplete {
+                    Region::Unknown
                 } else {
                     Region::Safe
                 });

@@ -38,7 +38,7 @@ use sway_model::vehicle::Vehicle;
 use trailer_model::{HITCH_ANGLE, State4};
 
 use self::motion::{MotionClass, MotionEvidence, MotionOptions, Spectrum};
-use super::chart::{ChartOptions, NonlinearChart, nonlinear_chart};
+use super::chart::{ChartOptions, CurveEnd, EndedCurve, NonlinearChart, nonlinear_chart};
 use crate::SwayError;
 use crate::charts::{closed_loop, fig4a_charts, rightmost_roots};
 use crate::parallel::{Split, join, map, try_map};
@@ -660,6 +660,9 @@ pub struct CornerStudy {
     pub corners: Vec<Corner>,
     /// what the pipeline noticed
     pub notes: Vec<String>,
+    /// curves of the nonlinear chart that ended early and corners whose analysis could not
+    /// be completed, each with its end
+    pub curves_ended_early: Vec<EndedCurve>,
 }
 
 /// Settings of the torus-curve continuation from a double-Hopf point
@@ -905,27 +908,34 @@ pub fn corner_study<P: SimulateOwn<N> + LoopModel, const N: usize>(
         &|| nonlinear_chart(model, tau, chart),
     );
     let double_hopf = points?;
-    let nl = match nl {
-        Ok(nl) => nl,
-        // without a corner the chart only served the zoom: its failure is a note
-        Err(e) if double_hopf.is_empty() => NonlinearChart {
-            tau_s: tau,
-            options: chart.clone(),
-            hopf_curves: Vec::new(),
-            fold_curves: Vec::new(),
-            codim2_points: Vec::new(),
-            notes: vec![format!("nonlinear chart not computed: {e}")],
-            hopf_reason: None,
-            fold_reason: None,
-        },
-        Err(e) => return Err(e),
-    };
+    // a chart that cannot be computed is a result with its reason: the corners stand on
+    // their own continuation
+    let nl = nl.unwrap_or_else(|e| NonlinearChart::not_computed(tau, chart, &e));
     let beyond_range = beyond(model, tau, v_range, d_range, o)?;
-    let corners = double_hopf
-        .iter()
-        .map(|p| corner(model, &nl, p, o))
-        .collect::<Result<Vec<_>, _>>()?;
+    // a corner whose analysis cannot be completed is left out with its reason
+    let mut curves_ended_early = nl.curves_ended_early.clone();
+    let mut corners = Vec::new();
+    let mut failed_notes = Vec::new();
+    for p in &double_hopf {
+        match corner(model, &nl, p, o) {
+            Ok(c) => corners.push(c),
+            Err(e) => {
+                let end = CurveEnd::from_error(Some((p.d_s, p.v_mps)), &e);
+                failed_notes.push(format!(
+                    "the corner at D = {:.4} s, V = {:.3} m/s could not be analysed: {}",
+                    p.d_s,
+                    p.v_mps,
+                    end.describe()
+                ));
+                curves_ended_early.push(EndedCurve {
+                    curve: format!("corner at D = {:.4} s, V = {:.3} m/s", p.d_s, p.v_mps),
+                    end,
+                });
+            }
+        }
+    }
     let mut notes = nl.notes.clone();
+    notes.extend(failed_notes);
     notes.extend(corners.iter().flat_map(|c| c.notes.iter().cloned()));
     if double_hopf.is_empty() {
         notes.push(format!(
@@ -939,6 +949,7 @@ pub fn corner_study<P: SimulateOwn<N> + LoopModel, const N: usize>(
         beyond_range,
         corners,
         notes,
+        curves_ended_early,
     })
 }
 

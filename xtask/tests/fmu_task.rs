@@ -9,7 +9,10 @@ mod common;
 /// The entry names of a zip archive, and the text of `modelDescription.xml`.
 fn entries(file: &std::path::Path) -> (Vec<String>, String) {
     let mut zip = zip::ZipArchive::new(std::fs::File::open(file).unwrap()).unwrap();
-    let names: Vec<String> = zip.file_names().map(str::to_string).collect();
+    let names: Vec<String> = zip
+        .file_names()
+        .map(|n| n.expect("an entry name").into_owned())
+        .collect();
     let mut xml = String::new();
     zip.by_name("modelDescription.xml")
         .unwrap()

@@ -231,6 +231,8 @@ where
     T: Send + 'static,
     F: FnOnce() -> T + Send + 'static,
 {
+    // every computation runs in the package's pool (set_num_threads)
+    let f = move || in_pool(f);
     if estimated_s < INLINE_BELOW_S {
         let r = py.detach(f);
         py.check_signals()?;
@@ -899,14 +901,67 @@ fn to_toml(config: &Bound<'_, PyAny>) -> PyResult<String> {
 // ---------------------------------------------------------------------------------------
 // the module
 
-/// Sets the number of rayon threads of every later call (once, before the first parallel
-/// call; `RAYON_NUM_THREADS` does the same from the environment).
+/// The thread pool the package's computations run in: rayon's global pool until
+/// [`set_num_threads`] gives one of its own (at any time: each call takes the pool current
+/// when it starts; a running call keeps its own).
+static POOL: std::sync::Mutex<Option<Arc<rayon::ThreadPool>>> = std::sync::Mutex::new(None);
+
+/// The pool set by [`set_num_threads`], if any.
+fn current_pool() -> Option<Arc<rayon::ThreadPool>> {
+    POOL.lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+        .clone()
+}
+
+/// Runs `f` in the package's pool.
+fn in_pool<T: Send, F: FnOnce() -> T + Send>(f: F) -> T {
+    match current_pool() {
+        Some(pool) => pool.install(f),
+        None => f(),
+    }
+}
+
+/// The most threads `set_num_threads` takes.
+const MAX_THREADS: i64 = 1024;
+
+/// Sets the number of threads of every later call (at any time; the default is rayon's,
+/// one per core or `RAYON_NUM_THREADS`).
 #[pyfunction]
-fn set_num_threads(n: usize) -> PyResult<()> {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(n)
-        .build_global()
-        .map_err(|e| PyRuntimeError::new_err(format!("cannot set the thread count: {e}")))
+fn set_num_threads(n: &Bound<'_, PyAny>) -> PyResult<()> {
+    if n.is_instance_of::<PyBool>() || !n.is_instance_of::<PyInt>() {
+        return Err(PyTypeError::new_err(format!(
+            "set_num_threads: n: expected an int, got {}",
+            n.get_type().name()?
+        )));
+    }
+    let n: i64 = n.extract().map_err(|_| {
+        PyValueError::new_err(format!(
+            "set_num_threads: n: expected 1 to {MAX_THREADS} threads"
+        ))
+    })?;
+    if !(1..=MAX_THREADS).contains(&n) {
+        return Err(PyValueError::new_err(format!(
+            "set_num_threads: n: expected 1 to {MAX_THREADS} threads, got {n}"
+        )));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(n as usize)
+        .thread_name(|i| format!("trailer_sway-{i}"))
+        .build()
+        .map_err(|e| {
+            PyRuntimeError::new_err(format!("set_num_threads: cannot start {n} threads: {e}"))
+        })?;
+    *POOL.lock().unwrap_or_else(|poisoned| poisoned.into_inner()) = Some(Arc::new(pool));
+    Ok(())
+}
+
+/// The number of threads the next call will use.
+#[pyfunction]
+fn get_num_threads() -> usize {
+    match current_pool() {
+        Some(pool) => pool.current_num_threads(),
+        None => rayon::current_num_threads(),
+    }
 }
 
 #[pymodule]
@@ -916,6 +971,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(roots, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(set_num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(get_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(to_toml, m)?)?;
     charts::register(m)?;
     lateral::register(m)?;

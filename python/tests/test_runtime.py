@@ -6,6 +6,8 @@ import textwrap
 import threading
 import time
 
+import pytest
+
 import trailer_sway as ts
 
 LONG = {
@@ -69,3 +71,33 @@ def test_long_calls_release_the_gil():
     assert done.is_set()
     # about one tick per ms of the call (at least a quarter, on a loaded machine)
     assert ticks > 0.25 * elapsed * 1000 / 1.1, (ticks, elapsed)
+
+
+def test_set_num_threads_takes_effect_at_any_time(table1):
+    # reference: get_num_threads and the same numbers on 1 and 2 threads (a computation
+    # before and between the changes: the pool is replaced, not refused)
+    import trailer_sway as ts
+
+    before = ts.critical_speed(table1).v_crit_mps
+    ts.set_num_threads(1)
+    assert ts.get_num_threads() == 1
+    one = ts.lateral_stability(table1, speeds=[25.0, 30.0], amplitudes_deg=[1.0, 2.0]).summary
+    ts.set_num_threads(2)
+    assert ts.get_num_threads() == 2
+    two = ts.lateral_stability(table1, speeds=[25.0, 30.0], amplitudes_deg=[1.0, 2.0]).summary
+    assert one == two
+    assert ts.critical_speed(table1).v_crit_mps == before
+
+
+@pytest.mark.parametrize(
+    "n, error, text",
+    [(-1, ValueError, "expected 1 to 1024 threads, got -1"), (0, ValueError, "got 0"),
+     (10**30, ValueError, "expected 1 to 1024"), ("2", TypeError, "expected an int, got str"),
+     (True, TypeError, "got bool"), (2.0, TypeError, "got float")],
+)
+def test_set_num_threads_refuses_what_is_not_a_thread_count(n, error, text):
+    import trailer_sway as ts
+
+    with pytest.raises(error) as e:
+        ts.set_num_threads(n)
+    assert text in str(e.value), str(e.value)

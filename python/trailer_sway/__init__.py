@@ -33,7 +33,7 @@ from typing import Any, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from . import _native
-from ._native import Vehicle, set_num_threads, to_toml
+from ._native import Vehicle, get_num_threads, set_num_threads, to_toml
 
 __all__ = [
     "Vehicle",
@@ -55,6 +55,7 @@ __all__ = [
     "RecordedDecay",
     "analyse_recording",
     "set_num_threads",
+    "get_num_threads",
     "to_toml",
 ]
 

@@ -105,6 +105,8 @@ def analyse_recording(
     impulse_fraction: float, low_pass_hz: float, prominence_fraction: float,
 ) -> dict[str, Any]: ...
 def set_num_threads(n: int) -> None:
-    """The number of rayon threads of every later call (once, before the first call)."""
+    """The number of threads (1 to 1024) of every later call, at any time."""
+def get_num_threads() -> int:
+    """The number of threads the next call will use."""
 def to_toml(config: Mapping[str, Any]) -> str:
     """The TOML text of a config dict (a file ``cargo xtask`` reads)."""

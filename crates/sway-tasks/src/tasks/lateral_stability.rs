@@ -30,7 +30,7 @@ use sway_studies::lateral_stability::{
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
-use crate::config_file::{Configured, TaskConfig, load_toml};
+use crate::config_file::{Configured, TaskConfig};
 use crate::limits::{MAX_SIMULATIONS, Plan, bound, human_seconds};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 use crate::recording::{RecordedRun, read_recording};
@@ -520,9 +520,7 @@ pub struct Recordings {
 /// [`TaskError::Read`] / [`TaskError::Config`] naming the config file and key; a
 /// [`TaskError::Config`] without recordings.
 pub fn recordings(file: &Path, recordings: &[PathBuf]) -> Result<Recordings, TaskError> {
-    let mut config: LateralStabilityConfig = load_toml(file)?;
-    config.load_named_files(file)?;
-    config.check(file)?;
+    let config: LateralStabilityConfig = super::load_checked(file)?;
     ensure(!recordings.is_empty(), file, "--recording", || {
         "expected at least one recording".into()
     })?;

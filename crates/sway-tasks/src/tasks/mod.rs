@@ -417,13 +417,21 @@ pub fn prepare_config<C: TaskConfig>(
 where
     Configured<C>: Prepared,
 {
+    Ok(Box::new(Configured {
+        file: file.to_path_buf(),
+        config: load_checked::<C>(file)?,
+    }))
+}
+
+/// A task config read from `file`, its named files loaded and checked.
+///
+/// # Errors
+/// [`TaskError::Read`] / [`TaskError::Config`] naming the file and the key.
+pub fn load_checked<C: TaskConfig>(file: &Path) -> Result<C, TaskError> {
     let mut config: C = load_toml(file)?;
     config.load_named_files(file)?;
     config.check(file)?;
-    Ok(Box::new(Configured {
-        file: file.to_path_buf(),
-        config,
-    }))
+    Ok(config)
 }
 
 impl Task {

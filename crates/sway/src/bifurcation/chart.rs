@@ -444,11 +444,16 @@ impl CurveEnd {
                 residual,
                 update,
             },
-            _ => Self::Failure {
-                d_s,
-                v_mps,
-                message: e.to_string(),
-            },
+            _ => Self::failure(last, e),
+        }
+    }
+
+    /// A failure described by its message, after the last point `last` (D, V).
+    fn failure(last: Option<(f64, f64)>, e: &impl std::fmt::Display) -> Self {
+        Self::Failure {
+            d_s: last.map(|l| l.0),
+            v_mps: last.map(|l| l.1),
+            message: e.to_string(),
         }
     }
 
@@ -461,11 +466,7 @@ impl CurveEnd {
         };
         match inner {
             Some(c) => Self::failed(last, c),
-            None => Self::Failure {
-                d_s: last.map(|l| l.0),
-                v_mps: last.map(|l| l.1),
-                message: e.to_string(),
-            },
+            None => Self::failure(last, e),
         }
     }
 

@@ -43,10 +43,12 @@ fn boundary_rows<'py>(
 /// stability_chart(vehicle, config) → (summary JSON, [per delay: dict of arrays]): the
 /// `fig4a` task on a config dict of `configs/fig4a.toml`'s shape.
 #[pyfunction]
+#[pyo3(signature = (vehicle, config, progress = None))]
 fn stability_chart<'py>(
     py: Python<'py>,
     vehicle: &Vehicle,
     config: &Bound<'py, PyAny>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Bound<'py, PyList>)> {
     let (cfg, file): (Fig4aConfig, PathBuf) = load_config(config, "stability_chart()")?;
     cfg.check(&file).map_err(py_err)?;
@@ -55,7 +57,8 @@ fn stability_chart<'py>(
     let cfg = prepared.config;
     // the vehicle's plant and the CLI's default speed limits (--max-speed)
     let plant = vehicle.plant().clone();
-    let (charts, summary) = interruptible(py, plan.time_s, None, move || {
+    let (charts, summary) = interruptible(py, plan.time_s, progress, move |progress| {
+        progress.start("stability charts", 0);
         let limits = SpeedLimits::default();
         let r = fig4a::compute(&plant, &cfg, &SpeedBounds::from(&limits))?;
         let (summary, _) = fig4a::summarize(&plant, &limits, &cfg, &r)?;
@@ -102,10 +105,12 @@ fn stability_chart<'py>(
 /// nonlinear_chart(vehicle, config) → (summary JSON, [per delay: dict]): the
 /// `chart_nonlinear` task on a config dict of `configs/chart_nonlinear.toml`'s shape.
 #[pyfunction]
+#[pyo3(signature = (vehicle, config, progress = None))]
 fn nonlinear_chart<'py>(
     py: Python<'py>,
     vehicle: &Vehicle,
     config: &Bound<'py, PyAny>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Bound<'py, PyList>)> {
     let (cfg, file): (ChartNonlinearConfig, PathBuf) = load_config(config, "nonlinear_chart()")?;
     cfg.check(&file).map_err(py_err)?;
@@ -113,11 +118,10 @@ fn nonlinear_chart<'py>(
     let plan = prepared.plan().map_err(py_err)?;
     let cfg = prepared.config;
     let plant = vehicle.plant().clone();
-    let (summary, results) = interruptible(py, plan.time_s, None, move || {
+    let (summary, results) = interruptible(py, plan.time_s, progress, move |progress| {
         let limits = SpeedLimits::default();
         let bounds = SpeedBounds::from(&limits);
-        let progress = sway::progress::NoProgress;
-        let study = trailer_model::with_plant!(&plant, m => chart_nonlinear::compute(m, &cfg, &bounds, &progress))?;
+        let study = trailer_model::with_plant!(&plant, m => chart_nonlinear::compute(m, &cfg, &bounds, progress))?;
         // the task's summary, from the same public pieces its run uses
         let summary = chart_nonlinear::ChartNonlinearSummary {
             per_tau: study
@@ -189,13 +193,14 @@ fn nonlinear_chart<'py>(
 /// fig4b's defaults); the summary is its `"pairs"` entry. Without a Hopf point the summary
 /// says why and there are no arrays.
 #[pyfunction]
-#[pyo3(signature = (vehicle, gain, delay, settings))]
+#[pyo3(signature = (vehicle, gain, delay, settings, progress = None))]
 fn bifurcation_diagram<'py>(
     py: Python<'py>,
     vehicle: &Vehicle,
     gain: Option<f64>,
     delay: Option<f64>,
     settings: &Bound<'py, PyAny>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Option<Bound<'py, PyDict>>)> {
     let what = "bifurcation_diagram()";
     let (json, d) = match (gain, delay) {
@@ -220,7 +225,8 @@ fn bifurcation_diagram<'py>(
             validate_settings(&s, &file, "continuation").map_err(py_err)?;
             let plant = vehicle.plant().clone();
             let fb = LoopLaw::paper(gain, delay);
-            let pd = interruptible(py, 1.0, None, move || {
+            let pd = interruptible(py, 1.0, progress, move |progress| {
+                progress.start("closed-loop diagram", 0);
                 let limits = SpeedLimits::default();
                 trailer_model::with_plant!(&plant, m => closed_loop_diagram(m, fb, &s, &limits, CycleExtent::WholeRange))
             })?
@@ -236,7 +242,8 @@ fn bifurcation_diagram<'py>(
             let (cfg, file): (DiagramConfig, PathBuf) = load_config(settings, what)?;
             validate_diagram(&cfg, &file, "diagram").map_err(py_err)?;
             let plant = vehicle.plant().clone();
-            let (summary, diagram) = interruptible(py, 1.0, None, move || {
+            let (summary, diagram) = interruptible(py, 1.0, progress, move |progress| {
+                progress.start("bifurcation diagram", 0);
                 let limits = SpeedLimits::default();
                 let study = sway_studies::fig3a::diagram(&plant, &cfg, &limits)?;
                 Ok::<_, sway::SwayError>((summary_fields(study.summary), study.diagram))

@@ -30,10 +30,12 @@ fn pairs<'py>(py: Python<'py>, points: &[(f64, f64)]) -> PyResult<Bound<'py, PyA
 /// of `configs/lateral_stability.toml`'s shape; the arrays are the local damping points
 /// (amplitude \[deg\], D) per test speed and the trace of one run.
 #[pyfunction]
+#[pyo3(signature = (vehicle, config, progress = None))]
 pub(crate) fn lateral_stability<'py>(
     py: Python<'py>,
     vehicle: &Vehicle,
     config: &Bound<'py, PyAny>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Bound<'py, PyDict>)> {
     let (mut cfg, file): (LateralStabilityConfig, PathBuf) =
         load_config(config, "lateral_stability()")?;
@@ -43,13 +45,8 @@ pub(crate) fn lateral_stability<'py>(
     let plan = prepared.plan().map_err(py_err)?;
     let cfg = prepared.config;
     let plant = vehicle.plant().clone();
-    let (json, r) = interruptible(py, plan.time_s, None, move || {
-        let r = compute(
-            &cfg,
-            &plant,
-            &SpeedLimits::default(),
-            &sway::progress::NoProgress,
-        )?;
+    let (json, r) = interruptible(py, plan.time_s, progress, move |progress| {
+        let r = compute(&cfg, &plant, &SpeedLimits::default(), progress)?;
         let json = serde_json::to_string(&summary(&cfg, &r))
             .map_err(|e| TaskError::numerical("serialising the summary", e))?;
         Ok::<_, TaskError>((json, r))

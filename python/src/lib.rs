@@ -8,15 +8,19 @@
 //! structured results as the JSON the tasks write to `summary.json` (same numbers, bit for
 //! bit). The Python package `trailer_sway` wraps these in typed result classes.
 //!
-//! Interrupts: a call whose estimated cost is small runs on the calling thread; a longer
-//! one runs on a worker thread while the calling thread polls Python's signal handlers
-//! (`interruptible`), so Ctrl-C raises `KeyboardInterrupt` at once. The sweep checks a
-//! cancellation flag between its points; the other pipelines have no cancellation hook,
-//! so their worker finishes in the background and its result is discarded.
+//! Interrupts and progress: a call whose estimated cost is small runs on the calling
+//! thread; a longer one runs on a worker thread (and a thread pool made for the call)
+//! while the calling thread polls Python's signal handlers and reports progress
+//! (`interruptible`). Ctrl-C cancels the call's `cancel::CancelToken`, every engine stops
+//! at its next checkpoint, and `KeyboardInterrupt` is raised once the call's threads have
+//! stopped: nothing keeps computing in the background.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use cancel::CancelToken;
+use sway::progress::{NoProgress, Progress};
 use std::time::Duration;
 
 use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
@@ -217,48 +221,77 @@ const SIGNAL_POLL: Duration = Duration::from_millis(50);
 /// a millisecond simulation; Ctrl-C is then seen when it returns).
 const INLINE_BELOW_S: f64 = 0.25;
 
-/// Runs `f` with the GIL released: on the calling thread when `estimated_s` is below
-/// [`INLINE_BELOW_S`], else on a worker thread while this thread polls the signal
-/// handlers. A pending Ctrl-C raises `KeyboardInterrupt` (after setting `cancel`, which
-/// `f` may poll) and the worker's result is discarded.
+/// How long an interrupted call waits for its workers to stop before it raises anyway
+/// (every engine reaches a checkpoint within milliseconds; this bounds a pathological one).
+const STOP_WAIT: Duration = Duration::from_secs(5);
+
+/// Runs `f` with the GIL released and returns its value: on the calling thread when
+/// `estimated_s` is below [`INLINE_BELOW_S`], else on a worker thread (and a thread pool of
+/// the package's size, made for this call) while this thread polls Python's signal
+/// handlers and reports `f`'s progress to `progress`, a callable `(stage, done, total)`.
+///
+/// Ctrl-C (or an exception raised by `progress`) cancels the call's [`CancelToken`]: every
+/// engine stops at its next checkpoint (`cancel::checkpoint`), this thread waits until the
+/// worker and the pool's threads have stopped, and the exception is raised — no thread
+/// keeps computing after the call returns.
 pub(crate) fn interruptible<T, F>(
     py: Python<'_>,
     estimated_s: f64,
-    cancel: Option<Arc<AtomicBool>>,
+    progress: Option<Py<PyAny>>,
     f: F,
 ) -> PyResult<T>
 where
     T: Send + 'static,
-    F: FnOnce() -> T + Send + 'static,
+    F: FnOnce(&dyn Progress) -> T + Send + 'static,
 {
-    // every computation runs in the package's pool (set_num_threads)
-    let f = move || in_pool(f);
     if estimated_s < INLINE_BELOW_S {
-        let r = py.detach(f);
+        // every computation runs in the package's pool (set_num_threads)
+        let r = py.detach(|| in_pool(|| f(&NoProgress)));
         py.check_signals()?;
         return Ok(r);
     }
+    let token = CancelToken::new();
+    let pool = call_pool(&token)?;
+    let reporter = Arc::new(Reporter::default());
     let (tx, rx) = std::sync::mpsc::sync_channel(1);
-    std::thread::Builder::new()
-        .name("trailer_sway".into())
-        .spawn(move || {
-            // the receiver is gone after an interrupt: the result is dropped
-            let _ = tx.send(f());
-        })
-        .map_err(|e| PyRuntimeError::new_err(format!("cannot start a worker thread: {e}")))?;
+    let worker = {
+        let (token, reporter) = (token.clone(), reporter.clone());
+        std::thread::Builder::new()
+            .name("trailer_sway".into())
+            .spawn(move || {
+                let r = cancel::run(&token, || pool.install(|| f(&*reporter)));
+                // the pool's threads end once it is dropped (they are idle by now)
+                drop(pool);
+                let _ = tx.send(r);
+            })
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot start a worker thread: {e}")))?
+    };
     // a Receiver is Send but not Sync: the detached closure borrows it through a Mutex
     let rx = std::sync::Mutex::new(rx);
-    loop {
-        let got = py.detach(|| match rx.lock() {
-            Ok(r) => r.recv_timeout(SIGNAL_POLL),
+    let receive = |timeout: Duration| {
+        py.detach(|| match rx.lock() {
+            Ok(r) => r.recv_timeout(timeout),
             Err(_) => Err(std::sync::mpsc::RecvTimeoutError::Disconnected),
-        });
-        match got {
-            Ok(r) => return Ok(r),
+        })
+    };
+    let mut reported = None;
+    loop {
+        match receive(SIGNAL_POLL) {
+            Ok(Ok(r)) => {
+                let _ = worker.join();
+                report_progress(py, progress.as_ref(), &reporter, &mut reported)?;
+                return Ok(r);
+            }
+            Ok(Err(cancel::Cancelled)) => return Err(interrupted()),
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
-                if let Err(e) = py.check_signals() {
-                    if let Some(c) = &cancel {
-                        c.store(true, Ordering::Relaxed);
+                let polled = py.check_signals().and_then(|()| {
+                    report_progress(py, progress.as_ref(), &reporter, &mut reported)
+                });
+                if let Err(e) = polled {
+                    token.cancel();
+                    // wait for the engines to reach a checkpoint and the threads to end
+                    if receive(STOP_WAIT).is_ok() {
+                        let _ = worker.join();
                     }
                     return Err(e);
                 }
@@ -272,9 +305,76 @@ where
     }
 }
 
-/// `KeyboardInterrupt` for a computation stopped through its cancellation flag.
+/// `KeyboardInterrupt` for a computation stopped through its cancellation token.
 pub(crate) fn interrupted() -> PyErr {
     PyKeyboardInterrupt::new_err("interrupted")
+}
+
+/// A thread pool for one long call, of the package's size ([`set_num_threads`], else
+/// rayon's default), whose threads see `token` at every checkpoint.
+fn call_pool(token: &CancelToken) -> PyResult<rayon::ThreadPool> {
+    let threads = current_pool().map_or_else(rayon::current_num_threads, |p| {
+        p.current_num_threads()
+    });
+    cancel::pool_builder(token)
+        .num_threads(threads)
+        .thread_name(|i| format!("trailer_sway-{i}"))
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start {threads} threads: {e}")))
+}
+
+/// The progress of a long call as the engines report it ([`Progress`]), read by the
+/// polling thread.
+#[derive(Default)]
+struct Reporter {
+    stage: std::sync::Mutex<String>,
+    total: AtomicU64,
+    done: AtomicU64,
+}
+
+impl Progress for Reporter {
+    fn start(&self, stage: &str, total: u64) {
+        let mut s = self.stage.lock().unwrap_or_else(|p| p.into_inner());
+        stage.clone_into(&mut s);
+        self.done.store(0, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+    }
+    fn advance(&self, n: u64) {
+        self.done.fetch_add(n, Ordering::Relaxed);
+    }
+    fn finish(&self) {
+        self.done
+            .store(self.total.load(Ordering::Relaxed), Ordering::Relaxed);
+    }
+}
+
+/// Calls `progress(stage, done, total)` when the reported progress changed since the last
+/// call (`reported`).
+fn report_progress(
+    py: Python<'_>,
+    progress: Option<&Py<PyAny>>,
+    reporter: &Reporter,
+    reported: &mut Option<(String, u64, u64)>,
+) -> PyResult<()> {
+    let Some(callback) = progress else {
+        return Ok(());
+    };
+    let stage = reporter
+        .stage
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .clone();
+    let now = (
+        stage,
+        reporter.done.load(Ordering::Relaxed),
+        reporter.total.load(Ordering::Relaxed),
+    );
+    if now.0.is_empty() || reported.as_ref() == Some(&now) {
+        return Ok(());
+    }
+    callback.call1(py, (now.0.as_str(), now.1, now.2))?;
+    *reported = Some(now);
+    Ok(())
 }
 
 // ---------------------------------------------------------------------------------------
@@ -776,7 +876,7 @@ fn critical_speed(
     };
     // ≈ 10 µs per open-loop eigenvalue problem, ≈ 1 ms per closed-loop root count
     let per_point = if loop_.is_some() { 1e-3 } else { 1e-5 };
-    let r = interruptible(py, scan_points * per_point, None, move || {
+    let r = interruptible(py, scan_points * per_point, None, move |_| {
         critical_outcome(&model, loop_, search)
     })?;
     to_json(&r.map_err(py_err)?)
@@ -808,7 +908,7 @@ fn roots<'py>(
     };
     sway_tasks::tasks::roots::validate_args(speed, gain, delay, count).map_err(py_err)?;
     let model = vehicle.plant().clone();
-    let r = interruptible(py, 0.0, None, move || {
+    let r = interruptible(py, 0.0, None, move |_| {
         sway_studies::roots::compute(&model, &RootsConfig::paper(speed, gain, delay, count), None)
     })?
     .map_err(py_err)?;
@@ -823,12 +923,13 @@ fn roots<'py>(
 /// ψ, x_H, y_H, V, δ sampled every `output_step_s`; empty without `trajectory`) and its
 /// summary (metrics, class, action_s, t_end_s, steps), as `summary.json` writes them.
 #[pyfunction]
-#[pyo3(signature = (vehicle, scenario, trajectory = true))]
+#[pyo3(signature = (vehicle, scenario, trajectory = true, progress = None))]
 fn simulate<'py>(
     py: Python<'py>,
     vehicle: &Vehicle,
     scenario: &Bound<'py, PyAny>,
     trajectory: bool,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use sway::ranging::SpeedSpec;
     use sway::sim::ScenarioConfig;
@@ -844,12 +945,10 @@ fn simulate<'py>(
     let Configured { file, config } = prepared;
     // the CLI's plant of a paper-form vehicle, and its default speed limits (--max-speed)
     let plant = vehicle.plant().clone();
-    let run = move || -> Result<_, TaskError> {
+    let run = move |progress: &dyn Progress| -> Result<_, TaskError> {
         let limits = SpeedLimits::default();
-        let progress = sway::progress::NoProgress;
-        let resolution = sway_studies::simulate::compute(
-            &config, &plant, &limits, &file, trajectory, &progress,
-        )?;
+        let resolution =
+            sway_studies::simulate::compute(&config, &plant, &limits, &file, trajectory, progress)?;
         let scenario = match resolution.outcome {
             Ok(s) => s,
             Err(u) => {
@@ -878,7 +977,7 @@ fn simulate<'py>(
             .map_err(|e| TaskError::numerical("serialising the summary", e))?;
         Ok(((t, x, v, delta), json))
     };
-    let ((t, x, v, delta), json) = interruptible(py, plan.time_s, None, run)?.map_err(py_err)?;
+    let ((t, x, v, delta), json) = interruptible(py, plan.time_s, progress, run)?.map_err(py_err)?;
     let n = t.len();
     let d = PyDict::new(py);
     d.set_item("t", t.into_pyarray(py))?;

@@ -5,8 +5,6 @@
 //! Returned as columns in the order of the task's `sweep.csv` header.
 
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -20,7 +18,7 @@ use sway_tasks::config_file::{Configured, TaskConfig};
 use sway_tasks::tasks::Prepared;
 use sway_tasks::tasks::sweep::{header, prepare_run};
 
-use crate::{Vehicle, interrupted, interruptible, load_config, py_err};
+use crate::{Vehicle, interruptible, load_config, py_err};
 
 /// A column: numbers (null → NaN) or text (null → None).
 enum Column {
@@ -66,10 +64,12 @@ fn output_fields(r: &PointResult) -> Option<serde_json::Map<String, Value>> {
 /// sweep(vehicle, config) → (name, kind, columns, column names): the grid points of the
 /// study, one entry per `sweep.csv` row.
 #[pyfunction]
+#[pyo3(signature = (vehicle, config, progress = None))]
 fn sweep<'py>(
     py: Python<'py>,
     vehicle: &Vehicle,
     config: &Bound<'py, PyAny>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, String, Bound<'py, PyDict>, Bound<'py, PyList>)> {
     let (mut spec, file): (SweepConfig<SpeedSpec>, PathBuf) = load_config(config, "<sweep>")?;
     spec.load_named_files(&file).map_err(py_err)?;
@@ -98,17 +98,22 @@ fn sweep<'py>(
             )));
         }
     };
-    let cancel = Arc::new(AtomicBool::new(false));
-    let flag = cancel.clone();
-    let results = interruptible(py, plan.time_s, Some(cancel), move || {
+    let results = interruptible(py, plan.time_s, progress, move |progress| {
         let n = sw.grid_len();
-        let r: Vec<Option<PointResult>> = (0..n)
+        progress.start("sweep points", n as u64);
+        let r: Vec<PointResult> = (0..n)
             .into_par_iter()
-            .map(|k| (!flag.load(Ordering::Relaxed)).then(|| sw.run_point(k)))
+            .map(|k| {
+                // a cancelled sweep stops before its next point
+                cancel::checkpoint();
+                let point = sw.run_point(k);
+                progress.advance(1);
+                point
+            })
             .collect();
-        r.into_iter().collect::<Option<Vec<PointResult>>>()
-    })?
-    .ok_or_else(interrupted)?;
+        progress.finish();
+        r
+    })?;
 
     let names = header(&cfg);
     let n_values = results.first().map_or(0, |r| r.values.len());

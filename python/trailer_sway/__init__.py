@@ -18,7 +18,10 @@ numbers as ``cargo xtask <task>``) and return numpy arrays:
 
 Units are SI throughout (speeds in m/s, gains D and delays τ in s, angles in rad unless a
 name says ``_deg``). Long calls release the GIL, run on rayon's threads and stop with
-Ctrl-C (``KeyboardInterrupt``; nothing is returned or written). Bad input raises
+Ctrl-C: ``KeyboardInterrupt`` within a fraction of a second, once every thread of the call
+has stopped (nothing is returned or written, nothing keeps computing). They show their
+progress (``progress=``: a tqdm bar when tqdm is installed, or your callback
+``progress(stage, done, total)``; see ``trailer_sway._progress``). Bad input raises
 ``ValueError`` with the message ``cargo xtask`` prints for the same value.
 """
 
@@ -32,11 +35,13 @@ from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from . import _native
+from . import _native, _progress
+from ._progress import Progress
 from ._native import Vehicle, get_num_threads, set_num_threads, to_toml
 
 __all__ = [
     "Vehicle",
+    "Progress",
     "CriticalSpeed",
     "critical_speed",
     "roots",
@@ -271,6 +276,7 @@ def simulate(
     scenario: Union[Mapping[str, Any], PathLike],
     *,
     trajectory: bool = True,
+    progress: Progress = None,
 ) -> Simulation:
     """Simulates a scenario as ``cargo xtask simulate FILE.toml`` does.
 
@@ -286,7 +292,10 @@ def simulate(
     """
     if isinstance(scenario, Mapping) and "name" not in scenario:
         scenario = {"name": "python", **scenario}
-    arrays, summary = _native.simulate(_vehicle(vehicle), scenario, bool(trajectory))
+    v = _vehicle(vehicle)
+    arrays, summary = _progress.run(
+        progress, lambda p: _native.simulate(v, scenario, bool(trajectory), p)
+    )
     s = json.loads(summary)
     states = arrays["states"]
     return Simulation(
@@ -360,6 +369,7 @@ def bifurcation_diagram(
     continuation: Optional[Mapping[str, Any]] = None,
     stable_speeds_mps: Optional[Sequence[Any]] = None,
     unstable_speeds_mps: Optional[Sequence[Any]] = None,
+    progress: Progress = None,
 ) -> BifurcationDiagram:
     """The bifurcation diagram over V for the open loop (``controller=None``: the diagram
     of ``cargo xtask fig3a``) or the delayed yaw-rate feedback (``{"kind":
@@ -395,7 +405,9 @@ def bifurcation_diagram(
                 "stable_speeds_mps / unstable_speeds_mps: only for the open loop (fig3a's diagram)"
             )
         settings = cont
-    raw, arrays = _native.bifurcation_diagram(v, gain, delay, settings)
+    raw, arrays = _progress.run(
+        progress, lambda p: _native.bifurcation_diagram(v, gain, delay, settings, p)
+    )
     s = json.loads(raw)
     eq, cy = (arrays["equilibria"], arrays["cycles"]) if arrays is not None else _empty_branches()
     reason = s.get("reason") or s.get("hopf_reason") or s.get("fold_reason")
@@ -489,6 +501,7 @@ def stability_chart(
     speed_tolerance_mps: float = 1e-9,
     reseed_interval: int = 8,
     tracked_roots: int = 8,
+    progress: Progress = None,
 ) -> StabilityCharts:
     """Stability charts of the delayed yaw-rate feedback δ(t) = −D·ψ̇(t − τ) in the
     (V, D) plane, one per delay τ [s] in ``delays``, over ``speed_range`` [m/s] ×
@@ -513,7 +526,7 @@ def stability_chart(
         },
         "numerics": {"reseed_interval": reseed_interval, "tracked_roots": tracked_roots},
     }
-    raw, charts = _native.stability_chart(v, config)
+    raw, charts = _progress.run(progress, lambda p: _native.stability_chart(v, config, p))
     summary = json.loads(raw)
     out = [
         StabilityChart(
@@ -568,6 +581,7 @@ def nonlinear_chart(
     bistable_gain_s: Optional[float] = None,
     chart: Optional[Mapping[str, Any]] = None,
     regions: Optional[Mapping[str, Any]] = None,
+    progress: Progress = None,
 ) -> list:
     """Hopf and fold-of-cycles curves in the (V, D) plane and their codimension-two
     points, one :class:`NonlinearChart` per delay τ [s] — ``cargo xtask chart_nonlinear``
@@ -587,7 +601,7 @@ def nonlinear_chart(
         config["chart"] = dict(chart)
     if regions is not None:
         config["regions"] = dict(regions)
-    raw, charts = _native.nonlinear_chart(v, config)
+    raw, charts = _progress.run(progress, lambda p: _native.nonlinear_chart(v, config, p))
     summary = json.loads(raw)
     return [
         NonlinearChart(
@@ -663,6 +677,8 @@ class Table:
 def sweep(
     config: Union[Mapping[str, Any], PathLike],
     vehicle: Optional[Vehicle] = None,
+    *,
+    progress: Progress = None,
 ) -> Table:
     """A parallel study, as ``cargo xtask sweep FILE.toml``: ``config`` is a sweep file
     or a dict of its shape (``configs/sweep_threshold.toml``); ``vehicle`` (default
@@ -674,7 +690,8 @@ def sweep(
     figures of the task are not computed. ``name`` may be omitted in a dict."""
     if isinstance(config, Mapping) and "name" not in config:
         config = {"name": "python", **config}
-    name, kind, columns, order = _native.sweep(_vehicle(vehicle), config)
+    v = _vehicle(vehicle)
+    name, kind, columns, order = _progress.run(progress, lambda p: _native.sweep(v, config, p))
     return Table(columns, order, name, kind)
 
 
@@ -746,6 +763,8 @@ class LateralStability:
 def lateral_stability(
     vehicle: Optional[Vehicle] = None,
     config: Union[Mapping[str, Any], PathLike, None] = None,
+    *,
+    progress: Progress = None,
     **keys: Any,
 ) -> LateralStability:
     """The lateral stability test on ``vehicle`` (default Table I; any model variant), as
@@ -761,7 +780,8 @@ def lateral_stability(
         if not isinstance(config, Mapping):
             raise TypeError("lateral_stability: give keyword arguments with a dict config, not a file")
         config = {**config, **keys}
-    raw, arrays = _native.lateral_stability(_vehicle(vehicle), config)
+    v = _vehicle(vehicle)
+    raw, arrays = _progress.run(progress, lambda p: _native.lateral_stability(v, config, p))
     s = json.loads(raw)
     rows = s["speeds"]
     fit = s.get("fit") or {}

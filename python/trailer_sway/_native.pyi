@@ -2,7 +2,7 @@
 ``trailer_sway`` rather than these)."""
 
 from os import PathLike
-from typing import Any, Mapping, Optional, Union
+from typing import Any, Callable, Mapping, Optional, Union
 
 import numpy as np
 
@@ -90,16 +90,31 @@ def critical_speed(
 def roots(
     vehicle: Vehicle, speed: float, gain: float, delay: float, count: int = 6
 ) -> np.ndarray: ...
+# `progress`: None or a callable (stage, done, total), called from the calling thread
+ProgressCallback = Optional[Callable[[str, int, int], None]]
+
 def simulate(
-    vehicle: Vehicle, scenario: Any, trajectory: bool = True
+    vehicle: Vehicle, scenario: Any, trajectory: bool = True, progress: ProgressCallback = None
 ) -> tuple[dict[str, np.ndarray], str]: ...
-def stability_chart(vehicle: Vehicle, config: Mapping[str, Any]) -> tuple[str, list[dict[str, Any]]]: ...
-def nonlinear_chart(vehicle: Vehicle, config: Mapping[str, Any]) -> tuple[str, list[dict[str, Any]]]: ...
+def stability_chart(
+    vehicle: Vehicle, config: Mapping[str, Any], progress: ProgressCallback = None
+) -> tuple[str, list[dict[str, Any]]]: ...
+def nonlinear_chart(
+    vehicle: Vehicle, config: Mapping[str, Any], progress: ProgressCallback = None
+) -> tuple[str, list[dict[str, Any]]]: ...
 def bifurcation_diagram(
-    vehicle: Vehicle, gain: Optional[float], delay: Optional[float], settings: Mapping[str, Any]
+    vehicle: Vehicle,
+    gain: Optional[float],
+    delay: Optional[float],
+    settings: Mapping[str, Any],
+    progress: ProgressCallback = None,
 ) -> tuple[str, Optional[dict[str, dict[str, np.ndarray]]]]: ...
-def sweep(vehicle: Vehicle, config: Any) -> tuple[str, str, dict[str, Any], list[str]]: ...
-def lateral_stability(vehicle: Vehicle, config: Any) -> tuple[str, dict[str, Any]]: ...
+def sweep(
+    vehicle: Vehicle, config: Any, progress: ProgressCallback = None
+) -> tuple[str, str, dict[str, Any], list[str]]: ...
+def lateral_stability(
+    vehicle: Vehicle, config: Any, progress: ProgressCallback = None
+) -> tuple[str, dict[str, Any]]: ...
 def analyse_recording(
     t: Any, steering: Any, signal: Any, skip_peaks: int, periods: int,
     impulse_fraction: float, low_pass_hz: float, prominence_fraction: float,

@@ -851,6 +851,8 @@ impl Continuation {
         let o = &self.options;
         let mut added = 0;
         while added < max_points {
+            // a cancelled computation stops here (`cancel::run` catches it)
+            cancel::checkpoint();
             let a = branch.points.last().cloned().ok_or(Error::EmptyBranch)?;
             if a.parameter < o.parameter_range.0 || a.parameter > o.parameter_range.1 {
                 return Ok(Stop::ParameterRange);

@@ -445,6 +445,8 @@ impl<const N: usize> Core<N> {
         let mut attempts = 0usize;
         let mut previous: Option<Previous<N>> = None;
         loop {
+            // a cancelled computation stops here (`cancel::run` catches it)
+            cancel::checkpoint();
             self.pass_reached_breakpoints();
             // reached, or closer than the resolution of t (a kink landed a few ulps before
             // t_end: the sliver left is no step)

@@ -208,6 +208,8 @@ fn column(
     let mut expected = 0usize;
     let interval = opt.reseed_interval.max(1);
     for (k, &d) in ds.iter().enumerate() {
+        // a cancelled chart stops here (`cancel::run` catches it)
+        cancel::checkpoint();
         let count = sys.unstable_count_from(d, &out.crossings);
         let consistent = |roots: &[Complex64]| {
             let near_axis = roots.iter().any(|r| r.re.abs() < 1e-9 * r.norm().max(1.0));

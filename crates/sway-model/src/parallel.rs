@@ -86,9 +86,14 @@ pub fn join<A: Send, B: Send>(a: &(dyn Fn() -> A + Sync), b: &(dyn Fn() -> B + S
 /// k = 0 … n − 1 in parallel.
 fn for_each_index(n: usize, split: Split, f: &(dyn Fn(usize) + Sync)) {
     let indices = (0..n).into_par_iter();
+    // a cancelled computation stops before its next item (`cancel::run` catches it)
+    let item = |k| {
+        cancel::checkpoint();
+        f(k);
+    };
     match split {
-        Split::Adaptive => indices.for_each(f),
-        Split::OnePerTask => indices.with_max_len(1).for_each(f),
+        Split::Adaptive => indices.for_each(item),
+        Split::OnePerTask => indices.with_max_len(1).for_each(item),
     }
 }
 

@@ -240,13 +240,17 @@ fn run_one(
     };
     match catch_unwind(AssertUnwindSafe(body)) {
         Ok(r) => r,
-        Err(p) => Err(format!(
-            "panic: {}",
-            p.downcast_ref::<String>()
-                .map(String::as_str)
-                .or_else(|| p.downcast_ref::<&str>().copied())
-                .unwrap_or("(no message)")
-        )),
+        Err(p) => {
+            // a cancellation stops the study, it is not this run's failure
+            let p = cancel::resume_if_cancelled(p);
+            Err(format!(
+                "panic: {}",
+                p.downcast_ref::<String>()
+                    .map(String::as_str)
+                    .or_else(|| p.downcast_ref::<&str>().copied())
+                    .unwrap_or("(no message)")
+            ))
+        }
     }
 }
 

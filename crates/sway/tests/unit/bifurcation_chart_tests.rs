@@ -233,3 +233,30 @@ fn adapted_fold_agrees_with_the_4x_finer_mesh_to_1e_8() {
     );
     assert!(rel(adapted) < 1e-8, "{adapted:?}");
 }
+
+#[test]
+fn a_cancelled_chart_stops_within_half_a_second() {
+    // reference: the clock. The full chart at τ = 0.2 s takes seconds; its token is
+    // cancelled from another thread after 0.2 s, and the chart must return
+    // Err(Cancelled) within 0.5 s of that (the continuation engine checks its token
+    // between points, the parallel maps between curves), on a pool whose threads carry
+    // the token.
+    let token = cancel::CancelToken::new();
+    let pool = cancel::pool_builder(&token).num_threads(2).build().unwrap();
+    let canceller = {
+        let token = token.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+            token.cancel();
+            std::time::Instant::now()
+        })
+    };
+    let got = cancel::run(&token, || {
+        pool.install(|| nonlinear_chart(model(), 0.2, &ChartOptions::default()))
+    });
+    let stopped = std::time::Instant::now();
+    let cancelled_at = canceller.join().unwrap();
+    assert!(matches!(got, Err(cancel::Cancelled)), "the chart finished within 0.2 s");
+    let latency = stopped.duration_since(cancelled_at).as_secs_f64();
+    assert!(latency < 0.5, "stopped {latency:.3} s after the cancellation");
+}

@@ -20,8 +20,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use cancel::CancelToken;
-use sway::progress::{NoProgress, Progress};
 use std::time::Duration;
+use sway::progress::{NoProgress, Progress};
 
 use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyTypeError, PyValueError};
@@ -313,9 +313,8 @@ pub(crate) fn interrupted() -> PyErr {
 /// A thread pool for one long call, of the package's size ([`set_num_threads`], else
 /// rayon's default), whose threads see `token` at every checkpoint.
 fn call_pool(token: &CancelToken) -> PyResult<rayon::ThreadPool> {
-    let threads = current_pool().map_or_else(rayon::current_num_threads, |p| {
-        p.current_num_threads()
-    });
+    let threads =
+        current_pool().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
     cancel::pool_builder(token)
         .num_threads(threads)
         .thread_name(|i| format!("trailer_sway-{i}"))
@@ -977,7 +976,8 @@ fn simulate<'py>(
             .map_err(|e| TaskError::numerical("serialising the summary", e))?;
         Ok(((t, x, v, delta), json))
     };
-    let ((t, x, v, delta), json) = interruptible(py, plan.time_s, progress, run)?.map_err(py_err)?;
+    let ((t, x, v, delta), json) =
+        interruptible(py, plan.time_s, progress, run)?.map_err(py_err)?;
     let n = t.len();
     let d = PyDict::new(py);
     d.set_item("t", t.into_pyarray(py))?;

@@ -134,3 +134,33 @@ def test_an_exception_in_the_progress_callback_stops_the_call():
         ts.sweep(SWEEP, progress=stop)
     with pytest.raises(TypeError, match="progress: expected None, True, False or a callable"):
         ts.sweep(SWEEP, progress="yes")
+
+
+def test_progress_none_draws_a_tqdm_bar_when_tqdm_is_installed(monkeypatch):
+    # reference: a stand-in tqdm module that records its bars; every bar is closed after
+    import types
+
+    import trailer_sway as ts
+
+    bars = []
+
+    class Bar:
+        def __init__(self, total=None, desc=None, leave=True):
+            self.total, self.desc, self.n, self.closed = total, desc, 0, False
+            bars.append(self)
+
+        def refresh(self):
+            pass
+
+        def close(self):
+            self.closed = True
+
+    auto = types.ModuleType("tqdm.auto")
+    auto.tqdm = Bar
+    monkeypatch.setitem(sys.modules, "tqdm", types.ModuleType("tqdm"))
+    monkeypatch.setitem(sys.modules, "tqdm.auto", auto)
+    ts.sweep(SWEEP)
+    assert [(b.desc, b.total, b.n, b.closed) for b in bars] == [("sweep points", 400, 400, True)]
+    bars.clear()
+    ts.sweep(SWEEP, progress=False)
+    assert bars == []

@@ -256,7 +256,13 @@ fn a_cancelled_chart_stops_within_half_a_second() {
     });
     let stopped = std::time::Instant::now();
     let cancelled_at = canceller.join().unwrap();
-    assert!(matches!(got, Err(cancel::Cancelled)), "the chart finished within 0.2 s");
+    assert!(
+        matches!(got, Err(cancel::Cancelled)),
+        "the chart finished within 0.2 s"
+    );
     let latency = stopped.duration_since(cancelled_at).as_secs_f64();
-    assert!(latency < 0.5, "stopped {latency:.3} s after the cancellation");
+    assert!(
+        latency < 0.5,
+        "stopped {latency:.3} s after the cancellation"
+    );
 }

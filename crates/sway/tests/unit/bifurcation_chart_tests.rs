@@ -266,3 +266,51 @@ fn a_cancelled_chart_stops_within_half_a_second() {
         "stopped {latency:.3} s after the cancellation"
     );
 }
+
+#[test]
+fn cells_beyond_an_ended_fold_curve_are_unknown_never_safe() {
+    // reference: the definition of the regions, on a chart whose fold-of-cycles curve is
+    // cut at D = 0.05 s as if it had ended there. Every cell of the linear chart below is
+    // stable, so a cell is bistable at or beyond the fold speed, safe below it, and —
+    // where the cut curve does not reach (D = 0.1 s) — unknown, never safe; the same cut
+    // curve declared complete leaves those cells safe.
+    let mut chart = nonlinear_chart(model(), 0.1, &small_chart_options()).unwrap();
+    assert!(!chart.fold_incomplete);
+    for c in &mut chart.fold_curves {
+        c.points.retain(|p| p.d_s <= 0.05);
+    }
+    let fold_at = chart
+        .fold_speed_interpolated(0.03)
+        .expect("the cut curve reaches 0.03 s");
+    assert!(chart.fold_speed_interpolated(0.1).is_none());
+    let stable = stability::ChartCell {
+        spectral_abscissa: -0.1,
+        unstable_roots: 0,
+    };
+    let linear = stability::StabilityChart {
+        tau: 0.1,
+        v: vec![fold_at - 5.0, fold_at + 1.0],
+        d: vec![0.03, 0.1],
+        cells: vec![stable; 4],
+        crossings: vec![Vec::new(); 2],
+        static_boundary: Vec::new(),
+        dynamic_boundaries: Vec::new(),
+        reseeds: 0,
+        failures: Vec::new(),
+    };
+    chart.fold_incomplete = true;
+    assert_eq!(
+        chart.regions(&linear),
+        [
+            Region::Safe,
+            Region::Unknown,
+            Region::Bistable,
+            Region::Unknown
+        ]
+    );
+    chart.fold_incomplete = false;
+    assert_eq!(
+        chart.regions(&linear),
+        [Region::Safe, Region::Safe, Region::Bistable, Region::Safe]
+    );
+}

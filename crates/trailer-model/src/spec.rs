@@ -720,11 +720,17 @@ impl VehicleSpec {
     }
 
     /// A copy with parameter `index` of [`crate::PARAMETERS`] set to `value` (not validated),
-    /// for sweeps over the paper's keys on a vehicle with variants.
+    /// for sweeps and sensitivities over the paper's keys on a vehicle with variants.
+    ///
+    /// An axle key (f, c, C_F, C_R, l, C_T) of a unit given as a list of axles sets the
+    /// group's value of the equivalent paper-form vehicle ([`Self::equivalent_params`]):
+    /// a position moves the whole group (every axle shifted by the same amount, so their
+    /// mean is `value`), a cornering stiffness scales the group's stiffnesses (so their sum
+    /// is `value`). A tandem's `l` is then where its axle pair sits, and dV_crit/dl the
+    /// effect of moving the pair.
     ///
     /// # Errors
-    /// [`ModelError::InvalidSpec`] for an axle key (f, c, C_F, C_R, l, C_T) of a unit given
-    /// as a list of axles (the key does not exist there).
+    /// As [`Self::equivalent_params`], for an axle key of a unit given as a list.
     pub fn with_parameter(&self, index: usize, value: f64) -> Result<Self, ModelError> {
         let mut s = self.clone();
         let t = &mut s.tractor;
@@ -751,12 +757,41 @@ impl VehicleSpec {
                 *v = value;
                 Ok(s)
             }
-            None => Err(invalid(
+            None => self.with_axle_group(index, value),
+        }
+    }
+
+    /// [`Self::with_parameter`] of an axle key whose unit is a list of axles.
+    fn with_axle_group(&self, index: usize, value: f64) -> Result<Self, ModelError> {
+        let equivalent = crate::VehicleParams::get(&self.equivalent_params()?, index);
+        let mut s = self.clone();
+        // (the unit's list, the steered group of a tractor list, position or stiffness)
+        let (axles, steered, position) = match index {
+            2 => (s.tractor.axles.as_mut(), Some(true), true),
+            4 => (s.tractor.axles.as_mut(), Some(false), true),
+            5 => (s.tractor.axles.as_mut(), Some(true), false),
+            6 => (s.tractor.axles.as_mut(), Some(false), false),
+            10 => (s.trailer.axles.as_mut(), None, true),
+            _ => (s.trailer.axles.as_mut(), None, false),
+        };
+        let Some(axles) = axles else {
+            return Err(invalid(
                 crate::PARAMETERS[index.min(crate::PARAMETERS.len() - 1)].0,
                 value,
-                "a key of the paper's form: this unit's axles are a list (`axles`)",
-            )),
+                "an axle key of the paper's form or an axle list",
+            ));
+        };
+        for a in axles
+            .iter_mut()
+            .filter(|a| steered.is_none_or(|st| a.steered == st))
+        {
+            if position {
+                a.position_m += value - equivalent;
+            } else {
+                a.cornering_stiffness *= value / equivalent;
+            }
         }
+        Ok(s)
     }
 
     /// Number of axles with σ > 0: the relaxation states the model adds to the 4 of eq. (5)–(6).

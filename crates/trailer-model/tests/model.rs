@@ -876,6 +876,86 @@ mod variants {
     }
 
     #[test]
+    fn a_paper_key_of_an_axle_list_moves_or_scales_the_group() {
+        // Reference: the axle lists written out by hand. Setting l of the tandem (2.4 m and
+        // 3.2 m, mean 2.8 m) to 3.0 m shifts both axles by 0.2 m; setting C_T to 60e3 N/rad
+        // scales both 25e3 N/rad to 30e3 N/rad; the equivalent vehicle then has exactly
+        // the value set. The same on a tractor given as a list, its steered group only.
+        let tandem = with_trailer_axles(vec![
+            axle(2.4, 25e3, false, 0.0, TireLawSpec::default()),
+            axle(3.2, 25e3, false, 0.0, TireLawSpec::default()),
+        ]);
+        let moved = tandem.with_parameter(10, 3.0).unwrap();
+        let by_hand = with_trailer_axles(vec![
+            axle(2.4 + 0.2, 25e3, false, 0.0, TireLawSpec::default()),
+            axle(3.2 + 0.2, 25e3, false, 0.0, TireLawSpec::default()),
+        ]);
+        let positions = |s: &VehicleSpec| -> Vec<f64> {
+            s.trailer
+                .axles
+                .as_ref()
+                .unwrap()
+                .iter()
+                .map(|a| a.position_m)
+                .collect()
+        };
+        for (a, b) in positions(&moved).iter().zip(positions(&by_hand)) {
+            assert_relative_eq!(*a, b, max_relative = 1e-15);
+        }
+        assert_relative_eq!(
+            moved.equivalent_params().unwrap().trailer.axle,
+            3.0,
+            max_relative = 1e-15
+        );
+        let stiffer = tandem.with_parameter(11, 60e3).unwrap();
+        for a in stiffer.trailer.axles.as_ref().unwrap() {
+            assert_relative_eq!(a.cornering_stiffness, 30e3, max_relative = 1e-15);
+        }
+        assert_relative_eq!(
+            stiffer
+                .equivalent_params()
+                .unwrap()
+                .trailer
+                .cornering_stiffness,
+            60e3,
+            max_relative = 1e-15
+        );
+        // a tractor as a list: f moves the steered axle, the unsteered one stays
+        let mut listed = VehicleSpec::from(VehicleParams::default());
+        let p = VehicleParams::default();
+        listed.tractor.front_axle = None;
+        listed.tractor.rear_axle = None;
+        listed.tractor.front_cornering_stiffness = None;
+        listed.tractor.rear_cornering_stiffness = None;
+        listed.tractor.axles = Some(vec![
+            axle(
+                p.tractor.front_axle,
+                p.tractor.front_cornering_stiffness,
+                true,
+                0.0,
+                TireLawSpec::default(),
+            ),
+            axle(
+                p.tractor.rear_axle,
+                p.tractor.rear_cornering_stiffness,
+                false,
+                0.0,
+                TireLawSpec::default(),
+            ),
+        ]);
+        let f = listed
+            .with_parameter(2, p.tractor.front_axle + 0.1)
+            .unwrap();
+        let axles = f.tractor.axles.as_ref().unwrap();
+        assert_relative_eq!(
+            axles[0].position_m,
+            p.tractor.front_axle + 0.1,
+            max_relative = 1e-15
+        );
+        assert_eq!(axles[1].position_m, p.tractor.rear_axle);
+    }
+
+    #[test]
     fn hitch_friction_is_seen_by_the_linearisation_as_its_regularised_slope() {
         // Reference: the regularisation stated in HitchSpec: for |θ̇| < ω_c the Coulomb torque
         // is the viscous damping M_c/ω_c, so the linearisation (and V_crit) of (M_c, ω_c)

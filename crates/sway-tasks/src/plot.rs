@@ -302,6 +302,9 @@ pub struct Panel {
     pub layers: Vec<Layer>,
     /// legend position
     pub legend: Legend,
+    /// names of the y positions 0, −1, −2, … (a category axis: horizontal bars, one per
+    /// name); empty: a numeric y axis
+    pub y_categories: Vec<String>,
 }
 
 impl Panel {
@@ -315,7 +318,16 @@ impl Panel {
             y_range: None,
             layers: Vec::new(),
             legend: Legend::UpperRight,
+            y_categories: Vec::new(),
         }
+    }
+
+    /// A category y axis: `names[k]` at y = −k (the first on top), the y range fitted to
+    /// them.
+    pub fn y_categories(mut self, names: Vec<String>) -> Self {
+        self.y_range = Some((0.5 - names.len() as f64, 0.5));
+        self.y_categories = names;
+        self
     }
 
     /// Adds a layer.
@@ -607,16 +619,30 @@ fn build_axes<'a, B: DrawingBackend>(
     area: &'a Area<B>,
     ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
 ) -> Result<Chart<'a, B>, String> {
+    // a category axis is as wide as its longest name (≈ 8 px per character at 14 px)
+    let longest = panel.y_categories.iter().map(|c| c.chars().count()).max();
+    let y_label_area = longest.map_or(Y_LABEL_AREA, |n| Y_LABEL_AREA.max(8 * n as u32 + 30));
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 18))
         .margin(MARGIN)
         .x_label_area_size(X_LABEL_AREA)
-        .y_label_area_size(Y_LABEL_AREA)
+        .y_label_area_size(y_label_area)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc(&panel.x_label)
+    let category = |y: &f64| {
+        let k = -y.round();
+        let on_tick = (y - y.round()).abs() < 1e-9 && k >= 0.0;
+        on_tick
+            .then(|| panel.y_categories.get(k as usize).cloned())
+            .flatten()
+            .unwrap_or_default()
+    };
+    let mut mesh = chart.configure_mesh();
+    if !panel.y_categories.is_empty() {
+        mesh.y_labels(2 * panel.y_categories.len() + 1)
+            .y_label_formatter(&category);
+    }
+    mesh.x_desc(&panel.x_label)
         .y_desc(&panel.y_label)
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 15))

@@ -25,6 +25,7 @@ use sway_model::generator::{GeneratedVehicle, generate};
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
 use crate::config_file::{Configured, TaskConfig};
+use crate::plot::{Figure, Layer, Panel, Rgb};
 
 /// The task.
 pub const TASK: Task = Task::configured::<StudyGeneratedConfig>(
@@ -373,6 +374,57 @@ pub fn markdown(s: &StudyGeneratedSummary) -> String {
     m
 }
 
+/// The study's figure: per task, its runs as a horizontal bar split into runs without an
+/// early curve end (green), runs with curves that ended early (orange) and failed runs
+/// (red); beside it the curves that ended early by reason.
+pub fn figure(s: &StudyGeneratedSummary, runs: &[Run]) -> Figure {
+    let bar = |y: f64, x0: f64, x1: f64| [x0, x1, y - 0.38, y + 0.38];
+    let (mut clean, mut early, mut failed) = (Vec::new(), Vec::new(), Vec::new());
+    for (k, t) in s.per_task.iter().enumerate() {
+        let y = -(k as f64);
+        let mine = runs.iter().filter(|r| r.task == t.task);
+        let n_failed = mine.clone().filter(|r| r.error.is_some()).count() as f64;
+        let n_early = mine
+            .filter(|r| r.error.is_none() && !r.ended_early.is_empty())
+            .count() as f64;
+        let n_clean = t.runs as f64 - n_failed - n_early;
+        clean.push(bar(y, 0.0, n_clean));
+        early.push(bar(y, n_clean, n_clean + n_early));
+        failed.push(bar(y, n_clean + n_early, t.runs as f64));
+    }
+    let rects = |rects, color, label: &str| Layer::Rects {
+        rects,
+        color,
+        opacity: 0.8,
+        label: Some(label.to_string()),
+    };
+    let by_task = Panel::new(
+        &format!("{} generated vehicles: runs per task", s.vehicles),
+        "runs",
+        "task",
+    )
+    .with(rects(clean, Rgb::GREEN, "no curve ended early"))
+    .with(rects(early, Rgb::ORANGE, "curves ended early (a result)"))
+    .with(rects(failed, Rgb::RED, "failed"))
+    .x_range(0.0, 1.45 * s.vehicles.max(1) as f64)
+    .y_categories(s.per_task.iter().map(|t| t.task.clone()).collect());
+    let reasons: Vec<(&String, &usize)> = s.curves_ended_early_by_reason.iter().collect();
+    let most = reasons.iter().map(|(_, n)| **n).max().unwrap_or(1) as f64;
+    let by_reason = Panel::new("curves that ended early, by reason", "curves", "reason")
+        .with(rects(
+            reasons
+                .iter()
+                .enumerate()
+                .map(|(k, (_, n))| bar(-(k as f64), 0.0, **n as f64))
+                .collect(),
+            Rgb::ORANGE,
+            "curves",
+        ))
+        .x_range(0.0, 1.45 * most)
+        .y_categories(reasons.iter().map(|(r, _)| (*r).clone()).collect());
+    Figure::grid(vec![by_task, by_reason], 1, 2, (1500, 40 * s.per_task.len().max(8) as u32 + 200))
+}
+
 fn csv_row(r: &Run) -> RunRow {
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     for e in &r.ended_early {
@@ -411,6 +463,7 @@ impl Prepared for Configured<StudyGeneratedConfig> {
             let runs = runs?;
             let summary = summarise(&vehicles, &cfg.tasks, &runs);
             out.write_table("runs.csv", runs.iter().map(csv_row))?;
+            figure(&summary, &runs).render(&out.path("study_generated"))?;
             let md = markdown(&summary);
             std::fs::write(out.path("table.md"), &md).map_err(|source| TaskError::Write {
                 path: out.path("table.md"),

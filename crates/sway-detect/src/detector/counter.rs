@@ -101,7 +101,9 @@ impl CounterOptions {
 /// newest half-oscillation's peak.
 ///
 /// A steady oscillation of the driver's steering (a slalom) in the band is counted as
-/// sway: telling them apart needs the steering signal (left to the sway assist).
+/// sway, and so is a brisk single lane change (its yaw rate's one period leaves the
+/// band-pass as three lobes: flagged above ≈ 0.037 rad/s with the defaults): telling them
+/// apart needs the steering signal (left to the sway assist).
 #[derive(Debug, Clone)]
 pub struct OscillationCounter {
     options: CounterOptions,

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use serde::{Deserialize, Serialize};
 use sway::bifurcation::{CycleExtent, DiagramSettings, LoopLaw};
 use sway_studies::fig4b::{PairDiagram, closed_loop_diagram};
 use sway_tasks::config_file::{Configured, TaskConfig};
@@ -184,13 +185,21 @@ fn nonlinear_chart<'py>(
     Ok((to_json(&summary)?, out))
 }
 
+/// The settings of a closed-loop diagram: fig4b's `[continuation]` section under its key, as
+/// the open loop's `[diagram]` section has it (messages name `continuation.<key>` either way).
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ClosedLoopSettings {
+    continuation: DiagramSettings,
+}
+
 /// bifurcation_diagram(vehicle, gain, delay, settings) → (summary JSON, arrays or None):
 /// the diagram of straight running and the sway cycles over V on the vehicle's plant.
 /// Open loop (gain and delay None): the `fig3a` task's diagram
 /// ([`sway_studies::fig3a::diagram`], what the task writes) on a dict of the `[diagram]`
 /// section's shape; the summary is fig3a's diagram fields. Closed loop: one pair of the `fig4b` task
-/// ([`closed_loop_diagram`]) on a dict of its `[continuation]` section's shape (absent keys:
-/// fig4b's defaults); the summary is its `"pairs"` entry. Without a Hopf point the summary
+/// ([`closed_loop_diagram`]) on a dict `{"continuation": {…}}` of its `[continuation]`
+/// section's shape (absent keys: fig4b's defaults); the summary is its `"pairs"` entry. Without a Hopf point the summary
 /// says why and there are no arrays.
 #[pyfunction]
 #[pyo3(signature = (vehicle, gain, delay, settings, progress = None))]
@@ -220,8 +229,11 @@ fn bifurcation_diagram<'py>(
                 "controller.gain_s",
                 format!("expected a finite gain |D| ≤ 5 s, got {gain}"),
             )?;
-            let (s, file): (DiagramSettings, PathBuf) =
-                load_config_over(settings, what, &DiagramSettings::closed_loop())?;
+            let base = ClosedLoopSettings {
+                continuation: DiagramSettings::closed_loop(),
+            };
+            let (ClosedLoopSettings { continuation: s }, file) =
+                load_config_over(settings, what, &base)?;
             validate_settings(&s, &file, "continuation").map_err(py_err)?;
             let plant = vehicle.plant().clone();
             let fb = LoopLaw::paper(gain, delay);
@@ -240,7 +252,11 @@ fn bifurcation_diagram<'py>(
         }
         _ => {
             let (cfg, file): (DiagramConfig, PathBuf) = load_config(settings, what)?;
-            validate_diagram(&cfg, &file, "diagram").map_err(py_err)?;
+            // the keys as this function's arguments: `continuation.…`, `stable_speeds_mps`
+            validate_diagram(&cfg, &file, "diagram").map_err(|e| {
+                let python = |k: &str| k.strip_prefix("diagram.").unwrap_or(k).to_string();
+                py_err(crate::renamed(e, what, python))
+            })?;
             let plant = vehicle.plant().clone();
             let (summary, diagram) = interruptible(py, 1.0, progress, move |progress| {
                 progress.start("bifurcation diagram", 0);

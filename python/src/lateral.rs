@@ -10,8 +10,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use sway::ranging::SpeedLimits;
 use sway_studies::lateral_stability::{
-    LateralStabilityConfig, RecordingAnalysis, RecordingSettings, analyse_recording as analyse,
-    compute,
+    LateralStabilityConfig, RecordingAnalysis, RecordingProblem, RecordingSettings,
+    analyse_recording as analyse, compute,
 };
 use sway_tasks::TaskError;
 use sway_tasks::config_file::{Configured, TaskConfig};
@@ -75,9 +75,34 @@ pub(crate) fn lateral_stability<'py>(
     Ok((json, arrays))
 }
 
-/// analyse_recording(t, steering, signal, skip_peaks, periods, impulse_fraction,
-/// low_pass_hz, prominence_fraction) → dict: one recorded run read as the task reads a
-/// `--recording` file. A bad recording raises `ValueError` with the problem (rows from 0).
+/// A recording's problem with the samples named as `analyse_recording()`'s arguments: `t`,
+/// `signals['steering_angle']` and `signal_name` (the read signal's key, e.g.
+/// `signals['hitch_angle']`), rows counted from 0.
+fn in_python_terms(problem: &RecordingProblem, signal_name: &str) -> String {
+    let steering = "signals['steering_angle']";
+    match problem {
+        RecordingProblem::TooShort { lengths: [t, s, y] } => format!(
+            "expected at least 10 samples of t, {steering} and {signal_name} of equal length, got {t}, {s} and {y}"
+        ),
+        RecordingProblem::TimeNotIncreasing { row, t, previous } => {
+            format!("row {row}: t does not increase ({t} s after {previous} s)")
+        }
+        RecordingProblem::NotFinite { column, row } => {
+            let name = match *column {
+                "time" => "t",
+                "steering" => steering,
+                _ => signal_name,
+            };
+            format!("row {row}: {name} is not a finite number")
+        }
+        other => other.to_string(),
+    }
+}
+
+/// analyse_recording(t, steering, signal, signal_name, skip_peaks, periods,
+/// impulse_fraction, low_pass_hz, prominence_fraction) → dict: one recorded run read as the
+/// task reads a `--recording` file. A bad recording raises `ValueError` with the problem
+/// (rows from 0), the samples named as the Python arguments ([`in_python_terms`]).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn analyse_recording<'py>(
@@ -85,6 +110,7 @@ pub(crate) fn analyse_recording<'py>(
     t: PyReadonlyArray1<'py, f64>,
     steering: PyReadonlyArray1<'py, f64>,
     signal: PyReadonlyArray1<'py, f64>,
+    signal_name: &str,
     skip_peaks: usize,
     periods: usize,
     impulse_fraction: f64,
@@ -101,7 +127,8 @@ pub(crate) fn analyse_recording<'py>(
         periods,
     };
     let (t, steering, signal) = (t.as_slice()?, steering.as_slice()?, signal.as_slice()?);
-    let r = analyse(t, steering, signal, &how).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let r = analyse(t, steering, signal, &how)
+        .map_err(|e| PyValueError::new_err(in_python_terms(&e, signal_name)))?;
     let d = PyDict::new(py);
     d.set_item("damping_ratio", r.decay.damping_ratio)?;
     d.set_item("log_decrement", r.decay.log_decrement)?;

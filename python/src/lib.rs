@@ -1,8 +1,9 @@
 //! `trailer_sway._native`: the Python bindings of the trailer-sway crates (PyO3).
 //!
 //! A thin layer: every function reads its inputs into the task layer's config types
-//! ([`sway_tasks`]), validates them with the task's own checks and limits (so a bad value
-//! raises `ValueError` with the message `cargo xtask` prints), computes with the library
+//! ([`sway_tasks`]), validates them with the task's own checks and limits (a bad value
+//! raises `ValueError`, a value of the wrong type `TypeError`, with the problem `cargo
+//! xtask` states, naming the Python argument or dict key), computes with the library
 //! ([`sway`], [`trailer_model`], [`stability`]) with the GIL released, and returns plain
 //! Python values: numpy arrays built from owned `Vec`s (no second copy), and the
 //! structured results as the JSON the tasks write to `summary.json` (same numbers, bit for
@@ -51,15 +52,62 @@ use trailer_model::{AnyVehicleModel, Model, ModelError, PARAMETERS, VehicleParam
 /// numerical failure.
 pub(crate) fn py_err(e: impl Into<TaskError>) -> PyErr {
     let e: TaskError = e.into();
-    let msg = e.to_string();
+    exception(&e)(e.to_string())
+}
+
+/// The constructor of the Python exception of `e` (see [`py_err`]).
+fn exception(e: &TaskError) -> fn(String) -> PyErr {
     match e {
-        TaskError::Read { .. } => PyOSError::new_err(msg),
+        TaskError::Read { .. } => |m| PyOSError::new_err(m),
         TaskError::Config { .. }
         | TaskError::UnknownTask { .. }
         | TaskError::Sway(SwayError::Config { .. } | SwayError::Model(_)) => {
-            PyValueError::new_err(msg)
+            |m| PyValueError::new_err(m)
         }
-        _ => PyRuntimeError::new_err(msg),
+        _ => |m| PyRuntimeError::new_err(m),
+    }
+}
+
+/// The Python exception of a config dict's error: `TypeError` for a value of the wrong
+/// type (the reader's "invalid type: string \"60\", expected f64"), else [`py_err`]'s;
+/// an unknown key is named by its own path (`speeed`, `continuation.mesh`), also where the
+/// reader names the table that holds it (`<root>` of a table with flattened keys).
+fn dict_err(e: TaskError) -> PyErr {
+    let Some((file, key, problem)) = e.as_config() else {
+        return py_err(e);
+    };
+    let unknown = problem
+        .strip_prefix("unknown field `")
+        .and_then(|rest| rest.split_once('`'))
+        .map(|(name, _)| match key {
+            "<root>" => name.to_string(),
+            k if k == name || k.ends_with(&format!(".{name}")) => k.to_string(),
+            table => format!("{table}.{name}"),
+        });
+    let e = match unknown {
+        Some(path) => TaskError::config(file, path, problem),
+        None => e,
+    };
+    match e.as_config() {
+        Some((_, _, problem)) if problem.starts_with("invalid type") => {
+            PyTypeError::new_err(e.to_string())
+        }
+        _ => py_err(e),
+    }
+}
+
+/// A config error in the caller's terms: under the name `file` (the Python call, e.g.
+/// `roots()`), its key renamed by `key` (a command-line option or a vehicle file's key
+/// path as the Python argument); other errors unchanged.
+pub(crate) fn renamed(
+    e: impl Into<TaskError>,
+    file: &str,
+    key: impl Fn(&str) -> String,
+) -> TaskError {
+    let e: TaskError = e.into();
+    match e.as_config() {
+        Some((_, k, problem)) => TaskError::config(file, key(k), problem),
+        None => e,
     }
 }
 
@@ -76,8 +124,9 @@ pub(crate) fn to_json<T: Serialize>(value: &T) -> PyResult<String> {
 // configs from Python values
 
 /// A Python value (dict, list, tuple, str, bool, int, float, numpy scalar or array) as
-/// TOML; `key` names it in a `TypeError`.
-fn toml_value(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+/// TOML; `what` (the call and argument) and `key` name it in a `TypeError`. None is not a
+/// value: a key takes its default when it is left out, not when it is None.
+fn toml_value(obj: &Bound<'_, PyAny>, what: &str, key: &str) -> PyResult<toml::Value> {
     let name = || {
         if key.is_empty() {
             "<root>".to_string()
@@ -85,6 +134,12 @@ fn toml_value(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
             key.to_string()
         }
     };
+    if obj.is_none() {
+        return Err(PyTypeError::new_err(format!(
+            "{what}: `{}`: expected a value, got None (leave the key out for its default)",
+            name()
+        )));
+    }
     if obj.is_instance_of::<PyBool>() {
         return Ok(toml::Value::Boolean(obj.extract()?));
     }
@@ -92,7 +147,7 @@ fn toml_value(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
         return match obj.extract::<i64>() {
             Ok(i) => Ok(toml::Value::Integer(i)),
             Err(_) => Err(PyValueError::new_err(format!(
-                "`{}`: integer {} out of range",
+                "{what}: `{}`: integer {} out of range",
                 name(),
                 obj.str()?
             ))),
@@ -108,17 +163,14 @@ fn toml_value(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
         let mut t = toml::Table::new();
         for (k, v) in d.iter() {
             let k: String = k.extract().map_err(|_| {
-                PyTypeError::new_err(format!("`{}`: dict keys must be str", name()))
+                PyTypeError::new_err(format!("{what}: `{}`: dict keys must be str", name()))
             })?;
             let sub = if key.is_empty() {
                 k.clone()
             } else {
                 format!("{key}.{k}")
             };
-            if v.is_none() {
-                continue; // an absent optional key
-            }
-            t.insert(k, toml_value(&v, &sub)?);
+            t.insert(k, toml_value(&v, what, &sub)?);
         }
         return Ok(toml::Value::Table(t));
     }
@@ -126,7 +178,7 @@ fn toml_value(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
         let items: Vec<Bound<'_, PyAny>> = obj.try_iter()?.collect::<PyResult<_>>()?;
         let mut a = Vec::with_capacity(items.len());
         for (i, v) in items.iter().enumerate() {
-            a.push(toml_value(v, &format!("{}[{i}]", name()))?);
+            a.push(toml_value(v, what, &format!("{}[{i}]", name()))?);
         }
         return Ok(toml::Value::Array(a));
     }
@@ -136,28 +188,32 @@ fn toml_value(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
     }
     // numpy scalars and arrays
     if obj.hasattr("tolist")? {
-        return toml_value(&obj.call_method0("tolist")?, key);
+        return toml_value(&obj.call_method0("tolist")?, what, key);
     }
     if let Ok(x) = obj.extract::<f64>() {
         return Ok(toml::Value::Float(x));
     }
     Err(PyTypeError::new_err(format!(
-        "`{}`: unsupported type {} (expected dict, list, str, bool, int or float)",
+        "{what}: `{}`: unsupported type {} (expected dict, list, str, bool, int or float)",
         name(),
         obj.get_type().name()?
     )))
 }
 
 /// A config given as a TOML file path (str or os.PathLike) or as a dict in the file's
-/// shape; `what` names a dict in messages (`<scenario>`). Returns the config and the file
-/// name its messages use. Both go through the CLI's reader (`parse_toml`: unknown keys,
-/// wrong types, key paths, size limits).
+/// shape; `what` names the call and argument in messages (`simulate(scenario)`). Returns
+/// the config and the file name its messages use. Both go through the CLI's reader
+/// (`parse_toml`: unknown keys, wrong types, key paths, size limits).
 pub(crate) fn load_config<T: DeserializeOwned>(
     obj: &Bound<'_, PyAny>,
     what: &str,
 ) -> PyResult<(T, PathBuf)> {
     if obj.is_instance_of::<PyString>() || obj.hasattr("__fspath__")? {
-        let file: PathBuf = obj.extract()?;
+        let file = config_path(
+            obj,
+            what,
+            "pass a dict of the file's shape (tomllib.loads(text) reads TOML text) or the path of a TOML file",
+        )?;
         let cfg = sway_tasks::config_file::load_toml(&file).map_err(py_err)?;
         return Ok((cfg, file));
     }
@@ -168,13 +224,30 @@ pub(crate) fn load_config<T: DeserializeOwned>(
         )));
     }
     let file = PathBuf::from(what);
-    let cfg = sway_tasks::config_file::parse_table(document(obj, what)?, &file).map_err(py_err)?;
+    let cfg =
+        sway_tasks::config_file::parse_table(document(obj, what)?, &file).map_err(dict_err)?;
     Ok((cfg, file))
+}
+
+/// The path a str or os.PathLike names; a str that is no file but looks like TOML text (a
+/// line break, `key = value` or a `[table]`) is a `ValueError` with `hint`.
+fn config_path(obj: &Bound<'_, PyAny>, what: &str, hint: &str) -> PyResult<PathBuf> {
+    let file: PathBuf = obj.extract()?;
+    let text = file.to_string_lossy();
+    let looks_like_toml =
+        text.contains('\n') || text.contains('=') || text.trim_start().starts_with('[');
+    if looks_like_toml && !file.exists() {
+        let first = text.lines().next().unwrap_or_default();
+        return Err(PyValueError::new_err(format!(
+            "{what}: \"{first}…\" looks like TOML text, not a path: {hint}"
+        )));
+    }
+    Ok(file)
 }
 
 /// The TOML document of a config dict (its keys strings, its values TOML's types).
 fn document(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<toml::Table> {
-    match toml_value(obj, "")? {
+    match toml_value(obj, what, "")? {
         toml::Value::Table(t) => Ok(t),
         _ => Err(PyTypeError::new_err(format!("{what}: expected a dict"))),
     }
@@ -207,7 +280,7 @@ pub(crate) fn load_config_over<T: Serialize + DeserializeOwned>(
     let mut table = toml::Table::try_from(base).map_err(|e| internal(&e))?;
     merge(&mut table, document(obj, what)?);
     let file = PathBuf::from(what);
-    let cfg = sway_tasks::config_file::parse_table(table, &file).map_err(py_err)?;
+    let cfg = sway_tasks::config_file::parse_table(table, &file).map_err(dict_err)?;
     Ok((cfg, file))
 }
 
@@ -385,6 +458,15 @@ fn field_name(i: usize) -> String {
     PARAMETERS[i].0.replace('.', "_")
 }
 
+/// A vehicle key path in Python's terms: the field name of a key of [`PARAMETERS`]
+/// (`trailer.mass` → `trailer_mass`) followed by `suffix`; any other key unchanged.
+fn python_field(key: &str, suffix: &str) -> String {
+    match PARAMETERS.iter().position(|p| p.0 == key) {
+        Some(i) => format!("{}{suffix}", field_name(i)),
+        None => key.to_string(),
+    }
+}
+
 fn field_index(name: &str) -> Option<usize> {
     (0..PARAMETERS.len()).find(|&i| field_name(i) == name)
 }
@@ -499,16 +581,16 @@ impl Vehicle {
                     known.join(", ")
                 )));
             };
-            if v.is_instance_of::<PyBool>() {
+            let unit = PARAMETERS[i].2;
+            if v.is_instance_of::<PyBool>() || v.is_instance_of::<PyString>() {
                 return Err(PyTypeError::new_err(format!(
-                    "{what}: `{}`: expected a number, got bool",
-                    PARAMETERS[i].0
+                    "{what}: `{k}`: expected a number [{unit}], got {}",
+                    v.get_type().name()?
                 )));
             }
             let x: f64 = v.extract().map_err(|_| {
                 PyTypeError::new_err(format!(
-                    "{what}: `{}`: expected a number, got {}",
-                    PARAMETERS[i].0,
+                    "{what}: `{k}`: expected a number [{unit}], got {}",
                     v.get_type()
                         .name()
                         .map(|n| n.to_string())
@@ -520,40 +602,45 @@ impl Vehicle {
         Ok(out)
     }
 
-    fn with_fields(
-        base: VehicleParams,
-        fields: Option<&Bound<'_, PyDict>>,
-        require_all: bool,
-        what: &str,
-    ) -> PyResult<Self> {
-        let mut params = base;
-        let mut given = vec![false; PARAMETERS.len()];
-        for (i, x) in Self::changes(fields, what)? {
-            params = params.with(i, x);
-            given[i] = true;
-        }
-        if require_all {
-            // gravity has a default, as in a vehicle file
-            let missing: Vec<String> = (0..PARAMETERS.len())
-                .filter(|&i| !given[i] && PARAMETERS[i].0 != "gravity")
-                .map(field_name)
-                .collect();
-            if !missing.is_empty() {
-                return Err(PyTypeError::new_err(format!(
-                    "{what}: missing field(s) {} (Vehicle.table1().replace(...) starts from Table I)",
-                    missing.join(", ")
-                )));
+    /// A copy with `changes` (parameter index, value), validated: [`Vehicle::replace`]'s
+    /// rules; `what` names the call and `suffix` follows a field's name in messages
+    /// (`[3]` for an array's entry).
+    fn with_changes(&self, changes: &[(usize, f64)], what: &str, suffix: &str) -> PyResult<Self> {
+        let python_terms = |e: TaskError| py_err(renamed(e, what, |k| python_field(k, suffix)));
+        if self.variant().is_none() {
+            let mut params = self.loaded.params;
+            for &(i, x) in changes {
+                params = params.with(i, x);
             }
+            let model = build_model(params, Path::new(what)).map_err(|e| python_terms(e.into()))?;
+            return Ok(Self::paper(params, model));
         }
-        let model = build_model(params, Path::new(what)).map_err(py_err)?;
-        Ok(Self::paper(params, model))
+        let mut spec = self.loaded.spec.clone();
+        for &(i, x) in changes {
+            spec = spec
+                .with_parameter(i, x)
+                .map_err(|_| self.not_in_variant(i, what))?;
+        }
+        let loaded = sway_tasks::config_file::vehicle_from_spec(spec, Path::new(what))
+            .map_err(python_terms)?;
+        Ok(Self { loaded })
+    }
+
+    /// Parameter `index`: [`Vehicle`]'s attribute of that field.
+    fn field(&self, index: usize) -> PyResult<f64> {
+        if self.variant().is_none() {
+            return Ok(self.loaded.params.get(index));
+        }
+        spec_parameter(&self.loaded.spec, index)
+            .ok_or_else(|| self.not_in_variant(index, "Vehicle"))
     }
 
     /// The `ValueError` of a paper-form field that a vehicle with model variants lacks.
     fn not_in_variant(&self, index: usize, what: &str) -> PyErr {
         PyValueError::new_err(format!(
-            "{what}: `{}` is not a key of this vehicle: its units' axles are lists (`axles`); \
+            "{what}: `{}`: `{}` is not a key of this vehicle: its units' axles are lists (`axles`); \
              the vehicle has model variants (first: `{}`), change its file (to_toml()) instead",
+            field_name(index),
             PARAMETERS[index].0,
             self.variant().unwrap_or_default()
         ))
@@ -567,7 +654,20 @@ impl Vehicle {
     #[new]
     #[pyo3(signature = (**fields))]
     fn new(fields: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        Self::with_fields(VehicleParams::default(), fields, true, "Vehicle()")
+        let what = "Vehicle()";
+        let changes = Self::changes(fields, what)?;
+        // gravity has a default, as in a vehicle file
+        let missing: Vec<String> = (0..PARAMETERS.len())
+            .filter(|&i| PARAMETERS[i].0 != "gravity" && !changes.iter().any(|c| c.0 == i))
+            .map(field_name)
+            .collect();
+        if !missing.is_empty() {
+            return Err(PyTypeError::new_err(format!(
+                "{what}: missing field(s) {} (Vehicle.table1().replace(...) starts from Table I)",
+                missing.join(", ")
+            )));
+        }
+        Self::table1()?.with_changes(&changes, what, "")
     }
 
     /// The vehicle of paper Table I (μ0 = 0.9, μ = 0.6, g = 9.81 m/s²).
@@ -581,7 +681,19 @@ impl Vehicle {
     /// A vehicle file (the form of `configs/vehicle.toml`, or with model variants as in
     /// `configs/vehicles/*.toml`), with the CLI's checks (`--vehicle FILE`).
     #[staticmethod]
-    fn from_toml(path: PathBuf) -> PyResult<Self> {
+    fn from_toml(path: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let what = "Vehicle.from_toml()";
+        if !(path.is_instance_of::<PyString>() || path.hasattr("__fspath__")?) {
+            return Err(PyTypeError::new_err(format!(
+                "{what}: path: expected a str or os.PathLike, got {}",
+                path.get_type().name()?
+            )));
+        }
+        let path = config_path(
+            path,
+            what,
+            "Vehicle.from_toml_str(text) reads a vehicle file's text",
+        )?;
         let loaded = sway_tasks::config_file::load_vehicle_spec(&path).map_err(py_err)?;
         Ok(Self { loaded })
     }
@@ -602,18 +714,7 @@ impl Vehicle {
     #[pyo3(signature = (**changes))]
     fn replace(&self, changes: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
         let what = "Vehicle.replace()";
-        if self.variant().is_none() {
-            return Self::with_fields(self.loaded.params, changes, false, what);
-        }
-        let mut spec = self.loaded.spec.clone();
-        for (i, x) in Self::changes(changes, what)? {
-            spec = spec
-                .with_parameter(i, x)
-                .map_err(|_| self.not_in_variant(i, what))?;
-        }
-        let loaded =
-            sway_tasks::config_file::vehicle_from_spec(spec, Path::new(what)).map_err(py_err)?;
-        Ok(Self { loaded })
+        self.with_changes(&Self::changes(changes, what)?, what, "")
     }
 
     /// The field names, in Table I's order.
@@ -667,16 +768,97 @@ impl Vehicle {
         text.map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
 
-    fn __getattr__(&self, name: &str) -> PyResult<f64> {
-        let Some(i) = field_index(name) else {
-            return Err(pyo3::exceptions::PyAttributeError::new_err(format!(
-                "'Vehicle' object has no attribute '{name}'"
-            )));
-        };
-        if self.variant().is_none() {
-            return Ok(self.loaded.params.get(i));
-        }
-        spec_parameter(&self.loaded.spec, i).ok_or_else(|| self.not_in_variant(i, "Vehicle"))
+    // the 15 fields of Table I, read-only, in its order (indices of `PARAMETERS`); on a
+    // vehicle with model variants a key its file lacks raises ValueError
+
+    /// m1: the tractor's mass [kg]
+    #[getter]
+    fn tractor_mass(&self) -> PyResult<f64> {
+        self.field(0)
+    }
+
+    /// J1: the tractor's yaw moment of inertia about its centre of gravity [kg m²]
+    #[getter]
+    fn tractor_yaw_inertia(&self) -> PyResult<f64> {
+        self.field(1)
+    }
+
+    /// f: hitch to the tractor's front axle [m]
+    #[getter]
+    fn tractor_front_axle(&self) -> PyResult<f64> {
+        self.field(2)
+    }
+
+    /// d: hitch to the tractor's centre of gravity [m]
+    #[getter]
+    fn tractor_cog(&self) -> PyResult<f64> {
+        self.field(3)
+    }
+
+    /// c: hitch to the tractor's rear axle [m]
+    #[getter]
+    fn tractor_rear_axle(&self) -> PyResult<f64> {
+        self.field(4)
+    }
+
+    /// C_F: cornering stiffness of the tractor's front axle [N/rad]
+    #[getter]
+    fn tractor_front_cornering_stiffness(&self) -> PyResult<f64> {
+        self.field(5)
+    }
+
+    /// C_R: cornering stiffness of the tractor's rear axle [N/rad]
+    #[getter]
+    fn tractor_rear_cornering_stiffness(&self) -> PyResult<f64> {
+        self.field(6)
+    }
+
+    /// m2: the trailer's mass [kg]
+    #[getter]
+    fn trailer_mass(&self) -> PyResult<f64> {
+        self.field(7)
+    }
+
+    /// J2: the trailer's yaw moment of inertia about its centre of gravity [kg m²]
+    #[getter]
+    fn trailer_yaw_inertia(&self) -> PyResult<f64> {
+        self.field(8)
+    }
+
+    /// h: hitch to the trailer's centre of gravity [m]
+    #[getter]
+    fn trailer_cog(&self) -> PyResult<f64> {
+        self.field(9)
+    }
+
+    /// l: hitch to the trailer's axle [m]
+    #[getter]
+    fn trailer_axle(&self) -> PyResult<f64> {
+        self.field(10)
+    }
+
+    /// C_T: cornering stiffness of the trailer's axle [N/rad]
+    #[getter]
+    fn trailer_cornering_stiffness(&self) -> PyResult<f64> {
+        self.field(11)
+    }
+
+    /// μ0: static friction coefficient of the tyres [-]
+    #[getter]
+    fn friction_mu_static(&self) -> PyResult<f64> {
+        self.field(12)
+    }
+
+    /// μ: sliding friction coefficient of the tyres [-]
+    #[getter]
+    fn friction_mu_dynamic(&self) -> PyResult<f64> {
+        self.field(13)
+    }
+
+    /// g: gravitational acceleration [m/s²]
+    #[getter]
+    fn gravity(&self) -> PyResult<f64> {
+        self.field(14)
     }
 
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
@@ -808,6 +990,93 @@ fn critical_outcome(
     }
 }
 
+/// A V_crit search as the Python arguments give it: the loop (gain, delay; None for the
+/// open loop), the search settings and the estimated cost of one search \[s\].
+#[derive(Debug, Clone, Copy)]
+struct Search {
+    loop_: Option<(f64, f64)>,
+    settings: SearchConfig,
+    cost_s: f64,
+}
+
+impl Search {
+    /// The search of `critical_speed()`'s arguments, each checked under its Python name.
+    fn new(
+        gain: Option<f64>,
+        delay: Option<f64>,
+        v_min_mps: f64,
+        v_max_mps: f64,
+        scan_step_mps: f64,
+        tolerance_mps: f64,
+    ) -> PyResult<Self> {
+        let file = Path::new("critical_speed()");
+        let check = |ok: bool, key: &str, problem: String| {
+            sway::config::ensure(ok, file, key, || problem).map_err(py_err)
+        };
+        check(
+            v_min_mps.is_finite() && v_min_mps > 0.0,
+            "v_min_mps",
+            format!("expected a speed > 0 m/s, got {v_min_mps}"),
+        )?;
+        check(
+            v_max_mps.is_finite() && v_max_mps > v_min_mps,
+            "v_max_mps",
+            format!("expected a finite speed above v_min_mps = {v_min_mps} m/s, got {v_max_mps}"),
+        )?;
+        check(
+            scan_step_mps.is_finite() && scan_step_mps > 0.0,
+            "scan_step_mps",
+            format!("must be positive, got {scan_step_mps}"),
+        )?;
+        let scan_points = (v_max_mps - v_min_mps) / scan_step_mps;
+        sway_tasks::limits::bound(
+            file,
+            "scan_step_mps",
+            scan_points,
+            sway::config::MAX_GRID_POINTS as f64,
+            || format!("{scan_points:.3e} scan points from v_min_mps to v_max_mps, one eigenvalue problem each; use a larger step"),
+        )
+        .map_err(py_err)?;
+        check(
+            tolerance_mps > 0.0 && tolerance_mps < 1e-2,
+            "tolerance_mps",
+            format!("expected 0 < tolerance < 0.01 m/s, got {tolerance_mps}"),
+        )?;
+        let loop_ = match (gain, delay) {
+            (Some(g), Some(t)) => {
+                check(
+                    g.is_finite(),
+                    "controller.gain_s",
+                    format!("expected a finite gain [s], got {g}"),
+                )?;
+                check(
+                    t.is_finite() && t >= 0.0,
+                    "controller.delay_s",
+                    format!("expected a delay ≥ 0 s, got {t}"),
+                )?;
+                Some((g, t))
+            }
+            _ => None,
+        };
+        // ≈ 10 µs per open-loop eigenvalue problem, ≈ 1 ms per closed-loop root count
+        let per_point = if loop_.is_some() { 1e-3 } else { 1e-5 };
+        Ok(Self {
+            loop_,
+            settings: SearchConfig {
+                v_min_mps,
+                v_max_mps,
+                scan_step_mps,
+                tolerance_mps,
+            },
+            cost_s: scan_points * per_point,
+        })
+    }
+
+    fn run(&self, model: &AnyVehicleModel) -> Result<CriticalOutcome, SwayError> {
+        critical_outcome(model, self.loop_, self.settings)
+    }
+}
+
 /// critical_speed(vehicle, gain, delay, v_min_mps, v_max_mps, scan_step_mps,
 /// tolerance_mps) → JSON {reason, …}; gain/delay None for the open loop.
 #[pyfunction]
@@ -822,63 +1091,124 @@ fn critical_speed(
     scan_step_mps: f64,
     tolerance_mps: f64,
 ) -> PyResult<String> {
-    let file = Path::new("critical_speed()");
-    let check = |ok: bool, key: &str, problem: String| {
-        sway::config::ensure(ok, file, key, || problem).map_err(py_err)
-    };
-    check(
-        v_min_mps.is_finite() && v_min_mps > 0.0 && v_max_mps.is_finite() && v_max_mps > v_min_mps,
-        "v_min_mps",
-        format!("expected 0 < v_min_mps < v_max_mps, got {v_min_mps} and {v_max_mps}"),
-    )?;
-    check(
-        scan_step_mps.is_finite() && scan_step_mps > 0.0,
-        "scan_step_mps",
-        format!("must be positive, got {scan_step_mps}"),
-    )?;
-    let scan_points = (v_max_mps - v_min_mps) / scan_step_mps;
-    sway_tasks::limits::bound(
-        file,
-        "scan_step_mps",
-        scan_points,
-        sway::config::MAX_GRID_POINTS as f64,
-        || format!("{scan_points:.3e} scan points from v_min_mps to v_max_mps, one eigenvalue problem each; use a larger step"),
-    )
-    .map_err(py_err)?;
-    check(
-        tolerance_mps > 0.0 && tolerance_mps < 1e-2,
-        "tolerance_mps",
-        format!("expected 0 < tolerance < 0.01 m/s, got {tolerance_mps}"),
-    )?;
-    let loop_ = match (gain, delay) {
-        (Some(g), Some(t)) => {
-            check(
-                g.is_finite(),
-                "controller.gain_s",
-                format!("expected a finite gain [s], got {g}"),
-            )?;
-            check(
-                t.is_finite() && t >= 0.0,
-                "controller.delay_s",
-                format!("expected a delay ≥ 0 s, got {t}"),
-            )?;
-            Some((g, t))
-        }
-        _ => None,
-    };
-    let model = vehicle.plant().clone();
-    let search = SearchConfig {
+    let search = Search::new(
+        gain,
+        delay,
         v_min_mps,
         v_max_mps,
         scan_step_mps,
         tolerance_mps,
-    };
-    // ≈ 10 µs per open-loop eigenvalue problem, ≈ 1 ms per closed-loop root count
-    let per_point = if loop_.is_some() { 1e-3 } else { 1e-5 };
-    let r = interruptible(py, scan_points * per_point, None, move |_| {
-        critical_outcome(&model, loop_, search)
-    })?;
+    )?;
+    let model = vehicle.plant().clone();
+    let r = interruptible(py, search.cost_s, None, move |_| search.run(&model))?;
     to_json(&r.map_err(py_err)?)
+}
+
+/// critical_speeds(vehicle, field, values, gain, delay, …) → (arrays, reasons): the search
+/// of [`critical_speed`] on the vehicle with `field` set to each of `values`
+/// (`Vehicle.replace`), in parallel; per value V_crit, the Hopf frequency and ω (NaN
+/// without a crossing), the speed stable up to (NaN when unstable at v_min) and the
+/// outcome's reason. Each value's numbers are those of the scalar call, bit for bit.
+#[pyfunction]
+#[pyo3(signature = (vehicle, field, values, gain, delay, v_min_mps, v_max_mps, scan_step_mps, tolerance_mps, progress = None))]
+fn critical_speeds<'py>(
+    py: Python<'py>,
+    vehicle: &Vehicle,
+    field: &str,
+    values: numpy::PyReadonlyArray1<'py, f64>,
+    gain: Option<f64>,
+    delay: Option<f64>,
+    v_min_mps: f64,
+    v_max_mps: f64,
+    scan_step_mps: f64,
+    tolerance_mps: f64,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, Vec<&'static str>)> {
+    let what = "critical_speed()";
+    let index = field_index(field).ok_or_else(|| {
+        PyTypeError::new_err(format!(
+            "{what}: unknown field `{field}`; fields: {}",
+            Vehicle::fields().join(", ")
+        ))
+    })?;
+    let search = Search::new(
+        gain,
+        delay,
+        v_min_mps,
+        v_max_mps,
+        scan_step_mps,
+        tolerance_mps,
+    )?;
+    let values = values.as_slice()?.to_vec();
+    let plants: Vec<AnyVehicleModel> = values
+        .iter()
+        .enumerate()
+        .map(|(k, &x)| {
+            Ok(vehicle
+                .with_changes(&[(index, x)], what, &format!("[{k}]"))?
+                .loaded
+                .plant)
+        })
+        .collect::<PyResult<_>>()?;
+    let cost = search.cost_s * plants.len() as f64 / get_num_threads() as f64;
+    let outcomes = interruptible(py, cost, progress, move |progress| {
+        progress.start("critical speeds", plants.len() as u64);
+        let r = sway::parallel::try_map(&plants, sway::parallel::Split::Adaptive, &|k, m| {
+            let r = search.run(m).map_err(|e| (k, e));
+            progress.advance(1);
+            r
+        });
+        progress.finish();
+        r
+    })?
+    .map_err(|(k, e)| {
+        let e = TaskError::from(e);
+        exception(&e)(format!("{what}: `{field}[{k}]` = {}: {e}", values[k]))
+    })?;
+    let n = outcomes.len();
+    let (mut v_crit, mut hz, mut omega, mut up_to) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    let mut reasons = Vec::with_capacity(n);
+    for o in outcomes {
+        let (v, f, w, u, reason) = match o {
+            CriticalOutcome::Crossing {
+                v_crit_mps,
+                hopf_frequency_hz,
+                hopf_omega_rad_s,
+            } => (
+                v_crit_mps,
+                hopf_frequency_hz,
+                hopf_omega_rad_s,
+                v_crit_mps,
+                "crossing",
+            ),
+            CriticalOutcome::StableUpToMax { stable_up_to_mps } => (
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                stable_up_to_mps,
+                "stable_up_to_max",
+            ),
+            CriticalOutcome::UnstableAtMin { .. } => {
+                (f64::NAN, f64::NAN, f64::NAN, f64::NAN, "unstable_at_min")
+            }
+        };
+        v_crit.push(v);
+        hz.push(f);
+        omega.push(w);
+        up_to.push(u);
+        reasons.push(reason);
+    }
+    let d = PyDict::new(py);
+    d.set_item("v_crit_mps", v_crit.into_pyarray(py))?;
+    d.set_item("hopf_frequency_hz", hz.into_pyarray(py))?;
+    d.set_item("hopf_omega_rad_s", omega.into_pyarray(py))?;
+    d.set_item("stable_up_to_mps", up_to.into_pyarray(py))?;
+    Ok((d, reasons))
 }
 
 // ---------------------------------------------------------------------------------------
@@ -896,16 +1226,23 @@ fn roots<'py>(
     delay: f64,
     count: i64,
 ) -> PyResult<Bound<'py, PyArray1<num_complex::Complex64>>> {
-    let count = if count < 0 {
-        return Err(py_err(SwayError::config(
-            "command line",
-            "--count",
-            format!("expected at least 1, got {count}"),
-        )));
-    } else {
-        count as usize
-    };
-    sway_tasks::tasks::roots::validate_args(speed, gain, delay, count).map_err(py_err)?;
+    let what = "roots()";
+    let count = usize::try_from(count)
+        .ok()
+        .filter(|&c| c > 0)
+        .ok_or_else(|| {
+            py_err(SwayError::config(
+                what,
+                "count",
+                format!("expected at least 1, got {count}"),
+            ))
+        })?;
+    // the CLI's checks, its options named as this function's arguments (`--speed` → speed)
+    sway_tasks::tasks::roots::validate_args(speed, gain, delay, count).map_err(|e| {
+        py_err(renamed(e, what, |k| {
+            k.trim_start_matches("--").replace('-', "_")
+        }))
+    })?;
     let model = vehicle.plant().clone();
     let r = interruptible(py, 0.0, None, move |_| {
         sway_studies::roots::compute(&model, &RootsConfig::paper(speed, gain, delay, count), None)
@@ -936,7 +1273,7 @@ fn simulate<'py>(
     use sway_tasks::tasks::Prepared;
 
     let (mut config, file): (ScenarioConfig<SpeedSpec>, PathBuf) =
-        load_config(scenario, "<scenario>")?;
+        load_config(scenario, "simulate(scenario)")?;
     config.load_named_files(&file).map_err(py_err)?;
     config.check(&file).map_err(py_err)?;
     let prepared = Configured { file, config };
@@ -991,9 +1328,12 @@ fn simulate<'py>(
 #[pyfunction]
 fn to_toml(config: &Bound<'_, PyAny>) -> PyResult<String> {
     if !config.is_instance_of::<PyDict>() {
-        return Err(PyTypeError::new_err("to_toml: expected a dict"));
+        return Err(PyTypeError::new_err(format!(
+            "to_toml(): config: expected a dict, got {}",
+            config.get_type().name()?
+        )));
     }
-    toml::to_string(&toml_value(config, "")?)
+    toml::to_string(&toml_value(config, "to_toml()", "")?)
         .map_err(|e| PyValueError::new_err(format!("not representable as TOML: {e}")))
 }
 
@@ -1066,7 +1406,9 @@ fn get_num_threads() -> usize {
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Vehicle>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(critical_speed, m)?)?;
+    m.add_function(wrap_pyfunction!(critical_speeds, m)?)?;
     m.add_function(wrap_pyfunction!(roots, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(set_num_threads, m)?)?;

@@ -20,6 +20,17 @@ use sway_tasks::tasks::sweep::{header, prepare_run};
 
 use crate::{Vehicle, interruptible, load_config, py_err};
 
+/// The result fields of the kinds that are text (enums and reasons: `outcome`, `class`, …
+/// of a simulation's metrics, `criticality` and `reason` of the Hopf and fold speeds); every
+/// other result field is a number or null.
+const TEXT_COLUMNS: [&str; 5] = [
+    "outcome",
+    "loss_of_control_condition",
+    "class",
+    "criticality",
+    "reason",
+];
+
 /// A column: numbers (null → NaN) or text (null → None).
 enum Column {
     Numbers(Vec<f64>),
@@ -71,7 +82,7 @@ fn sweep<'py>(
     config: &Bound<'py, PyAny>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, String, Bound<'py, PyDict>, Bound<'py, PyList>)> {
-    let (mut spec, file): (SweepConfig<SpeedSpec>, PathBuf) = load_config(config, "<sweep>")?;
+    let (mut spec, file): (SweepConfig<SpeedSpec>, PathBuf) = load_config(config, "sweep(config)")?;
     spec.load_named_files(&file).map_err(py_err)?;
     spec.check(&file).map_err(py_err)?;
     let prepared = Configured { file, config: spec };
@@ -156,8 +167,10 @@ fn sweep<'py>(
                 },
             })
             .collect();
-        let numeric = values.iter().all(|v| v.is_number() || v.is_null())
-            && values.iter().any(|v| v.is_number());
+        // numbers by the column's type, not its values: a column of numbers that are all
+        // absent (no loss of control: no `loss_of_control_time_s`) is still float64 NaN
+        let numeric = !TEXT_COLUMNS.contains(&name.as_str())
+            && values.iter().all(|v| v.is_number() || v.is_null());
         columns.push(if numeric {
             Column::Numbers(
                 values

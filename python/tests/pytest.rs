@@ -2,8 +2,8 @@
 //! `trailer_sway` together from this build and runs its pytest suite
 //! (`python/tests/test_*.py`, which also runs `python/examples/*.py`) in a virtual
 //! environment under the target directory (created once: `python3 -m venv`, without a pip
-//! of its own when python3's pip can install into it with `--python`; then numpy and
-//! pytest from PyPI).
+//! of its own when python3's pip can install into it with `--python`; then numpy, pytest,
+//! matplotlib and pandas from PyPI).
 //!
 //! The package is what `pip install ./python` installs: the Python sources of
 //! `python/trailer_sway/` and the extension module `_native`. The extension is the cdylib
@@ -14,7 +14,10 @@
 //! (maturin, dev profile) instead. The suite compares its numbers with the `xtask` binary
 //! of the same build (`TRAILER_SWAY_XTASK`) and with the committed `results/`. Without a
 //! usable `python3` (with `venv` and `pip`) the test fails and says what to install;
-//! `TRAILER_SWAY_PYTHON` names another interpreter.
+//! `TRAILER_SWAY_PYTHON` names another interpreter. The venv also gets matplotlib and
+//! pandas, the package's optional dependencies, so that `plot()` and `to_pandas()` are
+//! tested (their tests skip where they are not installed: `pytest python/tests` in an
+//! environment of one's own).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -45,7 +48,8 @@ fn pip_install_requested() -> bool {
 fn venv(target: &Path) -> PathBuf {
     let dir = target.join("python-venv");
     let py = dir.join("bin").join("python");
-    let mut tools = vec!["pytest", "numpy"];
+    // matplotlib and pandas: plot() and to_pandas() (optional for users, tested here)
+    let mut tools = vec!["pytest", "numpy", "matplotlib", "pandas"];
     if pip_install_requested() {
         tools.push("maturin>=1.16,<2");
     }

@@ -75,10 +75,12 @@ def test_stability_chart_limits_are_the_clis(table1, tmp_path):
     expected = cli_error("fig4a", "--config", f, "--check")
     with pytest.raises(ValueError) as e:
         ts.stability_chart(table1, **big)
-    assert str(e.value).split(": ", 1)[1] == expected.split(": ", 1)[1]
-    with pytest.raises(ValueError, match="speed.cells"):
+    # the same problem, under the keyword argument that set the file's `speed.cells`
+    assert str(e.value).split(": ", 2)[2] == expected.split(": ", 2)[2]
+    assert "`speed.cells`" in expected and "`speed_cells`" in str(e.value)
+    with pytest.raises(ValueError, match="`speed_cells`"):
         ts.stability_chart(table1, speed_cells=1)
-    with pytest.raises(ValueError, match=r"delays_s\[1\]"):
+    with pytest.raises(ValueError, match=r"`delays\[1\]`"):
         ts.stability_chart(table1, delays=[0.0, float("nan")], speed_cells=4, gain_cells=4)
 
 

@@ -77,7 +77,7 @@ def test_analyse_recording_reads_a_known_damping_and_matches_the_cli(tmp_path):
     "mutate, error, text",
     [
         (lambda t, s: (t, {**s, "hitch_angle": np.where(np.arange(len(t)) == 7, np.nan, s["hitch_angle"])}), ValueError, "row 7: signals['hitch_angle'] is not a finite number"),
-        (lambda t, s: (np.where(np.arange(len(t)) == 9, 0.0, t), s), ValueError, "row 9: time does not increase"),
+        (lambda t, s: (np.where(np.arange(len(t)) == 9, 0.0, t), s), ValueError, "row 9: t does not increase"),
         (lambda t, s: (t, {k: v for k, v in s.items() if k != "steering_angle"}), ValueError, "missing 'steering_angle'"),
         (lambda t, s: (t, {"steering_angle": s["steering_angle"]}), ValueError, "at least one of"),
         (lambda t, s: (t, {**s, "theta": s["hitch_angle"]}), ValueError, "unknown key"),

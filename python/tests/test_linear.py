@@ -98,17 +98,20 @@ def test_roots_are_the_clis(table1, speed, gain, delay, count):
     np.testing.assert_array_equal(r, cli)
 
 
-def test_roots_bad_input_has_the_cli_message(table1):
-    for flags, kwargs in [
-        (("--speed", "0", "--gain", "0.1", "--delay", "0.2"), dict(speed=0.0, gain=0.1, delay=0.2)),
-        (("--speed", "35", "--gain", "0.1", "--delay=-0.2"), dict(speed=35.0, gain=0.1, delay=-0.2)),
-        (("--speed", "35", "--gain", "0.1", "--delay", "0.2", "--count", "201"), dict(speed=35.0, gain=0.1, delay=0.2, count=201)),
+def test_roots_bad_input_has_the_clis_problem_in_pythons_terms(table1):
+    # reference: the message `cargo xtask roots … --check` prints, its option (`--speed`)
+    # named as the Python argument (`speed`) and the call (`roots()`) as the source
+    for flags, kwargs, argument in [
+        (("--speed", "0", "--gain", "0.1", "--delay", "0.2"), dict(speed=0.0, gain=0.1, delay=0.2), "speed"),
+        (("--speed", "35", "--gain", "0.1", "--delay=-0.2"), dict(speed=35.0, gain=0.1, delay=-0.2), "delay"),
+        (("--speed", "35", "--gain", "0.1", "--delay", "0.2", "--count", "201"), dict(speed=35.0, gain=0.1, delay=0.2, count=201), "count"),
     ]:
         expected = cli_error("roots", *flags, "--check")
+        assert expected.startswith(f"command line: `--{argument}`: ")
         with pytest.raises(ValueError) as e:
             ts.roots(table1, **kwargs)
-        assert str(e.value) == expected
-    with pytest.raises(ValueError, match="--gain"):
+        assert str(e.value) == expected.replace(f"command line: `--{argument}`", f"roots(): `{argument}`")
+    with pytest.raises(ValueError, match="roots\\(\\): `gain`: expected a finite gain"):
         ts.roots(table1, 35.0, math.nan, 0.2)
     with pytest.raises(TypeError):
         ts.roots(table1, 35.0, 0.1, 0.2, count=2.5)

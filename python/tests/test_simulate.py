@@ -105,7 +105,7 @@ def test_bad_scenarios_raise_the_cli_message(table1, tmp_path, replace):
 
 def test_bad_dicts(table1):
     base = {"speed": {"kind": "constant", "speed_mps": 33.0}, "initial": {"kind": "state", "theta0_deg": 2.0}}
-    with pytest.raises(ValueError, match=r"<scenario>: `initial.theta0_deg`: expected \|θ\(0\)\| < 90 deg, got NaN"):
+    with pytest.raises(ValueError, match=r"simulate\(scenario\): `initial.theta0_deg`: expected \|θ\(0\)\| < 90 deg, got NaN"):
         ts.simulate(table1, {**base, "initial": {"kind": "state", "theta0_deg": math.nan}})
     with pytest.raises(ValueError, match="horizon_s"):
         ts.simulate(table1, {**base, "horizon_s": -1.0})

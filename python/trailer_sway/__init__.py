@@ -5,7 +5,8 @@ numbers as ``cargo xtask <task>``) and return numpy arrays:
 
 - :class:`Vehicle` — the car–trailer parameters (paper Table I), validated;
 - :func:`critical_speed` — V_crit of straight running (open loop or with the delayed
-  yaw-rate feedback), or the speed up to which it stays stable;
+  yaw-rate feedback), or the speed up to which it stays stable; over an array of one
+  vehicle field's values in parallel (:class:`CriticalSpeeds`);
 - :func:`roots` — the rightmost characteristic roots of eq. (13);
 - :func:`simulate` — one scenario (a dict in the TOML's shape, or a TOML file);
 - :func:`bifurcation_diagram` — equilibria, cycles, Hopf and fold points over V;
@@ -22,7 +23,11 @@ Ctrl-C: ``KeyboardInterrupt`` within a fraction of a second, once every thread o
 has stopped (nothing is returned or written, nothing keeps computing). They show their
 progress (``progress=``: a tqdm bar when tqdm is installed, or your callback
 ``progress(stage, done, total)``; see ``trailer_sway._progress``). Bad input raises
-``ValueError`` with the message ``cargo xtask`` prints for the same value.
+``ValueError`` (a value of the wrong type ``TypeError``) with the problem ``cargo xtask``
+states for the same value, naming the Python argument or dict key. Results print as a
+one-line summary, and have ``plot(ax=None)`` when matplotlib is installed (and
+``to_pandas()`` where they are tables, with pandas). The keys of a scenario are typed in
+:class:`Scenario`.
 """
 
 from __future__ import annotations
@@ -30,28 +35,40 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from . import _native, _progress
+from . import _native, _plot, _progress
 from ._progress import Progress
 from ._native import Vehicle, get_num_threads, set_num_threads, to_toml
+from ._scenario import Controller, InitialState, Scenario, SpeedProfile
+
+__version__: str = _native.__version__
 
 __all__ = [
+    "__version__",
     "Vehicle",
     "Progress",
     "CriticalSpeed",
+    "CriticalSpeeds",
     "critical_speed",
     "roots",
     "Simulation",
     "simulate",
+    "Scenario",
+    "SpeedProfile",
+    "Controller",
+    "InitialState",
     "BifurcationDiagram",
     "bifurcation_diagram",
     "StabilityChart",
+    "StabilityCharts",
     "stability_chart",
     "NonlinearChart",
+    "NonlinearCharts",
     "nonlinear_chart",
     "Table",
     "sweep",
@@ -76,8 +93,85 @@ def _vehicle(v: Optional[Vehicle]) -> Vehicle:
     if v is None:
         return Vehicle.table1()
     if not isinstance(v, Vehicle):
-        raise TypeError(f"expected a trailer_sway.Vehicle, got {type(v).__name__}")
+        raise TypeError(f"vehicle: expected a trailer_sway.Vehicle or None (Table I), got {_kind(v)}")
     return v
+
+
+# ---------------------------------------------------------------------------------------
+# arguments: numbers where numbers are expected, each named as the caller wrote it
+
+
+def _kind(x: Any) -> str:
+    """The type of ``x`` as a message names it."""
+    return "None" if x is None else type(x).__name__
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_))
+
+
+def _number(x: Any, name: str, unit: str) -> float:
+    """``x`` as a float; ``TypeError`` naming ``name`` for anything but a real number (a
+    str, a bool, None, a sequence). NaN and inf pass: the checks that follow name them."""
+    if not _is_number(x):
+        raise TypeError(f"{name}: expected a number [{unit}], got {_kind(x)}")
+    return float(x)
+
+
+def _optional_number(x: Any, name: str, unit: str) -> Optional[float]:
+    return None if x is None else _number(x, name, unit)
+
+
+def _int(x: Any, name: str) -> int:
+    """``x`` as an int (a Python or numpy integer, not a bool or a float)."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
+        raise TypeError(f"{name}: expected an int, got {_kind(x)}")
+    return int(x)
+
+
+def _numbers(x: Any, name: str, unit: str) -> list:
+    """A number or a sequence of numbers (list, tuple, 1-d array) as a list of floats; a
+    str is not a sequence of numbers (``TypeError``), each entry is checked as
+    ``name[i]``."""
+    if _is_number(x):
+        return [float(x)]
+    wrong = TypeError(f"{name}: expected a number or a sequence of numbers [{unit}], got {_kind(x)}")
+    if isinstance(x, (str, bytes, Mapping)) or x is None:
+        raise wrong
+    if isinstance(x, np.ndarray) and x.ndim != 1:
+        raise ValueError(f"{name}: expected a 1-d sequence, got an array of shape {x.shape}")
+    try:
+        items = list(x)
+    except TypeError:
+        raise wrong from None
+    return [_number(v, f"{name}[{i}]", unit) for i, v in enumerate(items)]
+
+
+def _bool(x: Any, name: str) -> bool:
+    if not isinstance(x, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, got {_kind(x)}")
+    return bool(x)
+
+
+def _mapping(x: Any, name: str, example: str) -> dict:
+    if not isinstance(x, Mapping):
+        raise TypeError(f"{name}: expected a dict like {example}, got {_kind(x)}")
+    return dict(x)
+
+
+def _renamed(e: Exception, keys: Mapping[str, str]) -> Exception:
+    """``e`` with the config key its message names (```speed.cells```) replaced by the
+    keyword argument that set it (```speed_cells```); an entry's index or sub-key is
+    kept (```delays_s[1]``` → ```delays[1]```)."""
+
+    def python(m: "re.Match[str]") -> str:
+        key = m.group(1)
+        for old, new in keys.items():
+            if key == old or key.startswith((old + "[", old + ".")):
+                return f"`{new}{key[len(old):]}`"
+        return m.group(0)
+
+    return type(e)(re.sub(r"`([^`]*)`", python, str(e), count=1))
 
 
 # ---------------------------------------------------------------------------------------
@@ -114,6 +208,104 @@ class CriticalSpeed:
     loss_of_stability: Optional[str] = None
     message: Optional[str] = None
 
+    @staticmethod
+    def _of(raw: Mapping[str, Any]) -> "CriticalSpeed":
+        """The outcome the native search returns (``reason`` and its numbers)."""
+        reason = raw["reason"]
+        if reason == "crossing":
+            v = raw["v_crit_mps"]
+            w = raw["hopf_omega_rad_s"]
+            kind = "divergence" if w == 0.0 else "hopf"
+            return CriticalSpeed(v, raw["hopf_frequency_hz"], w, v, reason, kind)
+        if reason == "stable_up_to_max":
+            up = raw["stable_up_to_mps"]
+            return CriticalSpeed(
+                None, None, None, up, reason, None,
+                f"straight running is stable at every speed up to {up:g} m/s (the maximum speed, v_max_mps)",
+            )
+        return CriticalSpeed(
+            None, None, None, None, reason, None,
+            f"straight running is already unstable at the lowest speed, {raw['v_min_mps']:g} m/s (v_min_mps)",
+        )
+
+
+@dataclass(frozen=True, repr=False)
+class CriticalSpeeds:
+    """:func:`critical_speed` over the values of one vehicle field (``critical_speed(v,
+    trailer_mass=np.linspace(900, 1500, 13))``), each value's search that of the scalar
+    call on ``vehicle.replace(field=value)``, bit for bit.
+
+    ``field`` (e.g. ``"trailer_mass"``) and its ``unit``; ``values`` the field's values;
+    float64 arrays ``v_crit_mps``, ``hopf_frequency_hz``, ``hopf_omega_rad_s`` (NaN where
+    there is no crossing) and ``stable_up_to_mps`` (NaN where already unstable at
+    v_min_mps); ``reason`` per value (``"crossing"``, ``"stable_up_to_max"``,
+    ``"unstable_at_min"``). ``cs[i]`` is value i's :class:`CriticalSpeed`; ``len(cs)``,
+    ``to_pandas()``, ``plot(ax=None)``.
+    """
+
+    field: str
+    unit: str
+    values: np.ndarray
+    v_crit_mps: np.ndarray
+    hopf_frequency_hz: np.ndarray
+    hopf_omega_rad_s: np.ndarray
+    stable_up_to_mps: np.ndarray
+    reason: np.ndarray
+    v_min_mps: float
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def __getitem__(self, i: int) -> CriticalSpeed:
+        raw = {
+            "reason": str(self.reason[i]),
+            "v_crit_mps": float(self.v_crit_mps[i]),
+            "hopf_frequency_hz": float(self.hopf_frequency_hz[i]),
+            "hopf_omega_rad_s": float(self.hopf_omega_rad_s[i]),
+            "stable_up_to_mps": float(self.stable_up_to_mps[i]),
+            "v_min_mps": self.v_min_mps,
+        }
+        return CriticalSpeed._of(raw)
+
+    def __repr__(self) -> str:
+        found = np.isfinite(self.v_crit_mps)
+        span = (
+            f"V_crit {np.nanmin(self.v_crit_mps):.2f} to {np.nanmax(self.v_crit_mps):.2f} m/s"
+            if found.any()
+            else "no crossing"
+        )
+        return (
+            f"CriticalSpeeds({self.field}: {len(self)} values, {span}, "
+            f"{int((self.reason == 'stable_up_to_max').sum())} stable up to the maximum speed)"
+        )
+
+    def to_pandas(self):
+        """A DataFrame: the field's values and the arrays above, one row per value."""
+        return _dataframe(
+            {self.field: self.values, "v_crit_mps": self.v_crit_mps,
+             "hopf_frequency_hz": self.hopf_frequency_hz, "hopf_omega_rad_s": self.hopf_omega_rad_s,
+             "stable_up_to_mps": self.stable_up_to_mps, "reason": self.reason},
+            "CriticalSpeeds",
+        )
+
+    def plot(self, ax: Any = None) -> Any:
+        """V_crit [m/s] over the field's values (matplotlib); returns the axes."""
+        return _plot.critical_speeds(self, ax)
+
+
+def _dataframe(columns: Mapping[str, Any], what: str):
+    try:
+        import pandas as pd
+    except ImportError as e:
+        raise ImportError(f"{what}.to_pandas() needs pandas, which is not installed: pip install pandas") from e
+    return pd.DataFrame(dict(columns))
+
+
+def _field_unit(name: str) -> str:
+    """The unit of a vehicle field, from its attribute's documentation (``[kg]``)."""
+    m = re.search(r"\[([^\]]*)\]", getattr(Vehicle, name).__doc__ or "")
+    return m.group(1) if m else "-"
+
 
 def _controller_gain_delay(controller: Any) -> tuple[Optional[float], Optional[float]]:
     if controller is None:
@@ -122,7 +314,12 @@ def _controller_gain_delay(controller: Any) -> tuple[Optional[float], Optional[f
         raise TypeError(
             "controller: expected None or a dict like "
             "{'kind': 'yaw_rate_feedback', 'gain_s': 0.1, 'delay_s': 0.2}, "
-            f"got {type(controller).__name__}"
+            f"got {_kind(controller)}"
+        )
+    unknown = [k for k in controller if k not in ("kind", "gain_s", "delay_s", "on_s", "off_s", "actuator")]
+    if unknown:
+        raise ValueError(
+            f"controller: unknown key `{unknown[0]}`; the linear analysis takes `kind`, `gain_s` and `delay_s`"
         )
     kind = controller.get("kind", "yaw_rate_feedback")
     if kind == "none":
@@ -134,11 +331,10 @@ def _controller_gain_delay(controller: Any) -> tuple[Optional[float], Optional[f
     missing = [k for k in ("gain_s", "delay_s") if k not in controller]
     if missing:
         raise ValueError(f"controller: missing field `{missing[0]}`")
-    gain, delay = controller["gain_s"], controller["delay_s"]
-    for k, x in (("gain_s", gain), ("delay_s", delay)):
-        if isinstance(x, bool) or not isinstance(x, (int, float, np.number)):
-            raise TypeError(f"controller: `{k}`: expected a number, got {type(x).__name__}")
-    return float(gain), float(delay)
+    return (
+        _number(controller["gain_s"], "controller: `gain_s`", "s"),
+        _number(controller["delay_s"], "controller: `delay_s`", "s"),
+    )
 
 
 def critical_speed(
@@ -149,12 +345,14 @@ def critical_speed(
     v_max_mps: float = 100.0,
     scan_step_mps: float = 0.5,
     tolerance_mps: Optional[float] = None,
-) -> CriticalSpeed:
+    progress: Progress = None,
+    **field: Any,
+) -> Union[CriticalSpeed, CriticalSpeeds]:
     """V_crit of straight running, or the "stable up to" outcome.
 
     Open loop (``controller=None``): the lowest speed where the spectral abscissa of
     Ã(V) (eq. 9–11) changes sign, by a scan every ``scan_step_mps`` from ``v_min_mps``
-    to ``v_max_mps`` and bisection to ``tolerance_mps`` (default 1e-11 m/s) — the
+    to ``v_max_mps`` and bisection to ``tolerance_mps`` (default, None: 1e-11 m/s) — the
     ``linear`` task's search (``configs/linear.toml``).
 
     Closed loop (``controller={"kind": "yaw_rate_feedback", "gain_s": D, "delay_s": τ}``,
@@ -162,41 +360,49 @@ def critical_speed(
     at which eq. (13) has a root with Re λ > 0, by the exact unstable-root count at
     speeds at most ``scan_step_mps`` apart and bisection to ``tolerance_mps`` (default
     1e-9 m/s) — the ``fig4a`` task's ``v_crit_at_d``.
+
+    Over one vehicle field: a keyword naming a field of :class:`Vehicle` with a sequence
+    or 1-d array of values (``trailer_mass=np.linspace(900.0, 1500.0, 13)``) searches on
+    ``vehicle.replace(trailer_mass=value)`` for each value, in parallel, and returns
+    :class:`CriticalSpeeds` (NaN and a reason where there is no crossing); a single number
+    is that one vehicle's :class:`CriticalSpeed`. ``progress`` reports the searches done.
     """
     v = _vehicle(vehicle)
     gain, delay = _controller_gain_delay(controller)
     if tolerance_mps is None:
         tolerance_mps = 1e-11 if gain is None else 1e-9
-    raw = json.loads(
-        _native.critical_speed(
-            v,
-            gain,
-            delay,
-            float(v_min_mps),
-            float(v_max_mps),
-            float(scan_step_mps),
-            float(tolerance_mps),
-        )
+    search = (
+        gain,
+        delay,
+        _number(v_min_mps, "v_min_mps", "m/s"),
+        _number(v_max_mps, "v_max_mps", "m/s"),
+        _number(scan_step_mps, "scan_step_mps", "m/s"),
+        _number(tolerance_mps, "tolerance_mps", "m/s"),
     )
-    reason = raw["reason"]
-    if reason == "crossing":
-        return CriticalSpeed(
-            raw["v_crit_mps"],
-            raw["hopf_frequency_hz"],
-            raw["hopf_omega_rad_s"],
-            raw["v_crit_mps"],
-            reason,
-            "divergence" if raw["hopf_omega_rad_s"] == 0.0 else "hopf",
+    if not field:
+        return CriticalSpeed._of(json.loads(_native.critical_speed(v, *search)))
+    if len(field) > 1:
+        raise TypeError(f"critical_speed(): one vehicle field at a time, got {', '.join(field)}")
+    (name, values), = field.items()
+    if name not in Vehicle.fields():
+        raise TypeError(
+            f"critical_speed(): unexpected keyword `{name}`: neither a search setting (v_min_mps, "
+            f"v_max_mps, scan_step_mps, tolerance_mps) nor a vehicle field ({', '.join(Vehicle.fields())})"
         )
-    if reason == "stable_up_to_max":
-        up = raw["stable_up_to_mps"]
-        return CriticalSpeed(
-            None, None, None, up, reason, None,
-            f"straight running is stable at every speed up to {up:g} m/s (the maximum speed, v_max_mps)",
-        )
-    return CriticalSpeed(
-        None, None, None, None, reason, None,
-        f"straight running is already unstable at the lowest speed, {raw['v_min_mps']:g} m/s (v_min_mps)",
+    if _is_number(values):
+        return critical_speed(v.replace(**{name: values}), controller, v_min_mps=v_min_mps,
+                              v_max_mps=v_max_mps, scan_step_mps=scan_step_mps, tolerance_mps=tolerance_mps)
+    x = np.ascontiguousarray(_numbers(values, name, _field_unit(name)), dtype=np.float64)
+    arrays, reasons = _progress.run(
+        progress, lambda p: _native.critical_speeds(v, name, x, *search, p)
+    )
+    return CriticalSpeeds(
+        field=name,
+        unit=_field_unit(name),
+        values=x,
+        reason=np.array(reasons, dtype=str) if reasons else np.empty(0, dtype=str),
+        v_min_mps=search[2],
+        **arrays,
     )
 
 
@@ -216,23 +422,29 @@ def roots(
     array sorted by decreasing real part, conjugates listed separately (a pair is never
     split, so ``count + 1`` roots may come back), Newton-polished (relative accuracy
     ~1e-14). ``count`` ≤ 200."""
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)):
-        raise TypeError(f"count: expected an int, got {type(count).__name__}")
-    return _native.roots(_vehicle(vehicle), float(speed), float(gain), float(delay), int(count))
+    return _native.roots(
+        _vehicle(vehicle),
+        _number(speed, "speed", "m/s"),
+        _number(gain, "gain", "s"),
+        _number(delay, "delay", "s"),
+        _int(count, "count"),
+    )
 
 
 # ---------------------------------------------------------------------------------------
 # simulate
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Simulation:
     """One simulated scenario (the 7-state model, paper eq. 5–7).
 
     Arrays are sampled every ``output_step_s`` (empty with ``trajectory=False``):
-    ``t`` [s], ``states`` (n × 7: σ1 [m/s], σ2 [1/s], σ3 [1/s], θ [rad], ψ [rad],
-    x_H [m], y_H [m]), ``theta`` [rad] (a view of ``states[:, 3]``), ``speed`` V [m/s],
-    ``delta`` δ [rad]. Each array is the Rust result handed over without a copy.
+    ``t`` [s], ``states`` (n × 7, the columns named by ``state_names``: σ1 [m/s],
+    σ2 [1/s], σ3 [1/s], θ [rad], ψ [rad], x_H [m], y_H [m]), ``theta`` [rad] (a view of
+    ``states[:, 3]``), ``speed`` V [m/s], ``delta`` δ [rad]. Each array is the Rust result
+    handed over without a copy. ``to_pandas()`` is the task's ``trajectory.csv`` as a
+    DataFrame; ``plot(ax=None)`` draws θ and δ over time.
 
     ``metrics`` are the run's metrics as ``summary.json`` names them
     (``peak_theta_deg_after_action``, ``final_amplitude_deg``, ``settle_time_s``,
@@ -253,10 +465,41 @@ class Simulation:
     rejected_steps: int
     name: str
 
+    state_names = (
+        "sigma1_mps",
+        "sigma2_per_s",
+        "sigma3_per_s",
+        "theta_rad",
+        "psi_rad",
+        "x_h_m",
+        "y_h_m",
+    )
+    """The columns of ``states`` with their units, as ``trajectory.csv`` names them."""
+
     @property
     def theta_deg(self) -> np.ndarray:
         """θ [deg]."""
         return np.degrees(self.theta)
+
+    def __repr__(self) -> str:
+        peak = self.metrics.get("peak_theta_deg_after_action")
+        return (
+            f"Simulation({self.name!r}: {self.sway_class}, {len(self.t)} samples to "
+            f"{self.t_end_s:g} s, peak |θ| after action "
+            f"{'None' if peak is None else f'{peak:.3g} deg'})"
+        )
+
+    def to_pandas(self):
+        """The trajectory as a DataFrame with the columns of the task's ``trajectory.csv``
+        (``t_s``, the states by ``state_names``, ``v_mps``, ``delta_rad``); needs pandas."""
+        columns = {"t_s": self.t}
+        columns.update({n: self.states[:, i] for i, n in enumerate(self.state_names)})
+        columns.update({"v_mps": self.speed, "delta_rad": self.delta})
+        return _dataframe(columns, "Simulation")
+
+    def plot(self, ax: Any = None) -> Any:
+        """θ and δ [deg] over time [s], the action time marked (matplotlib); returns the axes."""
+        return _plot.simulation(self, ax)
 
 
 _METRIC_KEYS = (
@@ -271,30 +514,51 @@ _METRIC_KEYS = (
 )
 
 
+def _config(config: Any, keys: Mapping[str, Any], what: str, shape: str) -> Any:
+    """A config from a file or dict (``config``) and keyword arguments that set its
+    top-level keys (a dict's keys replaced; not with a file)."""
+    if not keys:
+        return config
+    if config is None:
+        return dict(keys)
+    if not isinstance(config, Mapping):
+        raise TypeError(f"{what}: keyword arguments set the keys of a dict {shape}, not of a file; read the file into a dict first")
+    return {**config, **keys}
+
+
 def simulate(
-    vehicle: Optional[Vehicle],
-    scenario: Union[Mapping[str, Any], PathLike],
+    vehicle: Optional[Vehicle] = None,
+    scenario: Union[Scenario, Mapping[str, Any], PathLike, None] = None,
     *,
     trajectory: bool = True,
     progress: Progress = None,
+    **keys: Any,
 ) -> Simulation:
     """Simulates a scenario as ``cargo xtask simulate FILE.toml`` does.
 
-    ``scenario`` is a TOML file path or a dict of the file's shape (see
-    ``configs/scenario_example.toml``), e.g.::
+    ``scenario`` is a TOML file path or a dict of the file's shape (:class:`Scenario`
+    types every key with its unit; ``configs/scenario_example.toml`` is an example), and
+    keyword arguments set its top-level keys, e.g.::
 
-        {"name": "s1", "horizon_s": 60.0,
-         "speed": {"kind": "constant", "speed_mps": 33.0},
-         "initial": {"kind": "state", "theta0_deg": 5.0}}
+        simulate(v, horizon_s=60.0,
+                 speed={"kind": "constant", "speed_mps": 33.0},
+                 initial={"kind": "state", "theta0_deg": 5.0})
 
     ``name`` may be omitted in a dict. With ``trajectory=False`` only the metrics are
     computed (no samples are recorded).
     """
+    scenario = _config(scenario, keys, "simulate()", "scenario")
+    if scenario is None:
+        raise TypeError(
+            "simulate(): scenario: expected a dict of the scenario's keys (see trailer_sway.Scenario), "
+            "a path to a scenario file, or the keys as keyword arguments (speed=…, initial=…)"
+        )
     if isinstance(scenario, Mapping) and "name" not in scenario:
         scenario = {"name": "python", **scenario}
     v = _vehicle(vehicle)
+    trajectory = _bool(trajectory, "trajectory")
     arrays, summary = _progress.run(
-        progress, lambda p: _native.simulate(v, scenario, bool(trajectory), p)
+        progress, lambda p: _native.simulate(v, scenario, trajectory, p)
     )
     s = json.loads(summary)
     states = arrays["states"]
@@ -337,11 +601,11 @@ class BifurcationDiagram:
     running is stable. ``summary``: the task's numbers as they are in its
     ``summary.json`` (open loop: ``cargo xtask fig3a``'s diagram fields, with the cycle
     amplitudes at the configured speeds; closed loop: the ``pairs`` entry of
-    ``cargo xtask fig4b``).
+    ``cargo xtask fig4b``). ``plot(ax=None)`` draws the diagram (paper Fig. 3a).
     """
 
-    equilibria: dict
-    cycles: dict
+    equilibria: dict[str, np.ndarray]
+    cycles: dict[str, np.ndarray]
     hopf_v_mps: Optional[float]
     hopf_omega_rad_s: Optional[float]
     criticality: Optional[str]
@@ -353,6 +617,27 @@ class BifurcationDiagram:
     stable_up_to_mps: Optional[float]
     reason: Optional[str]
     summary: dict
+
+    def __repr__(self) -> str:
+        if self.hopf_v_mps is None:
+            return f"BifurcationDiagram(no Hopf point: {self.reason})"
+        fold = "no fold" if self.fold_v_mps is None else f"fold of cycles at {self.fold_v_mps:.3f} m/s"
+        return (
+            f"BifurcationDiagram({self.criticality} Hopf point at {self.hopf_v_mps:.3f} m/s, "
+            f"{fold}, {self.cycle_points} cycle points)"
+        )
+
+    def plot(self, ax: Any = None) -> Any:
+        """Sway amplitude max |θ| [deg] over speed V [m/s]: straight running and the cycles,
+        stable solid, unstable dashed, Hopf and fold marked (matplotlib); returns the axes."""
+        return _plot.bifurcation_diagram(self, ax)
+
+
+def _speeds(x: Any, name: str) -> list:
+    """Speeds: numbers [m/s] or relative ones (``{"of_v_crit": f}``), as a list."""
+    if isinstance(x, (str, bytes, Mapping)) or not hasattr(x, "__iter__"):
+        raise TypeError(f"{name}: expected a sequence of speeds (numbers [m/s] or {{'of_v_crit': f}}), got {_kind(x)}")
+    return [v if isinstance(v, Mapping) else _number(v, f"{name}[{i}]", "m/s") for i, v in enumerate(x)]
 
 
 def _empty_branches() -> tuple[dict, dict]:
@@ -390,21 +675,17 @@ def bifurcation_diagram(
     """
     v = _vehicle(vehicle)
     gain, delay = _controller_gain_delay(controller)
-    if continuation is not None and not isinstance(continuation, Mapping):
-        raise TypeError(f"continuation: expected a dict, got {type(continuation).__name__}")
-    cont = dict(continuation or {})
+    cont = {} if continuation is None else _mapping(continuation, "continuation", "{'intervals': 40}")
+    settings: dict = {"continuation": cont}
     if gain is None:
-        settings: dict = {"continuation": cont}
         if stable_speeds_mps is not None:
-            settings["stable_speeds_mps"] = list(stable_speeds_mps)
+            settings["stable_speeds_mps"] = _speeds(stable_speeds_mps, "stable_speeds_mps")
         if unstable_speeds_mps is not None:
-            settings["unstable_speeds_mps"] = list(unstable_speeds_mps)
-    else:
-        if stable_speeds_mps is not None or unstable_speeds_mps is not None:
-            raise TypeError(
-                "stable_speeds_mps / unstable_speeds_mps: only for the open loop (fig3a's diagram)"
-            )
-        settings = cont
+            settings["unstable_speeds_mps"] = _speeds(unstable_speeds_mps, "unstable_speeds_mps")
+    elif stable_speeds_mps is not None or unstable_speeds_mps is not None:
+        raise TypeError(
+            "stable_speeds_mps / unstable_speeds_mps: only for the open loop (fig3a's diagram)"
+        )
     raw, arrays = _progress.run(
         progress, lambda p: _native.bifurcation_diagram(v, gain, delay, settings, p)
     )
@@ -433,7 +714,7 @@ def bifurcation_diagram(
 # stability charts
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class StabilityChart:
     """The linear stability chart of one delay τ in the (V, D) plane (paper Fig. 4a).
 
@@ -442,7 +723,9 @@ class StabilityChart:
     with Re λ > 0, ``spectral_abscissa_per_s`` (nv × nd) max Re λ [1/s];
     ``static_boundary`` and ``dynamic_boundary`` are the D-subdivision curves (λ = 0 and
     λ = ±iω) as rows (branch, V [m/s], D [s], ω [rad/s]); ``summary`` is this delay's
-    ``per_tau`` entry of ``cargo xtask fig4a``'s ``summary.json``.
+    ``per_tau`` entry of ``cargo xtask fig4a``'s ``summary.json``; ``failures`` the cells
+    whose count failed (speed index, gain index, message). ``plot(ax=None)`` shades the
+    stable region.
     """
 
     tau_s: float
@@ -453,21 +736,33 @@ class StabilityChart:
     static_boundary: np.ndarray
     dynamic_boundary: np.ndarray
     summary: dict
-    failures: list
+    failures: list[tuple[int, int, str]]
 
     @property
     def stable(self) -> np.ndarray:
         """nv × nd booleans: straight running is asymptotically stable."""
         return self.unstable_roots == 0
 
+    def __repr__(self) -> str:
+        return (
+            f"StabilityChart(τ = {self.tau_s:g} s, {len(self.v_mps)} × {len(self.d_s)} cells, "
+            f"{int(self.stable.sum())} stable, {len(self.failures)} failed)"
+        )
 
-@dataclass(frozen=True)
+    def plot(self, ax: Any = None) -> Any:
+        """The stable region over speed V [m/s] × gain D [s] and its boundaries
+        (matplotlib); returns the axes."""
+        return _plot.stability_chart(self, ax)
+
+
+@dataclass(frozen=True, repr=False)
 class StabilityCharts:
-    """One :class:`StabilityChart` per delay (``charts``, in the given order) and the
-    summary of ``cargo xtask fig4a`` (``summary``: ``open_loop_v_crit_mps``,
-    ``per_tau``, ``grid_cells_per_tau``)."""
+    """One :class:`StabilityChart` per delay (``charts``, in the given order; also
+    ``charts[i]``, ``len``, iteration) and the summary of ``cargo xtask fig4a``
+    (``summary``: ``open_loop_v_crit_mps``, ``per_tau``, ``grid_cells_per_tau``).
+    ``plot(ax=None)`` draws one panel per delay."""
 
-    charts: list
+    charts: list[StabilityChart]
     summary: dict
 
     def __getitem__(self, i: int) -> StabilityChart:
@@ -479,18 +774,55 @@ class StabilityCharts:
     def __iter__(self):
         return iter(self.charts)
 
+    def __repr__(self) -> str:
+        taus = ", ".join(f"{c.tau_s:g}" for c in self.charts)
+        return f"StabilityCharts(τ = {taus} s; open-loop V_crit {self.summary.get('open_loop_v_crit_mps')} m/s)"
 
-def _pair(x: Any, what: str) -> tuple[float, float]:
+    def plot(self, ax: Any = None) -> list:
+        """One panel per delay (``ax``: as many axes, or None for a new figure); returns
+        the axes."""
+        return _plot.each(self.charts, ax)
+
+
+def _pair(x: Any, what: str, unit: str) -> tuple[Optional[float], Optional[float]]:
+    if isinstance(x, (str, bytes, Mapping)):
+        raise TypeError(f"{what}: expected a pair (min, max) [{unit}], got {_kind(x)}")
     try:
         a, b = x
     except (TypeError, ValueError):
-        raise TypeError(f"{what}: expected a pair (min, max), got {x!r}") from None
-    return a, b
+        raise TypeError(f"{what}: expected a pair (min, max) [{unit}], got {x!r}") from None
+    return _optional_number(a, f"{what}[0]", unit), _optional_number(b, f"{what}[1]", unit)
+
+
+def _without_none(d: Mapping[str, Any]) -> dict:
+    """The entries of ``d`` that are not None: the keys an optional argument leaves to the
+    task's default (None is refused in a config dict)."""
+    return {k: v for k, v in d.items() if v is not None}
+
+
+# the config keys of fig4a and chart_nonlinear that a keyword argument sets
+_STABILITY_CHART_KEYS = {
+    "delays_s": "delays",
+    "speed.min_mps": "speed_range[0]",
+    "speed.max_mps": "speed_range[1]",
+    "speed.cells": "speed_cells",
+    "speed": "speed_range",
+    "gain.min_s": "gain_range[0]",
+    "gain.max_s": "gain_range[1]",
+    "gain.cells": "gain_cells",
+    "gain": "gain_range",
+    "summary.gain_for_critical_speed_s": "gain_for_critical_speed_s",
+    "summary.speed_for_gain_interval_mps": "speed_for_gain_interval_mps",
+    "summary.speed_tolerance_mps": "speed_tolerance_mps",
+    "numerics.reseed_interval": "reseed_interval",
+    "numerics.tracked_roots": "tracked_roots",
+}
+_NONLINEAR_CHART_KEYS = {"delays_s": "delays"}
 
 
 def stability_chart(
     vehicle: Optional[Vehicle] = None,
-    delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
+    delays: Union[float, Sequence[float]] = (0.0, 0.1, 0.2, 0.4),
     speed_range: Optional[tuple[Optional[float], Optional[float]]] = None,
     gain_range: Optional[tuple[Optional[float], Optional[float]]] = None,
     *,
@@ -509,24 +841,30 @@ def stability_chart(
     with these values as its config (the defaults are ``configs/fig4a.toml``'s). A range
     (or one end of it) given as None is derived from the vehicle as the task derives it
     (speeds from 0 to above the largest critical speed, gains ±5·D₁);
-    ``gain_for_critical_speed_s`` (default D₁) and ``speed_for_gain_interval_mps``
-    (default: the first whole m/s above the open-loop V_crit) place the summary's
+    ``gain_for_critical_speed_s`` (None: D₁) and ``speed_for_gain_interval_mps``
+    (None: the first whole m/s above the open-loop V_crit) place the summary's
     headline numbers."""
     v = _vehicle(vehicle)
-    (v0, v1) = (None, None) if speed_range is None else _pair(speed_range, "speed_range")
-    (d0, d1) = (None, None) if gain_range is None else _pair(gain_range, "gain_range")
+    v0, v1 = (None, None) if speed_range is None else _pair(speed_range, "speed_range", "m/s")
+    d0, d1 = (None, None) if gain_range is None else _pair(gain_range, "gain_range", "s")
     config = {
-        "speed": {"min_mps": v0, "max_mps": v1, "cells": speed_cells},
-        "gain": {"min_s": d0, "max_s": d1, "cells": gain_cells},
-        "delays_s": list(delays) if not isinstance(delays, (int, float)) else [delays],
-        "summary": {
-            "gain_for_critical_speed_s": gain_for_critical_speed_s,
-            "speed_for_gain_interval_mps": speed_for_gain_interval_mps,
-            "speed_tolerance_mps": speed_tolerance_mps,
+        "speed": _without_none({"min_mps": v0, "max_mps": v1, "cells": _int(speed_cells, "speed_cells")}),
+        "gain": _without_none({"min_s": d0, "max_s": d1, "cells": _int(gain_cells, "gain_cells")}),
+        "delays_s": _numbers(delays, "delays", "s"),
+        "summary": _without_none({
+            "gain_for_critical_speed_s": _optional_number(gain_for_critical_speed_s, "gain_for_critical_speed_s", "s"),
+            "speed_for_gain_interval_mps": _optional_number(speed_for_gain_interval_mps, "speed_for_gain_interval_mps", "m/s"),
+            "speed_tolerance_mps": _number(speed_tolerance_mps, "speed_tolerance_mps", "m/s"),
+        }),
+        "numerics": {
+            "reseed_interval": _int(reseed_interval, "reseed_interval"),
+            "tracked_roots": _int(tracked_roots, "tracked_roots"),
         },
-        "numerics": {"reseed_interval": reseed_interval, "tracked_roots": tracked_roots},
     }
-    raw, charts = _progress.run(progress, lambda p: _native.stability_chart(v, config, p))
+    try:
+        raw, charts = _progress.run(progress, lambda p: _native.stability_chart(v, config, p))
+    except (TypeError, ValueError) as e:
+        raise _renamed(e, _STABILITY_CHART_KEYS) from None
     summary = json.loads(raw)
     out = [
         StabilityChart(
@@ -545,7 +883,7 @@ def stability_chart(
     return StabilityCharts(out, summary)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class NonlinearChart:
     """The nonlinear stability chart of one delay τ: ``hopf_curves`` (each a dict of
     arrays ``d_s`` [s], ``v_mps`` [m/s], ``omega_rad_s`` [rad/s], ``subcritical`` (1, 0,
@@ -559,12 +897,12 @@ class NonlinearChart:
     curve (e.g. straight running stable in the whole box), ``fold_reason`` why there is
     no fold-of-cycles curve, ``bistable_reason`` why ``bistable_width_mps`` (V_hopf −
     V_fold at the bistable gain [m/s]) is None, ``safe_reason`` that the chart is all
-    safe; each None when it does not apply."""
+    safe; each None when it does not apply. ``plot(ax=None)`` draws the curves."""
 
     tau_s: float
-    hopf_curves: list
-    fold_curves: list
-    codim2_points: list
+    hopf_curves: list[dict[str, Any]]
+    fold_curves: list[dict[str, Any]]
+    codim2_points: list[dict[str, Any]]
     summary: dict
     bistable_width_mps: Optional[float] = None
     hopf_reason: Optional[str] = None
@@ -572,52 +910,99 @@ class NonlinearChart:
     bistable_reason: Optional[str] = None
     safe_reason: Optional[str] = None
 
+    def __repr__(self) -> str:
+        width = "None" if self.bistable_width_mps is None else f"{self.bistable_width_mps:.3f} m/s"
+        return (
+            f"NonlinearChart(τ = {self.tau_s:g} s, {len(self.hopf_curves)} Hopf and "
+            f"{len(self.fold_curves)} fold-of-cycles curves, {len(self.codim2_points)} "
+            f"codimension-two points, bistable width {width})"
+        )
+
+    def plot(self, ax: Any = None) -> Any:
+        """The Hopf and fold-of-cycles curves over speed V [m/s] × gain D [s]
+        (matplotlib); returns the axes."""
+        return _plot.nonlinear_chart(self, ax)
+
+
+@dataclass(frozen=True, repr=False)
+class NonlinearCharts:
+    """One :class:`NonlinearChart` per delay (``charts``, in the given order; also
+    ``charts[i]``, ``len``, iteration) and the ranges ``cargo xtask chart_nonlinear``
+    derived (``ranges``). ``plot(ax=None)`` draws one panel per delay."""
+
+    charts: list[NonlinearChart]
+    ranges: dict
+
+    def __getitem__(self, i: int) -> NonlinearChart:
+        return self.charts[i]
+
+    def __len__(self) -> int:
+        return len(self.charts)
+
+    def __iter__(self):
+        return iter(self.charts)
+
+    def __repr__(self) -> str:
+        taus = ", ".join(f"{c.tau_s:g}" for c in self.charts)
+        return f"NonlinearCharts(τ = {taus} s)"
+
+    def plot(self, ax: Any = None) -> list:
+        """One panel per delay (``ax``: as many axes, or None for a new figure); returns
+        the axes."""
+        return _plot.each(self.charts, ax)
+
 
 def nonlinear_chart(
     vehicle: Optional[Vehicle] = None,
-    delays: Sequence[float] = (0.0, 0.1, 0.2, 0.4),
+    delays: Union[float, Sequence[float]] = (0.0, 0.1, 0.2, 0.4),
     *,
     summary_gains_s: Optional[Sequence[float]] = None,
     bistable_gain_s: Optional[float] = None,
     chart: Optional[Mapping[str, Any]] = None,
     regions: Optional[Mapping[str, Any]] = None,
     progress: Progress = None,
-) -> list:
+) -> NonlinearCharts:
     """Hopf and fold-of-cycles curves in the (V, D) plane and their codimension-two
     points, one :class:`NonlinearChart` per delay τ [s] — ``cargo xtask chart_nonlinear``
     with these values as its config. ``chart`` takes the keys of ``[chart]`` in
     ``configs/chart_nonlinear.toml`` (box, seeds, steps, ``cycles`` mesh), ``regions`` its
-    ``speed_cells``/``gain_cells``; absent keys take the file's defaults, and the box,
-    seeds, ``summary_gains_s`` and ``bistable_gain_s`` omitted (None) are derived from the
-    vehicle as the task derives them. Expensive: about 15 s per delay on 2 cores with the
-    defaults."""
+    ``speed_cells``/``gain_cells``; keys left out take the file's defaults (the box and
+    the seeds derived from the vehicle), and ``summary_gains_s`` and ``bistable_gain_s``
+    None are derived from the vehicle as the task derives them. Expensive: about 15 s per
+    delay on 2 cores with the defaults."""
     v = _vehicle(vehicle)
-    config: dict = {
-        "delays_s": list(delays) if not isinstance(delays, (int, float)) else [delays],
-        "summary_gains_s": None if summary_gains_s is None else list(summary_gains_s),
-        "bistable_gain_s": bistable_gain_s,
-    }
+    config: dict = {"delays_s": _numbers(delays, "delays", "s")}
+    if summary_gains_s is not None:
+        config["summary_gains_s"] = _numbers(summary_gains_s, "summary_gains_s", "s")
+    if bistable_gain_s is not None:
+        config["bistable_gain_s"] = _number(bistable_gain_s, "bistable_gain_s", "s")
     if chart is not None:
-        config["chart"] = dict(chart)
+        config["chart"] = _mapping(chart, "chart", "{'hopf_max_points': 200}")
     if regions is not None:
-        config["regions"] = dict(regions)
-    raw, charts = _progress.run(progress, lambda p: _native.nonlinear_chart(v, config, p))
+        config["regions"] = _mapping(regions, "regions", "{'speed_cells': 40, 'gain_cells': 30}")
+    try:
+        raw, charts = _progress.run(progress, lambda p: _native.nonlinear_chart(v, config, p))
+    except (TypeError, ValueError) as e:
+        raise _renamed(e, _NONLINEAR_CHART_KEYS) from None
     summary = json.loads(raw)
-    return [
-        NonlinearChart(
-            tau_s=c["tau_s"],
-            hopf_curves=c["hopf_curves"],
-            fold_curves=c["fold_curves"],
-            codim2_points=entry["codim2_points"],
-            summary=entry,
-            bistable_width_mps=entry.get("bistable_width_mps"),
-            hopf_reason=entry.get("hopf_reason"),
-            fold_reason=entry.get("fold_reason"),
-            bistable_reason=entry.get("bistable_reason"),
-            safe_reason=entry.get("safe_reason"),
-        )
-        for c, entry in zip(charts, summary["per_tau"])
-    ]
+    return NonlinearCharts(
+        [
+            NonlinearChart(
+                tau_s=c["tau_s"],
+                hopf_curves=c["hopf_curves"],
+                fold_curves=c["fold_curves"],
+                codim2_points=entry["codim2_points"],
+                summary=entry,
+                bistable_width_mps=entry.get("bistable_width_mps"),
+                hopf_reason=entry.get("hopf_reason"),
+                fold_reason=entry.get("fold_reason"),
+                bistable_reason=entry.get("bistable_reason"),
+                safe_reason=entry.get("safe_reason"),
+            )
+            for c, entry in zip(charts, summary["per_tau"])
+        ],
+        summary.get("ranges", {}),
+    )
 
 
 # ---------------------------------------------------------------------------------------
@@ -662,11 +1047,7 @@ class Table:
 
     def to_pandas(self):
         """A pandas DataFrame of the columns (requires pandas)."""
-        try:
-            import pandas as pd
-        except ImportError as e:  # pragma: no cover - depends on the environment
-            raise ImportError("Table.to_pandas() needs pandas: pip install pandas") from e
-        return pd.DataFrame(self._cols)
+        return _dataframe(self._cols, "Table")
 
     def counts(self, column: str = "class") -> dict:
         """{value: rows} of a text column (e.g. the simulation classes)."""
@@ -723,7 +1104,7 @@ class LateralStability:
     ``overestimate_mps`` (test speed − V_fold), ``reason`` and ``stable_up_to_mps`` where
     V_crit or V_fold is None. ``trace``: one run (``values``, ``steering_deg``,
     ``peaks_used`` as n × 2 arrays of (t [s], value)). ``summary``: the task's
-    ``summary.json`` fields.
+    ``summary.json`` fields. ``plot(ax=None)`` draws the damping over speed.
     """
 
     speed_mps: np.ndarray
@@ -748,6 +1129,11 @@ class LateralStability:
     stable_up_to_mps: Optional[float]
     trace: Optional[dict]
     summary: dict = field(repr=False)
+
+    def plot(self, ax: Any = None) -> Any:
+        """The damping ratio D [-] over speed V [m/s], its fit extrapolated to D = 0, and
+        V_crit and V_fold (matplotlib); returns the axes."""
+        return _plot.lateral_stability(self, ax)
 
     def __repr__(self) -> str:
         def f(v: Optional[float]) -> str:
@@ -774,13 +1160,9 @@ def lateral_stability(
     ``horizon_s``, ``sample_step_s``, ``pulse``, ``controller``, ``diagram``), e.g.
     ``lateral_stability(speeds=[20.0, 30.0], amplitudes_deg=[])``. Absent keys take the
     file's defaults."""
-    if config is None:
-        config = {}
-    if keys:
-        if not isinstance(config, Mapping):
-            raise TypeError("lateral_stability: give keyword arguments with a dict config, not a file")
-        config = {**config, **keys}
+    config = _config(config, keys, "lateral_stability()", "config")
     v = _vehicle(vehicle)
+    config = {} if config is None else config
     raw, arrays = _progress.run(progress, lambda p: _native.lateral_stability(v, config, p))
     s = json.loads(raw)
     rows = s["speeds"]
@@ -811,7 +1193,7 @@ def lateral_stability(
     )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class RecordedDecay:
     """One recorded pulse-steer run, read as ``cargo xtask lateral_stability
     --recording`` reads it: ``damping_ratio`` D, ``log_decrement`` δ, ``frequency_hz``,
@@ -826,24 +1208,36 @@ class RecordedDecay:
     periods_used: int
     impulse_s: tuple
     peaks_used: np.ndarray
-    filtered: np.ndarray = field(repr=False)
+    filtered: np.ndarray
     signal: str
     speed_mps: Optional[float]
+
+    def __repr__(self) -> str:
+        speed = "" if self.speed_mps is None else f" at {self.speed_mps:.2f} m/s"
+        return (
+            f"RecordedDecay({self.signal}{speed}: damping ratio {self.damping_ratio:.4f}, "
+            f"{self.frequency_hz:.3f} Hz over {self.periods_used} periods)"
+        )
 
 
 _SIGNALS = ("hitch_angle", "trailer_yaw_rate", "car_yaw_rate")
 
 
 def _samples(values: Any, name: str) -> np.ndarray:
+    """A 1-d float64 array of numbers (not of strings, bools or None)."""
     if isinstance(values, (str, bytes)):
         raise TypeError(f"{name}: expected a sequence of numbers, got a string")
+    if values is None or isinstance(values, Mapping):
+        raise TypeError(f"{name}: expected a sequence of numbers, got {_kind(values)}")
     try:
-        a = np.ascontiguousarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise TypeError(f"{name}: expected a sequence of numbers ({e})") from None
+        a = np.asarray(values)
+    except ValueError as e:  # ragged
+        raise ValueError(f"{name}: expected a 1-d sequence of numbers ({e})") from None
+    if a.dtype.kind not in "iuf":
+        raise TypeError(f"{name}: expected a sequence of numbers, got entries of type {a.dtype}")
     if a.ndim != 1:
         raise ValueError(f"{name}: expected a 1-d sequence, got shape {a.shape}")
-    return a
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def analyse_recording(
@@ -866,7 +1260,7 @@ def analyse_recording(
     impulse give D. Raises ``ValueError`` naming the problem (a key and row, counted from
     0, or too few peaks)."""
     if not isinstance(signals, Mapping):
-        raise TypeError(f"signals: expected a dict of sequences, got {type(signals).__name__}")
+        raise TypeError(f"signals: expected a dict of sequences, got {_kind(signals)}")
     unknown = [k for k in signals if k not in ("steering_angle", "speed", *_SIGNALS)]
     if unknown:
         raise ValueError(
@@ -879,22 +1273,23 @@ def analyse_recording(
         if not present:
             raise ValueError(f"signals: expected at least one of {list(_SIGNALS)}")
         signal = present[0]
+    elif not isinstance(signal, str):
+        raise TypeError(f"signal: expected one of {list(_SIGNALS)}, got {_kind(signal)}")
     elif signal not in _SIGNALS:
         raise ValueError(f"signal: expected one of {list(_SIGNALS)}, got {signal!r}")
     elif signal not in signals:
         raise ValueError(f"signal: {signal!r} is not among the signals given ({present})")
     for name, v in (("skip_peaks", skip_peaks), ("periods", periods)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-            raise TypeError(f"{name}: expected an int, got {type(v).__name__}")
-        if v < (1 if name == "periods" else 0):
+        if _int(v, name) < (1 if name == "periods" else 0):
             raise ValueError(f"{name}: expected {'≥ 1' if name == 'periods' else '≥ 0'}, got {v}")
     for name, v in (
         ("impulse_fraction", impulse_fraction),
         ("prominence_fraction", prominence_fraction),
     ):
-        if not (isinstance(v, (int, float)) and 0.0 < float(v) < 1.0):
+        if not 0.0 < _number(v, name, "-") < 1.0:
             raise ValueError(f"{name}: expected a fraction in (0, 1), got {v!r}")
-    if not (isinstance(low_pass_hz, (int, float)) and math.isfinite(low_pass_hz) and low_pass_hz > 0):
+    low_pass_hz = _number(low_pass_hz, "low_pass_hz", "Hz")
+    if not (math.isfinite(low_pass_hz) and low_pass_hz > 0):
         raise ValueError(f"low_pass_hz: expected a cut-off > 0 Hz, got {low_pass_hz!r}")
     tt = _samples(t, "t")
     steering = _samples(signals["steering_angle"], "signals['steering_angle']")
@@ -902,16 +1297,10 @@ def analyse_recording(
     for name, a in (("signals['steering_angle']", steering), (f"signals[{signal!r}]", y)):
         if len(a) != len(tt):
             raise ValueError(f"{name}: {len(a)} samples, t has {len(tt)}")
-    try:
-        r = _native.analyse_recording(
-            tt, steering, y, int(skip_peaks), int(periods),
-            float(impulse_fraction), float(low_pass_hz), float(prominence_fraction),
-        )
-    except ValueError as e:
-        # the library names its inputs time / steering / signal
-        msg = str(e).replace("steering is", "signals['steering_angle'] is").replace(
-            "signal is", f"signals[{signal!r}] is").replace("time is", "t is")
-        raise ValueError(msg) from None
+    r = _native.analyse_recording(
+        tt, steering, y, f"signals[{signal!r}]", int(skip_peaks), int(periods),
+        float(impulse_fraction), float(low_pass_hz), float(prominence_fraction),
+    )
     speed = None
     if "speed" in signals:
         v = _samples(signals["speed"], "signals['speed']")

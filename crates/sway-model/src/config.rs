@@ -24,6 +24,28 @@ pub fn ensure(
     }
 }
 
+/// A count in `min ..= limit`, with the wording of every limit of the task layer's checks
+/// (`sway_tasks::limits::bound`): below, `expected at least {min} {unit}, got {value}`;
+/// above, `{value} exceeds the limit {limit} ({cost}); reduce it`.
+///
+/// # Errors
+/// [`SwayError::Config`] naming `key`.
+pub fn ensure_count(
+    value: usize,
+    (min, limit): (usize, usize),
+    file: &Path,
+    key: &str,
+    unit: &str,
+    cost: impl FnOnce() -> String,
+) -> Result<(), SwayError> {
+    ensure(value >= min, file, key, || {
+        format!("expected at least {min} {unit}, got {value}")
+    })?;
+    ensure(value <= limit, file, key, || {
+        format!("{value} exceeds the limit {limit} ({}); reduce it", cost())
+    })
+}
+
 /// `value` must be finite and > 0 (`what` names the unit or meaning, e.g. "a horizon > 0 s").
 ///
 /// # Errors

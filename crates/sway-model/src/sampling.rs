@@ -262,14 +262,16 @@ impl Sampling {
     /// `fields[1].sd`.
     pub fn validate(&self) -> Result<(), (String, String)> {
         let sampling = self;
-        if sampling.samples == 0 || sampling.samples > MAX_SAMPLES {
-            return Err((
-                "samples".into(),
-                format!(
-                    "expected 1 to {MAX_SAMPLES} samples, got {}",
-                    sampling.samples
-                ),
-            ));
+        // the wording of every count limit (`crate::config::ensure_count`)
+        if let Err(crate::SwayError::Config { problem, .. }) = crate::config::ensure_count(
+            sampling.samples,
+            (1, MAX_SAMPLES),
+            std::path::Path::new(""),
+            "samples",
+            "sample",
+            || "one vehicle drawn and analysed per sample".into(),
+        ) {
+            return Err(("samples".into(), problem));
         }
         if sampling.fields.is_empty() {
             return Err((

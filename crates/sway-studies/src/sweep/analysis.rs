@@ -13,7 +13,7 @@ use sway::bifurcation::chart::{ChartOptions, critical_speeds};
 use sway::bifurcation::{CycleExtent, LoopLaw};
 use sway::bifurcation::{DiagramOutcome, DiagramSettings, vehicle_diagram};
 use sway::charts::{critical_speed_at_gain, rightmost_roots};
-use sway::config::ensure;
+use sway::config::{ensure, ensure_count};
 use sway::control;
 use sway::ranging::SpeedLimits;
 use sway::sim::VehicleForm;
@@ -97,16 +97,13 @@ impl AnalysisOptions {
             "analysis.tolerance_mps",
             || format!("expected a tolerance > 0, got {}", self.tolerance_mps),
         )?;
-        ensure(
-            (2..=100_000).contains(&self.closed_loop_samples),
+        ensure_count(
+            self.closed_loop_samples,
+            (2, sway::config::MAX_GRID_POINTS),
             file,
             "analysis.closed_loop_samples",
-            || {
-                format!(
-                    "expected 2 to 1e5 samples, got {}",
-                    self.closed_loop_samples
-                )
-            },
+            "samples",
+            || "speeds of the scan for a closed-loop V_crit, one root count each".into(),
         )
     }
 }

@@ -21,7 +21,7 @@ use sway::with_run_fields;
 use trailer_model::{AnyVehicleModel, Model, State4, VehicleParams, VehicleSpec};
 
 use sway::SwayError;
-use sway::config::{Positive, ensure};
+use sway::config::{MAX_GRID_POINTS, Positive, ensure, ensure_count};
 use sway::progress::Progress;
 use sway::ranging::SpeedLimits;
 use sway::sampling::{About, Sampler, Sampling};
@@ -354,11 +354,13 @@ impl SweepConfig {
             &key,
             || format!("expected finite min <= max, got {min} and {max}"),
         )?;
-        ensure(
-            (1..=1_000_000).contains(&points),
+        ensure_count(
+            points,
+            (1, MAX_GRID_POINTS),
             file,
             &format!("{key}.points"),
-            || format!("expected 1 to 1e6 points, got {points}"),
+            "point",
+            || format!("{points} points on this axis alone"),
         )?;
         if let AxisParameter::Scenario(p) = a.parameter {
             if !self.kind.is_simulation()

@@ -8,6 +8,8 @@
 // each file keeps its `mod common;` (a copy per module): the files stay as they were
 #![allow(clippy::duplicate_mod)]
 
+#[path = "capped_speeds.rs"]
+mod capped_speeds;
 #[path = "configs.rs"]
 mod configs;
 #[path = "generated_inputs.rs"]

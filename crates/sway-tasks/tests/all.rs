@@ -32,6 +32,8 @@ mod many_vehicles_scenarios;
 mod numerical_extremes;
 #[path = "shard.rs"]
 mod shard;
+#[path = "simulate_figure.rs"]
+mod simulate_figure;
 // the unit tests of the library's modules (tests/unit/mod.rs says why they are here)
 mod unit;
 

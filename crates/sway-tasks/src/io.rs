@@ -479,8 +479,8 @@ const CAP_KEYS: [&str; 3] = ["v_max_mps", "max_speed_mps", "searched_mps"];
 /// that a speed the cap cut off is null, with `stable_up_to_mps` = the cap and a `reason`
 /// (`sway::ranging::CappedSpeed`); a number equal to the cap is then a capped value
 /// reported as a measured one. Not reports, so not looked at: the keys naming a cap or a
-/// searched range ([`CAP_KEYS`]), the ones ending `stable_up_to_mps`, and the inputs
-/// echoed at the top level (`config`, `vehicle`).
+/// searched range (`v_max_mps`, `max_speed_mps`, `searched_mps`), the ones ending
+/// `stable_up_to_mps`, and the inputs echoed at the top level (`config`, `vehicle`).
 pub fn speeds_at_cap(summary: &serde_json::Value, cap: f64) -> Vec<String> {
     use serde_json::Value;
     fn numbers(v: &Value, path: &str, cap: f64, out: &mut Vec<String>) {

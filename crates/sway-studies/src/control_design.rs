@@ -22,6 +22,7 @@ use sway::control::{
 use sway::control::{DesignStart, design, perfect_predictor_designs};
 use sway::control::{fold_speed, hopf_and_fold};
 use sway::progress::Progress;
+use sway::ranging::CappedSpeed;
 use sway::sim::{
     PredictionVehicle, Recording, RunSettings, SimSpec, SpeedProfile, SwayClass, simulate,
 };
@@ -83,11 +84,25 @@ pub struct AwayFromCorner {
     pub gains: Gains,
     /// their fold-of-cycles speed \[m/s\]
     pub v_fold_mps: f64,
-    /// their linear critical speed \[m/s\] (the top of the search range if stable there)
-    pub v_crit_mps: f64,
+    /// their linear critical speed \[m/s\] (null: stable up to the search's cap, see
+    /// `stable_up_to_mps` and `reason`)
+    pub v_crit_mps: Option<f64>,
+    /// straight running with these gains is stable up to this speed \[m/s\], the top of the
+    /// search range (absent: `v_crit_mps` was found below it)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stable_up_to_mps: Option<f64>,
+    /// why `v_crit_mps` is null (absent: it is not)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
     /// the gains tried (with a fold)
     pub tried: usize,
 }
+
+/// The cap of a design's critical-speed search, as a reason names it.
+pub const SEARCH_CAP: &str = "the speed cap, search.speed.v_max_mps";
+
+/// The cap of the uncertainty samples' critical-speed search, as a reason names it.
+pub const ROBUSTNESS_CAP: &str = "the speed cap, robustness.speed.v_max_mps";
 
 /// The checks of one optimum at one delay.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -585,12 +600,16 @@ fn away_from_corner(
     let best = match best {
         Some((gains, v_fold_mps)) => {
             let law = d.law().with_gains(gains);
-            let v_crit = sway::control::critical_speed(model, &law, None, &s.search.speed)?
-                .unwrap_or(s.search.speed.v_max_mps);
+            let v_crit = CappedSpeed::of(
+                sway::control::critical_speed(model, &law, None, &s.search.speed)?,
+                s.search.speed.v_max_mps,
+            );
             Some(AwayFromCorner {
                 gains,
                 v_fold_mps,
-                v_crit_mps: v_crit,
+                v_crit_mps: v_crit.found(),
+                stable_up_to_mps: v_crit.stable_up_to(),
+                reason: v_crit.reason("straight running with these gains", SEARCH_CAP),
                 tried: 0,
             })
         }

@@ -22,6 +22,7 @@ use sway::gain_design::{
     DelayBudget, FoldResult, GainSearch, LinearOptimum, critical_speed, delay_budget, fold_optimum,
     linear_optimum, open_loop_fold_speed,
 };
+use sway::ranging::{MAX_SPEED, stable_up_to_reason};
 
 /// The search's keys: [`GainSearch`] with the gain and speed ranges optional.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -173,6 +174,15 @@ impl GainDesignConfig {
         self.nonlinear.every > 0 && i.is_multiple_of(self.nonlinear.every)
     }
 
+    /// The cap of the critical-speed search as a reason names it: `search.v_max_mps` where
+    /// the config gives it, else the maximum speed (`--max-speed`) it is derived from.
+    pub fn cap_name(&self) -> &'static str {
+        match self.search.v_max_mps {
+            Some(_) => "the speed cap, search.v_max_mps",
+            None => MAX_SPEED,
+        }
+    }
+
     /// The settings with the omitted keys derived from the vehicle.
     ///
     /// # Errors
@@ -299,13 +309,14 @@ pub struct GainDesign {
     pub nonlinear_reason: Option<String>,
 }
 
-/// The reason of one linear optimum: V_crit capped at the speed range's top, or no gain
-/// above the open loop.
-fn linear_reason(l: &LinearOptimum, v_open: f64, o: &GainSearch) -> Option<String> {
-    if l.speed_capped {
+/// The reason of one linear optimum: stable up to the speed range's top (`cap_name`), or
+/// no gain above the open loop.
+fn linear_reason(l: &LinearOptimum, v_open: f64, o: &GainSearch, cap_name: &str) -> Option<String> {
+    if let Some(cap) = l.v_crit_max().stable_up_to() {
+        let subject = format!("straight running with D = {:.4} s", l.d_opt_s);
         return Some(format!(
-            "straight running is stable up to the top of the speed range ({} m/s) at D = {:.4} s: the critical speed is at least that (v_crit_mps is the top)",
-            o.v_max_mps, l.d_opt_s
+            "{}: the critical speed is higher",
+            stable_up_to_reason(&subject, cap, cap_name)
         ));
     }
     let no_rise = l.v_crit_max_mps <= v_open * (1.0 + 1e-9);
@@ -389,6 +400,7 @@ pub fn compute<M: LoopModel + ?Sized>(
     }
     let v_open = critical_speed(model, 0.0, 0.0, o)?;
     let open_loop_stable = v_open >= o.v_max_mps;
+    let cap_name = cfg.cap_name();
     let bc = &cfg.budget;
     let budget = delay_budget(
         model,
@@ -398,19 +410,29 @@ pub fn compute<M: LoopModel + ?Sized>(
         bc.tau_tolerance_s,
         o,
     )?;
-    let budget_reason = budget.tau_s.is_none().then(|| {
-        format!(
-            "no delay of the grid has a gain that raises the critical speed by {} % over the open loop's {:.4} m/s{}",
-            bc.rise_fraction * 100.0,
-            v_open,
-            if open_loop_stable {
-                " (the open loop is stable up to the top of the speed range)"
-            } else {
-                ""
-            }
-        )
-    });
-    let linear_reasons = linear.iter().map(|l| linear_reason(l, v_open, o)).collect();
+    let rise = format!("by {} %", bc.rise_fraction * 100.0);
+    let budget_reason = match (budget.tau_s, budget.at_grid_end) {
+        (Some(_), false) => None,
+        (Some(tau), true) => Some(format!(
+            "the best gain raises the critical speed {rise} over the open loop's {v_open:.4} m/s at every delay of the grid up to its end, τ = {tau} s (delays_s.max): the delay budget is at least that"
+        )),
+        (None, _) if open_loop_stable => Some(format!(
+            "{}: no critical speed to raise",
+            stable_up_to_reason("straight running without feedback", o.v_max_mps, cap_name)
+        )),
+        // a capped optimum is a lower bound: above the cap no rise can be told
+        (None, _) if (1.0 + bc.rise_fraction) * v_open > o.v_max_mps => Some(format!(
+            "the rise {rise} over the open loop's {v_open:.4} m/s asks for a critical speed above the top of the speed range, {} m/s ({cap_name}): no delay budget can be told",
+            o.v_max_mps
+        )),
+        (None, _) => Some(format!(
+            "no delay of the grid has a gain that raises the critical speed {rise} over the open loop's {v_open:.4} m/s"
+        )),
+    };
+    let linear_reasons = linear
+        .iter()
+        .map(|l| linear_reason(l, v_open, o, cap_name))
+        .collect();
     progress.advance(1);
     Ok(GainDesign {
         resolved,

@@ -1,8 +1,54 @@
-//! Figures drawn from library results: the panels of the stability charts (Fig. 4a).
+//! Figures drawn from library results: the panels of the stability charts (Fig. 4a), and
+//! speeds a search's cap may have cut off ([`capped_speed_layers`]).
 
 use stability::{Axis, Polyline, StabilityChart};
+use sway::ranging::CappedSpeed;
 
-use crate::plot::{Layer, Legend, Panel, Rgb, Stroke};
+use crate::plot::{Layer, Legend, Panel, Rgb, Shape, Stroke};
+
+/// A speed curve over x whose speeds may be stable up to the search's cap: the line of the
+/// speeds found (split where one is capped, labelled `label`) and the capped ones as
+/// triangles at the cap in the same colour, so that no capped value is drawn as a measured
+/// one ([`stable_up_to_key`] explains the triangles).
+pub fn capped_speed_layers(
+    points: &[(f64, CappedSpeed)],
+    color: Rgb,
+    stroke: Stroke,
+    label: Option<&str>,
+) -> Vec<Layer> {
+    let line: Vec<(f64, f64)> = points
+        .iter()
+        .map(|&(x, v)| (x, v.found().unwrap_or(f64::NAN)))
+        .collect();
+    let capped: Vec<(f64, f64)> = points
+        .iter()
+        .filter_map(|&(x, v)| v.stable_up_to().map(|cap| (x, cap)))
+        .collect();
+    let mut layers = vec![Layer::line(line, color, stroke, label)];
+    if !capped.is_empty() {
+        layers.push(Layer::Markers {
+            points: capped,
+            color,
+            shape: Shape::Triangle,
+            size: 6,
+            label: None,
+        });
+    }
+    layers
+}
+
+/// The legend entry of [`capped_speed_layers`]' triangles: "stable up to `cap` m/s (the
+/// speed cap)"; None when no point of `speeds` is capped.
+pub fn stable_up_to_key(speeds: impl IntoIterator<Item = CappedSpeed>) -> Option<Layer> {
+    let cap = speeds.into_iter().find_map(CappedSpeed::stable_up_to)?;
+    Some(Layer::Markers {
+        points: Vec::new(),
+        color: Rgb(60, 60, 60),
+        shape: Shape::Triangle,
+        size: 6,
+        label: Some(format!("stable up to {cap} m/s (the speed cap)")),
+    })
+}
 
 /// Polylines as one line layer (NaN separators), clipped to `lo ≤ D ≤ hi` (pieces outside the
 /// frame end at the frame edge instead of being drawn along it).

@@ -470,6 +470,71 @@ pub struct Summary<'a, H, C> {
     pub wall_time_s: f64,
 }
 
+/// Keys of a summary that name a search's cap or range rather than a speed it found.
+const CAP_KEYS: [&str; 3] = ["v_max_mps", "max_speed_mps", "searched_mps"];
+
+/// The speeds of a `summary.json` that equal a search's `cap` \[m/s\] without saying so: the
+/// JSON paths of the numbers under a key ending `_mps` (in an array under one too) that
+/// equal `cap` in an object with no key ending `stable_up_to_mps`. The README's convention is
+/// that a speed the cap cut off is null, with `stable_up_to_mps` = the cap and a `reason`
+/// (`sway::ranging::CappedSpeed`); a number equal to the cap is then a capped value
+/// reported as a measured one. Not reports, so not looked at: the keys naming a cap or a
+/// searched range (`v_max_mps`, `max_speed_mps`, `searched_mps`), the ones ending
+/// `stable_up_to_mps`, and the inputs echoed at the top level (`config`, `vehicle`).
+pub fn speeds_at_cap(summary: &serde_json::Value, cap: f64) -> Vec<String> {
+    use serde_json::Value;
+    fn numbers(v: &Value, path: &str, cap: f64, out: &mut Vec<String>) {
+        match v {
+            Value::Number(n) if n.as_f64() == Some(cap) => out.push(path.to_string()),
+            Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    numbers(x, &format!("{path}[{i}]"), cap, out);
+                }
+            }
+            _ => {}
+        }
+    }
+    fn walk(v: &Value, path: &str, cap: f64, out: &mut Vec<String>) {
+        match v {
+            Value::Object(m) => {
+                let said = m
+                    .iter()
+                    .any(|(k, x)| k.ends_with("stable_up_to_mps") && !x.is_null());
+                for (k, x) in m {
+                    let here = format!("{path}.{k}");
+                    let report = k.ends_with("_mps")
+                        && !k.ends_with("stable_up_to_mps")
+                        && !CAP_KEYS.contains(&k.as_str());
+                    if report && !said {
+                        numbers(x, &here, cap, out);
+                    }
+                    walk(x, &here, cap, out);
+                }
+            }
+            Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    walk(x, &format!("{path}[{i}]"), cap, out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    match summary {
+        Value::Object(m) => {
+            let reports = Value::Object(
+                m.iter()
+                    .filter(|(k, _)| !matches!(k.as_str(), "config" | "vehicle"))
+                    .map(|(k, x)| (k.clone(), x.clone()))
+                    .collect(),
+            );
+            walk(&reports, "", cap, &mut out);
+        }
+        other => walk(other, "", cap, &mut out),
+    }
+    out
+}
+
 /// What a summary records about the inputs of a run.
 #[derive(Debug, Clone, Copy)]
 pub struct RunInfo<'a> {

@@ -8,6 +8,8 @@
 // each file keeps its `mod common;` (a copy per module): the files stay as they were
 #![allow(clippy::duplicate_mod)]
 
+#[path = "capped_speeds.rs"]
+mod capped_speeds;
 #[path = "configs.rs"]
 mod configs;
 #[path = "generated_inputs.rs"]
@@ -30,6 +32,8 @@ mod many_vehicles_scenarios;
 mod numerical_extremes;
 #[path = "shard.rs"]
 mod shard;
+#[path = "simulate_figure.rs"]
+mod simulate_figure;
 // the unit tests of the library's modules (tests/unit/mod.rs says why they are here)
 mod unit;
 

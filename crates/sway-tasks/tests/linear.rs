@@ -395,15 +395,24 @@ fn linear_fig4a_and_gain_design_run_on_a_relaxed_vehicle() {
     assert!(s["nonlinear_reason"].as_str().is_some());
     assert_eq!(s["nonlinear_delays_s"].as_array().map(Vec::len), Some(0));
     let first = &s["optimal_gain"][0];
-    let (d, v) = (
-        first["d_s"].as_f64().expect("d_s"),
-        first["v_crit_mps"].as_f64().expect("v_crit_mps"),
-    );
-    assert!(v > vc, "{v} vs open loop {vc}");
+    let d = first["d_s"].as_f64().expect("d_s");
     assert!(first["v_crit_confirmed_by_roots"].as_bool().expect("flag"));
-    if !first["v_crit_capped"].as_bool().expect("capped") {
-        assert!(delay_free_abscissa(&ctx.plant, v - 1e-6, d) < 0.0);
-        assert!(delay_free_abscissa(&ctx.plant, v + 1e-6, d) > 0.0);
+    // V_crit found below the cap, or null with the cap it is stable up to (the README's
+    // convention)
+    match first["v_crit_mps"].as_f64() {
+        Some(v) => {
+            assert!(v > vc, "{v} vs open loop {vc}");
+            assert!(first["stable_up_to_mps"].is_null(), "{first}");
+            assert!(delay_free_abscissa(&ctx.plant, v - 1e-6, d) < 0.0);
+            assert!(delay_free_abscissa(&ctx.plant, v + 1e-6, d) > 0.0);
+        }
+        None => {
+            let cap = first["stable_up_to_mps"]
+                .as_f64()
+                .expect("stable_up_to_mps");
+            assert!(cap > vc && first["reason"].is_string(), "{first}");
+            assert!(delay_free_abscissa(&ctx.plant, cap - 1e-6, d) < 0.0);
+        }
     }
 }
 
@@ -640,9 +649,11 @@ fn control_design_runs_on_a_relaxed_vehicle() {
     let yaw = find("yaw_rate", 0.0);
     let (d, v) = (
         yaw["gains"]["yaw_rate"].as_f64().expect("D"),
-        yaw["v_crit_mps"].as_f64().expect("V_crit"),
+        yaw["v_crit_mps"]
+            .as_f64()
+            .expect("V_crit found below the cap"),
     );
-    assert!(!yaw["speed_capped"].as_bool().expect("capped"), "{yaw}");
+    assert!(yaw["stable_up_to_mps"].is_null(), "{yaw}");
     assert!(delay_free_abscissa(&ctx.plant, v - 1e-5, d) < 0.0, "{v}");
     assert!(delay_free_abscissa(&ctx.plant, v + 1e-5, d) > 0.0, "{v}");
     for d in designs {

@@ -30,7 +30,10 @@
 //!   measured ≤ 1.4e-10), and fig3a and fig4b agree on whether there is a fold; a chart
 //!   without it says why;
 //! - the chart and the gain design of a vehicle stable up to the maximum speed are outcomes
-//!   with reasons (no Hopf curve / all safe; open loop stable up to the maximum speed).
+//!   with reasons (no Hopf curve / all safe; open loop stable up to the maximum speed);
+//! - no summary reports the maximum speed as a measured speed (`sway_tasks::io::speeds_at_cap`:
+//!   a speed the cap cut off is null with `stable_up_to_mps`; gain_design's optima of the
+//!   stable vehicle are).
 
 #[path = "common/vehicles.rs"]
 mod vehicles;
@@ -125,7 +128,16 @@ fn run(task: &str, toml: &str, vehicle: &Path, dir: &Path) -> Result<Value, Stri
     let report = prepared.run(&ctx).map_err(|e| format!("{task}: {e}"))?;
     let text = std::fs::read_to_string(report.output_dir.join("summary.json"))
         .map_err(|e| e.to_string())?;
-    serde_json::from_str(&text).map_err(|e| e.to_string())
+    let summary: Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+    // no speed at the maximum speed without `stable_up_to_mps` (issue 51, item 6)
+    let cap = sway::ranging::SpeedLimits::default().max_speed_mps;
+    let capped = sway_tasks::io::speeds_at_cap(&summary, cap);
+    if !capped.is_empty() {
+        return Err(format!(
+            "{task}: speeds at the cap {cap} m/s reported as measured: {capped:?}"
+        ));
+    }
+    Ok(summary)
 }
 
 /// What the three tasks said about one vehicle.

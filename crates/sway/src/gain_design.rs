@@ -34,6 +34,7 @@ use argmin::solver::brent::BrentOpt;
 use serde::{Deserialize, Serialize};
 use trailer_model::Model;
 
+use sway_model::speeds::CappedSpeed;
 use sway_model::vehicle::LoopModel;
 
 use crate::SwayError;
@@ -128,7 +129,8 @@ pub struct LinearOptimum {
     pub tau_s: f64,
     /// the gain D\* maximising the critical speed \[s\]
     pub d_opt_s: f64,
-    /// the maximal critical speed V_crit(D\*) \[m/s\]
+    /// the maximal critical speed V_crit(D\*) \[m/s\] (the top of the speed range if capped:
+    /// the optimiser's objective; a summary reports [`LinearOptimum::v_crit_max`])
     pub v_crit_max_mps: f64,
     /// the gains whose critical speed is within `band_fraction` of the maximum (the
     /// connected interval around D\*; an end equals a range end if the band reaches it) \[s\]
@@ -143,6 +145,19 @@ pub struct LinearOptimum {
     pub roots_confirm: bool,
     /// evaluations of the critical speed
     pub evaluations: usize,
+}
+
+impl LinearOptimum {
+    /// V_crit,max as a summary reports it: found, or straight running stable up to the top
+    /// of the speed range (`speed_capped`: `v_crit_max_mps` is that top, not a measured
+    /// speed).
+    pub fn v_crit_max(&self) -> CappedSpeed {
+        if self.speed_capped {
+            CappedSpeed::StableUpTo(self.v_crit_max_mps)
+        } else {
+            CappedSpeed::Found(self.v_crit_max_mps)
+        }
+    }
 }
 
 /// Speed offset of the check of [`roots_confirm`] \[m/s\].

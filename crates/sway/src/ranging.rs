@@ -4,8 +4,9 @@
 //! types themselves and the critical-speed search are [`sway_model::speeds`]'s.
 
 pub use sway_model::speeds::{
-    CriticalSpeedSummary, OpenLoopStability, Reference, RelativeSpeed, SpeedLimits,
-    SpeedReferences, SpeedSpec, Unresolved, open_loop_critical_speed,
+    CappedSpeed, CriticalSpeedSummary, MAX_SPEED, OpenLoopStability, Reference, RelativeSpeed,
+    SpeedLimits, SpeedReferences, SpeedSpec, Unresolved, open_loop_critical_speed,
+    stable_up_to_reason,
 };
 
 use sway_model::speeds::resolve::{Resolution, ResolveSpeeds, resolve_against};

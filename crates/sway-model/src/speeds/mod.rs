@@ -54,10 +54,91 @@ impl SpeedLimits {
 
     /// The reason said when straight running is stable on the whole scanned range.
     pub fn stable_reason(&self) -> String {
-        format!(
-            "straight running is stable at every speed up to {} m/s (the maximum speed, --max-speed)",
-            self.max_speed_mps
-        )
+        stable_up_to_reason("straight running", self.max_speed_mps, MAX_SPEED)
+    }
+}
+
+/// The name of the cap of [`SpeedLimits`] in a reason: `--max-speed`.
+pub const MAX_SPEED: &str = "the maximum speed, --max-speed";
+
+/// The one wording of a speed that a search's cap cut off: "`subject` is stable at every
+/// speed up to `cap` m/s (`cap_name`)", e.g. "straight running is stable at every speed up
+/// to 100 m/s (the maximum speed, --max-speed)". Every summary's `reason` beside a null
+/// speed with `stable_up_to_mps`, and every printed line and label of one, says it so.
+pub fn stable_up_to_reason(subject: &str, cap: f64, cap_name: &str) -> String {
+    format!("{subject} is stable at every speed up to {cap} m/s ({cap_name})")
+}
+
+/// A speed searched for on a range that ends at a cap (`--max-speed`, a search's
+/// `v_max_mps`): found below the cap, or none there — straight running is stable up to
+/// the cap, and the cap is not a measured speed. A summary writes it as the open loop's
+/// V_crit is written ([`CriticalSpeedSummary`]): the speed, or null with
+/// `stable_up_to_mps` = the cap and a `reason` ([`CappedSpeed::reason`]); a CSV cell of it
+/// is empty then, and a plot marks the cap as "stable up to".
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CappedSpeed {
+    /// the speed found below the cap \[m/s\]
+    Found(f64),
+    /// none below the cap: stable up to it \[m/s\]
+    StableUpTo(f64),
+}
+
+impl CappedSpeed {
+    /// A search's answer: `Some(v)` found, `None` stable up to `cap` \[m/s\].
+    pub fn of(found: Option<f64>, cap: f64) -> Self {
+        found.map_or(Self::StableUpTo(cap), Self::Found)
+    }
+
+    /// A speed `v` \[m/s\] of an engine that reports the cap where it found nothing below
+    /// it (an optimiser's objective: the maximal critical speed of a gain design): `v ≥ cap`
+    /// is stable up to the cap, not a measured speed.
+    pub fn from_bounded(v: f64, cap: f64) -> Self {
+        if v >= cap {
+            Self::StableUpTo(cap)
+        } else {
+            Self::Found(v)
+        }
+    }
+
+    /// The speed found below the cap \[m/s\] (None: stable up to it).
+    pub fn found(self) -> Option<f64> {
+        match self {
+            Self::Found(v) => Some(v),
+            Self::StableUpTo(_) => None,
+        }
+    }
+
+    /// The cap up to which straight running is stable \[m/s\] (None: a speed was found).
+    pub fn stable_up_to(self) -> Option<f64> {
+        match self {
+            Self::Found(_) => None,
+            Self::StableUpTo(cap) => Some(cap),
+        }
+    }
+
+    /// The speed found, or the cap: a lower bound of the true speed \[m/s\] (what an
+    /// optimiser compares and a plot places a "stable up to" marker at).
+    pub fn lower_bound(self) -> f64 {
+        match self {
+            Self::Found(v) | Self::StableUpTo(v) => v,
+        }
+    }
+
+    /// Why the speed is null ([`stable_up_to_reason`] of `subject` and the cap named
+    /// `cap_name`); None where a speed was found.
+    pub fn reason(self, subject: &str, cap_name: &str) -> Option<String> {
+        self.stable_up_to()
+            .map(|cap| stable_up_to_reason(subject, cap, cap_name))
+    }
+
+    /// The speed named `symbol` for a printed line or a label: "`symbol` = `v` m/s" with
+    /// `decimals` decimals, or "`symbol`: stable up to `cap` m/s (the speed cap)".
+    pub fn label(self, symbol: &str, decimals: usize) -> String {
+        match self {
+            Self::Found(v) => format!("{symbol} = {v:.decimals$} m/s"),
+            Self::StableUpTo(cap) => format!("{symbol}: stable up to {cap} m/s (the speed cap)"),
+        }
     }
 }
 
@@ -113,8 +194,10 @@ impl OpenLoopStability {
                 hopf_omega_rad_s: None,
                 hopf_frequency_hz: None,
                 stable_up_to_mps: Some(stable_up_to_mps),
-                reason: Some(format!(
-                    "straight running is stable at every speed up to {stable_up_to_mps} m/s (the maximum speed, --max-speed)"
+                reason: Some(stable_up_to_reason(
+                    "straight running",
+                    stable_up_to_mps,
+                    MAX_SPEED,
                 )),
             },
         }
@@ -427,6 +510,29 @@ mod tests {
         let s = got.summary();
         assert_eq!(s.hopf_omega_rad_s, Some(reference.hopf_omega_rad_s));
         assert!(s.reason.is_none() && s.stable_up_to_mps.is_none());
+    }
+
+    #[test]
+    fn a_capped_speed_is_null_with_the_cap_and_the_reason() {
+        // reference: the README's convention (`v_crit_mps: null` with `stable_up_to_mps`
+        // and a `reason`) and the open loop's wording of it (OpenLoopStability::summary)
+        let capped = CappedSpeed::from_bounded(100.0, 100.0);
+        assert_eq!(capped, CappedSpeed::of(None, 100.0));
+        assert_eq!((capped.found(), capped.stable_up_to()), (None, Some(100.0)));
+        let open = OpenLoopStability::StableUpTo {
+            stable_up_to_mps: 100.0,
+        }
+        .summary();
+        assert_eq!(capped.reason("straight running", MAX_SPEED), open.reason);
+        assert_eq!(
+            capped.label("V_crit", 2),
+            "V_crit: stable up to 100 m/s (the speed cap)"
+        );
+        let found = CappedSpeed::from_bounded(60.5, 100.0);
+        assert_eq!((found.found(), found.stable_up_to()), (Some(60.5), None));
+        assert_eq!(found.reason("straight running", MAX_SPEED), None);
+        assert_eq!(found.label("V_crit", 2), "V_crit = 60.50 m/s");
+        assert_eq!(found.lower_bound(), 60.5);
     }
 
     #[test]

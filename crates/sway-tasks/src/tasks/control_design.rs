@@ -29,10 +29,11 @@ use sway::control::{
     VehicleUncertainty,
 };
 use sway_studies::control_design::{
-    AwayFromCorner, CheckedDesign, Combination, ControlStudy, Curve, SimulationCheck,
-    SimulationOutcome, StudySettings, StudyVehicle, control_study, open_loop_critical_speed,
-    simulation_check,
+    AwayFromCorner, CheckedDesign, Combination, ControlStudy, Curve, ROBUSTNESS_CAP, SEARCH_CAP,
+    SimulationCheck, SimulationOutcome, StudySettings, StudyVehicle, control_study,
+    open_loop_critical_speed, simulation_check,
 };
+use sway::ranging::CappedSpeed;
 use sway::sampling::{About, Distribution, Field, Method, Sampling};
 use sway::sim::PredictionVehicle;
 
@@ -41,6 +42,7 @@ use crate::TaskError;
 use crate::config_file::{Configured, TaskConfig, check_delays};
 use crate::io::OutputDir;
 use crate::limits::{Plan, human_seconds};
+use crate::figures::{capped_speed_layers, stable_up_to_key};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
 
 /// The task.
@@ -406,17 +408,41 @@ struct DesignEntry {
     actuator: &'static str,
     tau_s: f64,
     gains: Gains,
-    v_crit_mps: f64,
+    /// V_crit,max, found or stable up to the cap (written as the fields below)
+    #[serde(skip)]
+    v_crit: CappedSpeed,
+    /// the robust (5 %) V_crit at a checked delay where a sample succeeded (written as the
+    /// fields below)
+    #[serde(skip)]
+    robust: Option<CappedSpeed>,
+    /// the maximal linear critical speed \[m/s\] (null: stable up to the search's cap,
+    /// `stable_up_to_mps` and `reason`)
+    v_crit_mps: Option<f64>,
     /// the scan's V_crit where a narrower window of instability lies below it
     #[serde(skip_serializing_if = "Option::is_none")]
     v_crit_scan_mps: Option<f64>,
-    speed_capped: bool,
+    /// the scan found none up to the cap \[m/s\], a window of instability lies below it
+    #[serde(skip_serializing_if = "Option::is_none")]
+    v_crit_scan_stable_up_to_mps: Option<f64>,
+    /// straight running with the optimal gains is stable up to this speed \[m/s\]
+    /// (`search.speed.v_max_mps`; absent: `v_crit_mps` was found below it)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stable_up_to_mps: Option<f64>,
+    /// why `v_crit_mps` is null
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reason: Option<String>,
     v_fold_mps: Option<f64>,
     /// the Hopf point the fold's cycle branch starts from
     v_fold_hopf_mps: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     v_fold_reason: Option<String>,
+    /// the 5 % quantile of V_crit over the uncertainty samples \[m/s\] (null: not a checked
+    /// delay, every sample failed, or stable up to the cap, `v_crit_p05_stable_up_to_mps`)
     v_crit_p05_mps: Option<f64>,
+    /// at least 95 % of the samples are stable up to this speed \[m/s\]
+    /// (`robustness.speed.v_max_mps`)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    v_crit_p05_stable_up_to_mps: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     v_crit_p05_reason: Option<String>,
     at_double_hopf: bool,
@@ -429,6 +455,7 @@ struct DesignEntry {
     second_pair_reason: Option<String>,
 }
 
+/// A row of `designs.csv` (an empty cell: null in `summary.json`, with its reason there).
 #[derive(Debug, Clone, PartialEq, Serialize, Default)]
 struct DesignRow {
     structure: String,
@@ -437,15 +464,25 @@ struct DesignRow {
     gain_yaw_rate: f64,
     gain_hitch_angle: f64,
     gain_hitch_rate: f64,
-    v_crit_mps: f64,
-    speed_capped: bool,
+    v_crit_mps: Option<f64>,
+    stable_up_to_mps: Option<f64>,
     v_fold_mps: Option<f64>,
     v_crit_p05_mps: Option<f64>,
+    v_crit_p05_stable_up_to_mps: Option<f64>,
     at_double_hopf: bool,
     v_fold_away_from_corner_mps: Option<f64>,
 }
 
-fn entry(c: &Combination, d: &Design) -> DesignEntry {
+/// The robust (5 %) critical speed of a checked design: the quantile, or stable up to the
+/// samples' cap where it reaches it (at least 95 % of the samples are stable up to there);
+/// None where every sample failed.
+fn robust_v_crit(k: &CheckedDesign, cfg: &ControlDesignConfig) -> Option<CappedSpeed> {
+    k.robustness
+        .v_crit_p05_mps
+        .map(|v| CappedSpeed::from_bounded(v, cfg.robustness.speed.v_max_mps))
+}
+
+fn entry(c: &Combination, d: &Design, cfg: &ControlDesignConfig) -> DesignEntry {
     let checked: Option<&CheckedDesign> = c.checked.iter().find(|k| k.tau_s == d.tau_s);
     let fold = c
         .designs
@@ -454,24 +491,35 @@ fn entry(c: &Combination, d: &Design) -> DesignEntry {
         .find(|(e, _)| e.tau_s == d.tau_s)
         .map(|(_, f)| f);
     let not_checked = || Some("not a checked delay (robustness.delays_s)".to_string());
+    let v_crit = d.v_crit();
+    let scan = d
+        .v_crit_scan_mps
+        .map(|v| CappedSpeed::from_bounded(v, cfg.search.speed.v_max_mps));
+    let robust = checked.and_then(|k| robust_v_crit(k, cfg));
     DesignEntry {
         structure: d.structure.as_str(),
         actuator: d.actuator.as_str(),
         tau_s: d.tau_s,
         gains: d.gains,
-        v_crit_mps: d.v_crit_mps,
-        v_crit_scan_mps: d.v_crit_scan_mps,
-        speed_capped: d.speed_capped,
+        v_crit,
+        robust,
+        v_crit_mps: v_crit.found(),
+        v_crit_scan_mps: scan.and_then(CappedSpeed::found),
+        v_crit_scan_stable_up_to_mps: scan.and_then(CappedSpeed::stable_up_to),
+        stable_up_to_mps: v_crit.stable_up_to(),
+        reason: v_crit.reason("straight running with the optimal gains", SEARCH_CAP),
         v_fold_mps: fold.and_then(|f| f.v_fold_mps),
         v_fold_hopf_mps: fold.and_then(|f| f.hopf_v_mps),
         v_fold_reason: fold.and_then(|f| f.v_fold_reason.clone()),
-        v_crit_p05_mps: checked.and_then(|k| k.robustness.v_crit_p05_mps),
-        v_crit_p05_reason: match checked {
-            Some(k) if k.robustness.v_crit_p05_mps.is_none() => {
-                Some("every uncertainty sample failed".into())
-            }
-            Some(_) => None,
-            None => not_checked(),
+        v_crit_p05_mps: robust.and_then(CappedSpeed::found),
+        v_crit_p05_stable_up_to_mps: robust.and_then(CappedSpeed::stable_up_to),
+        v_crit_p05_reason: match (checked, robust) {
+            (Some(_), None) => Some("every uncertainty sample failed".into()),
+            (Some(_), Some(r)) => r.reason(
+                "straight running of at least 95 % of the uncertainty samples",
+                ROBUSTNESS_CAP,
+            ),
+            (None, _) => not_checked(),
         },
         at_double_hopf: d.at_double_hopf,
         v_fold_away_from_corner: fold.and_then(|f| f.away_from_corner.clone()),
@@ -523,8 +571,16 @@ enum Summary {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 struct Designs {
     designs: Vec<DesignEntry>,
+    /// per `<structure>_<actuator>`: the largest delay at which the best gains still raise
+    /// V_crit by `budget_rise_fraction` \[s\] (null: not even at the first delay, or at every
+    /// delay of the grid: `delay_budget_at_least_s`; `delay_budget_reason` says which)
     delay_budget_s: BTreeMap<String, Option<f64>>,
-    delay_budget_at_grid_end: BTreeMap<String, bool>,
+    /// the budgets that reach the end of the delay grid: at least this \[s\]
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    delay_budget_at_least_s: BTreeMap<String, f64>,
+    /// why a budget is null
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    delay_budget_reason: BTreeMap<String, String>,
     delay_budget_later_windows_s: BTreeMap<String, Vec<f64>>,
     budget_rise_fraction: f64,
     open_loop_v_crit_mps: f64,
@@ -591,23 +647,27 @@ fn figure(r: &ControlStudy, cfg: &ControlDesignConfig) -> Figure {
         "speed [m/s]",
     )
     .legend(Legend::UpperRight);
+    let mut capped: Vec<CappedSpeed> = Vec::new();
+    let mut capped_robust: Vec<CappedSpeed> = Vec::new();
     for c in &r.combinations {
         let label = format!("{} + {}", c.structure.as_str(), c.actuator.as_str());
-        let pts: Vec<(f64, f64)> = c.designs.iter().map(|d| (d.tau_s, d.v_crit_mps)).collect();
-        best = best.with(Layer::line(
-            pts,
+        let pts: Vec<(f64, CappedSpeed)> = c.designs.iter().map(|d| (d.tau_s, d.v_crit())).collect();
+        capped.extend(pts.iter().map(|p| p.1));
+        best.layers.extend(capped_speed_layers(
+            &pts,
             color(c.structure),
             stroke(c.actuator),
             Some(&label),
         ));
-        let p05: Vec<(f64, f64)> = c
+        let p05: Vec<(f64, CappedSpeed)> = c
             .checked
             .iter()
-            .filter_map(|k| k.robustness.v_crit_p05_mps.map(|v| (k.tau_s, v)))
+            .filter_map(|k| robust_v_crit(k, cfg).map(|v| (k.tau_s, v)))
             .collect();
         if !p05.is_empty() {
-            robust = robust.with(Layer::line(
-                p05,
+            capped_robust.extend(p05.iter().map(|p| p.1));
+            robust.layers.extend(capped_speed_layers(
+                &p05,
                 color(c.structure),
                 stroke(c.actuator),
                 Some(&format!("{label}: 5 % V_crit")),
@@ -641,6 +701,8 @@ fn figure(r: &ControlStudy, cfg: &ControlDesignConfig) -> Figure {
         ))
         .x_range(t0, t1)
     };
+    best.layers.extend(stable_up_to_key(capped));
+    robust.layers.extend(stable_up_to_key(capped_robust));
     Figure::column(vec![reference(best), reference(robust)])
         .titled("Sway control for longer delays: controller structures × actuators")
 }
@@ -704,7 +766,7 @@ impl Prepared for Configured<ControlDesignConfig> {
                 let entries: Vec<DesignEntry> = r
                     .combinations
                     .iter()
-                    .flat_map(|c| c.designs.iter().map(move |d| entry(c, d)))
+                    .flat_map(|c| c.designs.iter().map(move |d| entry(c, d, cfg)))
                     .collect();
                 out.write_table(
                     "designs.csv",
@@ -716,9 +778,10 @@ impl Prepared for Configured<ControlDesignConfig> {
                         gain_hitch_angle: e.gains.hitch_angle,
                         gain_hitch_rate: e.gains.hitch_rate,
                         v_crit_mps: e.v_crit_mps,
-                        speed_capped: e.speed_capped,
+                        stable_up_to_mps: e.stable_up_to_mps,
                         v_fold_mps: e.v_fold_mps,
                         v_crit_p05_mps: e.v_crit_p05_mps,
+                        v_crit_p05_stable_up_to_mps: e.v_crit_p05_stable_up_to_mps,
                         at_double_hopf: e.at_double_hopf,
                         v_fold_away_from_corner_mps: e
                             .v_fold_away_from_corner
@@ -747,17 +810,24 @@ impl Prepared for Configured<ControlDesignConfig> {
                 } else {
                     None
                 };
-                let lines = headlines(&r, &entries);
+                let lines = headlines(&r, &entries, cfg);
+                let budgets: Vec<(String, Budget)> = r
+                    .combinations
+                    .iter()
+                    .map(|c| (key(c), Budget::of(c, &r, cfg)))
+                    .collect();
                 let summary = Summary::Designs(Box::new(Designs {
-                    delay_budget_s: r
-                        .combinations
+                    delay_budget_s: budgets
                         .iter()
-                        .map(|c| (key(c), c.budget.tau_s))
+                        .map(|(k, b)| (k.clone(), b.seconds()))
                         .collect(),
-                    delay_budget_at_grid_end: r
-                        .combinations
+                    delay_budget_at_least_s: budgets
                         .iter()
-                        .map(|c| (key(c), c.budget.at_grid_end))
+                        .filter_map(|(k, b)| b.at_least().map(|t| (k.clone(), t)))
+                        .collect(),
+                    delay_budget_reason: budgets
+                        .iter()
+                        .filter_map(|(k, b)| b.reason.clone().map(|why| (k.clone(), why)))
                         .collect(),
                     delay_budget_later_windows_s: r
                         .combinations
@@ -793,16 +863,73 @@ impl Prepared for Configured<ControlDesignConfig> {
     }
 }
 
-fn headlines(r: &ControlStudy, entries: &[DesignEntry]) -> Vec<String> {
+/// A delay budget as the summary reports it: the budget, or null with the grid's end it
+/// reaches (the true budget is larger) or none, and the reason.
+#[derive(Debug, Clone, PartialEq)]
+struct Budget {
+    /// the budget \[s\]
+    tau_s: Option<f64>,
+    /// the budget reaches the end of the delay grid, this delay \[s\]
+    at_grid_end: bool,
+    /// why `tau_s` is null
+    reason: Option<String>,
+}
+
+impl Budget {
+    fn of(c: &Combination, r: &ControlStudy, cfg: &ControlDesignConfig) -> Self {
+        let b = &c.budget;
+        let rise = format!(
+            "by {} % over the open loop's {:.4} m/s",
+            b.gain_fraction * 100.0,
+            r.open_loop_v_crit_mps
+        );
+        let reason = match (b.tau_s, b.at_grid_end) {
+            (Some(_), false) => None,
+            (Some(t), true) => Some(format!(
+                "the best gains raise V_crit {rise} at every delay of the grid up to its end, \
+                 τ = {t} s (delays_s.max): the delay budget is at least that"
+            )),
+            // a capped design is a lower bound: above the cap no rise can be told
+            (None, _) if (1.0 + b.gain_fraction) * r.open_loop_v_crit_mps > cfg.search.speed.v_max_mps => {
+                Some(format!(
+                    "the rise {rise} asks for a V_crit above the speed cap, {} m/s (search.speed.v_max_mps): no delay budget can be told",
+                    cfg.search.speed.v_max_mps
+                ))
+            }
+            (None, _) => Some(format!(
+                "not even at the first delay of the grid, τ = {} s, do the best gains raise V_crit {rise}",
+                cfg.delays_s.min
+            )),
+        };
+        Self {
+            tau_s: b.tau_s,
+            at_grid_end: b.at_grid_end,
+            reason,
+        }
+    }
+
+    /// The budget \[s\]: null at the grid's end (a lower bound, [`Budget::at_least`]).
+    fn seconds(&self) -> Option<f64> {
+        self.tau_s.filter(|_| !self.at_grid_end)
+    }
+
+    /// The grid's end where the budget reaches it \[s\].
+    fn at_least(&self) -> Option<f64> {
+        self.tau_s.filter(|_| self.at_grid_end)
+    }
+}
+
+fn headlines(r: &ControlStudy, entries: &[DesignEntry], cfg: &ControlDesignConfig) -> Vec<String> {
     let mut lines = vec![format!(
         "open-loop V_crit = {:.3} m/s; delay budget = largest τ with V_crit,max ≥ 1.1 × it",
         r.open_loop_v_crit_mps
     )];
     for c in &r.combinations {
-        let budget = match (c.budget.tau_s, c.budget.at_grid_end) {
-            (Some(t), false) => format!("{t:.3} s"),
-            (Some(t), true) => format!("≥ {t:.3} s (grid end)"),
-            (None, _) => "none (not even at the first delay)".into(),
+        let b = Budget::of(c, r, cfg);
+        let budget = match (b.seconds(), b.at_least()) {
+            (Some(t), _) => format!("{t:.3} s"),
+            (None, Some(t)) => format!("≥ {t:.3} s (the end of the delay grid)"),
+            (None, None) => "none (not even at the first delay)".into(),
         };
         let later = if c.budget.later_windows_s.is_empty() {
             String::new()
@@ -814,14 +941,17 @@ fn headlines(r: &ControlStudy, entries: &[DesignEntry]) -> Vec<String> {
         };
         lines.push(format!("{}: delay budget {budget}{later}", key(c)));
     }
-    for e in entries.iter().filter(|e| e.v_crit_p05_mps.is_some()) {
+    for e in entries {
+        let Some(robust) = e.robust else {
+            continue;
+        };
         lines.push(format!(
-            "τ = {:.2} s, {} + {}: V_crit = {:.2} m/s, robust (5 %) {:.2} m/s{}{}",
+            "τ = {:.2} s, {} + {}: {}, {}{}{}",
             e.tau_s,
             e.structure,
             e.actuator,
-            e.v_crit_mps,
-            e.v_crit_p05_mps.unwrap_or(f64::NAN),
+            e.v_crit.label("V_crit", 2),
+            robust.label("robust (5 %) V_crit", 2),
             e.v_fold_mps
                 .map(|v| format!(", V_fold {v:.2} m/s"))
                 .unwrap_or_default(),

@@ -12,7 +12,7 @@ pub use sway_studies::fig4a::{
     Fig4a, Fig4aConfig, Fig4aRanges, GainAxis, NumericsConfig, SpeedAxis, SummaryConfig, compute,
 };
 use sway::config::ensure;
-use sway::ranging::SpeedLimits;
+use sway::ranging::{CappedSpeed, SpeedLimits};
 use trailer_model::AnyVehicleModel;
 
 use super::{Prepared, Report, Task, TaskContext};
@@ -135,6 +135,10 @@ pub struct DelayEntry {
     /// D is unstable \[m/s\] (null: stable on the whole speed range)
     #[serde(flatten)]
     pub v_crit_at_gain: Keyed<Option<f64>>,
+    /// the summary gain keeps straight running stable up to this speed \[m/s\], the top of
+    /// the speed axis (absent: its V_crit was found below it)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stable_up_to_mps: Option<f64>,
     /// one key, `stable_d_interval_at_v_<V>` for the configured speed V: the stable gains
     #[serde(flatten)]
     pub stable_gains_at_speed: Keyed<GainIntervals>,
@@ -233,14 +237,15 @@ fn delay_entries(r: &Fig4a) -> (Vec<DelayEntry>, Vec<String>) {
     );
     let mut entries = Vec::new();
     let mut lines = Vec::new();
+    let top = r.ranges.speed_mps.max;
     for (s, ch) in summaries.iter().zip(charts) {
         let stable = ch.cells.iter().filter(|c| c.is_stable()).count();
         let intervals = GainIntervals::from(s.stable_gain_intervals.as_slice());
+        let v_crit = CappedSpeed::of(s.v_crit_at_gain_mps, top);
         lines.push(format!(
-            "τ = {} s: {gain_key} = {}, {v_key} = {}{}{}",
+            "τ = {} s: {}, {v_key} = {}{}{}",
             s.delay_s,
-            s.v_crit_at_gain_mps
-                .map_or("stable on the range".to_string(), |v| format!("{v:.4}")),
+            v_crit.label(&gain_key, 4),
             serde_json::to_string(&intervals).unwrap_or_default(),
             if ch.failures.is_empty() {
                 String::new()
@@ -252,6 +257,7 @@ fn delay_entries(r: &Fig4a) -> (Vec<DelayEntry>, Vec<String>) {
         entries.push(DelayEntry {
             tau_s: s.delay_s,
             v_crit_at_gain: Keyed(vec![(gain_key.clone(), s.v_crit_at_gain_mps)]),
+            stable_up_to_mps: v_crit.stable_up_to(),
             stable_gains_at_speed: Keyed(vec![(v_key.clone(), intervals)]),
             stable_cell_fraction: stable as f64 / ch.cells.len() as f64,
             reseeded_cells: ch.reseeds,

@@ -34,7 +34,9 @@ use super::{Prepared, Report, Task, TaskContext};
 use crate::config_file::{Configured, TaskConfig};
 use crate::io::{Keyed, OutputDir};
 use crate::limits::{Plan, bound, human_seconds};
+use crate::figures::{capped_speed_layers, stable_up_to_key};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Shape, Stroke};
+use sway::ranging::{CappedSpeed, stable_up_to_reason};
 
 /// The task.
 pub const TASK: Task = Task::configured::<GainDesignConfig>(
@@ -160,8 +162,13 @@ pub struct OptimalGainEntry {
     pub tau_s: f64,
     /// the gain D\* maximising the linear critical speed \[s\]
     pub d_s: f64,
-    /// the maximal critical speed V_crit(D\*) \[m/s\]
-    pub v_crit_mps: f64,
+    /// the maximal critical speed V_crit(D\*) \[m/s\] (null: stable up to the top of the
+    /// speed range, see `stable_up_to_mps` and `reason`)
+    pub v_crit_mps: Option<f64>,
+    /// straight running with D\* is stable up to this speed \[m/s\], the top of the speed
+    /// range (absent: `v_crit_mps` was found below it)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stable_up_to_mps: Option<f64>,
     /// the largest speed below which no perturbation triggers sway, max over D of
     /// min(V_fold(D), V_crit(D)) \[m/s\] (null: not computed at this delay, or no
     /// fold-of-cycles curve)
@@ -173,8 +180,6 @@ pub struct OptimalGainEntry {
     /// `"lower"` / `"upper"` if D\* is an end of the gain range (the maximum may lie beyond),
     /// else null
     pub on_range_end: Option<RangeEnd>,
-    /// the critical speed reached the top of the speed range (it is higher)
-    pub v_crit_capped: bool,
     /// the rightmost characteristic roots confirm `v_crit_mps` (false: the crossing count
     /// of `fig4a` disagrees with the roots there, see `sway::gain_design::roots_confirm`)
     pub v_crit_confirmed_by_roots: bool,
@@ -190,7 +195,7 @@ pub struct OptimalGainEntry {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub fold_notes: Vec<String>,
     /// what is special about this optimum: stable up to the top of the speed range
-    /// (`v_crit_capped`), no gain raising the critical speed over the open loop (absent:
+    /// (`stable_up_to_mps`), no gain raising the critical speed over the open loop (absent:
     /// nothing)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
@@ -206,14 +211,15 @@ pub struct GainDesignSummary {
     /// one entry per delay of the grid
     pub optimal_gain: Vec<OptimalGainEntry>,
     /// the largest delay at which the best gain raises the critical speed by
-    /// `budget_rise_fraction` over the open loop \[s\] (null: not even at the first delay,
-    /// see `delay_budget_reason`)
+    /// `budget_rise_fraction` over the open loop \[s\] (null: not even at the first delay, or
+    /// at every delay of the grid, `delay_budget_at_least_s`; see `delay_budget_reason`)
     pub delay_budget_s: Option<f64>,
-    /// why there is no delay budget (absent: there is one)
+    /// the budget reaches the last grid delay: it is at least this \[s\] (absent: it does not)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub delay_budget_at_least_s: Option<f64>,
+    /// why `delay_budget_s` is null (absent: it is not)
     #[serde(skip_serializing_if = "Option::is_none")]
     pub delay_budget_reason: Option<String>,
-    /// the budget is the last grid delay (the true budget is larger)
-    pub delay_budget_at_grid_end: bool,
     /// the required rise (0.1: 10 %)
     pub budget_rise_fraction: f64,
     /// V_crit(D = 0) \[m/s\] (null: stable up to the top of the speed range, see
@@ -245,8 +251,10 @@ pub struct OptimalGainRow {
     pub tau_s: f64,
     /// D\* \[s\]
     pub d_s: f64,
-    /// V_crit(D\*) \[m/s\]
-    pub v_crit_mps: f64,
+    /// V_crit(D\*) \[m/s\] (empty: stable up to `stable_up_to_mps`)
+    pub v_crit_mps: Option<f64>,
+    /// the top of the speed range where V_crit(D\*) is above it \[m/s\] (empty: V_crit found)
+    pub stable_up_to_mps: Option<f64>,
     /// lower end of the band \[s\]
     pub d_band_lo_s: f64,
     /// upper end of the band \[s\]
@@ -287,11 +295,11 @@ fn entries(r: &GainDesign) -> Vec<OptimalGainEntry> {
                     reason: why.clone(),
                     tau_s: l.tau_s,
                     d_s: l.d_opt_s,
-                    v_crit_mps: l.v_crit_max_mps,
+                    v_crit_mps: l.v_crit_max().found(),
+                    stable_up_to_mps: l.v_crit_max().stable_up_to(),
                     v_fold_mps: opt.map(|o| o.v_fold_max_mps),
                     band: Keyed(vec![(key.clone(), l.band_s)]),
                     on_range_end: l.on_range_end,
-                    v_crit_capped: l.speed_capped,
                     v_crit_confirmed_by_roots: l.roots_confirm,
                     d_fold_s: opt.map(|o| o.d_fold_s),
                     d_fold_minus_d_s: opt.map(|o| o.d_fold_s - l.d_opt_s),
@@ -316,7 +324,8 @@ fn rows(r: &GainDesign) -> Vec<OptimalGainRow> {
                 OptimalGainRow {
                     tau_s: l.tau_s,
                     d_s: l.d_opt_s,
-                    v_crit_mps: l.v_crit_max_mps,
+                    v_crit_mps: l.v_crit_max().found(),
+                    stable_up_to_mps: l.v_crit_max().stable_up_to(),
                     d_band_lo_s: l.band_s[0],
                     d_band_hi_s: l.band_s[1],
                     on_range_end: l.on_range_end,
@@ -335,7 +344,7 @@ fn headline(r: &GainDesign, tau: f64) -> Option<String> {
         let l = &r.linear[i];
         let fold = r.fold[i].as_ref().and_then(|f| f.optimum.as_ref());
         Some(format!(
-            "τ = {} s: D* = {:.4} s{} (within 1 %: {:.4}…{:.4} s), V_crit,max = {:.3} m/s{}; {}",
+            "τ = {} s: D* = {:.4} s{} (within 1 %: {:.4}…{:.4} s), {}{}; {}",
             l.tau_s,
             l.d_opt_s,
             match l.on_range_end {
@@ -344,7 +353,7 @@ fn headline(r: &GainDesign, tau: f64) -> Option<String> {
             },
             l.band_s[0],
             l.band_s[1],
-            l.v_crit_max_mps,
+            l.v_crit_max().label("V_crit,max", 3),
             if l.roots_confirm {
                 ""
             } else {
@@ -382,14 +391,14 @@ fn write_tables(out: &OutputDir, r: &GainDesign) -> Result<(), TaskError> {
 fn speed_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
     let (t0, t1) = (cfg.delays_s.min, cfg.delays_s.max);
     let v_open = r.budget.open_loop_v_crit_mps;
-    let crit: Vec<(f64, f64)> = r.linear.iter().map(|l| (l.tau_s, l.v_crit_max_mps)).collect();
+    let crit: Vec<(f64, CappedSpeed)> = r.linear.iter().map(|l| (l.tau_s, l.v_crit_max())).collect();
     let fold: Vec<(f64, f64)> = r
         .fold
         .iter()
         .flatten()
         .filter_map(|f| f.optimum.as_ref().map(|o| (o.tau_s, o.v_fold_max_mps)))
         .collect();
-    let v_hi = crit.iter().map(|p| p.1).fold(v_open, f64::max);
+    let v_hi = crit.iter().map(|p| p.1.lower_bound()).fold(v_open, f64::max);
     let v_lo = fold
         .iter()
         .map(|p| p.1)
@@ -399,9 +408,24 @@ fn speed_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
     let mut p = Panel::new("Best achievable speeds", "delay τ [s]", "speed [m/s]")
         .x_range(t0, t1)
         .y_range(y0, y1)
-        .legend(Legend::LowerLeft)
-        .with(Layer::line(crit, Rgb::BLACK, Stroke::Solid, Some("V_crit,max(τ) (linear, best D)")))
-        .with(Layer::line(
+        .legend(Legend::LowerLeft);
+    p.layers.extend(capped_speed_layers(
+        &crit,
+        Rgb::BLACK,
+        Stroke::Solid,
+        Some("V_crit,max(τ) (linear, best D)"),
+    ));
+    p.layers.extend(stable_up_to_key(crit.iter().map(|c| c.1)));
+    p = if r.open_loop_stable {
+        // no open-loop V_crit to draw: the cap is not one
+        p.with(Layer::line(
+            vec![(t0, v_open), (t1, v_open)],
+            Rgb::GREY,
+            Stroke::Dashed,
+            Some(&format!("open loop (D = 0): stable up to {v_open} m/s (the speed cap)")),
+        ))
+    } else {
+        p.with(Layer::line(
             vec![(t0, v_open), (t1, v_open)],
             Rgb::GREY,
             Stroke::Dashed,
@@ -412,7 +436,8 @@ fn speed_panel(r: &GainDesign, cfg: &GainDesignConfig) -> Panel {
             Rgb::GREY,
             Stroke::Dotted,
             Some("open loop V_crit + 10 %"),
-        ));
+        ))
+    };
     if let Some(vf) = r.open_loop_v_fold_mps {
         p = p.with(Layer::line(
             vec![(t0, vf), (t1, vf)],
@@ -571,23 +596,23 @@ impl Prepared for Configured<GainDesignConfig> {
             .titled("Best gain D of the yaw-rate feedback δ(t) = −D·dψ/dt(t − τ) for each delay τ")
             .render(&out.path("gain_design"))?;
         let mut lines: Vec<String> = cfg.headline_delays_s.iter().filter_map(|&t| headline(&r, t)).collect();
-        lines.push(match r.budget.tau_s {
-            Some(t) => format!(
-                "delay budget (best gain still ≥ {} % above the open-loop V_crit = {:.3} m/s): τ ≤ {:.4} s{}",
+        lines.push(match (r.budget.tau_s, r.budget.at_grid_end) {
+            (Some(t), false) => format!(
+                "delay budget (best gain still ≥ {} % above the open-loop V_crit = {:.3} m/s): τ ≤ {:.4} s",
                 percent(r.budget.gain_fraction),
                 r.budget.open_loop_v_crit_mps,
                 t,
-                if r.budget.at_grid_end { " (grid end)" } else { "" }
             ),
-            None => format!(
+            _ => format!(
                 "delay budget: {}",
                 r.budget_reason.clone().unwrap_or_else(|| "none".into())
             ),
         });
         let open_loop_reason = r.open_loop_stable.then(|| {
-            format!(
-                "straight running without feedback is stable at every speed up to the top of the speed range ({} m/s)",
-                r.resolved.search.v_max_mps
+            stable_up_to_reason(
+                "straight running without feedback",
+                r.resolved.search.v_max_mps,
+                cfg.cap_name(),
             )
         });
         if let Some(why) = &open_loop_reason {
@@ -610,10 +635,10 @@ impl Prepared for Configured<GainDesignConfig> {
         }
         let summary = GainDesignSummary {
             optimal_gain: entries(&r),
-            delay_budget_s: r.budget.tau_s,
+            delay_budget_s: r.budget.tau_s.filter(|_| !r.budget.at_grid_end),
+            delay_budget_at_least_s: r.budget.tau_s.filter(|_| r.budget.at_grid_end),
             delay_budget_reason: r.budget_reason.clone(),
             open_loop_reason,
-            delay_budget_at_grid_end: r.budget.at_grid_end,
             budget_rise_fraction: r.budget.gain_fraction,
             open_loop_v_crit_mps: (!r.open_loop_stable).then_some(r.budget.open_loop_v_crit_mps),
             open_loop_stable_up_to_mps: r.open_loop_stable.then_some(r.resolved.search.v_max_mps),

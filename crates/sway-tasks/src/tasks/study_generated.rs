@@ -128,6 +128,10 @@ pub struct Run {
     pub error: Option<String>,
     /// the curves its summary reports as ended early
     pub ended_early: Vec<EndedCurve>,
+    /// the speeds its summary reports at the speed cap without `stable_up_to_mps`
+    /// ([`crate::io::speeds_at_cap`]; a capped value reported as a measured one): JSON paths
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub speeds_at_cap: Vec<String>,
     /// wall time of the run \[s\] (not in `runs.csv`: it varies from run to run)
     #[serde(skip)]
     pub seconds: f64,
@@ -223,9 +227,9 @@ fn run_one(
     configs: &Path,
     results: &Path,
     limits: sway::ranging::SpeedLimits,
-) -> Result<Vec<EndedCurve>, String> {
+) -> Result<(Vec<EndedCurve>, Vec<String>), String> {
     let progress = NoProgress;
-    let body = || -> Result<Vec<EndedCurve>, String> {
+    let body = || -> Result<(Vec<EndedCurve>, Vec<String>), String> {
         let ctx = TaskContext::new(vehicle, configs, results, &progress)
             .map_err(|e| e.to_string())?
             .with_limits(limits);
@@ -237,7 +241,10 @@ fn run_one(
         let summary = report.output_dir.join("summary.json");
         let text = std::fs::read_to_string(&summary).map_err(|e| e.to_string())?;
         let value: Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
-        Ok(ended_early(&value))
+        Ok((
+            ended_early(&value),
+            crate::io::speeds_at_cap(&value, limits.max_speed_mps),
+        ))
     };
     match catch_unwind(AssertUnwindSafe(body)) {
         Ok(r) => r,
@@ -290,7 +297,8 @@ pub fn run_all(
                         vehicle: v.name.clone(),
                         variants: variants.clone(),
                         task: t.clone(),
-                        ended_early: r.as_ref().map_or(Vec::new(), Clone::clone),
+                        ended_early: r.as_ref().map_or(Vec::new(), |r| r.0.clone()),
+                        speeds_at_cap: r.as_ref().map_or(Vec::new(), |r| r.1.clone()),
                         error: r.err(),
                     }
                 })

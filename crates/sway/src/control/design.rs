@@ -29,6 +29,7 @@ use crate::SwayError;
 use crate::gain_design::{GainSearch, band_end, refine_sampled};
 use crate::sampling::{About, Sampler, Sampling, Statistics};
 use sway_model::optimise::{Bound, MixedProblem, OptimiserSettings, minimise};
+use sway_model::speeds::CappedSpeed;
 use sway_model::vehicle::VehicleDescription;
 
 /// Bounds of the gains, in steering units (D, D_θ in s, K_θ in rad/rad); for differential
@@ -198,7 +199,8 @@ pub struct Design {
     pub tau_s: f64,
     /// the optimal gains (actuator units)
     pub gains: Gains,
-    /// the maximal linear critical speed \[m/s\] (the top of the speed range if capped)
+    /// the maximal linear critical speed \[m/s\] (the top of the speed range if capped: the
+    /// optimiser's objective; a summary reports [`Design::v_crit`])
     pub v_crit_mps: f64,
     /// the scan's critical speed where a narrower window of instability was found below it
     /// ([`super::verified_critical_speed`]; `v_crit_mps` is the window's start) \[m/s\]
@@ -224,6 +226,17 @@ impl Design {
     /// The designed law: the structure and actuator with the optimal gains at delay τ.
     pub fn law(&self) -> LoopLaw {
         LoopLaw::new(self.structure, self.actuator, self.gains, self.tau_s)
+    }
+
+    /// The maximal linear critical speed as a summary reports it: found, or straight
+    /// running stable up to the top of the speed range (`speed_capped`: `v_crit_mps` is
+    /// that top, not a measured speed).
+    pub fn v_crit(&self) -> CappedSpeed {
+        if self.speed_capped {
+            CappedSpeed::StableUpTo(self.v_crit_mps)
+        } else {
+            CappedSpeed::Found(self.v_crit_mps)
+        }
     }
 }
 

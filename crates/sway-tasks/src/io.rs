@@ -473,14 +473,31 @@ pub struct Summary<'a, H, C> {
 /// Keys of a summary that name a search's cap or range rather than a speed it found.
 const CAP_KEYS: [&str; 3] = ["v_max_mps", "max_speed_mps", "searched_mps"];
 
+/// Words of a key that names a range, an axis or a limit (`v_range_mps`,
+/// `diagram_range_mps`, `speed_for_gain_interval_mps`, a curve end's `limit_mps`): its
+/// speeds are inputs or bounds, one end the cap when the range reaches it.
+const RANGE_WORDS: [&str; 3] = ["range", "interval", "limit"];
+
+/// A key whose speeds are a cap, a range or a limit, not speeds a search found.
+fn names_a_bound(key: &str) -> bool {
+    CAP_KEYS.contains(&key) || RANGE_WORDS.iter().any(|w| key.contains(w))
+}
+
+/// Keys of a summary whose whole subtree records how a chart's axes were chosen (a speed
+/// there is a scale or an axis end, the cap where the vehicle is stable up to it), not a
+/// finding: `sway::charts::Derivation`.
+const AXIS_KEYS: [&str; 1] = ["derivation"];
+
 /// The speeds of a `summary.json` that equal a search's `cap` \[m/s\] without saying so: the
 /// JSON paths of the numbers under a key ending `_mps` (in an array under one too) that
 /// equal `cap` in an object with no key ending `stable_up_to_mps`. The README's convention is
 /// that a speed the cap cut off is null, with `stable_up_to_mps` = the cap and a `reason`
 /// (`sway::ranging::CappedSpeed`); a number equal to the cap is then a capped value
-/// reported as a measured one. Not reports, so not looked at: the keys naming a cap or a
-/// searched range (`v_max_mps`, `max_speed_mps`, `searched_mps`), the ones ending
-/// `stable_up_to_mps`, and the inputs echoed at the top level (`config`, `vehicle`).
+/// reported as a measured one. Not reports, so not looked at: the keys naming a cap, a
+/// searched range or a limit (`v_max_mps`, `max_speed_mps`, `searched_mps`, a key with
+/// `range`, `interval` or `limit` in its name), the ones ending
+/// `stable_up_to_mps`, the record of how a chart's axes were derived (`derivation`), and
+/// the inputs echoed at the top level (`config`, `vehicle`).
 pub fn speeds_at_cap(summary: &serde_json::Value, cap: f64) -> Vec<String> {
     use serde_json::Value;
     fn numbers(v: &Value, path: &str, cap: f64, out: &mut Vec<String>) {
@@ -500,11 +517,11 @@ pub fn speeds_at_cap(summary: &serde_json::Value, cap: f64) -> Vec<String> {
                 let said = m
                     .iter()
                     .any(|(k, x)| k.ends_with("stable_up_to_mps") && !x.is_null());
-                for (k, x) in m {
+                for (k, x) in m.iter().filter(|(k, _)| !AXIS_KEYS.contains(&k.as_str())) {
                     let here = format!("{path}.{k}");
                     let report = k.ends_with("_mps")
                         && !k.ends_with("stable_up_to_mps")
-                        && !CAP_KEYS.contains(&k.as_str());
+                        && !names_a_bound(k);
                     if report && !said {
                         numbers(x, &here, cap, out);
                     }

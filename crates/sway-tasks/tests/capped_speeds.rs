@@ -84,7 +84,12 @@ fn speeds_at_the_cap_are_found_unless_they_say_stable_up_to() {
         ],
         "band_mps": [99.0, 100.0],
         "searched_mps": [1.0, 100.0],
-        "ranges": { "search": { "v_max_mps": 100.0 } },
+        "diagram_range_mps": [1.0, 100.0],
+        "cycle_branch_end": { "reason": "speed cap", "limit_mps": 100.0 },
+        "ranges": {
+            "search": { "v_max_mps": 100.0 },
+            "derivation": { "extent": { "highest_mps": 100.0, "stable_gains": 3 } }
+        },
         "open_loop": { "v_crit_mps": null, "stable_up_to_mps": 100.0 },
         "excused": { "v_crit_mps": 100.0, "open_loop_stable_up_to_mps": 100.0 },
         "count": 100,

@@ -191,9 +191,10 @@ pub fn vehicle_scale<M: LoopModel + ?Sized>(
 /// maximum speed).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CriticalSpeedExtent {
-    /// lowest critical speed \[m/s\]
+    /// lowest critical speed \[m/s\]; the maximum speed when every gain is stable up to it
     pub lowest_mps: f64,
-    /// largest critical speed \[m/s\]
+    /// largest critical speed \[m/s\]; the maximum speed when a gain is stable up to it
+    /// (`stable_gains` > 0): the top of the chart's speed axis, not a measured speed
     pub highest_mps: f64,
     /// gains stable up to the maximum speed (at some delay)
     pub stable_gains: usize,

@@ -33,6 +33,7 @@ use serde::de::DeserializeOwned;
 use sway::SwayError;
 use sway_tasks::TaskError;
 mod charts;
+mod detect;
 mod lateral;
 mod sweep;
 
@@ -458,6 +459,17 @@ fn field_name(i: usize) -> String {
     PARAMETERS[i].0.replace('.', "_")
 }
 
+/// What setting the paper's axle key `index` does to a unit whose axles are a list
+/// ([`VehicleSpec::with_parameter`]).
+fn group_change(index: usize) -> &'static str {
+    match index {
+        2 | 4 => "moves the tractor's axle group",
+        5 | 6 => "scales the tractor's axle group",
+        10 => "moves the trailer's axle list",
+        _ => "scales the trailer's axle list",
+    }
+}
+
 /// A vehicle key path in Python's terms: the field name of a key of [`PARAMETERS`]
 /// (`trailer.mass` → `trailer_mass`) followed by `suffix`; any other key unchanged.
 fn python_field(key: &str, suffix: &str) -> String {
@@ -619,10 +631,27 @@ impl Vehicle {
         for &(i, x) in changes {
             spec = spec
                 .with_parameter(i, x)
-                .map_err(|_| self.not_in_variant(i, what))?;
+                .map_err(|e| self.not_in_variant(i, what, &e))?;
         }
-        let loaded = sway_tasks::config_file::vehicle_from_spec(spec, Path::new(what))
-            .map_err(python_terms)?;
+        let loaded =
+            sway_tasks::config_file::vehicle_from_spec(spec, Path::new(what)).map_err(|e| {
+                let e = renamed(e, what, |k| python_field(k, suffix));
+                let groups: Vec<String> = changes
+                    .iter()
+                    .filter(|&&(i, _)| spec_parameter(&self.loaded.spec, i).is_none())
+                    .map(|&(i, x)| {
+                        format!(
+                            "`{}{suffix}` = {x}, which {}",
+                            field_name(i),
+                            group_change(i)
+                        )
+                    })
+                    .collect();
+                match groups.is_empty() {
+                    true => py_err(e),
+                    false => exception(&e)(format!("{e} (set by {})", groups.join("; "))),
+                }
+            })?;
         Ok(Self { loaded })
     }
 
@@ -631,15 +660,24 @@ impl Vehicle {
         if self.variant().is_none() {
             return Ok(self.loaded.params.get(index));
         }
-        spec_parameter(&self.loaded.spec, index)
-            .ok_or_else(|| self.not_in_variant(index, "Vehicle"))
+        match spec_parameter(&self.loaded.spec, index) {
+            Some(v) => Ok(v),
+            // an axle key of a unit given as a list: the group's value, as `replace` sets it
+            None => self
+                .loaded
+                .spec
+                .equivalent_params()
+                .map(|p| p.get(index))
+                .map_err(|e| self.not_in_variant(index, "Vehicle", &e)),
+        }
     }
 
-    /// The `ValueError` of a paper-form field that a vehicle with model variants lacks.
-    fn not_in_variant(&self, index: usize, what: &str) -> PyErr {
+    /// The `ValueError` of a paper-form field that a vehicle with model variants cannot
+    /// give or take (`e`: why not).
+    fn not_in_variant(&self, index: usize, what: &str, e: &ModelError) -> PyErr {
         PyValueError::new_err(format!(
-            "{what}: `{}`: `{}` is not a key of this vehicle: its units' axles are lists (`axles`); \
-             the vehicle has model variants (first: `{}`), change its file (to_toml()) instead",
+            "{what}: `{}`: `{}` has no value on this vehicle ({e}); the vehicle has model \
+             variants (first: `{}`), change its file (to_toml()) instead",
             field_name(index),
             PARAMETERS[index].0,
             self.variant().unwrap_or_default()
@@ -1415,6 +1453,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(get_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(to_toml, m)?)?;
     charts::register(m)?;
+    detect::register(m)?;
     lateral::register(m)?;
     sweep::register(m)?;
     Ok(())

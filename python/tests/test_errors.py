@@ -89,7 +89,7 @@ VEHICLE = [
     pytest.param(lambda: ts.Vehicle.from_toml(42), TypeError, r"Vehicle\.from_toml\(\): path: expected a str or os\.PathLike, got int", id="from_toml-int-path"),
     pytest.param(lambda: ts.Vehicle.from_toml("/nonexistent/my_car.toml"), OSError, r"/nonexistent/my_car\.toml: cannot read", id="from_toml-missing-file"),
     pytest.param(lambda: ts.Vehicle.from_toml_str("[tractor]\nmass = 'heavy'\n"), ValueError, r"`tractor\.mass`: invalid type: string \"heavy\"", id="from_toml_str-str-mass"),
-    pytest.param(lambda: ts.Vehicle.from_toml(CONFIGS / "vehicles" / "tandem.toml").replace(trailer_axle=3.0), ValueError, r"`trailer_axle`: `trailer\.axle` is not a key of this vehicle", id="replace-axle-of-a-tandem"),
+    pytest.param(lambda: ts.Vehicle.from_toml(CONFIGS / "vehicles" / "tandem.toml").replace(trailer_axle=-3.0), ValueError, r"Vehicle\.replace\(\): `trailer\.axles\[0\]\.position_m`: -3\.4 is invalid: .* \(set by `trailer_axle` = -3, which moves the trailer's axle list\)", id="replace-axle-of-a-tandem-ahead-of-the-hitch"),
     pytest.param(lambda: V.trailer_weight, AttributeError, r"Vehicle' object has no attribute 'trailer_weight'", id="Vehicle-unknown-attribute"),
     pytest.param(lambda: setattr(V, "trailer_mass", 1.0), AttributeError, r"trailer_mass", id="Vehicle-fields-read-only"),
 ]

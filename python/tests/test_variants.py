@@ -49,12 +49,13 @@ def test_variant_vehicle_fields(relaxed, tmp_path):
         relaxed.to_dict()
     with pytest.raises(ValueError, match=r"`trailer.mass`: -1 is invalid"):
         relaxed.replace(trailer_mass=-1.0)
-    # an axle key of a unit whose axles are a list does not exist there
+    # an axle key of a unit whose axles are a list is the group's: its mean position
+    # (reference: VehicleSpec::with_parameter, the sweeps' reading of the same key)
     tandem = ts.Vehicle.from_toml(TANDEM)
-    with pytest.raises(ValueError, match="`trailer.axle` is not a key of this vehicle"):
-        tandem.replace(trailer_axle=3.0)
-    with pytest.raises(ValueError, match="`trailer.axle` is not a key of this vehicle"):
-        tandem.trailer_axle
+    assert tandem.trailer_axle == pytest.approx(2.8, abs=1e-12)  # axles at 2.4 and 3.2 m
+    moved = tandem.replace(trailer_axle=3.2)
+    assert moved.trailer_axle == pytest.approx(3.2, abs=1e-12) and moved != tandem
+    assert moved.variant_key == tandem.variant_key
 
 
 def test_invalid_variant_file_raises_the_cli_message(tmp_path):

@@ -15,7 +15,9 @@ numbers as ``cargo xtask <task>``) and return numpy arrays:
 - :func:`sweep` — a parallel study, returned as a :class:`Table` of numpy columns;
 - :func:`lateral_stability` — the pulse-steer test (ISO 9815) on the model, and what it
   misses in the bistable range; :func:`analyse_recording` — the same reading of a
-  recorded run.
+  recorded run;
+- :func:`detect` — recorded signals of the towing car replayed through the sway
+  detectors (:class:`Detection`).
 
 Units are SI throughout (speeds in m/s, gains D and delays τ in s, angles in rad unless a
 name says ``_deg``). Long calls release the GIL, run on rayon's threads and stop with
@@ -76,6 +78,11 @@ __all__ = [
     "lateral_stability",
     "RecordedDecay",
     "analyse_recording",
+    "Detection",
+    "DetectorTrace",
+    "detect",
+    "DETECTORS",
+    "DETECTION_SIGNALS",
     "set_num_threads",
     "get_num_threads",
     "to_toml",
@@ -1318,3 +1325,154 @@ def analyse_recording(
         signal=signal,
         speed_mps=speed,
     )
+
+
+# ---------------------------------------------------------------------------------------
+# sway detection on recorded signals
+
+#: The signals a detector can read, as :func:`detect` takes them (SI units).
+DETECTION_SIGNALS = ("yaw_rate", "lateral_acceleration", "steering_wheel_angle", "speed", "hitch_angle")
+
+#: The detectors :func:`detect` runs, in the order of its results.
+DETECTORS: tuple = tuple(_native.DETECTORS)
+
+
+@dataclass(frozen=True, repr=False)
+class DetectorTrace:
+    """One detector's verdict after every sample of a recording (``sway-detect``): ``flag``
+    (bool: sway seen), ``score`` (what the flag thresholds: flag ⇔ score ≥ ``threshold``;
+    sweep a threshold over it for an ROC curve), ``amplitude`` (band-passed signal unit),
+    ``frequency_hz``, ``damping_ratio`` (float64, NaN where the detector has no estimate),
+    ``status`` (per sample ``"ok"``, ``"invalid"`` for NaN or a fault, ``"out_of_order"``,
+    ``"gap"`` where it restarted after lost samples), ``first_flag_s`` (the time of the
+    first flag, None if it never flags) and ``options`` (the options it ran with)."""
+
+    name: str
+    threshold: float
+    flag: np.ndarray
+    score: np.ndarray
+    amplitude: np.ndarray
+    frequency_hz: np.ndarray
+    damping_ratio: np.ndarray
+    status: list
+    first_flag_s: Optional[float]
+    options: dict = field(repr=False)
+
+    def __repr__(self) -> str:
+        first = "never flags" if self.first_flag_s is None else f"first flag at {self.first_flag_s:.3f} s"
+        return f"DetectorTrace({self.name}: {len(self.flag)} samples, {first})"
+
+
+@dataclass(frozen=True, repr=False)
+class Detection:
+    """Recorded signals replayed through the sway detectors: ``t`` [s], the ``signals``
+    given (float64 arrays) and ``detectors``, a dict of :class:`DetectorTrace` by name.
+    ``plot(ax=None)`` draws the detectors' signal with every detector's flag on the time
+    axis."""
+
+    t: np.ndarray
+    signals: dict
+    detectors: dict
+
+    def __repr__(self) -> str:
+        flags = ", ".join(
+            f"{n}: {'never' if d.first_flag_s is None else f'{d.first_flag_s:.2f} s'}"
+            for n, d in self.detectors.items()
+        )
+        return f"Detection({len(self.t)} samples, first flags {flags})"
+
+    def plot(self, ax: Any = None) -> Any:
+        """The yaw rate (or the first signal given) over t [s] with each detector's flag
+        shaded (matplotlib); returns the axes."""
+        return _plot.detection(self, ax)
+
+
+def _sample_rate_hz(t: np.ndarray) -> float:
+    """The recording's sample rate [Hz]: 1 / the median step of ``t``."""
+    if len(t) < 2:
+        raise ValueError(f"t: expected at least 2 samples, got {len(t)}")
+    steps = np.diff(t)
+    if not np.all(np.isfinite(steps)) or np.median(steps) <= 0:
+        raise ValueError("t: expected finite times increasing on the whole (the median step > 0 s)")
+    return float(1.0 / np.median(steps))
+
+
+def detect(
+    t: Any,
+    signals: Mapping[str, Any],
+    *,
+    detectors: Optional[Sequence[str]] = None,
+    options: Optional[Mapping[str, Mapping[str, Any]]] = None,
+) -> Detection:
+    """Replays recorded signals through the sway detectors, sample by sample, as the
+    controller of a towing car would run them (``sway-detect``; see the guide's
+    ``sway_assist`` page for what each detector does).
+
+    ``t`` [s]: the sample times (equally spaced up to jitter; a step beyond 1.5 periods is
+    a gap, after which a detector restarts). ``signals``: a dict of sequences sampled at
+    ``t`` with keys from ``DETECTION_SIGNALS`` — ``"yaw_rate"`` [rad/s] of the car (what
+    the detectors read by default), ``"lateral_acceleration"`` [m/s²],
+    ``"steering_wheel_angle"`` [rad], ``"speed"`` [m/s], ``"hitch_angle"`` [rad]; absent
+    ones and NaN samples are not measured. ``detectors``: names from ``DETECTORS``
+    (default all). ``options``: per detector name a dict in the shape of its TOML table
+    (``sample_rate_hz``, ``band = {low_hz, high_hz}``, ``amplitude_threshold``,
+    ``half_oscillations``, … for ``oscillation_counter``; ``damping_threshold``,
+    ``memory_s``, … for ``damping_estimator``); ``sample_rate_hz`` defaults to the
+    recording's (1 / the median step of ``t``), every other key to the detector's default.
+
+    Raises ``TypeError`` for a value of the wrong type, ``ValueError`` naming the key for
+    a bad value or a signal of another length than ``t``."""
+    tt = _samples(t, "t")
+    if not isinstance(signals, Mapping):
+        raise TypeError(f"signals: expected a dict of sequences, got {_kind(signals)}")
+    unknown = [k for k in signals if k not in DETECTION_SIGNALS]
+    if unknown:
+        raise ValueError(f"signals: unknown key(s) {unknown}; expected some of {list(DETECTION_SIGNALS)}")
+    arrays = {}
+    for k, v in signals.items():
+        a = _samples(v, f"signals[{k!r}]")
+        if len(a) != len(tt):
+            raise ValueError(f"signals[{k!r}]: {len(a)} samples, t has {len(tt)}")
+        arrays[k] = a
+    if not arrays:
+        raise ValueError(f"signals: expected at least one of {list(DETECTION_SIGNALS)}")
+    if detectors is None:
+        names = list(DETECTORS)
+    elif isinstance(detectors, str) or not isinstance(detectors, Sequence):
+        raise TypeError(f"detectors: expected a list of names from {list(DETECTORS)}, got {_kind(detectors)}")
+    else:
+        names = list(detectors)
+        for n in names:
+            if n not in DETECTORS:
+                raise ValueError(f"detectors: unknown detector {n!r}; expected some of {list(DETECTORS)}")
+    options = {} if options is None else options
+    if not isinstance(options, Mapping):
+        raise TypeError(f"options: expected a dict of option dicts by detector name, got {_kind(options)}")
+    for n in options:
+        if n not in names:
+            raise ValueError(f"options: {n!r} is not among the detectors run ({names})")
+    rate = _sample_rate_hz(tt)
+    nan = np.full(len(tt), np.nan)
+    column = [arrays.get(k, nan) for k in DETECTION_SIGNALS[:4]]
+    traces = {}
+    for n in names:
+        given = options.get(n, {})
+        if not isinstance(given, Mapping):
+            raise TypeError(f"options[{n!r}]: expected a dict, got {_kind(given)}")
+        opts = {"sample_rate_hz": rate, **given}
+        r = _native.detect(tt, *column, arrays.get("hitch_angle"), n, opts)
+        flag = np.asarray(r["flag"], dtype=bool)
+        first = float(tt[np.argmax(flag)]) if flag.any() else None
+        traces[n] = DetectorTrace(
+            name=r["name"],
+            threshold=r["threshold"],
+            flag=flag,
+            score=r["score"],
+            amplitude=r["amplitude"],
+            frequency_hz=r["frequency_hz"],
+            damping_ratio=r["damping_ratio"],
+            status=r["status"],
+            first_flag_s=first,
+            options=opts,
+        )
+    return Detection(t=tt, signals=arrays, detectors=traces)

@@ -170,6 +170,11 @@ def analyse_recording(
     t: Any, steering: Any, signal: Any, signal_name: str, skip_peaks: int, periods: int,
     impulse_fraction: float, low_pass_hz: float, prominence_fraction: float,
 ) -> dict[str, Any]: ...
+DETECTORS: list[str]
+def detect(
+    t: Any, yaw_rate: Any, lateral_acceleration: Any, steering_wheel_angle: Any, speed: Any,
+    hitch_angle: Any, detector: str, options: Optional[Mapping[str, Any]] = None,
+) -> dict[str, Any]: ...
 def set_num_threads(n: int) -> None:
     """The number of threads (1 to 1024) of every later call, at any time."""
 def get_num_threads() -> int:

@@ -172,3 +172,36 @@ def critical_speeds(c: Any, ax: Any = None) -> Any:
     ax.set_ylabel("critical speed V_crit [m/s]")
     ax.legend(fontsize="small")
     return ax
+
+
+_UNITS = {
+    "yaw_rate": "rad/s",
+    "lateral_acceleration": "m/s²",
+    "steering_wheel_angle": "rad",
+    "speed": "m/s",
+    "hitch_angle": "rad",
+}
+
+
+def detection(d: Any, ax: Any = None) -> Any:
+    """The signal the detectors read (the yaw rate, else the first given) over time, each
+    detector's flagged samples shaded in its own colour, its first flag marked."""
+    ax = axes(ax)
+    name = "yaw_rate" if "yaw_rate" in d.signals else next(iter(d.signals))
+    ax.plot(d.t, d.signals[name], "k-", lw=1, label=name.replace("_", " "))
+    for i, (n, tr) in enumerate(d.detectors.items()):
+        colour = f"C{i}"
+        ax.fill_between(
+            d.t, 0, 1, where=tr.flag, transform=ax.get_xaxis_transform(),
+            color=colour, alpha=0.15, lw=0,
+        )
+        label = f"{n}: {'never flags' if tr.first_flag_s is None else f'first flag {tr.first_flag_s:.2f} s'}"
+        if tr.first_flag_s is not None:
+            ax.axvline(tr.first_flag_s, color=colour, ls="--", lw=1, label=label)
+        else:
+            ax.plot([], [], color=colour, ls="--", label=label)
+    ax.set_xlabel("time t [s]")
+    ax.set_ylabel(f"{name.replace('_', ' ')} [{_UNITS[name]}]")
+    ax.set_title("sway detectors on the recorded signals (shaded: flagged)", fontsize="medium")
+    ax.legend(fontsize="small")
+    return ax

@@ -762,17 +762,13 @@ class StabilityChart:
         return _plot.stability_chart(self, ax)
 
 
-@dataclass(frozen=True, repr=False)
-class StabilityCharts:
-    """One :class:`StabilityChart` per delay (``charts``, in the given order; also
-    ``charts[i]``, ``len``, iteration) and the summary of ``cargo xtask fig4a``
-    (``summary``: ``open_loop_v_crit_mps``, ``per_tau``, ``grid_cells_per_tau``).
-    ``plot(ax=None)`` draws one panel per delay."""
+class _PerDelay:
+    """One chart per delay in ``charts``: indexing, ``len``, iteration, and ``plot`` with
+    one panel per delay."""
 
-    charts: list[StabilityChart]
-    summary: dict
+    charts: list
 
-    def __getitem__(self, i: int) -> StabilityChart:
+    def __getitem__(self, i: int) -> Any:
         return self.charts[i]
 
     def __len__(self) -> int:
@@ -781,14 +777,25 @@ class StabilityCharts:
     def __iter__(self):
         return iter(self.charts)
 
-    def __repr__(self) -> str:
-        taus = ", ".join(f"{c.tau_s:g}" for c in self.charts)
-        return f"StabilityCharts(τ = {taus} s; open-loop V_crit {self.summary.get('open_loop_v_crit_mps')} m/s)"
-
     def plot(self, ax: Any = None) -> list:
         """One panel per delay (``ax``: as many axes, or None for a new figure); returns
         the axes."""
         return _plot.each(self.charts, ax)
+
+
+@dataclass(frozen=True, repr=False)
+class StabilityCharts(_PerDelay):
+    """One :class:`StabilityChart` per delay (``charts``, in the given order; also
+    ``charts[i]``, ``len``, iteration) and the summary of ``cargo xtask fig4a``
+    (``summary``: ``open_loop_v_crit_mps``, ``per_tau``, ``grid_cells_per_tau``).
+    ``plot(ax=None)`` draws one panel per delay."""
+
+    charts: list[StabilityChart]
+    summary: dict
+
+    def __repr__(self) -> str:
+        taus = ", ".join(f"{c.tau_s:g}" for c in self.charts)
+        return f"StabilityCharts(τ = {taus} s; open-loop V_crit {self.summary.get('open_loop_v_crit_mps')} m/s)"
 
 
 def _pair(x: Any, what: str, unit: str) -> tuple[Optional[float], Optional[float]]:
@@ -932,7 +939,7 @@ class NonlinearChart:
 
 
 @dataclass(frozen=True, repr=False)
-class NonlinearCharts:
+class NonlinearCharts(_PerDelay):
     """One :class:`NonlinearChart` per delay (``charts``, in the given order; also
     ``charts[i]``, ``len``, iteration) and the ranges ``cargo xtask chart_nonlinear``
     derived (``ranges``). ``plot(ax=None)`` draws one panel per delay."""
@@ -940,23 +947,9 @@ class NonlinearCharts:
     charts: list[NonlinearChart]
     ranges: dict
 
-    def __getitem__(self, i: int) -> NonlinearChart:
-        return self.charts[i]
-
-    def __len__(self) -> int:
-        return len(self.charts)
-
-    def __iter__(self):
-        return iter(self.charts)
-
     def __repr__(self) -> str:
         taus = ", ".join(f"{c.tau_s:g}" for c in self.charts)
         return f"NonlinearCharts(τ = {taus} s)"
-
-    def plot(self, ax: Any = None) -> list:
-        """One panel per delay (``ax``: as many axes, or None for a new figure); returns
-        the axes."""
-        return _plot.each(self.charts, ax)
 
 
 def nonlinear_chart(

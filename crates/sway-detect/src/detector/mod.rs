@@ -19,9 +19,11 @@
 
 mod counter;
 mod damping;
+pub mod observer;
 
 pub use counter::{CounterOptions, MAX_HALF_OSCILLATIONS, OscillationCounter};
 pub use damping::{DampingEstimator, DampingOptions, MAX_AR_LAG};
+pub use observer::{ModelObserver, ObserverEstimate, ObserverOptions};
 
 use serde::{Deserialize, Serialize};
 

@@ -257,6 +257,22 @@ fn v_crit_converges_from_a_wrong_trailer_mass() {
     // of slalom and lane-change driving with the default sensor noise. The prior mass is
     // 1500 kg (true 985 kg), the rest of the default prior (J2 2000 kg m², h 2.5 m: also
     // wrong). Convergence time: from when on the error stays within 5 %. Five seeds
+    let prior = LinearModel::new(
+        CarParams::default(),
+        TrailerParams {
+            mass: 1500.0,
+            yaw_inertia: ObserverOptions::default().yaw_inertia.mean,
+            cog: ObserverOptions::default().cog.mean,
+            ..TrailerParams::default()
+        },
+    )
+    .unwrap();
+    let prior_v_crit = prior
+        .critical_speed(&CriticalSpeedSearch::default())
+        .map_or(f64::INFINITY, |c| c.v_crit_mps);
+    eprintln!("convergence: the prior's V_crit {prior_v_crit} m/s");
+    // the prior is far from the truth: the test is not won at the start
+    assert!((prior_v_crit - TABLE_I_V_CRIT).abs() / TABLE_I_V_CRIT > 0.1);
     let mut worst_final: f64 = 0.0;
     let mut worst_time: f64 = 0.0;
     for seed in 0..5 {
@@ -480,4 +496,43 @@ fn options_read_from_toml_and_bad_values_are_config_errors() {
     let mut o = defaults;
     o.v_crit_search.v_max_mps = 0.5;
     assert!(matches!(bad(o), ConfigError::Bounds { .. }));
+}
+
+/// The observer's scores over `seconds` of `steering` at `speed` with the default sensors:
+/// the largest score, and the time of the first flag.
+fn scores(speed: f64, seconds: f64, steering: impl Fn(f64) -> f64) -> (f64, Option<f64>) {
+    let mut truth = Truth4::new(speed, steering);
+    let mut sensors = Sensors::new(&SensorsConfig::default()).unwrap();
+    let mut observer = ModelObserver::new(ObserverOptions::default()).unwrap();
+    let (mut worst, mut first) = (0.0_f64, None);
+    for _ in 0..(seconds * 100.0).round() as usize {
+        let m = sensors.sample(truth.t, &truth.signals()).expect("a frame");
+        let out = observer.update(&m);
+        worst = worst.max(out.score);
+        if out.flag.is_sway() && first.is_none() {
+            first = Some(truth.t);
+        }
+        truth.advance();
+    }
+    (worst, first)
+}
+
+#[test]
+fn the_slalom_below_v_crit_is_no_sway_and_the_speed_beyond_it_is() {
+    // reference: Table I's linear V_crit 34.75 m/s. At 25 and 30 m/s the slalom and lane
+    // changes (forced, explained by the steering) never reach the score 1 (at 30 m/s the
+    // largest is the speed ratio, 0.87); at 37 m/s (6.5 % beyond V_crit) gentler driving
+    // first teaches the observer the trailer, then the speed ratio flags (after 5 s),
+    // within the first 20 s
+    for speed in [25.0, 30.0] {
+        let (worst, first) = scores(speed, 60.0, driving);
+        eprintln!("flag: {speed} m/s, largest score {worst:.3}");
+        assert!(
+            first.is_none() && worst < 1.0,
+            "{speed} m/s: {worst}, {first:?}"
+        );
+    }
+    let (worst, first) = scores(37.0, 20.0, |t| 0.3 * driving(t));
+    eprintln!("flag: 37 m/s, largest score {worst:.3}, first flag {first:?}");
+    assert!(first.is_some(), "{worst}");
 }

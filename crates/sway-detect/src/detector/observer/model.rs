@@ -634,3 +634,92 @@ impl<S: Scalar> Discrete<S> {
         x
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table_i() -> (CarParams, Trailer<f64>) {
+        (
+            CarParams::default(),
+            Trailer::from_params(&TrailerParams::default()),
+        )
+    }
+
+    #[test]
+    fn the_parameter_jacobian_of_a_step_is_the_derivative() {
+        // reference: central differences of the plain step (steps 1e-6 relative; their
+        // truncation error ~1e-10 relative), tolerance 1e-6 relative to the column's size
+        let (car, t) = table_i();
+        let x = [0.1, 0.02, -0.03, 0.05];
+        let step = |t: &Trailer<f64>| {
+            let s = system(&car, t, 25.0);
+            Discrete::new(&s.a, &s.b, 0.01, 2).step(&x, 0.01, 0.012)
+        };
+        let dual = Trailer {
+            mass: Dual::<3>::variable(t.mass, 0),
+            yaw_inertia: Dual::variable(t.yaw_inertia, 1),
+            cog: Dual::variable(t.cog, 2),
+            axle: t.axle,
+            cornering_stiffness: t.cornering_stiffness,
+        };
+        let s = system(&car, &dual, Dual::from(25.0));
+        let xd = x.map(Dual::from);
+        let next =
+            Discrete::new(&s.a, &s.b, 0.01, 2).step(&xd, Dual::from(0.01), Dual::from(0.012));
+        for j in 0..3 {
+            let mut plus = t;
+            let mut minus = t;
+            let value = [t.mass, t.yaw_inertia, t.cog][j];
+            let h = 1e-6 * value;
+            match j {
+                0 => (plus.mass, minus.mass) = (value + h, value - h),
+                1 => (plus.yaw_inertia, minus.yaw_inertia) = (value + h, value - h),
+                _ => (plus.cog, minus.cog) = (value + h, value - h),
+            }
+            let (p, m) = (step(&plus), step(&minus));
+            let column: [f64; 4] = std::array::from_fn(|i| (p[i] - m[i]) / (2.0 * h));
+            let size = column.iter().fold(0.0_f64, |a, c| a.max(c.abs()));
+            for i in 0..4 {
+                assert!(
+                    (next[i].eps[j] - column[i]).abs() <= 1e-6 * size,
+                    "∂x{i}/∂p{j}: {} vs {}",
+                    next[i].eps[j],
+                    column[i]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_v_crit_gradient_is_the_derivative() {
+        // reference: V_crit of Table I with each parameter moved by ±0.1 %, bisected to
+        // 1e-10 m/s (central difference, truncation ~1e-6 relative); tolerance 1e-4 relative
+        let (car, t) = table_i();
+        let search = CriticalSpeedSearch {
+            tolerance_mps: 1e-10,
+            ..CriticalSpeedSearch::default()
+        };
+        let c = critical_speed(&car, &t, &search, None).unwrap();
+        assert_eq!(c.crossing, Crossing::Hopf);
+        let g = critical_speed_gradient(&car, &t, &c);
+        for j in 0..3 {
+            let moved = |factor: f64| {
+                let mut m = t;
+                match j {
+                    0 => m.mass *= factor,
+                    1 => m.yaw_inertia *= factor,
+                    _ => m.cog *= factor,
+                }
+                critical_speed(&car, &m, &search, None).unwrap().v_crit_mps
+            };
+            let value = [t.mass, t.yaw_inertia, t.cog][j];
+            let fd = (moved(1.001) - moved(0.999)) / (0.002 * value);
+            assert!(
+                (g[j] - fd).abs() <= 1e-4 * fd.abs(),
+                "{j}: {} vs {fd}",
+                g[j]
+            );
+        }
+    }
+}

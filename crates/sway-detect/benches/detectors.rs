@@ -1,5 +1,8 @@
 //! Cost per sample of each detector's update (issue 48: ≤ 1 µs for the oscillation counter
-//! and the damping estimator) and of sampling every sensor once. The detectors run on a
+//! and the damping estimator, ≤ 20 µs for the model observer) and of sampling every sensor
+//! once. The observer's update includes its critical-speed search every tenth frame (the
+//! default interval): criterion's median is that of the ordinary frames, its mean carries
+//! the search's share. The detectors run on a
 //! sustained sway at 0.625 Hz with the default gyro's noise, so every update takes the full
 //! path (band-pass, counting or fit, estimates, envelope); time advances by one 10 ms frame
 //! per iteration, as on a controller.
@@ -8,7 +11,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sway_detect::detector::{
-    CounterOptions, DampingEstimator, DampingOptions, Detector, OscillationCounter,
+    CounterOptions, DampingEstimator, DampingOptions, Detector, ModelObserver, ObserverOptions,
+    OscillationCounter,
 };
 use sway_detect::sensor::{Measurement, SensorSpec, Sensors, SensorsConfig, Truth};
 
@@ -66,6 +70,37 @@ fn bench_detector(c: &mut Criterion, name: &str, mut detector: impl Detector) {
     });
 }
 
+/// The model observer on every signal of the recorded sway (yaw rate, lateral acceleration,
+/// steering, speed from the default sensors), after two loops of the recording: its filter
+/// is then in its steady state, every update takes the full path (prediction with the
+/// parameter Jacobian, update, free amplitude).
+fn bench_observer(c: &mut Criterion) {
+    let mut sensors = Sensors::new(&SensorsConfig::default()).expect("defaults");
+    let recorded: Vec<Measurement> = (0..RECORDED)
+        .map(|k| {
+            sensors
+                .sample(k as f64 * 0.01, &truth(k))
+                .expect("a frame every 10 ms")
+        })
+        .collect();
+    let frame = |k: usize| Measurement {
+        t: k as f64 * 0.01,
+        ..recorded[k % RECORDED]
+    };
+    let mut observer = ModelObserver::new(ObserverOptions::default()).expect("defaults");
+    let mut k = 0;
+    for _ in 0..2 * RECORDED {
+        observer.update(&frame(k));
+        k += 1;
+    }
+    c.bench_function("model_observer update", |b| {
+        b.iter(|| {
+            k += 1;
+            observer.update(black_box(&frame(k)))
+        })
+    });
+}
+
 fn bench(c: &mut Criterion) {
     bench_detector(
         c,
@@ -77,6 +112,7 @@ fn bench(c: &mut Criterion) {
         "damping_estimator update",
         DampingEstimator::new(DampingOptions::default()).expect("defaults"),
     );
+    bench_observer(c);
     let mut sensors = Sensors::new(&SensorsConfig {
         hitch_angle: Some(SensorSpec::hitch_angle()),
         ..SensorsConfig::default()

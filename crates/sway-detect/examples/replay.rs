@@ -1,5 +1,9 @@
-//! Replays a synthetic yaw rate through the default sensors and both detectors, and prints
-//! their verdicts on a time axis.
+//! Replays a synthetic yaw rate through the default sensors and the two signal-based
+//! detectors (the oscillation counter and the damping estimator), and prints their verdicts
+//! on a time axis. The third detector, the model observer (`ModelObserver`), needs every
+//! signal of one consistent vehicle (yaw rate, lateral acceleration, steering, speed), which
+//! a yaw rate alone is not: `tests/observer.rs` drives it with its own linear model of
+//! Table I, the sway assist task with the simulation.
 //!
 //! The signal \[rad/s\]: straight driving; at 10 s a disturbance of a well-damped trailer
 //! (ζ = 0.15 at 0.62 Hz, 0.04 rad/s), which decays; at 30 s sway that grows (ζ = −0.03 at

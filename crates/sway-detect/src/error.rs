@@ -78,6 +78,19 @@ pub enum ConfigError {
         /// the largest allowed value
         max: usize,
     },
+    /// A value outside the open interval its model allows (a car's axle behind its hitch,
+    /// a bound above its pair, a prior outside its bounds).
+    #[error("`{key}` = {value} must lie in ({low}, {high})")]
+    Bounds {
+        /// the key of the value
+        key: &'static str,
+        /// the offending value
+        value: f64,
+        /// the interval's lower end
+        low: f64,
+        /// the interval's upper end
+        high: f64,
+    },
     /// The half-period window of the oscillation counter is empty.
     #[error("half-period window [{min_s}, {max_s}] s must satisfy 0 < min < max")]
     HalfPeriods {

@@ -14,9 +14,14 @@
 //! - [`detector`]: the [`detector::Detector`] trait (flag, score for ROC curves,
 //!   frequency and damping estimates, a status for bad input) and its implementations
 //!   [`detector::OscillationCounter`] (band-pass, amplitude threshold, consecutive
-//!   half-oscillations: the production approach) and [`detector::DampingEstimator`]
+//!   half-oscillations: the production approach), [`detector::DampingEstimator`]
 //!   (recursive least squares on a second-order autoregressive model: low or negative
-//!   damping before the amplitude is large).
+//!   damping before the amplitude is large) and [`detector::ModelObserver`] (an extended
+//!   Kalman filter on the car–trailer linear model, [`detector::observer::model`], that
+//!   estimates the hitch angle and rate from the car's signals and the trailer's mass, yaw
+//!   inertia and centre of gravity as augmented states, and from them the hitched
+//!   trailer's critical speed V_crit: sway once the speed reaches it or the hitch angle
+//!   oscillates freely beyond a threshold).
 //!
 //! It knows nothing of the simulation: a detector sees only sampled sensor values, never a
 //! model's state, and runs as it could on a controller (no allocation per sample, fixed-size

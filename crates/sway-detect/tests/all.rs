@@ -17,6 +17,8 @@ mod damping;
 mod filter;
 #[path = "independence.rs"]
 mod independence;
+#[path = "observer.rs"]
+mod observer;
 #[path = "sensors.rs"]
 mod sensors;
 

@@ -1,5 +1,5 @@
 //! Nothing allocates per sample: a counting global allocator shows no allocation while the
-//! sensors sample and both detectors update over 100 000 frames (sway, straight driving,
+//! sensors sample and every detector (the model observer included) updates over 100 000 frames (sway, straight driving,
 //! NaN samples, time gaps, times out of order and a reset among them).
 //! A binary without the test harness (`harness = false` in Cargo.toml): the counter is
 //! global, and the harness's own thread (its output, its timers) could allocate while the
@@ -9,7 +9,8 @@ use std::alloc::System;
 
 use stats_alloc::{INSTRUMENTED_SYSTEM, Region, StatsAlloc};
 use sway_detect::detector::{
-    CounterOptions, DampingEstimator, DampingOptions, Detector, OscillationCounter,
+    CounterOptions, DampingEstimator, DampingOptions, Detector, ModelObserver, ObserverOptions,
+    OscillationCounter,
 };
 use sway_detect::sensor::{SensorSpec, Sensors, SensorsConfig, Truth};
 
@@ -31,6 +32,8 @@ fn main() {
     let mut sensors = Sensors::new(&config).unwrap();
     let mut counter = OscillationCounter::new(CounterOptions::default()).unwrap();
     let mut estimator = DampingEstimator::new(DampingOptions::default()).unwrap();
+    let mut observer = ModelObserver::new(ObserverOptions::default()).unwrap();
+    let mut estimates = 0.0;
     let (mut frames, mut flags) = (0_usize, 0_usize);
     let n = count(|| {
         for k in 0..100_000_usize {
@@ -57,17 +60,24 @@ fn main() {
                 1 => m.t -= 0.05, // out of order
                 _ => {}
             }
-            for d in [&mut counter as &mut dyn Detector, &mut estimator] {
+            for d in [
+                &mut counter as &mut dyn Detector,
+                &mut estimator,
+                &mut observer,
+            ] {
                 flags += d.update(&m).flag.is_sway() as usize;
             }
+            estimates += observer.estimate().hitch_angle;
             if k == 60_000 {
                 counter.reset();
                 estimator.reset();
+                observer.reset();
             }
         }
     });
     assert!(frames > 99_000, "{frames} frames");
     assert!(flags > 1000, "the sway was flagged ({flags} flags)");
+    assert!(estimates.is_finite(), "the observer's estimates are finite");
     assert_eq!(n, 0, "sampling and detecting allocated {n} times");
     println!("no_allocation_per_sample ... ok");
 }

@@ -1,10 +1,12 @@
 //! Sway detectors: the [`Detector`] trait, its output, and the implementations
-//! [`OscillationCounter`] (the production approach) and [`DampingEstimator`] (recursive
-//! least squares on an autoregressive model).
+//! [`OscillationCounter`] (the production approach), [`DampingEstimator`] (recursive
+//! least squares on an autoregressive model) and [`ModelObserver`] (an extended Kalman
+//! filter on the car–trailer model, [`observer`]).
 //!
 //! A detector sees only the sampled sensor values of a [`Measurement`], never a model's
-//! state. Every detector reads one [`Signal`] at a fixed sample rate (the sensors' frame
-//! rate) and checks each sample before using it ([`InputStatus`]):
+//! state. The counter and the estimator read one [`Signal`] at a fixed sample rate (the
+//! sensors' frame rate), the observer the yaw rate, lateral acceleration, steering-wheel
+//! angle and speed together; each checks every sample before using it ([`InputStatus`]):
 //! - a NaN or infinite time, a value that is NaN, infinite or beyond ±[`MAX_INPUT`] (a
 //!   sensor fault), or a hitch angle that is not measured, is ignored and the previous
 //!   output repeated with status [`InputStatus::Invalid`];
@@ -12,16 +14,19 @@
 //!   ([`InputStatus::OutOfOrder`]);
 //! - more than [`GAP_TOLERANCE`] sample periods since the last used sample (frames lost,
 //!   or invalid samples between) restart the detector from this sample
-//!   ([`InputStatus::Gap`]): its filters assume equally spaced samples.
+//!   ([`InputStatus::Gap`]): its filters assume equally spaced samples (the observer
+//!   restarts its lateral states and keeps what it learned of the trailer).
 //!
 //! No detector panics on its input, allocates per sample or grows its state: every buffer
 //! is a fixed-size array, every number an `f64`.
 
 mod counter;
 mod damping;
+pub mod observer;
 
 pub use counter::{CounterOptions, MAX_HALF_OSCILLATIONS, OscillationCounter};
 pub use damping::{DampingEstimator, DampingOptions, MAX_AR_LAG};
+pub use observer::{ModelObserver, ObserverEstimate, ObserverOptions};
 
 use serde::{Deserialize, Serialize};
 
@@ -34,7 +39,8 @@ pub trait Detector {
     fn update(&mut self, m: &Measurement) -> DetectorOutput;
     /// Back to the state of a new detector (as after construction).
     fn reset(&mut self);
-    /// A short name for tables and figures (`oscillation_counter`, `damping_estimator`).
+    /// A short name for tables and figures (`oscillation_counter`, `damping_estimator`,
+    /// `model_observer`).
     fn name(&self) -> &'static str;
     /// The detector flags exactly when its score is at least this: sweeping a threshold
     /// over recorded scores gives the detector's ROC curve.

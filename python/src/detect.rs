@@ -6,40 +6,72 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sway_detect::detector::{
-    CounterOptions, DampingEstimator, DampingOptions, Detector, InputStatus, OscillationCounter,
+    CounterOptions, DampingEstimator, DampingOptions, Detector, DetectorOutput, InputStatus,
+    ModelObserver, ObserverEstimate, ObserverOptions, OscillationCounter,
 };
 use sway_detect::sensor::Measurement;
 
 use crate::load_config;
 
-/// The detectors by the names of their tables and results, each built from its options
-/// dict (the TOML table's shape; `None`: the defaults).
-fn build(name: &str, options: Option<&Bound<'_, PyAny>>) -> PyResult<Box<dyn Detector + Send>> {
-    let what = format!("detect(options['{name}'])");
-    let bad = |e: sway_detect::ConfigError| PyValueError::new_err(format!("{what}: {e}"));
-    match name {
-        "oscillation_counter" => {
-            let o: CounterOptions = match options {
-                Some(d) => load_config(d, &what)?.0,
-                None => CounterOptions::default(),
-            };
-            Ok(Box::new(OscillationCounter::new(o).map_err(bad)?))
+/// A detector built by name, the observer apart: it also estimates (the hitch angle, the
+/// trailer's parameters, V_crit), which `detect` returns per sample.
+enum Built {
+    Plain(Box<dyn Detector + Send>),
+    Observer(Box<ModelObserver>),
+}
+
+impl Built {
+    fn detector(&mut self) -> &mut dyn Detector {
+        match self {
+            Built::Plain(d) => d.as_mut(),
+            Built::Observer(o) => o.as_mut(),
         }
-        "damping_estimator" => {
-            let o: DampingOptions = match options {
-                Some(d) => load_config(d, &what)?.0,
-                None => DampingOptions::default(),
-            };
-            Ok(Box::new(DampingEstimator::new(o).map_err(bad)?))
+    }
+
+    fn update(&mut self, m: &Measurement) -> (DetectorOutput, Option<ObserverEstimate>) {
+        match self {
+            Built::Plain(d) => (d.update(m), None),
+            Built::Observer(o) => (o.update(m), Some(o.estimate())),
         }
-        other => Err(PyValueError::new_err(format!(
-            "detectors: unknown detector {other:?}; expected one of {DETECTORS:?}"
-        ))),
     }
 }
 
+/// The options of detector `what` from its dict (the TOML table's shape; `None`: the
+/// defaults).
+fn options_of<T: serde::de::DeserializeOwned + Default>(
+    options: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<T> {
+    match options {
+        Some(d) => Ok(load_config(d, what)?.0),
+        None => Ok(T::default()),
+    }
+}
+
+/// The detectors by the names of their tables and results, each built from its options.
+fn build(name: &str, options: Option<&Bound<'_, PyAny>>) -> PyResult<Built> {
+    let what = format!("detect(options['{name}'])");
+    let bad = |e: sway_detect::ConfigError| PyValueError::new_err(format!("{what}: {e}"));
+    Ok(match name {
+        "oscillation_counter" => Built::Plain(Box::new(
+            OscillationCounter::new(options_of::<CounterOptions>(options, &what)?).map_err(bad)?,
+        )),
+        "damping_estimator" => Built::Plain(Box::new(
+            DampingEstimator::new(options_of::<DampingOptions>(options, &what)?).map_err(bad)?,
+        )),
+        "model_observer" => Built::Observer(Box::new(
+            ModelObserver::new(options_of::<ObserverOptions>(options, &what)?).map_err(bad)?,
+        )),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "detectors: unknown detector {other:?}; expected one of {DETECTORS:?}"
+            )));
+        }
+    })
+}
+
 /// Every detector `detect` runs, in the order of its results.
-const DETECTORS: [&str; 2] = ["oscillation_counter", "damping_estimator"];
+const DETECTORS: [&str; 3] = ["oscillation_counter", "damping_estimator", "model_observer"];
 
 /// The status of one sample as the Python result names it.
 fn status_name(s: InputStatus) -> &'static str {
@@ -60,12 +92,34 @@ struct Trace {
     frequency_hz: Vec<f64>,
     damping_ratio: Vec<f64>,
     status: Vec<&'static str>,
+    /// the observer's estimates per sample, by name (empty for the other detectors)
+    estimates: Vec<(&'static str, Vec<f64>)>,
+}
+
+/// The observer's estimates `detect` returns per sample, by their Python names: values
+/// and standard deviations, NaN where there is none.
+fn estimate_columns(e: &ObserverEstimate) -> [(&'static str, f64); 11] {
+    let nan = f64::NAN;
+    [
+        ("hitch_angle", e.hitch_angle),
+        ("hitch_angle_sd", e.hitch_angle_variance.sqrt()),
+        ("hitch_rate", e.hitch_rate),
+        ("hitch_rate_sd", e.hitch_rate_variance.sqrt()),
+        ("trailer_mass", e.trailer_mass.value),
+        ("trailer_mass_sd", e.trailer_mass.sd),
+        ("trailer_yaw_inertia", e.trailer_yaw_inertia.value),
+        ("trailer_cog", e.trailer_cog.value),
+        ("v_crit_estimate_mps", e.v_crit_estimate_mps.unwrap_or(nan)),
+        ("v_crit_sd_mps", e.v_crit_sd_mps.unwrap_or(nan)),
+        ("sway_frequency_hz", e.sway_frequency_hz.unwrap_or(nan)),
+    ]
 }
 
 /// detect(t, yaw_rate, lateral_acceleration, steering_wheel_angle, speed, hitch_angle,
 /// detector, options) → dict of per-sample arrays (`flag`, `score`, `amplitude`,
-/// `frequency_hz`, `damping_ratio` with NaN where the detector has no estimate, `status`)
-/// and the detector's `threshold`. Every signal has `t`'s length (NaN: not measured);
+/// `frequency_hz`, `damping_ratio` with NaN where the detector has no estimate, `status`),
+/// the observer's `estimates` (a dict of per-sample arrays; empty for the others) and the
+/// detector's `threshold`. Every signal has `t`'s length (NaN: not measured);
 /// `hitch_angle` None without a hitch-angle sensor.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
@@ -101,7 +155,7 @@ pub(crate) fn detect<'py>(
             t.len()
         )));
     }
-    let threshold = d.threshold();
+    let threshold = d.detector().threshold();
     let trace = py.detach(|| {
         let mut tr = Trace::default();
         for (k, &tk) in t.iter().enumerate() {
@@ -113,7 +167,19 @@ pub(crate) fn detect<'py>(
                 hitch_angle: hitch.map(|h| h[k]),
                 ..Measurement::at(tk)
             };
-            let out = d.update(&m);
+            let (out, estimate) = d.update(&m);
+            if let Some(e) = estimate {
+                let columns = estimate_columns(&e);
+                if tr.estimates.is_empty() {
+                    tr.estimates = columns
+                        .iter()
+                        .map(|&(n, _)| (n, Vec::with_capacity(t.len())))
+                        .collect();
+                }
+                for ((_, col), (_, x)) in tr.estimates.iter_mut().zip(columns) {
+                    col.push(x);
+                }
+            }
             tr.flag.push(out.flag.is_sway());
             tr.score.push(out.score);
             tr.amplitude.push(out.amplitude.unwrap_or(f64::NAN));
@@ -124,7 +190,7 @@ pub(crate) fn detect<'py>(
         tr
     });
     let r = PyDict::new(py);
-    r.set_item("name", d.name())?;
+    r.set_item("name", d.detector().name())?;
     r.set_item("threshold", threshold)?;
     r.set_item("flag", trace.flag.into_pyarray(py))?;
     r.set_item("score", trace.score.into_pyarray(py))?;
@@ -132,6 +198,11 @@ pub(crate) fn detect<'py>(
     r.set_item("frequency_hz", trace.frequency_hz.into_pyarray(py))?;
     r.set_item("damping_ratio", trace.damping_ratio.into_pyarray(py))?;
     r.set_item("status", trace.status)?;
+    let estimates = PyDict::new(py);
+    for (name, col) in trace.estimates {
+        estimates.set_item(name, col.into_pyarray(py))?;
+    }
+    r.set_item("estimates", estimates)?;
     Ok(r)
 }
 

@@ -78,7 +78,7 @@ def test_nan_samples_and_gaps_are_reported_and_survived():
     y[100] = np.nan
     keep = np.ones(len(t), dtype=bool)
     keep[200:210] = False  # ten lost frames
-    r = ts.detect(t[keep], {"yaw_rate": y[keep]})
+    r = ts.detect(t[keep], {"yaw_rate": y[keep]}, detectors=["oscillation_counter", "damping_estimator"])
     for d in r.detectors.values():
         assert d.status[100] == "invalid"
         # the invalid sample is a lost frame for the next (a step of 2 periods)
@@ -140,3 +140,28 @@ def test_the_detection_plots():
     assert ax.get_xlabel() == "time t [s]" and "rad/s" in ax.get_ylabel()
     labels = [l.get_label() for l in ax.get_legend().get_lines()]
     assert any(l.startswith("oscillation_counter: first flag") for l in labels), labels
+
+
+def test_the_observer_estimates_the_hitch_angle_of_the_recording():
+    # reference: a recording of the Rust sensors on the observer's own model is not at hand
+    # here; what Python can check is the wiring: the observer runs on the four signals it
+    # reads, its per-sample estimates come back as float64 arrays of t's length, and with
+    # no excitation (straight running at 25 m/s, zero signals) the hitch angle stays at 0
+    # within its standard deviation and V_crit is estimated (NaN before the first search)
+    t = np.arange(0, 10.0, 0.01)
+    zero = np.zeros(len(t))
+    r = ts.detect(
+        t,
+        {"yaw_rate": zero, "lateral_acceleration": zero, "steering_wheel_angle": zero, "speed": np.full(len(t), 25.0)},
+        detectors=["model_observer"],
+    )
+    d = r.detectors["model_observer"]
+    assert d.status.count("ok") == len(t)
+    e = d.estimates
+    for k in ("hitch_angle", "hitch_angle_sd", "trailer_mass", "v_crit_estimate_mps"):
+        assert e[k].dtype == np.float64 and len(e[k]) == len(t), k
+    assert np.all(np.abs(e["hitch_angle"]) <= 3 * e["hitch_angle_sd"] + 1e-12)
+    assert np.isfinite(e["v_crit_estimate_mps"][-1]) and e["v_crit_estimate_mps"][-1] > 0
+    # nothing drives it: the prior's mass stays within its prior sd (1300 ± 600 kg)
+    assert abs(e["trailer_mass"][-1] - 1300.0) < 600.0
+    assert not d.flag.any()

@@ -1338,7 +1338,12 @@ class DetectorTrace:
     ``frequency_hz``, ``damping_ratio`` (float64, NaN where the detector has no estimate),
     ``status`` (per sample ``"ok"``, ``"invalid"`` for NaN or a fault, ``"out_of_order"``,
     ``"gap"`` where it restarted after lost samples), ``first_flag_s`` (the time of the
-    first flag, None if it never flags) and ``options`` (the options it ran with)."""
+    first flag, None if it never flags), ``estimates`` (the model observer's per-sample
+    arrays: ``hitch_angle`` [rad] and ``hitch_angle_sd``, ``hitch_rate`` [rad/s] and
+    ``hitch_rate_sd``, ``trailer_mass`` [kg] and ``trailer_mass_sd``,
+    ``trailer_yaw_inertia`` [kg m²], ``trailer_cog`` [m], ``v_crit_estimate_mps`` and
+    ``v_crit_sd_mps`` (NaN where it has none), ``sway_frequency_hz``; empty for the other
+    detectors) and ``options`` (the options it ran with)."""
 
     name: str
     threshold: float
@@ -1349,6 +1354,7 @@ class DetectorTrace:
     damping_ratio: np.ndarray
     status: list
     first_flag_s: Optional[float]
+    estimates: dict = field(repr=False)
     options: dict = field(repr=False)
 
     def __repr__(self) -> str:
@@ -1410,8 +1416,11 @@ def detect(
     (default all). ``options``: per detector name a dict in the shape of its TOML table
     (``sample_rate_hz``, ``band = {low_hz, high_hz}``, ``amplitude_threshold``,
     ``half_oscillations``, … for ``oscillation_counter``; ``damping_threshold``,
-    ``memory_s``, … for ``damping_estimator``); ``sample_rate_hz`` defaults to the
-    recording's (1 / the median step of ``t``), every other key to the detector's default.
+    ``memory_s``, … for ``damping_estimator``; ``car``, ``steering_ratio``,
+    ``trailer_axle_m``, ``mass``, … for ``model_observer``, which reads the yaw rate, the
+    lateral acceleration, the steering-wheel angle and the speed); ``sample_rate_hz``
+    defaults to the recording's (1 / the median step of ``t``), every other key to the
+    detector's default.
 
     Raises ``TypeError`` for a value of the wrong type, ``ValueError`` naming the key for
     a bad value or a signal of another length than ``t``."""
@@ -1466,6 +1475,7 @@ def detect(
             damping_ratio=r["damping_ratio"],
             status=r["status"],
             first_flag_s=first,
+            estimates=dict(r["estimates"]),
             options=opts,
         )
     return Detection(t=tt, signals=arrays, detectors=traces)

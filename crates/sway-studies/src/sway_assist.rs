@@ -41,6 +41,9 @@ use trailer_model::AnyVehicleModel;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SwayAssistConfig {
+    /// vehicle files to evaluate (a fleet), relative to the config's directory; empty: the
+    /// task's vehicle (`--vehicle`). Read by the task layer; the study takes the models
+    pub vehicle_files: Vec<String>,
     /// the sway set's speeds, relative to each vehicle
     pub sway_speeds: Vec<SpeedSpec>,
     /// the sway set's disturbances
@@ -74,6 +77,7 @@ impl Default for SwayAssistConfig {
             duration_s: 0.4,
         };
         Self {
+            vehicle_files: Vec::new(),
             sway_speeds: vec![in_bistable(-0.5), in_bistable(0.5), of_v_crit(1.05)],
             sway_disturbances: vec![
                 impulse(1.0),

@@ -1,6 +1,7 @@
 //! `cargo xtask sway_assist` (issue 48, items 4–5): the sway detectors (`sway-detect`)
 //! and the sway assist ([`sway::assist`]) evaluated on the vehicle (`--vehicle FILE`, any
-//! model variant) over a sway set and a false-alarm set; the computation is
+//! model variant) or the config's `vehicle_files` (a fleet) over a sway set and a
+//! false-alarm set; the computation is
 //! [`sway_studies::sway_assist`]. Writes `runs.csv` (one row per scenario and
 //! intervention), `roc.csv`, `summary.json` (`detectors`, `assist`, `observer`) and the
 //! figures `roc`, `latency` and `runs` (a sway run and a slalom run with every detector's
@@ -13,6 +14,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 use sway::assist::{ONSET_AMPLITUDE_DEG, RunOutcome, SWAY_AMPLITUDE_DEG};
+use trailer_model::AnyVehicleModel;
 use sway_studies::sway_assist::{
     AssistMetrics, DetectorMetrics, ScenarioSet, SwayAssist, VehicleReferences, compute,
 };
@@ -20,7 +22,7 @@ pub use sway_studies::sway_assist::SwayAssistConfig;
 
 use super::{Prepared, Report, Task, TaskContext};
 use crate::TaskError;
-use crate::config_file::load_toml;
+use crate::config_file::{load_toml, load_vehicle_spec};
 use crate::io::OutputDir;
 use crate::limits::{BYTES_PER_ROW, MAX_SIMULATED_S, Plan, bound, human_seconds};
 use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
@@ -132,6 +134,8 @@ struct SwayAssistTask {
     name: &'static str,
     file: PathBuf,
     config: SwayAssistConfig,
+    /// the config's vehicle files (name, model); empty: the task's vehicle
+    fleet: Vec<(String, AnyVehicleModel)>,
 }
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
@@ -147,10 +151,31 @@ fn prepare_named(name: &'static str, file: &Path) -> Result<Box<dyn Prepared>, T
     config
         .validate()
         .map_err(|(k, p)| TaskError::config(file, k, p))?;
+    let dir = file.parent().unwrap_or(Path::new("."));
+    let fleet = config
+        .vehicle_files
+        .iter()
+        .enumerate()
+        .map(|(k, rel)| {
+            let path = dir.join(rel);
+            let loaded = load_vehicle_spec(&path).map_err(|e| {
+                TaskError::config(
+                    file,
+                    format!("vehicle_files[{k}]"),
+                    format!("the vehicle file {} is not valid: {e}", path.display()),
+                )
+            })?;
+            let name = Path::new(rel)
+                .file_stem()
+                .map_or_else(|| rel.clone(), |s| s.to_string_lossy().into_owned());
+            Ok((name, loaded.plant))
+        })
+        .collect::<Result<Vec<_>, TaskError>>()?;
     Ok(Box::new(SwayAssistTask {
         name,
         file: file.to_path_buf(),
         config,
+        fleet,
     }))
 }
 
@@ -403,8 +428,9 @@ const SECONDS_PER_COSIMULATED_SECOND: f64 = 1e-3;
 impl Prepared for SwayAssistTask {
     fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
-        let scenarios = c.sway_speeds.len() * c.sway_disturbances.len()
-            + c.false_alarm_speeds.len() * c.false_alarm_disturbances.len();
+        let scenarios = self.fleet.len().max(1)
+            * (c.sway_speeds.len() * c.sway_disturbances.len()
+                + c.false_alarm_speeds.len() * c.false_alarm_disturbances.len());
         let runs = 2.0 * scenarios as f64;
         let simulated = runs * c.horizon_s;
         let plan = Plan::new(
@@ -431,7 +457,11 @@ impl Prepared for SwayAssistTask {
             .vehicle_file
             .file_stem()
             .map_or_else(|| "vehicle".to_string(), |s| s.to_string_lossy().into_owned());
-        let vehicles = vec![(name, ctx.plant.clone())];
+        let vehicles = if self.fleet.is_empty() {
+            vec![(name, ctx.plant.clone())]
+        } else {
+            self.fleet.clone()
+        };
         let runs = (vehicles.len()
             * (cfg.sway_speeds.len() * cfg.sway_disturbances.len()
                 + cfg.false_alarm_speeds.len() * cfg.false_alarm_disturbances.len()))

@@ -243,7 +243,9 @@ pub fn run<P: Vehicle<M>, const M: usize>(
             max_score: None,
         })
         .collect();
+    // the flags of the last frame and of this one (raw, then gated), reused every frame
     let mut flagged_before = vec![false; 2 * nd];
+    let mut flagged_now = vec![false; 2 * nd];
     let mut trace = record.then(Trace::default);
     let frames = (scenario.horizon_s / frame_s).round() as usize;
     let (mut ts, mut thetas) = (
@@ -274,7 +276,7 @@ pub fn run<P: Vehicle<M>, const M: usize>(
         if k == frames {
             break;
         }
-        let mut flagged_now = vec![false; 2 * nd];
+        flagged_now.fill(false);
         let mut commands = intervention::Commands::default();
         let mut measured_yaw_rate = f64::NAN;
         if let Some(m) = sensors.sample(t, &truth) {
@@ -310,7 +312,7 @@ pub fn run<P: Vehicle<M>, const M: usize>(
                 r.first_flag_s.get_or_insert(t);
             }
         }
-        flagged_before = flagged_now;
+        std::mem::swap(&mut flagged_before, &mut flagged_now);
         if let Some(tr) = trace.as_mut() {
             tr.t.push(t);
             tr.hitch_angle_deg.push(x[HITCH_ANGLE].to_degrees());

@@ -7,11 +7,10 @@
 //! The state counts are type parameters (the plant's M reduced states, N = M + 3 kinematic
 //! + the law's own states); [`build`] picks them at run time, as the simulations do.
 
-use dde::{DdeProblem, DdeSolver, Flow, Observer, OdeProblem};
-use dde::{OdeSolver, Status, StepView};
 use nalgebra::SVector;
-use serde::{Deserialize, Serialize};
-use sway::sim::{HeldInputs, SimProblem, SolverSettings, SpeedProfile, guard_event, tripped};
+use sway::sim::cosim::CoSimulation;
+pub use sway::sim::cosim::StepEnd;
+use sway::sim::{HeldInputs, SimProblem, SolverSettings, SpeedProfile};
 use sway_model::law::LoopLaw;
 use sway_model::vehicle::{LossOfControl, Vehicle};
 use trailer_model::{AnyVehicleModel, Model, State4, VehicleModel};
@@ -34,15 +33,6 @@ pub struct EngineSpec {
     pub start_s: f64,
     /// the solver's settings
     pub solver: SolverSettings,
-}
-
-/// What a step ended with.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum StepEnd {
-    /// the step's end was reached
-    Reached,
-    /// the validity guard tripped at t \[s\]: the state stays there
-    LostControl(f64, LossOfControl),
 }
 
 /// One simulation run by the FMU (object-safe: the state counts are hidden).
@@ -70,52 +60,12 @@ pub trait Engine: Send + std::fmt::Debug {
     fn restore(&mut self, bytes: &[u8]) -> Result<(), FmuError>;
 }
 
-/// The integrator: an ODE in open loop (as the simulations), a DDE with a delay.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-enum Solver<const N: usize> {
-    Ode(OdeSolver<N>),
-    Dde(DdeSolver<N>),
-}
-
-/// The part of an engine that changes with time.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-struct Progress<const N: usize> {
-    solver: Solver<N>,
-    /// the inputs the last step held
-    held: Option<HeldSnapshot>,
-    /// x(t − τ) at the current time (closed loop)
-    delayed: Option<SVector<f64, N>>,
-    /// where and why the guard tripped
-    lost: Option<(f64, usize)>,
-}
-
-/// [`HeldInputs`] as data (compared to tell the solver of a jump of the inputs).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-struct HeldSnapshot {
-    speed_mps: Option<f64>,
-    steering_angle_rad: f64,
-    yaw_moment_nm: f64,
-    trailer_lateral_force_n: f64,
-}
-
-impl From<HeldInputs> for HeldSnapshot {
-    fn from(h: HeldInputs) -> Self {
-        Self {
-            speed_mps: h.speed_mps,
-            steering_angle_rad: h.steering_angle_rad,
-            yaw_moment_nm: h.yaw_moment_nm,
-            trailer_lateral_force_n: h.trailer_lateral_force_n,
-        }
-    }
-}
-
 /// The engine of a plant `P` with M reduced states and N states in all.
 struct SimEngine<P: Vehicle<M> + 'static, const M: usize, const N: usize> {
     /// the problem, owning its plant and speed profile ([`SimProblem::new_owned`])
     problem: SimProblem<'static, P, M, N>,
-    x0: SVector<f64, N>,
     law: Option<LoopLaw>,
-    progress: Progress<N>,
+    progress: CoSimulation<N>,
 }
 
 impl<P: Vehicle<M> + 'static, const M: usize, const N: usize> std::fmt::Debug
@@ -126,22 +76,8 @@ impl<P: Vehicle<M> + 'static, const M: usize, const N: usize> std::fmt::Debug
             .field("reduced_states", &M)
             .field("states", &N)
             .field("law", &self.law)
-            .field(
-                "t",
-                &match &self.progress.solver {
-                    Solver::Ode(s) => s.t(),
-                    Solver::Dde(s) => s.t(),
-                },
-            )
+            .field("t", &self.progress.time())
             .finish_non_exhaustive()
-    }
-}
-
-fn numerical(context: &str, e: impl std::error::Error + Send + Sync + 'static) -> FmuError {
-    FmuError::Step {
-        t: 0.0,
-        t_end: 0.0,
-        source: sway::SwayError::numerical(context.to_string(), e),
     }
 }
 
@@ -170,57 +106,19 @@ impl<P: Vehicle<M> + Send + Sync + 'static, const M: usize, const N: usize> SimE
                     source,
                 }
             })?;
-        let opts = spec.solver.options(spec.law.as_ref());
-        let solver = if spec.law.is_some() {
-            DdeSolver::new(&problem, spec.start_s, opts)
-                .map(Solver::Dde)
-                .map_err(|e| numerical("starting the DDE solver", e))?
-        } else {
-            OdeSolver::new(&problem, spec.start_s, x0, opts)
-                .map(Solver::Ode)
-                .map_err(|e| numerical("starting the ODE solver", e))?
-        };
+        let progress =
+            CoSimulation::start(&problem, spec.start_s, x0, &spec.solver).map_err(|source| {
+                FmuError::Step {
+                    t: spec.start_s,
+                    t_end: spec.start_s,
+                    source,
+                }
+            })?;
         Ok(Self {
             problem,
-            x0,
             law: spec.law,
-            progress: Progress {
-                solver,
-                held: None,
-                delayed: spec.law.map(|_| x0),
-                lost: None,
-            },
+            progress,
         })
-    }
-
-    fn state(&self) -> &SVector<f64, N> {
-        match &self.progress.solver {
-            Solver::Ode(s) => s.state(),
-            Solver::Dde(s) => s.state(),
-        }
-    }
-
-    fn delayed_slice(&self) -> &[SVector<f64, N>] {
-        match &self.progress.delayed {
-            Some(d) => std::slice::from_ref(d),
-            None => &[],
-        }
-    }
-}
-
-/// Keeps x(t_end − τ) of the last accepted step.
-struct Delayed<const N: usize> {
-    delay_s: Option<f64>,
-    x0: SVector<f64, N>,
-    at_end: Option<SVector<f64, N>>,
-}
-
-impl<const N: usize> Observer<N> for Delayed<N> {
-    fn on_step(&mut self, step: &StepView<'_, N>) -> Flow {
-        if let Some(tau) = self.delay_s {
-            self.at_end = Some(step.eval_past(step.t_end() - tau).unwrap_or(self.x0));
-        }
-        Flow::Continue
     }
 }
 
@@ -228,89 +126,41 @@ impl<P: Vehicle<M> + Send + Sync + 'static, const M: usize, const N: usize> Engi
     for SimEngine<P, M, N>
 {
     fn time(&self) -> f64 {
-        match &self.progress.solver {
-            Solver::Ode(s) => s.t(),
-            Solver::Dde(s) => s.t(),
-        }
+        self.progress.time()
     }
 
     fn step(&mut self, held: HeldInputs, t_end: f64) -> Result<StepEnd, FmuError> {
         let t = self.time();
-        if let Some((t_lost, k)) = self.progress.lost {
-            return Ok(StepEnd::LostControl(t_lost, LossOfControl::ALL[k]));
-        }
-        let snapshot = HeldSnapshot::from(held);
-        if self.progress.held.is_some_and(|h| h != snapshot) {
-            match &mut self.progress.solver {
-                Solver::Ode(s) => s.input_jump(),
-                Solver::Dde(s) => s.input_jump(),
-            }
-        }
-        self.progress.held = Some(snapshot);
-        self.problem.set_held_inputs(held);
-        let problem: &SimProblem<'static, P, M, N> = &self.problem;
-        let events = [guard_event(problem)];
-        let mut observer = Delayed {
-            delay_s: self.law.map(|l| l.delay_s),
-            x0: self.x0,
-            at_end: None,
-        };
-        let failed = |e: dde::Error| FmuError::Step {
-            t,
-            t_end,
-            source: sway::SwayError::numerical(format!("the FMU's step with inputs {held:?}"), e),
-        };
-        let status = match &mut self.progress.solver {
-            Solver::Ode(s) => s.integrate(problem, t_end, &events, &mut observer),
-            Solver::Dde(s) => s.integrate(problem, t_end, &events, &mut observer),
-        }
-        .map_err(failed)?;
-        if let Some(d) = observer.at_end {
-            self.progress.delayed = Some(d);
-        }
-        match status {
-            Status::Event(hit) => {
-                let xd = self.delayed_slice().to_vec();
-                let v = problem.guard_values(hit.t, &hit.x, &xd);
-                let why = tripped(v);
-                let k = LossOfControl::ALL
-                    .iter()
-                    .position(|l| *l == why)
-                    .unwrap_or(0);
-                self.progress.lost = Some((hit.t, k));
-                Ok(StepEnd::LostControl(hit.t, why))
-            }
-            _ => Ok(StepEnd::Reached),
-        }
+        self.progress
+            .step(&mut self.problem, held, t_end)
+            .map_err(|source| FmuError::Step { t, t_end, source })
     }
 
     fn outputs(&mut self, held: HeldInputs) -> [f64; Output::ALL.len()] {
         self.problem.set_held_inputs(held);
         let problem: &SimProblem<'static, P, M, N> = &self.problem;
         let t = self.time();
-        let x = *self.state();
-        let xd = self.delayed_slice();
-        let mut dx = SVector::<f64, N>::zeros();
-        if self.law.is_some() {
-            DdeProblem::rhs(problem, t, &x, xd, &mut dx);
-        } else {
-            OdeProblem::rhs(problem, t, &x, &mut dx);
-        }
+        let x = *self.progress.state();
+        let xd = self.progress.delayed();
         let plant = problem.plant();
         let xr = sway::sim::reduced_state::<M, N>(&x);
-        let dxr = sway::sim::reduced_state::<M, N>(&dx);
         let u = problem.inputs(t, &x, xd);
         let yaw_rate = plant.yaw_rate(&xr);
         let hitch_rate = plant.hitch_angle_rate(&xr);
         let model: &Model = plant.paper_model();
-        let d = model.params().tractor.cog;
-        // a_y of C1 in the car's frame: d/dt(σ1 + d ψ̇) + V ψ̇ (ψ̇ is linear in the state)
-        let lateral_acceleration = dx[0] + d * plant.yaw_rate(&dxr) + u.speed * yaw_rate;
+        // a_y of C1 in the car's frame: d/dt(σ1 + d ψ̇) + V ψ̇
+        let lateral_acceleration = self.progress.lateral_acceleration(problem);
         let x4 = State4::new(x[0], x[1], x[2], x[3]);
         let slips = model.slip_angles(&x4, &u);
         let forces = model.tire_forces(&x4, &u);
-        let (lost, reason) = match self.progress.lost {
-            Some((_, k)) => (1.0, (k + 1) as f64),
+        let (lost, reason) = match self.progress.lost() {
+            Some((_, why)) => {
+                let k = LossOfControl::ALL
+                    .iter()
+                    .position(|l| *l == why)
+                    .unwrap_or(0);
+                (1.0, (k + 1) as f64)
+            }
             None => (0.0, 0.0),
         };
         [
@@ -345,19 +195,11 @@ impl<P: Vehicle<M> + Send + Sync + 'static, const M: usize, const N: usize> Engi
     }
 
     fn restore(&mut self, bytes: &[u8]) -> Result<(), FmuError> {
-        let progress: Progress<N> = ciborium::from_reader(bytes)
+        let progress: CoSimulation<N> = ciborium::from_reader(bytes)
             .map_err(|e| FmuError::State(format!("not a state of this FMU ({e})")))?;
-        let same_kind = matches!(
-            (&progress.solver, &self.progress.solver),
-            (Solver::Ode(_), Solver::Ode(_)) | (Solver::Dde(_), Solver::Dde(_))
-        );
-        if !same_kind {
-            return Err(FmuError::State(
-                "saved with another controller (open against closed loop)".into(),
-            ));
-        }
-        self.progress = progress;
-        Ok(())
+        self.progress
+            .replace_with(progress)
+            .map_err(FmuError::State)
     }
 }
 

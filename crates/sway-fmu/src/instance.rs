@@ -196,6 +196,7 @@ impl Instance {
             steering_angle_rad: self.real(&Slot::Input(Input::SteeringAngle)),
             yaw_moment_nm: self.real(&Slot::Input(Input::YawMoment)),
             trailer_lateral_force_n: self.real(&Slot::Input(Input::TrailerLateralForce)),
+            ..HeldInputs::default()
         }
     }
 

@@ -62,5 +62,6 @@ pub mod loading;
 pub mod mitigation;
 pub mod roots;
 pub mod simulate;
+pub mod sway_assist;
 pub mod sweep;
 pub mod variants;

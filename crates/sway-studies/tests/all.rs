@@ -20,6 +20,8 @@ mod newcomer_vehicle;
 mod roots;
 #[path = "scenario_speeds.rs"]
 mod scenario_speeds;
+#[path = "sway_assist.rs"]
+mod sway_assist;
 #[path = "sweep.rs"]
 mod sweep;
 #[path = "sweep_points.rs"]

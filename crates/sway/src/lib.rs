@@ -23,6 +23,7 @@
 //! assert!(table.eigenvalues[2].iter().any(|l| l.re > 0.0));
 //! ```
 
+pub mod assist;
 pub mod bifurcation;
 pub mod charts;
 pub mod control;

@@ -10,6 +10,8 @@
 
 #[path = "actuator.rs"]
 mod actuator;
+#[path = "assist.rs"]
+mod assist;
 #[path = "linear.rs"]
 mod linear;
 #[path = "loading.rs"]

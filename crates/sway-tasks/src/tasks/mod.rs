@@ -50,6 +50,7 @@ registry! {
     fleet => [TASK],
     variants => [TASK],
     lateral_stability => [TASK],
+    sway_assist => [TASK, FULL],
     fmu => [TASK],
     study_generated => [TASK],
 }

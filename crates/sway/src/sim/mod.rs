@@ -33,6 +33,7 @@
 //! ```
 
 pub mod classify;
+pub mod cosim;
 pub mod decay;
 mod paper_layout;
 mod plant;

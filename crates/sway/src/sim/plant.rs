@@ -85,9 +85,17 @@ pub struct SimProblem<'a, P, const M: usize, const N: usize> {
 /// ([`dde::OdeSolver::input_jump`], [`dde::DdeSolver::input_jump`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HeldInputs {
-    /// the forward speed V \[m/s\] in place of the profile's, with V̇ = 0 while held; `None`:
-    /// the profile's V(t) and V̇(t)
+    /// the forward speed V \[m/s\] in place of the profile's, at the time `speed_from_s`,
+    /// changing at `acceleration_mps2` while held; `None`: the profile's V(t) and V̇(t)
     pub speed_mps: Option<f64>,
+    /// V̇ \[m/s²\] while the speed is held: V(t) = `speed_mps` + V̇·(t − `speed_from_s`),
+    /// and V̇ enters the equations of motion (eq. 6) as the profile's does. 0 (the default):
+    /// V held constant, as an FMU's master holds it; negative when braking (the sway
+    /// assist)
+    pub acceleration_mps2: f64,
+    /// the time \[s\] at which the held speed is `speed_mps` (only read when
+    /// `acceleration_mps2` is not 0)
+    pub speed_from_s: f64,
     /// a steering angle δ \[rad\] added to the law's command and the steering input
     pub steering_angle_rad: f64,
     /// a yaw moment M_z \[N m\] on the tractor (differential braking), added to a braking
@@ -382,7 +390,11 @@ impl<'a, P: Vehicle<M>, const M: usize, const N: usize> SimProblem<'a, P, M, N> 
             steering_angle + held.steering_angle_rad
         };
         let (speed, acceleration) = match held.speed_mps {
-            Some(v) => (v, 0.0),
+            Some(v) if held.acceleration_mps2 == 0.0 => (v, 0.0),
+            Some(v) => (
+                v + held.acceleration_mps2 * (t - held.speed_from_s),
+                held.acceleration_mps2,
+            ),
             None => (self.profile.speed(t), self.profile.acceleration(t)),
         };
         Inputs {

@@ -1,0 +1,604 @@
+//! The computation of `sway_assist` (issue 48, item 4): the sway detectors and the assist
+//! ([`sway::assist`]) evaluated against the nonlinear model.
+//!
+//! - **Sway set**: every vehicle × speeds relative to it (below V_fold, inside the bistable
+//!   range, above V_crit: [`SpeedSpec`], resolved against the vehicle's own open-loop V_crit
+//!   and fold of cycles, [`sway::ranging::open_loop_references`]) × disturbances of rising
+//!   size (steering impulses, crosswind gusts, a single lane change).
+//! - **False-alarm set**: speeds where straight running is stable × driving manoeuvres in
+//!   the sway band (slalom, single and double lane changes, a ramp into a steady corner).
+//! - Each scenario runs twice: the detectors watching ([`Intervention::None`]: the ground
+//!   truth [`sway::assist::truth`] and the detectors' flags) and with the assist.
+//! - **Per detector** (and behind the steering gate): detection rate over the scenarios
+//!   that sway without the assist, false alarms (flags in the false-alarm runs that do not
+//!   sway; count and per hour of that driving), latency from the sway's onset (median and
+//!   worst, in s and in sway periods), and the ROC curve of run-level verdicts over the
+//!   detector's threshold (a run is flagged at threshold h when its largest score reaches
+//!   h: exact, since every detector flags exactly when its score reaches its threshold).
+//! - **Assist**: loss of control and sustained sway over all scenarios with and without it,
+//!   peak articulation, speed lost, time to settle.
+//!
+//! Runs are computed in parallel ([`sway::parallel::map`]), results in item order
+//! whatever the number of threads; a run whose solver fails is recorded with its error and
+//! the evaluation goes on.
+
+use serde::{Deserialize, Serialize};
+use sway::assist::{
+    AssistOptions, AssistSetup, DetectorsConfig, Disturbance, Intervention, RunOutcome, Scenario,
+    SwayCriterion, run_any,
+};
+use sway::parallel::{Split, map};
+use sway::ranging::{
+    Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, open_loop_references,
+};
+use sway::sim::SolverSettings;
+use sway::{SwayError, sim::VehicleForm};
+use sway_detect::sensor::SensorsConfig;
+use trailer_model::AnyVehicleModel;
+
+/// `configs/sway_assist.toml` (every key has a default: the small evaluation of
+/// `cargo xtask all`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SwayAssistConfig {
+    /// vehicle files to evaluate (a fleet), relative to the config's directory; empty: the
+    /// task's vehicle (`--vehicle`). Read by the task layer; the study takes the models
+    pub vehicle_files: Vec<String>,
+    /// the sway set's speeds, relative to each vehicle
+    pub sway_speeds: Vec<SpeedSpec>,
+    /// the sway set's disturbances
+    pub sway_disturbances: Vec<Disturbance>,
+    /// the false-alarm set's speeds (where straight running is stable)
+    pub false_alarm_speeds: Vec<SpeedSpec>,
+    /// the false-alarm set's manoeuvres
+    pub false_alarm_disturbances: Vec<Disturbance>,
+    /// when every disturbance starts \[s\]
+    pub disturbance_start_s: f64,
+    /// each run's length \[s\]
+    pub horizon_s: f64,
+    /// the steering ratio i_s \[-\]
+    pub steering_ratio: f64,
+    /// the sensors (the seed of run k is seed + k)
+    pub sensors: SensorsConfig,
+    /// the detectors
+    pub detectors: DetectorsConfig,
+    /// the intervention
+    pub assist: AssistOptions,
+    /// the solver
+    pub solver: SolverSettings,
+}
+
+impl Default for SwayAssistConfig {
+    fn default() -> Self {
+        let in_bistable = |f| SpeedSpec::Relative(RelativeSpeed::InBistable(f));
+        let of_v_crit = |f| SpeedSpec::Relative(RelativeSpeed::OfVCrit(f));
+        let impulse = |a| Disturbance::SteeringImpulse {
+            amplitude_deg: a,
+            duration_s: 0.4,
+        };
+        Self {
+            vehicle_files: Vec::new(),
+            sway_speeds: vec![in_bistable(-0.5), in_bistable(0.5), of_v_crit(1.05)],
+            sway_disturbances: vec![
+                impulse(1.0),
+                impulse(3.0),
+                Disturbance::CrosswindGust {
+                    force_n: 3000.0,
+                    duration_s: 0.5,
+                },
+                Disturbance::SingleLaneChange {
+                    lateral_acceleration_mps2: 3.0,
+                    frequency_hz: 0.5,
+                },
+            ],
+            false_alarm_speeds: vec![of_v_crit(0.7)],
+            false_alarm_disturbances: vec![
+                Disturbance::Slalom {
+                    frequency_hz: 0.4,
+                    lateral_acceleration_mps2: 2.0,
+                    periods: 4.0,
+                },
+                Disturbance::Slalom {
+                    frequency_hz: 1.2,
+                    lateral_acceleration_mps2: 4.0,
+                    periods: 6.0,
+                },
+                Disturbance::SingleLaneChange {
+                    lateral_acceleration_mps2: 3.0,
+                    frequency_hz: 0.5,
+                },
+                Disturbance::DoubleLaneChange {
+                    lateral_acceleration_mps2: 2.0,
+                    frequency_hz: 0.5,
+                    hold_s: 1.0,
+                },
+                Disturbance::CorneringRamp {
+                    lateral_acceleration_mps2: 3.0,
+                    duration_s: 3.0,
+                },
+            ],
+            disturbance_start_s: 1.0,
+            horizon_s: 30.0,
+            steering_ratio: 16.0,
+            sensors: SensorsConfig::default(),
+            detectors: DetectorsConfig::default(),
+            assist: AssistOptions::default(),
+            solver: SolverSettings::default(),
+        }
+    }
+}
+
+impl SwayAssistConfig {
+    /// Checks what does not need the vehicle; `Err((key, problem))`.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let positive = |key: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err((
+                    key.to_string(),
+                    format!("expected a finite value > 0, got {v}"),
+                ))
+            }
+        };
+        positive("horizon_s", self.horizon_s)?;
+        positive("steering_ratio", self.steering_ratio)?;
+        if !(self.disturbance_start_s.is_finite()
+            && self.disturbance_start_s >= 0.0
+            && self.disturbance_start_s < self.horizon_s)
+        {
+            return Err((
+                "disturbance_start_s".into(),
+                format!(
+                    "expected a time in [0, horizon_s), got {}",
+                    self.disturbance_start_s
+                ),
+            ));
+        }
+        for (key, list) in [
+            ("sway_disturbances", &self.sway_disturbances),
+            ("false_alarm_disturbances", &self.false_alarm_disturbances),
+        ] {
+            for (k, d) in list.iter().enumerate() {
+                d.validate()
+                    .map_err(|(sub, p)| (format!("{key}[{k}].{sub}"), p))?;
+            }
+        }
+        self.assist
+            .validate()
+            .map_err(|(k, p)| (format!("assist.{k}"), p))?;
+        self.solver
+            .validate()
+            .map_err(|(k, p)| (format!("solver.{k}"), p))?;
+        if let Err(e) = self.sensors.validate() {
+            return Err(("sensors".into(), e.to_string()));
+        }
+        if let Err(e) = self.detectors.build() {
+            return Err(("detectors".into(), e.to_string()));
+        }
+        Ok(())
+    }
+
+    /// The run's setup.
+    pub fn setup(&self) -> AssistSetup {
+        AssistSetup {
+            sensors: self.sensors.clone(),
+            detectors: self.detectors,
+            assist: self.assist,
+            criterion: SwayCriterion::default(),
+            steering_ratio: self.steering_ratio,
+            solver: self.solver,
+        }
+    }
+}
+
+/// Which set a scenario belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ScenarioSet {
+    /// disturbances that may start sway
+    Sway,
+    /// driving that must not be taken for sway
+    FalseAlarm,
+}
+
+/// One scenario's two runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScenarioResult {
+    /// the vehicle's name
+    pub vehicle: String,
+    /// its set
+    pub set: ScenarioSet,
+    /// the speed as the config gives it
+    pub speed: SpeedSpec,
+    /// the scenario
+    pub scenario: Scenario,
+    /// the detectors watching (Err: the run failed, with the reason)
+    pub without: Result<RunOutcome, String>,
+    /// with the assist
+    pub with: Result<RunOutcome, String>,
+}
+
+/// One point of a ROC curve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RocPoint {
+    /// the threshold \[the detector's score unit\]
+    pub threshold: f64,
+    /// the fraction of the false-alarm runs without sway flagged \[-\]
+    pub false_positive_rate: f64,
+    /// the fraction of the sway runs flagged \[-\]
+    pub true_positive_rate: f64,
+}
+
+/// One detector's metrics.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DetectorMetrics {
+    /// the detector (`<name>_gated`: behind the steering gate)
+    pub name: String,
+    /// flagged sway runs / sway runs (None: no run swayed)
+    pub detection_rate: Option<f64>,
+    /// flags in the false-alarm runs that do not sway
+    pub false_alarms: usize,
+    /// per hour of that driving \[1/h\]
+    pub false_alarms_per_hour: Option<f64>,
+    /// the median latency from the sway's onset \[s\]
+    pub latency_median_s: Option<f64>,
+    /// the worst latency \[s\]
+    pub latency_worst_s: Option<f64>,
+    /// the median latency in sway periods \[-\]
+    pub latency_median_periods: Option<f64>,
+    /// the worst latency in sway periods \[-\]
+    pub latency_worst_periods: Option<f64>,
+    /// the latencies of the detected sway runs \[s\], in run order
+    #[serde(skip)]
+    pub latencies_s: Vec<f64>,
+    /// the ROC curve, thresholds falling
+    #[serde(skip)]
+    pub roc: Vec<RocPoint>,
+}
+
+/// The assist's metrics over all scenarios.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AssistMetrics {
+    /// runs that lost control without the assist
+    pub loss_of_control_without: usize,
+    /// with it
+    pub loss_of_control_with: usize,
+    /// runs that ended in sustained sway without the assist
+    pub sustained_sway_without: usize,
+    /// with it
+    pub sustained_sway_with: usize,
+    /// scenarios run (each with and without the assist)
+    pub runs: usize,
+    /// runs that failed numerically (either run of a scenario)
+    pub failed: usize,
+    /// scenarios without sway in which the assist engaged
+    pub engaged_without_sway: usize,
+    /// the largest articulation angle without the assist \[deg\]
+    pub peak_hitch_angle_deg_without: Option<f64>,
+    /// with it \[deg\]
+    pub peak_hitch_angle_deg_with: Option<f64>,
+    /// the largest speed the assist took off \[m/s\]
+    pub speed_lost_mps_max: Option<f64>,
+    /// the median time to settle (|θ| < 1° to the end) of the sway scenarios with the
+    /// assist, from the disturbance's end \[s\]
+    pub settle_time_s_median: Option<f64>,
+}
+
+/// A vehicle's reference speeds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VehicleReferences {
+    /// its name
+    pub vehicle: String,
+    /// V_crit and V_fold
+    pub references: SpeedReferences,
+    /// the config's speeds it lacks, with the reason
+    pub unresolved: Vec<(String, String)>,
+}
+
+/// What the evaluation gives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SwayAssist {
+    /// per vehicle
+    pub vehicles: Vec<VehicleReferences>,
+    /// every scenario, vehicles outer, the sway set before the false-alarm set, speeds,
+    /// disturbances inner
+    pub scenarios: Vec<ScenarioResult>,
+    /// per detector
+    pub detectors: Vec<DetectorMetrics>,
+    /// the assist
+    pub assist: AssistMetrics,
+    /// the hours of false-alarm driving without sway \[h\]
+    pub false_alarm_hours: f64,
+    /// one sway run with its frames (the first scenario of the sway set that sways
+    /// without the assist)
+    pub sway_trace: Option<RunOutcome>,
+    /// one slalom run with its frames
+    pub slalom_trace: Option<RunOutcome>,
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+/// Runs the evaluation of `cfg` on `vehicles` (name, model).
+///
+/// # Errors
+/// A numerical failure of a vehicle's reference speeds (a failed run is recorded, not an
+/// error).
+pub fn compute(
+    cfg: &SwayAssistConfig,
+    vehicles: &[(String, AnyVehicleModel)],
+    limits: &SpeedLimits,
+) -> Result<SwayAssist, SwayError> {
+    let need = cfg
+        .sway_speeds
+        .iter()
+        .chain(&cfg.false_alarm_speeds)
+        .map(SpeedSpec::needs)
+        .max()
+        .unwrap_or(Reference::None);
+    let mut refs_of = Vec::new();
+    let mut items = Vec::new();
+    for (name, vehicle) in vehicles {
+        let refs = match VehicleForm::from(vehicle) {
+            VehicleForm::Paper(m) => open_loop_references(m, limits, need)?,
+            VehicleForm::Variants(v) => {
+                trailer_model::with_plant!(v, m => open_loop_references(m, limits, need))?
+            }
+        };
+        let mut unresolved = Vec::new();
+        for (set, speeds, disturbances) in [
+            (ScenarioSet::Sway, &cfg.sway_speeds, &cfg.sway_disturbances),
+            (
+                ScenarioSet::FalseAlarm,
+                &cfg.false_alarm_speeds,
+                &cfg.false_alarm_disturbances,
+            ),
+        ] {
+            for spec in speeds {
+                let v = match spec.resolve(&refs) {
+                    Ok(v) => v,
+                    Err(e) => {
+                        unresolved.push((spec.to_string(), e.reason));
+                        continue;
+                    }
+                };
+                for d in disturbances {
+                    let seed = items.len() as u64;
+                    items.push((
+                        name.clone(),
+                        vehicle,
+                        set,
+                        *spec,
+                        Scenario {
+                            speed_mps: v,
+                            disturbance: *d,
+                            disturbance_start_s: cfg.disturbance_start_s,
+                            horizon_s: cfg.horizon_s,
+                            seed,
+                        },
+                    ));
+                }
+            }
+        }
+        refs_of.push(VehicleReferences {
+            vehicle: name.clone(),
+            references: refs,
+            unresolved,
+        });
+    }
+    let setup = cfg.setup();
+    let scenarios: Vec<ScenarioResult> = map(&items, Split::OnePerTask, &|_,
+                                                                          (
+        name,
+        vehicle,
+        set,
+        speed,
+        s,
+    )| {
+        let go = |i| run_any(vehicle, s, i, &setup, false).map_err(|e| e.to_string());
+        ScenarioResult {
+            vehicle: name.clone(),
+            set: *set,
+            speed: *speed,
+            scenario: *s,
+            without: go(Intervention::None),
+            with: go(Intervention::Assist),
+        }
+    });
+    let detectors = detector_metrics(&scenarios);
+    let assist = assist_metrics(&scenarios);
+    let false_alarm_hours = false_alarm_runs(&scenarios)
+        .map(|r| r.t_end_s - r.scenario.disturbance_start_s.min(r.t_end_s))
+        .sum::<f64>()
+        / 3600.0;
+    let trace_of = |pick: &dyn Fn(&ScenarioResult) -> bool, i: Intervention| {
+        scenarios.iter().find(|s| pick(s)).and_then(|s| {
+            items
+                .iter()
+                .find(|it| it.4 == s.scenario && it.0 == s.vehicle)
+                .and_then(|it| run_any(it.1, &it.4, i, &setup, true).ok())
+        })
+    };
+    let sway_trace = trace_of(
+        &|s| s.set == ScenarioSet::Sway && s.without.as_ref().is_ok_and(|r| r.sways),
+        Intervention::None,
+    );
+    let slalom_trace = trace_of(
+        &|s| matches!(s.scenario.disturbance, Disturbance::Slalom { .. }),
+        Intervention::None,
+    );
+    Ok(SwayAssist {
+        vehicles: refs_of,
+        scenarios,
+        detectors,
+        assist,
+        false_alarm_hours,
+        sway_trace,
+        slalom_trace,
+    })
+}
+
+/// The watching runs of the false-alarm set that do not sway.
+fn false_alarm_runs(scenarios: &[ScenarioResult]) -> impl Iterator<Item = &RunOutcome> {
+    scenarios
+        .iter()
+        .filter(|s| s.set == ScenarioSet::FalseAlarm)
+        .filter_map(|s| s.without.as_ref().ok())
+        .filter(|r| !r.sways)
+}
+
+fn detector_metrics(scenarios: &[ScenarioResult]) -> Vec<DetectorMetrics> {
+    let sway_runs: Vec<&RunOutcome> = scenarios
+        .iter()
+        .filter_map(|s| s.without.as_ref().ok())
+        .filter(|r| r.sways)
+        .collect();
+    let quiet: Vec<&RunOutcome> = false_alarm_runs(scenarios).collect();
+    let hours = quiet
+        .iter()
+        .map(|r| r.t_end_s - r.scenario.disturbance_start_s.min(r.t_end_s))
+        .sum::<f64>()
+        / 3600.0;
+    let names: Vec<String> = scenarios
+        .iter()
+        .find_map(|s| s.without.as_ref().ok())
+        .map(|r| r.detectors.iter().map(|d| d.name.clone()).collect())
+        .unwrap_or_default();
+    names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let mut latencies = Vec::new();
+            let mut periods = Vec::new();
+            let mut detected = 0;
+            for r in &sway_runs {
+                let d = &r.detectors[k];
+                if let Some(f) = d.first_flag_s {
+                    detected += 1;
+                    let onset = r.truth.onset_s.unwrap_or(r.scenario.disturbance_start_s);
+                    let l = f - onset;
+                    latencies.push(l);
+                    if let Some(p) = r.truth.period_s {
+                        periods.push(l / p);
+                    }
+                }
+            }
+            let false_alarms = quiet.iter().map(|r| r.detectors[k].flags).sum();
+            let worst = |v: &[f64]| v.iter().copied().reduce(f64::max);
+            let latencies_s = latencies.clone();
+            DetectorMetrics {
+                name: name.clone(),
+                detection_rate: (!sway_runs.is_empty())
+                    .then(|| detected as f64 / sway_runs.len() as f64),
+                false_alarms,
+                false_alarms_per_hour: (hours > 0.0).then(|| false_alarms as f64 / hours),
+                latency_worst_s: worst(&latencies),
+                latency_median_s: median(&mut latencies),
+                latency_worst_periods: worst(&periods),
+                latency_median_periods: median(&mut periods),
+                latencies_s,
+                roc: roc(
+                    &sway_runs
+                        .iter()
+                        .map(|r| r.detectors[k].max_score)
+                        .collect::<Vec<_>>(),
+                    &quiet
+                        .iter()
+                        .map(|r| r.detectors[k].max_score)
+                        .collect::<Vec<_>>(),
+                ),
+            }
+        })
+        .collect()
+}
+
+/// The ROC curve from the runs' largest scores (None: never scored, never flagged): one
+/// point per distinct score, thresholds falling, from (0, 0) to (1, 1).
+pub fn roc(positives: &[Option<f64>], negatives: &[Option<f64>]) -> Vec<RocPoint> {
+    let mut thresholds: Vec<f64> = positives
+        .iter()
+        .chain(negatives)
+        .flatten()
+        .copied()
+        .collect();
+    thresholds.sort_by(|a, b| b.total_cmp(a));
+    thresholds.dedup();
+    let rate = |runs: &[Option<f64>], h: f64| {
+        if runs.is_empty() {
+            0.0
+        } else {
+            runs.iter().filter(|s| s.is_some_and(|s| s >= h)).count() as f64 / runs.len() as f64
+        }
+    };
+    let mut curve = vec![RocPoint {
+        threshold: f64::INFINITY,
+        false_positive_rate: 0.0,
+        true_positive_rate: 0.0,
+    }];
+    curve.extend(thresholds.into_iter().map(|h| RocPoint {
+        threshold: h,
+        false_positive_rate: rate(negatives, h),
+        true_positive_rate: rate(positives, h),
+    }));
+    curve.push(RocPoint {
+        threshold: f64::NEG_INFINITY,
+        false_positive_rate: 1.0,
+        true_positive_rate: 1.0,
+    });
+    curve
+}
+
+fn assist_metrics(scenarios: &[ScenarioResult]) -> AssistMetrics {
+    let count = |f: &dyn Fn(&ScenarioResult) -> Option<bool>| {
+        scenarios.iter().filter(|s| f(s) == Some(true)).count()
+    };
+    let max = |f: &dyn Fn(&RunOutcome) -> f64, with: bool| {
+        scenarios
+            .iter()
+            .filter_map(|s| if with { &s.with } else { &s.without }.as_ref().ok())
+            .map(f)
+            .reduce(f64::max)
+    };
+    let mut settle: Vec<f64> = scenarios
+        .iter()
+        .filter(|s| s.without.as_ref().is_ok_and(|r| r.sways))
+        .filter_map(|s| s.with.as_ref().ok()?.truth.settle_time_s)
+        .collect();
+    AssistMetrics {
+        loss_of_control_without: count(&|s| {
+            s.without
+                .as_ref()
+                .ok()
+                .map(|r| r.loss_of_control_s.is_some())
+        }),
+        loss_of_control_with: count(&|s| {
+            s.with.as_ref().ok().map(|r| r.loss_of_control_s.is_some())
+        }),
+        sustained_sway_without: count(&|s| s.without.as_ref().ok().map(|r| r.truth.sustained_sway)),
+        sustained_sway_with: count(&|s| s.with.as_ref().ok().map(|r| r.truth.sustained_sway)),
+        runs: scenarios.len(),
+        failed: scenarios
+            .iter()
+            .filter(|s| s.without.is_err() || s.with.is_err())
+            .count(),
+        engaged_without_sway: count(&|s| {
+            let sways = s.without.as_ref().ok()?.sways;
+            Some(!sways && s.with.as_ref().ok()?.engaged_s.is_some())
+        }),
+        peak_hitch_angle_deg_without: max(&|r| r.truth.peak_hitch_angle_deg, false),
+        peak_hitch_angle_deg_with: max(&|r| r.truth.peak_hitch_angle_deg, true),
+        speed_lost_mps_max: max(&|r| r.speed_lost_mps, true),
+        settle_time_s_median: median(&mut settle),
+    }
+}

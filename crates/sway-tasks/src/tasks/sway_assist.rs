@@ -1,0 +1,517 @@
+//! `cargo xtask sway_assist` (issue 48, items 4–5): the sway detectors (`sway-detect`)
+//! and the sway assist ([`sway::assist`]) evaluated on the vehicle (`--vehicle FILE`, any
+//! model variant) or the config's `vehicle_files` (a fleet) over a sway set and a
+//! false-alarm set; the computation is
+//! [`sway_studies::sway_assist`]. Writes `runs.csv` (one row per scenario and
+//! intervention), `roc.csv`, `summary.json` (`detectors`, `assist`, `observer`) and the
+//! figures `roc`, `latency` and `runs` (a sway run and a slalom run with every detector's
+//! flag on a time axis).
+//!
+//! The model-based observer of issue 48 is not part of this evaluation yet: `observer`
+//! carries the issue's fields as null with the reason.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use sway::assist::{ONSET_AMPLITUDE_DEG, RunOutcome, SWAY_AMPLITUDE_DEG};
+use trailer_model::AnyVehicleModel;
+use sway_studies::sway_assist::{
+    AssistMetrics, DetectorMetrics, ScenarioSet, SwayAssist, VehicleReferences, compute,
+};
+pub use sway_studies::sway_assist::SwayAssistConfig;
+
+use super::{Prepared, Report, Task, TaskContext};
+use crate::TaskError;
+use crate::config_file::{load_toml, load_vehicle_spec};
+use crate::io::OutputDir;
+use crate::limits::{BYTES_PER_ROW, MAX_SIMULATED_S, Plan, bound, human_seconds};
+use crate::plot::{Figure, Layer, Legend, Panel, Rgb, Stroke};
+
+/// The task.
+pub const TASK: Task = Task {
+    name: "sway_assist",
+    about: "sway detectors and the sway assist on sensor signals: detection, false alarms, latency, ROC, loss of control with and without",
+    config: "sway_assist.toml",
+    prepare,
+    models: super::Models::Any,
+    runs: super::Runs::InAll,
+};
+
+/// The full evaluation (run by name only): more speeds, disturbances of rising size and
+/// the whole false-alarm set of issue 48 (slalom 0.4–1.2 Hz up to 4 m/s²).
+pub const FULL: Task = Task {
+    name: "sway_assist_full",
+    about: "the full sway-assist evaluation (configs/sway_assist_full.toml)",
+    config: "sway_assist_full.toml",
+    prepare: prepare_full,
+    models: super::Models::Any,
+    runs: super::Runs::OnDemand,
+};
+
+/// One detector's line of `summary.json` (the issue's names first).
+pub type DetectorEntry = DetectorMetrics;
+
+/// The model-based observer's fields (issue 48, item 5): null until the observer is part
+/// of the evaluation, with the reason.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ObserverSummary {
+    /// the largest relative error of its V_crit estimates \[-\]
+    pub v_crit_error_rel_max: Option<f64>,
+    /// the largest relative error of its V_fold estimates \[-\]
+    pub v_fold_error_rel_max: Option<f64>,
+    /// the median time its estimates take to converge in ordinary driving \[s\]
+    pub converged_after_s_median: Option<f64>,
+    /// its final V_crit estimate on the one vehicle \[m/s\]
+    pub v_crit_estimate_mps: Option<f64>,
+    /// its final V_fold estimate on the one vehicle \[m/s\]
+    pub v_fold_estimate_mps: Option<f64>,
+    /// why the fields are null
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+impl ObserverSummary {
+    /// Every field null, with the reason.
+    pub fn not_evaluated() -> Self {
+        Self {
+            v_crit_error_rel_max: None,
+            v_fold_error_rel_max: None,
+            converged_after_s_median: None,
+            v_crit_estimate_mps: None,
+            v_fold_estimate_mps: None,
+            reason: Some(
+                "the model-based observer (issue 48, item 2) is not part of this evaluation yet"
+                    .into(),
+            ),
+        }
+    }
+}
+
+/// `summary.json` of sway_assist (before the common fields of [`crate::io::Summary`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SwayAssistSummary {
+    /// per detector, then per detector behind the steering gate (`<name>_gated`)
+    pub detectors: Vec<DetectorEntry>,
+    /// the assist over every scenario, with and without it
+    pub assist: AssistMetrics,
+    /// the observer (null fields with the reason)
+    pub observer: ObserverSummary,
+    /// the ground truth's amplitude of sway \[deg of hitch angle\]
+    pub sway_amplitude_deg: f64,
+    /// the ground truth's onset amplitude \[deg of hitch angle\]
+    pub onset_amplitude_deg: f64,
+    /// the hours of false-alarm driving the rates are per \[h\]
+    pub false_alarm_hours: f64,
+    /// the vehicles' reference speeds
+    pub vehicles: Vec<VehicleReferences>,
+}
+
+/// One row of `runs.csv`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct RunRow {
+    vehicle: String,
+    set: &'static str,
+    speed: String,
+    speed_mps: f64,
+    disturbance: &'static str,
+    disturbance_size: f64,
+    intervention: &'static str,
+    sways: Option<bool>,
+    sustained_sway: Option<bool>,
+    loss_of_control_s: Option<f64>,
+    onset_s: Option<f64>,
+    period_s: Option<f64>,
+    peak_hitch_angle_deg: Option<f64>,
+    speed_lost_mps: Option<f64>,
+    settle_time_s: Option<f64>,
+    engaged_s: Option<f64>,
+    error: Option<String>,
+    /// per detector: its first flag \[s\] and its flag count
+    detectors: Vec<(Option<f64>, usize)>,
+}
+
+struct SwayAssistTask {
+    name: &'static str,
+    file: PathBuf,
+    config: SwayAssistConfig,
+    /// the config's vehicle files (name, model); empty: the task's vehicle
+    fleet: Vec<(String, AnyVehicleModel)>,
+}
+
+fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
+    prepare_named(TASK.name, file)
+}
+
+fn prepare_full(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
+    prepare_named(FULL.name, file)
+}
+
+fn prepare_named(name: &'static str, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
+    let config: SwayAssistConfig = load_toml(file)?;
+    config
+        .validate()
+        .map_err(|(k, p)| TaskError::config(file, k, p))?;
+    let dir = file.parent().unwrap_or(Path::new("."));
+    let fleet = config
+        .vehicle_files
+        .iter()
+        .enumerate()
+        .map(|(k, rel)| {
+            let path = dir.join(rel);
+            let loaded = load_vehicle_spec(&path).map_err(|e| {
+                TaskError::config(
+                    file,
+                    format!("vehicle_files[{k}]"),
+                    format!("the vehicle file {} is not valid: {e}", path.display()),
+                )
+            })?;
+            let name = Path::new(rel)
+                .file_stem()
+                .map_or_else(|| rel.clone(), |s| s.to_string_lossy().into_owned());
+            Ok((name, loaded.plant))
+        })
+        .collect::<Result<Vec<_>, TaskError>>()?;
+    Ok(Box::new(SwayAssistTask {
+        name,
+        file: file.to_path_buf(),
+        config,
+        fleet,
+    }))
+}
+
+fn rows(r: &SwayAssist, names: &[String]) -> Vec<RunRow> {
+    let mut out = Vec::new();
+    for s in &r.scenarios {
+        for (label, run) in [("none", &s.without), ("assist", &s.with)] {
+            let ok = run.as_ref().ok();
+            out.push(RunRow {
+                vehicle: s.vehicle.clone(),
+                set: match s.set {
+                    ScenarioSet::Sway => "sway",
+                    ScenarioSet::FalseAlarm => "false_alarm",
+                },
+                speed: s.speed.to_string(),
+                speed_mps: s.scenario.speed_mps,
+                disturbance: s.scenario.disturbance.kind(),
+                disturbance_size: s.scenario.disturbance.size(),
+                intervention: label,
+                sways: ok.map(|r| r.sways),
+                sustained_sway: ok.map(|r| r.truth.sustained_sway),
+                loss_of_control_s: ok.and_then(|r| r.loss_of_control_s),
+                onset_s: ok.and_then(|r| r.truth.onset_s),
+                period_s: ok.and_then(|r| r.truth.period_s),
+                peak_hitch_angle_deg: ok.map(|r| r.truth.peak_hitch_angle_deg),
+                speed_lost_mps: ok.map(|r| r.speed_lost_mps),
+                settle_time_s: ok.and_then(|r| r.truth.settle_time_s),
+                engaged_s: ok.and_then(|r| r.engaged_s),
+                error: run.as_ref().err().cloned(),
+                detectors: match ok {
+                    Some(r) => r
+                        .detectors
+                        .iter()
+                        .map(|d| (d.first_flag_s, d.flags))
+                        .collect(),
+                    None => vec![(None, 0); names.len()],
+                },
+            });
+        }
+    }
+    out
+}
+
+fn write_tables(out: &OutputDir, r: &SwayAssist) -> Result<(), TaskError> {
+    let names: Vec<String> = r.detectors.iter().map(|d| d.name.clone()).collect();
+    let mut header: Vec<String> = [
+        "vehicle",
+        "set",
+        "speed",
+        "speed_mps",
+        "disturbance",
+        "disturbance_size",
+        "intervention",
+        "sways",
+        "sustained_sway",
+        "loss_of_control_s",
+        "onset_s",
+        "period_s",
+        "peak_hitch_angle_deg",
+        "speed_lost_mps",
+        "settle_time_s",
+        "engaged_s",
+        "error",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for n in &names {
+        header.push(format!("{n}_first_flag_s"));
+        header.push(format!("{n}_flags"));
+    }
+    out.write_rows("runs.csv", &header, rows(r, &names))?;
+    let roc_rows = r.detectors.iter().flat_map(|d| {
+        d.roc.iter().map(move |p| {
+            (
+                d.name.clone(),
+                p.threshold,
+                p.false_positive_rate,
+                p.true_positive_rate,
+            )
+        })
+    });
+    out.write_rows(
+        "roc.csv",
+        &[
+            "detector",
+            "threshold",
+            "false_positive_rate",
+            "true_positive_rate",
+        ],
+        roc_rows,
+    )
+}
+
+fn draw(out: &OutputDir, r: &SwayAssist) -> Result<(), TaskError> {
+    // ROC curves
+    let mut roc = Panel::new(
+        "ROC of run-level verdicts over the detector's threshold",
+        "false-positive rate (false-alarm runs flagged) [-]",
+        "true-positive rate (sway runs flagged) [-]",
+    )
+    .x_range(-0.02, 1.02)
+    .y_range(-0.02, 1.02)
+    .legend(Legend::LowerRight);
+    for (k, d) in r.detectors.iter().enumerate() {
+        let pts = d
+            .roc
+            .iter()
+            .map(|p| (p.false_positive_rate, p.true_positive_rate))
+            .collect();
+        let stroke = if d.name.ends_with("_gated") {
+            Stroke::Dashed
+        } else {
+            Stroke::Solid
+        };
+        roc.layers
+            .push(Layer::line(pts, Rgb::palette(k % (r.detectors.len() / 2).max(1)), stroke, Some(&d.name)));
+    }
+    roc.layers.push(Layer::line(
+        vec![(0.0, 0.0), (1.0, 1.0)],
+        Rgb::GREY,
+        Stroke::Dotted,
+        Some("chance"),
+    ));
+    Figure::grid(vec![roc], 1, 1, (820, 700)).render(&out.path("roc"))?;
+    // latency distributions: the empirical CDF of each detector's latencies
+    let mut lat = Panel::new(
+        "Detection latency from the sway's onset (|θ| ≥ 1°)",
+        "latency [s]",
+        "fraction of the detected sway runs [-]",
+    )
+    .y_range(0.0, 1.02)
+    .legend(Legend::LowerRight);
+    for (k, d) in r.detectors.iter().enumerate() {
+        let mut l = d.latencies_s.clone();
+        if l.is_empty() {
+            continue;
+        }
+        l.sort_by(f64::total_cmp);
+        let n = l.len() as f64;
+        let mut pts = Vec::with_capacity(2 * l.len());
+        for (i, &x) in l.iter().enumerate() {
+            pts.push((x, i as f64 / n));
+            pts.push((x, (i + 1) as f64 / n));
+        }
+        let stroke = if d.name.ends_with("_gated") {
+            Stroke::Dashed
+        } else {
+            Stroke::Solid
+        };
+        lat.layers.push(Layer::line(
+            pts,
+            Rgb::palette(k % (r.detectors.len() / 2).max(1)),
+            stroke,
+            Some(&d.name),
+        ));
+    }
+    Figure::grid(vec![lat], 1, 1, (820, 600)).render(&out.path("latency"))?;
+    // one sway run and one slalom run with every detector's flag
+    let mut panels = Vec::new();
+    let names: Vec<String> = r.detectors.iter().map(|d| d.name.clone()).collect();
+    let mut flag_panels = Vec::new();
+    for (title, run) in [
+        ("A sway run", r.sway_trace.as_ref()),
+        ("A slalom run", r.slalom_trace.as_ref()),
+    ] {
+        let Some(run) = run else { continue };
+        let (sig, flags) = run_panels(title, run, &names);
+        panels.push(sig);
+        flag_panels.push(flags);
+    }
+    if !panels.is_empty() {
+        let cols = panels.len();
+        panels.extend(flag_panels);
+        Figure::grid(panels, 2, cols, (1500, 900)).render(&out.path("runs"))?;
+    }
+    Ok(())
+}
+
+/// The signals of a run (θ, δ) and its flags, one row per detector.
+fn run_panels(title: &str, run: &RunOutcome, names: &[String]) -> (Panel, Panel) {
+    let Some(tr) = &run.trace else {
+        return (
+            Panel::new(title, "time [s]", "[deg]"),
+            Panel::new(title, "time [s]", "detector"),
+        );
+    };
+    let s = &run.scenario;
+    let pair = |v: &[f64]| tr.t.iter().copied().zip(v.iter().copied()).collect();
+    let signals = Panel::new(
+        &format!(
+            "{title}: {} at {:.1} m/s (no intervention)",
+            s.disturbance.kind(),
+            s.speed_mps
+        ),
+        "time [s]",
+        "hitch angle θ, front-wheel angle δ [deg]",
+    )
+    .x_range(0.0, s.horizon_s)
+    .with(Layer::line(
+        pair(&tr.hitch_angle_deg),
+        Rgb::BLUE,
+        Stroke::Solid,
+        Some("hitch angle θ [deg]"),
+    ))
+    .with(Layer::line(
+        pair(&tr.steering_deg),
+        Rgb::BLACK,
+        Stroke::Dashed,
+        Some("front-wheel angle δ [deg]"),
+    ))
+    .legend(Legend::UpperLeft);
+    let mut flags = Panel::new(
+        &format!("{title}: flags (a line where the detector flags sway)"),
+        "time [s]",
+        "detector (row k: the k-th of the legend)",
+    )
+    .x_range(0.0, s.horizon_s)
+    .y_range(-0.5, names.len() as f64 + 0.5)
+    .legend(Legend::LowerRight);
+    for (k, n) in names.iter().enumerate() {
+        let y = (names.len() - k) as f64;
+        let pts = tr
+            .t
+            .iter()
+            .zip(&tr.flags)
+            .map(|(&t, f)| (t, if f[k] { y } else { f64::NAN }))
+            .collect();
+        flags
+            .layers
+            .push(Layer::line(pts, Rgb::palette(k), Stroke::Solid, Some(n)));
+    }
+    if let Some(t) = run.truth.onset_s.filter(|_| run.sways) {
+        flags.layers.push(Layer::vline(
+            t,
+            (-0.5, names.len() as f64 + 0.5),
+            Rgb::RED,
+            Stroke::Dotted,
+            Some("sway onset (|θ| = 1°)"),
+        ));
+    }
+    (signals, flags)
+}
+
+/// Wall time per simulated second of a co-simulated run \[s/s\] (frames, sensors,
+/// detectors and the solver restarted every 10 ms; measured: the default's 34 runs of 30 s
+/// take ≈ 1 s on 2 cores).
+const SECONDS_PER_COSIMULATED_SECOND: f64 = 1e-3;
+
+impl Prepared for SwayAssistTask {
+    fn plan(&self) -> Result<Plan, TaskError> {
+        let c = &self.config;
+        let scenarios = self.fleet.len().max(1)
+            * (c.sway_speeds.len() * c.sway_disturbances.len()
+                + c.false_alarm_speeds.len() * c.false_alarm_disturbances.len());
+        let runs = 2.0 * scenarios as f64;
+        let simulated = runs * c.horizon_s;
+        let plan = Plan::new(
+            vec![format!(
+                "{}: {scenarios} scenarios × (without, with the assist) × {} s",
+                self.name, c.horizon_s
+            )],
+            runs * (BYTES_PER_ROW + 16.0 * c.horizon_s * c.sensors.frame_rate_hz),
+            simulated * SECONDS_PER_COSIMULATED_SECOND,
+        );
+        bound(&self.file, "horizon_s", simulated, MAX_SIMULATED_S, || {
+            format!(
+                "{runs} runs × {} s = {simulated} s simulated, ≈ {}; fewer speeds or disturbances, or a shorter horizon",
+                c.horizon_s,
+                human_seconds(plan.time_s)
+            )
+        })?;
+        Ok(plan)
+    }
+
+    fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
+        let cfg = &self.config;
+        let name = ctx
+            .vehicle_file
+            .file_stem()
+            .map_or_else(|| "vehicle".to_string(), |s| s.to_string_lossy().into_owned());
+        let vehicles = if self.fleet.is_empty() {
+            vec![(name, ctx.plant.clone())]
+        } else {
+            self.fleet.clone()
+        };
+        let runs = (vehicles.len()
+            * (cfg.sway_speeds.len() * cfg.sway_disturbances.len()
+                + cfg.false_alarm_speeds.len() * cfg.false_alarm_disturbances.len()))
+            as u64;
+        ctx.run_staged(
+            self.name,
+            "sway_assist: runs",
+            runs,
+            cfg,
+            &self.file,
+            |out| {
+                let r = compute(cfg, &vehicles, &ctx.limits)?;
+                write_tables(out, &r)?;
+                draw(out, &r)?;
+                let summary = SwayAssistSummary {
+                    detectors: r.detectors.clone(),
+                    assist: r.assist.clone(),
+                    observer: ObserverSummary::not_evaluated(),
+                    sway_amplitude_deg: SWAY_AMPLITUDE_DEG,
+                    onset_amplitude_deg: ONSET_AMPLITUDE_DEG,
+                    false_alarm_hours: r.false_alarm_hours,
+                    vehicles: r.vehicles.clone(),
+                };
+                let pct = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{:.0}%", 100.0 * v));
+                let secs = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.2} s"));
+                let mut lines: Vec<String> = r
+                    .detectors
+                    .iter()
+                    .map(|d| {
+                        format!(
+                            "{}: detection {}, {} false alarms, latency median {} worst {}",
+                            d.name,
+                            pct(d.detection_rate),
+                            d.false_alarms,
+                            secs(d.latency_median_s),
+                            secs(d.latency_worst_s)
+                        )
+                    })
+                    .collect();
+                let a = &r.assist;
+                lines.push(format!(
+                    "assist over {} scenarios: loss of control {} → {}, sustained sway {} → {} (without → with)",
+                    a.runs,
+                    a.loss_of_control_without,
+                    a.loss_of_control_with,
+                    a.sustained_sway_without,
+                    a.sustained_sway_with
+                ));
+                Ok((summary, lines))
+            },
+        )
+    }
+}

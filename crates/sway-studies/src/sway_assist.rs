@@ -17,6 +17,17 @@
 //!   h: exact, since every detector flags exactly when its score reaches its threshold).
 //! - **Assist**: loss of control and sustained sway over all scenarios with and without it,
 //!   peak articulation, speed lost, time to settle.
+//! - **Observer** (the model-based observer runs in every run beside the other detectors
+//!   and has their metrics): per vehicle one run of ordinary driving
+//!   ([`DrivingSequence`]: the false-alarm set's slaloms and lane changes one after another
+//!   at `ordinary_driving_speed`, for `ordinary_driving_s`), its final V̂_crit against the
+//!   vehicle's V_crit, the V_fold of the vehicle with the estimated trailer mass, yaw
+//!   inertia and centre of gravity (the paper form, the same fold-of-cycles search as the
+//!   vehicle's own V_fold, [`open_loop_references`]) against the true V_fold, and the time
+//!   from the start of the driving after which V̂_crit stays within
+//!   [`CONVERGED_WITHIN`] of V_crit. The observer is told the vehicle's paper form (a file
+//!   with model variants: its equivalent paper parameters): the car, the trailer's axle
+//!   and tyre ([`sway::assist::observer_options`]).
 //!
 //! Runs are computed in parallel ([`sway::parallel::map`]), results in item order
 //! whatever the number of threads; a run whose solver fails is recorded with its error and
@@ -24,8 +35,8 @@
 
 use serde::{Deserialize, Serialize};
 use sway::assist::{
-    AssistOptions, AssistSetup, DetectorsConfig, Disturbance, Intervention, RunOutcome, Scenario,
-    SwayCriterion, run_any,
+    AssistOptions, AssistSetup, DetectorsConfig, Disturbance, DrivingSequence, Intervention,
+    ObserverTrack, RunOutcome, Scenario, SwayCriterion, run_any, run_driving,
 };
 use sway::parallel::{Split, map};
 use sway::ranging::{
@@ -34,7 +45,8 @@ use sway::ranging::{
 use sway::sim::SolverSettings;
 use sway::{SwayError, sim::VehicleForm};
 use sway_detect::sensor::SensorsConfig;
-use trailer_model::AnyVehicleModel;
+use sway_model::vehicle::Vehicle;
+use trailer_model::{AnyVehicleModel, Model};
 
 /// `configs/sway_assist.toml` (every key has a default: the small evaluation of
 /// `cargo xtask all`).
@@ -52,6 +64,13 @@ pub struct SwayAssistConfig {
     pub false_alarm_speeds: Vec<SpeedSpec>,
     /// the false-alarm set's manoeuvres
     pub false_alarm_disturbances: Vec<Disturbance>,
+    /// the speed of the observer's ordinary-driving run, relative to each vehicle
+    pub ordinary_driving_speed: SpeedSpec,
+    /// how long ordinary driving lasts \[s\]: the false-alarm set's slaloms and lane changes
+    /// one after another, from `disturbance_start_s`
+    pub ordinary_driving_s: f64,
+    /// the straight driving between two of its manoeuvres \[s\]
+    pub ordinary_driving_gap_s: f64,
     /// when every disturbance starts \[s\]
     pub disturbance_start_s: f64,
     /// each run's length \[s\]
@@ -117,6 +136,9 @@ impl Default for SwayAssistConfig {
                     duration_s: 3.0,
                 },
             ],
+            ordinary_driving_speed: of_v_crit(0.7),
+            ordinary_driving_s: 90.0,
+            ordinary_driving_gap_s: 2.0,
             disturbance_start_s: 1.0,
             horizon_s: 30.0,
             steering_ratio: 16.0,
@@ -143,6 +165,16 @@ impl SwayAssistConfig {
         };
         positive("horizon_s", self.horizon_s)?;
         positive("steering_ratio", self.steering_ratio)?;
+        positive("ordinary_driving_s", self.ordinary_driving_s)?;
+        if !(self.ordinary_driving_gap_s.is_finite() && self.ordinary_driving_gap_s >= 0.0) {
+            return Err((
+                "ordinary_driving_gap_s".into(),
+                format!(
+                    "expected a time >= 0 s, got {}",
+                    self.ordinary_driving_gap_s
+                ),
+            ));
+        }
         if !(self.disturbance_start_s.is_finite()
             && self.disturbance_start_s >= 0.0
             && self.disturbance_start_s < self.horizon_s)
@@ -296,6 +328,45 @@ pub struct VehicleReferences {
     pub unresolved: Vec<(String, String)>,
 }
 
+/// The relative error of V̂_crit within which the observer has converged \[-\] (issue 48's
+/// goal: 5 %).
+pub const CONVERGED_WITHIN: f64 = 0.05;
+
+/// The observer on one vehicle: its ordinary-driving run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ObserverResult {
+    /// the vehicle's name
+    pub vehicle: String,
+    /// the run's speed \[m/s\]
+    pub speed_mps: Option<f64>,
+    /// the manoeuvres driven
+    pub manoeuvres: usize,
+    /// the vehicle's V_crit \[m/s\]
+    pub v_crit_mps: Option<f64>,
+    /// its V_fold \[m/s\]
+    pub v_fold_mps: Option<f64>,
+    /// the final V̂_crit \[m/s\]
+    pub v_crit_estimate_mps: Option<f64>,
+    /// its standard deviation \[m/s\]
+    pub v_crit_sd_mps: Option<f64>,
+    /// V_fold of the vehicle's paper form with the estimated trailer \[m/s\]
+    pub v_fold_estimate_mps: Option<f64>,
+    /// |V̂_crit − V_crit| / V_crit \[-\]
+    pub v_crit_error_rel: Option<f64>,
+    /// |V̂_fold − V_fold| / V_fold \[-\]
+    pub v_fold_error_rel: Option<f64>,
+    /// the time from the start of ordinary driving after which V̂_crit stays within
+    /// [`CONVERGED_WITHIN`] of V_crit \[s\]
+    pub converged_after_s: Option<f64>,
+    /// the estimated trailer mass \[kg\], yaw inertia \[kg m²\], centre of gravity \[m\]
+    pub trailer_estimate: Option<[f64; 3]>,
+    /// why a value is missing
+    pub reason: Option<String>,
+    /// the estimates over time
+    #[serde(skip)]
+    pub track: Option<ObserverTrack>,
+}
+
 /// What the evaluation gives.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SwayAssist {
@@ -315,6 +386,8 @@ pub struct SwayAssist {
     pub sway_trace: Option<RunOutcome>,
     /// one slalom run with its frames
     pub slalom_trace: Option<RunOutcome>,
+    /// the observer per vehicle (empty: no observer in the config)
+    pub observer: Vec<ObserverResult>,
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -345,6 +418,7 @@ pub fn compute(
         .iter()
         .chain(&cfg.false_alarm_speeds)
         .map(SpeedSpec::needs)
+        .chain(cfg.detectors.model_observer.map(|_| Reference::Fold))
         .max()
         .unwrap_or(Reference::None);
     let mut refs_of = Vec::new();
@@ -438,6 +512,18 @@ pub fn compute(
         &|s| matches!(s.scenario.disturbance, Disturbance::Slalom { .. }),
         Intervention::None,
     );
+    let observer = if cfg.detectors.model_observer.is_some() {
+        let jobs: Vec<(&String, &AnyVehicleModel, &SpeedReferences)> = vehicles
+            .iter()
+            .zip(&refs_of)
+            .map(|((n, v), r)| (n, v, &r.references))
+            .collect();
+        map(&jobs, Split::OnePerTask, &|k, (name, vehicle, refs)| {
+            observe(cfg, &setup, name, vehicle, refs, limits, k as u64)
+        })
+    } else {
+        Vec::new()
+    };
     Ok(SwayAssist {
         vehicles: refs_of,
         scenarios,
@@ -446,7 +532,143 @@ pub fn compute(
         false_alarm_hours,
         sway_trace,
         slalom_trace,
+        observer,
     })
+}
+
+/// The observer's ordinary-driving run on one vehicle (the `k`-th: its sensors' seed is
+/// offset past every scenario's by 2^32 + k) and its numbers.
+fn observe(
+    cfg: &SwayAssistConfig,
+    setup: &AssistSetup,
+    name: &str,
+    vehicle: &AnyVehicleModel,
+    refs: &SpeedReferences,
+    limits: &SpeedLimits,
+    k: u64,
+) -> ObserverResult {
+    let mut out = ObserverResult {
+        vehicle: name.to_string(),
+        speed_mps: None,
+        manoeuvres: 0,
+        v_crit_mps: refs.v_crit_mps,
+        v_fold_mps: refs.v_fold_mps,
+        v_crit_estimate_mps: None,
+        v_crit_sd_mps: None,
+        v_fold_estimate_mps: None,
+        v_crit_error_rel: None,
+        v_fold_error_rel: None,
+        converged_after_s: None,
+        trailer_estimate: None,
+        reason: None,
+        track: None,
+    };
+    let speed = match cfg.ordinary_driving_speed.resolve(refs) {
+        Ok(v) => v,
+        Err(e) => {
+            out.reason = Some(format!("no ordinary-driving speed: {}", e.reason));
+            return out;
+        }
+    };
+    out.speed_mps = Some(speed);
+    // a file with model variants: its equivalent paper form
+    let paper: &Model = trailer_model::with_plant!(vehicle, m => Vehicle::paper_model(m));
+    let t0 = cfg.disturbance_start_s;
+    let until = t0 + cfg.ordinary_driving_s;
+    let scenario = Scenario {
+        speed_mps: speed,
+        disturbance: Disturbance::None,
+        disturbance_start_s: t0,
+        horizon_s: until,
+        seed: (1u64 << 32) + k,
+    };
+    let run = DrivingSequence::new(
+        &cfg.false_alarm_disturbances,
+        paper,
+        speed,
+        t0,
+        cfg.ordinary_driving_gap_s,
+        until,
+    )
+    .and_then(|d| {
+        out.manoeuvres = d.manoeuvres();
+        trailer_model::with_plant!(vehicle, m => run_driving(m, &scenario, &d, setup, false))
+    });
+    let run = match run {
+        Ok(r) => r,
+        Err(e) => {
+            out.reason = Some(format!("the ordinary-driving run failed: {e}"));
+            return out;
+        }
+    };
+    let mut reasons = Vec::new();
+    // (the ground truth's sustained sway means nothing here: the driving itself keeps the
+    // trailer swinging; a loss of control ends the run early)
+    if let Some(t) = run.loss_of_control_s {
+        reasons.push(format!(
+            "the vehicle lost control in ordinary driving at {t:.1} s"
+        ));
+    }
+    let Some(track) = run.observer else {
+        out.reason = Some("the observer did not run".into());
+        return out;
+    };
+    let Some(last) = track.last else {
+        out.reason = Some("the observer used no frame".into());
+        return out;
+    };
+    out.v_crit_estimate_mps = last.v_crit_estimate_mps;
+    out.v_crit_sd_mps = last.v_crit_sd_mps;
+    out.trailer_estimate = Some([
+        last.trailer_mass.value,
+        last.trailer_yaw_inertia.value,
+        last.trailer_cog.value,
+    ]);
+    if let Some(r) = last.v_crit_reason {
+        reasons.push(format!("the observer gives no V_crit: {r:?}"));
+    }
+    let rel = |est: Option<f64>, truth: Option<f64>| Some((est? - truth?).abs() / truth?);
+    out.v_crit_error_rel = rel(out.v_crit_estimate_mps, refs.v_crit_mps);
+    if let Some(v_crit) = refs.v_crit_mps {
+        // the last sample outside the band; converged from the next one on
+        let outside = |v: f64| !(v.is_finite() && (v - v_crit).abs() <= CONVERGED_WITHIN * v_crit);
+        match track.v_crit_mps.iter().rposition(|&v| outside(v)) {
+            None => out.converged_after_s = track.t.first().map(|t| (t - t0).max(0.0)),
+            Some(i) if i + 1 < track.t.len() => {
+                out.converged_after_s = Some((track.t[i + 1] - t0).max(0.0));
+            }
+            Some(_) => reasons.push(format!(
+                "V̂_crit is not within {:.0} % of V_crit at the end of ordinary driving",
+                100.0 * CONVERGED_WITHIN
+            )),
+        }
+    }
+    // V_fold of the paper form with the estimated trailer
+    let mut p = *paper.params();
+    p.trailer.mass = last.trailer_mass.value;
+    p.trailer.yaw_inertia = last.trailer_yaw_inertia.value;
+    p.trailer.cog = last.trailer_cog.value;
+    match Model::new(p) {
+        Ok(m) => match open_loop_references(&m, limits, Reference::Fold) {
+            Ok(r) => {
+                out.v_fold_estimate_mps = r.v_fold_mps;
+                if let Some(why) = r.reason.filter(|_| r.v_fold_mps.is_none()) {
+                    reasons.push(format!("no V_fold of the estimated trailer: {why}"));
+                }
+            }
+            Err(e) => reasons.push(format!("no V_fold of the estimated trailer: {e}")),
+        },
+        Err(e) => reasons.push(format!("the estimated trailer is not a valid vehicle: {e}")),
+    }
+    if refs.v_fold_mps.is_none() {
+        reasons.push("the vehicle has no V_fold".into());
+    }
+    out.v_fold_error_rel = rel(out.v_fold_estimate_mps, refs.v_fold_mps);
+    out.track = Some(track);
+    if !reasons.is_empty() {
+        out.reason = Some(reasons.join("; "));
+    }
+    out
 }
 
 /// The watching runs of the false-alarm set that do not sway.

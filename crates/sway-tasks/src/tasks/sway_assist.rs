@@ -3,12 +3,11 @@
 //! model variant) or the config's `vehicle_files` (a fleet) over a sway set and a
 //! false-alarm set; the computation is
 //! [`sway_studies::sway_assist`]. Writes `runs.csv` (one row per scenario and
-//! intervention), `roc.csv`, `summary.json` (`detectors`, `assist`, `observer`) and the
-//! figures `roc`, `latency` and `runs` (a sway run and a slalom run with every detector's
-//! flag on a time axis).
-//!
-//! The model-based observer of issue 48 is not part of this evaluation yet: `observer`
-//! carries the issue's fields as null with the reason.
+//! intervention), `roc.csv`, `observer.csv` (one row per vehicle: the observer's
+//! ordinary-driving run), `summary.json` (`detectors`, `assist`, `observer`) and the
+//! figures `roc`, `latency`, `runs` (a sway run and a slalom run with every detector's
+//! flag on a time axis) and `observer` (its V_crit estimate converging in ordinary driving,
+//! on the first vehicle).
 
 use std::path::{Path, PathBuf};
 
@@ -16,7 +15,8 @@ use serde::Serialize;
 use sway::assist::{ONSET_AMPLITUDE_DEG, RunOutcome, SWAY_AMPLITUDE_DEG};
 use trailer_model::AnyVehicleModel;
 use sway_studies::sway_assist::{
-    AssistMetrics, DetectorMetrics, ScenarioSet, SwayAssist, VehicleReferences, compute,
+    AssistMetrics, CONVERGED_WITHIN, DetectorMetrics, ObserverResult, ScenarioSet, SwayAssist,
+    VehicleReferences, compute,
 };
 pub use sway_studies::sway_assist::SwayAssistConfig;
 
@@ -51,19 +51,23 @@ pub const FULL: Task = Task {
 /// One detector's line of `summary.json` (the issue's names first).
 pub type DetectorEntry = DetectorMetrics;
 
-/// The model-based observer's fields (issue 48, item 5): null until the observer is part
-/// of the evaluation, with the reason.
+/// The model-based observer's fields (issue 48, item 5), from each vehicle's
+/// ordinary-driving run ([`sway_studies::sway_assist::ObserverResult`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ObserverSummary {
-    /// the largest relative error of its V_crit estimates \[-\]
+    /// the largest relative error |V̂_crit − V_crit|/V_crit over the vehicles at the end of
+    /// ordinary driving \[-\]
     pub v_crit_error_rel_max: Option<f64>,
-    /// the largest relative error of its V_fold estimates \[-\]
+    /// the largest relative error of V_fold with the estimated trailer \[-\]
     pub v_fold_error_rel_max: Option<f64>,
-    /// the median time its estimates take to converge in ordinary driving \[s\]
+    /// the median over the vehicles of the time from the start of ordinary driving after
+    /// which V̂_crit stays within 5 % of V_crit \[s\]
     pub converged_after_s_median: Option<f64>,
     /// its final V_crit estimate on the one vehicle \[m/s\]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub v_crit_estimate_mps: Option<f64>,
     /// its final V_fold estimate on the one vehicle \[m/s\]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub v_fold_estimate_mps: Option<f64>,
     /// why the fields are null
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -80,10 +84,66 @@ impl ObserverSummary {
             v_crit_estimate_mps: None,
             v_fold_estimate_mps: None,
             reason: Some(
-                "the model-based observer (issue 48, item 2) is not part of this evaluation yet"
-                    .into(),
+                "the model-based observer is not among the config's detectors".into(),
             ),
         }
+    }
+
+    /// From the vehicles' ordinary-driving runs: the largest errors, the median
+    /// convergence time (a vehicle that never converges counts as never), and on one
+    /// vehicle its final estimates; a reason where a value is null.
+    pub fn of(results: &[ObserverResult]) -> Self {
+        if results.is_empty() {
+            return Self::not_evaluated();
+        }
+        let max_of = |f: &dyn Fn(&ObserverResult) -> Option<f64>| {
+            results
+                .iter()
+                .map(f)
+                .collect::<Option<Vec<f64>>>()
+                .and_then(|v| v.into_iter().reduce(f64::max))
+        };
+        let mut times: Vec<f64> = results
+            .iter()
+            .map(|r| r.converged_after_s.unwrap_or(f64::INFINITY))
+            .collect();
+        times.sort_by(f64::total_cmp);
+        let n = times.len();
+        let median = if n % 2 == 1 {
+            times[n / 2]
+        } else {
+            0.5 * (times[n / 2 - 1] + times[n / 2])
+        };
+        let one = (results.len() == 1).then(|| &results[0]);
+        let mut s = Self {
+            v_crit_error_rel_max: max_of(&|r| r.v_crit_error_rel),
+            v_fold_error_rel_max: max_of(&|r| r.v_fold_error_rel),
+            converged_after_s_median: median.is_finite().then_some(median),
+            v_crit_estimate_mps: one.and_then(|r| r.v_crit_estimate_mps),
+            v_fold_estimate_mps: one.and_then(|r| r.v_fold_estimate_mps),
+            reason: None,
+        };
+        let missing = s.v_crit_error_rel_max.is_none()
+            || s.v_fold_error_rel_max.is_none()
+            || s.converged_after_s_median.is_none()
+            || one.is_some_and(|_| {
+                s.v_crit_estimate_mps.is_none() || s.v_fold_estimate_mps.is_none()
+            });
+        if missing {
+            let why: Vec<String> = results
+                .iter()
+                .filter_map(|r| r.reason.as_ref().map(|w| format!("{}: {w}", r.vehicle)))
+                .collect();
+            s.reason = Some(if s.converged_after_s_median.is_none() && why.is_empty() {
+                format!(
+                    "V̂_crit does not stay within {:.0} % of V_crit on most vehicles",
+                    100.0 * CONVERGED_WITHIN
+                )
+            } else {
+                why.join("; ")
+            });
+        }
+        s
     }
 }
 
@@ -267,10 +327,124 @@ fn write_tables(out: &OutputDir, r: &SwayAssist) -> Result<(), TaskError> {
             "true_positive_rate",
         ],
         roc_rows,
+    )?;
+    let obs_rows = r.observer.iter().map(|o| {
+        let [m, j, h] = o.trailer_estimate.map_or([None; 3], |p| p.map(Some));
+        (
+            o.vehicle.clone(),
+            o.speed_mps,
+            o.manoeuvres,
+            o.v_crit_mps,
+            o.v_crit_estimate_mps,
+            o.v_crit_sd_mps,
+            o.v_crit_error_rel,
+            o.v_fold_mps,
+            o.v_fold_estimate_mps,
+            o.v_fold_error_rel,
+            o.converged_after_s,
+            m,
+            j,
+            h,
+            o.reason.clone(),
+        )
+    });
+    out.write_rows(
+        "observer.csv",
+        &[
+            "vehicle",
+            "speed_mps",
+            "manoeuvres",
+            "v_crit_mps",
+            "v_crit_estimate_mps",
+            "v_crit_sd_mps",
+            "v_crit_error_rel",
+            "v_fold_mps",
+            "v_fold_estimate_mps",
+            "v_fold_error_rel",
+            "converged_after_s",
+            "trailer_mass_kg",
+            "trailer_yaw_inertia_kgm2",
+            "trailer_cog_m",
+            "reason",
+        ],
+        obs_rows,
     )
 }
 
-fn draw(out: &OutputDir, r: &SwayAssist) -> Result<(), TaskError> {
+/// The observer's V_crit estimate over the ordinary-driving run of the first vehicle, with
+/// its ±1 sd band, the true V_crit and the 5 % band around it.
+fn observer_panel(o: &ObserverResult, start_s: f64) -> Option<Panel> {
+    let tr = o.track.as_ref()?;
+    let v_crit = o.v_crit_mps?;
+    let t_end = tr.t.last().copied()? - start_s;
+    let t: Vec<f64> = tr.t.iter().map(|t| t - start_s).collect();
+    let mut sd_rects = Vec::new();
+    for i in 0..t.len().saturating_sub(1) {
+        let (v, sd) = (tr.v_crit_mps[i], tr.v_crit_sd_mps[i]);
+        if v.is_finite() && sd.is_finite() {
+            sd_rects.push([t[i], t[i + 1], v - sd, v + sd]);
+        }
+    }
+    let est: Vec<(f64, f64)> = t.iter().copied().zip(tr.v_crit_mps.iter().copied()).collect();
+    let lo = (1.0 - 4.0 * CONVERGED_WITHIN) * v_crit;
+    let hi = (1.0 + 4.0 * CONVERGED_WITHIN) * v_crit;
+    let mut p = Panel::new(
+        &format!(
+            "Observer in ordinary driving ({}: {} slaloms and lane changes at {:.1} m/s)",
+            o.vehicle,
+            o.manoeuvres,
+            o.speed_mps.unwrap_or(f64::NAN)
+        ),
+        "time from the start of ordinary driving [s]",
+        "critical speed V_crit [m/s]",
+    )
+    .x_range(0.0, t_end)
+    .y_range(lo, hi)
+    .legend(Legend::LowerRight)
+    .with(Layer::Rects {
+        rects: vec![[
+            0.0,
+            t_end,
+            (1.0 - CONVERGED_WITHIN) * v_crit,
+            (1.0 + CONVERGED_WITHIN) * v_crit,
+        ]],
+        color: Rgb::GREY,
+        opacity: 0.25,
+        label: Some(format!("V_crit ± {:.0} %", 100.0 * CONVERGED_WITHIN)),
+    })
+    .with(Layer::Rects {
+        rects: sd_rects,
+        color: Rgb::BLUE,
+        opacity: 0.25,
+        label: Some("estimate ± 1 sd".into()),
+    })
+    .with(Layer::line(
+        vec![(0.0, v_crit), (t_end, v_crit)],
+        Rgb::BLACK,
+        Stroke::Dashed,
+        Some("true V_crit"),
+    ))
+    .with(Layer::line(
+        est.into_iter()
+            .map(|(t, v)| (t, v.clamp(lo, hi)))
+            .collect(),
+        Rgb::BLUE,
+        Stroke::Solid,
+        Some("observer's V̂_crit"),
+    ));
+    if let Some(c) = o.converged_after_s {
+        p.layers.push(Layer::vline(
+            c,
+            (lo, hi),
+            Rgb::RED,
+            Stroke::Dotted,
+            Some("within 5 % from here on"),
+        ));
+    }
+    Some(p)
+}
+
+fn draw(out: &OutputDir, r: &SwayAssist, start_s: f64) -> Result<(), TaskError> {
     // ROC curves
     let mut roc = Panel::new(
         "ROC of run-level verdicts over the detector's threshold",
@@ -352,6 +526,13 @@ fn draw(out: &OutputDir, r: &SwayAssist) -> Result<(), TaskError> {
         panels.extend(flag_panels);
         Figure::grid(panels, 2, cols, (1500, 900)).render(&out.path("runs"))?;
     }
+    if let Some(p) = r
+        .observer
+        .first()
+        .and_then(|o| observer_panel(o, start_s))
+    {
+        Figure::grid(vec![p], 1, 1, (1000, 600)).render(&out.path("observer"))?;
+    }
     Ok(())
 }
 
@@ -432,7 +613,13 @@ impl Prepared for SwayAssistTask {
             * (c.sway_speeds.len() * c.sway_disturbances.len()
                 + c.false_alarm_speeds.len() * c.false_alarm_disturbances.len());
         let runs = 2.0 * scenarios as f64;
-        let simulated = runs * c.horizon_s;
+        // with the observer's ordinary-driving run per vehicle
+        let driving = if c.detectors.model_observer.is_some() {
+            self.fleet.len().max(1) as f64 * (c.disturbance_start_s + c.ordinary_driving_s)
+        } else {
+            0.0
+        };
+        let simulated = runs * c.horizon_s + driving;
         let plan = Plan::new(
             vec![format!(
                 "{}: {scenarios} scenarios × (without, with the assist) × {} s",
@@ -475,11 +662,11 @@ impl Prepared for SwayAssistTask {
             |out| {
                 let r = compute(cfg, &vehicles, &ctx.limits)?;
                 write_tables(out, &r)?;
-                draw(out, &r)?;
+                draw(out, &r, cfg.disturbance_start_s)?;
                 let summary = SwayAssistSummary {
                     detectors: r.detectors.clone(),
                     assist: r.assist.clone(),
-                    observer: ObserverSummary::not_evaluated(),
+                    observer: ObserverSummary::of(&r.observer),
                     sway_amplitude_deg: SWAY_AMPLITUDE_DEG,
                     onset_amplitude_deg: ONSET_AMPLITUDE_DEG,
                     false_alarm_hours: r.false_alarm_hours,
@@ -501,6 +688,14 @@ impl Prepared for SwayAssistTask {
                         )
                     })
                     .collect();
+                let o = &summary.observer;
+                let pct2 = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{:.1}%", 100.0 * v));
+                lines.push(format!(
+                    "observer: V_crit error max {}, V_fold error max {}, converged after {} (median)",
+                    pct2(o.v_crit_error_rel_max),
+                    pct2(o.v_fold_error_rel_max),
+                    secs(o.converged_after_s_median)
+                ));
                 let a = &r.assist;
                 lines.push(format!(
                     "assist over {} scenarios: loss of control {} → {}, sustained sway {} → {} (without → with)",

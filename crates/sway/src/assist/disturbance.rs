@@ -287,6 +287,93 @@ impl Disturbance {
     }
 }
 
+/// Ordinary driving: manoeuvres whose steering returns to zero (slaloms, lane changes,
+/// steering impulses) driven one after another, `gap_s` of straight driving between two,
+/// the list repeated from `start_s` for as long as asked; the other disturbances (a ramp
+/// into a held corner, a gust, none) are left out. The observer's evaluation drives it
+/// ([`super::run_driving`]): the parameters are learned from the car's answers to the
+/// driver's steering.
+///
+/// Unlike a single [`Disturbance`] it is not the problem's own [`SteeringInput`]: the
+/// co-simulation holds its angle per sensor frame (sampled at the frame's start, 10 ms;
+/// the manoeuvres' 0.4–1.2 Hz are 80–250 frames a period).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DrivingSequence {
+    steerings: Vec<SteeringInput>,
+    end_s: f64,
+}
+
+impl DrivingSequence {
+    /// The manoeuvres of `list` at `speed_mps` on `model`, repeated from `start_s` with
+    /// `gap_s` between two, the last one starting before `until_s`.
+    ///
+    /// # Errors
+    /// A manoeuvre's [`Disturbance::steering`] error; [`SwayError::Numerical`] when `list`
+    /// has no manoeuvre whose steering returns to zero.
+    pub fn new(
+        list: &[Disturbance],
+        model: &Model,
+        speed_mps: f64,
+        start_s: f64,
+        gap_s: f64,
+        until_s: f64,
+    ) -> Result<Self, SwayError> {
+        let kept: Vec<&Disturbance> = list
+            .iter()
+            .filter(|d| {
+                matches!(
+                    d,
+                    Disturbance::SteeringImpulse { .. }
+                        | Disturbance::SingleLaneChange { .. }
+                        | Disturbance::DoubleLaneChange { .. }
+                        | Disturbance::Slalom { .. }
+                )
+            })
+            .collect();
+        if kept.is_empty() {
+            return Err(SwayError::numerical(
+                "ordinary driving",
+                std::io::Error::other(
+                    "no slalom, lane change or steering impulse among the manoeuvres",
+                ),
+            ));
+        }
+        let mut steerings = Vec::new();
+        let mut t = start_s;
+        'outer: loop {
+            for d in &kept {
+                if t >= until_s {
+                    break 'outer;
+                }
+                let s = d.steering(model, speed_mps, t)?;
+                t = s.end_s().max(t) + gap_s.max(0.0);
+                steerings.push(s);
+            }
+        }
+        let end_s = steerings.last().map_or(start_s, SteeringInput::end_s);
+        Ok(Self { steerings, end_s })
+    }
+
+    /// The front-wheel angle \[rad\] at `t`.
+    pub fn angle(&self, t: f64) -> f64 {
+        self.steerings
+            .iter()
+            .filter(|s| t < s.end_s())
+            .map(|s| s.angle(t))
+            .sum()
+    }
+
+    /// The manoeuvres driven, in order.
+    pub fn manoeuvres(&self) -> usize {
+        self.steerings.len()
+    }
+
+    /// When the last manoeuvre ends \[s\].
+    pub fn end_s(&self) -> f64 {
+        self.end_s
+    }
+}
+
 /// The front-wheel angle \[rad\] per m/s² of the car's lateral acceleration for sinusoidal
 /// steering at `frequency_hz` (0: steady state) at `speed_mps`: 1/(V·|G(iω)|) with G the
 /// yaw-rate response of the linearised model (eq. 9–11), G(s) = C̃(sI − Ã)⁻¹B̃, and the

@@ -12,9 +12,12 @@
 //! landed on), so a run without intervention is the same problem as [`crate::sim::simulate`]
 //! integrates: the stepping does not change the physics.
 //!
-//! The detectors see only the frames, never the state; a third detector joins
-//! [`DetectorsConfig`] by one field and one line of [`DetectorsConfig::build`]. The ground
-//! truth ([`truth`]) is defined once. A run that loses control ends there (the validity
+//! The detectors see only the frames, never the state; a detector joins
+//! [`DetectorsConfig`] by one field and one line of [`DetectorsConfig::build`]. The
+//! model-based observer ([`ModelObserver`]) is told the vehicle's paper form
+//! ([`observer_options`]: the car, the trailer's axle and tyre; never the trailer's mass,
+//! inertia or centre of gravity, which it estimates) and its estimates are recorded
+//! ([`ObserverTrack`]). The ground truth ([`truth`]) is defined once. A run that loses control ends there (the validity
 //! guard, [`LossOfControl`]) and is an outcome, not an error.
 
 pub mod disturbance;
@@ -24,17 +27,19 @@ pub mod truth;
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 use sway_detect::ConfigError;
+use sway_detect::detector::observer::model::CarParams;
 use sway_detect::detector::{
-    CounterOptions, DampingEstimator, DampingOptions, Detector, OscillationCounter,
+    CounterOptions, DampingEstimator, DampingOptions, Detector, ModelObserver, ObserverEstimate,
+    ObserverOptions, OscillationCounter,
 };
 use sway_detect::sensor::{Sensors, SensorsConfig, Truth};
 use sway_model::vehicle::{LossOfControl, Vehicle};
-use trailer_model::{AnyVehicleModel, HITCH_ANGLE, State4};
+use trailer_model::{AnyVehicleModel, HITCH_ANGLE, Model, State4};
 
 use crate::SwayError;
 use crate::sim::cosim::{CoSimulation, StepEnd};
 use crate::sim::{HeldInputs, SimProblem, SolverSettings, SpeedProfile};
-pub use disturbance::Disturbance;
+pub use disturbance::{Disturbance, DrivingSequence};
 pub use intervention::{AssistOptions, AssistState, Controller, FrictionLimits, SteeringGate};
 pub use truth::{ONSET_AMPLITUDE_DEG, RunTruth, SWAY_AMPLITUDE_DEG, SwayCriterion};
 
@@ -47,6 +52,10 @@ pub struct DetectorsConfig {
     pub oscillation_counter: Option<CounterOptions>,
     /// the online damping estimator
     pub damping_estimator: Option<DampingOptions>,
+    /// the model-based observer: its priors, noise and thresholds; the car, the trailer's
+    /// axle and cornering stiffness, the steering ratio and the frame rate are replaced by
+    /// the run's ([`observer_options`])
+    pub model_observer: Option<ObserverOptions>,
 }
 
 impl Default for DetectorsConfig {
@@ -54,6 +63,7 @@ impl Default for DetectorsConfig {
         Self {
             oscillation_counter: Some(CounterOptions::default()),
             damping_estimator: Some(DampingOptions::default()),
+            model_observer: Some(ObserverOptions::default()),
         }
     }
 }
@@ -61,12 +71,52 @@ impl Default for DetectorsConfig {
 /// A detector that runs in a thread of the evaluation.
 pub type BoxedDetector = Box<dyn Detector + Send>;
 
+/// The detectors of a run: the boxed ones, then the observer (kept by type: its estimates
+/// are recorded).
+pub struct DetectorSet {
+    /// the counter and the damping estimator, as configured
+    pub boxed: Vec<BoxedDetector>,
+    /// the model-based observer
+    pub observer: Option<ModelObserver>,
+}
+
+impl std::fmt::Debug for DetectorSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list()
+            .entries(self.boxed.iter().map(|d| d.name()))
+            .entries(self.observer.as_ref().map(|o| o.name()))
+            .finish()
+    }
+}
+
+impl DetectorSet {
+    /// Every detector, in the order of the config's fields (the order of every result).
+    pub fn iter_mut(&mut self) -> impl Iterator<Item = &mut dyn Detector> {
+        self.boxed
+            .iter_mut()
+            .map(|d| d.as_mut() as &mut dyn Detector)
+            .chain(self.observer.as_mut().map(|o| o as &mut dyn Detector))
+    }
+
+    /// How many.
+    pub fn len(&self) -> usize {
+        self.boxed.len() + usize::from(self.observer.is_some())
+    }
+
+    /// Whether there is none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
 impl DetectorsConfig {
-    /// The detectors, in the order of the config's fields (the order of every result).
+    /// The detectors as configured, in the order of the config's fields (the order of
+    /// every result); the observer with its options as given (a check of the config: a
+    /// run uses [`DetectorsConfig::build_for`]).
     ///
     /// # Errors
     /// A detector's [`ConfigError`].
-    pub fn build(&self) -> Result<Vec<BoxedDetector>, ConfigError> {
+    pub fn build(&self) -> Result<DetectorSet, ConfigError> {
         let mut v: Vec<BoxedDetector> = Vec::new();
         if let Some(o) = self.oscillation_counter {
             v.push(Box::new(OscillationCounter::new(o)?));
@@ -74,8 +124,76 @@ impl DetectorsConfig {
         if let Some(o) = self.damping_estimator {
             v.push(Box::new(DampingEstimator::new(o)?));
         }
-        Ok(v)
+        let observer = self.model_observer.map(ModelObserver::new).transpose()?;
+        Ok(DetectorSet { boxed: v, observer })
     }
+
+    /// The detectors of a run on `model` (the vehicle's paper form) with the steering
+    /// ratio and frame rate of the run ([`observer_options`]).
+    ///
+    /// # Errors
+    /// A detector's [`ConfigError`].
+    pub fn build_for(
+        &self,
+        model: &Model,
+        steering_ratio: f64,
+        frame_rate_hz: f64,
+    ) -> Result<DetectorSet, ConfigError> {
+        Self {
+            model_observer: self
+                .model_observer
+                .map(|o| observer_options(&o, model, steering_ratio, frame_rate_hz)),
+            ..*self
+        }
+        .build()
+    }
+}
+
+/// The observer's options for a run on `model`: `base` (its priors, noise, thresholds) with
+/// the towing car's parameters (known to its ESC), the trailer's hitch → axle distance and
+/// axle cornering stiffness as the nominal values (the observer is told the trailer's axle
+/// and tyre and estimates its mass, yaw inertia and centre of gravity), the run's steering
+/// ratio and frame rate. A vehicle file with model variants gives its equivalent paper
+/// form ([`Vehicle::paper_model`]). The trailer's mass, inertia and centre of gravity are
+/// never taken from the vehicle: the priors stay `base`'s.
+pub fn observer_options(
+    base: &ObserverOptions,
+    model: &Model,
+    steering_ratio: f64,
+    frame_rate_hz: f64,
+) -> ObserverOptions {
+    let p = model.params();
+    let c = &p.tractor;
+    ObserverOptions {
+        sample_rate_hz: frame_rate_hz,
+        car: CarParams {
+            mass: c.mass,
+            yaw_inertia: c.yaw_inertia,
+            front_axle: c.front_axle,
+            cog: c.cog,
+            rear_axle: c.rear_axle,
+            front_cornering_stiffness: c.front_cornering_stiffness,
+            rear_cornering_stiffness: c.rear_cornering_stiffness,
+        },
+        steering_ratio,
+        trailer_axle_m: p.trailer.axle,
+        trailer_cornering_stiffness: p.trailer.cornering_stiffness,
+        ..*base
+    }
+}
+
+/// The observer's estimates in a run, every critical-speed search
+/// ([`ObserverOptions::v_crit_interval_samples`] frames).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ObserverTrack {
+    /// t \[s\]
+    pub t: Vec<f64>,
+    /// V̂_crit \[m/s\] (NaN: none yet, or the estimated trailer does not sway)
+    pub v_crit_mps: Vec<f64>,
+    /// its standard deviation \[m/s\] (NaN with it)
+    pub v_crit_sd_mps: Vec<f64>,
+    /// the estimate after the last frame
+    pub last: Option<ObserverEstimate>,
 }
 
 /// Whether the assist acts in a run.
@@ -192,6 +310,9 @@ pub struct RunOutcome {
     /// the frames (when asked for)
     #[serde(skip)]
     pub trace: Option<Trace>,
+    /// the observer's estimates (when it runs)
+    #[serde(skip)]
+    pub observer: Option<ObserverTrack>,
 }
 
 fn config_error(what: &str, e: ConfigError) -> SwayError {
@@ -210,6 +331,39 @@ pub fn run<P: Vehicle<M>, const M: usize>(
     setup: &AssistSetup,
     record: bool,
 ) -> Result<RunOutcome, SwayError> {
+    run_steered(vehicle, scenario, None, intervention, setup, record)
+}
+
+/// [`run`] with ordinary driving's steering beside the scenario's disturbance (held per
+/// frame, [`DrivingSequence`]): the run the observer learns the trailer in.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_driving<P: Vehicle<M>, const M: usize>(
+    vehicle: &P,
+    scenario: &Scenario,
+    driving: &DrivingSequence,
+    setup: &AssistSetup,
+    record: bool,
+) -> Result<RunOutcome, SwayError> {
+    run_steered(
+        vehicle,
+        scenario,
+        Some(driving),
+        Intervention::None,
+        setup,
+        record,
+    )
+}
+
+fn run_steered<P: Vehicle<M>, const M: usize>(
+    vehicle: &P,
+    scenario: &Scenario,
+    driving: Option<&DrivingSequence>,
+    intervention: Intervention,
+    setup: &AssistSetup,
+    record: bool,
+) -> Result<RunOutcome, SwayError> {
     let v0 = scenario.speed_mps;
     let t0 = scenario.disturbance_start_s;
     let model = vehicle.paper_model();
@@ -222,20 +376,21 @@ pub fn run<P: Vehicle<M>, const M: usize>(
     let mut sensor_cfg = setup.sensors.clone();
     sensor_cfg.seed = sensor_cfg.seed.wrapping_add(scenario.seed);
     let mut sensors = Sensors::new(&sensor_cfg).map_err(|e| config_error("sensors", e))?;
+    let frame_s = sensors.frame_period_s();
     let mut detectors = setup
         .detectors
-        .build()
+        .build_for(model, setup.steering_ratio, 1.0 / frame_s)
         .map_err(|e| config_error("detectors", e))?;
-    let frame_s = sensors.frame_period_s();
+    let names: Vec<String> = detectors.iter_mut().map(|d| d.name().to_string()).collect();
     let mut gate = SteeringGate::new(setup.assist.gate, 1.0 / frame_s)
         .map_err(|e| config_error("steering gate", e))?;
     let mut controller = Controller::new(setup.assist, FrictionLimits::of(model), frame_s)
         .map_err(|e| config_error("controller", e))?;
     let nd = detectors.len();
-    let mut records: Vec<DetectorRecord> = detectors
+    let mut records: Vec<DetectorRecord> = names
         .iter()
-        .map(|d| d.name().to_string())
-        .chain(detectors.iter().map(|d| format!("{}_gated", d.name())))
+        .cloned()
+        .chain(names.iter().map(|n| format!("{n}_gated")))
         .map(|name| DetectorRecord {
             name,
             first_flag_s: None,
@@ -260,8 +415,22 @@ pub fn run<P: Vehicle<M>, const M: usize>(
     problem.set_held_inputs(held);
     let mut lost = None;
     let mut engaged_s = None;
+    let mut track = detectors
+        .observer
+        .as_ref()
+        .map(|_| ObserverTrack::default());
+    let track_every = detectors
+        .observer
+        .as_ref()
+        .map_or(1, |o| o.options().v_crit_interval_samples.max(1));
+    let mut used = 0usize;
     for k in 0..=frames {
         let t = k as f64 * frame_s;
+        if let Some(d) = driving {
+            // ordinary driving's steering, held over this frame (sampled at its start)
+            held.steering_angle_rad = d.angle(t);
+            problem.set_held_inputs(held);
+        }
         let x = *cosim.state();
         let u = problem.inputs(t, &x, &[]);
         let truth = Truth {
@@ -299,6 +468,16 @@ pub fn run<P: Vehicle<M>, const M: usize>(
                     }
                 }
             }
+            used += 1;
+            if let (Some(o), Some(tr)) = (detectors.observer.as_ref(), track.as_mut())
+                && used % track_every == 0
+            {
+                let e = o.estimate();
+                tr.t.push(t);
+                tr.v_crit_mps
+                    .push(e.v_crit_estimate_mps.unwrap_or(f64::NAN));
+                tr.v_crit_sd_mps.push(e.v_crit_sd_mps.unwrap_or(f64::NAN));
+            }
             if intervention == Intervention::Assist {
                 commands = controller.update(m.yaw_rate, m.speed, any_gated);
                 if controller.state() == AssistState::Engaged && engaged_s.is_none() {
@@ -328,7 +507,7 @@ pub fn run<P: Vehicle<M>, const M: usize>(
             speed_from_s: t,
             yaw_moment_nm: commands.yaw_moment_nm,
             trailer_lateral_force_n: scenario.disturbance.trailer_force(t, t0),
-            steering_angle_rad: 0.0,
+            steering_angle_rad: driving.map_or(0.0, |d| d.angle(t)),
         };
         let end = cosim.step(&mut problem, held, t + frame_s)?;
         speed -= commands.deceleration_mps2 * frame_s;
@@ -344,6 +523,9 @@ pub fn run<P: Vehicle<M>, const M: usize>(
         .criterion
         .judge(&ts, &thetas, t0, settle_from, lost.is_some());
     let t_end_s = ts.last().copied().unwrap_or(0.0);
+    if let (Some(o), Some(tr)) = (detectors.observer.as_ref(), track.as_mut()) {
+        tr.last = Some(o.estimate());
+    }
     let end_speed = match held.speed_mps {
         Some(v) => v + held.acceleration_mps2 * (t_end_s - held.speed_from_s),
         None => v0,
@@ -360,6 +542,7 @@ pub fn run<P: Vehicle<M>, const M: usize>(
         engaged_s,
         t_end_s,
         trace,
+        observer: track,
     })
 }
 

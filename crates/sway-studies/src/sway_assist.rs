@@ -631,8 +631,9 @@ fn observe(
     out.v_crit_error_rel = rel(out.v_crit_estimate_mps, refs.v_crit_mps);
     if let Some(v_crit) = refs.v_crit_mps {
         // the last sample outside the band; converged from the next one on
-        let outside = |v: f64| !(v.is_finite() && (v - v_crit).abs() <= CONVERGED_WITHIN * v_crit);
-        match track.v_crit_mps.iter().rposition(|&v| outside(v)) {
+        let outside =
+            |v: &Option<f64>| !v.is_some_and(|v| (v - v_crit).abs() <= CONVERGED_WITHIN * v_crit);
+        match track.v_crit_mps.iter().rposition(outside) {
             None => out.converged_after_s = track.t.first().map(|t| (t - t0).max(0.0)),
             Some(i) if i + 1 < track.t.len() => {
                 out.converged_after_s = Some((track.t[i + 1] - t0).max(0.0));

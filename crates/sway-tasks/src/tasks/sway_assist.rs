@@ -380,12 +380,15 @@ fn observer_panel(o: &ObserverResult, start_s: f64) -> Option<Panel> {
     let t: Vec<f64> = tr.t.iter().map(|t| t - start_s).collect();
     let mut sd_rects = Vec::new();
     for i in 0..t.len().saturating_sub(1) {
-        let (v, sd) = (tr.v_crit_mps[i], tr.v_crit_sd_mps[i]);
-        if v.is_finite() && sd.is_finite() {
+        if let (Some(v), Some(sd)) = (tr.v_crit_mps[i], tr.v_crit_sd_mps[i]) {
             sd_rects.push([t[i], t[i + 1], v - sd, v + sd]);
         }
     }
-    let est: Vec<(f64, f64)> = t.iter().copied().zip(tr.v_crit_mps.iter().copied()).collect();
+    let est: Vec<(f64, f64)> = t
+        .iter()
+        .zip(&tr.v_crit_mps)
+        .map(|(&t, v)| (t, v.unwrap_or(f64::NAN)))
+        .collect();
     let lo = (1.0 - 4.0 * CONVERGED_WITHIN) * v_crit;
     let hi = (1.0 + 4.0 * CONVERGED_WITHIN) * v_crit;
     let mut p = Panel::new(

@@ -188,10 +188,10 @@ pub fn observer_options(
 pub struct ObserverTrack {
     /// t \[s\]
     pub t: Vec<f64>,
-    /// V̂_crit \[m/s\] (NaN: none yet, or the estimated trailer does not sway)
-    pub v_crit_mps: Vec<f64>,
-    /// its standard deviation \[m/s\] (NaN with it)
-    pub v_crit_sd_mps: Vec<f64>,
+    /// V̂_crit \[m/s\] (None: none yet, or the estimated trailer does not sway)
+    pub v_crit_mps: Vec<Option<f64>>,
+    /// its standard deviation \[m/s\]
+    pub v_crit_sd_mps: Vec<Option<f64>>,
     /// the estimate after the last frame
     pub last: Option<ObserverEstimate>,
 }
@@ -474,9 +474,8 @@ fn run_steered<P: Vehicle<M>, const M: usize>(
             {
                 let e = o.estimate();
                 tr.t.push(t);
-                tr.v_crit_mps
-                    .push(e.v_crit_estimate_mps.unwrap_or(f64::NAN));
-                tr.v_crit_sd_mps.push(e.v_crit_sd_mps.unwrap_or(f64::NAN));
+                tr.v_crit_mps.push(e.v_crit_estimate_mps);
+                tr.v_crit_sd_mps.push(e.v_crit_sd_mps);
             }
             if intervention == Intervention::Assist {
                 commands = controller.update(m.yaw_rate, m.speed, any_gated);

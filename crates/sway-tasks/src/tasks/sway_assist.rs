@@ -89,19 +89,17 @@ impl ObserverSummary {
         }
     }
 
-    /// From the vehicles' ordinary-driving runs: the largest errors, the median
+    /// From the vehicles' ordinary-driving runs: the largest errors (over the vehicles that
+    /// have them), the median
     /// convergence time (a vehicle that never converges counts as never), and on one
     /// vehicle its final estimates; a reason where a value is null.
     pub fn of(results: &[ObserverResult]) -> Self {
         if results.is_empty() {
             return Self::not_evaluated();
         }
+        // over the vehicles that have the value (those without it give the reason)
         let max_of = |f: &dyn Fn(&ObserverResult) -> Option<f64>| {
-            results
-                .iter()
-                .map(f)
-                .collect::<Option<Vec<f64>>>()
-                .and_then(|v| v.into_iter().reduce(f64::max))
+            results.iter().filter_map(f).reduce(f64::max)
         };
         let mut times: Vec<f64> = results
             .iter()
@@ -123,8 +121,9 @@ impl ObserverSummary {
             v_fold_estimate_mps: one.and_then(|r| r.v_fold_estimate_mps),
             reason: None,
         };
-        let missing = s.v_crit_error_rel_max.is_none()
-            || s.v_fold_error_rel_max.is_none()
+        let missing = results
+            .iter()
+            .any(|r| r.v_crit_error_rel.is_none() || r.v_fold_error_rel.is_none())
             || s.converged_after_s_median.is_none()
             || one.is_some_and(|_| {
                 s.v_crit_estimate_mps.is_none() || s.v_fold_estimate_mps.is_none()

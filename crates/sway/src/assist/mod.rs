@@ -470,7 +470,7 @@ fn run_steered<P: Vehicle<M>, const M: usize>(
             }
             used += 1;
             if let (Some(o), Some(tr)) = (detectors.observer.as_ref(), track.as_mut())
-                && used % track_every == 0
+                && used.is_multiple_of(track_every)
             {
                 let e = o.estimate();
                 tr.t.push(t);

@@ -1,4 +1,4 @@
-//! Trailer-sway detection from the towing car's own sensors (issue 48, items 1–2).
+//! Trailer-sway detection from the towing car's own sensors.
 //!
 //! A trailer stability program sees the car's yaw rate \[rad/s\], lateral acceleration
 //! \[m/s²\], steering-wheel angle \[rad\] and wheel-speed-derived speed \[m/s\] — noisy,

@@ -625,7 +625,7 @@ fn observe(
         last.trailer_cog.value,
     ]);
     if let Some(r) = last.v_crit_reason {
-        reasons.push(format!("the observer gives no V_crit: {r:?}"));
+        reasons.push(format!("the observer gives no V_crit: {r}"));
     }
     let rel = |est: Option<f64>, truth: Option<f64>| Some((est? - truth?).abs() / truth?);
     out.v_crit_error_rel = rel(out.v_crit_estimate_mps, refs.v_crit_mps);

@@ -1,6 +1,6 @@
 //! Co-simulation stepping: a [`SimProblem`] integrated one communication interval at a
 //! time with inputs held between two calls ([`HeldInputs`]), as the FMU's engine
-//! (`sway-fmu`) and the sway assist ([`crate::assist`]) step it. The state of a stepping
+//! (`sway-fmu`) and the sway assist (the `assist` module above) step it. The state of a stepping
 //! ([`CoSimulation`]: the solver with its delay history, the inputs the last step held,
 //! x(t − τ), the guard's verdict) is data: cloneable and serialisable.
 //!

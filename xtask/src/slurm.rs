@@ -1,8 +1,9 @@
-//! `cargo xtask slurm FILE --shards N [--partition P] [--time T]`: a sharded sweep as a
-//! SLURM job array.
+//! `cargo xtask slurm FILE --shards N [--task T] [--partition P] [--time T]`: a sharded
+//! study (a sweep by default; any task of `sway_tasks::shard::SHARDABLE_TASKS`) as a SLURM
+//! job array.
 //!
 //! Writes into the job directory (default `results/<name>.slurm/`):
-//! - `shard.sbatch`: the job array `1-N`; array task K runs `xtask sweep FILE --shard K/N`
+//! - `shard.sbatch`: the job array `1-N`; array task K runs `xtask TASK FILE --shard K/N`
 //!   with this very binary by absolute path (jobs never run cargo), one rayon thread per
 //!   allocated CPU (`RAYON_NUM_THREADS=$SLURM_CPUS_PER_TASK`);
 //! - `merge.sbatch`: `xtask merge SHARD_DIR`;
@@ -28,11 +29,14 @@ use sway_tasks::tasks;
 #[derive(Debug, Parser)]
 #[command(no_binary_name = true)]
 pub struct SlurmArgs {
-    /// the sweep file (TOML)
+    /// the study's config file (TOML)
     file: PathBuf,
     /// the number of shards N (array tasks)
     #[arg(long)]
     shards: usize,
+    /// the shardable task (`sweep`, `brake_timing`, `study_generated`)
+    #[arg(long, default_value = "sweep")]
+    task: String,
     /// the SLURM partition (default: the cluster's default partition)
     #[arg(long)]
     partition: Option<String>,
@@ -64,6 +68,8 @@ pub struct SlurmArgs {
 pub struct JobPlan {
     /// the study name
     pub name: String,
+    /// the shardable task
+    pub task: String,
     /// N
     pub shards: usize,
     /// `--partition`
@@ -74,7 +80,7 @@ pub struct JobPlan {
     pub cpus_per_task: usize,
     /// the xtask binary
     pub binary: PathBuf,
-    /// the sweep file
+    /// the study's config file
     pub config: PathBuf,
     /// the vehicle file
     pub vehicle: PathBuf,
@@ -145,10 +151,11 @@ pub fn scripts(p: &JobPlan) -> Scripts {
          set -euo pipefail\n\
          # one rayon thread per allocated CPU (without CPU binding a task sees every CPU)\n\
          export RAYON_NUM_THREADS=\"${{SLURM_CPUS_PER_TASK:-1}}\"\n\
-         exec {} sweep {} --vehicle {} --results {} --shard \"${{SLURM_ARRAY_TASK_ID}}/{n}\" --shard-dir {}\n",
+         exec {} {} {} --vehicle {} --results {} --shard \"${{SLURM_ARRAY_TASK_ID}}/{n}\" --shard-dir {}\n",
         common_directives(p),
         logs.display(),
         quote(&p.binary),
+        p.task,
         quote(&p.config),
         quote(&p.vehicle),
         quote(&p.results),
@@ -198,7 +205,7 @@ fn absolute(p: &Path) -> Result<PathBuf> {
     std::path::absolute(p).with_context(|| format!("{}: cannot make it absolute", p.display()))
 }
 
-/// Validates the sweep and vehicle and resolves every path of the job.
+/// Validates the study's config and vehicle and resolves every path of the job.
 fn plan(a: SlurmArgs, root: &Path) -> Result<JobPlan> {
     ShardSpec::new(1, a.shards)?;
     if a.cpus_per_task == 0 {
@@ -213,7 +220,7 @@ fn plan(a: SlurmArgs, root: &Path) -> Result<JobPlan> {
         .vehicle
         .unwrap_or_else(|| root.join("configs").join("vehicle.toml"));
     sway_tasks::config_file::load_vehicle(&vehicle)?;
-    let task = tasks::resolve("sweep")?.remove(0);
+    let task = tasks::resolve(&a.task)?.remove(0);
     let name = shard::study_name(task.name, &a.file)?;
     let results = absolute(&a.results.unwrap_or_else(|| root.join("results")))?;
     let binary = match a.binary {
@@ -233,6 +240,7 @@ fn plan(a: SlurmArgs, root: &Path) -> Result<JobPlan> {
         config: absolute(&a.file)?,
         vehicle: absolute(&vehicle)?,
         name,
+        task: task.name.to_string(),
         shards: a.shards,
         partition: a.partition,
         time: a.time,
@@ -305,6 +313,7 @@ mod tests {
     fn plan() -> JobPlan {
         JobPlan {
             name: "study".into(),
+            task: "sweep".into(),
             shards: 4,
             partition: Some("debug".into()),
             time: None,

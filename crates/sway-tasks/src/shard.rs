@@ -39,6 +39,7 @@ use trailer_model::{Model, VehicleParams, VehicleSpec};
 
 use crate::config_file::{TaskConfig, load_toml};
 use crate::io::OutputDir;
+use crate::tasks::study_generated::GeneratedVehicles;
 use crate::tasks::{Report, TaskContext};
 
 /// The format tag of a shard file.
@@ -316,6 +317,9 @@ pub trait PointwiseTask {
     fn len(points: &Self::Points) -> usize;
     /// Point `k`: a pure function of the inputs and `k`.
     fn run_point(points: &Self::Points, k: usize) -> Self::Point;
+    /// How many failures a point's result holds (a failed point stays a row of the
+    /// results; the shard report counts them).
+    fn failures(point: &Self::Point) -> usize;
     /// Writes the task's outputs from the ordered full list of results into `out` and
     /// commits it: the same function for an unsharded run and a merge.
     ///
@@ -372,6 +376,9 @@ impl PointwiseTask for SweepPoints {
     fn run_point(points: &crate::tasks::sweep::SweepRun, k: usize) -> PointResult {
         points.run_point(k)
     }
+    fn failures(point: &PointResult) -> usize {
+        usize::from(point.output.is_err())
+    }
     fn write_outputs(
         ctx: &TaskContext<'_>,
         out: OutputDir,
@@ -384,8 +391,9 @@ impl PointwiseTask for SweepPoints {
     }
 }
 
-/// The tasks that can run as shards (all of kind [`SweepPoints`]).
-pub const SHARDABLE_TASKS: [&str; 2] = ["sweep", "brake_timing"];
+/// The tasks that can run as shards: the sweeps (kind [`SweepPoints`]) and the generated
+/// vehicles' study (kind [`GeneratedVehicles`](crate::tasks::study_generated::GeneratedVehicles)).
+pub const SHARDABLE_TASKS: [&str; 3] = ["sweep", "brake_timing", "study_generated"];
 
 /// Where a shard came from: everything [`merge_dir`] checks before it trusts the results.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -598,7 +606,7 @@ fn run_shard_inner<T: PointwiseTask>(
     let range = spec.range(provenance.points_total);
     let label = format!("{} shard {spec}", T::name(config));
     let results = compute::<T>(&points, range.clone(), &label, ctx.progress);
-    let points_failed = count_failed(&results)?;
+    let points_failed = results.iter().map(T::failures).sum();
     let file = dir.join(spec.file_name());
     let shard = ShardFile {
         provenance,
@@ -639,18 +647,6 @@ fn compute<T: PointwiseTask>(
         .collect();
     progress.finish();
     out
-}
-
-/// Points whose result is an error (`{"Err": …}` in JSON), counted generically.
-fn count_failed<P: Serialize>(results: &[P]) -> Result<usize, ShardError> {
-    let mut n = 0;
-    for r in results {
-        let v = serde_json::to_value(r).map_err(|e| numerical("serialising a point", e))?;
-        if v.get("metrics").and_then(|m| m.get("Err")).is_some() {
-            n += 1;
-        }
-    }
-    Ok(n)
 }
 
 fn remove_failure(dir: &Path, spec: ShardSpec) -> Result<(), ShardError> {
@@ -706,7 +702,12 @@ fn ensure_shardable(task: &str) -> Result<(), ShardError> {
 /// [`ShardError::NotShardable`], read and config errors.
 pub fn study_name(task: &str, config_file: &Path) -> Result<String, ShardError> {
     ensure_shardable(task)?;
-    Ok(SweepPoints::load(config_file)?.name)
+    Ok(match task {
+        GeneratedVehicles::TASK_NAME => {
+            GeneratedVehicles::name(&GeneratedVehicles::load(config_file)?).to_string()
+        }
+        _ => SweepPoints::load(config_file)?.name,
+    })
 }
 
 /// Runs shard `spec` of the shardable task `task` (one of [`SHARDABLE_TASKS`]) on the
@@ -722,8 +723,16 @@ pub fn run_task_shard(
     dir: &Path,
 ) -> Result<ShardReport, ShardError> {
     ensure_shardable(task)?;
-    let config = SweepPoints::load(config_file)?;
-    run_shard::<SweepPoints>(ctx, config_file, &config, spec, dir)
+    match task {
+        GeneratedVehicles::TASK_NAME => {
+            let config = GeneratedVehicles::load(config_file)?;
+            run_shard::<GeneratedVehicles>(ctx, config_file, &config, spec, dir)
+        }
+        _ => {
+            let config = SweepPoints::load(config_file)?;
+            run_shard::<SweepPoints>(ctx, config_file, &config, spec, dir)
+        }
+    }
 }
 
 /// The head of a shard file: its provenance (the results are skipped).
@@ -1065,6 +1074,7 @@ pub fn merge_dir(
     let expected = expected_study(&scan)?;
     match expected.kind.as_str() {
         SweepPoints::KIND => merge_as::<SweepPoints>(dir, results_root, progress),
+        GeneratedVehicles::KIND => merge_as::<GeneratedVehicles>(dir, results_root, progress),
         other => Err(ShardError::NotShardable {
             task: other.to_string(),
             shardable: SHARDABLE_TASKS.join(", "),

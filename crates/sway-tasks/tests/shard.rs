@@ -303,3 +303,56 @@ fn a_sampled_study_over_a_vehicle_axis_merges_byte_for_byte() {
         }
     }
 }
+
+/// The generated vehicles' study as shards: merged, its `runs.csv` (the runs' outcomes and
+/// curve ends, no times) is byte for byte the unsharded run's, and the summary counts the
+/// same runs. Reference: the unsharded run through the task's own `run`; two vehicles
+/// through `linear`, a fraction of a second each.
+#[test]
+fn the_generated_vehicles_study_shards_and_merges_to_the_unsharded_runs() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let cfg = tmp.path().join("study_generated.toml");
+    let configs = repo().join("configs");
+    std::fs::write(
+        &cfg,
+        format!(
+            "seed = 52\ncount = 3\ntasks = [\"linear\"]\nconfigs_dir = {:?}\n",
+            configs.display().to_string()
+        ),
+    )
+    .expect("write");
+    let single = tmp.path().join("single");
+    let c = ctx(&single);
+    let task = tasks::resolve("study_generated").expect("task").remove(0);
+    let (p, _) = tasks::prepare_checked(&task, &c, &cfg).expect("valid");
+    p.run(&c).expect("runs");
+    let shards = tmp.path().join("shards");
+    let c = ctx(&shards);
+    for k in 1..=2 {
+        let spec = ShardSpec::new(k, 2).expect("valid");
+        let r =
+            shard::run_task_shard("study_generated", &c, &cfg, spec, &shards).expect("shard runs");
+        assert_eq!(r.points_total, 3);
+        assert_eq!(r.points_failed, 0, "{r:?}");
+    }
+    assert_eq!(
+        shard::study_name("study_generated", &cfg).expect("name"),
+        "study_generated"
+    );
+    let merged = tmp.path().join("merged");
+    shard::merge_dir(&shards, &merged, &NoProgress).expect("merges");
+    let read = |d: &Path, f: &str| std::fs::read(d.join("study_generated").join(f)).expect(f);
+    assert!(
+        read(&single, "runs.csv") == read(&merged, "runs.csv"),
+        "runs.csv differs"
+    );
+    let runs = |d: &Path| -> serde_json::Value {
+        let s: serde_json::Value = serde_json::from_slice(&read(d, "summary.json")).expect("json");
+        serde_json::json!([s["vehicles"], s["runs"], s["failures"], s["variant_counts"]])
+    };
+    assert_eq!(runs(&single), runs(&merged));
+    assert_eq!(
+        runs(&merged),
+        serde_json::json!([3, 3, 0, runs(&merged)[3]])
+    );
+}

@@ -107,7 +107,7 @@ impl TaskConfig for StudyGeneratedConfig {
 
 /// A curve that ended before its range, as a task's `summary.json` reports it under
 /// `curves_ended_early`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EndedCurve {
     /// which curve (the task's words)
     pub curve: String,
@@ -116,7 +116,7 @@ pub struct EndedCurve {
 }
 
 /// One run of one task on one vehicle.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Run {
     /// the vehicle's name (`generated-<index>`)
     pub vehicle: String,
@@ -130,10 +130,9 @@ pub struct Run {
     pub ended_early: Vec<EndedCurve>,
     /// the speeds its summary reports at the speed cap without `stable_up_to_mps`
     /// ([`crate::io::speeds_at_cap`]; a capped value reported as a measured one): JSON paths
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub speeds_at_cap: Vec<String>,
     /// wall time of the run \[s\] (not in `runs.csv`: it varies from run to run)
-    #[serde(skip)]
     pub seconds: f64,
 }
 
@@ -262,11 +261,56 @@ fn run_one(
     }
 }
 
-/// Runs `tasks` on every vehicle (vehicles side by side, results in vehicle order), each
-/// vehicle's results in `scratch/<name>/` (removed after its runs).
-///
-/// # Errors
-/// [`TaskError::Write`] if a vehicle file cannot be written.
+/// Runs `tasks` on one vehicle, its file and results in `scratch/<name>/` (removed after
+/// its runs). A vehicle file that cannot be written fails every run of the vehicle with the
+/// write error (the study goes on).
+pub fn run_vehicle(
+    vehicle: &GeneratedVehicle,
+    tasks: &[String],
+    configs: &Path,
+    scratch: &Path,
+    limits: sway::ranging::SpeedLimits,
+) -> Vec<Run> {
+    let dir = scratch.join(&vehicle.name);
+    let variants = vehicle.variants.names().join("+");
+    let written = write_vehicle(vehicle, &dir);
+    let runs = tasks
+        .iter()
+        .map(|t| {
+            let start = std::time::Instant::now();
+            let r = match &written {
+                Ok(file) => run_one(t, file, configs, &dir.join("results"), limits),
+                Err(e) => Err(e.to_string()),
+            };
+            Run {
+                seconds: start.elapsed().as_secs_f64(),
+                vehicle: vehicle.name.clone(),
+                variants: variants.clone(),
+                task: t.clone(),
+                ended_early: r.as_ref().map_or(Vec::new(), |r| r.0.clone()),
+                speeds_at_cap: r.as_ref().map_or(Vec::new(), |r| r.1.clone()),
+                error: r.err(),
+            }
+        })
+        .collect();
+    // the scratch results are not kept (a failed removal leaves files, no error)
+    let _ = std::fs::remove_dir_all(&dir);
+    runs
+}
+
+/// Writes the vehicle's file `dir/<name>.toml`.
+fn write_vehicle(v: &GeneratedVehicle, dir: &Path) -> Result<PathBuf, TaskError> {
+    let write = |path: PathBuf, source| TaskError::Write { path, source };
+    std::fs::create_dir_all(dir).map_err(|e| write(dir.to_path_buf(), e))?;
+    let file = dir.join(format!("{}.toml", v.name));
+    let text = toml::to_string(&v.spec)
+        .map_err(|e| write(file.clone(), std::io::Error::other(e.to_string())))?;
+    std::fs::write(&file, text).map_err(|e| write(file.clone(), e))?;
+    Ok(file)
+}
+
+/// Runs `tasks` on every vehicle (vehicles side by side, results in vehicle order,
+/// [`run_vehicle`]), calling `advance` after each vehicle.
 pub fn run_all(
     vehicles: &[GeneratedVehicle],
     tasks: &[String],
@@ -274,46 +318,16 @@ pub fn run_all(
     scratch: &Path,
     limits: sway::ranging::SpeedLimits,
     advance: &(dyn Fn() + Sync),
-) -> Result<Vec<Run>, TaskError> {
-    let per_vehicle: Vec<Result<Vec<Run>, TaskError>> = vehicles
+) -> Vec<Run> {
+    let per_vehicle: Vec<Vec<Run>> = vehicles
         .par_iter()
         .map(|v| {
-            let dir = scratch.join(&v.name);
-            let write = |path: PathBuf, source| TaskError::Write { path, source };
-            std::fs::create_dir_all(&dir).map_err(|e| write(dir.clone(), e))?;
-            let file = dir.join(format!("{}.toml", v.name));
-            let text = toml::to_string(&v.spec).map_err(|e| {
-                write(file.clone(), std::io::Error::other(e.to_string()))
-            })?;
-            std::fs::write(&file, text).map_err(|e| write(file.clone(), e))?;
-            let variants = v.variants.names().join("+");
-            let runs = tasks
-                .iter()
-                .map(|t| {
-                    let start = std::time::Instant::now();
-                    let r = run_one(t, &file, configs, &dir.join("results"), limits);
-                    Run {
-                        seconds: start.elapsed().as_secs_f64(),
-                        vehicle: v.name.clone(),
-                        variants: variants.clone(),
-                        task: t.clone(),
-                        ended_early: r.as_ref().map_or(Vec::new(), |r| r.0.clone()),
-                        speeds_at_cap: r.as_ref().map_or(Vec::new(), |r| r.1.clone()),
-                        error: r.err(),
-                    }
-                })
-                .collect();
-            // the scratch results are not kept (a failed removal leaves files, no error)
-            let _ = std::fs::remove_dir_all(&dir);
+            let runs = run_vehicle(v, tasks, configs, scratch, limits);
             advance();
-            Ok(runs)
+            runs
         })
         .collect();
-    let mut out = Vec::new();
-    for r in per_vehicle {
-        out.extend(r?);
-    }
-    Ok(out)
+    per_vehicle.into_iter().flatten().collect()
 }
 
 /// The summary of `runs` on `vehicles`.
@@ -452,50 +466,163 @@ fn csv_row(r: &Run) -> RunRow {
     }
 }
 
+/// The configs directory of the study: `configs_dir` relative to the config file, else
+/// the run's.
+fn configs_of(cfg: &StudyGeneratedConfig, file: &Path, ctx: &TaskContext<'_>) -> PathBuf {
+    match &cfg.configs_dir {
+        Some(d) => file.parent().unwrap_or(Path::new(".")).join(d),
+        None => ctx.configs_dir.clone(),
+    }
+}
+
+/// The scratch directory of this process's vehicles.
+fn scratch_of(ctx: &TaskContext<'_>) -> PathBuf {
+    ctx.results_dir
+        .join(format!(".{}-scratch-{}", TASK.name, std::process::id()))
+}
+
+/// Writes `runs.csv`, the figure and `table.md` into `out` and returns the summary and the
+/// console lines: the same for a run on one machine and a merge of shards.
+fn write_study(
+    out: &crate::io::OutputDir,
+    vehicles: &[GeneratedVehicle],
+    tasks: &[String],
+    runs: &[Run],
+) -> Result<(StudyGeneratedSummary, Vec<String>), TaskError> {
+    let summary = summarise(vehicles, tasks, runs);
+    out.write_table("runs.csv", runs.iter().map(csv_row))?;
+    figure(&summary, runs).render(&out.path("study_generated"))?;
+    let md = markdown(&summary);
+    std::fs::write(out.path("table.md"), &md).map_err(|source| TaskError::Write {
+        path: out.path("table.md"),
+        source,
+    })?;
+    let ended: usize = summary.curves_ended_early_by_reason.values().sum();
+    let mut lines = vec![format!(
+        "{} vehicles × {} tasks: {} runs, {} failed, {ended} curves ended early {:?}",
+        summary.vehicles,
+        tasks.len(),
+        summary.runs,
+        summary.failures,
+        summary.curves_ended_early_by_reason
+    )];
+    lines.extend(summary.failed_runs.iter().map(|r| {
+        format!(
+            "failed: {} ({}) {}: {}",
+            r.vehicle,
+            r.variants,
+            r.task,
+            r.error.as_deref().unwrap_or("")
+        )
+    }));
+    Ok((summary, lines))
+}
+
+const STAGE: &str = "study_generated: generated vehicles through every task";
+
 impl Prepared for Configured<StudyGeneratedConfig> {
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let configs = match &cfg.configs_dir {
-            Some(d) => self.file.parent().unwrap_or(Path::new(".")).join(d),
-            None => ctx.configs_dir.clone(),
-        };
+        let configs = configs_of(cfg, &self.file, ctx);
         let vehicles = generate(cfg.seed, cfg.count);
-        let scratch = ctx
-            .results_dir
-            .join(format!(".{}-scratch-{}", TASK.name, std::process::id()));
-        let stage = "study_generated: generated vehicles through every task";
-        ctx.run_staged(TASK.name, stage, vehicles.len() as u64, cfg, &self.file, |out| {
+        let scratch = scratch_of(ctx);
+        ctx.run_staged(TASK.name, STAGE, vehicles.len() as u64, cfg, &self.file, |out| {
             let advance = || ctx.progress.advance(1);
             let runs = run_all(&vehicles, &cfg.tasks, &configs, &scratch, ctx.limits, &advance);
             let _ = std::fs::remove_dir_all(&scratch);
-            let runs = runs?;
-            let summary = summarise(&vehicles, &cfg.tasks, &runs);
-            out.write_table("runs.csv", runs.iter().map(csv_row))?;
-            figure(&summary, &runs).render(&out.path("study_generated"))?;
-            let md = markdown(&summary);
-            std::fs::write(out.path("table.md"), &md).map_err(|source| TaskError::Write {
-                path: out.path("table.md"),
-                source,
-            })?;
-            let ended: usize = summary.curves_ended_early_by_reason.values().sum();
-            let mut lines = vec![format!(
-                "{} vehicles × {} tasks: {} runs, {} failed, {ended} curves ended early {:?}",
-                summary.vehicles,
-                cfg.tasks.len(),
-                summary.runs,
-                summary.failures,
-                summary.curves_ended_early_by_reason
-            )];
-            lines.extend(summary.failed_runs.iter().map(|r| {
-                format!(
-                    "failed: {} ({}) {}: {}",
-                    r.vehicle,
-                    r.variants,
-                    r.task,
-                    r.error.as_deref().unwrap_or("")
-                )
-            }));
-            Ok((summary, lines))
+            write_study(out, &vehicles, &cfg.tasks, &runs)
         })
+    }
+}
+
+/// The study as shardable points (`cargo xtask study_generated --shard K/N`, then `cargo
+/// xtask merge`): point k is generated vehicle k through every task, so a study of a
+/// hundred vehicles runs as slices on several machines or one after another, and a slice
+/// that is done stays done. The shard files record each run's wall time (the table's
+/// time column), so re-running a shard rewrites the same results with other times.
+#[derive(Debug, Clone, Copy)]
+pub struct GeneratedVehicles;
+
+impl GeneratedVehicles {
+    /// The task this kind shards.
+    pub const TASK_NAME: &'static str = "study_generated";
+}
+
+/// What the points of [`GeneratedVehicles`] need.
+#[derive(Debug)]
+pub struct GeneratedPoints {
+    vehicles: Vec<GeneratedVehicle>,
+    tasks: Vec<String>,
+    configs: PathBuf,
+    scratch: PathBuf,
+    limits: sway::ranging::SpeedLimits,
+}
+
+impl Drop for GeneratedPoints {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.scratch);
+    }
+}
+
+impl crate::shard::PointwiseTask for GeneratedVehicles {
+    const KIND: &'static str = Self::TASK_NAME;
+    type Config = StudyGeneratedConfig;
+    type Point = Vec<Run>;
+    type Points = GeneratedPoints;
+
+    fn load(file: &Path) -> Result<StudyGeneratedConfig, TaskError> {
+        let config: StudyGeneratedConfig = crate::config_file::load_toml(file)?;
+        config.check(file)?;
+        Ok(config)
+    }
+    fn name(_config: &StudyGeneratedConfig) -> &str {
+        TASK.name
+    }
+    fn fleet(
+        _ctx: &TaskContext<'_>,
+        _config: &StudyGeneratedConfig,
+        _file: &Path,
+    ) -> Result<Vec<trailer_model::VehicleParams>, TaskError> {
+        Ok(Vec::new())
+    }
+    fn prepare(
+        ctx: &TaskContext<'_>,
+        config: &StudyGeneratedConfig,
+        file: &Path,
+    ) -> Result<GeneratedPoints, TaskError> {
+        Ok(GeneratedPoints {
+            vehicles: generate(config.seed, config.count),
+            tasks: config.tasks.clone(),
+            configs: configs_of(config, file, ctx),
+            scratch: scratch_of(ctx),
+            limits: ctx.limits,
+        })
+    }
+    fn len(points: &GeneratedPoints) -> usize {
+        points.vehicles.len()
+    }
+    fn run_point(points: &GeneratedPoints, k: usize) -> Vec<Run> {
+        run_vehicle(
+            &points.vehicles[k],
+            &points.tasks,
+            &points.configs,
+            &points.scratch,
+            points.limits,
+        )
+    }
+    fn failures(point: &Vec<Run>) -> usize {
+        point.iter().filter(|r| r.error.is_some()).count()
+    }
+    fn write_outputs(
+        ctx: &TaskContext<'_>,
+        out: crate::io::OutputDir,
+        config_file: &Path,
+        config: &StudyGeneratedConfig,
+        points: &[Vec<Run>],
+    ) -> Result<Report, TaskError> {
+        let vehicles = generate(config.seed, config.count);
+        let runs: Vec<Run> = points.iter().flatten().cloned().collect();
+        let (summary, lines) = write_study(&out, &vehicles, &config.tasks, &runs)?;
+        ctx.conclude(out, summary, config, config_file, lines)
     }
 }

@@ -77,6 +77,41 @@
 //! v_P·E1_0 = V), its force F = law(α) ([`tires::TireLaw`], built with the static load of
 //! [`ChainSpec::static_loads`]); an axle with relaxation length σ > 0 has the lagged slip
 //! α′ with σ α̇′ = v_x (α − α′), v_x = v_P·E1_i, and the force law(α′).
+//!
+//! # As a [`Plant`]
+//!
+//! [`ChainModel<N>`] is a `Plant<N>`: the right-hand sides (with a yaw moment on the towing
+//! unit), exact Jacobians, the linearisation about straight running, the open-loop spectrum
+//! and V_crit come from the trait. What the trait calls "the hitch" is the FIRST coupling
+//! H_1: [`Plant::hitch_angle_rate`] is θ̇_1, [`crate::HITCH_ANGLE`] indexes θ_1,
+//! [`Plant::trailer_longitudinal_speed`] is the first towed unit's, [`Plant::params`] the
+//! towing unit with the first towed unit ([`ChainSpec::first_pair_params`]), and the full
+//! state of [`Plant::rhs_full`] appends ψ_0 and the position of H_1. The validity guard
+//! ([`Plant::guard_values`]) watches every towed unit's axles.
+//!
+//! ```
+//! use trailer_model::{
+//!     ChainModel, ChainSpec, CriticalSpeedOptions, Plant, TowedUnitSpec, VehicleParams,
+//! };
+//!
+//! // Table I with a second, lighter caravan 4 m behind the first one's hitch
+//! let mut spec = ChainSpec::from(VehicleParams::default());
+//! let mut first = spec.trailer.take().unwrap();
+//! first.rear_coupling = Some(4.0);
+//! let second = TowedUnitSpec {
+//!     mass: 600.0,
+//!     yaw_inertia: 700.0,
+//!     cog: 2.0,
+//!     axle: Some(2.3),
+//!     cornering_stiffness: Some(40e3),
+//!     rear_coupling: None,
+//!     ..first.clone()
+//! };
+//! spec.trailers = vec![first, second];
+//! let model = ChainModel::<6>::new(&spec).unwrap(); // 2 states per unit
+//! let vc = model.critical_speed(&CriticalSpeedOptions::default()).unwrap();
+//! assert!(vc.v_crit_mps > 10.0 && vc.v_crit_mps < 60.0);
+//! ```
 
 use nalgebra::SVector;
 use num_dual::DualNum;
@@ -190,18 +225,22 @@ fn solve_ldlt<D: DualNum<Primitive = f64> + Copy>(
     b: &mut [D; MAX_DOF],
     n: usize,
 ) {
+    // a[j][j] ends as 1/D_j (one division per pivot), a[i][j] (i > j) as L_ij
+    let mut d = [D::from(0.0); MAX_DOF];
     for j in 0..n {
-        let mut d = a[j][j];
+        let mut dj = a[j][j];
         for k in 0..j {
-            d -= a[j][k] * a[j][k] * a[k][k];
+            dj -= a[j][k] * a[j][k] * d[k];
         }
-        a[j][j] = d;
+        d[j] = dj;
+        let inv = dj.recip();
+        a[j][j] = inv;
         for i in j + 1..n {
             let mut s = a[i][j];
             for k in 0..j {
-                s -= a[i][k] * a[j][k] * a[k][k];
+                s -= a[i][k] * a[j][k] * d[k];
             }
-            a[i][j] = s / d;
+            a[i][j] = s * inv;
         }
     }
     for i in 0..n {
@@ -211,7 +250,7 @@ fn solve_ldlt<D: DualNum<Primitive = f64> + Copy>(
         }
     }
     for i in 0..n {
-        b[i] /= a[i][i];
+        b[i] *= a[i][i];
     }
     for i in (0..n).rev() {
         for k in i + 1..n {
@@ -548,11 +587,13 @@ impl<const N: usize> ChainModel<N> {
             let e1 = [f.cos, f.sin];
             let e2 = [-f.sin, f.cos];
             let omega2 = f.omega * f.omega;
-            // β_{i,k}: 0 for v, 1 for r and θ̇_j (j ≤ i), 0 beyond
-            let beta = |k: usize| k >= 1 && k <= i + 1;
+            // β_{i,k}: 0 for v, 1 for r and θ̇_j (j ≤ i), 0 beyond; the speeds beyond θ̇_i
+            // (k > i + 1) move neither unit i nor the units in front of it: W_k = 0 there
+            let beta = |k: usize| k >= 1;
+            let dofs = i + 2;
             // centre of gravity: W^C_k, A^C
             let mut wc = w;
-            for (k, wk) in wc.iter_mut().enumerate().take(ndof) {
+            for (k, wk) in wc.iter_mut().enumerate().take(dofs) {
                 if beta(k) {
                     wk[0] += e2[0] * uc.x_cog;
                     wk[1] += e2[1] * uc.x_cog;
@@ -562,7 +603,7 @@ impl<const N: usize> ChainModel<N> {
                 acc[0] - e1[0] * omega2 * uc.x_cog,
                 acc[1] - e1[1] * omega2 * uc.x_cog,
             ];
-            for k in 0..ndof {
+            for k in 0..dofs {
                 for l in 0..=k {
                     let mut m_kl = dot(wc[k], wc[l]) * uc.mass;
                     if beta(k) && beta(l) {
@@ -605,7 +646,7 @@ impl<const N: usize> ChainModel<N> {
                     moment += force * a.x;
                 }
             }
-            for k in 0..ndof {
+            for k in 0..dofs {
                 let mut q = dot(res, w[k]);
                 if beta(k) {
                     q += moment;
@@ -616,7 +657,7 @@ impl<const N: usize> ChainModel<N> {
             if i + 1 < nu {
                 let xr = uc.x_rear;
                 if xr != 0.0 {
-                    for (k, wk) in w.iter_mut().enumerate().take(ndof) {
+                    for (k, wk) in w.iter_mut().enumerate().take(dofs) {
                         if beta(k) {
                             wk[0] += e2[0] * xr;
                             wk[1] += e2[1] * xr;

@@ -489,8 +489,8 @@ impl ChainSpec {
     /// group ahead of its unsteered group (f̄ > c̄) with its centre of gravity d finite; each
     /// towed unit's h > 0 and its axles behind its coupling (position > 0); stiffnesses > 0,
     /// σ ≥ 0, at most [`MAX_CHAIN_AXLES`] axles; 0 < μ ≤ μ0, g > 0; each coupling's c_h ≥ 0,
-    /// M_c ≥ 0, ω_c > 0; each tyre law buildable with its static load (a load ≤ 0 names the
-    /// axle's `tire`). Returns the tyre laws in axle order.
+    /// M_c ≥ 0, ω_c > 0; every static axle load > 0 (naming the axle's position); each tyre
+    /// law buildable with its static load. Returns the tyre laws in axle order.
     ///
     /// # Errors
     /// [`ModelError::InvalidSpec`] naming the key; [`ModelError::TireSpec`] for a tyre law.
@@ -601,6 +601,17 @@ impl ChainSpec {
             }
         }
         let (loads, _) = self.static_loads()?;
+        for (a, &fz) in axles.iter().zip(&loads) {
+            if !(fz.is_finite() && fz > 0.0) {
+                return Err(invalid(
+                    a.position_key.clone(),
+                    a.spec.position_m,
+                    format!(
+                        "a position with a positive static load (it is {fz:.1} N): check the centres of gravity and couplings of this unit and the units behind it"
+                    ),
+                ));
+            }
+        }
         axles
             .iter()
             .zip(loads)

@@ -214,6 +214,9 @@ impl ChainSpec {
 
     /// The torque law at the coupling in front of towed unit `i` (0-based), with the key
     /// path of its table.
+    ///
+    /// # Panics
+    /// If there is no towed unit `i`.
     pub fn coupling(&self, i: usize) -> (HitchSpec, String) {
         let unit = &self.towed_units()[i];
         match (unit.hitch, self.hitch, i) {

@@ -185,6 +185,7 @@ fn newton_euler<const N: usize>(
     psi: f64,
     yaw_moment: f64,
     with_tyres: bool,
+    stiffness: &[f64],
 ) -> Oracle<N> {
     let spec = model.spec();
     let towed = spec.towed_units();
@@ -291,12 +292,13 @@ fn newton_euler<const N: usize>(
         let normal = heading(psis[i] + steer).1;
         tyres.push((i, arm, normal * f));
     }
-    // coupling torques T_i = c_h θ̇ + M_c clamp(θ̇/ω_c)
+    // coupling torques T_i = c_h θ̇ + M_c clamp(θ̇/ω_c) + k θ (k: a test's spring)
     let torque = |i: usize| {
         let (h, _) = spec.coupling(i - 1);
         let w = x[2 * i];
         h.yaw_damping_nms * w
             + h.friction_torque_nm * (w / h.friction_regularisation_rad_s).clamp(-1.0, 1.0)
+            + stiffness.get(i - 1).copied().unwrap_or(0.0) * x[2 * i + 1]
     };
 
     let mut a = DMatrix::<f64>::zeros(nz, nz);
@@ -404,14 +406,17 @@ fn rel_err<const N: usize>(a: &SVector<f64, N>, b: &SVector<f64, N>) -> f64 {
     (a - b).amax() / b.amax().max(1e-300)
 }
 
-fn newton_euler_agreement<const N: usize>(spec: &ChainSpec, seed: u64) -> f64 {
-    let model = ChainModel::<N>::new(spec).expect("the chain builds");
+fn newton_euler_agreement<const N: usize>(spec: &ChainSpec, seed: u64, stiffness: &[f64]) -> f64 {
+    let mut model = ChainModel::<N>::new(spec).expect("the chain builds");
+    for (i, &k) in stiffness.iter().enumerate() {
+        model = model.with_coupling_stiffness(i + 1, k);
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut worst: f64 = 0.0;
     for _ in 0..200 {
         let (x, u, psi, m) = random_point::<N>(&mut rng, model.units());
         let ours = model.rhs_with_yaw_moment(&x, &u, m);
-        let theirs = newton_euler(&model, &x, &u, psi, m, true).dx;
+        let theirs = newton_euler(&model, &x, &u, psi, m, true, stiffness).dx;
         worst = worst.max(rel_err(&ours, &theirs));
     }
     worst
@@ -424,14 +429,14 @@ fn newton_euler_agreement<const N: usize>(spec: &ChainSpec, seed: u64) -> f64 {
 #[test]
 fn newton_euler_two_units() {
     // Table I, and Table I with relaxation on every axle and a damped friction hitch
-    let e1 = newton_euler_agreement::<4>(&table_i_chain(vec![]), 1);
+    let e1 = newton_euler_agreement::<4>(&table_i_chain(vec![]), 1, &[]);
     let mut v = VehicleSpec::table_i_with_relaxation(0.3);
     v.hitch = HitchSpec {
         yaw_damping_nms: 500.0,
         friction_torque_nm: 300.0,
         friction_regularisation_rad_s: 0.05,
     };
-    let e2 = newton_euler_agreement::<7>(&ChainSpec::from(&v), 2);
+    let e2 = newton_euler_agreement::<7>(&ChainSpec::from(&v), 2, &[]);
     println!("Newton–Euler, 2 units: max rel. error {e1:.2e} (Table I), {e2:.2e} (variants)");
     assert!(e1 < 1e-10 && e2 < 1e-10, "{e1:e} {e2:e}");
 }
@@ -440,16 +445,18 @@ fn newton_euler_two_units() {
 fn newton_euler_three_units() {
     let spec = three_units();
     assert_eq!(spec.states().unwrap(), 8);
-    let e = newton_euler_agreement::<8>(&spec, 3);
-    println!("Newton–Euler, 3 units: max rel. error {e:.2e}");
-    assert!(e < 1e-10, "{e:e}");
+    let e = newton_euler_agreement::<8>(&spec, 3, &[]);
+    // with torsional springs at the couplings
+    let es = newton_euler_agreement::<8>(&spec, 33, &[2e4, 5e3]);
+    println!("Newton–Euler, 3 units: max rel. error {e:.2e}, with coupling springs {es:.2e}");
+    assert!(e < 1e-10 && es < 1e-10, "{e:e} {es:e}");
 }
 
 #[test]
 fn newton_euler_four_units() {
     let spec = four_units();
     assert_eq!(spec.states().unwrap(), 10);
-    let e = newton_euler_agreement::<10>(&spec, 4);
+    let e = newton_euler_agreement::<10>(&spec, 4, &[]);
     println!("Newton–Euler, 4 units: max rel. error {e:.2e}");
     assert!(e < 1e-10, "{e:e}");
 }
@@ -523,7 +530,11 @@ fn two_units_equal_todays_models() {
     let ours = chain.critical_speed(&opts).unwrap().v_crit_mps;
     let today7 = general.critical_speed(&opts).unwrap().v_crit_mps;
     let ours7 = chain7.critical_speed(&opts).unwrap().v_crit_mps;
-    println!("V_crit: {ours:.10} vs {today:.10}; relaxing {ours7:.10} vs {today7:.10} m/s");
+    println!(
+        "V_crit: {ours:.10} vs {today:.10} m/s (rel. {:.1e}); relaxing {ours7:.10} vs {today7:.10} m/s (rel. {:.1e})",
+        ((ours - today) / today).abs(),
+        ((ours7 - today7) / today7).abs()
+    );
     assert!(((ours - today) / today).abs() < 1e-8);
     assert!(((ours7 - today7) / today7).abs() < 1e-8);
 }
@@ -628,7 +639,7 @@ fn rk4_step<const N: usize>(
     h: f64,
 ) -> (SVector<f64, N>, f64) {
     let f = |x: &SVector<f64, N>| {
-        let lambda = newton_euler(model, x, u, 0.0, 0.0, false).lambda;
+        let lambda = newton_euler(model, x, u, 0.0, 0.0, false, &[]).lambda;
         (model.rhs(x, u), lambda * u.speed)
     };
     let (k1, p1) = f(x);
@@ -651,12 +662,12 @@ fn energy_drift<const N: usize>(
     h: f64,
     duration: f64,
 ) -> (f64, f64) {
-    let t0 = newton_euler(model, x0, u, 0.0, 0.0, false).kinetic_energy;
+    let t0 = newton_euler(model, x0, u, 0.0, 0.0, false, &[]).kinetic_energy;
     let (mut x, mut w) = (*x0, 0.0);
     let (mut worst, mut change): (f64, f64) = (0.0, 0.0);
     for _ in 0..(duration / h).round() as usize {
         (x, w) = rk4_step(model, &x, w, u, h);
-        let t = newton_euler(model, &x, u, 0.0, 0.0, false).kinetic_energy;
+        let t = newton_euler(model, &x, u, 0.0, 0.0, false, &[]).kinetic_energy;
         worst = worst.max((t - t0 - w).abs() / t0);
         change = change.max((t - t0).abs() / t0);
     }

@@ -36,6 +36,8 @@
 //! assert!((vc.v_crit_mps - 34.0).abs() < 1.0);
 //! ```
 
+mod chain;
+mod chain_spec;
 mod extended;
 mod linear;
 mod model;
@@ -43,6 +45,8 @@ mod params;
 mod plant;
 mod spec;
 
+pub use chain::{ChainAxle, ChainModel};
+pub use chain_spec::{ChainAxleSpec, ChainSpec, MAX_CHAIN_AXLES, MAX_TOWED_UNITS, TowedUnitSpec};
 pub use extended::{AnyVehicleModel, AxleModel, MAX_STATES, VehicleModel};
 pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};
 pub use model::{HITCH_ANGLE, Inputs, Model, SlipAngles, State4, State7, YAW_ANGLE};

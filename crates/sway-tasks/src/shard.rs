@@ -39,7 +39,7 @@ use trailer_model::{Model, VehicleParams, VehicleSpec};
 
 use crate::config_file::{TaskConfig, load_toml};
 use crate::io::OutputDir;
-use crate::tasks::study_generated::GeneratedVehicles;
+use crate::tasks::study_generated::{self, StudyGeneratedConfig};
 use crate::tasks::{Report, TaskContext};
 
 /// The format tag of a shard file.
@@ -391,8 +391,69 @@ impl PointwiseTask for SweepPoints {
     }
 }
 
+/// The generated vehicles' study (`cargo xtask study_generated --shard K/N`, then `cargo
+/// xtask merge`): point k is generated vehicle k through every task, so a study of a
+/// hundred vehicles runs as slices on several machines or one after another, and a slice
+/// that is done stays done. Its shard files also record each run's wall time (the table's
+/// time column): a re-run shard has the same results with other times.
+#[derive(Debug, Clone, Copy)]
+pub struct GeneratedVehicles;
+
+impl GeneratedVehicles {
+    /// The task this kind shards.
+    pub const TASK_NAME: &'static str = study_generated::TASK.name;
+}
+
+impl PointwiseTask for GeneratedVehicles {
+    const KIND: &'static str = Self::TASK_NAME;
+    type Config = StudyGeneratedConfig;
+    type Point = Vec<study_generated::Run>;
+    type Points = study_generated::GeneratedPoints;
+
+    fn load(file: &Path) -> Result<StudyGeneratedConfig, TaskError> {
+        let config: StudyGeneratedConfig = load_toml(file)?;
+        config.check(file)?;
+        Ok(config)
+    }
+    fn name(_config: &StudyGeneratedConfig) -> &str {
+        Self::TASK_NAME
+    }
+    fn fleet(
+        _ctx: &TaskContext<'_>,
+        _config: &StudyGeneratedConfig,
+        _file: &Path,
+    ) -> Result<Vec<VehicleParams>, TaskError> {
+        Ok(Vec::new())
+    }
+    fn prepare(
+        ctx: &TaskContext<'_>,
+        config: &StudyGeneratedConfig,
+        file: &Path,
+    ) -> Result<study_generated::GeneratedPoints, TaskError> {
+        Ok(study_generated::GeneratedPoints::new(ctx, config, file))
+    }
+    fn len(points: &study_generated::GeneratedPoints) -> usize {
+        points.len()
+    }
+    fn run_point(points: &study_generated::GeneratedPoints, k: usize) -> Self::Point {
+        points.run(k)
+    }
+    fn failures(point: &Self::Point) -> usize {
+        point.iter().filter(|r| r.error.is_some()).count()
+    }
+    fn write_outputs(
+        ctx: &TaskContext<'_>,
+        out: OutputDir,
+        config_file: &Path,
+        config: &StudyGeneratedConfig,
+        points: &[Self::Point],
+    ) -> Result<Report, TaskError> {
+        study_generated::write_outputs(ctx, out, config_file, config, points)
+    }
+}
+
 /// The tasks that can run as shards: the sweeps (kind [`SweepPoints`]) and the generated
-/// vehicles' study (kind [`GeneratedVehicles`](crate::tasks::study_generated::GeneratedVehicles)).
+/// vehicles' study (kind [`GeneratedVehicles`]).
 pub const SHARDABLE_TASKS: [&str; 3] = ["sweep", "brake_timing", "study_generated"];
 
 /// Where a shard came from: everything [`merge_dir`] checks before it trusts the results.

@@ -535,20 +535,8 @@ impl Prepared for Configured<StudyGeneratedConfig> {
     }
 }
 
-/// The study as shardable points (`cargo xtask study_generated --shard K/N`, then `cargo
-/// xtask merge`): point k is generated vehicle k through every task, so a study of a
-/// hundred vehicles runs as slices on several machines or one after another, and a slice
-/// that is done stays done. The shard files record each run's wall time (the table's
-/// time column), so re-running a shard rewrites the same results with other times.
-#[derive(Debug, Clone, Copy)]
-pub struct GeneratedVehicles;
-
-impl GeneratedVehicles {
-    /// The task this kind shards.
-    pub const TASK_NAME: &'static str = "study_generated";
-}
-
-/// What the points of [`GeneratedVehicles`] need.
+/// What the points of the sharded study need (the shards' `GeneratedVehicles`): point k
+/// is generated vehicle k through every task.
 #[derive(Debug)]
 pub struct GeneratedPoints {
     vehicles: Vec<GeneratedVehicle>,
@@ -558,71 +546,60 @@ pub struct GeneratedPoints {
     limits: sway::ranging::SpeedLimits,
 }
 
+impl GeneratedPoints {
+    /// The points of `config` (read from `file`) in the run `ctx`.
+    pub fn new(ctx: &TaskContext<'_>, config: &StudyGeneratedConfig, file: &Path) -> Self {
+        Self {
+            vehicles: generate(config.seed, config.count),
+            tasks: config.tasks.clone(),
+            configs: configs_of(config, file, ctx),
+            scratch: scratch_of(ctx),
+            limits: ctx.limits,
+        }
+    }
+
+    /// The number of vehicles.
+    pub fn len(&self) -> usize {
+        self.vehicles.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.vehicles.is_empty()
+    }
+
+    /// Vehicle `k` through every task ([`run_vehicle`]).
+    pub fn run(&self, k: usize) -> Vec<Run> {
+        run_vehicle(
+            &self.vehicles[k],
+            &self.tasks,
+            &self.configs,
+            &self.scratch,
+            self.limits,
+        )
+    }
+}
+
 impl Drop for GeneratedPoints {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.scratch);
     }
 }
 
-impl crate::shard::PointwiseTask for GeneratedVehicles {
-    const KIND: &'static str = Self::TASK_NAME;
-    type Config = StudyGeneratedConfig;
-    type Point = Vec<Run>;
-    type Points = GeneratedPoints;
-
-    fn load(file: &Path) -> Result<StudyGeneratedConfig, TaskError> {
-        let config: StudyGeneratedConfig = crate::config_file::load_toml(file)?;
-        config.check(file)?;
-        Ok(config)
-    }
-    fn name(_config: &StudyGeneratedConfig) -> &str {
-        TASK.name
-    }
-    fn fleet(
-        _ctx: &TaskContext<'_>,
-        _config: &StudyGeneratedConfig,
-        _file: &Path,
-    ) -> Result<Vec<trailer_model::VehicleParams>, TaskError> {
-        Ok(Vec::new())
-    }
-    fn prepare(
-        ctx: &TaskContext<'_>,
-        config: &StudyGeneratedConfig,
-        file: &Path,
-    ) -> Result<GeneratedPoints, TaskError> {
-        Ok(GeneratedPoints {
-            vehicles: generate(config.seed, config.count),
-            tasks: config.tasks.clone(),
-            configs: configs_of(config, file, ctx),
-            scratch: scratch_of(ctx),
-            limits: ctx.limits,
-        })
-    }
-    fn len(points: &GeneratedPoints) -> usize {
-        points.vehicles.len()
-    }
-    fn run_point(points: &GeneratedPoints, k: usize) -> Vec<Run> {
-        run_vehicle(
-            &points.vehicles[k],
-            &points.tasks,
-            &points.configs,
-            &points.scratch,
-            points.limits,
-        )
-    }
-    fn failures(point: &Vec<Run>) -> usize {
-        point.iter().filter(|r| r.error.is_some()).count()
-    }
-    fn write_outputs(
-        ctx: &TaskContext<'_>,
-        out: crate::io::OutputDir,
-        config_file: &Path,
-        config: &StudyGeneratedConfig,
-        points: &[Vec<Run>],
-    ) -> Result<Report, TaskError> {
-        let vehicles = generate(config.seed, config.count);
-        let runs: Vec<Run> = points.iter().flatten().cloned().collect();
-        let (summary, lines) = write_study(&out, &vehicles, &config.tasks, &runs)?;
-        ctx.conclude(out, summary, config, config_file, lines)
-    }
+/// Writes the study's outputs from the runs of every vehicle, in vehicle order, and
+/// commits them: what a merge of shards writes.
+///
+/// # Errors
+/// Write errors.
+pub fn write_outputs(
+    ctx: &TaskContext<'_>,
+    out: crate::io::OutputDir,
+    config_file: &Path,
+    config: &StudyGeneratedConfig,
+    per_vehicle: &[Vec<Run>],
+) -> Result<Report, TaskError> {
+    let vehicles = generate(config.seed, config.count);
+    let runs: Vec<Run> = per_vehicle.iter().flatten().cloned().collect();
+    let (summary, lines) = write_study(&out, &vehicles, &config.tasks, &runs)?;
+    ctx.conclude(out, summary, config, config_file, lines)
 }

@@ -700,10 +700,12 @@ impl Prepared for SwayAssistTask {
                 ));
                 let a = &r.assist;
                 lines.push(format!(
-                    "assist over {} scenarios: loss of control {} → {}, sustained sway {} → {} (without → with)",
+                    "assist over {} scenarios: loss of control {} → {} ({} → {} after sway), sustained sway {} → {} (without → with)",
                     a.runs,
                     a.loss_of_control_without,
                     a.loss_of_control_with,
+                    a.loss_of_control_after_sway_without,
+                    a.loss_of_control_after_sway_with,
                     a.sustained_sway_without,
                     a.sustained_sway_with
                 ));

@@ -296,6 +296,12 @@ pub struct AssistMetrics {
     pub loss_of_control_without: usize,
     /// with it
     pub loss_of_control_with: usize,
+    /// scenarios whose run without the assist swung before it lost control
+    /// ([`sway::assist::RunTruth::swung`]): the losses of control a sway assist is for (the
+    /// others are divergences with no sway to detect)
+    pub loss_of_control_after_sway_without: usize,
+    /// of those scenarios, the runs that still lost control with the assist
+    pub loss_of_control_after_sway_with: usize,
     /// runs that ended in sustained sway without the assist
     pub sustained_sway_without: usize,
     /// with it
@@ -782,6 +788,13 @@ pub fn roc(positives: &[Option<f64>], negatives: &[Option<f64>]) -> Vec<RocPoint
     curve
 }
 
+/// Whether the scenario's run without the assist swung before it lost control (None: the
+/// run failed).
+fn lost_after_sway(s: &ScenarioResult) -> Option<bool> {
+    let r = s.without.as_ref().ok()?;
+    Some(r.loss_of_control_s.is_some() && r.truth.swung)
+}
+
 fn assist_metrics(scenarios: &[ScenarioResult]) -> AssistMetrics {
     let count = |f: &dyn Fn(&ScenarioResult) -> Option<bool>| {
         scenarios.iter().filter(|s| f(s) == Some(true)).count()
@@ -807,6 +820,10 @@ fn assist_metrics(scenarios: &[ScenarioResult]) -> AssistMetrics {
         }),
         loss_of_control_with: count(&|s| {
             s.with.as_ref().ok().map(|r| r.loss_of_control_s.is_some())
+        }),
+        loss_of_control_after_sway_without: count(&|s| Some(lost_after_sway(s)?)),
+        loss_of_control_after_sway_with: count(&|s| {
+            Some(lost_after_sway(s)? && s.with.as_ref().ok()?.loss_of_control_s.is_some())
         }),
         sustained_sway_without: count(&|s| s.without.as_ref().ok().map(|r| r.truth.sustained_sway)),
         sustained_sway_with: count(&|s| s.with.as_ref().ok().map(|r| r.truth.sustained_sway)),

@@ -123,13 +123,13 @@ impl AssistOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SteeringGateOptions {
-    /// the driver steers in the sway band when the band-passed steering-wheel angle's
-    /// envelope reaches this \[rad of steering wheel\] (0.02 rad = 1.1°: ≈ 10 times the
+    /// the driver steers in the sway band while the band-passed steering-wheel angle
+    /// reaches this in magnitude \[rad of steering wheel\] (0.02 rad = 1.1°: ≈ 10 times the
     /// sensor's resolution, a fifth of a brisk lane change's at 30 m/s)
     pub steering_threshold_rad: f64,
-    /// the envelope's decay time \[s\]: the gate stays shut a while after the driver's last
-    /// steering in the band, while the oscillation it caused dies out (1.5 s: ≈ 5 s after a
-    /// brisk manoeuvre whose envelope reaches 25 times the threshold)
+    /// how long the gate stays shut after the driver's last steering in the band \[s\]:
+    /// the half-oscillation of the combination under way when the driver stops is still
+    /// the driver's (1.0 s: half a period of a 0.5 Hz sway mode)
     pub hold_s: f64,
 }
 
@@ -137,24 +137,28 @@ impl Default for SteeringGateOptions {
     fn default() -> Self {
         Self {
             steering_threshold_rad: 0.02,
-            hold_s: 1.5,
+            hold_s: 1.0,
         }
     }
 }
 
 /// Tells sway from the driver's own steering: the measured steering-wheel angle
 /// band-passed in the sway band (0.4–1.5 Hz, removing the sensor's offset and steady
-/// cornering), its envelope a peak hold decaying with [`SteeringGateOptions::hold_s`].
-/// While the envelope is at least the threshold, the oscillation of the yaw rate is the
-/// driver's (a slalom, a lane change), and a detector's flag is not sway. Sway with a
-/// driver steering against it in the band is not told apart (a limitation: the simulated
-/// driver holds the wheel).
+/// cornering). While it reaches the threshold, and for [`SteeringGateOptions::hold_s`]
+/// after it last did, the oscillation of the yaw rate is the driver's (a slalom, a lane
+/// change), and a detector's flag is not sway. The hold is a fixed time, not the decay of
+/// the steering's envelope: a large steering input does not shut the gate for longer than
+/// a small one once the wheel is still (its band-passed trace rings down within about a
+/// second, e^(−b t/2) with the band's width b = 6.9 rad/s). Sway with a driver steering
+/// against it in the band is not told apart (a limitation: the simulated driver holds the
+/// wheel).
 #[derive(Debug, Clone)]
 pub struct SteeringGate {
     options: SteeringGateOptions,
     band_pass: BandPass,
-    envelope: f64,
-    decay: f64,
+    /// frames since the band-passed angle last reached the threshold (None: never)
+    frames_since_steering: Option<u64>,
+    hold_frames: u64,
     started: bool,
 }
 
@@ -167,14 +171,15 @@ impl SteeringGate {
         Ok(Self {
             options,
             band_pass: BandPass::new(SwayBand::default(), frame_rate_hz)?,
-            envelope: 0.0,
-            decay: (-1.0 / (frame_rate_hz * options.hold_s)).exp(),
+            frames_since_steering: None,
+            hold_frames: (options.hold_s * frame_rate_hz).round() as u64,
             started: false,
         })
     }
 
     /// Takes the next steering-wheel angle \[rad\] and says whether the driver is steering
-    /// in the band (the gate is shut). A non-finite sample keeps the last verdict.
+    /// in the band or was within the hold (the gate is shut). A non-finite sample keeps the
+    /// last verdict.
     pub fn update(&mut self, steering_wheel_angle: f64) -> bool {
         if steering_wheel_angle.is_finite() {
             if !self.started {
@@ -182,14 +187,19 @@ impl SteeringGate {
                 self.started = true;
             }
             let y = self.band_pass.filter(steering_wheel_angle);
-            self.envelope = (self.envelope * self.decay).max(y.abs());
+            self.frames_since_steering = if y.abs() >= self.options.steering_threshold_rad {
+                Some(0)
+            } else {
+                self.frames_since_steering.map(|n| n.saturating_add(1))
+            };
         }
         self.is_shut()
     }
 
-    /// Whether the driver steers in the band.
+    /// Whether the driver steers in the band or did within the hold.
     pub fn is_shut(&self) -> bool {
-        self.envelope >= self.options.steering_threshold_rad
+        self.frames_since_steering
+            .is_some_and(|n| n <= self.hold_frames)
     }
 }
 
@@ -347,5 +357,63 @@ impl Controller {
             deceleration_mps2: symmetric + one_sided,
             yaw_moment_nm: yaw_moment,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RATE_HZ: f64 = 100.0;
+
+    /// The frames (as times \[s\]) at which the gate is shut for the steering trace `angle`
+    /// over `seconds`.
+    fn shut_times(angle: impl Fn(f64) -> f64, seconds: f64) -> Vec<f64> {
+        let mut gate = SteeringGate::new(SteeringGateOptions::default(), RATE_HZ).unwrap();
+        (0..(seconds * RATE_HZ) as usize)
+            .map(|k| k as f64 / RATE_HZ)
+            .filter(|&t| gate.update(angle(t)))
+            .collect()
+    }
+
+    /// A 0.4 s half-sine steering pulse from t = 1 s: shut during it, open again after its
+    /// band-passed ring-down (e^(−3.45 t): ≲ 1 s to fall from the pulse's peak below the
+    /// threshold) plus the 1 s hold, whatever the pulse's size: a large pulse does not
+    /// shut the gate much longer than a small one.
+    #[test]
+    fn a_steering_pulse_shuts_the_gate_for_its_ring_down_and_the_hold() {
+        let pulse = |amplitude: f64| {
+            move |t: f64| {
+                if (1.0..1.4).contains(&t) {
+                    amplitude * (std::f64::consts::PI * (t - 1.0) / 0.4).sin()
+                } else {
+                    0.0
+                }
+            }
+        };
+        let small = shut_times(pulse(0.1), 10.0);
+        let large = shut_times(pulse(0.9), 10.0);
+        for (name, shut) in [("small", &small), ("large", &large)] {
+            let (first, last) = (shut[0], *shut.last().unwrap());
+            assert!((1.0..1.2).contains(&first), "{name}: shut from {first} s");
+            assert!((2.4..4.0).contains(&last), "{name}: shut until {last} s");
+        }
+        let (ls, ll) = (small.last().unwrap(), large.last().unwrap());
+        assert!(ll - ls < 1.0, "large pulse {ll} s vs small {ls} s");
+    }
+
+    /// A slalom keeps the gate shut throughout; a steady corner (a ramp to a held angle)
+    /// and the steering sensor's noise-sized wiggles (1 mrad) do not shut it after the
+    /// ramp's own transient.
+    #[test]
+    fn a_slalom_shuts_the_gate_and_a_steady_corner_or_noise_does_not() {
+        let slalom = |t: f64| 0.3 * (std::f64::consts::TAU * 0.8 * t).sin();
+        let shut = shut_times(slalom, 10.0);
+        assert!(shut.first().is_some_and(|&t| t < 0.5));
+        assert!(shut.len() as f64 >= 0.95 * (10.0 - shut[0]) * RATE_HZ);
+        let corner = |t: f64| 0.2 * (t / 3.0).min(1.0);
+        assert!(shut_times(corner, 10.0).iter().all(|&t| t < 5.0));
+        let wiggle = |t: f64| 1e-3 * (std::f64::consts::TAU * 0.7 * t).sin();
+        assert!(shut_times(wiggle, 10.0).is_empty());
     }
 }

@@ -15,6 +15,12 @@
 //!
 //! **Settled**: |θ| stays below [`ONSET_AMPLITUDE_DEG`] from some time to the run's end (the
 //! settle time counts from the disturbance's end).
+//!
+//! **Swung**: after the disturbance started, θ reached [`SWAY_AMPLITUDE_DEG`] to both sides
+//! (two alternating extrema of at least 3°) — before the loss of control in a run that lost
+//! it. A loss of control that did not swing is a divergence (the trailer jackknifes
+//! during or right after the manoeuvre, or a statically unstable trailer runs off to one
+//! side): there is no sway to detect, and a sway assist cannot be asked to prevent it.
 
 use serde::Serialize;
 
@@ -62,6 +68,9 @@ pub struct RunTruth {
     /// the time from `settle_from_s` until |θ| stays below the onset amplitude to the end
     /// \[s\] (None: it does not settle, or control was lost)
     pub settle_time_s: Option<f64>,
+    /// θ reached the sway amplitude to both sides after the disturbance started (before
+    /// the loss of control, if any): the run swung (see the module docs)
+    pub swung: bool,
 }
 
 impl SwayCriterion {
@@ -96,6 +105,12 @@ impl SwayCriterion {
             let (first, last) = (p[0].t, p[p.len() - 1].t);
             2.0 * (last - first) / (p.len() - 1) as f64
         });
+        let swung = {
+            let all = peaks(t, theta, from_s, 0.1f64.to_radians());
+            let left = all.iter().any(|q| q.value >= amplitude);
+            let right = all.iter().any(|q| q.value <= -amplitude);
+            left && right
+        };
         let settle_time_s = if lost {
             None
         } else {
@@ -117,6 +132,73 @@ impl SwayCriterion {
             period_s,
             peak_hitch_angle_deg: peak.to_degrees(),
             settle_time_s,
+            swung,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// θ(t) \[rad\] sampled at 100 Hz over `seconds`.
+    fn sampled(theta_deg: impl Fn(f64) -> f64, seconds: f64) -> (Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (0..=(seconds * 100.0) as usize)
+            .map(|k| k as f64 / 100.0)
+            .collect();
+        let th = t.iter().map(|&s| theta_deg(s).to_radians()).collect();
+        (t, th)
+    }
+
+    /// Reference: the definitions of the module docs on signals whose answer is known —
+    /// a steady 5° oscillation sways and swung; a decaying one from 5° neither sways nor
+    /// settles late; a monotonic run-off to 60° (a jackknife) lost control without swinging;
+    /// one full swing of 4° before the run-off swung.
+    #[test]
+    fn the_truth_of_known_signals() {
+        let c = SwayCriterion::default();
+        let w = std::f64::consts::TAU * 0.5;
+        let (t, th) = sampled(|s| 5.0 * (w * (s - 1.0)).sin() * f64::from(s >= 1.0), 30.0);
+        let r = c.judge(&t, &th, 1.0, 1.0, false);
+        assert!(r.sustained_sway && r.swung, "{r:?}");
+        assert!((r.period_s.unwrap() - 2.0).abs() < 0.01, "{r:?}");
+        assert!((r.peak_hitch_angle_deg - 5.0).abs() < 1e-3);
+
+        let decaying = |s: f64| 5.0 * (-0.3 * (s - 1.0)).exp() * (w * (s - 1.0)).sin();
+        let (t, th) = sampled(|s| if s >= 1.0 { decaying(s) } else { 0.0 }, 30.0);
+        let r = c.judge(&t, &th, 1.0, 1.0, false);
+        assert!(!r.sustained_sway && r.swung, "{r:?}");
+        // below 1° after e^(−0.3 τ)·5 < 1: τ ≈ 5.4 s, at most a period later
+        let settle = r.settle_time_s.unwrap();
+        assert!((3.0..7.5).contains(&settle), "{r:?}");
+
+        let (t, th) = sampled(
+            |s| {
+                if s >= 1.0 {
+                    60.0 * ((s - 1.0) / 2.0).min(1.0)
+                } else {
+                    0.0
+                }
+            },
+            3.0,
+        );
+        let r = c.judge(&t, &th, 1.0, 1.0, true);
+        assert!(
+            !r.swung && !r.sustained_sway && r.settle_time_s.is_none(),
+            "{r:?}"
+        );
+
+        let swing_then_off = |s: f64| {
+            let tau = s - 1.0;
+            if tau < 0.0 {
+                0.0
+            } else if tau < 2.0 {
+                4.0 * (w * tau).sin()
+            } else {
+                -20.0 * (tau - 2.0)
+            }
+        };
+        let (t, th) = sampled(swing_then_off, 5.0);
+        assert!(c.judge(&t, &th, 1.0, 1.0, true).swung);
     }
 }

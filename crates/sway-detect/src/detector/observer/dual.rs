@@ -15,9 +15,23 @@ pub trait Scalar:
     + Neg<Output = Self>
     + From<f64>
 {
+    /// The value without its derivatives (what a branch of a piecewise law is chosen by).
+    fn value(self) -> f64;
+
+    /// |x|, with the derivative's sign of x (at x = 0 that of +x: the laws written with it
+    /// here are C¹ there, so either side gives the same derivative).
+    #[inline]
+    fn abs(self) -> Self {
+        if self.value() < 0.0 { -self } else { self }
+    }
 }
 
-impl Scalar for f64 {}
+impl Scalar for f64 {
+    #[inline]
+    fn value(self) -> f64 {
+        self
+    }
+}
 
 /// A value and its derivatives in `N` directions: x + Σ ε_i x_i with ε_i ε_j = 0.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,7 +58,12 @@ impl<const N: usize> From<f64> for Dual<N> {
     }
 }
 
-impl<const N: usize> Scalar for Dual<N> {}
+impl<const N: usize> Scalar for Dual<N> {
+    #[inline]
+    fn value(self) -> f64 {
+        self.re
+    }
+}
 
 impl<const N: usize> Add for Dual<N> {
     type Output = Self;

@@ -1,7 +1,8 @@
-//! The model-based observer: an extended Kalman filter on the car–trailer linear model
-//! ([`model`]) that estimates the hitch angle and its rate from the car's own signals and,
-//! as augmented states, the trailer's mass, yaw inertia and centre-of-gravity distance; from
-//! them it predicts the hitched trailer's linear critical speed V_crit.
+//! The model-based observer: an extended Kalman filter on its own car–trailer model with
+//! brush tyres ([`model`]) that estimates the hitch angle and its rate from the car's own
+//! signals and, as augmented states, the trailer's mass, yaw inertia and centre-of-gravity
+//! distance; from them it predicts the hitched trailer's critical speed V_crit (that of the
+//! model's linearisation, as the toolkit's).
 //!
 //! # What the observer knows, and what it assumes
 //! - The towing car's parameters ([`CarParams`]): the ESC knows its car.
@@ -17,28 +18,36 @@
 //!   high by 10 % makes the trailer look better damped; the toolkit's sensitivities of
 //!   V_crit to C_T and l say how much). The estimated parameters are those of an equivalent
 //!   trailer with the nominal axle, not necessarily the true ones.
+//! - The tyre–road friction (μ0, μ) of the brush tyres ([`ObserverOptions::friction`]): an
+//!   ESC's friction estimate, by default the paper's dry road. It sets how far below the
+//!   linear tyre the forces fall in hard driving (a lane change at 3 m/s² uses half the
+//!   sliding friction: 17 % less force than the linear tyre); a linear model there explains
+//!   the missing force by a wrong trailer (its V_crit was 10 % low on Table I).
 //! - The lateral acceleration is measured at the car's centre of gravity C1.
 //! - The steering-wheel angle divided by the steering ratio is the road-wheel angle δ.
 //!
 //! # Filter
-//! Augmented state X = [v, r, θ, θ̇, m2, J2, h, b_r, b_a, b_δ]: the linear model's lateral
+//! Augmented state X = [v, r, θ, θ̇, m2, J2, h, b_r, b_a, b_δ]: the model's lateral
 //! states ([`model`]), the three trailer parameters (random walks of small intensity: a
 //! trailer's load does not change while driving) and the biases of the yaw-rate gyro, the
 //! accelerometer and the steering (random walks: the sensors' offsets and drift, which
 //! would otherwise read as a steady turn). The model is driven by the road-wheel angle
 //! δ = δ_measured − b_δ. Measurements: y = [r + b_r, a_y + b_a], a_y = v̇ + V r. In steady
 //! driving the three biases are seen through two equations, so by default b_δ is not
-//! estimated (prior 0 ± 0, [`ObserverOptions::steering_bias_sd`]): b_r and b_a then absorb a
-//! steering offset's steady effect.
+//! estimated (prior 0 ± 0, [`ObserverOptions::steering_bias_sd`]): b_r and b_a then absorb
+//! most of a steering offset's steady effect (all of it in the linear range of the tyres).
 //!
-//! - **Prediction** over one frame h by the exact discretisation of the linear model with
-//!   the steering linear between its two samples (first-order hold), its series truncated
-//!   after the 4th power of hA — what the classical Runge–Kutta method gives for a linear
-//!   system, 4th-order accurate — on as many equal substeps as keep ‖h_s A‖_∞ ≤ 0.5 (the
-//!   model stiffens as 1/V at low speed; at highway speeds one substep). Chosen over the
-//!   full matrix exponential because it costs four 4×4 products and needs no scaling.
-//! - **Jacobians** exact: ∂/∂(v, r, θ, θ̇) is the transition matrix Φ, ∂/∂(m2, J2, h) comes
-//!   from evaluating the same step in forward-mode dual numbers in the three parameters.
+//! - **Prediction** over one frame h: the nonlinear model integrated by the classical
+//!   Runge–Kutta method with the steering linear between its two samples (first-order
+//!   hold), on as many equal substeps as keep ‖h_s A‖_∞ ≤ 0.5 for the linearisation A at
+//!   zero slip (the brush tyre's slope is largest there, so the model is nowhere stiffer;
+//!   it stiffens as 1/V at low speed; at highway speeds one substep).
+//! - **Jacobians** exact: the same step evaluated in forward-mode dual numbers in eight
+//!   directions — the four lateral states, the three trailer parameters (which move the
+//!   mass matrix and, through the static axle loads, the tyres' saturation) and a steering
+//!   offset held over the frame — gives the state-transition matrix, its parameter columns
+//!   and the columns of the steering bias and noise at once; the lateral acceleration's
+//!   row of the measurement Jacobian likewise.
 //! - **Process noise**: the steering sensor's noise through the input column, a white
 //!   lateral force on the trailer at C2 (gusts, road; [`ObserverOptions::trailer_force_psd`]),
 //!   and the random walks of the parameters and biases.
@@ -49,12 +58,19 @@
 //!   sensors: 20 ms against 10 ms): the estimate refers to the time the gyro sampled.
 //!
 //! # Critical speed
-//! Every [`ObserverOptions::v_crit_interval_samples`] frames, the linear model with the
-//! estimated parameters gives V_crit by bisection on the Hurwitz conditions of its
-//! characteristic polynomial ([`model::LinearModel::critical_speed`]), and its standard
-//! deviation from the parameters' covariance through the exact gradient of V_crit
-//! (implicit function theorem on the failing Hurwitz condition). A caller computes V_fold
-//! from [`ModelObserver::trailer_estimate`] with the toolkit.
+//! Every [`ObserverOptions::v_crit_interval_samples`] frames, the model's linearisation with
+//! the estimated parameters (the brush tyres' slope at zero slip is their cornering
+//! stiffness, so friction and axle loads do not enter) gives V_crit by bisection on the
+//! Hurwitz conditions of its characteristic polynomial
+//! ([`model::LinearModel::critical_speed`]), and its standard deviation from the
+//! parameters' covariance through the exact gradient of V_crit (implicit function theorem
+//! on the failing Hurwitz condition). Its standard deviation covers the estimation's noise
+//! (on its own model over 20 seeds the squared error over the variance averages 0.8), not
+//! the error of the model itself: against the toolkit's simulation (the paper's
+//! kinematics) the estimate's error is several standard deviations (the sway-assist
+//! evaluation). A caller computes V_fold from [`ModelObserver::trailer_estimate`] with the
+//! toolkit: the paper's model with brush tyres, the same tyre law as here (with the
+//! vehicle's friction, which should be the one given to the observer).
 //!
 //! # Flag and score
 //! Two conditions each make sway, both normalised so that 1 is their threshold, and the
@@ -66,10 +82,13 @@
 //!   ([`ObserverOptions::amplitude_threshold_rad`]): the amplitude √(θ_f² + (θ̇_f/ω)²) at the
 //!   sway frequency ω (the Hopf frequency of the estimate; the sway band's centre before
 //!   one) of the part of the estimated hitch angle that the driver's steering does not
-//!   explain (the estimate minus the model's response to the steering alone). A slalom's
-//!   forced hitch angle is explained by the steering and does not count; sway after a gust
-//!   or beyond V_crit does, below V_crit too (the bistable range, where the linear model is
-//!   stable but a large disturbance sways the trailer). The free part counts from when the
+//!   explain (the estimate minus the model's response to the steering alone, the nonlinear
+//!   model's, so that a hard slalom's softer tyres are explained too). A slalom's forced
+//!   hitch angle is explained by the steering and does not count; sway after a gust or
+//!   beyond V_crit does, below V_crit too (the bistable range, where straight running is
+//!   stable but a large disturbance sways the trailer). Where the model's own response to
+//!   the steering grows beyond any hitch angle the model holds for (1.5 rad: steering that
+//!   sways the model's trailer), it restarts from the estimate. The free part counts from when the
 //!   model is trusted (the V_crit condition above, or straight running stable up to the
 //!   search's highest speed): a model still being learned explains the steering badly
 //!   (its first seconds), and what it misses is not sway.
@@ -128,8 +147,8 @@ use serde::{Deserialize, Serialize};
 
 use self::dual::Dual;
 use self::model::{
-    CarParams, CriticalSpeed, CriticalSpeedSearch, Discrete, Mat4, NoCriticalSpeed, System,
-    Trailer, TrailerParams, critical_speed, critical_speed_gradient, mat_mul, system,
+    CarParams, CriticalSpeed, CriticalSpeedSearch, Friction, NoCriticalSpeed, Plant, Trailer,
+    TrailerParams, critical_speed, critical_speed_gradient, system,
 };
 use super::{Detector, DetectorOutput, GAP_TOLERANCE, InputStatus, MAX_INPUT, SwayFlag};
 use crate::error::{ConfigError, in_range, non_negative, positive};
@@ -149,6 +168,18 @@ const YAW_BIAS: usize = 7;
 const ACC_BIAS: usize = 8;
 /// Index of the steering's bias (in road-wheel angle).
 const STEER_BIAS: usize = 9;
+
+/// The derivative directions of a frame's dual numbers: the lateral states [v, r, θ, θ̇]
+/// (0–3), the trailer's parameters (m2, J2, h) (4–6) and a road-wheel angle offset held
+/// over the frame (7).
+const DIRECTIONS: usize = 8;
+/// The direction of the steering offset.
+const OFFSET: usize = 7;
+type D8 = Dual<DIRECTIONS>;
+
+/// The largest hitch angle of the steering's own response \[rad\]: 1.5 rad is far beyond
+/// where the single-track model holds.
+const MAX_FORCED_HITCH_ANGLE: f64 = 1.5;
 
 /// The largest ‖h_s A‖_∞ of a substep: the truncated series' error per substep is then
 /// below 0.5⁵/5! ≈ 3·10⁻⁴ of the state in the stiffest direction, and that direction is a
@@ -232,6 +263,11 @@ pub struct ObserverOptions {
     /// the trailer axle's cornering stiffness C_T \[N/rad\], nominal (not estimated).
     /// Default 50 kN/rad, Table I's
     pub trailer_cornering_stiffness: f64,
+    /// the tyre–road friction the brush tyres of the observer's model have (μ0, μ). An ESC
+    /// estimates the road's friction: give it here. Default the paper's dry road, 0.9 and
+    /// 0.6; V_crit does not depend on it (the tyres' slope at zero slip is their cornering
+    /// stiffness), the estimated parameters do, through the tyres' force in the driving
+    pub friction: Friction,
     /// the trailer's mass m2 \[kg\]. Default 1300 ± 600 kg (a mid-size caravan; the prior
     /// covers 500–2500 kg within 2σ), walk 0.5 kg/√s (≈ 4 kg in a minute: a steady load),
     /// bounds [100, 4000] kg (a bicycle trailer to the heaviest car-towable trailers)
@@ -254,7 +290,8 @@ pub struct ObserverOptions {
     /// the input. Default that of the default sensor (≈ 0.06°)
     pub steering_noise_sd: f64,
     /// the power spectral density of a white lateral force on the trailer at its centre of
-    /// gravity \[N² s\]: the process noise of gusts, road and the tyres' nonlinearity. Default
+    /// gravity \[N² s\]: the process noise of gusts, road and what the model leaves out.
+    /// Default
     /// (50 N)²·s: 50 N rms in a 1 Hz band, a few percent of the trailer axle's force in sway
     pub trailer_force_psd: f64,
     /// the gyro bias's prior standard deviation \[rad/s\]. Default 0.5 °/s: beyond the
@@ -282,7 +319,7 @@ pub struct ObserverOptions {
     /// lateral acceleration: their latency minus the steering sensor's. Default 1 (20 ms
     /// and 10 ms at the default sensors)
     pub steering_delay_samples: usize,
-    /// below this speed \[m/s\] the observer rests (the single-track model with linear tyres
+    /// below this speed \[m/s\] the observer rests (the single-track model with slip angles
     /// needs rolling wheels; at walking pace no trailer sways). Default 5 m/s
     pub min_speed_mps: f64,
     /// the critical-speed search
@@ -312,6 +349,7 @@ impl Default for ObserverOptions {
             steering_ratio: 16.0,
             trailer_axle_m: 2.8,
             trailer_cornering_stiffness: 50e3,
+            friction: Friction::default(),
             mass: ParameterPrior {
                 mean: 1300.0,
                 sd: 600.0,
@@ -365,6 +403,7 @@ impl ObserverOptions {
             "trailer_cornering_stiffness",
             self.trailer_cornering_stiffness,
         )?;
+        self.friction.validate()?;
         self.mass.validate("mass")?;
         self.yaw_inertia.validate("yaw_inertia")?;
         self.cog.validate("cog")?;
@@ -452,7 +491,7 @@ pub struct ObserverEstimate {
     pub lateral_acceleration_bias: ParameterEstimate,
     /// the steering-wheel angle sensor's bias \[rad of steering-wheel angle\]
     pub steering_bias: ParameterEstimate,
-    /// V_crit of the estimated linear model \[m/s\]; `None` with the reason in
+    /// V_crit of the estimated model's linearisation \[m/s\]; `None` with the reason in
     /// `v_crit_reason`
     pub v_crit_estimate_mps: Option<f64>,
     /// V_crit's standard deviation \[m/s\] (from the parameters' covariance)
@@ -479,7 +518,7 @@ impl ObserverEstimate {
 }
 
 /// The model-based observer (module docs): an extended Kalman filter on the car–trailer
-/// linear model with the trailer's mass, yaw inertia and centre of gravity as augmented
+/// model with brush tyres with the trailer's mass, yaw inertia and centre of gravity as augmented
 /// states, and the V_crit they give.
 #[derive(Debug, Clone)]
 pub struct ModelObserver {
@@ -616,15 +655,20 @@ impl ModelObserver {
         }
     }
 
-    /// The trailer of the current estimate in dual numbers of (m2, J2, h).
-    fn dual_trailer(&self) -> Trailer<Dual<3>> {
+    /// The trailer of the current estimate in the frame's dual numbers (directions 4–6).
+    fn dual_trailer(&self) -> Trailer<D8> {
         Trailer {
-            mass: Dual::variable(self.x[PARAMS], 0),
-            yaw_inertia: Dual::variable(self.x[PARAMS + 1], 1),
-            cog: Dual::variable(self.x[PARAMS + 2], 2),
+            mass: Dual::variable(self.x[PARAMS], PARAMS),
+            yaw_inertia: Dual::variable(self.x[PARAMS + 1], PARAMS + 1),
+            cog: Dual::variable(self.x[PARAMS + 2], PARAMS + 2),
             axle: self.trailer_axle,
             cornering_stiffness: self.options.trailer_cornering_stiffness,
         }
+    }
+
+    /// The lateral states in the frame's dual numbers (directions 0–3).
+    fn dual_state(&self) -> [D8; 4] {
+        std::array::from_fn(|i| Dual::variable(self.x[i], i))
     }
 
     fn plain_trailer(&self) -> Trailer<f64> {
@@ -679,14 +723,18 @@ impl ModelObserver {
         self.steering[(self.head + n - self.options.steering_delay_samples) % n]
     }
 
-    /// The prediction over one frame from the steering `u0` to `u1`; `false` when the model
-    /// is too stiff at this speed to be predicted.
-    fn predict(&mut self, sys: &System<Dual<3>>, u0: f64, u1: f64) -> bool {
+    /// The prediction over one frame from the steering `u0` to `u1` on `plant` (the model
+    /// of the current estimate in the frame's dual numbers; `plain` the same in numbers);
+    /// `false` when the model is too stiff at this speed to be predicted.
+    fn predict(&mut self, plant: &Plant<D8>, plain: &Plant<f64>, u0: f64, u1: f64) -> bool {
         let h = self.period_s;
-        let norm = sys
+        // the substeps by the linearisation at zero slip: the brush tyre's slope is largest
+        // there (C, falling to 0 at full sliding), so the model is nowhere stiffer
+        let linear = system(&self.options.car, &self.plain_trailer(), self.speed);
+        let norm = linear
             .a
             .iter()
-            .map(|row| row.iter().map(|a| a.re.abs()).sum::<f64>())
+            .map(|row| row.iter().map(|a| a.abs()).sum::<f64>())
             .fold(0.0, f64::max)
             * h;
         if !norm.is_finite() {
@@ -696,43 +744,47 @@ impl ModelObserver {
         if substeps > MAX_SUBSTEPS {
             return false;
         }
-        let disc = Discrete::new(&sys.a, &sys.b, h, substeps);
-        let xd: [Dual<3>; 4] = std::array::from_fn(|i| Dual::from(self.x[i]));
-        let next = disc.step(&xd, Dual::from(u0), Dual::from(u1));
-        // the same step in plain numbers: Φ over the frame and the column of a steering
-        // offset held over it (the sensitivity to the steering noise)
-        let plain = Discrete {
-            phi: disc.phi.map(|row| row.map(|a| a.re)),
-            gamma: disc.gamma.map(|a| a.re),
-            lambda: disc.lambda.map(|a| a.re),
+        let offset = Dual::variable(0.0, OFFSET);
+        let next = plant.step(
+            &self.dual_state(),
+            Dual::from(u0) + offset,
+            Dual::from(u1) + offset,
+            h,
             substeps,
-        };
-        let mut phi: Mat4<f64> = plain.phi;
-        for _ in 1..substeps {
-            phi = mat_mul(&phi, &plain.phi);
+        );
+        // the model's response to the steering alone (module docs); where the model's own
+        // response sways without bound (its small-angle kinematics beyond the fold),
+        // it restarts from the estimate, whose free part is then counted again from zero
+        self.forced = plain.step(&self.forced, u0, u1, h, substeps);
+        if !(self.forced.iter().all(|x| x.is_finite())
+            && self.forced[2].abs() <= MAX_FORCED_HITCH_ANGLE)
+        {
+            self.forced.copy_from_slice(&next.map(|x| x.re));
         }
-        let steering_column = plain.step(&[0.0; 4], 1.0, 1.0);
-        self.forced = plain.step(&self.forced, u0, u1);
+        // the transition's Jacobian from the duals: ∂/∂(v, r, θ, θ̇), ∂/∂(m2, J2, h), and
+        // the column of a steering offset held over the frame (δ = δ_measured − b_δ; the
+        // sensitivity to the steering noise too)
+        let steering_column: [f64; 4] = std::array::from_fn(|i| next[i].eps[OFFSET]);
         let mut f = MatN::identity();
         for i in 0..4 {
             self.x[i] = next[i].re;
             for j in 0..4 {
-                f[(i, j)] = phi[i][j];
+                f[(i, j)] = next[i].eps[j];
             }
             for j in 0..3 {
-                f[(i, PARAMS + j)] = next[i].eps[j];
+                f[(i, PARAMS + j)] = next[i].eps[PARAMS + j];
             }
-            // δ = δ_measured − b_δ, the bias held over the frame
             f[(i, STEER_BIAS)] = -steering_column[i];
         }
         let mut q = MatN::from_diagonal(&VecN::from(self.walk_variance));
         let steering_variance =
             (self.options.steering_noise_sd / self.options.steering_ratio).powi(2);
         let force = self.options.trailer_force_psd * h;
+        let g = plain.trailer_force_column();
         for i in 0..4 {
             for j in 0..4 {
                 q[(i, j)] += steering_column[i] * steering_column[j] * steering_variance
-                    + sys.g[i].re * sys.g[j].re * force;
+                    + g[i] * g[j] * force;
             }
         }
         self.p = f * self.p * f.transpose() + q;
@@ -740,31 +792,23 @@ impl ModelObserver {
     }
 
     /// The update with the yaw rate `r` \[rad/s\] and lateral acceleration `a_y` \[m/s²\] at
-    /// road-wheel angle `delta` \[rad\].
-    fn correct(&mut self, sys: &System<Dual<3>>, r: f64, a_y: f64, delta: f64) {
-        let v = self.speed;
-        // a_y = row 0 of (A x + B δ) + V r, in dual numbers of the parameters
-        let delta = delta - self.x[STEER_BIAS];
-        let mut acc = sys.b[0] * Dual::from(delta);
-        for j in 0..4 {
-            acc = acc + sys.a[0][j] * Dual::from(self.x[j]);
-        }
-        let predicted = [
-            self.x[1] + self.x[YAW_BIAS],
-            acc.re + v * self.x[1] + self.x[ACC_BIAS],
-        ];
+    /// road-wheel angle `delta` \[rad\] on `plant` (as in [`Self::predict`]).
+    fn correct(&mut self, plant: &Plant<D8>, r: f64, a_y: f64, delta: f64) {
+        // a_y = v̇ + V r of the model, with its derivatives in every direction
+        let delta = Dual::from(delta - self.x[STEER_BIAS]) + Dual::variable(0.0, OFFSET);
+        let acc = plant.lateral_acceleration(&self.dual_state(), delta);
+        let predicted = [self.x[1] + self.x[YAW_BIAS], acc.re + self.x[ACC_BIAS]];
         let mut h = SMatrix::<f64, 2, N>::zeros();
         h[(0, 1)] = 1.0;
         h[(0, YAW_BIAS)] = 1.0;
         for j in 0..4 {
-            h[(1, j)] = sys.a[0][j].re;
+            h[(1, j)] = acc.eps[j];
         }
-        h[(1, 1)] += v;
         for j in 0..3 {
-            h[(1, PARAMS + j)] = acc.eps[j];
+            h[(1, PARAMS + j)] = acc.eps[PARAMS + j];
         }
         h[(1, ACC_BIAS)] = 1.0;
-        h[(1, STEER_BIAS)] = -sys.b[0].re;
+        h[(1, STEER_BIAS)] = -acc.eps[OFFSET];
         let r_cov = SMatrix::<f64, 2, 2>::new(
             self.options.yaw_rate_noise_sd.powi(2),
             0.0,
@@ -889,14 +933,16 @@ impl Detector for ModelObserver {
             };
             return self.last_output;
         }
-        let sys = system(&self.options.car, &self.dual_trailer(), Dual::from(m.speed));
+        let (car, friction) = (&self.options.car, &self.options.friction);
+        let plant = Plant::new(car, &self.dual_trailer(), friction, m.speed);
+        let plain = Plant::new(car, &self.plain_trailer(), friction, m.speed);
         let bias = self.x[STEER_BIAS];
         if let Some(u0) = self.last_steering
-            && !self.predict(&sys, u0 - bias, delta - bias)
+            && !self.predict(&plant, &plain, u0 - bias, delta - bias)
         {
             self.restart_lateral();
         }
-        self.correct(&sys, m.yaw_rate, m.lateral_acceleration, delta);
+        self.correct(&plant, m.yaw_rate, m.lateral_acceleration, delta);
         self.last_steering = Some(delta);
         if !(self.x.iter().all(|v| v.is_finite()) && self.p.iter().all(|v| v.is_finite())) {
             // a numerical failure (never seen with physical inputs): start again

@@ -1,7 +1,9 @@
-//! The observer's own car–trailer model: the paper's single-track model linearised about
-//! straight running at constant speed with linear tyres (the linearisation of eq. 9–11),
-//! written in the conventional lateral states of the car instead of the paper's Appellian
-//! generalized velocities.
+//! The observer's own car–trailer model: the paper's single-track model with the brush
+//! tyre law (eq. 14–15) on every axle, written in the conventional lateral states of the car
+//! instead of the paper's Appellian generalized velocities, with the kinematics of small
+//! angles (below). Its linearisation about straight running at constant speed — the brush
+//! tyre's slope at zero slip is its cornering stiffness, so this is the linearisation of
+//! eq. 9–11 — gives the critical speed.
 //!
 //! # Geometry and conventions (the paper's, Fig. 1 and Table I)
 //! Every length is measured from the hitch H: forward on the car to its front axle (f), its
@@ -16,36 +18,62 @@
 //! \[rad/s\]; the input is the road-wheel steering angle δ \[rad\]; the speed V \[m/s\] of the
 //! car is a parameter (prescribed, the paper's constraint eq. 3). The paper's linear state
 //! maps onto it one to one (σ1 is the hitch's lateral velocity v − d r, σ2 − (m1 d/I1) σ1 = r
-//! by eq. 5), so the two are the same linear model: [`LinearModel::critical_speed`] gives
-//! the toolkit's linear V_crit of Table I (a test checks it to 10⁻⁶).
+//! by eq. 5), so the two linearisations are the same linear model:
+//! [`LinearModel::critical_speed`] gives the toolkit's linear V_crit of Table I (a test
+//! checks it to 10⁻⁶).
 //!
-//! # Equations (Newton–Euler, linear in the lateral states)
-//! Slip angles (eq. 2 linearised, small angles):
-//! α_F = δ − (v + (f − d) r)/V, α_R = −(v + (c − d) r)/V,
-//! α_T = θ − (v − (d + l) r − l θ̇)/V; linear tyres F_i = C_i α_i (the brush tyre's slope at
-//! zero slip, eq. 14–15). Lateral accelerations: the car's a1 = v̇ + V r at C1, the
-//! trailer's a2 = v̇ − (d + h) ṙ − h θ̈ + V r at C2. With Y the hitch's lateral force on the
-//! trailer and F_w a lateral force on the trailer at C2 (a gust; zero in the model, the
-//! observer's process noise):
+//! # Equations (Newton–Euler)
+//! Slip angles (eq. 2 for small steering and hitch angles), as tangents:
+//! tan α_F = δ − (v + (f − d) r)/V, tan α_R = −(v + (c − d) r)/V,
+//! tan α_T = θ − (v − (d + l) r − l θ̇)/V (tan α_R is exact; the other two drop terms of
+//! order δ², θ²). Tyre forces F_i = F(tan α_i; C_i, F_z,i), the brush tyre of eq. 14–15 in
+//! t = tan α with t_cr = tan α_cr = 3 μ0 F_z / C:
+//! ```text
+//! F = C t (1 + (μ/μ0 − 2) |t|/t_cr + (1 − 2μ/(3μ0)) (t/t_cr)²)   for |t| ≤ t_cr,
+//! F = μ F_z sgn t                                                  beyond,
+//! ```
+//! with the friction coefficients μ0 (static) and μ (sliding) of [`Friction`]; its slope at
+//! t = 0 is C, it falls to 0 at t_cr where the force reaches μ F_z (C¹ at 0, continuous at
+//! t_cr: a C⁰ kink). At half the sliding friction the force is 17 % below the linear tyre's.
+//! The static axle loads follow from the geometry and the masses (the trailer's mass and
+//! centre of gravity are estimated, so the trailer's load and the car's share move with
+//! them): the trailer axle carries F_z,T = m2 g h/l, the hitch H = m2 g − F_z,T (negative for
+//! a centre of gravity behind the axle: the trailer lifts the hitch), the car's axles
+//! F_z,F = (m1 g (d − c) − H c)/(f − c) and F_z,R = m1 g + H − F_z,F (moments about the
+//! rear and front axle); g = [`GRAVITY`]. A load below [`MIN_AXLE_LOAD_N`] (parameters that
+//! would tip the car) is held there.
+//!
+//! Lateral accelerations: the car's a1 = v̇ + V r at C1, the trailer's
+//! a2 = v̇ − (d + h) ṙ − h θ̈ + V r at C2. With Y the hitch's lateral force on the trailer and
+//! F_w a lateral force on the trailer at C2 (a gust; zero in the model, the observer's
+//! process noise):
 //! - car, lateral: m1 a1 = F_F + F_R − Y;
 //! - car, yaw about C1: J1 ṙ = (f − d) F_F + (c − d) F_R + d Y;
 //! - trailer, lateral: m2 a2 = F_T + Y + F_w;
 //! - trailer, yaw about C2: J2 (ṙ + θ̈) = h Y − (l − h) F_T.
 //!
-//! Eliminating Y leaves M [v̇, ṙ, θ̈]ᵀ = K x + B_δ δ + B_w F_w with
+//! Eliminating Y leaves M [v̇, ṙ, θ̈]ᵀ = e(x, δ) + B_w F_w with
 //! ```text
 //!     | m1 + m2   −m2 (d + h)          −m2 h        |
 //! M = | −d m2     J1 + d m2 (d + h)    d m2 h       |
 //!     | −h m2     J2 + m2 h (d + h)    J2 + m2 h²   |
 //! ```
-//! and the right-hand sides F_F + F_R + F_T − (m1 + m2) V r,
-//! (f − d) F_F + (c − d) F_R − d F_T + d m2 V r and −l F_T + h m2 V r (B_w = [1, −d, −h]ᵀ).
-//! With θ̇ = θ̇ this is ẋ = A x + B δ (+ G F_w). The measured lateral acceleration is that of C1, where the
-//! observer assumes the sensor sits: a_y = v̇ + V r.
+//! and the right-hand sides e = [F_F + F_R + F_T − (m1 + m2) V r,
+//! (f − d) F_F + (c − d) F_R − d F_T + d m2 V r, −l F_T + h m2 V r] (B_w = [1, −d, −h]ᵀ).
+//! With θ̇ = θ̇ this is ẋ = f(x, δ) (+ G F_w); with linear tyres F_i = C_i tan α_i it is the
+//! linear model ẋ = A x + B δ ([`LinearModel`]). The measured lateral acceleration is that
+//! of C1, where the observer assumes the sensor sits: a_y = v̇ + V r.
+//!
+//! # What the kinematics leave out
+//! Of the paper's nonlinearities the model keeps the tyres', the ones ordinary driving
+//! reaches first: a lane change at 3 m/s² uses half the sliding friction, while the hitch
+//! angle stays at a few degrees, where cos θ differs from 1 by 10⁻³. The terms of order θ²
+//! (the trailer's inertia seen along the car's axis, cos θ in the hitch force) and the
+//! front tyre's force along the car (F_F sin δ) are left out.
 //!
 //! Everything is written once over a scalar type, so the same code gives values (`f64`) and
-//! exact derivatives with respect to the trailer's parameters and the speed (forward-mode
-//! dual numbers).
+//! exact derivatives with respect to the states, the trailer's parameters, the steering and
+//! the speed (forward-mode dual numbers).
 
 use serde::{Deserialize, Serialize};
 
@@ -146,6 +174,52 @@ impl Default for TrailerParams {
     }
 }
 
+/// g \[m/s²\]: the static axle loads' gravity (the toolkit's value).
+pub const GRAVITY: f64 = 9.81;
+
+/// The least static axle load \[N\] the model uses: estimated parameters far from physical
+/// ones could put an axle's load at or below zero (a car that tips); the brush tyre needs a
+/// positive load, and an axle at this load has no grip to speak of.
+pub const MIN_AXLE_LOAD_N: f64 = 100.0;
+
+/// The tyre–road friction of the brush tyre (paper eq. 15): the observer's assumption, the
+/// ESC's friction estimate where it has one. [`Default`] is the paper's dry road.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Friction {
+    /// μ0 \[-\]: the static coefficient (adhesion), which sets where the tyre starts
+    /// to slide: tan α_cr = 3 μ0 F_z / C. Default 0.9, the paper's
+    pub mu_static: f64,
+    /// μ \[-\]: the sliding coefficient, the force's limit μ F_z. Default 0.6, the paper's
+    pub mu_dynamic: f64,
+}
+
+impl Default for Friction {
+    fn default() -> Self {
+        Friction {
+            mu_static: 0.9,
+            mu_dynamic: 0.6,
+        }
+    }
+}
+
+impl Friction {
+    /// Checks 0 < μ ≤ μ0 (keys `friction.*`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let mu0 = positive("friction.mu_static", self.mu_static)?;
+        let mu = positive("friction.mu_dynamic", self.mu_dynamic)?;
+        if mu > mu0 {
+            return Err(ConfigError::Bounds {
+                key: "friction.mu_dynamic",
+                value: mu,
+                low: 0.0,
+                high: mu0,
+            });
+        }
+        Ok(())
+    }
+}
+
 /// The trailer's parameters in the arithmetic `S` (the estimated three may carry
 /// derivatives; the axle and its stiffness are the observer's nominal values).
 #[derive(Debug, Clone, Copy)]
@@ -172,14 +246,12 @@ impl Trailer<f64> {
 /// A 4×4 matrix (rows of columns) in the arithmetic `S`.
 pub(crate) type Mat4<S> = [[S; 4]; 4];
 
-/// ẋ = A x + B δ + G F_w at one speed: the state matrix A \[1/s and alike\], the steering
-/// column B (per rad of road-wheel angle) and the column G of a lateral force on the
-/// trailer at C2 (per N).
+/// ẋ = A x + B δ at one speed: the state matrix A \[1/s and alike\] and the steering
+/// column B (per rad of road-wheel angle) of the linear model.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct System<S> {
     pub(crate) a: Mat4<S>,
     pub(crate) b: [S; 4],
-    pub(crate) g: [S; 4],
 }
 
 /// The inverse of a 3×3 matrix by cofactors (M of the model is positive definite in the
@@ -197,19 +269,27 @@ fn inverse3<S: Scalar>(m: &[[S; 3]; 3]) -> [[S; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| cof[j][i] / det))
 }
 
-/// The linear model's matrices at speed `v` \[m/s\] (the module's equations).
-pub(crate) fn system<S: Scalar>(car: &CarParams, t: &Trailer<S>, v: S) -> System<S> {
+/// M of the module's equations: the left-hand side of [v̇, ṙ, θ̈] once the hitch force is
+/// eliminated.
+fn mass_matrix<S: Scalar>(car: &CarParams, t: &Trailer<S>) -> [[S; 3]; 3] {
     let k = |x: f64| S::from(x);
-    let (m1, j1) = (k(car.mass), k(car.yaw_inertia));
-    let (f, d, c) = (car.front_axle, car.cog, car.rear_axle);
-    let (m2, j2, h, l) = (t.mass, t.yaw_inertia, t.cog, t.axle);
+    let (m1, j1, d) = (k(car.mass), k(car.yaw_inertia), car.cog);
+    let (m2, j2, h) = (t.mass, t.yaw_inertia, t.cog);
     let dh = k(d) + h;
-    let m = [
+    [
         [m1 + m2, -(m2 * dh), -(m2 * h)],
         [-(k(d) * m2), j1 + k(d) * m2 * dh, k(d) * m2 * h],
         [-(h * m2), j2 + m2 * h * dh, j2 + m2 * h * h],
-    ];
-    let inv = inverse3(&m);
+    ]
+}
+
+/// The linear model's matrices at speed `v` \[m/s\] (the module's equations).
+pub(crate) fn system<S: Scalar>(car: &CarParams, t: &Trailer<S>, v: S) -> System<S> {
+    let k = |x: f64| S::from(x);
+    let m1 = k(car.mass);
+    let (f, d, c) = (car.front_axle, car.cog, car.rear_axle);
+    let (m2, h, l) = (t.mass, t.cog, t.axle);
+    let inv = inverse3(&mass_matrix(car, t));
     // the axle forces as rows over [v, r, θ, θ̇, δ]
     let (cf, cr, ct) = (
         car.front_cornering_stiffness,
@@ -243,14 +323,12 @@ pub(crate) fn system<S: Scalar>(car: &CarParams, t: &Trailer<S>, v: S) -> System
             forces + inertial
         })
     });
-    let force_column = [k(1.0), k(-d), -h];
     // [v̇, ṙ, θ̈] = M⁻¹ (rhs): rows 0, 1, 3 of the state equation; row 2 is θ̇ = θ̇
     let solve = |col: &dyn Fn(usize) -> S| -> [S; 3] {
         std::array::from_fn(|i| inv[i][0] * col(0) + inv[i][1] * col(1) + inv[i][2] * col(2))
     };
     let mut a = [[zero; 4]; 4];
     let mut b = [zero; 4];
-    let mut g = [zero; 4];
     for j in 0..4 {
         let acc = solve(&|i| rhs[i][j]);
         a[0][j] = acc[0];
@@ -260,9 +338,225 @@ pub(crate) fn system<S: Scalar>(car: &CarParams, t: &Trailer<S>, v: S) -> System
     a[2][3] = k(1.0);
     let acc = solve(&|i| rhs[i][4]);
     (b[0], b[1], b[3]) = (acc[0], acc[1], acc[2]);
-    let acc = solve(&|i| force_column[i]);
-    (g[0], g[1], g[3]) = (acc[0], acc[1], acc[2]);
-    System { a, b, g }
+    System { a, b }
+}
+
+/// The static axle loads [F_z,F, F_z,R, F_z,T] \[N\] (module docs), each at least
+/// [`MIN_AXLE_LOAD_N`].
+pub(crate) fn axle_loads<S: Scalar>(car: &CarParams, t: &Trailer<S>) -> [S; 3] {
+    let k = |x: f64| S::from(x);
+    let (f, d, c) = (car.front_axle, car.cog, car.rear_axle);
+    let car_weight = car.mass * GRAVITY;
+    let trailer_weight = t.mass * k(GRAVITY);
+    let trailer = trailer_weight * t.cog / k(t.axle);
+    let hitch = trailer_weight - trailer;
+    let front = (k(car_weight * (d - c)) - hitch * k(c)) / k(f - c);
+    let rear = k(car_weight) + hitch - front;
+    [front, rear, trailer].map(|fz| {
+        if fz.value() < MIN_AXLE_LOAD_N {
+            k(MIN_AXLE_LOAD_N)
+        } else {
+            fz
+        }
+    })
+}
+
+/// The brush tyre (paper eq. 14–15) as a function of the slip angle's tangent `t`: the
+/// lateral force \[N\] of an axle with cornering stiffness `stiffness` \[N/rad\] and
+/// `critical` = tan α_cr = 3 μ0 F_z / C, whose load `load` \[N\] bounds it at μ F_z.
+fn brush<S: Scalar>(t: S, stiffness: f64, critical: S, load: S, friction: &Friction) -> S {
+    let ratio = friction.mu_dynamic / friction.mu_static;
+    let u = t / critical;
+    let a = u.abs();
+    if a.value() <= 1.0 {
+        // C t (1 + (μ/μ0 − 2)|u| + (1 − 2μ/(3μ0)) u²), Horner in |u|
+        t * S::from(stiffness)
+            * (S::from(1.0) + a * (S::from(ratio - 2.0) + a * S::from(1.0 - 2.0 * ratio / 3.0)))
+    } else if t.value() > 0.0 {
+        load * S::from(friction.mu_dynamic)
+    } else {
+        -(load * S::from(friction.mu_dynamic))
+    }
+}
+
+/// The brush tyre's force \[N\] at slip tangent `tan_alpha` of an axle with cornering
+/// stiffness `stiffness` \[N/rad\] and vertical load `load` \[N\] (paper eq. 14–15).
+pub fn brush_lateral_force(tan_alpha: f64, stiffness: f64, load: f64, friction: &Friction) -> f64 {
+    let critical = 3.0 * friction.mu_static * load / stiffness;
+    brush(tan_alpha, stiffness, critical, load, friction)
+}
+
+/// The nonlinear model of one car–trailer at one speed, ready to evaluate: what does not
+/// depend on the state (M⁻¹, the axle loads and the tyres' critical slips) computed once.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Plant<S> {
+    car: CarParams,
+    friction: Friction,
+    trailer_axle: f64,
+    trailer_stiffness: f64,
+    /// h
+    trailer_cog: S,
+    /// m1 + m2, d m2 and h m2 (the right-hand sides' inertial terms per V r)
+    inertial: [S; 3],
+    m_inv: [[S; 3]; 3],
+    loads: [S; 3],
+    critical: [S; 3],
+    speed: f64,
+}
+
+impl<S: Scalar> Plant<S> {
+    /// The model of `car` towing `t` on `friction` at `speed` \[m/s\].
+    pub(crate) fn new(car: &CarParams, t: &Trailer<S>, friction: &Friction, speed: f64) -> Self {
+        let k = |x: f64| S::from(x);
+        let loads = axle_loads(car, t);
+        let stiffness = [
+            car.front_cornering_stiffness,
+            car.rear_cornering_stiffness,
+            t.cornering_stiffness,
+        ];
+        Plant {
+            car: *car,
+            friction: *friction,
+            trailer_axle: t.axle,
+            trailer_stiffness: t.cornering_stiffness,
+            trailer_cog: t.cog,
+            inertial: [k(car.mass) + t.mass, k(car.cog) * t.mass, t.cog * t.mass],
+            m_inv: inverse3(&mass_matrix(car, t)),
+            loads,
+            critical: std::array::from_fn(|i| {
+                loads[i] * k(3.0 * friction.mu_static / stiffness[i])
+            }),
+            speed,
+        }
+    }
+
+    /// The tangents of the slip angles [tan α_F, tan α_R, tan α_T] at `x` and `delta`.
+    fn slips(&self, x: &[S; 4], delta: S) -> [S; 3] {
+        let k = |x: f64| S::from(x);
+        let (f, d, c, l) = (
+            self.car.front_axle,
+            self.car.cog,
+            self.car.rear_axle,
+            self.trailer_axle,
+        );
+        let inv_v = k(1.0 / self.speed);
+        let [v, r, theta, rate] = *x;
+        [
+            delta - (v + r * k(f - d)) * inv_v,
+            -((v + r * k(c - d)) * inv_v),
+            theta - (v - r * k(d + l) - rate * k(l)) * inv_v,
+        ]
+    }
+
+    /// The axle forces [F_F, F_R, F_T] \[N\] at `x` and `delta`.
+    pub(crate) fn forces(&self, x: &[S; 4], delta: S) -> [S; 3] {
+        let t = self.slips(x, delta);
+        let stiffness = [
+            self.car.front_cornering_stiffness,
+            self.car.rear_cornering_stiffness,
+            self.trailer_stiffness,
+        ];
+        std::array::from_fn(|i| {
+            brush(
+                t[i],
+                stiffness[i],
+                self.critical[i],
+                self.loads[i],
+                &self.friction,
+            )
+        })
+    }
+
+    /// [v̇, ṙ, θ̈] at `x` and `delta`.
+    fn accelerations(&self, x: &[S; 4], delta: S) -> [S; 3] {
+        let k = |x: f64| S::from(x);
+        let (f, d, c, l) = (
+            self.car.front_axle,
+            self.car.cog,
+            self.car.rear_axle,
+            self.trailer_axle,
+        );
+        let [ff, fr, ft] = self.forces(x, delta);
+        let vr = x[1] * k(self.speed);
+        let e = [
+            ff + fr + ft - self.inertial[0] * vr,
+            ff * k(f - d) + fr * k(c - d) - ft * k(d) + self.inertial[1] * vr,
+            self.inertial[2] * vr - ft * k(l),
+        ];
+        std::array::from_fn(|i| {
+            self.m_inv[i][0] * e[0] + self.m_inv[i][1] * e[1] + self.m_inv[i][2] * e[2]
+        })
+    }
+
+    /// ẋ = f(x, δ).
+    pub(crate) fn derivative(&self, x: &[S; 4], delta: S) -> [S; 4] {
+        let [dv, dr, ddtheta] = self.accelerations(x, delta);
+        [dv, dr, x[3], ddtheta]
+    }
+
+    /// a_y = v̇ + V r at C1 \[m/s²\].
+    pub(crate) fn lateral_acceleration(&self, x: &[S; 4], delta: S) -> S {
+        self.accelerations(x, delta)[0] + x[1] * S::from(self.speed)
+    }
+
+    /// G: ẋ per N of a lateral force on the trailer at C2.
+    pub(crate) fn trailer_force_column(&self) -> [S; 4] {
+        let k = |x: f64| S::from(x);
+        let column = [k(1.0), k(-self.car.cog), -self.trailer_cog];
+        let acc: [S; 3] = std::array::from_fn(|i| {
+            self.m_inv[i][0] * column[0]
+                + self.m_inv[i][1] * column[1]
+                + self.m_inv[i][2] * column[2]
+        });
+        [acc[0], acc[1], k(0.0), acc[2]]
+    }
+
+    /// One step of `h` \[s\] from `x` by [`rk4`] on `substeps` equal substeps, the
+    /// steering going linearly from `u0` to `u1`.
+    pub(crate) fn step(&self, x: &[S; 4], u0: S, u1: S, h: f64, substeps: usize) -> [S; 4] {
+        rk4(
+            |x: &[S; 4], u: S| self.derivative(x, u),
+            x,
+            u0,
+            u1,
+            h,
+            substeps,
+        )
+    }
+}
+
+/// One step of `h` \[s\] of ẋ = f(x, u) from `x` by the classical Runge–Kutta method on
+/// `substeps` equal substeps, the input going linearly from `u0` to `u1` (first-order
+/// hold, evaluated at the stages). For a linear system this is the exact discretisation's
+/// series truncated after the 4th power of h_s A.
+pub(crate) fn rk4<S: Scalar>(
+    f: impl Fn(&[S; 4], S) -> [S; 4],
+    x: &[S; 4],
+    u0: S,
+    u1: S,
+    h: f64,
+    substeps: usize,
+) -> [S; 4] {
+    let n = substeps as f64;
+    let hs = h / n;
+    let du = u1 - u0;
+    let at = |s: f64| u0 + du * S::from(s / n);
+    let add = |x: &[S; 4], k: &[S; 4], c: f64| -> [S; 4] {
+        std::array::from_fn(|i| x[i] + k[i] * S::from(c))
+    };
+    let mut x = *x;
+    for j in 0..substeps {
+        let s = j as f64;
+        let k1 = f(&x, at(s));
+        let mid = at(s + 0.5);
+        let k2 = f(&add(&x, &k1, 0.5 * hs), mid);
+        let k3 = f(&add(&x, &k2, 0.5 * hs), mid);
+        let k4 = f(&add(&x, &k3, hs), at(s + 1.0));
+        x = std::array::from_fn(|i| {
+            x[i] + (k1[i] + (k2[i] + k3[i]) * S::from(2.0) + k4[i]) * S::from(hs / 6.0)
+        });
+    }
+    x
 }
 
 /// The product of two 4×4 matrices.
@@ -581,57 +875,69 @@ impl LinearModel {
     }
 }
 
-/// The exact discretisation of ẋ = A x + B u over a step `h` with the input linear in time
-/// (first-order hold from u_k to u_{k+1}), its series truncated after the 4th power of hA
-/// (what the classical Runge–Kutta method gives for a linear system), on `substeps` equal
-/// substeps: per substep x ← Φ x + Γ u_j + Λ (u_{j+1} − u_j) with Φ = Σ_{i≤4} T^i/i!,
-/// Γ = Σ_{i≤3} T^i/(i+1)! · h_s B, Λ = Σ_{i≤2} T^i/(i+2)! · h_s B, T = h_s A.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Discrete<S> {
-    pub(crate) phi: Mat4<S>,
-    pub(crate) gamma: [S; 4],
-    pub(crate) lambda: [S; 4],
-    pub(crate) substeps: usize,
+/// The car–trailer model with brush tyres and every parameter known: what the observer
+/// predicts with its estimates, public so that its responses can be checked.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BrushModel {
+    car: CarParams,
+    trailer: TrailerParams,
+    friction: Friction,
 }
 
-impl<S: Scalar> Discrete<S> {
-    /// The discretisation of `a`, `b` over `h` \[s\] in `substeps` substeps.
-    pub(crate) fn new(a: &Mat4<S>, b: &[S; 4], h: f64, substeps: usize) -> Self {
-        let hs = h / substeps as f64;
-        let t: Mat4<S> = a.map(|row| row.map(|x| x * S::from(hs)));
-        let identity = |i: usize, j: usize, c: f64| S::from(if i == j { c } else { 0.0 });
-        // Horner, from the innermost term: every series shares the powers of T
-        let scaled = |m: &Mat4<S>, c: f64| -> Mat4<S> { m.map(|row| row.map(|x| x * S::from(c))) };
-        let plus = |m: Mat4<S>, c: f64| -> Mat4<S> {
-            std::array::from_fn(|i| std::array::from_fn(|j| m[i][j] + identity(i, j, c)))
-        };
-        // Λ-series L = I/2 + T/6 + T²/24 = I/2 + T (I/6 + T/24)
-        let inner = plus(scaled(&t, 1.0 / 24.0), 1.0 / 6.0);
-        let l_series = plus(mat_mul(&t, &inner), 0.5);
-        // Γ-series G = I + T/2 + T²/6 + T³/24 = I + T L
-        let g_series = plus(mat_mul(&t, &l_series), 1.0);
-        // Φ = I + T G
-        let phi = plus(mat_mul(&t, &g_series), 1.0);
-        let hb = b.map(|x| x * S::from(hs));
-        Discrete {
-            phi,
-            gamma: mat_vec(&g_series, &hb),
-            lambda: mat_vec(&l_series, &hb),
-            substeps,
+impl BrushModel {
+    /// The model of `car` towing `trailer` on `friction`, checked (as [`LinearModel::new`],
+    /// and 0 < μ ≤ μ0).
+    pub fn new(
+        car: CarParams,
+        trailer: TrailerParams,
+        friction: Friction,
+    ) -> Result<Self, ConfigError> {
+        LinearModel::new(car, trailer)?;
+        friction.validate()?;
+        Ok(BrushModel {
+            car,
+            trailer,
+            friction,
+        })
+    }
+
+    /// Its linearisation about straight running (linear tyres of the cornering stiffnesses).
+    pub fn linear(&self) -> LinearModel {
+        LinearModel {
+            car: self.car,
+            trailer: self.trailer,
         }
     }
 
-    /// x after the step from `x` with the input going linearly from `u0` to `u1`.
-    pub(crate) fn step(&self, x: &[S; 4], u0: S, u1: S) -> [S; 4] {
-        let n = self.substeps as f64;
-        let mut x = *x;
-        for j in 0..self.substeps {
-            let ua = u0 + (u1 - u0) * S::from(j as f64 / n);
-            let du = (u1 - u0) * S::from(1.0 / n);
-            let px = mat_vec(&self.phi, &x);
-            x = std::array::from_fn(|i| px[i] + self.gamma[i] * ua + self.lambda[i] * du);
-        }
-        x
+    fn plant(&self, speed: f64) -> Plant<f64> {
+        Plant::new(
+            &self.car,
+            &Trailer::from_params(&self.trailer),
+            &self.friction,
+            speed,
+        )
+    }
+
+    /// The static axle loads [F_z,F, F_z,R, F_z,T] \[N\].
+    pub fn axle_loads(&self) -> [f64; 3] {
+        axle_loads(&self.car, &Trailer::from_params(&self.trailer))
+    }
+
+    /// The axle forces [F_F, F_R, F_T] \[N\] at state `x` = [v, r, θ, θ̇], road-wheel angle
+    /// `steering_angle` \[rad\] and `speed` \[m/s\].
+    pub fn axle_forces(&self, x: &[f64; 4], steering_angle: f64, speed: f64) -> [f64; 3] {
+        self.plant(speed).forces(x, steering_angle)
+    }
+
+    /// ẋ at state `x` = [v, r, θ, θ̇], road-wheel angle `steering_angle` \[rad\] and
+    /// `speed` \[m/s\].
+    pub fn derivative(&self, x: &[f64; 4], steering_angle: f64, speed: f64) -> [f64; 4] {
+        self.plant(speed).derivative(x, steering_angle)
+    }
+
+    /// The lateral acceleration of the car's centre of gravity, a_y = v̇ + V r \[m/s²\].
+    pub fn lateral_acceleration(&self, x: &[f64; 4], steering_angle: f64, speed: f64) -> f64 {
+        self.plant(speed).lateral_acceleration(x, steering_angle)
     }
 }
 
@@ -646,44 +952,210 @@ mod tests {
         )
     }
 
+    /// The paper's brush tyre (eq. 14–15) as printed, in α: φ1 tan α + φ2 tan²α sgn α +
+    /// φ3 tan³α up to α_cr = atan(3 F_z μ0 / C), F_z μ sgn α beyond.
+    fn paper_brush(alpha: f64, c: f64, fz: f64, mu0: f64, mu: f64) -> f64 {
+        let alpha_cr = (3.0 * fz * mu0 / c).atan();
+        if alpha.abs() > alpha_cr {
+            return fz * mu * alpha.signum();
+        }
+        let phi2 = c * c / (3.0 * fz * mu0) * (mu / mu0 - 2.0);
+        let phi3 = c.powi(3) / (9.0 * fz * fz * mu0 * mu0) * (1.0 - 2.0 * mu / (3.0 * mu0));
+        let t = alpha.tan();
+        c * t + phi2 * t * t * t.signum() + phi3 * t.powi(3)
+    }
+
     #[test]
-    fn the_parameter_jacobian_of_a_step_is_the_derivative() {
-        // reference: central differences of the plain step (steps 1e-6 relative; their
-        // truncation error ~1e-10 relative), tolerance 1e-6 relative to the column's size
-        let (car, t) = table_i();
-        let x = [0.1, 0.02, -0.03, 0.05];
-        let step = |t: &Trailer<f64>| {
-            let s = system(&car, t, 25.0);
-            Discrete::new(&s.a, &s.b, 0.01, 2).step(&x, 0.01, 0.012)
+    fn the_brush_tyre_is_the_papers_and_its_derivative_is_exact() {
+        // reference: eq. 14–15 as printed (above), to 1e-12 relative; the slope from the
+        // duals against the analytic dF/dt = C + 2 φ2 |t| + 3 φ3 t² (1e-12 relative) and a
+        // central difference (step 1e-7 of α_cr: truncation ~1e-13, round-off ~1e-8
+        // relative); the slope C at t = 0 and 0 at t_cr, the force μ F_z there
+        let friction = Friction::default();
+        let (c, fz) = (137e3, 11894.6);
+        let (mu0, mu) = (friction.mu_static, friction.mu_dynamic);
+        let t_cr = 3.0 * mu0 * fz / c;
+        let phi2 = c * c / (3.0 * fz * mu0) * (mu / mu0 - 2.0);
+        let phi3 = c.powi(3) / (9.0 * fz * fz * mu0 * mu0) * (1.0 - 2.0 * mu / (3.0 * mu0));
+        for k in -60..=60 {
+            let t = t_cr * k as f64 / 50.0; // beyond t_cr at both ends
+            let alpha = t.atan();
+            let force = brush_lateral_force(t, c, fz, &friction);
+            let reference = paper_brush(alpha, c, fz, mu0, mu);
+            assert!(
+                (force - reference).abs() <= 1e-12 * fz,
+                "t = {t}: {force} vs {reference}"
+            );
+            let d = brush(
+                Dual::<1>::variable(t, 0),
+                c,
+                Dual::from(t_cr),
+                Dual::from(fz),
+                &friction,
+            );
+            let slope = if t.abs() <= t_cr {
+                c + 2.0 * phi2 * t.abs() + 3.0 * phi3 * t * t
+            } else {
+                0.0
+            };
+            assert!(
+                (d.eps[0] - slope).abs() <= 1e-12 * c,
+                "t = {t}: {} vs {slope}",
+                d.eps[0]
+            );
+            if (t.abs() - t_cr).abs() > 1e-6 * t_cr {
+                let e = 1e-7 * t_cr;
+                let fd = (brush_lateral_force(t + e, c, fz, &friction)
+                    - brush_lateral_force(t - e, c, fz, &friction))
+                    / (2.0 * e);
+                assert!(
+                    (d.eps[0] - fd).abs() <= 1e-6 * c,
+                    "t = {t}: {} vs {fd}",
+                    d.eps[0]
+                );
+            }
+        }
+        let at = |t: f64| {
+            brush(
+                Dual::<1>::variable(t, 0),
+                c,
+                Dual::from(t_cr),
+                Dual::from(fz),
+                &friction,
+            )
         };
-        let dual = Trailer {
-            mass: Dual::<3>::variable(t.mass, 0),
-            yaw_inertia: Dual::variable(t.yaw_inertia, 1),
-            cog: Dual::variable(t.cog, 2),
+        assert!((at(0.0).eps[0] - c).abs() <= 1e-9 * c);
+        assert!(at(t_cr).eps[0].abs() <= 1e-9 * c);
+        assert!((at(t_cr).re - mu * fz).abs() <= 1e-9 * fz);
+        // the load's derivative: dF/dF_z through t_cr, against a central difference
+        let by_load = brush(
+            Dual::<1>::from(0.5 * t_cr),
+            c,
+            Dual::variable(fz, 0) * Dual::from(3.0 * mu0 / c),
+            Dual::variable(fz, 0),
+            &friction,
+        );
+        let e = 1e-6 * fz;
+        let fd = (brush_lateral_force(0.5 * t_cr, c, fz + e, &friction)
+            - brush_lateral_force(0.5 * t_cr, c, fz - e, &friction))
+            / (2.0 * e);
+        assert!(
+            (by_load.eps[0] - fd).abs() <= 1e-7 * fd.abs(),
+            "{} vs {fd}",
+            by_load.eps[0]
+        );
+    }
+
+    #[test]
+    fn the_axle_loads_of_table_i_are_the_statics() {
+        // reference: the design notes' statics of Table I (F_z,F ≈ 11894.6 N,
+        // F_z,R ≈ 11304.3 N, F_z,T ≈ 10008.0 N, to their 0.1 N) and their sum (m1 + m2) g
+        let (car, t) = table_i();
+        let [front, rear, trailer] = axle_loads(&car, &t);
+        assert!((front - 11894.6).abs() < 0.1, "{front}");
+        assert!((rear - 11304.3).abs() < 0.1, "{rear}");
+        assert!((trailer - 10008.0).abs() < 0.1, "{trailer}");
+        let sum = (car.mass + t.mass) * GRAVITY;
+        assert!((front + rear + trailer - sum).abs() < 1e-9 * sum);
+    }
+
+    #[test]
+    fn the_linearisation_of_the_brush_model_is_the_linear_model() {
+        // reference: the linear model's A and B (its own code: the axle forces as rows over
+        // the states) against the Jacobian of the brush model at straight running from the
+        // duals; equal to round-off (1e-12 of each column's size), at three speeds
+        let (car, t) = table_i();
+        for speed in [8.0, 25.0, 40.0] {
+            let s = system(&car, &t, speed);
+            let trailer = Trailer {
+                mass: Dual::<5>::from(t.mass),
+                yaw_inertia: Dual::from(t.yaw_inertia),
+                cog: Dual::from(t.cog),
+                axle: t.axle,
+                cornering_stiffness: t.cornering_stiffness,
+            };
+            let plant = Plant::new(&car, &trailer, &Friction::default(), speed);
+            let x: [Dual<5>; 4] = std::array::from_fn(|i| Dual::variable(0.0, i));
+            let dx = plant.derivative(&x, Dual::variable(0.0, 4));
+            for j in 0..5 {
+                let column: [f64; 4] =
+                    std::array::from_fn(|i| if j < 4 { s.a[i][j] } else { s.b[i] });
+                let size = column.iter().fold(0.0_f64, |a, c| a.max(c.abs()));
+                for i in 0..4 {
+                    assert!(
+                        (dx[i].eps[j] - column[i]).abs() <= 1e-12 * size,
+                        "V {speed}: ∂ẋ{i}/∂x{j}: {} vs {}",
+                        dx[i].eps[j],
+                        column[i]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_jacobian_of_a_step_is_the_derivative() {
+        // reference: central differences of the plain RK4 step of the brush model (steps
+        // 1e-6 of each variable's scale; truncation ~1e-12, round-off ~1e-9 relative),
+        // tolerance 1e-6 of the column's size; a state where all three tyres are well into
+        // their nonlinear range (|t|/t_cr ≈ 0.2–0.6)
+        let (car, t) = table_i();
+        let friction = Friction::default();
+        let speed = 25.0;
+        let x = [-0.8, 0.2, 0.1, 0.05];
+        let (u0, u1) = (0.05, 0.055);
+        let step = |x: &[f64; 4], t: &Trailer<f64>, offset: f64| {
+            Plant::new(&car, t, &friction, speed).step(x, u0 + offset, u1 + offset, 0.01, 2)
+        };
+        let plain = Plant::new(&car, &t, &friction, speed);
+        let loads = axle_loads(&car, &t);
+        let slips = plain.slips(&x, u0);
+        for i in 0..3 {
+            let ratio = slips[i].abs() / plain.critical[i];
+            assert!((0.1..0.9).contains(&ratio), "axle {i}: {ratio}");
+            assert!(loads[i] > 0.0);
+        }
+        let trailer = Trailer {
+            mass: Dual::<8>::variable(t.mass, 4),
+            yaw_inertia: Dual::variable(t.yaw_inertia, 5),
+            cog: Dual::variable(t.cog, 6),
             axle: t.axle,
             cornering_stiffness: t.cornering_stiffness,
         };
-        let s = system(&car, &dual, Dual::from(25.0));
-        let xd = x.map(Dual::from);
-        let next =
-            Discrete::new(&s.a, &s.b, 0.01, 2).step(&xd, Dual::from(0.01), Dual::from(0.012));
-        for j in 0..3 {
-            let mut plus = t;
-            let mut minus = t;
-            let value = [t.mass, t.yaw_inertia, t.cog][j];
-            let h = 1e-6 * value;
-            match j {
-                0 => (plus.mass, minus.mass) = (value + h, value - h),
-                1 => (plus.yaw_inertia, minus.yaw_inertia) = (value + h, value - h),
-                _ => (plus.cog, minus.cog) = (value + h, value - h),
-            }
-            let (p, m) = (step(&plus), step(&minus));
-            let column: [f64; 4] = std::array::from_fn(|i| (p[i] - m[i]) / (2.0 * h));
+        let xd: [Dual<8>; 4] = std::array::from_fn(|i| Dual::variable(x[i], i));
+        let offset = Dual::variable(0.0, 7);
+        let next = Plant::new(&car, &trailer, &friction, speed).step(
+            &xd,
+            Dual::from(u0) + offset,
+            Dual::from(u1) + offset,
+            0.01,
+            2,
+        );
+        let base = step(&x, &t, 0.0);
+        for i in 0..4 {
+            assert!((next[i].re - base[i]).abs() <= 1e-14 * base[i].abs().max(1e-3));
+        }
+        let scales = [0.1, 0.1, 0.01, 0.1, t.mass, t.yaw_inertia, t.cog, 0.01];
+        for j in 0..8 {
+            let e = 1e-6 * scales[j];
+            let moved = |sign: f64| {
+                let (mut xm, mut tm, mut off) = (x, t, 0.0);
+                match j {
+                    0..4 => xm[j] += sign * e,
+                    4 => tm.mass += sign * e,
+                    5 => tm.yaw_inertia += sign * e,
+                    6 => tm.cog += sign * e,
+                    _ => off = sign * e,
+                }
+                step(&xm, &tm, off)
+            };
+            let (p, m) = (moved(1.0), moved(-1.0));
+            let column: [f64; 4] = std::array::from_fn(|i| (p[i] - m[i]) / (2.0 * e));
             let size = column.iter().fold(0.0_f64, |a, c| a.max(c.abs()));
             for i in 0..4 {
                 assert!(
                     (next[i].eps[j] - column[i]).abs() <= 1e-6 * size,
-                    "∂x{i}/∂p{j}: {} vs {}",
+                    "∂x{i}/∂z{j}: {} vs {}",
                     next[i].eps[j],
                     column[i]
                 );

@@ -27,7 +27,7 @@ pub mod truth;
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 use sway_detect::ConfigError;
-use sway_detect::detector::observer::model::CarParams;
+use sway_detect::detector::observer::model::{CarParams, Friction};
 use sway_detect::detector::{
     CounterOptions, DampingEstimator, DampingOptions, Detector, ModelObserver, ObserverEstimate,
     ObserverOptions, OscillationCounter,
@@ -152,8 +152,8 @@ impl DetectorsConfig {
 /// The observer's options for a run on `model`: `base` (its priors, noise, thresholds) with
 /// the towing car's parameters (known to its ESC), the trailer's hitch → axle distance and
 /// axle cornering stiffness as the nominal values (the observer is told the trailer's axle
-/// and tyre and estimates its mass, yaw inertia and centre of gravity), the run's steering
-/// ratio and frame rate. A vehicle file with model variants gives its equivalent paper
+/// and tyre and estimates its mass, yaw inertia and centre of gravity), the road's friction
+/// (the ESC's friction estimate, here exact), the run's steering ratio and frame rate. A vehicle file with model variants gives its equivalent paper
 /// form ([`Vehicle::paper_model`]). The trailer's mass, inertia and centre of gravity are
 /// never taken from the vehicle: the priors stay `base`'s.
 pub fn observer_options(
@@ -178,6 +178,10 @@ pub fn observer_options(
         steering_ratio,
         trailer_axle_m: p.trailer.axle,
         trailer_cornering_stiffness: p.trailer.cornering_stiffness,
+        friction: Friction {
+            mu_static: p.friction.mu_static,
+            mu_dynamic: p.friction.mu_dynamic,
+        },
         ..*base
     }
 }

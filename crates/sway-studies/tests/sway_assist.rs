@@ -69,10 +69,10 @@ fn the_default_evaluation_on_table_i() {
     eprintln!("{:?}", r.assist);
     assert!(r.sway_trace.is_some() && r.slalom_trace.is_some());
     // the observer after 90 s of the false-alarm set's slaloms and lane changes (up to
-    // 4 m/s²) at 0.7 V_crit with the default sensor noise. Issue 48's goal is 5 %; the
-    // observer's linear tyres do not fit the brush tyres at 3–4 m/s², and it ends 9.9 %
-    // low (31.32 m/s, trailer 1686 kg against 985 kg): asserted at 12 %. With driving at
-    // 1 m/s² it meets the goal (the next test).
+    // 4 m/s²) at 0.7 V_crit with the default sensor noise. Reference: Table I's V_crit
+    // 34.7479 m/s; issue 48's goal is within 5 % after at most 60 s. Measured with the
+    // observer's brush tyres: 35.44 m/s (2.0 % high; trailer 1004 kg against 985 kg),
+    // within 5 % from 12.9 s on.
     let o = &r.observer[0];
     eprintln!(
         "V̂_crit {:?} ± {:?}, V̂_fold {:?}, converged after {:?}, trailer {:?}",
@@ -84,7 +84,8 @@ fn the_default_evaluation_on_table_i() {
     );
     let v = o.v_crit_estimate_mps.unwrap();
     let err = (v - 34.7479).abs() / 34.7479;
-    assert!(err < 0.12, "V̂_crit = {v} m/s, error {err}");
+    assert!(err < 0.05, "V̂_crit = {v} m/s, error {err}");
+    assert!(o.converged_after_s.is_some_and(|t| t <= 60.0));
     assert!(o.v_fold_estimate_mps.is_some());
     assert!(o.manoeuvres >= 10);
     let track = o.track.as_ref().unwrap();
@@ -133,8 +134,8 @@ fn the_observer_converges_in_moderate_driving() {
         o.converged_after_s,
         o.trailer_estimate
     );
-    // reference: Table I's V_crit 34.7479 m/s; measured 34.29 m/s (1.3 % low), within 5 %
-    // from 13.6 s on, V_fold 1.0 % low
+    // reference: Table I's V_crit 34.7479 m/s; measured 1.6 % high, within 5 % from 43 s
+    // on, V_fold 2.5 % high
     let v = o.v_crit_estimate_mps.unwrap();
     assert!((v - 34.7479).abs() / 34.7479 < 0.05, "V̂_crit = {v} m/s");
     assert!(o.converged_after_s.is_some_and(|t| t <= 60.0));

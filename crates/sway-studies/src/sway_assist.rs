@@ -821,7 +821,7 @@ fn assist_metrics(scenarios: &[ScenarioResult]) -> AssistMetrics {
         loss_of_control_with: count(&|s| {
             s.with.as_ref().ok().map(|r| r.loss_of_control_s.is_some())
         }),
-        loss_of_control_after_sway_without: count(&|s| Some(lost_after_sway(s)?)),
+        loss_of_control_after_sway_without: count(&lost_after_sway),
         loss_of_control_after_sway_with: count(&|s| {
             Some(lost_after_sway(s)? && s.with.as_ref().ok()?.loss_of_control_s.is_some())
         }),

@@ -23,15 +23,15 @@ fn v_crit(plant: &AnyVehicleModel) -> Option<f64> {
     }
 }
 
-/// The first two columns of a committed CSV: name → V_crit (None where empty).
-fn committed(file: &str) -> Vec<(String, Option<f64>)> {
+/// Column 0 and column `col` of a committed CSV: name → V_crit (None where empty).
+fn committed(file: &str, col: usize) -> Vec<(String, Option<f64>)> {
     let text = std::fs::read_to_string(root().join(file)).expect("a committed result");
     text.lines()
         .skip(1)
         .map(|line| {
             let mut cols = line.split(',');
             let name = cols.next().unwrap_or_default().to_string();
-            (name, cols.next().and_then(|v| v.parse().ok()))
+            (name, cols.nth(col - 1).and_then(|v| v.parse().ok()))
         })
         .collect()
 }
@@ -74,13 +74,13 @@ fn every_example_combination_loads_and_builds_its_model() {
 
 #[test]
 fn two_unit_files_give_the_committed_critical_speeds_bit_for_bit() {
-    for (name, expected) in committed("results/fleet/fleet.csv") {
+    for (name, expected) in committed("results/fleet/fleet.csv", 1) {
         let loaded = load_vehicle_spec(&root().join("configs").join(&name))
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(!loaded.spec.is_chain());
         assert_eq!(v_crit(&loaded.plant), expected, "{name}");
     }
-    let variants = committed("results/variants/variants.csv");
+    let variants = committed("results/variants/variants.csv", 2);
     for (file, row) in [
         ("vehicle.toml", "Table I (paper's model)"),
         ("vehicles/magic_formula.toml", "magic_formula"),
@@ -107,13 +107,14 @@ fn paper_form_files_are_the_papers_model_bit_for_bit() {
         let AnyVehicleModel::Paper(new) = &loaded.plant else {
             panic!("{}: not the paper's model", file.display());
         };
-        let x = trailer_model::State4::new(0.3, -0.05, 0.12, 0.08);
-        let u = Inputs {
+        let x = trailer_model::State4::new(0.3_f64, -0.05, 0.12, 0.08);
+        let u: Inputs<f64> = Inputs {
             steering_angle: 0.01,
             speed: 27.0,
             acceleration: -0.5,
         };
-        let (a, b) = (old.rhs4(&x, &u), new.rhs4(&x, &u));
+        let (a, b): (trailer_model::State4, trailer_model::State4) =
+            (old.rhs4(&x, &u), new.rhs4(&x, &u));
         for k in 0..4 {
             assert_eq!(a[k].to_bits(), b[k].to_bits(), "{}", file.display());
         }

@@ -571,7 +571,7 @@ impl<const N: usize> ChainEquations<N> {
 
     /// The chain's state \[v, r, θ̇1, θ1, …\] of a state in the paper layout.
     #[inline]
-    fn to_chain<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> SVector<D, N> {
+    fn chain_state<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> SVector<D, N> {
         let mut y = *x;
         y[1] = x[1] - x[0] * self.k1;
         y[2] = self.theta1_rate(x);
@@ -581,7 +581,7 @@ impl<const N: usize> ChainEquations<N> {
     /// The paper layout's rates from the chain's state `y` and its rates `dy`:
     /// σ̇2 = ṙ + (m1 d/I1) v̇, σ̇3 = ṙ + θ̈1 − (m2 h/I2)(v̇ cos θ1 − v θ̇1 sin θ1).
     #[inline]
-    fn from_chain_rate<D: DualNum<Primitive = f64> + Copy>(
+    fn paper_layout_rate<D: DualNum<Primitive = f64> + Copy>(
         &self,
         y: &SVector<D, N>,
         dy: &SVector<D, N>,
@@ -601,8 +601,8 @@ impl<const N: usize> Plant<N> for ChainEquations<N> {
         x: &SVector<D, N>,
         u: &Inputs<D>,
     ) -> SVector<D, N> {
-        let y = self.to_chain(x);
-        self.from_chain_rate(&y, &self.chain.rhs(&y, u))
+        let y = self.chain_state(x);
+        self.paper_layout_rate(&y, &self.chain.rhs(&y, u))
     }
 
     fn rhs_with_yaw_moment<D: DualNum<Primitive = f64> + Copy>(
@@ -611,8 +611,8 @@ impl<const N: usize> Plant<N> for ChainEquations<N> {
         u: &Inputs<D>,
         yaw_moment: D,
     ) -> SVector<D, N> {
-        let y = self.to_chain(x);
-        self.from_chain_rate(&y, &self.chain.rhs_with_yaw_moment(&y, u, yaw_moment))
+        let y = self.chain_state(x);
+        self.paper_layout_rate(&y, &self.chain.rhs_with_yaw_moment(&y, u, yaw_moment))
     }
 
     #[inline]
@@ -633,11 +633,11 @@ impl<const N: usize> Plant<N> for ChainEquations<N> {
     }
 
     fn switching_functions(&self, x: &SVector<f64, N>, u: &Inputs, g: &mut [f64]) {
-        self.chain.switching_functions(&self.to_chain(x), u, g);
+        self.chain.switching_functions(&self.chain_state(x), u, g);
     }
 
     fn guard_values(&self, x: &SVector<f64, N>, u: &Inputs) -> [f64; 5] {
-        self.chain.guard_values(&self.to_chain(x), u)
+        self.chain.guard_values(&self.chain_state(x), u)
     }
 }
 
@@ -765,7 +765,7 @@ impl<const N: usize> VehicleModel<N> {
     ) {
         match &self.equations {
             Equations::Pair(m) => m.slip_angles(x, u, out),
-            Equations::Chain(c) => c.chain.slip_angles(&c.to_chain(x), u, out),
+            Equations::Chain(c) => c.chain.slip_angles(&c.chain_state(x), u, out),
         }
     }
 

@@ -500,10 +500,10 @@ fn build_model(params: VehicleParams, file: &Path) -> Result<Model, SwayError> {
 }
 
 /// Parameter `index` of [`PARAMETERS`] in a vehicle file with model variants: None where
-/// the key does not exist there (an axle key of a unit given as a list of axles), as
-/// [`VehicleSpec::with_parameter`] reads the keys.
+/// the key does not exist there (an axle key of a unit given as a list of axles, a trailer
+/// key of a chain of towed units), as [`VehicleSpec::with_parameter`] reads the keys.
 fn spec_parameter(spec: &VehicleSpec, index: usize) -> Option<f64> {
-    let (t, r) = (&spec.tractor, &spec.trailer);
+    let (t, r) = (&spec.tractor, spec.trailer.as_ref());
     match index {
         0 => Some(t.mass),
         1 => Some(t.yaw_inertia),
@@ -512,11 +512,11 @@ fn spec_parameter(spec: &VehicleSpec, index: usize) -> Option<f64> {
         4 => t.rear_axle,
         5 => t.front_cornering_stiffness,
         6 => t.rear_cornering_stiffness,
-        7 => Some(r.mass),
-        8 => Some(r.yaw_inertia),
-        9 => Some(r.cog),
-        10 => r.axle,
-        11 => r.cornering_stiffness,
+        7 => r.map(|r| r.mass),
+        8 => r.map(|r| r.yaw_inertia),
+        9 => r.map(|r| r.cog),
+        10 => r.and_then(|r| r.axle),
+        11 => r.and_then(|r| r.cornering_stiffness),
         12 => Some(spec.friction.mu_static),
         13 => Some(spec.friction.mu_dynamic),
         _ => Some(spec.gravity),

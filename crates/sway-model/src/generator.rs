@@ -240,20 +240,23 @@ impl VariantMix {
         s.tractor.rear_tire = tire;
         s.tractor.front_relaxation_length_m = sigma;
         s.tractor.rear_relaxation_length_m = sigma;
-        if let Some(a) = self.tandem_half_spacing_m {
-            let axle = |position_m: f64| AxleSpec {
-                position_m,
-                cornering_stiffness: p.trailer.cornering_stiffness / 2.0,
-                steered: false,
-                tire: tire.unwrap_or_default(),
-                relaxation_length_m: sigma.unwrap_or(0.0),
-            };
-            s.trailer.axle = None;
-            s.trailer.cornering_stiffness = None;
-            s.trailer.axles = Some(vec![axle(p.trailer.axle - a), axle(p.trailer.axle + a)]);
-        } else {
-            s.trailer.tire = tire;
-            s.trailer.relaxation_length_m = sigma;
+        // (the paper form's vehicle file always has its `[trailer]`)
+        if let Some(trailer) = s.trailer.as_mut() {
+            if let Some(a) = self.tandem_half_spacing_m {
+                let axle = |position_m: f64| AxleSpec {
+                    position_m,
+                    cornering_stiffness: p.trailer.cornering_stiffness / 2.0,
+                    steered: false,
+                    tire: tire.unwrap_or_default(),
+                    relaxation_length_m: sigma.unwrap_or(0.0),
+                };
+                trailer.axle = None;
+                trailer.cornering_stiffness = None;
+                trailer.axles = Some(vec![axle(p.trailer.axle - a), axle(p.trailer.axle + a)]);
+            } else {
+                trailer.tire = tire;
+                trailer.relaxation_length_m = sigma;
+            }
         }
         s.hitch = HitchSpec {
             yaw_damping_nms: self.hitch_damping_nms.unwrap_or(0.0),

@@ -16,8 +16,8 @@ use num_dual::{Dual64, DualNum, DualSVec64, jacobian};
 use serde::{Deserialize, Serialize};
 pub use stability::Complex64;
 use trailer_model::{
-    AnyVehicleModel, CriticalSpeed, CriticalSpeedOptions, Inputs, MAX_AXLES, Model, ModelError,
-    Plant, State4, SwitchingKind, VehicleModel, VehicleParams, VehicleSpec, with_plant,
+    AnyVehicleModel, CriticalSpeed, CriticalSpeedOptions, Inputs, Model, ModelError, Plant, State4,
+    SwitchingKind, VehicleModel, VehicleParams, VehicleSpec, with_plant,
 };
 
 use crate::law::{Actuator, LoopLinearization};
@@ -307,8 +307,11 @@ impl Vehicle<4> for Model {
     }
 }
 
-/// Every model of a vehicle file: its equivalent paper model, and a lagged slip α′ that
-/// starts at the instantaneous slip α; the rest from the defaults.
+/// Every model of a vehicle file (two units or a chain): its equivalent paper model (a
+/// chain's: the towing unit with the first towed unit), and a lagged slip α′ that starts at
+/// the instantaneous slip α; the rest from the defaults. A chain's initial state has the
+/// first articulation's \[σ1, σ2, σ3, θ\] = `x4` and the couplings behind it straight and at
+/// rest (θ̇i = θi = 0, i ≥ 2).
 impl<const N: usize> Vehicle<N> for VehicleModel<N> {
     fn paper_model(&self) -> &Model {
         self.equivalent_model()
@@ -316,18 +319,7 @@ impl<const N: usize> Vehicle<N> for VehicleModel<N> {
 
     fn initial_state(&self, x4: &State4, speed_mps: f64) -> SVector<f64, N> {
         let mut x = SVector::<f64, N>::from_fn(|i, _| if i < 4 { x4[i] } else { 0.0 });
-        let mut alpha = [0.0; MAX_AXLES];
-        let axles = self.axles();
-        self.slip_angles(
-            &x,
-            &Inputs::constant_speed(speed_mps),
-            &mut alpha[..axles.len()],
-        );
-        for (a, alpha) in axles.iter().zip(alpha) {
-            if let Some(j) = a.state {
-                x[j] = alpha;
-            }
-        }
+        self.settle_lagged_slips(&mut x, speed_mps);
         x
     }
 }
@@ -450,7 +442,8 @@ pub trait VehicleDescription: Clone + Sync {
     type Model: LoopModel;
 
     /// The values of the paper's keys (of a vehicle file: those of its equivalent
-    /// single-axle vehicle, [`VehicleSpec::equivalent_params`]).
+    /// single-axle vehicle, [`VehicleSpec::equivalent_params`]; of a chain: its towing unit
+    /// with the first towed unit).
     ///
     /// # Errors
     /// An invalid vehicle file.
@@ -488,7 +481,13 @@ impl VehicleDescription for VehicleParams {
 impl VehicleDescription for VehicleSpec {
     type Model = AnyVehicleModel;
 
+    /// A chain of towed units: the towing unit with the first towed unit
+    /// ([`trailer_model::ChainSpec::first_pair_params`]), whose trailer keys
+    /// [`VehicleDescription::with_paper_value`] refuses (the chain has no `[trailer]`).
     fn paper_values(&self) -> Result<VehicleParams, ModelError> {
+        if self.is_chain() {
+            return self.chain_spec().first_pair_params();
+        }
         self.equivalent_params()
     }
 

@@ -131,7 +131,8 @@ pub const TONGUE_LOADS_PCT: [f64; 3] = [0.0, 5.0, 10.0];
 /// relative to V_crit refers to. Advances `progress` by one per row of the map.
 ///
 /// # Errors
-/// [`SwayError::Numerical`] from the search range.
+/// [`SwayError::Numerical`] from the search range; [`SwayError::Model`] naming `trailers`
+/// for a chain of towed units (the map varies the one trailer's mass and centre of gravity).
 pub fn compute(
     cfg: &LoadingConfig,
     spec: &VehicleSpec,
@@ -139,6 +140,7 @@ pub fn compute(
     limits: &SpeedLimits,
     progress: &dyn Progress,
 ) -> Result<Loading, SwayError> {
+    spec.two_unit_trailer("trailer loading map (`trailer.mass` × `trailer.cog`)")?;
     let axle_m = trailer_axle(spec);
     let ([v_min, v_max], v_range_reason) = v_range(cfg, plant, limits)?;
     let search = CriticalSpeedOptions {

@@ -301,7 +301,7 @@ fn a_supercritical_vehicle_settles_where_the_stable_cycle_is() {
     let linear: tires::TireLawSpec = toml::from_str("law = \"linear\"").unwrap();
     spec.tractor.front_tire = Some(linear);
     spec.tractor.rear_tire = Some(linear);
-    spec.trailer.tire = Some(linear);
+    spec.trailer.as_mut().expect("a two-unit vehicle").tire = Some(linear);
     let vehicle = AnyVehicleModel::new(&spec).unwrap();
     let r = compute(
         &LateralStabilityConfig {

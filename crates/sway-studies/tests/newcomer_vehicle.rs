@@ -353,7 +353,7 @@ fn library_linear_vehicle() -> VehicleModel<4> {
     let mut spec = VehicleSpec::from(VehicleParams::default());
     spec.tractor.front_tire = Some(TireLawSpec::Linear {});
     spec.tractor.rear_tire = Some(TireLawSpec::Linear {});
-    spec.trailer.tire = Some(TireLawSpec::Linear {});
+    spec.trailer.as_mut().expect("a two-unit vehicle").tire = Some(TireLawSpec::Linear {});
     VehicleModel::<4>::new(&spec).expect("a valid vehicle file")
 }
 

@@ -239,8 +239,10 @@ pub struct LoadedVehicle {
     pub plant: AnyVehicleModel,
     /// the paper-form parameters ([`VehicleSpec::equivalent_params`]: identical to the
     /// file's keys for a vehicle of the paper's form; for a vehicle with variants the
-    /// single-axle brush-tyre vehicle with the same statics and cornering stiffnesses, for
-    /// ranges and names only, never for its dynamics)
+    /// single-axle brush-tyre vehicle with the same statics and cornering stiffnesses; for a
+    /// chain of towed units the towing unit with the first towed unit,
+    /// [`trailer_model::ChainSpec::first_pair_params`]; for ranges and names only, never for
+    /// its dynamics)
     pub params: VehicleParams,
     /// the paper's model of [`Self::params`]
     pub paper_model: Model,
@@ -302,6 +304,19 @@ pub fn load_vehicle_spec(file: &Path) -> Result<LoadedVehicle, TaskError> {
 pub fn vehicle_from_spec(spec: VehicleSpec, file: &Path) -> Result<LoadedVehicle, TaskError> {
     let checked = || -> Result<LoadedVehicle, ModelError> {
         spec.validate()?;
+        if spec.is_chain() {
+            // no paper-form equivalent: the towing unit with the first towed unit, as the
+            // plant's own paper form (ranges, actuator scales and names)
+            let plant = AnyVehicleModel::new(&spec)?;
+            let paper_model = sway_model::vehicle::LoopModel::paper_model(&plant).clone();
+            return Ok(LoadedVehicle {
+                params: *paper_model.params(),
+                paper_model,
+                plant,
+                variant_key: spec.first_variant_key()?,
+                spec: spec.clone(),
+            });
+        }
         let params = spec.equivalent_params()?;
         Ok(LoadedVehicle {
             plant: AnyVehicleModel::new(&spec)?,
@@ -386,7 +401,19 @@ pub fn load_prediction_vehicle(
         ..
     } = controller
     {
-        let loaded = load_named_vehicle(file, &format!("{key}.prediction_vehicle"), &p.file)?;
+        let key = format!("{key}.prediction_vehicle");
+        let loaded = load_named_vehicle(file, &key, &p.file)?;
+        if loaded.spec.is_chain() {
+            return Err(TaskError::config(
+                file,
+                key,
+                format!(
+                    "a vehicle of two units: the predictor's model is the paper's 4-state model, and `{}` is a chain of {} towed units",
+                    p.file.display(),
+                    loaded.spec.towed_units()
+                ),
+            ));
+        }
         p.params = Some(loaded.params);
     }
     Ok(())

@@ -10,6 +10,8 @@
 
 #[path = "capped_speeds.rs"]
 mod capped_speeds;
+#[path = "combinations.rs"]
+mod combinations;
 #[path = "configs.rs"]
 mod configs;
 #[path = "generated_inputs.rs"]

@@ -203,6 +203,7 @@ fn is_vehicle_file(relative: &str) -> bool {
     relative == "vehicle.toml"
         || relative.starts_with("vehicles/")
         || relative.starts_with("fleet/")
+        || relative.starts_with("combinations/")
 }
 
 fn relative_config(file: &Path) -> String {

@@ -48,17 +48,36 @@ pub fn v_crit_of(params: &VehicleParams, opts: &CriticalSpeedOptions) -> f64 {
         .map_or(f64::NAN, |c| c.v_crit_mps)
 }
 
+/// What the loading study varies: the trailer of a two-unit vehicle.
+const LOADED_TRAILER: &str = "one trailer to load (`trailer.mass` × `trailer.cog`)";
+
 /// The vehicle `base` with trailer mass `m2` \[kg\] and centre of gravity `h` \[m\] (J2 as
-/// `inertia` says): any vehicle file, model variants included (each loading is its own
-/// plant; a file of the paper's form gives the paper's numbers).
-pub fn loaded_vehicle(base: &VehicleSpec, m2: f64, h: f64, inertia: InertiaScaling) -> VehicleSpec {
+/// `inertia` says): any two-unit vehicle file, model variants included (each loading is its
+/// own plant; a file of the paper's form gives the paper's numbers).
+///
+/// # Errors
+/// [`trailer_model::ModelError::InvalidSpec`] naming `trailers` for a chain of towed units
+/// ([`VehicleSpec::two_unit_trailer`]).
+pub fn loaded_vehicle(
+    base: &VehicleSpec,
+    m2: f64,
+    h: f64,
+    inertia: InertiaScaling,
+) -> Result<VehicleSpec, trailer_model::ModelError> {
     let mut s = base.clone();
+    let trailer = s.two_unit_trailer_mut(LOADED_TRAILER)?;
     if inertia == InertiaScaling::ScaleWithMass {
-        s.trailer.yaw_inertia = base.trailer.yaw_inertia * m2 / base.trailer.mass;
+        trailer.yaw_inertia = trailer.yaw_inertia * m2 / trailer.mass;
     }
-    s.trailer.mass = m2;
-    s.trailer.cog = h;
-    s
+    trailer.mass = m2;
+    trailer.cog = h;
+    Ok(s)
+}
+
+/// The trailer mass m2 \[kg\] of a two-unit vehicle file, NaN for a chain.
+pub fn base_trailer_mass(spec: &VehicleSpec) -> f64 {
+    spec.two_unit_trailer(LOADED_TRAILER)
+        .map_or(f64::NAN, |t| t.mass)
 }
 
 /// V_crit \[m/s\] of a vehicle file in `opts`' range, NaN as [`v_crit_of`].
@@ -74,9 +93,10 @@ pub fn trailer_axle(spec: &VehicleSpec) -> f64 {
         .map_or(f64::NAN, |p| p.trailer.axle)
 }
 
-/// The tongue load fraction 1 − h/l \[-\] of a vehicle file.
+/// The tongue load fraction 1 − h/l \[-\] of a two-unit vehicle file, NaN for a chain.
 pub fn vehicle_tongue_load_fraction(spec: &VehicleSpec) -> f64 {
-    1.0 - spec.trailer.cog / trailer_axle(spec)
+    spec.two_unit_trailer(LOADED_TRAILER)
+        .map_or(f64::NAN, |t| 1.0 - t.cog / trailer_axle(spec))
 }
 
 /// V_crit on the grid `masses × cogs`, row j for `cogs[j]`, column i for `masses[i]`.
@@ -93,7 +113,9 @@ pub fn v_crit_map(
     map(cogs, Split::Adaptive, &|_, &h| {
         let row = masses
             .iter()
-            .map(|&m2| vehicle_v_crit(&loaded_vehicle(base, m2, h, inertia), opts))
+            .map(|&m2| {
+                loaded_vehicle(base, m2, h, inertia).map_or(f64::NAN, |p| vehicle_v_crit(&p, opts))
+            })
             .collect();
         progress();
         row
@@ -135,10 +157,14 @@ pub fn loading_map(
     let cut = (0..=CUT_POINTS)
         .map(|k| {
             let h = h0 + (h1 - h0) * k as f64 / CUT_POINTS as f64;
-            let p = loaded_vehicle(base, base.trailer.mass, h, inertia);
-            (
-                100.0 * vehicle_tongue_load_fraction(&p),
-                vehicle_v_crit(&p, opts),
+            loaded_vehicle(base, base_trailer_mass(base), h, inertia).map_or(
+                (f64::NAN, f64::NAN),
+                |p| {
+                    (
+                        100.0 * vehicle_tongue_load_fraction(&p),
+                        vehicle_v_crit(&p, opts),
+                    )
+                },
             )
         })
         .collect();
@@ -168,5 +194,6 @@ pub fn v_crit_at_tongue_load(
     opts: &CriticalSpeedOptions,
 ) -> f64 {
     let h = trailer_axle(base) * (1.0 - pct / 100.0);
-    vehicle_v_crit(&loaded_vehicle(base, base.trailer.mass, h, inertia), opts)
+    loaded_vehicle(base, base_trailer_mass(base), h, inertia)
+        .map_or(f64::NAN, |p| vehicle_v_crit(&p, opts))
 }

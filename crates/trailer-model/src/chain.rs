@@ -89,6 +89,11 @@
 //! state of [`Plant::rhs_full`] appends ψ_0 and the position of H_1. The validity guard
 //! ([`Plant::guard_values`]) watches every towed unit's axles.
 //!
+//! A vehicle file with `[[trailers]]` ([`crate::VehicleSpec`]) builds a
+//! [`crate::VehicleModel`] with this model behind it, its state mapped to the layout of every
+//! plant (the first four states \[σ1, σ2, σ3, θ\] of eq. 4 for the first articulation, the
+//! rest as here): that is the model the engines run.
+//!
 //! ```
 //! use trailer_model::{
 //!     ChainModel, ChainSpec, CriticalSpeedOptions, Plant, TowedUnitSpec, VehicleParams,

@@ -56,7 +56,7 @@ use tires::{TireLaw, TireLawSpec};
 use crate::spec::MIN_AXLE_SPACING_M;
 use crate::{
     AxleSpec, FrictionParams, HitchSpec, ModelError, TractorParams, TractorSpec, TrailerParams,
-    TrailerSpec, Unit, VehicleParams, VehicleSpec,
+    TrailerSpec, VehicleParams, VehicleSpec,
 };
 
 /// Most towed units a [`ChainSpec`] may have (the fixed size of the model's work arrays).
@@ -168,12 +168,13 @@ fn invalid(key: impl Into<String>, value: f64, expected: impl Into<String>) -> M
 }
 
 impl From<&VehicleSpec> for ChainSpec {
-    /// Today's two-unit file as the chain with one towed unit (`[trailer]`, `[hitch]`).
+    /// A vehicle file as a chain: today's two-unit file is the chain with one towed unit
+    /// (`[trailer]`, `[hitch]`); a file with `[[trailers]]` is its list.
     fn from(s: &VehicleSpec) -> Self {
         Self {
             tractor: s.tractor.clone(),
-            trailer: Some(TowedUnitSpec::from(&s.trailer)),
-            trailers: Vec::new(),
+            trailer: s.trailer.as_ref().map(TowedUnitSpec::from),
+            trailers: s.trailers.clone(),
             friction: s.friction,
             gravity: s.gravity,
             hitch: (s.hitch != HitchSpec::default()).then_some(s.hitch),
@@ -313,28 +314,9 @@ impl ChainSpec {
     /// module docs).
     pub fn resolved_axles(&self) -> Result<Vec<ChainAxleSpec>, ModelError> {
         self.check_form()?;
-        // the towing unit's keys are those of a two-unit file: resolve them as such (with a
-        // placeholder trailer, not part of the result)
-        let probe = VehicleSpec {
-            tractor: self.tractor.clone(),
-            trailer: TrailerSpec {
-                mass: 1.0,
-                yaw_inertia: 1.0,
-                cog: 1.0,
-                axle: Some(1.0),
-                cornering_stiffness: Some(1.0),
-                tire: None,
-                relaxation_length_m: None,
-                axles: None,
-            },
-            friction: self.friction,
-            gravity: self.gravity,
-            hitch: HitchSpec::default(),
-        };
-        let mut out: Vec<ChainAxleSpec> = probe
-            .resolved_axles()?
+        // the towing unit's keys are those of a two-unit file
+        let mut out: Vec<ChainAxleSpec> = VehicleSpec::resolved_tractor_axles(&self.tractor)?
             .into_iter()
-            .filter(|a| a.unit == Unit::Tractor)
             .map(|a| ChainAxleSpec {
                 unit: 0,
                 spec: a.spec,

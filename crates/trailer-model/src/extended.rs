@@ -19,6 +19,12 @@
 //! denominators of the slip angles, eq. 2). Axles with σ = 0 react instantly and have no
 //! state: with σ = 0 on every axle the model is the paper's.
 //!
+//! **Chains.** A vehicle file with `[[trailers]]` ([`crate::ChainSpec`]) builds the same
+//! [`VehicleModel`] type with the chain's equations ([`ChainModel`], by Kane's method) behind
+//! it, its state in the layout every [`Plant`] has: \[σ1, σ2, σ3, θ\] of the towing unit with
+//! the first towed unit (eq. 4), then θ̇2, θ2, …, θ̇n, θn and the lagged slips. One type for
+//! both kinds keeps the engines compiled once per N.
+//!
 //! **Fixed size.** N = 4 + (number of relaxing axles) is a const generic: every state vector
 //! and Jacobian is a stack-allocated nalgebra type and the hot loop allocates nothing.
 //! [`VehicleModel::<N>::new`] checks N against the vehicle; [`AnyVehicleModel`] picks N
@@ -29,9 +35,10 @@ use nalgebra::SVector;
 use num_dual::DualNum;
 use tires::{TireLaw, TireModel};
 
+use crate::chain_spec::MAX_CHAIN_AXLES;
 use crate::model::is_plain_zero;
 use crate::spec::{MAX_AXLES, Unit, VehicleSpec};
-use crate::{Inputs, Model, ModelError, Plant, State4, SwitchingKind, VehicleParams};
+use crate::{ChainModel, Inputs, Model, ModelError, Plant, State4, SwitchingKind, VehicleParams};
 
 /// Most states of a reduced system [`AnyVehicleModel`] supports (4 + 6 relaxing axles).
 pub const MAX_STATES: usize = 10;
@@ -88,12 +95,12 @@ struct EvalAxle {
     state: Option<usize>,
 }
 
-/// The general car–trailer model with N reduced states (see the module docs).
+/// The equations of a two-unit vehicle file (module docs): the Appellian equations with
+/// axle lists, tyre laws, relaxation and hitch torque.
 #[derive(Debug, Clone)]
-pub struct VehicleModel<const N: usize> {
+struct PairModel<const N: usize> {
     /// the paper's model of the equivalent single-axle vehicle: the constants of eq. (7)
     core: Model,
-    spec: VehicleSpec,
     axles: Vec<AxleModel>,
     /// the axles in the evaluation order of the force sums (unsteered tractor, trailer,
     /// steered tractor: the order of eq. 6, so that one axle per unit reproduces the paper's
@@ -107,13 +114,9 @@ pub struct VehicleModel<const N: usize> {
     switching: Vec<SwitchingKind>,
 }
 
-impl<const N: usize> VehicleModel<N> {
-    /// Builds the model of a vehicle file with N = 4 + (axles with σ > 0) states.
-    ///
-    /// # Errors
-    /// [`VehicleSpec::check_physics`]'s errors; [`ModelError::StateCount`] when N is not
-    /// 4 + the number of relaxing axles.
-    pub fn new(spec: &VehicleSpec) -> Result<Self, ModelError> {
+impl<const N: usize> PairModel<N> {
+    /// The model of a two-unit vehicle file with N = 4 + (axles with σ > 0) states.
+    fn new(spec: &VehicleSpec) -> Result<Self, ModelError> {
         let laws = spec.check_physics()?;
         let resolved = spec.resolved_axles()?;
         let relaxed = spec.relaxed_axles()?;
@@ -218,7 +221,6 @@ impl<const N: usize> VehicleModel<N> {
         }
         Ok(Self {
             core,
-            spec: spec.clone(),
             axles,
             eval,
             hitch,
@@ -228,35 +230,9 @@ impl<const N: usize> VehicleModel<N> {
         })
     }
 
-    /// The vehicle file it was built from.
-    pub fn spec(&self) -> &VehicleSpec {
-        &self.spec
-    }
-
-    /// The axles, tractor first, each unit in file order.
-    pub fn axles(&self) -> &[AxleModel] {
-        &self.axles
-    }
-
-    /// The paper's model of the equivalent single-axle vehicle (same masses and inertias;
-    /// each group of axles at its mean position with the summed stiffness, brush tyres).
-    pub fn equivalent_model(&self) -> &Model {
-        &self.core
-    }
-
-    /// I1 = J1 + m1 d² \[kg m²\].
-    pub fn i1(&self) -> f64 {
-        self.core.i1
-    }
-
-    /// I2 = J2 + m2 h² \[kg m²\].
-    pub fn i2(&self) -> f64 {
-        self.core.i2
-    }
-
     /// The torque T_h \[N m\] of the hitch damping at hitch-angle rate θ̇ (on the tractor;
     /// −T_h on the trailer): c_h·θ̇ + M_c·sat(θ̇/ω_c). Zero for a free hitch.
-    pub fn hitch_torque<D: DualNum<Primitive = f64> + Copy>(&self, theta_dot: D) -> D {
+    fn hitch_torque<D: DualNum<Primitive = f64> + Copy>(&self, theta_dot: D) -> D {
         match self.hitch {
             None => D::from(0.0),
             Some((ch, mc, wc)) => {
@@ -273,9 +249,8 @@ impl<const N: usize> VehicleModel<N> {
         }
     }
 
-    /// Slip angle α of every axle \[rad\] at (x, u) (body-frame form of eq. 2: the
-    /// instantaneous slip, which relaxing axles lag behind), in axle order, into `out`.
-    pub fn slip_angles<D: DualNum<Primitive = f64> + Copy>(
+    /// Slip angle α of every axle \[rad\] at (x, u), in axle order, into `out`.
+    fn slip_angles<D: DualNum<Primitive = f64> + Copy>(
         &self,
         x: &SVector<D, N>,
         u: &Inputs<D>,
@@ -436,7 +411,7 @@ impl<const N: usize> VehicleModel<N> {
     }
 }
 
-impl<const N: usize> Plant<N> for VehicleModel<N> {
+impl<const N: usize> Plant<N> for PairModel<N> {
     #[inline]
     fn rhs<D: DualNum<Primitive = f64> + Copy>(
         &self,
@@ -552,6 +527,318 @@ impl<const N: usize> Plant<N> for VehicleModel<N> {
     }
 }
 
+/// A chain's equations ([`ChainModel`]) in the layout of every [`Plant`]: the first four
+/// states are the paper's \[σ1, σ2, σ3, θ\] of the first articulation (eq. 4 with the towing
+/// unit and the first towed unit: σ2 = r + (m1 d/I1) v, σ3 = r + θ̇1 − (m2 h/I2) v cos θ1), the
+/// rest the chain's own (θ̇2, θ2, …, θ̇n, θn, the lagged slips α′). The engines read the
+/// reduced state only through [`Plant`] and [`crate::HITCH_ANGLE`], and the paper-layout
+/// outputs (σ1, σ2, σ3, θ) keep their meaning.
+#[derive(Debug, Clone)]
+struct ChainEquations<const N: usize> {
+    chain: ChainModel<N>,
+    /// the towing unit with the first towed unit in the paper's form (not validated: a fifth
+    /// wheel ahead of the rear axle has c < 0)
+    paper: Model,
+    /// m1 d / I1 and m2 h / I2 \[1/m\] of that pair (eq. 4)
+    k1: f64,
+    k2: f64,
+}
+
+impl<const N: usize> ChainEquations<N> {
+    fn new(spec: &VehicleSpec) -> Result<Self, ModelError> {
+        let chain = ChainModel::<N>::new(&spec.chain_spec())?;
+        let paper = Model::build(*Plant::params(&chain)).map_err(|e| ModelError::InvalidSpec {
+            key: "trailers[0]".into(),
+            value: f64::NAN,
+            expected: format!(
+                "a first towed unit whose pair with the towing unit has positive static loads in the paper's form (its paper model: {e})"
+            ),
+        })?;
+        let (k1, k2) = (paper.k.m1d_i1, paper.k.m2h_i2);
+        Ok(Self {
+            chain,
+            paper,
+            k1,
+            k2,
+        })
+    }
+
+    /// θ̇1 \[rad/s\] from the paper layout: σ3 − σ2 + σ1 (m1 d/I1 + (m2 h/I2) cos θ).
+    #[inline]
+    fn theta1_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> D {
+        x[2] - x[1] + x[0] * (x[3].cos() * self.k2 + self.k1)
+    }
+
+    /// The chain's state \[v, r, θ̇1, θ1, …\] of a state in the paper layout.
+    #[inline]
+    fn chain_state<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> SVector<D, N> {
+        let mut y = *x;
+        y[1] = x[1] - x[0] * self.k1;
+        y[2] = self.theta1_rate(x);
+        y
+    }
+
+    /// The paper layout's rates from the chain's state `y` and its rates `dy`:
+    /// σ̇2 = ṙ + (m1 d/I1) v̇, σ̇3 = ṙ + θ̈1 − (m2 h/I2)(v̇ cos θ1 − v θ̇1 sin θ1).
+    #[inline]
+    fn paper_layout_rate<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        y: &SVector<D, N>,
+        dy: &SVector<D, N>,
+    ) -> SVector<D, N> {
+        let mut dx = *dy;
+        let (s, c) = y[3].sin_cos();
+        dx[1] = dy[1] + dy[0] * self.k1;
+        dx[2] = dy[1] + dy[2] - (dy[0] * c - y[0] * y[2] * s) * self.k2;
+        dx
+    }
+}
+
+impl<const N: usize> Plant<N> for ChainEquations<N> {
+    #[inline]
+    fn rhs<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+    ) -> SVector<D, N> {
+        let y = self.chain_state(x);
+        self.paper_layout_rate(&y, &self.chain.rhs(&y, u))
+    }
+
+    fn rhs_with_yaw_moment<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+        yaw_moment: D,
+    ) -> SVector<D, N> {
+        let y = self.chain_state(x);
+        self.paper_layout_rate(&y, &self.chain.rhs_with_yaw_moment(&y, u, yaw_moment))
+    }
+
+    #[inline]
+    fn yaw_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> D {
+        x[1] - x[0] * self.k1
+    }
+
+    fn hitch_angle_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> D {
+        self.theta1_rate(x)
+    }
+
+    fn params(&self) -> &VehicleParams {
+        Plant::params(&self.chain)
+    }
+
+    fn switching_kinds(&self) -> &[SwitchingKind] {
+        self.chain.switching_kinds()
+    }
+
+    fn switching_functions(&self, x: &SVector<f64, N>, u: &Inputs, g: &mut [f64]) {
+        self.chain.switching_functions(&self.chain_state(x), u, g);
+    }
+
+    fn guard_values(&self, x: &SVector<f64, N>, u: &Inputs) -> [f64; 5] {
+        self.chain.guard_values(&self.chain_state(x), u)
+    }
+}
+
+/// The equations behind a [`VehicleModel`].
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)]
+enum Equations<const N: usize> {
+    /// a two-unit vehicle (`[trailer]`)
+    Pair(PairModel<N>),
+    /// a chain of towed units (`[[trailers]]`)
+    Chain(ChainEquations<N>),
+}
+
+/// Runs `$body` on the equations inside a [`VehicleModel`] (both are a [`Plant<N>`]).
+macro_rules! with_equations {
+    ($model:expr, $e:ident => $body:expr) => {
+        match &$model.equations {
+            Equations::Pair($e) => $body,
+            Equations::Chain($e) => $body,
+        }
+    };
+}
+
+/// The general model of a vehicle file with N reduced states: a two-unit vehicle (module
+/// docs: axle lists, tyre laws, relaxation, hitch torque) or a chain of towed units
+/// ([`ChainModel`], in the paper's layout of its first articulation: the first four states
+/// are \[σ1, σ2, σ3, θ\] of the towing unit with the first towed unit, then θ̇2, θ2, …, θn
+/// and the lagged slips α′). One type for both, so that every engine is compiled once per
+/// N, not once per N and kind of vehicle.
+#[derive(Debug, Clone)]
+pub struct VehicleModel<const N: usize> {
+    spec: VehicleSpec,
+    equations: Equations<N>,
+}
+
+impl<const N: usize> VehicleModel<N> {
+    /// Builds the model of a vehicle file with N = 4 + (axles with σ > 0) states (a chain:
+    /// N = 2·units + (axles with σ > 0)).
+    ///
+    /// # Errors
+    /// [`VehicleSpec::check_physics`]'s errors; [`ModelError::StateCount`] when N does not
+    /// fit the vehicle; for a chain, [`ModelError::InvalidSpec`] naming `trailers[0]` when the
+    /// towing unit with the first towed unit has no paper form with positive axle loads.
+    pub fn new(spec: &VehicleSpec) -> Result<Self, ModelError> {
+        let equations = if spec.is_chain() {
+            Equations::Chain(ChainEquations::new(spec)?)
+        } else {
+            Equations::Pair(PairModel::new(spec)?)
+        };
+        Ok(Self {
+            spec: spec.clone(),
+            equations,
+        })
+    }
+
+    /// The vehicle file it was built from.
+    pub fn spec(&self) -> &VehicleSpec {
+        &self.spec
+    }
+
+    /// The axles of a two-unit vehicle, tractor first, each unit in file order; empty for a
+    /// chain (its axles: [`Self::chain`], [`ChainModel::axles`]).
+    pub fn axles(&self) -> &[AxleModel] {
+        match &self.equations {
+            Equations::Pair(m) => &m.axles,
+            Equations::Chain(_) => &[],
+        }
+    }
+
+    /// The chain's model (in its own state layout, module docs of [`ChainModel`]); None for
+    /// a two-unit vehicle.
+    pub fn chain(&self) -> Option<&ChainModel<N>> {
+        match &self.equations {
+            Equations::Pair(_) => None,
+            Equations::Chain(c) => Some(&c.chain),
+        }
+    }
+
+    /// Number of towed units.
+    pub fn towed_units(&self) -> usize {
+        match &self.equations {
+            Equations::Pair(_) => 1,
+            Equations::Chain(c) => c.chain.units() - 1,
+        }
+    }
+
+    /// The paper's model of the equivalent single-axle vehicle (same masses and inertias;
+    /// each group of axles at its mean position with the summed stiffness, brush tyres). For
+    /// a chain: the towing unit with the first towed unit (the units behind are not in it).
+    pub fn equivalent_model(&self) -> &Model {
+        match &self.equations {
+            Equations::Pair(m) => &m.core,
+            Equations::Chain(c) => &c.paper,
+        }
+    }
+
+    /// I1 = J1 + m1 d² \[kg m²\].
+    pub fn i1(&self) -> f64 {
+        self.equivalent_model().i1
+    }
+
+    /// I2 = J2 + m2 h² \[kg m²\] (of the first towed unit).
+    pub fn i2(&self) -> f64 {
+        self.equivalent_model().i2
+    }
+
+    /// The torque T_h \[N m\] at the hitch (the first coupling) at hitch-angle rate θ̇
+    /// \[rad/s\] (on the tractor; −T_h on the trailer): c_h·θ̇ + M_c·sat(θ̇/ω_c). Zero for a
+    /// free hitch.
+    pub fn hitch_torque<D: DualNum<Primitive = f64> + Copy>(&self, theta_dot: D) -> D {
+        match &self.equations {
+            Equations::Pair(m) => m.hitch_torque(theta_dot),
+            Equations::Chain(c) => c.chain.coupling_torque(1, D::from(0.0), theta_dot),
+        }
+    }
+
+    /// Slip angle α of every axle \[rad\] at (x, u) (body-frame form of eq. 2: the
+    /// instantaneous slip, which relaxing axles lag behind), in axle order (a chain's:
+    /// [`ChainModel::axles`]), into `out`.
+    pub fn slip_angles<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+        out: &mut [D],
+    ) {
+        match &self.equations {
+            Equations::Pair(m) => m.slip_angles(x, u, out),
+            Equations::Chain(c) => c.chain.slip_angles(&c.chain_state(x), u, out),
+        }
+    }
+
+    /// Sets every lagged slip α′ of `x` to the instantaneous slip α at speed V \[m/s\] and
+    /// δ = 0 (the steady state of the slip lag at that state).
+    pub fn settle_lagged_slips(&self, x: &mut SVector<f64, N>, speed_mps: f64) {
+        let mut alpha = [0.0; MAX_CHAIN_AXLES];
+        let u = Inputs::constant_speed(speed_mps);
+        let states: Vec<Option<usize>> = match &self.equations {
+            Equations::Pair(m) => m.axles.iter().map(|a| a.state).collect(),
+            Equations::Chain(c) => c.chain.axles().iter().map(|a| a.state).collect(),
+        };
+        self.slip_angles(x, &u, &mut alpha[..states.len()]);
+        for (state, alpha) in states.into_iter().zip(alpha) {
+            if let Some(j) = state {
+                x[j] = alpha;
+            }
+        }
+    }
+}
+
+impl<const N: usize> Plant<N> for VehicleModel<N> {
+    #[inline]
+    fn rhs<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+    ) -> SVector<D, N> {
+        with_equations!(self, e => e.rhs(x, u))
+    }
+
+    #[inline]
+    fn rhs_with_yaw_moment<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+        yaw_moment: D,
+    ) -> SVector<D, N> {
+        with_equations!(self, e => e.rhs_with_yaw_moment(x, u, yaw_moment))
+    }
+
+    #[inline]
+    fn yaw_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> D {
+        with_equations!(self, e => e.yaw_rate(x))
+    }
+
+    fn hitch_angle_rate<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> D {
+        with_equations!(self, e => e.hitch_angle_rate(x))
+    }
+
+    fn params(&self) -> &VehicleParams {
+        with_equations!(self, e => e.params())
+    }
+
+    fn switching_kinds(&self) -> &[SwitchingKind] {
+        with_equations!(self, e => e.switching_kinds())
+    }
+
+    /// SlipSign: tan α of an instantaneous axle (tan α_F as in
+    /// [`Model::slip_angle_tangents`] for steered axles), α′ of a relaxing one; SlidingOnset:
+    /// tan²α − tan²α_cr, or α′² − α_cr²; HitchFriction: θ̇² − ω_c² (a chain: one per coupling
+    /// with friction, front to back).
+    fn switching_functions(&self, x: &SVector<f64, N>, u: &Inputs, g: &mut [f64]) {
+        with_equations!(self, e => e.switching_functions(x, u, g))
+    }
+
+    /// The tractor's axles as in [`Plant::guard_values`]; a chain's last entry is the largest
+    /// −v_x over every towed unit's axles (any towed unit stops).
+    fn guard_values(&self, x: &SVector<f64, N>, u: &Inputs) -> [f64; 5] {
+        with_equations!(self, e => e.guard_values(x, u))
+    }
+}
+
 /// A [`VehicleModel`] with its state count chosen from the vehicle at run time (the
 /// dispatch over the supported N = 4 … [`MAX_STATES`]). Use [`with_plant!`](crate::with_plant)
 /// to run generic code on the concrete model.
@@ -579,18 +866,28 @@ pub enum AnyVehicleModel {
 }
 
 impl AnyVehicleModel {
-    /// The model of a vehicle file with N = 4 + (axles with σ > 0); [`Self::Paper`] when
-    /// the file has none of the variants.
+    /// The model of a vehicle file with N = 4 + (axles with σ > 0), a chain's with
+    /// N = 2·units + (axles with σ > 0); [`Self::Paper`] when the file has none of the
+    /// variants (a chain always has: `trailers`).
     ///
     /// # Errors
-    /// As [`VehicleModel::new`]; [`ModelError::StateCount`] for more than 6 relaxing axles.
+    /// As [`VehicleModel::new`]; [`ModelError::StateCount`] for more than 6 relaxing axles
+    /// (a chain: more than [`MAX_STATES`] states).
     pub fn new(spec: &VehicleSpec) -> Result<Self, ModelError> {
         let relaxed = spec.relaxed_axles()?;
         if !spec.has_variants()? {
             spec.check_physics()?;
             return Ok(Self::Paper(Model::new(spec.equivalent_params()?)?));
         }
-        Ok(match 4 + relaxed {
+        let (states, hint) = if spec.is_chain() {
+            (
+                spec.chain_spec().states()?,
+                ": a chain has 2 states per unit and one per relaxing axle, at most 10 (e.g. 5 units without relaxation, 4 with 2 relaxing axles)",
+            )
+        } else {
+            (4 + relaxed, ": at most 6 axles may relax")
+        };
+        Ok(match states {
             4 => Self::N4(VehicleModel::new(spec)?),
             5 => Self::N5(VehicleModel::new(spec)?),
             6 => Self::N6(VehicleModel::new(spec)?),
@@ -603,7 +900,7 @@ impl AnyVehicleModel {
                     relaxed,
                     expected: n,
                     requested: MAX_STATES,
-                    hint: ": at most 6 axles may relax",
+                    hint,
                 });
             }
         })

@@ -8,7 +8,9 @@
 //! states, exact derivatives, linearisation, V_crit; [`Model`] is `Plant<4>`), and the
 //! general model [`VehicleModel`] built from a vehicle file [`VehicleSpec`] — axle lists
 //! (tandems), a tyre law per axle, first-order tyre relaxation, hitch damping — with
-//! [`AnyVehicleModel`] / [`with_plant!`] choosing N at run time.
+//! [`AnyVehicleModel`] / [`with_plant!`] choosing N at run time. A vehicle file may give a
+//! chain of towed units (`[[trailers]]`, [`ChainSpec`]): the same [`VehicleModel`] type then
+//! runs the chain's equations ([`ChainModel`], Kane's method) in the layout of every plant.
 //!
 //! ```
 //! use trailer_model::{CriticalSpeedOptions, Plant, VehicleModel, VehicleSpec};

@@ -137,6 +137,16 @@ impl Model {
     /// static axle load is not positive (trailer centre of gravity far behind its axle).
     pub fn new(params: VehicleParams) -> Result<Self, ModelError> {
         params.validate()?;
+        Self::build(params)
+    }
+
+    /// [`Model::new`] without [`VehicleParams::validate`]: the paper form of a chain's
+    /// towing unit with its first towed unit ([`crate::ChainSpec::first_pair_params`]), whose
+    /// fifth wheel may sit ahead of the rear axle (c < 0), checked by the chain instead.
+    ///
+    /// # Errors
+    /// A tire error if a static axle load of the pair is not positive.
+    pub(crate) fn build(params: VehicleParams) -> Result<Self, ModelError> {
         let loads = AxleLoads::from_params(&params);
         let fr = &params.friction;
         let tire = |axle: &'static str, c: f64, fz: f64| {

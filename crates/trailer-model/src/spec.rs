@@ -29,6 +29,14 @@
 //! friction_regularisation_rad_s = 0.02   # ω_c [rad/s] (default 0.02)
 //! ```
 //!
+//! **Chains.** A file may give a chain of towed units instead of `[trailer]`: `[[trailers]]`
+//! ([`crate::ChainSpec`]'s form, each with `rear_coupling` but the last and an optional
+//! `[trailers.hitch]`; no top-level `[hitch]`). Such a vehicle builds a
+//! [`crate::VehicleModel`] with the chain's equations ([`crate::ChainModel`]); what only a
+//! two-unit vehicle has — [`VehicleSpec::resolved_axles`], [`VehicleSpec::equivalent_params`],
+//! [`VehicleSpec::axle_loads`] and the trailer's keys of [`VehicleSpec::with_parameter`] —
+//! is an error naming `trailers` and the reason.
+//!
 //! A tractor axle list marks its steered axles with `steered = true` (at least one steered and
 //! one unsteered axle). Static loads of a group of axles (the tractor's steered axles, its
 //! unsteered axles, the trailer's axles) follow from the statics of Fig. 2 with the group at
@@ -40,7 +48,10 @@
 use serde::{Deserialize, Serialize};
 use tires::{TireLaw, TireLawSpec};
 
-use crate::{AxleLoads, FrictionParams, ModelError, TractorParams, TrailerParams, VehicleParams};
+use crate::{
+    AxleLoads, ChainSpec, FrictionParams, ModelError, TowedUnitSpec, TractorParams, TrailerParams,
+    VehicleParams,
+};
 
 /// Axles of one unit closer than this \[m\] overlap (less than a small trailer wheel's
 /// diameter): an error in a vehicle file ([`VehicleSpec::validate`]), usually a duplicated
@@ -191,22 +202,29 @@ fn default_gravity() -> f64 {
     9.81
 }
 
-/// A vehicle file: [`VehicleParams`]' keys with the optional variants. [`From<VehicleParams>`]
-/// gives the paper's model; [`VehicleSpec::equivalent_params`] the single-axle vehicle of the
-/// paper's form (identical to the file's keys when it has that form).
+/// A vehicle file: [`VehicleParams`]' keys with the optional variants, or a chain of towed
+/// units (`trailers`, exclusive with `trailer`). [`From<VehicleParams>`] gives the paper's
+/// model; [`VehicleSpec::equivalent_params`] the single-axle vehicle of the paper's form
+/// (identical to the file's keys when it has that form; an error for a chain).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VehicleSpec {
     /// the towing car
     pub tractor: TractorSpec,
-    /// the trailer
-    pub trailer: TrailerSpec,
+    /// the trailer of a two-unit vehicle (exclusive with `trailers`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trailer: Option<TrailerSpec>,
+    /// the towed units of a chain, front to back (exclusive with `trailer`; positions as in
+    /// [`crate::ChainSpec`])
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub trailers: Vec<TowedUnitSpec>,
     /// tyre–road friction of the brush tyres (eq. 15)
     pub friction: FrictionParams,
     /// g \[m/s²\]
     #[serde(default = "default_gravity")]
     pub gravity: f64,
-    /// torque at the hitch (default: none)
+    /// torque at the hitch of a two-unit vehicle (default: none; a chain gives
+    /// `trailers[i].hitch` per coupling instead)
     #[serde(default, skip_serializing_if = "is_default_hitch")]
     pub hitch: HitchSpec,
 }
@@ -252,7 +270,7 @@ impl From<VehicleParams> for VehicleSpec {
                 rear_relaxation_length_m: None,
                 axles: None,
             },
-            trailer: TrailerSpec {
+            trailer: Some(TrailerSpec {
                 mass: p.trailer.mass,
                 yaw_inertia: p.trailer.yaw_inertia,
                 cog: p.trailer.cog,
@@ -261,7 +279,8 @@ impl From<VehicleParams> for VehicleSpec {
                 tire: None,
                 relaxation_length_m: None,
                 axles: None,
-            },
+            }),
+            trailers: Vec::new(),
             friction: p.friction,
             gravity: p.gravity,
             hitch: HitchSpec::default(),
@@ -292,18 +311,177 @@ impl VehicleSpec {
         let mut s = Self::from(VehicleParams::default());
         s.tractor.front_relaxation_length_m = Some(sigma_m);
         s.tractor.rear_relaxation_length_m = Some(sigma_m);
-        s.trailer.relaxation_length_m = Some(sigma_m);
+        if let Some(t) = s.trailer.as_mut() {
+            t.relaxation_length_m = Some(sigma_m);
+        }
         s
+    }
+
+    /// Whether the file gives a chain of towed units (`[[trailers]]`) rather than one
+    /// `[trailer]`.
+    pub fn is_chain(&self) -> bool {
+        !self.trailers.is_empty()
+    }
+
+    /// Number of towed units (1 for a two-unit vehicle).
+    pub fn towed_units(&self) -> usize {
+        if self.is_chain() {
+            self.trailers.len()
+        } else {
+            1
+        }
+    }
+
+    /// The vehicle as a chain of towed units (a two-unit vehicle: the chain with one).
+    pub fn chain_spec(&self) -> ChainSpec {
+        ChainSpec::from(self)
+    }
+
+    /// The trailer of a two-unit vehicle, for `what` (a two-unit notion, said in the error).
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidSpec`] naming `trailers` when both `trailer` and `trailers` are
+    /// given, or the vehicle is a chain (with `what` as the reason), and naming `trailer`
+    /// when neither is.
+    pub fn two_unit_trailer(&self, what: &str) -> Result<&TrailerSpec, ModelError> {
+        match (&self.trailer, self.trailers.len()) {
+            (Some(t), 0) => Ok(t),
+            (Some(_), n) => Err(invalid(
+                "trailers",
+                n as f64,
+                "either `[trailer]` (one towed unit) or `[[trailers]]` (a chain), not both",
+            )),
+            (None, 0) => Err(invalid(
+                "trailer",
+                f64::NAN,
+                "a `[trailer]` table (or a chain of towed units, `[[trailers]]`)",
+            )),
+            (None, n) => Err(invalid(
+                "trailers",
+                n as f64,
+                format!(
+                    "one towed unit: a chain of {n} towed units has no {what} (the paper's model has one trailer)"
+                ),
+            )),
+        }
+    }
+
+    /// [`Self::two_unit_trailer`], mutable.
+    ///
+    /// # Errors
+    /// As [`Self::two_unit_trailer`].
+    pub fn two_unit_trailer_mut(&mut self, what: &str) -> Result<&mut TrailerSpec, ModelError> {
+        self.two_unit_trailer(what)?;
+        self.trailer
+            .as_mut()
+            .ok_or_else(|| invalid("trailer", f64::NAN, "a `[trailer]` table"))
+    }
+
+    /// A chain's form checks (exactly one of `trailer` / `trailers`; see
+    /// [`crate::ChainSpec`]): Ok(true) for a well-formed chain, Ok(false) for a two-unit
+    /// vehicle.
+    fn chain_form(&self) -> Result<bool, ModelError> {
+        if self.trailers.is_empty() {
+            self.two_unit_trailer("")?;
+            return Ok(false);
+        }
+        if self.trailer.is_some() {
+            self.two_unit_trailer("")?;
+        }
+        self.chain_spec().resolved_axles()?;
+        Ok(true)
     }
 
     /// The axles of both units in the list form, tractor first, each in file order.
     ///
     /// # Errors
     /// [`ModelError::InvalidSpec`] when a unit mixes the paper form's axle keys with
-    /// `axles`, or gives neither completely.
+    /// `axles`, or gives neither completely; naming `trailers` for a chain of towed units
+    /// ([`Self::two_unit_trailer`]; its axles: [`ChainSpec::resolved_axles`]).
     pub fn resolved_axles(&self) -> Result<Vec<ResolvedAxle>, ModelError> {
+        let r =
+            self.two_unit_trailer("axle list of two units (use `ChainSpec::resolved_axles`)")?;
+        let mut out = Self::resolved_tractor_axles(&self.tractor)?;
+        match &r.axles {
+            Some(list) => {
+                for (key, given) in [
+                    ("trailer.axle", r.axle.is_some()),
+                    (
+                        "trailer.cornering_stiffness",
+                        r.cornering_stiffness.is_some(),
+                    ),
+                    ("trailer.tire", r.tire.is_some()),
+                    (
+                        "trailer.relaxation_length_m",
+                        r.relaxation_length_m.is_some(),
+                    ),
+                ] {
+                    if given {
+                        return Err(invalid(
+                            key,
+                            f64::NAN,
+                            "either the paper form's axle keys or `trailer.axles`, not both",
+                        ));
+                    }
+                }
+                for (i, a) in list.iter().enumerate() {
+                    if a.steered {
+                        return Err(invalid(
+                            format!("trailer.axles[{i}].steered"),
+                            1.0,
+                            "false: only the tractor's axles are steered",
+                        ));
+                    }
+                    out.push(ResolvedAxle {
+                        unit: Unit::Trailer,
+                        spec: *a,
+                        key: format!("trailer.axles[{i}]"),
+                        position_key: format!("trailer.axles[{i}].position_m"),
+                        prefix: format!("trailer.axles[{i}]."),
+                    });
+                }
+            }
+            None => {
+                let l = r.axle.ok_or_else(|| {
+                    invalid(
+                        "trailer.axle",
+                        f64::NAN,
+                        "a value (or the list `trailer.axles`)",
+                    )
+                })?;
+                let ct = r.cornering_stiffness.ok_or_else(|| {
+                    invalid(
+                        "trailer.cornering_stiffness",
+                        f64::NAN,
+                        "a value (or the list `trailer.axles`)",
+                    )
+                })?;
+                out.push(ResolvedAxle {
+                    unit: Unit::Trailer,
+                    spec: AxleSpec {
+                        position_m: l,
+                        cornering_stiffness: ct,
+                        steered: false,
+                        tire: r.tire.unwrap_or_default(),
+                        relaxation_length_m: r.relaxation_length_m.unwrap_or(0.0),
+                    },
+                    key: "trailer.axle".into(),
+                    position_key: "trailer.axle".into(),
+                    prefix: "trailer.".into(),
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// The towing unit's axles in the list form, in file order (as in a two-unit file; a
+    /// chain's towing unit has the same keys).
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidSpec`] when it mixes the paper form's axle keys with
+    /// `tractor.axles`, or gives neither completely.
+    pub(crate) fn resolved_tractor_axles(t: &TractorSpec) -> Result<Vec<ResolvedAxle>, ModelError> {
         let mut out = Vec::new();
-        let t = &self.tractor;
         let paper_keys = [
             ("tractor.front_axle", t.front_axle.is_some()),
             ("tractor.rear_axle", t.rear_axle.is_some()),
@@ -387,76 +565,6 @@ impl VehicleSpec {
                 });
             }
         }
-        let r = &self.trailer;
-        match &r.axles {
-            Some(list) => {
-                for (key, given) in [
-                    ("trailer.axle", r.axle.is_some()),
-                    (
-                        "trailer.cornering_stiffness",
-                        r.cornering_stiffness.is_some(),
-                    ),
-                    ("trailer.tire", r.tire.is_some()),
-                    (
-                        "trailer.relaxation_length_m",
-                        r.relaxation_length_m.is_some(),
-                    ),
-                ] {
-                    if given {
-                        return Err(invalid(
-                            key,
-                            f64::NAN,
-                            "either the paper form's axle keys or `trailer.axles`, not both",
-                        ));
-                    }
-                }
-                for (i, a) in list.iter().enumerate() {
-                    if a.steered {
-                        return Err(invalid(
-                            format!("trailer.axles[{i}].steered"),
-                            1.0,
-                            "false: only the tractor's axles are steered",
-                        ));
-                    }
-                    out.push(ResolvedAxle {
-                        unit: Unit::Trailer,
-                        spec: *a,
-                        key: format!("trailer.axles[{i}]"),
-                        position_key: format!("trailer.axles[{i}].position_m"),
-                        prefix: format!("trailer.axles[{i}]."),
-                    });
-                }
-            }
-            None => {
-                let l = r.axle.ok_or_else(|| {
-                    invalid(
-                        "trailer.axle",
-                        f64::NAN,
-                        "a value (or the list `trailer.axles`)",
-                    )
-                })?;
-                let ct = r.cornering_stiffness.ok_or_else(|| {
-                    invalid(
-                        "trailer.cornering_stiffness",
-                        f64::NAN,
-                        "a value (or the list `trailer.axles`)",
-                    )
-                })?;
-                out.push(ResolvedAxle {
-                    unit: Unit::Trailer,
-                    spec: AxleSpec {
-                        position_m: l,
-                        cornering_stiffness: ct,
-                        steered: false,
-                        tire: r.tire.unwrap_or_default(),
-                        relaxation_length_m: r.relaxation_length_m.unwrap_or(0.0),
-                    },
-                    key: "trailer.axle".into(),
-                    position_key: "trailer.axle".into(),
-                    prefix: "trailer.".into(),
-                });
-            }
-        }
         Ok(out)
     }
 
@@ -466,9 +574,11 @@ impl VehicleSpec {
     /// loads are the group loads of the equal-load assumption (module docs).
     ///
     /// # Errors
-    /// As [`Self::resolved_axles`], and [`ModelError::InvalidSpec`] for a tractor without a
+    /// As [`Self::resolved_axles`] (a chain of towed units has no paper-form equivalent: an
+    /// error naming `trailers`), and [`ModelError::InvalidSpec`] for a tractor without a
     /// steered or an unsteered axle, or a trailer without axles.
     pub fn equivalent_params(&self) -> Result<VehicleParams, ModelError> {
+        let trailer = self.two_unit_trailer("paper-form equivalent (`VehicleParams`)")?;
         let axles = self.resolved_axles()?;
         let group = |unit: Unit, steered: bool| {
             axles
@@ -512,9 +622,9 @@ impl VehicleSpec {
                 rear_cornering_stiffness: stiff(Unit::Tractor, false),
             },
             trailer: TrailerParams {
-                mass: self.trailer.mass,
-                yaw_inertia: self.trailer.yaw_inertia,
-                cog: self.trailer.cog,
+                mass: trailer.mass,
+                yaw_inertia: trailer.yaw_inertia,
+                cog: trailer.cog,
                 axle: pos(Unit::Trailer, false),
                 cornering_stiffness: stiff(Unit::Trailer, false),
             },
@@ -527,8 +637,10 @@ impl VehicleSpec {
     /// the equivalent vehicle ([`AxleLoads`]) shared equally within the group.
     ///
     /// # Errors
-    /// As [`Self::equivalent_params`].
+    /// As [`Self::equivalent_params`] (naming `trailers` for a chain:
+    /// [`ChainSpec::static_loads`] has its loads).
     pub fn axle_loads(&self) -> Result<Vec<f64>, ModelError> {
+        self.two_unit_trailer("two-unit static loads (use `ChainSpec::static_loads`)")?;
         let axles = self.resolved_axles()?;
         let loads = AxleLoads::from_params(&self.equivalent_params()?);
         let count = |unit: Unit, steered: bool| {
@@ -561,6 +673,9 @@ impl VehicleSpec {
     /// [`ModelError::InvalidSpec`] / [`ModelError::InvalidParameter`] naming the key;
     /// [`ModelError::TireSpec`] for a tyre law.
     pub fn check_physics(&self) -> Result<Vec<TireLaw>, ModelError> {
+        if self.chain_form()? {
+            return self.chain_spec().check_physics();
+        }
         let axles = self.resolved_axles()?;
         if axles.len() > MAX_AXLES {
             return Err(invalid(
@@ -647,6 +762,9 @@ impl VehicleSpec {
     /// # Errors
     /// As [`Self::check_physics`]; [`ModelError::InvalidSpec`] naming the second axle.
     pub fn validate(&self) -> Result<(), ModelError> {
+        if self.chain_form()? {
+            return self.chain_spec().validate();
+        }
         self.check_physics()?;
         let axles = self.resolved_axles()?;
         for (i, a) in axles.iter().enumerate() {
@@ -687,6 +805,9 @@ impl VehicleSpec {
     /// # Errors
     /// As [`Self::resolved_axles`].
     pub fn first_variant_key(&self) -> Result<Option<String>, ModelError> {
+        if self.chain_form()? {
+            return Ok(Some("trailers".to_string()));
+        }
         let axles = self.resolved_axles()?;
         let group = |unit: Unit, steered: bool| {
             axles
@@ -729,9 +850,24 @@ impl VehicleSpec {
     /// is `value`). A tandem's `l` is then where its axle pair sits, and dV_crit/dl the
     /// effect of moving the pair.
     ///
+    /// A chain of towed units has no `[trailer]`: its trailer keys (`trailer.mass` …
+    /// `trailer.cornering_stiffness`) are errors naming that key; the towing unit's keys,
+    /// friction and g are set as in a two-unit file.
+    ///
     /// # Errors
-    /// As [`Self::equivalent_params`], for an axle key of a unit given as a list.
+    /// As [`Self::equivalent_params`], for an axle key of a unit given as a list;
+    /// [`ModelError::InvalidSpec`] naming the key for a trailer key of a chain.
     pub fn with_parameter(&self, index: usize, value: f64) -> Result<Self, ModelError> {
+        if (7..=11).contains(&index) && self.is_chain() {
+            return Err(invalid(
+                crate::PARAMETERS[index].0,
+                value,
+                format!(
+                    "a key of a two-unit vehicle: a chain of {} towed units has no `[trailer]` (vary `trailers[i]` in its file)",
+                    self.trailers.len()
+                ),
+            ));
+        }
         let mut s = self.clone();
         let t = &mut s.tractor;
         let r = &mut s.trailer;
@@ -743,11 +879,11 @@ impl VehicleSpec {
             4 => t.rear_axle.as_mut(),
             5 => t.front_cornering_stiffness.as_mut(),
             6 => t.rear_cornering_stiffness.as_mut(),
-            7 => Some(&mut r.mass),
-            8 => Some(&mut r.yaw_inertia),
-            9 => Some(&mut r.cog),
-            10 => r.axle.as_mut(),
-            11 => r.cornering_stiffness.as_mut(),
+            7 => r.as_mut().map(|r| &mut r.mass),
+            8 => r.as_mut().map(|r| &mut r.yaw_inertia),
+            9 => r.as_mut().map(|r| &mut r.cog),
+            10 => r.as_mut().and_then(|r| r.axle.as_mut()),
+            11 => r.as_mut().and_then(|r| r.cornering_stiffness.as_mut()),
             12 => Some(&mut s.friction.mu_static),
             13 => Some(&mut s.friction.mu_dynamic),
             _ => Some(&mut s.gravity),
@@ -771,8 +907,16 @@ impl VehicleSpec {
             4 => (s.tractor.axles.as_mut(), Some(false), true),
             5 => (s.tractor.axles.as_mut(), Some(true), false),
             6 => (s.tractor.axles.as_mut(), Some(false), false),
-            10 => (s.trailer.axles.as_mut(), None, true),
-            _ => (s.trailer.axles.as_mut(), None, false),
+            10 => (
+                s.trailer.as_mut().and_then(|r| r.axles.as_mut()),
+                None,
+                true,
+            ),
+            _ => (
+                s.trailer.as_mut().and_then(|r| r.axles.as_mut()),
+                None,
+                false,
+            ),
         };
         let Some(axles) = axles else {
             return Err(invalid(
@@ -799,6 +943,9 @@ impl VehicleSpec {
     /// # Errors
     /// As [`Self::resolved_axles`].
     pub fn relaxed_axles(&self) -> Result<usize, ModelError> {
+        if self.chain_form()? {
+            return self.chain_spec().relaxed_axles();
+        }
         Ok(self
             .resolved_axles()?
             .iter()

@@ -837,7 +837,7 @@ fn two_units_plant_functions_equal_todays() {
         friction_torque_nm: 300.0,
         friction_regularisation_rad_s: 0.05,
     };
-    v.trailer.relaxation_length_m = None; // one instantaneous axle, two relaxing ones
+    v.trailer.as_mut().unwrap().relaxation_length_m = None; // one instantaneous axle, two relaxing ones
     let params = v.equivalent_params().unwrap();
     let general = VehicleModel::<6>::new(&v).unwrap();
     let chain = ChainModel::<6>::new(&ChainSpec::from(&v)).unwrap();
@@ -868,4 +868,112 @@ fn two_units_plant_functions_equal_todays() {
     }
     println!("switching functions and guard vs VehicleModel<6>: max rel. error {worst:.2e}");
     assert!(worst < 1e-12, "{worst:e}");
+}
+
+// ---------------------------------------------------------------------------------------
+// the chain as a vehicle file's model (VehicleSpec with `trailers`, VehicleModel<N>)
+// ---------------------------------------------------------------------------------------
+
+/// A chain's vehicle file as [`VehicleSpec`] (`[[trailers]]`).
+fn as_vehicle_spec(c: &ChainSpec) -> VehicleSpec {
+    VehicleSpec {
+        tractor: c.tractor.clone(),
+        trailer: None,
+        trailers: c.towed_units().to_vec(),
+        friction: c.friction,
+        gravity: c.gravity,
+        hitch: HitchSpec::default(),
+    }
+}
+
+#[test]
+fn a_one_unit_chain_file_is_todays_model_in_its_layout() {
+    // Table I with σ = 0.3 m and a damped friction hitch, written as `[[trailers]]` with
+    // one unit: VehicleModel's chain equations in the paper's layout (eq. 4 of the first
+    // articulation) against today's two-unit equations, on random states
+    let mut today_spec = VehicleSpec::table_i_with_relaxation(0.3);
+    let hitch = HitchSpec {
+        yaw_damping_nms: 500.0,
+        friction_torque_nm: 300.0,
+        friction_regularisation_rad_s: 0.05,
+    };
+    today_spec.hitch = hitch;
+    let mut chain_spec = today_spec.clone();
+    let mut unit = TowedUnitSpec::from(chain_spec.trailer.as_ref().unwrap());
+    unit.hitch = Some(hitch);
+    chain_spec.trailer = None;
+    chain_spec.trailers = vec![unit];
+    chain_spec.hitch = HitchSpec::default();
+    assert!(chain_spec.is_chain());
+    let today = VehicleModel::<7>::new(&today_spec).unwrap();
+    let chain = VehicleModel::<7>::new(&chain_spec).unwrap();
+    assert!(chain.chain().is_some() && today.chain().is_none());
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut worst: f64 = 0.0;
+    for _ in 0..500 {
+        // random states in the paper's layout
+        let (mut x, u, _, m) = random_point::<7>(&mut rng, 2);
+        x[2] = rng.random_range(-1.0..1.0);
+        let a = chain.rhs_with_yaw_moment(&x, &u, m);
+        let b = today.rhs_with_yaw_moment(&x, &u, m);
+        worst = worst.max(rel_err(&a, &b));
+        assert!((chain.yaw_rate(&x) - today.yaw_rate(&x)).abs() < 1e-14);
+        assert!((chain.hitch_angle_rate(&x) - today.hitch_angle_rate(&x)).abs() < 1e-13);
+    }
+    println!("one-unit chain file vs today's VehicleModel<7>: max rel. error {worst:.2e}");
+    assert!(worst < 1e-12, "{worst:e}");
+    let opts = CriticalSpeedOptions::default();
+    let (vc, vt) = (
+        chain.critical_speed(&opts).unwrap().v_crit_mps,
+        today.critical_speed(&opts).unwrap().v_crit_mps,
+    );
+    assert!(((vc - vt) / vt).abs() < 1e-9, "{vc} vs {vt}");
+    // the same paper form (the towing unit with the first towed unit)
+    assert_eq!(chain.params(), today.params());
+}
+
+#[test]
+fn a_chain_file_is_the_chain_model_in_the_papers_layout() {
+    let spec = three_units();
+    let vspec = as_vehicle_spec(&spec);
+    const N: usize = 8; // 3 units, σ on two axles
+    let model = VehicleModel::<N>::new(&vspec).unwrap();
+    let chain = ChainModel::<N>::new(&spec).unwrap();
+    let p = *chain.params();
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let mut worst: f64 = 0.0;
+    for _ in 0..300 {
+        let (y, u, _, m) = random_point::<N>(&mut rng, 3);
+        let (x, dx) = to_appellian(&p, &y, &chain.rhs_with_yaw_moment(&y, &u, m));
+        worst = worst.max(rel_err(&model.rhs_with_yaw_moment(&x, &u, m), &dx));
+        // the guard and switching functions see the same vehicle
+        assert_eq!(model.guard_values(&x, &u).map(|g| (g * 1e9).round()), {
+            chain.guard_values(&y, &u).map(|g| (g * 1e9).round())
+        });
+    }
+    println!("chain file (VehicleModel<8>) vs ChainModel<8>: max rel. error {worst:.2e}");
+    assert!(worst < 1e-12, "{worst:e}");
+    let opts = CriticalSpeedOptions::default();
+    let (a, b) = (
+        model.critical_speed(&opts).unwrap().v_crit_mps,
+        chain.critical_speed(&opts).unwrap().v_crit_mps,
+    );
+    assert!(((a - b) / b).abs() < 1e-9, "{a} vs {b}");
+    // AnyVehicleModel picks N = 2·3 + 2 and the same V_crit
+    let any = trailer_model::AnyVehicleModel::new(&vspec).unwrap();
+    assert_eq!(any.states(), N);
+    let c = trailer_model::with_plant!(&any, m => m.critical_speed(&opts)).unwrap();
+    assert_eq!(c.v_crit_mps.to_bits(), a.to_bits());
+}
+
+#[test]
+fn too_many_states_for_any_vehicle_model() {
+    // 5 towed units (6 units, 12 states) exceed MAX_STATES = 10: an error, not a panic
+    let extra = (0..4)
+        .map(|_| unit(500.0, 500.0, 1.8, 2.0, 30e3))
+        .collect::<Vec<_>>();
+    let vspec = as_vehicle_spec(&table_i_chain(extra));
+    vspec.validate().unwrap();
+    let e = trailer_model::AnyVehicleModel::new(&vspec).unwrap_err();
+    assert!(e.to_string().contains("12 states"), "{e}");
 }

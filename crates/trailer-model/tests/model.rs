@@ -485,9 +485,9 @@ mod variants {
     /// Table I with the trailer axle as a list
     fn with_trailer_axles(axles: Vec<AxleSpec>) -> VehicleSpec {
         let mut s = VehicleSpec::from(VehicleParams::default());
-        s.trailer.axle = None;
-        s.trailer.cornering_stiffness = None;
-        s.trailer.axles = Some(axles);
+        s.trailer.as_mut().unwrap().axle = None;
+        s.trailer.as_mut().unwrap().cornering_stiffness = None;
+        s.trailer.as_mut().unwrap().axles = Some(axles);
         s
     }
 
@@ -546,7 +546,7 @@ mod variants {
         let mut s = VehicleSpec::from(VehicleParams::default());
         s.tractor.front_tire = Some(magic(0.9));
         s.tractor.rear_tire = Some(TireLawSpec::Linear {});
-        s.trailer.tire = Some(TireLawSpec::Brush {
+        s.trailer.as_mut().unwrap().tire = Some(TireLawSpec::Brush {
             mu_static: Some(1.0),
             mu_dynamic: Some(0.7),
         });
@@ -809,7 +809,7 @@ mod variants {
         let mut s = VehicleSpec::from(VehicleParams::default());
         s.tractor.front_tire = Some(magic(0.9));
         s.tractor.rear_tire = Some(magic(0.9));
-        s.trailer.tire = Some(magic(0.9));
+        s.trailer.as_mut().unwrap().tire = Some(magic(0.9));
         let mf = VehicleModel::<4>::new(&s).unwrap();
         assert_relative_eq!(
             brush.plant_linearization(30.0).a,
@@ -892,6 +892,8 @@ mod variants {
         ]);
         let positions = |s: &VehicleSpec| -> Vec<f64> {
             s.trailer
+                .as_ref()
+                .unwrap()
                 .axles
                 .as_ref()
                 .unwrap()
@@ -908,7 +910,7 @@ mod variants {
             max_relative = 1e-15
         );
         let stiffer = tandem.with_parameter(11, 60e3).unwrap();
-        for a in stiffer.trailer.axles.as_ref().unwrap() {
+        for a in stiffer.trailer.as_ref().unwrap().axles.as_ref().unwrap() {
             assert_relative_eq!(a.cornering_stiffness, 30e3, max_relative = 1e-15);
         }
         assert_relative_eq!(
@@ -1056,7 +1058,7 @@ mod variants {
             let mut s = VehicleSpec::from(VehicleParams::default());
             s.tractor.front_relaxation_length_m = Some(sigmas[0]);
             s.tractor.rear_relaxation_length_m = Some(sigmas[1]);
-            s.trailer.relaxation_length_m = Some(sigmas[2]);
+            s.trailer.as_mut().unwrap().relaxation_length_m = Some(sigmas[2]);
             let any = AnyVehicleModel::new(&s).unwrap();
             assert_eq!(any.states(), n);
             // no variant at all: the paper's model itself
@@ -1136,10 +1138,10 @@ mod vehicle_files {
         let mut magic = table_i.clone();
         magic.tractor.front_tire = Some(mf);
         magic.tractor.rear_tire = Some(mf);
-        magic.trailer.tire = Some(mf);
+        magic.trailer.as_mut().unwrap().tire = Some(mf);
         let mut tandem = table_i.clone();
-        tandem.trailer.axle = None;
-        tandem.trailer.cornering_stiffness = None;
+        tandem.trailer.as_mut().unwrap().axle = None;
+        tandem.trailer.as_mut().unwrap().cornering_stiffness = None;
         let half = |position_m| AxleSpec {
             position_m,
             cornering_stiffness: 25e3,
@@ -1147,7 +1149,7 @@ mod vehicle_files {
             tire: TireLawSpec::default(),
             relaxation_length_m: 0.0,
         };
-        tandem.trailer.axles = Some(vec![half(2.4), half(3.2)]);
+        tandem.trailer.as_mut().unwrap().axles = Some(vec![half(2.4), half(3.2)]);
         let mut hitch = table_i.clone();
         hitch.hitch = HitchSpec {
             yaw_damping_nms: 0.0,
@@ -1317,9 +1319,9 @@ mod vehicle_files {
                 ..ax(0.8)
             },
         ]);
-        spec.trailer.axle = None;
-        spec.trailer.cornering_stiffness = None;
-        spec.trailer.axles = Some(
+        spec.trailer.as_mut().unwrap().axle = None;
+        spec.trailer.as_mut().unwrap().cornering_stiffness = None;
+        spec.trailer.as_mut().unwrap().axles = Some(
             [2.0, 2.6, 3.2, 3.8]
                 .map(|p| AxleSpec {
                     relaxation_length_m: 0.3,
@@ -1421,7 +1423,7 @@ mod plant_services {
         // The axle key of an axle list moves the group (its mean position becomes the value);
         // the group's own test is `variants::a_paper_key_of_an_axle_list_moves_or_scales_the_group`.
         let moved = tandem.with_parameter(10, 3.0).unwrap();
-        let axles = moved.trailer.axles.as_ref().unwrap();
+        let axles = moved.trailer.as_ref().unwrap().axles.as_ref().unwrap();
         let mean = axles.iter().map(|a| a.position_m).sum::<f64>() / axles.len() as f64;
         assert!((mean - 3.0).abs() < 1e-12, "{mean}");
     }

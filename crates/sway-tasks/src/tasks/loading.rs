@@ -175,6 +175,9 @@ fn draw(
     r: &Loading,
 ) -> Result<(), TaskError> {
     let m = &r.map;
+    // (the study refuses a chain of towed units: the base is a two-unit vehicle here)
+    let base_mass = sway::loading::base_trailer_mass(base);
+    let base_cog = base.trailer.as_ref().map_or(f64::NAN, |t| t.cog);
     let (lo, hi) = m.range;
     let (masses, cogs, map, cut) = (&m.masses, &m.cogs, &m.map, &m.cut);
     let l = r.axle_m;
@@ -208,12 +211,12 @@ fn draw(
         }
     }
     map_panel.layers.push(Layer::markers(
-        vec![(base.trailer.mass, base.trailer.cog)],
+        vec![(base_mass, base_cog)],
         Rgb::RED,
         Some(who),
     ));
     let cut_panel = Panel::new(
-        &format!("Cut at m2 = {} kg", base.trailer.mass),
+        &format!("Cut at m2 = {base_mass} kg"),
         "tongue load 1 − h/l [% of trailer weight]",
         "V_crit [m/s]",
     )

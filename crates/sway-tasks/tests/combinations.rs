@@ -1,0 +1,238 @@
+//! Vehicle files with a chain of towed units (`[[trailers]]`, `configs/combinations/`) load
+//! through the same path as two-unit files, and the two-unit files still give the numbers
+//! they gave before chains existed (the committed `results/` of `fleet` and `variants`).
+
+use std::path::{Path, PathBuf};
+
+use sway_model::speeds::{OpenLoopStability, SpeedLimits, open_loop_critical_speed};
+use sway_tasks::config_file::{load_vehicle_spec, vehicle_from_spec};
+use trailer_model::{
+    AnyVehicleModel, Inputs, Model, Plant, VehicleParams, VehicleSpec, with_plant,
+};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn v_crit(plant: &AnyVehicleModel) -> Option<f64> {
+    match with_plant!(plant, m => open_loop_critical_speed(m, &SpeedLimits::default()))
+        .expect("a critical-speed search")
+    {
+        OpenLoopStability::Critical { v_crit_mps, .. } => Some(v_crit_mps),
+        OpenLoopStability::StableUpTo { .. } => None,
+    }
+}
+
+/// Column 0 and column `col` of a committed CSV: name → V_crit (None where empty).
+fn committed(file: &str, col: usize) -> Vec<(String, Option<f64>)> {
+    let text = std::fs::read_to_string(root().join(file)).expect("a committed result");
+    text.lines()
+        .skip(1)
+        .map(|line| {
+            let mut cols = line.split(',');
+            let name = cols.next().unwrap_or_default().to_string();
+            (name, cols.nth(col - 1).and_then(|v| v.parse().ok()))
+        })
+        .collect()
+}
+
+#[test]
+fn every_example_combination_loads_and_builds_its_model() {
+    let dir = root().join("configs/combinations");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .expect("configs/combinations")
+        .map(|e| e.expect("an entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 4, "{files:?}");
+    for file in files {
+        let loaded = load_vehicle_spec(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+        assert!(loaded.spec.is_chain(), "{}", file.display());
+        assert_eq!(loaded.variant_key.as_deref(), Some("trailers"));
+        // 2 states per unit, no relaxation in the examples
+        let units = 1 + loaded.spec.towed_units();
+        assert_eq!(loaded.plant.states(), 2 * units, "{}", file.display());
+        // straight running is an equilibrium, and the rhs is finite near it
+        let x = with_plant!(&loaded.plant, m => {
+            let mut x = nalgebra::SVector::<f64, _>::zeros();
+            x[trailer_model::HITCH_ANGLE] = 0.02;
+            let at_rest = m.rhs(&nalgebra::SVector::zeros(), &Inputs::constant_speed(20.0));
+            assert!(at_rest.iter().all(|v| *v == 0.0), "{}", file.display());
+            m.rhs(&x, &Inputs::constant_speed(20.0)).iter().all(|v| v.is_finite())
+        });
+        assert!(x, "{}", file.display());
+        // the paper form of a chain is its towing unit with the first towed unit
+        assert_eq!(loaded.params.tractor.mass, loaded.spec.tractor.mass);
+        assert_eq!(loaded.params.trailer.mass, loaded.spec.trailers[0].mass);
+        // a V_crit, or stable up to the cap
+        if let Some(v) = v_crit(&loaded.plant) {
+            assert!(v > 5.0 && v < 100.0, "{}: V_crit = {v}", file.display());
+        }
+    }
+}
+
+#[test]
+fn two_unit_files_give_the_committed_critical_speeds_bit_for_bit() {
+    for (name, expected) in committed("results/fleet/fleet.csv", 1) {
+        let loaded = load_vehicle_spec(&root().join("configs").join(&name))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(!loaded.spec.is_chain());
+        assert_eq!(v_crit(&loaded.plant), expected, "{name}");
+    }
+    let variants = committed("results/variants/variants.csv", 2);
+    for (file, row) in [
+        ("vehicle.toml", "Table I (paper's model)"),
+        ("vehicles/magic_formula.toml", "magic_formula"),
+        ("vehicles/tandem.toml", "tandem"),
+        ("vehicles/hitch_friction.toml", "hitch_friction"),
+    ] {
+        let loaded = load_vehicle_spec(&root().join("configs").join(file)).expect(file);
+        let expected = variants.iter().find(|(n, _)| n == row).expect(row).1;
+        assert_eq!(v_crit(&loaded.plant), expected, "{file}");
+    }
+}
+
+#[test]
+fn paper_form_files_are_the_papers_model_bit_for_bit() {
+    let mut files = vec![root().join("configs/vehicle.toml")];
+    for e in std::fs::read_dir(root().join("configs/fleet")).expect("configs/fleet") {
+        files.push(e.expect("an entry").path());
+    }
+    for file in files {
+        let text = std::fs::read_to_string(&file).expect("a vehicle file");
+        let params: VehicleParams = toml::from_str(&text).expect("the paper's form");
+        let old = Model::new(params).expect("a valid vehicle");
+        let loaded = load_vehicle_spec(&file).expect("a valid vehicle");
+        let AnyVehicleModel::Paper(new) = &loaded.plant else {
+            panic!("{}: not the paper's model", file.display());
+        };
+        let x = trailer_model::State4::new(0.3_f64, -0.05, 0.12, 0.08);
+        let u: Inputs<f64> = Inputs {
+            steering_angle: 0.01,
+            speed: 27.0,
+            acceleration: -0.5,
+        };
+        let (a, b): (trailer_model::State4, trailer_model::State4) =
+            (old.rhs4(&x, &u), new.rhs4(&x, &u));
+        for k in 0..4 {
+            assert_eq!(a[k].to_bits(), b[k].to_bits(), "{}", file.display());
+        }
+    }
+}
+
+fn spec(text: &str) -> VehicleSpec {
+    toml::from_str(text).expect("a vehicle file's form")
+}
+
+fn error_of(text: &str) -> String {
+    match vehicle_from_spec(spec(text), Path::new("bad.toml")) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+const TRACTOR: &str = "[tractor]\nmass = 2400.0\nyaw_inertia = 7647.0\nfront_axle = 5.15\ncog = 3.25\nrear_axle = 1.35\nfront_cornering_stiffness = 137e3\nrear_cornering_stiffness = 256e3\n[friction]\nmu_static = 0.9\nmu_dynamic = 0.6\n";
+const UNIT: &str =
+    "mass = 985.0\nyaw_inertia = 1416.0\ncog = 2.6\naxle = 2.8\ncornering_stiffness = 50e3\n";
+
+#[test]
+fn bad_chain_files_are_errors_naming_the_key() {
+    // both forms
+    let both = format!("{TRACTOR}[trailer]\n{UNIT}[[trailers]]\n{UNIT}");
+    assert!(
+        error_of(&both).contains("`trailers`"),
+        "{}",
+        error_of(&both)
+    );
+    // neither
+    let e = error_of(TRACTOR);
+    assert!(e.contains("`trailer`"), "{e}");
+    // a rear coupling missing on the first of two units
+    let e = error_of(&format!(
+        "{TRACTOR}[[trailers]]\n{UNIT}[[trailers]]\n{UNIT}"
+    ));
+    assert!(e.contains("trailers[0].rear_coupling"), "{e}");
+    // a rear coupling on the last unit
+    let e = error_of(&format!(
+        "{TRACTOR}[[trailers]]\n{UNIT}rear_coupling = 5.0\n[[trailers]]\n{UNIT}rear_coupling = 4.0\n"
+    ));
+    assert!(e.contains("trailers[1].rear_coupling"), "{e}");
+    // a top-level [hitch] with [[trailers]]
+    let e = error_of(&format!(
+        "{TRACTOR}[hitch]\nyaw_damping_nms = 100.0\n[[trailers]]\n{UNIT}"
+    ));
+    assert!(e.contains("`hitch`"), "{e}");
+    // a negative mass of the second unit
+    let e = error_of(&format!(
+        "{TRACTOR}[[trailers]]\n{UNIT}rear_coupling = 5.0\n[[trailers]]\n{}",
+        UNIT.replace("985.0", "-1.0")
+    ));
+    assert!(e.contains("trailers[1].mass"), "{e}");
+    // a steered towed axle
+    let e = error_of(&format!(
+        "{TRACTOR}[[trailers]]\nmass = 985.0\nyaw_inertia = 1416.0\ncog = 2.6\n[[trailers.axles]]\nposition_m = 2.8\ncornering_stiffness = 50e3\nsteered = true\n"
+    ));
+    assert!(e.contains("trailers[0].axles[0].steered"), "{e}");
+    // an unknown key of a towed unit
+    let text = format!("{TRACTOR}[[trailers]]\n{UNIT}coupling = 1.0\n");
+    assert!(toml::from_str::<VehicleSpec>(&text).is_err());
+}
+
+#[test]
+fn two_unit_notions_of_a_chain_are_errors_naming_the_key() {
+    let chain = spec(&format!(
+        "{TRACTOR}[[trailers]]\n{UNIT}rear_coupling = 5.2\n[[trailers]]\n{}",
+        UNIT.replace("985.0", "600.0")
+    ));
+    let key_of = |e: trailer_model::ModelError| match e {
+        trailer_model::ModelError::InvalidSpec { key, .. } => key,
+        other => panic!("{other}"),
+    };
+    assert_eq!(key_of(chain.equivalent_params().unwrap_err()), "trailers");
+    assert_eq!(key_of(chain.axle_loads().unwrap_err()), "trailers");
+    assert_eq!(key_of(chain.resolved_axles().unwrap_err()), "trailers");
+    assert_eq!(
+        key_of(chain.with_parameter(7, 1000.0).unwrap_err()),
+        "trailer.mass"
+    );
+    assert_eq!(
+        key_of(chain.with_parameter(10, 3.0).unwrap_err()),
+        "trailer.axle"
+    );
+    // the towing unit's keys still vary
+    let heavier = chain.with_parameter(0, 2600.0).expect("tractor.mass");
+    assert_eq!(heavier.tractor.mass, 2600.0);
+    let e = sway::loading::loaded_vehicle(&chain, 900.0, 2.5, sway::loading::InertiaScaling::Fixed)
+        .unwrap_err();
+    assert_eq!(key_of(e), "trailers");
+    assert!(
+        chain
+            .two_unit_trailer("x")
+            .unwrap_err()
+            .to_string()
+            .contains("2 towed units")
+    );
+}
+
+#[test]
+fn the_shipped_vehicle_files_still_parse() {
+    for dir in [
+        "configs",
+        "configs/fleet",
+        "configs/vehicles",
+        "configs/combinations",
+    ] {
+        for e in std::fs::read_dir(root().join(dir)).expect(dir) {
+            let path = e.expect("an entry").path();
+            if path.extension().is_none_or(|x| x != "toml") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).expect("a file");
+            if !text.contains("[tractor]") {
+                continue; // a task's config
+            }
+            load_vehicle_spec(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        }
+    }
+}

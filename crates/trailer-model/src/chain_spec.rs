@@ -53,7 +53,7 @@
 use serde::{Deserialize, Serialize};
 use tires::{TireLaw, TireLawSpec};
 
-use crate::spec::MIN_AXLE_SPACING_M;
+use crate::spec::{AxleView, build_tires, check_axle_spacing, invalid};
 use crate::{
     AxleSpec, FrictionParams, HitchSpec, ModelError, TractorParams, TractorSpec, TrailerParams,
     TrailerSpec, VehicleParams, VehicleSpec,
@@ -159,11 +159,19 @@ pub struct ChainAxleSpec {
     pub prefix: String,
 }
 
-fn invalid(key: impl Into<String>, value: f64, expected: impl Into<String>) -> ModelError {
-    ModelError::InvalidSpec {
-        key: key.into(),
-        value,
-        expected: expected.into(),
+impl ChainAxleSpec {
+    /// The axles as the file's checks see them.
+    fn views(axles: &[ChainAxleSpec]) -> Vec<AxleView<'_, usize>> {
+        axles
+            .iter()
+            .map(|a| AxleView {
+                unit: a.unit,
+                spec: &a.spec,
+                key: &a.key,
+                position_key: &a.position_key,
+                prefix: &a.prefix,
+            })
+            .collect()
     }
 }
 
@@ -597,50 +605,17 @@ impl ChainSpec {
                 ));
             }
         }
-        axles
-            .iter()
-            .zip(loads)
-            .map(|(a, fz)| {
-                a.spec
-                    .tire
-                    .build(
-                        a.spec.cornering_stiffness,
-                        fz,
-                        self.friction.mu_static,
-                        self.friction.mu_dynamic,
-                    )
-                    .map_err(|source| ModelError::TireSpec {
-                        key: format!("{}tire", a.prefix),
-                        source,
-                    })
-            })
-            .collect()
+        build_tires(&ChainAxleSpec::views(&axles), &loads, &self.friction)
     }
 
     /// The checks of a vehicle file: [`Self::check_physics`] and no two axles of a unit
-    /// closer than [`MIN_AXLE_SPACING_M`].
+    /// closer than [`MIN_AXLE_SPACING_M`](crate::MIN_AXLE_SPACING_M).
     ///
     /// # Errors
     /// As [`Self::check_physics`]; [`ModelError::InvalidSpec`] naming the second axle.
     pub fn validate(&self) -> Result<(), ModelError> {
         self.check_physics()?;
-        let axles = self.resolved_axles()?;
-        for (i, a) in axles.iter().enumerate() {
-            for b in &axles[..i] {
-                let gap = (a.spec.position_m - b.spec.position_m).abs();
-                if a.unit == b.unit && gap < MIN_AXLE_SPACING_M {
-                    return Err(invalid(
-                        a.position_key.clone(),
-                        a.spec.position_m,
-                        format!(
-                            "at least {MIN_AXLE_SPACING_M} m from `{}` ({} m): the axles overlap",
-                            b.key, b.spec.position_m
-                        ),
-                    ));
-                }
-            }
-        }
-        Ok(())
+        check_axle_spacing(&ChainAxleSpec::views(&self.resolved_axles()?))
     }
 
     /// Number of axles with σ > 0.

@@ -253,6 +253,22 @@ pub struct ResolvedAxle {
     pub prefix: String,
 }
 
+impl ResolvedAxle {
+    /// The axles as the file's checks see them.
+    fn views(axles: &[ResolvedAxle]) -> Vec<AxleView<'_, Unit>> {
+        axles
+            .iter()
+            .map(|a| AxleView {
+                unit: a.unit,
+                spec: &a.spec,
+                key: &a.key,
+                position_key: &a.position_key,
+                prefix: &a.prefix,
+            })
+            .collect()
+    }
+}
+
 impl From<VehicleParams> for VehicleSpec {
     fn from(p: VehicleParams) -> Self {
         Self {
@@ -288,12 +304,85 @@ impl From<VehicleParams> for VehicleSpec {
     }
 }
 
-fn invalid(key: impl Into<String>, value: f64, expected: impl Into<String>) -> ModelError {
+pub(crate) fn invalid(
+    key: impl Into<String>,
+    value: f64,
+    expected: impl Into<String>,
+) -> ModelError {
     ModelError::InvalidSpec {
         key: key.into(),
         value,
         expected: expected.into(),
     }
+}
+
+/// An axle as a vehicle file's checks see it, whatever form resolved it (two units:
+/// [`ResolvedAxle`]; a chain: [`crate::ChainAxleSpec`]).
+pub(crate) struct AxleView<'a, U> {
+    /// its unit
+    pub unit: U,
+    /// its spec
+    pub spec: &'a AxleSpec,
+    /// its key path
+    pub key: &'a str,
+    /// the key of its position
+    pub position_key: &'a str,
+    /// the key prefix of its tyre
+    pub prefix: &'a str,
+}
+
+/// The tyre law of every axle on its static load `loads[i]` \[N\] with `friction`.
+///
+/// # Errors
+/// [`ModelError::TireSpec`] naming the axle's tyre key.
+pub(crate) fn build_tires<U>(
+    axles: &[AxleView<'_, U>],
+    loads: &[f64],
+    friction: &FrictionParams,
+) -> Result<Vec<TireLaw>, ModelError> {
+    axles
+        .iter()
+        .zip(loads)
+        .map(|(a, &fz)| {
+            a.spec
+                .tire
+                .build(
+                    a.spec.cornering_stiffness,
+                    fz,
+                    friction.mu_static,
+                    friction.mu_dynamic,
+                )
+                .map_err(|source| ModelError::TireSpec {
+                    key: format!("{}tire", a.prefix),
+                    source,
+                })
+        })
+        .collect()
+}
+
+/// No two axles of a unit closer than [`MIN_AXLE_SPACING_M`].
+///
+/// # Errors
+/// [`ModelError::InvalidSpec`] naming the second axle's position.
+pub(crate) fn check_axle_spacing<U: PartialEq>(
+    axles: &[AxleView<'_, U>],
+) -> Result<(), ModelError> {
+    for (i, a) in axles.iter().enumerate() {
+        for b in &axles[..i] {
+            let gap = (a.spec.position_m - b.spec.position_m).abs();
+            if a.unit == b.unit && gap < MIN_AXLE_SPACING_M {
+                return Err(invalid(
+                    a.position_key,
+                    a.spec.position_m,
+                    format!(
+                        "at least {MIN_AXLE_SPACING_M} m from `{}` ({} m): the axles overlap",
+                        b.key, b.spec.position_m
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn mean(xs: impl Iterator<Item = f64>) -> f64 {
@@ -736,24 +825,7 @@ impl VehicleSpec {
             ));
         }
         let loads = self.axle_loads()?;
-        axles
-            .iter()
-            .zip(loads)
-            .map(|(a, fz)| {
-                a.spec
-                    .tire
-                    .build(
-                        a.spec.cornering_stiffness,
-                        fz,
-                        self.friction.mu_static,
-                        self.friction.mu_dynamic,
-                    )
-                    .map_err(|source| ModelError::TireSpec {
-                        key: format!("{}tire", a.prefix),
-                        source,
-                    })
-            })
-            .collect()
+        build_tires(&ResolvedAxle::views(&axles), &loads, &self.friction)
     }
 
     /// The checks of a vehicle file: [`Self::check_physics`] and no two axles of a unit
@@ -766,23 +838,7 @@ impl VehicleSpec {
             return self.chain_spec().validate();
         }
         self.check_physics()?;
-        let axles = self.resolved_axles()?;
-        for (i, a) in axles.iter().enumerate() {
-            for b in &axles[..i] {
-                let gap = (a.spec.position_m - b.spec.position_m).abs();
-                if a.unit == b.unit && gap < MIN_AXLE_SPACING_M {
-                    return Err(invalid(
-                        a.position_key.clone(),
-                        a.spec.position_m,
-                        format!(
-                            "at least {MIN_AXLE_SPACING_M} m from `{}` ({} m): the axles overlap",
-                            b.key, b.spec.position_m
-                        ),
-                    ));
-                }
-            }
-        }
-        Ok(())
+        check_axle_spacing(&ResolvedAxle::views(&self.resolved_axles()?))
     }
 
     /// Whether the vehicle differs from the paper's model: more than one axle in a group

@@ -286,6 +286,8 @@ pub trait PointwiseTask {
     type Point: Serialize + DeserializeOwned + Send;
     /// Everything a point needs, built once from the inputs ([`PointwiseTask::prepare`]).
     type Points: Sync;
+    /// How the points of a shard share the machine.
+    const SCHEDULE: PointSchedule = PointSchedule::SideBySide;
 
     /// Loads and validates a config file.
     ///
@@ -332,6 +334,19 @@ pub trait PointwiseTask {
         config: &Self::Config,
         points: &[Self::Point],
     ) -> Result<Report, TaskError>;
+}
+
+/// How the points of one shard run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointSchedule {
+    /// Side by side on the thread pool: points that are small, sequential computations
+    /// (a sweep's evaluations).
+    SideBySide,
+    /// One after another, each with the whole pool: points that parallelise inside
+    /// themselves (a vehicle through every task). Side by side, a worker waiting inside
+    /// one point's parallel loop steals a whole other point and that point's loop waits
+    /// for it: the shard takes several times as long.
+    OneAfterAnother,
 }
 
 /// The sweep (`cargo xtask sweep`, `brake_timing`, the studies): one evaluation per point
@@ -406,6 +421,7 @@ impl GeneratedVehicles {
 
 impl PointwiseTask for GeneratedVehicles {
     const KIND: &'static str = Self::TASK_NAME;
+    const SCHEDULE: PointSchedule = PointSchedule::OneAfterAnother;
     type Config = StudyGeneratedConfig;
     type Point = Vec<study_generated::Run>;
     type Points = study_generated::GeneratedPoints;
@@ -698,14 +714,15 @@ fn compute<T: PointwiseTask>(
     progress: &dyn Progress,
 ) -> Vec<T::Point> {
     progress.start(label, range.len() as u64);
-    let out = range
-        .into_par_iter()
-        .map(|k| {
-            let r = T::run_point(points, k);
-            progress.advance(1);
-            r
-        })
-        .collect();
+    let point = |k| {
+        let r = T::run_point(points, k);
+        progress.advance(1);
+        r
+    };
+    let out = match T::SCHEDULE {
+        PointSchedule::SideBySide => range.into_par_iter().map(point).collect(),
+        PointSchedule::OneAfterAnother => range.map(point).collect(),
+    };
     progress.finish();
     out
 }

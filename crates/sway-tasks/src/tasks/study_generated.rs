@@ -16,7 +16,6 @@ use std::collections::BTreeMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sway::progress::NoProgress;
@@ -164,7 +163,7 @@ pub struct TaskTally {
     pub failures: usize,
     /// curves ended early in its runs
     pub curves_ended_early: usize,
-    /// wall time of its runs together \[s\] (vehicles side by side: a share of the machine)
+    /// wall time of its runs together \[s\] (one vehicle at a time on the whole machine)
     pub seconds: f64,
 }
 
@@ -309,8 +308,9 @@ fn write_vehicle(v: &GeneratedVehicle, dir: &Path) -> Result<PathBuf, TaskError>
     Ok(file)
 }
 
-/// Runs `tasks` on every vehicle (vehicles side by side, results in vehicle order,
-/// [`run_vehicle`]), calling `advance` after each vehicle.
+/// Runs `tasks` on every vehicle, one vehicle after another (each task parallelises
+/// inside itself; see [`crate::shard::PointSchedule::OneAfterAnother`]), results in vehicle
+/// order ([`run_vehicle`]), calling `advance` after each vehicle.
 pub fn run_all(
     vehicles: &[GeneratedVehicle],
     tasks: &[String],
@@ -319,15 +319,14 @@ pub fn run_all(
     limits: sway::ranging::SpeedLimits,
     advance: &(dyn Fn() + Sync),
 ) -> Vec<Run> {
-    let per_vehicle: Vec<Vec<Run>> = vehicles
-        .par_iter()
-        .map(|v| {
+    vehicles
+        .iter()
+        .flat_map(|v| {
             let runs = run_vehicle(v, tasks, configs, scratch, limits);
             advance();
             runs
         })
-        .collect();
-    per_vehicle.into_iter().flatten().collect()
+        .collect()
 }
 
 /// The summary of `runs` on `vehicles`.

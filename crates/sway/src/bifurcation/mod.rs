@@ -269,6 +269,24 @@ impl Diagram {
         .map_err(num("cycle system".into()))
     }
 
+    /// The cycle branch's collocation system on another mesh 0 = s_0 < … < s_L = 1 (same
+    /// degree and options), e.g. one adapted to a cycle of the branch
+    /// ([`PeriodicOrbitSystem::adapted_mesh`]).
+    pub fn cycle_system_on<'a, P: Vehicle<N>, const N: usize>(
+        &self,
+        problem: &'a ClosedLoop<'a, P, N>,
+        mesh: Vec<f64>,
+    ) -> Result<PeriodicOrbitSystem<'a, ClosedLoop<'a, P, N>>, SwayError> {
+        PeriodicOrbitSystem::with_mesh(
+            problem,
+            problem.parameters(self.hopf.parameter),
+            SPEED,
+            mesh,
+            collocation(&self.options),
+        )
+        .map_err(num("cycle system on an adapted mesh".into()))
+    }
+
     /// The cycles at speed V \[m/s\] (all crossings of the branch), corrected at fixed V.
     pub fn cycles_at<P: Vehicle<N>, const N: usize>(
         &self,

@@ -19,6 +19,22 @@ pub enum SwayError {
     /// The vehicle model rejected its parameters or failed.
     #[error(transparent)]
     Model(#[from] trailer_model::ModelError),
+    /// Settling on the sway cycle lost control: from its θ(0) the vehicle's sway grows past
+    /// the model's validity instead of settling (it has no stable sway cycle at that
+    /// speed, or the start is outside its basin).
+    #[error(
+        "no sway cycle to start from at V = {speed_mps} m/s: from θ(0) = {theta0_rad} rad the motion loses control ({condition}) after {time_s:.2} s of settling; the vehicle has no stable sway cycle reached from there (its bifurcation diagram, `cargo xtask fig3a --vehicle FILE`, shows where stable cycles exist): start from a state or at another speed"
+    )]
+    NoSwayCycle {
+        /// the speed of the settling \[m/s\]
+        speed_mps: f64,
+        /// the initial hitch angle \[rad\]
+        theta0_rad: f64,
+        /// when control was lost \[s\]
+        time_s: f64,
+        /// the guard's condition that tripped
+        condition: String,
+    },
     /// A numerical computation failed; `context` says which one and with what inputs.
     #[error("{context}: {cause}")]
     Numerical {

@@ -26,6 +26,8 @@ mod sway_assist;
 mod sweep;
 #[path = "sweep_points.rs"]
 mod sweep_points;
+#[path = "sweep_variants.rs"]
+mod sweep_variants;
 
 #[test]
 fn every_test_file_is_a_module_of_this_binary() {

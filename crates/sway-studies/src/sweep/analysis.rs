@@ -17,6 +17,7 @@ use sway::config::{ensure, ensure_count};
 use sway::control;
 use sway::ranging::SpeedLimits;
 use sway::sim::VehicleForm;
+use sway_model::vehicle::Vehicle;
 
 /// Settings of the linear and bifurcation point kinds (`[analysis]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -295,21 +296,53 @@ fn plant_critical_pair<P: trailer_model::Plant<M>, const M: usize>(
     (ev[0].re, ev[0].im.abs())
 }
 
-/// V_crit and the Hopf frequency of a model variant in open loop, by the scan and regula
-/// falsi of [`open_loop_critical_speed`] on its own spectral abscissa (the closed loop of a
-/// variant is refused with a message).
+/// V_crit and the Hopf frequency of the delayed feedback `fb` (D ≠ 0) of any vehicle: the
+/// exact unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and its rightmost
+/// root at V_crit.
+fn closed_loop_critical_speed<M: control::LoopModel + ?Sized>(
+    model: &M,
+    fb: &LoopLaw,
+    (v_min, v_max): (f64, f64),
+    o: &AnalysisOptions,
+) -> Result<(Option<f64>, Option<f64>), String> {
+    let v = critical_speed_at_gain(
+        model,
+        fb.delay_s,
+        fb.gains.yaw_rate,
+        v_min,
+        v_max,
+        o.closed_loop_samples,
+        o.tolerance_mps,
+    )
+    .map_err(|e| e.to_string())?;
+    let omega = match v {
+        Some(v) => {
+            let roots = rightmost_roots(model, v, fb.gains.yaw_rate, fb.delay_s, 2)
+                .map_err(|e| e.to_string())?;
+            roots.first().map(|r| r.im.abs())
+        }
+        None => None,
+    };
+    Ok((v, omega))
+}
+
+/// V_crit and the Hopf frequency of a model variant: in open loop by the scan and regula
+/// falsi of [`open_loop_critical_speed`] on its own spectral abscissa, with delayed
+/// yaw-rate feedback as the paper's model ([`closed_loop_critical_speed`]).
 fn variant_linear_critical_speed(
     vehicle: &AnyVehicleModel,
     controller: Option<&LoopLaw>,
     o: &AnalysisOptions,
     limits: &SpeedLimits,
 ) -> Result<LinearCriticalSpeed, String> {
-    if feedback(controller)?.gains.yaw_rate != 0.0 {
-        return Err(
-            "the closed-loop critical speed of a vehicle with model variants is not \
-             available in sweeps (open loop only)"
-                .into(),
-        );
+    let fb = feedback(controller)?;
+    if fb.gains.yaw_rate != 0.0 {
+        let (v, omega) = closed_loop_critical_speed(vehicle, &fb, o.range(limits), o)?;
+        return Ok(LinearCriticalSpeed {
+            v_crit_mps: v,
+            hopf_omega_rad_s: omega,
+            hopf_frequency_hz: omega.map(|w| w / std::f64::consts::TAU),
+        });
     }
     let (v, omega) = trailer_model::with_plant!(vehicle, m => {
         match open_loop_scan(|v| plant_critical_pair(m, v).0, o, limits)? {
@@ -392,8 +425,8 @@ fn open_loop_scan(
 /// model: open loop by the sign change of max Re λ(Ã(V)) ([`open_loop_critical_speed`]);
 /// closed loop by the exact unstable-root count of eq. (13) ([`critical_speed_at_gain`]) and
 /// its rightmost root; `yaw_rate_hitch` and `predictor` by the count of their loop
-/// ([`control::critical_speed`]). A model variant: open loop only, by the same scan and
-/// regula falsi on its own spectral abscissa.
+/// ([`control::critical_speed`]). A model variant: open loop by the same scan and regula
+/// falsi on its own spectral abscissa, delayed yaw-rate feedback by the same root count.
 ///
 /// # Errors
 /// A message naming the failing step.
@@ -420,25 +453,7 @@ pub fn linear_critical_speed<'a>(
             None => (None, None),
         }
     } else {
-        let v = critical_speed_at_gain(
-            model,
-            fb.delay_s,
-            fb.gains.yaw_rate,
-            v_min,
-            v_max,
-            o.closed_loop_samples,
-            o.tolerance_mps,
-        )
-        .map_err(|e| e.to_string())?;
-        let omega = match v {
-            Some(v) => {
-                let roots = rightmost_roots(model, v, fb.gains.yaw_rate, fb.delay_s, 2)
-                    .map_err(|e| e.to_string())?;
-                roots.first().map(|r| r.im.abs())
-            }
-            None => None,
-        };
-        (v, omega)
+        closed_loop_critical_speed(model, &fb, (v_min, v_max), o)?
     };
     Ok(LinearCriticalSpeed {
         v_crit_mps: v,
@@ -465,6 +480,20 @@ pub fn hopf_fold_speeds(
     if let Some(l) = AnalysedLoop::of(model, controller)? {
         return Ok(l.hopf_fold_speeds(model, o, limits));
     }
+    diagram_hopf_fold_speeds(model, controller, o, limits)
+}
+
+/// [`hopf_fold_speeds`] of any vehicle (model variants too) with the open loop or a
+/// `yaw_rate_feedback` controller: read off its bifurcation diagram.
+///
+/// # Errors
+/// A message naming the failing stage, or the controller a diagram does not take.
+pub fn diagram_hopf_fold_speeds<P: Vehicle<N>, const N: usize>(
+    model: &P,
+    controller: Option<&LoopLaw>,
+    o: &AnalysisOptions,
+    limits: &SpeedLimits,
+) -> Result<HopfFoldSpeeds, String> {
     let fb = feedback(controller)?;
     let outcome = vehicle_diagram(model, fb, &o.diagram, limits, CycleExtent::FirstFold)
         .map_err(|e| e.to_string())?;

@@ -14,6 +14,7 @@
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -37,8 +38,8 @@ mod axis;
 pub mod threshold;
 
 pub use analysis::{
-    AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed, hopf_fold_speeds, linear_critical_speed,
-    open_loop_critical_speed,
+    AnalysisOptions, HopfFoldSpeeds, LinearCriticalSpeed, diagram_hopf_fold_speeds,
+    hopf_fold_speeds, linear_critical_speed, open_loop_critical_speed,
 };
 pub use axis::{Axis, AxisParameter, SweepParameter, VEHICLE_FILE, VehicleField};
 pub use threshold::{CycleReference, Theta0Threshold, ThresholdSearch, theta0_threshold};
@@ -532,7 +533,9 @@ impl<'a> From<VehicleForm<'a>> for PointModel<'a> {
 }
 
 /// The model and the scenario of one point.
-type PointSetup<'a> = (PointModel<'a>, BaseScenario);
+/// The model and scenario of a grid point, and the fleet index of its vehicle when that is
+/// the sweep's own vehicle unchanged (None: an axis or a sample changed it).
+type PointSetup<'a> = (PointModel<'a>, BaseScenario, Option<usize>);
 
 /// A sweep ready to run: the config, its vehicles and models, the axis values and the
 /// sampler, built once; [`Sweep::run_point`] then needs nothing else.
@@ -557,6 +560,10 @@ pub struct Sweep {
     pub(crate) limits: SpeedLimits,
     /// the vehicle file and its plant when it has model variants (no fleet axis)
     variant: Option<(VehicleSpec, AnyVehicleModel)>,
+    /// the start of the base scenario on each unchanged vehicle, resolved once (settling
+    /// on the sway cycle costs as much as a run, and every point over scenario quantities
+    /// starts there)
+    base_starts: Vec<OnceLock<Result<State4, String>>>,
 }
 
 impl Sweep {
@@ -590,6 +597,7 @@ impl Sweep {
             .iter()
             .map(|v| Model::new(*v))
             .collect::<Result<Vec<_>, _>>()?;
+        let n_vehicles = vehicles.len();
         let sampler = match &cfg.sampling {
             Some(s) => Some(
                 Sampler::new(s)
@@ -625,6 +633,7 @@ impl Sweep {
             references,
             limits: SpeedLimits::default(),
             variant: None,
+            base_starts: (0..n_vehicles).map(|_| OnceLock::new()).collect(),
         })
     }
 
@@ -650,6 +659,12 @@ impl Sweep {
     /// Whether the sweep runs on a vehicle with model variants.
     pub fn has_variants(&self) -> bool {
         self.variant.is_some()
+    }
+
+    /// The plant of the vehicle with model variants the sweep runs on (None: the paper's
+    /// model, [`Sweep::base_model`]).
+    pub(crate) fn variant_plant(&self) -> Option<&AnyVehicleModel> {
+        self.variant.as_ref().map(|(_, plant)| plant)
     }
 
     /// The same sweep with other [`SpeedLimits`] (`--max-speed`): the ranges of the
@@ -748,21 +763,56 @@ impl Sweep {
         }
         if let Some((spec, plant)) = &self.variant {
             let model = variant_point(spec, plant, &self.cfg.axes, &values, &self.sampled_fields);
-            return (values, model.map(|m| (m, scenario)));
+            return (
+                values,
+                model.map(|m| {
+                    let unchanged = matches!(&m, PointModel::Variant(Cow::Borrowed(_)));
+                    (m, scenario, unchanged.then_some(0))
+                }),
+            );
         }
+        let unchanged = params.is_none().then_some(fleet);
         let model = match params {
             None => Ok(Cow::Borrowed(&self.models[fleet])),
             Some(p) => Model::new(p)
                 .map(Cow::Owned)
                 .map_err(|e| format!("vehicle: {e}")),
         };
-        (values, model.map(|m| (PointModel::Paper(m), scenario)))
+        (
+            values,
+            model.map(|m| (PointModel::Paper(m), scenario, unchanged)),
+        )
+    }
+
+    /// The start of a simulated grid point: on an unchanged vehicle (`base_vehicle`) from
+    /// the base scenario's initial condition, resolved once per vehicle; else resolved here.
+    fn start_of(
+        &self,
+        model: &PointModel<'_>,
+        s: &BaseScenario,
+        base_vehicle: Option<usize>,
+    ) -> Result<State4, String> {
+        let resolve = || {
+            s.initial
+                .resolve(model, &s.settings.solver)
+                .map(|(x0, _psi0)| x0)
+                .map_err(|e| e.to_string())
+        };
+        let base = &self.cfg.base;
+        match base_vehicle {
+            Some(i) if s.initial == base.initial && s.settings.solver == base.settings.solver => {
+                self.base_starts[i].get_or_init(resolve).clone()
+            }
+            _ => resolve(),
+        }
     }
 
     fn run_grid_point(&self, k: usize) -> PointResult {
         let (values, setup) = self.setup(k);
-        let result = setup.and_then(|(model, s)| match (self.cfg.kind, &model) {
-            (PointKind::Simulation, _) => simulate_point(&model, &s, s.horizon_s.get())
+        let result = setup.and_then(|(model, s, base_vehicle)| match (self.cfg.kind, &model) {
+            (PointKind::Simulation, _) => self
+                .start_of(&model, &s, base_vehicle)
+                .and_then(|x0| simulate_from(&model, &s, s.horizon_s.get(), x0))
                 .map(|(m, steps)| (PointOutput::Simulation(m), steps)),
             (PointKind::LinearCriticalSpeed, _) => law_of(&s)
                 .and_then(|law| {
@@ -784,11 +834,16 @@ impl Sweep {
                     )
                 })
                 .map(|r| (PointOutput::HopfFoldSpeeds(r), 0)),
-            (PointKind::HopfFoldSpeeds, PointModel::Variant(_)) => Err(
-                "Hopf and fold-of-cycles speeds of a vehicle with model variants are not \
-                 available in sweeps yet"
-                    .to_string(),
-            ),
+            (PointKind::HopfFoldSpeeds, PointModel::Variant(plant)) => law_of(&s)
+                .and_then(|law| {
+                    trailer_model::with_plant!(plant.as_ref(), m => analysis::diagram_hopf_fold_speeds(
+                        m,
+                        law.as_ref(),
+                        &self.cfg.analysis,
+                        &self.limits,
+                    ))
+                })
+                .map(|r| (PointOutput::HopfFoldSpeeds(r), 0)),
         });
         match result {
             Ok((output, steps)) => PointResult {
@@ -853,6 +908,17 @@ pub fn simulate_point<'a>(
         .initial
         .resolve(vehicle, &s.settings.solver)
         .map_err(|e| e.to_string())?;
+    simulate_from(vehicle, s, horizon_s, x0)
+}
+
+/// [`simulate_point`] from the resolved start `x0` of its initial condition.
+fn simulate_from<'a>(
+    vehicle: impl Into<VehicleForm<'a>>,
+    s: &BaseScenario,
+    horizon_s: f64,
+    x0: State4,
+) -> Result<(Metrics, usize), String> {
+    let vehicle = vehicle.into();
     let spec = SimSpec {
         early_stop: sway::sim::EarlyStop::Never,
         steering: Default::default(),
@@ -864,7 +930,7 @@ pub fn simulate_point<'a>(
         horizon_s,
         settings: s.settings,
     };
-    let r = simulate_in_paper_layout::<4>(vehicle, &spec, State4::from(x0), Recording::None)
+    let r = simulate_in_paper_layout::<4>(vehicle, &spec, x0, Recording::None)
         .map_err(|e| e.to_string())?;
     Ok((r.metrics, r.stats.accepted))
 }

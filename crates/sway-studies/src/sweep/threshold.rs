@@ -26,7 +26,7 @@ use sway::config::{Positive, ensure};
 use sway::ranging::SpeedLimits;
 use sway::sim::classify::SwayClass;
 use sway::sim::{ControllerTable, InitialCondition, SpeedProfile, VehicleForm};
-use trailer_model::Model;
+use sway_model::vehicle::Vehicle;
 
 fn default_horizon() -> Positive {
     Positive::literal(240.0)
@@ -194,7 +194,7 @@ pub(super) fn run_threshold_point(sweep: &Sweep, i: usize) -> PointResult {
     };
     let (values, setup) = sweep.setup(i);
     let speed = values[0];
-    let (model, base) = match setup {
+    let (model, base, _) = match setup {
         Ok(s) => s,
         Err(e) => return failed(vec![speed], e),
     };
@@ -295,26 +295,20 @@ fn bisect(
 /// The reference point: the bifurcation diagram of the base vehicle (open loop) and its
 /// cycles at every speed of axis 1.
 pub(super) fn run_reference_point(sweep: &Sweep) -> PointResult {
-    if sweep.has_variants() {
-        return failed(
-            Vec::new(),
-            "the cycles of the bifurcation diagram of a vehicle with model variants are not \
-             available in sweeps yet"
-                .into(),
-        );
-    }
     let opts = sweep
         .cfg
         .threshold
         .as_ref()
         .map(|t| t.cycles.clone())
         .unwrap_or_default();
-    match reference(
-        sweep.base_model(),
-        &opts,
-        &sweep.limits,
-        &sweep.axis_values[0],
-    ) {
+    let speeds = &sweep.axis_values[0];
+    let computed = match sweep.variant_plant() {
+        Some(plant) => {
+            trailer_model::with_plant!(plant, m => reference(m, &opts, &sweep.limits, speeds))
+        }
+        None => reference(sweep.base_model(), &opts, &sweep.limits, speeds),
+    };
+    match computed {
         Ok(r) => PointResult {
             values: Vec::new(),
             output: Ok(PointOutput::CycleReference(r)),
@@ -324,8 +318,8 @@ pub(super) fn run_reference_point(sweep: &Sweep) -> PointResult {
     }
 }
 
-fn reference(
-    model: &Model,
+fn reference<P: Vehicle<N>, const N: usize>(
+    model: &P,
     settings: &DiagramSettings,
     limits: &SpeedLimits,
     speeds: &[f64],

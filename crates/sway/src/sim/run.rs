@@ -841,7 +841,8 @@ fn lost_at_start<const N: usize>(
 /// gives it in the paper's four states.
 ///
 /// # Errors
-/// [`SwayError::Numerical`] if the solver fails.
+/// [`SwayError::NoSwayCycle`] if the sway grows past the model's validity guard
+/// ([`guard_event`]) instead of settling; [`SwayError::Numerical`] if the solver fails.
 pub fn settle<V: Vehicle<M>, const M: usize>(
     vehicle: &V,
     speed_mps: f64,
@@ -855,7 +856,24 @@ pub fn settle<V: Vehicle<M>, const M: usize>(
     let context = || format!("settling on the sway cycle at V = {speed_mps} m/s for {settle_s} s");
     let mut s = OdeSolver::new(&problem, 0.0, x0, solver.options(None))
         .map_err(|e| SwayError::numerical(context(), e))?;
-    s.integrate(&problem, settle_s, &[], &mut NoObserver)
+    // a sway that grows past the model's validity has no cycle to settle on: stop there
+    // (beyond it the explicit solver crawls through a jackknife for the rest of settle_s)
+    let status = s
+        .integrate(
+            &problem,
+            settle_s,
+            &[guard_event(&problem)],
+            &mut NoObserver,
+        )
         .map_err(|e| SwayError::numerical(context(), e))?;
+    if let Status::Event(_) = status {
+        let condition = tripped(problem.guard_values(s.t(), s.state(), &[]));
+        return Err(SwayError::NoSwayCycle {
+            speed_mps,
+            theta0_rad,
+            time_s: s.t(),
+            condition: condition.as_str().to_string(),
+        });
+    }
     Ok(*s.state())
 }

@@ -15,7 +15,7 @@ use sway::SwayError;
 use sway::progress::Progress;
 use sway::ranging::{SpeedLimits, SpeedSpec, resolve_speeds};
 use sway::sim::speeds::ResolveSpeeds;
-use sway::sim::speeds::{Resolution, ResolvedSpeed};
+use sway::sim::speeds::{Resolution, ResolvedSpeed, UnresolvedSpeed};
 use sway::sim::{
     InitialCondition, Metrics, Recording, RunSettings, ScenarioConfig, SimResult, SimSpec,
     SolverSettings, SwayStart, simulate_in_paper_layout,
@@ -89,12 +89,15 @@ pub fn with_resolved_speeds(e: SwayError, speeds: &[ResolvedSpeed]) -> SwayError
 
 /// `run` on the resolved config of `resolution` once `check` accepts it (a config error
 /// then names the resolved speeds, [`with_resolved_speeds`]); the references and the
-/// resolved speeds are kept, and a config that did not resolve stays the outcome.
+/// resolved speeds are kept, and a config that did not resolve stays the outcome. A run
+/// that finds no sway cycle to start from ([`SwayError::NoSwayCycle`]) is an outcome too:
+/// the speed of `start_key` has nothing to start from, with the reason.
 ///
 /// # Errors
 /// The check's error, or the run's.
 pub(crate) fn checked_run<T, U>(
     resolution: Resolution<T>,
+    start_key: &str,
     check: impl FnOnce(&T) -> Result<(), SwayError>,
     run: impl FnOnce(T) -> Result<U, SwayError>,
 ) -> Result<Resolution<U>, SwayError> {
@@ -106,7 +109,17 @@ pub(crate) fn checked_run<T, U>(
     let outcome = match outcome {
         Ok(c) => {
             check(&c).map_err(|e| with_resolved_speeds(e, &speeds))?;
-            Ok(run(c)?)
+            match run(c) {
+                Ok(u) => Ok(u),
+                // no stable sway cycle at the start's speed: nothing to start from, an
+                // outcome like a speed that does not resolve (the key of that speed)
+                Err(e @ SwayError::NoSwayCycle { speed_mps, .. }) => Err(UnresolvedSpeed {
+                    key: start_key.to_string(),
+                    spec: SpeedSpec::Absolute(speed_mps),
+                    reason: e.to_string(),
+                }),
+                Err(e) => return Err(e),
+            }
         }
         Err(u) => Err(u),
     };
@@ -212,6 +225,7 @@ where
     let resolution = resolve_speeds(vehicle, limits, config)?;
     checked_run(
         resolution,
+        "start.speed_mps",
         |c| c.check(file),
         |c| {
             let (start, settings, output_step_s) = c.start();
@@ -315,6 +329,7 @@ pub fn compute(
     let resolution = resolve_speeds(vehicle, limits, config)?;
     checked_run(
         resolution,
+        "initial.speed_mps",
         |c| c.validate(file),
         |c| {
             let recording = if trajectory {

@@ -158,6 +158,13 @@ fn settling_without_a_stable_sway_cycle_is_an_outcome_and_with_one_ends_on_it() 
         }
         other => panic!("expected NoSwayCycle, got {other:?}"),
     }
+    // mitigation's search for the cycle: no sway at this speed, an outcome
+    let found = trailer_model::with_plant!(&plant, m => sway::mitigation::find_sway_cycle(m, v, 0.1, 200.0, 20.0, &solver).map(|r| r.err()))
+        .unwrap();
+    assert!(
+        found.is_some_and(|reason| reason.starts_with("no sway cycle to start from")),
+        "mitigation found a sway cycle"
+    );
 }
 
 #[test]
@@ -197,4 +204,55 @@ atol = 1e-9
         assert_eq!(r.output, Ok(PointOutput::Simulation(m)), "point {k}");
         assert_eq!(r.steps, steps);
     }
+}
+
+#[test]
+fn a_start_without_a_sway_cycle_is_nothing_to_show_for_simulate_and_fig3b() {
+    // reference: the settling outcome above (generated vehicle 14 has no stable sway cycle
+    // at 1.007·V_crit). The scenario of `simulate` and the braking runs of `fig3b` that
+    // start there are an outcome naming the start's speed key, not an error; Table I
+    // (a stable cycle at 35 m/s) runs.
+    let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
+    let limits = SpeedLimits::default();
+    let progress = sway::progress::NoProgress;
+    let scenario_file = configs.join("scenario_example.toml");
+    let scenario: sway::sim::ScenarioConfig<sway::ranging::SpeedSpec> =
+        toml::from_str(&std::fs::read_to_string(&scenario_file).unwrap()).unwrap();
+    let fig3b_file = configs.join("fig3b.toml");
+    let fig3b: sway_studies::fig3b::Fig3bConfig<sway::ranging::SpeedSpec> =
+        toml::from_str(&std::fs::read_to_string(&fig3b_file).unwrap()).unwrap();
+
+    let generated = &sway_model::generator::generate(52, 15)[14];
+    let plant = AnyVehicleModel::new(&generated.spec).unwrap();
+    let r = sway_studies::simulate::compute(
+        &scenario,
+        &plant,
+        &limits,
+        &scenario_file,
+        false,
+        &progress,
+    )
+    .unwrap();
+    let u = r.outcome.expect_err("no sway cycle to start from");
+    assert_eq!(u.key, "initial.speed_mps");
+    assert!(
+        u.reason.starts_with("no sway cycle to start from"),
+        "{}",
+        u.reason
+    );
+    let r = sway_studies::fig3b::compute(&fig3b, &plant, &limits, &fig3b_file, &progress).unwrap();
+    let u = r.outcome.expect_err("no sway cycle to brake from");
+    assert_eq!(u.key, "start.speed_mps");
+
+    let table_i = AnyVehicleModel::new(&VehicleSpec::from(VehicleParams::default())).unwrap();
+    let r = sway_studies::simulate::compute(
+        &scenario,
+        &table_i,
+        &limits,
+        &scenario_file,
+        false,
+        &progress,
+    )
+    .unwrap();
+    assert!(r.outcome.is_ok());
 }

@@ -250,6 +250,18 @@ fn v_crit<M: LoopModel + ?Sized>(
     Ok(super::critical_speed(model, c, prediction, search)?.unwrap_or(search.v_max_mps))
 }
 
+/// Whether `e` is a root count that found no frequency bound for the crossings
+/// ([`stability::StabilityError::UnboundedCrossings`]).
+fn unbounded_crossings(e: &SwayError) -> bool {
+    match e {
+        SwayError::Numerical { cause, .. } => matches!(
+            cause.downcast_ref::<stability::StabilityError>(),
+            Some(stability::StabilityError::UnboundedCrossings { .. })
+        ),
+        _ => false,
+    }
+}
+
 /// What a design starts from beside its own search: a previous optimum `warm` (the design
 /// at the neighbouring delay), and for a several-gain structure (`yaw_rate_hitch`) the
 /// `yaw_rate` design of the same actuator at the same delay (which [`design`] otherwise
@@ -299,14 +311,21 @@ struct Target<'a, M: LoopModel + ?Sized> {
 }
 
 impl<M: LoopModel + ?Sized> Target<'_, M> {
-    /// The critical speed of the loop with `gains` on the search's speed range.
+    /// The critical speed of the loop with `gains` on the search's speed range. A gain set
+    /// whose crossings cannot be bounded in frequency at a speed of the scan (the loop
+    /// keeps its gain to beyond 10⁶ times its roots' frequencies: `UnboundedCrossings`) is
+    /// not certified stable there: the search counts it as unstable from the bottom of
+    /// the range, so that it never wins (a design reports only certified speeds).
     fn v_crit(&self, gains: Gains, search: &SpeedSearch) -> Result<f64, SwayError> {
-        v_crit(
+        match v_crit(
             self.model,
             &self.law.with_gains(gains),
             self.prediction,
             search,
-        )
+        ) {
+            Err(e) if unbounded_crossings(&e) => Ok(search.v_min_mps),
+            r => r,
+        }
     }
 
     /// The command per radian of equivalent steering of the actuator.

@@ -150,7 +150,8 @@ pub fn sway_cycle<P: SimulateOwn<M>, const M: usize>(
 }
 
 /// As [`sway_cycle`], with "no sway at this speed" (fewer than three upward zero crossings
-/// of θ within `search_s`) as `Ok(Err(reason))`, an outcome rather than an error.
+/// of θ within `search_s`, or a sway that loses control while settling,
+/// [`SwayError::NoSwayCycle`]) as `Ok(Err(reason))`, an outcome rather than an error.
 ///
 /// # Errors
 /// [`SwayError::Numerical`] if the solver fails.
@@ -162,7 +163,12 @@ pub fn find_sway_cycle<P: SimulateOwn<M>, const M: usize>(
     search_s: f64,
     solver: &SolverSettings,
 ) -> Result<Result<SwayCycle<M>, String>, SwayError> {
-    let x = settle(model, speed_mps, theta0_rad, settle_s, solver)?;
+    let x = match settle(model, speed_mps, theta0_rad, settle_s, solver) {
+        Ok(x) => x,
+        // the sway grows past the validity guard: no cycle at this speed either
+        Err(e @ SwayError::NoSwayCycle { .. }) => return Ok(Err(e.to_string())),
+        Err(e) => return Err(e),
+    };
     let (_, c) = open_loop(model, speed_mps, x, search_s, solver)?;
     if c.times.len() < 3 {
         return Ok(Err(format!(

@@ -370,3 +370,23 @@ fn generated_vehicles_with_variants_get_an_outcome_from_every_task() {
         }
     }
 }
+
+#[test]
+fn a_threshold_map_whose_lower_speed_resolves_past_zero_is_an_outcome() {
+    // generated vehicle 18 of the 100-vehicle study (seed 52, hitch damping) has a
+    // bistable range so wide that the shipped threshold map's lower end,
+    // { in_bistable = −1.09 } (28 m/s for Table I), resolves below 0 m/s: the default
+    // `sweep` runs to an outcome that says so instead of failing its resolved config's
+    // check with V = −13.4 m/s (the resolution itself: `sway_model::speeds` unit tests)
+    let vehicle = &generate(52, 19)[18];
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let runs = sway_tasks::tasks::study_generated::run_vehicle(
+        vehicle,
+        &["sweep".to_string()],
+        &configs_dir(),
+        tmp.path(),
+        sway::ranging::SpeedLimits::default(),
+    );
+    assert_eq!(runs.len(), 1);
+    assert_eq!(runs[0].error, None, "{:?}", runs[0].error);
+}

@@ -56,6 +56,9 @@ const NULLABLE: &[&str] = &[
     "hopf_v_mps",
     "hopf_period_s",
     "criticality",
+    // a scenario with nothing to show (no sway cycle to start from): the fold of cycles
+    // is computed only for an `in_bistable` speed
+    "v_fold_mps",
 ];
 
 fn configs_dir() -> PathBuf {

@@ -342,7 +342,8 @@ impl SpeedSpec {
     /// The speed \[m/s\] for a vehicle with these references.
     ///
     /// # Errors
-    /// [`Unresolved`] with the reason when the reference does not exist.
+    /// [`Unresolved`] with the reason when the reference does not exist, or when an
+    /// `in_bistable` factor below the fold reaches to 0 m/s or below on this vehicle.
     pub fn resolve(&self, refs: &SpeedReferences) -> Result<f64, Unresolved> {
         let missing = |what: &str| Unresolved {
             reason: refs
@@ -360,7 +361,17 @@ impl SpeedSpec {
                 let vf = refs
                     .v_fold_mps
                     .ok_or_else(|| missing("bistable range (no fold of cycles)"))?;
-                Ok(vf + f * (vc - vf))
+                let v = vf + f * (vc - vf);
+                if v > 0.0 {
+                    Ok(v)
+                } else {
+                    // a factor below the fold reaches past 0 on a wide bistable range
+                    Err(Unresolved {
+                        reason: format!(
+                            "{{ in_bistable = {f} }} = V_fold + {f}·(V_crit − V_fold) = {v:.3} m/s for this vehicle (V_fold = {vf:.3}, V_crit = {vc:.3} m/s): not a speed; its bistable range is wider than the factor allows for (give the speed in m/s)"
+                        ),
+                    })
+                }
             }
         }
     }
@@ -496,6 +507,24 @@ mod tests {
                 .contains("must be finite")
         );
         assert!(parse("speed_mps = {}").unwrap_err().contains("empty table"));
+    }
+
+    #[test]
+    fn an_in_bistable_speed_past_zero_is_unresolved_with_the_numbers() {
+        // reference: V_fold + f·(V_crit − V_fold) by hand. Table I's threshold map goes
+        // from in_bistable = −1.09 (28 m/s); a vehicle with V_fold = 30, V_crit = 70 m/s
+        // would put it at 30 − 1.09·40 = −13.6 m/s: no speed
+        let refs = |vc: f64, vf: f64| SpeedReferences {
+            v_crit_mps: Some(vc),
+            v_fold_mps: Some(vf),
+            reason: None,
+        };
+        let spec = SpeedSpec::Relative(RelativeSpeed::InBistable(-1.09));
+        let v = spec.resolve(&refs(34.75, 31.52)).unwrap();
+        assert!((v - (31.52 - 1.09 * (34.75 - 31.52))).abs() < 1e-12, "{v}");
+        let e = spec.resolve(&refs(70.0, 30.0)).unwrap_err();
+        assert!(e.reason.contains("-13.600 m/s"), "{}", e.reason);
+        assert!(e.reason.contains("give the speed in m/s"), "{}", e.reason);
     }
 
     #[test]

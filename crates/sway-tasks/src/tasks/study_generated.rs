@@ -309,8 +309,9 @@ fn write_vehicle(v: &GeneratedVehicle, dir: &Path) -> Result<PathBuf, TaskError>
 }
 
 /// Runs `tasks` on every vehicle, one vehicle after another (each task parallelises
-/// inside itself; see [`crate::shard::PointSchedule::OneAfterAnother`]), results in vehicle
-/// order ([`run_vehicle`]), calling `advance` after each vehicle.
+/// inside itself; vehicles side by side, a worker waiting inside one vehicle's parallel
+/// loop would steal a whole other vehicle), results in vehicle order ([`run_vehicle`]),
+/// calling `advance` after each vehicle.
 pub fn run_all(
     vehicles: &[GeneratedVehicle],
     tasks: &[String],

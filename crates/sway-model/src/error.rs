@@ -23,7 +23,8 @@ pub enum SwayError {
     /// the model's validity instead of settling (it has no stable sway cycle at that
     /// speed, or the start is outside its basin).
     #[error(
-        "no sway cycle to start from at V = {speed_mps} m/s: from θ(0) = {theta0_rad} rad the motion loses control ({condition}) after {time_s:.2} s of settling; the vehicle has no stable sway cycle reached from there (its bifurcation diagram, `cargo xtask fig3a --vehicle FILE`, shows where stable cycles exist): start from a state or at another speed"
+        "no sway cycle to start from at V = {speed_mps} m/s: from θ(0) = {theta0_rad} rad the motion loses control ({}) after {time_s:.2} s of settling; the vehicle has no stable sway cycle reached from there (its bifurcation diagram, `cargo xtask fig3a --vehicle FILE`, shows where stable cycles exist): start from a state or at another speed",
+        .condition.as_str()
     )]
     NoSwayCycle {
         /// the speed of the settling \[m/s\]
@@ -33,7 +34,7 @@ pub enum SwayError {
         /// when control was lost \[s\]
         time_s: f64,
         /// the guard's condition that tripped
-        condition: String,
+        condition: crate::vehicle::LossOfControl,
     },
     /// A numerical computation failed; `context` says which one and with what inputs.
     #[error("{context}: {cause}")]

@@ -872,7 +872,7 @@ pub fn settle<V: Vehicle<M>, const M: usize>(
             speed_mps,
             theta0_rad,
             time_s: s.t(),
-            condition: condition.as_str().to_string(),
+            condition,
         });
     }
     Ok(*s.state())

@@ -464,6 +464,7 @@ impl<const N: usize> Core<N> {
             let plan = self.plan_step(&ctl, t_end)?;
             let stages = Pair::attempt(method, &*rhs, &plan);
             self.stats.rhs_evals += method.evals();
+            let err = self.estimate(&ctl, &plan, &stages);
             if self.switches.crossing(
                 &*rhs,
                 &plan,
@@ -472,10 +473,14 @@ impl<const N: usize> Core<N> {
                 self.opts.event_tol,
                 &mut self.stats,
             ) {
-                // a kink of f inside the step: land on it instead
+                // a kink of f inside the step: land on it instead; an attempt that also
+                // failed its error test leaves the size the rejection would have
+                if err > 1.0 || err.is_nan() {
+                    self.h = self.h.min(self.rejected_size(&ctl, &plan, err));
+                }
                 continue;
             }
-            let Some(err) = self.judge(&ctl, &plan, &stages)? else {
+            let Some(err) = self.judge(&ctl, &plan, err)? else {
                 continue;
             };
             let h_next = self.accept(&ctl, &plan, err);
@@ -631,22 +636,45 @@ impl<const N: usize> Core<N> {
         })
     }
 
-    /// The scaled error of the step (0 with fixed steps), or `None` after a rejection (the
-    /// step size is then reduced); an error once the step cannot shrink any further.
-    fn judge(&mut self, ctl: &Control, p: &Plan<N>, s: &Pair<N>) -> Result<Option<f64>, Error> {
-        let finite = is_finite(s.x_new()) && is_finite(s.f_new());
-        let err = if ctl.fixed.is_some() {
-            if finite { 0.0 } else { f64::NAN }
+    /// The scaled error of the attempt (0 with fixed steps; NaN where the attempt is not
+    /// finite).
+    fn estimate(&self, ctl: &Control, p: &Plan<N>, s: &Pair<N>) -> f64 {
+        if !(is_finite(s.x_new()) && is_finite(s.f_new())) {
+            return f64::NAN;
+        }
+        if ctl.fixed.is_some() {
+            return 0.0;
+        }
+        s.error(
+            p,
+            Tolerances {
+                rtol: self.opts.rtol,
+                atol: self.opts.atol,
+            },
+        )
+    }
+
+    /// The size to try after rejecting an attempt of scaled error `err` > 1 (or not
+    /// finite: a much smaller one).
+    ///
+    /// An attempt cut short at a kink it crossed is not judged, but its size must not
+    /// come back after the landing when it failed the error test: a size far too large
+    /// (grown over a stretch where nothing moved, before a pulse of the input, say)
+    /// diverges, its extension shows a spurious root just ahead, and without the cut the
+    /// run creeps on by landings of picoseconds until the step budget is spent.
+    fn rejected_size(&self, ctl: &Control, p: &Plan<N>, err: f64) -> f64 {
+        if err.is_finite() {
+            p.h / (1.0 / ctl.fac_min).min(err.powf(ctl.expo1) / ctl.safety)
         } else {
-            s.error(
-                p,
-                Tolerances {
-                    rtol: self.opts.rtol,
-                    atol: self.opts.atol,
-                },
-            )
-        };
-        if !err.is_finite() || !finite {
+            p.h * ctl.fac_min
+        }
+    }
+
+    /// The attempt's scaled error `err` ([`Core::estimate`]) if it passes, or `None` after
+    /// a rejection (the step size is then reduced); an error once the step cannot shrink
+    /// any further.
+    fn judge(&mut self, ctl: &Control, p: &Plan<N>, err: f64) -> Result<Option<f64>, Error> {
+        if !err.is_finite() {
             // try again with a much smaller step; give up once it cannot shrink further
             self.stats.rejected += 1;
             self.rejected_last = true;
@@ -655,13 +683,12 @@ impl<const N: usize> Core<N> {
             {
                 return Err(Error::NonFiniteState { t: p.t });
             }
-            self.h = p.h * ctl.fac_min;
+            self.h = self.rejected_size(ctl, p, err);
             return Ok(None);
         }
         if err > 1.0 {
             self.stats.rejected += 1;
-            let fac11 = err.powf(ctl.expo1);
-            self.h = p.h / (1.0 / ctl.fac_min).min(fac11 / ctl.safety);
+            self.h = self.rejected_size(ctl, p, err);
             self.rejected_last = true;
             return Ok(None);
         }

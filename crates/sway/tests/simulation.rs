@@ -309,7 +309,9 @@ fn digest<const N: usize>(r: &SimResult<N>) -> u64 {
 #[test]
 fn paper_vehicle_simulations_are_bitwise_those_of_main() {
     // reference: digests recorded on main (4728b97) before the simulation became generic
-    // over the plant; every number of these runs must be identical (no tolerance)
+    // over the plant; every number of these runs must be identical (no tolerance). The
+    // predictor's run was recorded again when an attempt cut short at a kink it crossed
+    // stopped bringing back a size that failed the error test (its states moved by ~1e-11)
     let m = model();
     let rec = Recording::Every { step_s: 0.05 };
     let feedback = |actuator| {
@@ -414,15 +416,21 @@ fn paper_vehicle_simulations_are_bitwise_those_of_main() {
         ("S1 open loop 7 states", 0x01e3_31b1_a3e6_dffe),
         ("S3 closed loop 7 states", 0x6287_b217_ce6f_0b08),
         ("rate-limited actuator 4 states", 0x6d8a_07ca_9823_0656),
-        ("predictor 7 states", 0xa08d_4c8b_a12c_975e),
+        ("predictor 7 states", 0xa8c4_42b4_efd0_14ad),
         ("braking yaw_rate_hitch 4 states", 0xe1e5_0819_8008_8b71),
         ("hard braking to loss of control", 0x7cc7_f5fb_7550_48c5),
         ("settle", 0x29f1_e714_78b5_ded1),
     ];
-    for ((name, d), (main_name, main_d)) in runs.iter().zip(main) {
-        assert_eq!(*name, main_name);
-        assert_eq!(*d, main_d, "{name}: digest {d:#018x}, main {main_d:#018x}");
-    }
+    let differing: Vec<String> = runs
+        .iter()
+        .zip(main)
+        .filter(|((name, d), (main_name, main_d))| {
+            assert_eq!(name, main_name);
+            d != main_d
+        })
+        .map(|((name, d), (_, main_d))| format!("{name}: digest {d:#018x}, main {main_d:#018x}"))
+        .collect();
+    assert!(differing.is_empty(), "{}", differing.join("\n"));
 }
 
 /// Classical RK4 of an M-state plant at constant speed, open loop, with step `dt` \[s\].
@@ -546,4 +554,121 @@ fn relaxed_s1_at_bench_settings_matches_a_converged_run() {
         "{:?}",
         r.metrics
     );
+}
+
+/// A vehicle of the generated study (`study_generated`, vehicle 35): tyre relaxation
+/// σ = 0.42 m on every axle, a tandem trailer axle and Coulomb friction at the hitch.
+const RELAXED_TANDEM_WITH_HITCH_FRICTION: &str = r#"
+gravity = 9.81
+[tractor]
+mass = 2466.19
+yaw_inertia = 7677.46
+front_axle = 4.7787
+cog = 3.2019
+rear_axle = 1.3396
+front_cornering_stiffness = 163561.3
+rear_cornering_stiffness = 186855.8
+front_relaxation_length_m = 0.4233
+rear_relaxation_length_m = 0.4233
+[trailer]
+mass = 1558.63
+yaw_inertia = 1467.07
+cog = 2.6810
+[[trailer.axles]]
+position_m = 2.2468
+cornering_stiffness = 106994.5
+relaxation_length_m = 0.4233
+[[trailer.axles]]
+position_m = 3.0350
+cornering_stiffness = 106994.5
+relaxation_length_m = 0.4233
+[friction]
+mu_static = 0.9
+mu_dynamic = 0.6
+[hitch]
+friction_torque_nm = 166.45
+"#;
+
+/// Classical RK4 of an M-state plant at constant speed under the steering `delta(t)`,
+/// open loop, with step `dt` \[s\].
+fn rk4_steered<P: trailer_model::Plant<M>, const M: usize>(
+    plant: &P,
+    speed_mps: f64,
+    delta: impl Fn(f64) -> f64,
+    t_end: f64,
+    dt: f64,
+) -> SVector<f64, M> {
+    let f = |t: f64, x: &SVector<f64, M>| {
+        let u = Inputs {
+            steering_angle: delta(t),
+            ..Inputs::constant_speed(speed_mps)
+        };
+        plant.rhs(x, &u)
+    };
+    let steps = (t_end / dt).round() as usize;
+    let mut x = SVector::zeros();
+    for i in 0..steps {
+        let t = i as f64 * dt;
+        let k1 = f(t, &x);
+        let k2 = f(t + dt / 2.0, &(x + k1 * (dt / 2.0)));
+        let k3 = f(t + dt / 2.0, &(x + k2 * (dt / 2.0)));
+        let k4 = f(t + dt, &(x + k3 * dt));
+        x += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0);
+    }
+    x
+}
+
+#[test]
+fn a_pulse_after_straight_running_on_a_relaxed_vehicle_runs_in_few_steps_and_matches_rk4() {
+    // At rest the error estimate is 0 and the step grows to the pulse's start; there the
+    // grown size diverges on the fast lag modes (V/σ = 173 1/s at 73.1 m/s), and a landing
+    // on a root read from such an attempt must not bring that size back (it crept on by
+    // landings of picoseconds until the 2·10⁶-step budget was spent: 35 s per run).
+    // Reference: fixed-step RK4 of the same plant at dt = 0.1 ms, whose steps land on the
+    // pulse's ends; the hitch friction's kinks (|θ̇| = ω_c) cost it O(dt²) each: agreement
+    // to 1e-7 in the paper's states (which reach ~1; measured 4e-9) is ample.
+    let vehicle: trailer_model::VehicleSpec =
+        toml::from_str(RELAXED_TANDEM_WITH_HITCH_FRICTION).expect("the vehicle parses");
+    let any = trailer_model::AnyVehicleModel::new(&vehicle).unwrap();
+    let (speed, amplitude, start, duration) = (73.1, 0.5f64.to_radians(), 0.5, 0.4);
+    let s = SimSpec {
+        steering: sway::sim::SteeringInput::Pulse {
+            shape: sway::sim::PulseShape::HalfSine,
+            start_s: start,
+            duration_s: duration,
+            amplitude_rad: amplitude,
+        },
+        ..spec(
+            SpeedProfile::Constant { speed_mps: speed },
+            None,
+            5.0,
+            1e-10,
+        )
+    };
+    let r = sway::sim::simulate_in_paper_layout::<4>(&any, &s, State4::zeros(), Recording::None)
+        .unwrap();
+    assert_eq!(r.metrics.outcome, Outcome::Ok);
+    // measured: 535 steps over 5 s at rtol 1e-10
+    assert!(r.stats.accepted < 5_000, "{:?}", r.stats);
+    let delta = |t: f64| {
+        if (start..start + duration).contains(&t) {
+            amplitude * (std::f64::consts::PI * (t - start) / duration).sin()
+        } else {
+            0.0
+        }
+    };
+    let reference = trailer_model::with_plant!(&any, m => {
+        let x = rk4_steered(m, speed, delta, 5.0, 1e-4);
+        [x[0], x[1], x[2], x[3]]
+    });
+    eprintln!("{:?} vs RK4 {reference:?}, {:?}", r.x_end, r.stats);
+    for i in 0..4 {
+        assert!(
+            (r.x_end[i] - reference[i]).abs() < 1e-7,
+            "state {i}: {} vs RK4 {}",
+            r.x_end[i],
+            reference[i]
+        );
+    }
+    assert!(reference[3].abs() > 1e-4, "the pulse moves the trailer");
 }

@@ -75,7 +75,7 @@ pub enum ShardError {
     },
     /// The directory holds no shard file.
     #[error(
-        "{}: no shard files (shard-K-of-N.json); write them with `cargo xtask sweep FILE --shard K/N --shard-dir {}`",
+        "{}: no shard files (shard-K-of-N.json); write them with `cargo xtask TASK --config FILE --shard K/N --shard-dir {}` (TASK: sweep, brake_timing or study_generated)",
         dir.display(),
         dir.display()
     )]
@@ -138,7 +138,7 @@ pub enum ShardError {
     },
     /// Shards are missing or failed.
     #[error(
-        "{}: incomplete study, {} of {shards} shards have no results: {}; re-run them with `cargo xtask sweep FILE --shard K/{shards}` (under SLURM, see their logs), then merge again",
+        "{}: incomplete study, {} of {shards} shards have no results: {}; re-run them with `cargo xtask {task} --config FILE --shard K/{shards}` (under SLURM, see their logs), then merge again",
         dir.display(),
         missing.len() + failed.len(),
         describe_incomplete(missing, failed, *shards)
@@ -146,6 +146,8 @@ pub enum ShardError {
     Incomplete {
         /// the directory
         dir: PathBuf,
+        /// the task whose shards these are (`TASK` when no shard says)
+        task: String,
         /// the shard count N
         shards: usize,
         /// shards K without a file
@@ -951,8 +953,14 @@ fn incomplete_from_failures(scan: &Scan) -> ShardError {
     let missing = (1..=n)
         .filter(|k| !failed.iter().any(|(j, _)| j == k))
         .collect();
+    let task = scan
+        .failures
+        .iter()
+        .find_map(|(_, f)| f.provenance.as_ref().map(|p| p.kind.clone()))
+        .unwrap_or_else(|| "TASK".to_string());
     ShardError::Incomplete {
         dir,
+        task,
         shards: n,
         missing,
         failed,
@@ -1016,6 +1024,7 @@ fn select(dir: &Path, scan: &Scan, expected: &Provenance) -> Result<Vec<PathBuf>
             .collect();
         return Err(ShardError::Incomplete {
             dir: dir.to_path_buf(),
+            task: expected.kind.clone(),
             shards: n,
             missing,
             failed,

@@ -264,12 +264,6 @@ fn small_configs(dir: &Path) {
     }
 }
 
-/// Runs known to fail, not on a curve: `simulate`'s shipped scenario settles on the sway
-/// cycle for 200 s, and on this Magic Formula + tandem vehicle at 46.5 m/s the explicit
-/// integrator reaches its 2 000 000 steps at t ≈ 173 s (stiff there). Listed so that any
-/// other failure fails the test; to be made an outcome with its reason.
-const KNOWN_FAILURES: [(&str, &str); 1] = [("generated-14", "simulate")];
-
 /// The reasons an `end` may give (`sway::bifurcation::chart::CurveEnd`, snake case).
 const REASONS: [&str; 6] = [
     "left_box",
@@ -321,12 +315,7 @@ fn generated_vehicles_with_variants_get_an_outcome_from_every_task() {
         summary.curves_ended_early_by_reason
     );
     assert_eq!(summary.runs, COUNT * VEHICLE_TASKS.len());
-    let failed: Vec<&Run> = runs
-        .iter()
-        .filter(|r| {
-            r.error.is_some() && !KNOWN_FAILURES.contains(&(r.vehicle.as_str(), r.task.as_str()))
-        })
-        .collect();
+    let failed: Vec<&Run> = runs.iter().filter(|r| r.error.is_some()).collect();
     assert!(
         failed.is_empty(),
         "{} of {} runs failed:\n{}",

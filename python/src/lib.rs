@@ -49,7 +49,8 @@ use trailer_model::{AnyVehicleModel, Model, ModelError, PARAMETERS, VehicleParam
 // errors
 
 /// The Python exception of a library error: `OSError` for an unreadable file,
-/// `ValueError` for a bad config or vehicle (the CLI's message), `RuntimeError` for a
+/// `ValueError` for a bad config or vehicle, or a task that does not apply to the vehicle
+/// (the CLI's message), `RuntimeError` for a
 /// numerical failure.
 pub(crate) fn py_err(e: impl Into<TaskError>) -> PyErr {
     let e: TaskError = e.into();
@@ -62,6 +63,7 @@ fn exception(e: &TaskError) -> fn(String) -> PyErr {
         TaskError::Read { .. } => |m| PyOSError::new_err(m),
         TaskError::Config { .. }
         | TaskError::UnknownTask { .. }
+        | TaskError::NotApplicable { .. }
         | TaskError::Sway(SwayError::Config { .. } | SwayError::Model(_)) => {
             |m| PyValueError::new_err(m)
         }

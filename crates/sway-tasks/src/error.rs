@@ -63,6 +63,17 @@ pub enum TaskError {
         /// the known names, comma separated
         known: String,
     },
+    /// The task's notion does not exist for this vehicle (a trailer loading map of a chain
+    /// of towed units, say). Not a failure: [`crate::tasks::TaskContext::run_staged`]
+    /// turns it into a result whose `summary.json` says so (`not_applicable`: the key
+    /// and the reason), and the task exits 0.
+    #[error("not applicable to this vehicle: `{key}`: {reason}")]
+    NotApplicable {
+        /// the vehicle or config key that makes it so, e.g. `trailers`
+        key: String,
+        /// why, and what would apply
+        reason: String,
+    },
     /// The library's errors (model, numerics, config validation of library types).
     #[error(transparent)]
     Sway(#[from] SwayError),

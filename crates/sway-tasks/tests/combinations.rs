@@ -236,3 +236,56 @@ fn the_shipped_vehicle_files_still_parse() {
         }
     }
 }
+
+/// Runs the shipped config of `task` on the vehicle file `vehicle` into `results` and
+/// returns its `summary.json` and printed lines.
+fn run_shipped(task: &str, vehicle: &Path, results: &Path) -> (serde_json::Value, Vec<String>) {
+    use sway_tasks::tasks::{self, TaskContext};
+    let configs = root().join("configs");
+    let ctx = TaskContext::new(vehicle, &configs, results, &sway::progress::NoProgress)
+        .expect("the vehicle loads");
+    let t = tasks::registry()
+        .into_iter()
+        .find(|t| t.name == task)
+        .expect("task in the registry");
+    let (prepared, _) =
+        tasks::prepare_checked(&t, &ctx, &configs.join(t.config)).expect("the config loads");
+    let report = prepared
+        .run(&ctx)
+        .unwrap_or_else(|e| panic!("{task} fails on a chain: {e}"));
+    let text = std::fs::read_to_string(report.output_dir.join("summary.json")).expect("summary");
+    (serde_json::from_str(&text).expect("JSON"), report.lines)
+}
+
+#[test]
+fn two_unit_notions_of_a_task_are_results_saying_so_for_a_chain() {
+    // the shipped configs on a car with two caravans: the loading map (of the one trailer),
+    // the uncertainty study (which samples `trailer.cog` and `trailer.axle`) and the
+    // rounding of h and l in `linear` have no meaning for a chain; each says so by key
+    // and reason, and the run succeeds with nothing else in its result
+    let vehicle = root().join("configs/combinations/car_two_caravans.toml");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (loading, lines) = run_shipped("loading", &vehicle, dir.path());
+    assert_eq!(loading["not_applicable"]["key"], "trailers", "{loading}");
+    assert!(lines[0].contains("not applicable"), "{lines:?}");
+    let files: Vec<_> = std::fs::read_dir(dir.path().join("loading"))
+        .expect("results/loading")
+        .map(|e| e.expect("entry").file_name())
+        .collect();
+    assert_eq!(files, ["summary.json"], "nothing of a half-run map is kept");
+
+    let (study, _) = run_shipped("study_uncertainty", &vehicle, dir.path());
+    assert_eq!(
+        study["not_applicable"]["key"], "sampling.fields[0].key",
+        "{study}"
+    );
+    let reason = study["not_applicable"]["reason"].as_str().expect("reason");
+    assert!(reason.contains("trailer.cog"), "{reason}");
+
+    let (linear, lines) = run_shipped("linear", &vehicle, dir.path());
+    assert!(linear["v_crit_mps"].as_f64().is_some(), "{linear}");
+    assert!(linear["dv_crit_dh_mps_per_m"].is_null());
+    let why = linear["v_crit_rounding_reason"].as_str().expect("a reason");
+    assert!(why.contains("2 towed units"), "{why}");
+    assert!(lines.iter().all(|l| !l.contains("NaN")), "{lines:?}");
+}

@@ -197,6 +197,28 @@ impl<S: SpeedValue> ResolveSpeeds for SweepConfig<S> {
 }
 
 impl<S: SpeedValue> SweepConfig<S> {
+    /// The vehicle fields the sweep varies, each with the config key that names it
+    /// (`axes[i].parameter`, `sampling.fields[i].key`); keys that do not name a field are
+    /// left out (the config check refuses them).
+    pub fn vehicle_fields(&self) -> Vec<(String, VehicleField)> {
+        let axes = self
+            .axes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, a)| match a.parameter {
+                AxisParameter::Vehicle(f) => Some((format!("axes[{i}].parameter"), f)),
+                _ => None,
+            });
+        let sampled = self.sampling.iter().flat_map(|s| {
+            s.fields.iter().enumerate().filter_map(|(i, f)| {
+                VehicleField::from_key(&f.key)
+                    .ok()
+                    .map(|v| (format!("sampling.fields[{i}].key"), v))
+            })
+        });
+        axes.chain(sampled).collect()
+    }
+
     /// Checks every key that can be checked before the speeds are resolved: only
     /// `speed_mps` axes may be relative, not with a fleet (a relative speed needs one
     /// vehicle); a sweep whose speeds are all numbers is checked completely

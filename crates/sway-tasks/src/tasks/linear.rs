@@ -9,7 +9,7 @@ use sway::config::{Grid, ensure};
 use sway::linear::{EigenTable, Sensitivity};
 use sway_studies::linear::{Critical, LinearVehicle, Onset, RoundingStudy, compute};
 pub use sway_studies::linear::{LinearConfig, LossOfStability, SearchConfig};
-use trailer_model::CriticalSpeed;
+use trailer_model::{CriticalSpeed, VehicleSpec};
 
 use crate::limits::{BYTES_PER_ROW, LINEAR_SECONDS_PER_POINT, Plan};
 use super::{Prepared, Report, Task, TaskContext};
@@ -90,6 +90,10 @@ pub struct LinearSummary {
     /// V_crit ± the first-order effect of rounding h and l to 0.1 m (as Table I prints
     /// them) \[m/s\]
     pub v_crit_rounding_band_mps: Option<[f64; 2]>,
+    /// why the three fields above are null where V_crit is found (h and l are the
+    /// trailer's of a two-unit vehicle; a chain of towed units has none)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_crit_rounding_reason: Option<String>,
     /// dV_crit/dp of every parameter, keyed by its symbol
     pub sensitivities: Keyed<SensitivityEntry>,
 }
@@ -342,8 +346,9 @@ fn draw_rounding(
 }
 
 /// Step 5: the headline numbers of a vehicle with a V_crit.
-fn summary(c: &Critical) -> LinearSummary {
+fn summary(c: &Critical, rounding_reason: Option<String>) -> LinearSummary {
     let (vc, paper, study) = (&c.speed, c.paper_v_crit_mps, &c.rounding);
+    let rounded = |v: f64| rounding_reason.is_none().then_some(v);
     LinearSummary {
         v_crit_mps: Some(vc.v_crit_mps),
         stable_up_to_mps: None,
@@ -354,9 +359,12 @@ fn summary(c: &Critical) -> LinearSummary {
         spectral_abscissa_slope_per_m: Some(vc.crossing_speed),
         paper_v_crit_mps: paper,
         v_crit_minus_paper_mps: paper.map(|p| vc.v_crit_mps - p),
-        dv_crit_dh_mps_per_m: Some(study.dh),
-        dv_crit_dl_mps_per_m: Some(study.dl),
-        v_crit_rounding_band_mps: Some([vc.v_crit_mps - study.band, vc.v_crit_mps + study.band]),
+        dv_crit_dh_mps_per_m: rounded(study.dh),
+        dv_crit_dl_mps_per_m: rounded(study.dl),
+        v_crit_rounding_band_mps: rounding_reason
+            .is_none()
+            .then_some([vc.v_crit_mps - study.band, vc.v_crit_mps + study.band]),
+        v_crit_rounding_reason: rounding_reason,
         sensitivities: c
             .sensitivities
             .iter()
@@ -380,12 +388,13 @@ fn stable_summary(v_max: f64, reason: String) -> LinearSummary {
         dv_crit_dh_mps_per_m: None,
         dv_crit_dl_mps_per_m: None,
         v_crit_rounding_band_mps: None,
+        v_crit_rounding_reason: None,
         sensitivities: Keyed::default(),
     }
 }
 
 /// The printed headline lines.
-fn headline_lines(c: &Critical, cfg: &LinearConfig) -> Vec<String> {
+fn headline_lines(c: &Critical, cfg: &LinearConfig, rounding_reason: Option<&str>) -> Vec<String> {
     let (vc, study) = (&c.speed, &c.rounding);
     let (dh, dl, band, r) = (study.dh, study.dl, study.band, cfg.length_rounding_m);
     let paper = c
@@ -398,13 +407,33 @@ fn headline_lines(c: &Critical, cfg: &LinearConfig) -> Vec<String> {
         ),
         LossOfStability::Divergence => "a real eigenvalue crosses 0 at V_crit: static divergence, not sway (ω = 0)".to_string(),
     };
+    let rounding = match rounding_reason {
+        Some(why) => format!("dV_crit/dh, dV_crit/dl: none ({why})"),
+        None => format!(
+            "dV_crit/dh = {dh:.3} m/s per m, dV_crit/dl = {dl:.3} m/s per m; ±{r} m rounding of h and l moves V_crit by up to ±{band:.2} m/s{paper}"
+        ),
+    };
     vec![
         format!("V_crit = {:.9} m/s", vc.v_crit_mps),
         crossing,
-        format!(
-            "dV_crit/dh = {dh:.3} m/s per m, dV_crit/dl = {dl:.3} m/s per m; ±{r} m rounding of h and l moves V_crit by up to ±{band:.2} m/s{paper}"
-        ),
+        rounding,
     ]
+}
+
+/// Why the rounding study of h and l has no numbers for this vehicle, if it has none.
+fn rounding_reason(c: &Critical, spec: &VehicleSpec) -> Option<String> {
+    let study = &c.rounding;
+    if study.dh.is_finite() && study.dl.is_finite() {
+        return None;
+    }
+    Some(if spec.is_chain() {
+        format!(
+            "h and l are the trailer's of a two-unit vehicle (`trailer.cog`, `trailer.axle`), as are m2, J2 and C_T, whose sensitivities are null too; a chain of {} towed units has no `[trailer]`",
+            spec.towed_units()
+        )
+    } else {
+        "no V_crit near this vehicle's at the varied h or l".to_string()
+    })
 }
 
 impl Prepared for LinearTask {
@@ -443,7 +472,9 @@ impl Prepared for LinearTask {
             out.write_table("sensitivity.csv", c.sensitivities.iter().cloned())?;
             write_rounding(out, &c.rounding)?;
             draw_rounding(out, &c.rounding, cfg, c.speed.v_crit_mps, c.paper_v_crit_mps)?;
-            Ok((summary(c), headline_lines(c, cfg)))
+            let why = rounding_reason(c, &ctx.spec);
+            let lines = headline_lines(c, cfg, why.as_deref());
+            Ok((summary(c, why), lines))
         })
     }
 }

@@ -271,6 +271,17 @@ impl Prepared for LoadingTask {
         };
         let rows = cfg.cogs(1.0).points as u64;
         ctx.run_staged(TASK.name, "loading: V_crit map", rows, cfg, &self.file, |out| {
+            if ctx.spec.is_chain() {
+                return Err(TaskError::NotApplicable {
+                    key: "trailers".to_string(),
+                    reason: format!(
+                        "the map varies the mass and centre of gravity of a two-unit vehicle's \
+                         trailer; a chain of {} towed units has no such trailer (its units' \
+                         loads are edited in `[[trailers]]` of the vehicle file)",
+                        ctx.spec.towed_units()
+                    ),
+                });
+            }
             let r = compute(cfg, base, &ctx.plant, &ctx.limits, ctx.progress)?;
             write_tables(out, &r)?;
             draw(out, cfg, base, who, &r)?;

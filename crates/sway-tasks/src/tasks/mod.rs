@@ -155,7 +155,9 @@ impl<'a> TaskContext<'a> {
     /// `body` (which computes, writes its files into the staged directory, advances the
     /// progress and returns the summary's headline and the report lines), then
     /// [`conclude`](Self::conclude)s. If `body` fails nothing is committed: the previous
-    /// results stay.
+    /// results stay. A body that finds the task [`TaskError::NotApplicable`] to the vehicle
+    /// leaves a result saying so instead ([`NotApplicable`]: nothing else of the body's is
+    /// kept).
     ///
     /// # Errors
     /// The body's error, or [`TaskError::Write`].
@@ -170,8 +172,20 @@ impl<'a> TaskContext<'a> {
     ) -> Result<Report, TaskError> {
         let out = OutputDir::create(&self.results_dir, name)?;
         self.progress.start(stage, steps);
-        let (headline, lines) = body(&out)?;
-        self.conclude(out, headline, config, config_file, lines)
+        match body(&out) {
+            Ok((headline, lines)) => self.conclude(out, headline, config, config_file, lines),
+            Err(TaskError::NotApplicable { key, reason }) => {
+                // a fresh staging directory: no file of the body's stays
+                drop(out);
+                let out = OutputDir::create(&self.results_dir, name)?;
+                let line = format!("{name}: not applicable to this vehicle: `{key}`: {reason}");
+                let headline = NotApplicableSummary {
+                    not_applicable: NotApplicable { key, reason },
+                };
+                self.conclude(out, headline, config, config_file, vec![line])
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// The last step of every task: writes `summary.json` (`headline`, then the inputs of
@@ -207,6 +221,21 @@ impl<'a> TaskContext<'a> {
             vehicle: &self.vehicle,
         }
     }
+}
+
+/// Why a task has nothing to compute for the vehicle (`summary.json`'s `not_applicable`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct NotApplicable {
+    /// the vehicle or config key that makes it so, e.g. `trailers`
+    pub key: String,
+    /// why, and what would apply
+    pub reason: String,
+}
+
+/// The headline of a task that does not apply to the vehicle.
+#[derive(Debug, Clone, Serialize)]
+struct NotApplicableSummary {
+    not_applicable: NotApplicable,
 }
 
 /// What a finished task reports.

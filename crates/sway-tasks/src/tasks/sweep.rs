@@ -537,6 +537,10 @@ impl Prepared for Configured<SweepConfig<SpeedSpec>> {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let spec = &self.config;
+        if let Some(e) = inapplicable_field(ctx, spec) {
+            let stage = format!("{}: not applicable", spec.name);
+            return ctx.run_staged::<(), _>(&spec.name, &stage, 0, spec, &self.file, |_| Err(e));
+        }
         let run = prepare_run(ctx, spec, &self.file)?;
         // staged before the points run: an interrupted sweep leaves its staging directory
         // to be removed (by the signal handler or the next run), never a half-written result
@@ -547,6 +551,22 @@ impl Prepared for Configured<SweepConfig<SpeedSpec>> {
         };
         write_sweep_outputs(ctx, spec, &run.resolution, &self.file, &results, out)
     }
+}
+
+/// The first vehicle field the sweep varies that the vehicle does not have (a trailer key
+/// of a chain of towed units), as [`TaskError::NotApplicable`] naming the config key.
+fn inapplicable_field(ctx: &TaskContext<'_>, spec: &SweepConfig<SpeedSpec>) -> Option<TaskError> {
+    spec.vehicle_fields().into_iter().find_map(|(key, field)| {
+        let value = field.get(&ctx.vehicle);
+        ctx.spec
+            .with_parameter(field.index(), value)
+            .err()
+            .filter(|_| ctx.spec.is_chain())
+            .map(|e| TaskError::NotApplicable {
+                key,
+                reason: format!("the sweep varies `{}`: {e}", field.key()),
+            })
+    })
 }
 
 /// A sweep ready to run: its speeds resolved for the vehicle and, when they resolved, the

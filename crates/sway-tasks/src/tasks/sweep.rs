@@ -556,12 +556,14 @@ impl Prepared for Configured<SweepConfig<SpeedSpec>> {
 /// The first vehicle field the sweep varies that the vehicle does not have (a trailer key
 /// of a chain of towed units), as [`TaskError::NotApplicable`] naming the config key.
 fn inapplicable_field(ctx: &TaskContext<'_>, spec: &SweepConfig<SpeedSpec>) -> Option<TaskError> {
+    if !ctx.spec.is_chain() {
+        return None;
+    }
     spec.vehicle_fields().into_iter().find_map(|(key, field)| {
         let value = field.get(&ctx.vehicle);
         ctx.spec
             .with_parameter(field.index(), value)
             .err()
-            .filter(|_| ctx.spec.is_chain())
             .map(|e| TaskError::NotApplicable {
                 key,
                 reason: format!("the sweep varies `{}`: {e}", field.key()),

@@ -46,6 +46,7 @@
 //! ```
 
 pub mod chart;
+pub mod combination;
 pub mod control_design;
 pub mod corners;
 pub mod fig3a;
@@ -60,6 +61,7 @@ pub mod lateral_stability;
 pub mod linear;
 pub mod loading;
 pub mod mitigation;
+pub mod modes;
 pub mod roots;
 pub mod simulate;
 pub mod sway_assist;

@@ -3,6 +3,7 @@
 //! dV_crit/dp of every parameter and V_crit along the trailer lengths h and l around the
 //! vehicle's values (the rounding of Table I).
 
+use crate::modes::{Modes, modes_of};
 use serde::{Deserialize, Serialize};
 use sway::SwayError;
 use sway::config::Grid;
@@ -38,6 +39,14 @@ pub struct LinearConfig {
     /// half a unit of the last printed digit of Table I's lengths h and l \[m\]
     #[serde(default = "rounding")]
     pub length_rounding_m: f64,
+    /// the speed at which each sway mode's frequency and damping are reported \[m/s\]
+    /// (80 km/h, the heavy-vehicle standards' test speed)
+    #[serde(default = "mode_reference")]
+    pub mode_reference_speed_mps: f64,
+}
+
+fn mode_reference() -> f64 {
+    80.0 / 3.6
 }
 
 fn paper_v_crit() -> f64 {
@@ -178,6 +187,8 @@ pub struct Linear {
     pub table: EigenTable,
     /// V_crit and what follows from it, or the stable outcome
     pub onset: Onset,
+    /// every oscillatory mode along the grid
+    pub modes: Modes,
 }
 
 impl Linear {
@@ -249,6 +260,7 @@ pub fn compute(
         .speed_grid
         .unwrap_or_else(|| derived_speed_grid(vc.as_ref().map(|c| c.v_crit_mps), limits));
     let table = eigen_table(vehicle.plant, &grid.values());
+    let modes = modes_of(vehicle.plant, &grid.values(), cfg.mode_reference_speed_mps)?;
     progress.advance(1);
     let Some(vc) = vc else {
         let reason = format!(
@@ -268,6 +280,7 @@ pub fn compute(
                 up_to_mps: search.v_max,
                 reason,
             },
+            modes,
         });
     };
     let sens = match vehicle.spec {
@@ -291,5 +304,6 @@ pub fn compute(
             rounding,
             paper_v_crit_mps,
         })),
+        modes,
     })
 }

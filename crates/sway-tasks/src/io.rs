@@ -464,8 +464,8 @@ pub struct Summary<'a, H, C> {
     pub config: &'a C,
     /// the vehicle file, relative to the working directory when inside it
     pub vehicle_file: String,
-    /// the vehicle parameters
-    pub vehicle: &'a trailer_model::VehicleParams,
+    /// the vehicle: its paper-form parameters, or a chain's file
+    pub vehicle: VehicleRecord<'a>,
     /// wall-clock time of the run \[s\]
     pub wall_time_s: f64,
 }
@@ -559,8 +559,20 @@ pub struct RunInfo<'a> {
     pub config_file: &'a Path,
     /// the vehicle file
     pub vehicle_file: &'a Path,
-    /// the vehicle parameters used
-    pub vehicle: &'a trailer_model::VehicleParams,
+    /// the vehicle used
+    pub vehicle: VehicleRecord<'a>,
+}
+
+/// The vehicle of a summary: the paper-form parameters of a two-unit vehicle (a file with
+/// model variants: its equivalent single-axle vehicle, as before), or the whole file of a
+/// chain of towed units, whose paper form would show only its first pair.
+#[derive(Debug, Clone, Copy, Serialize)]
+#[serde(untagged)]
+pub enum VehicleRecord<'a> {
+    /// a two-unit vehicle
+    Pair(&'a trailer_model::VehicleParams),
+    /// a chain of towed units (`[[trailers]]`)
+    Chain(&'a trailer_model::VehicleSpec),
 }
 
 #[cfg(test)]

@@ -289,3 +289,125 @@ fn two_unit_notions_of_a_task_are_results_saying_so_for_a_chain() {
     assert!(why.contains("2 towed units"), "{why}");
     assert!(lines.iter().all(|l| !l.contains("NaN")), "{lines:?}");
 }
+
+/// Every shipped combination's first mode to lose stability does so at the V_crit of the
+/// one search every task uses (the spectral abscissa's sign change, bisected to 1e-11 m/s;
+/// the mode's crossing is bisected to 1e-9 m/s on its own eigenvalue): agreement to 1e-8
+/// m/s, or no crossing where straight running is stable to the maximum speed.
+#[test]
+fn each_combinations_first_mode_crossing_is_its_v_crit() {
+    use sway_studies::modes::modes_of;
+    for f in COMBINATIONS {
+        let loaded = load_vehicle_spec(&root().join(f)).expect("a combination");
+        let speeds: Vec<f64> = (2..=200).map(|k| 0.5 * f64::from(k)).collect();
+        let modes = modes_of(&loaded.plant, &speeds, 22.0).expect("modes");
+        let first = modes
+            .summaries
+            .iter()
+            .filter_map(|m| m.crossing_speed_mps)
+            .fold(None, |a: Option<f64>, v| Some(a.map_or(v, |a| a.min(v))));
+        match (v_crit(&loaded.plant), first) {
+            (Some(vc), Some(c)) => assert!((vc - c).abs() < 1e-8, "{f}: {vc} vs {c}"),
+            (None, None) => {}
+            other => panic!("{f}: V_crit and the modes disagree: {other:?}"),
+        }
+        assert_eq!(
+            modes.summaries.len(),
+            loaded.spec.towed_units().max(1) + usize::from(f.contains("two_caravans")),
+            "{f}: {:#?}",
+            modes.summaries
+        );
+    }
+}
+
+const COMBINATIONS: [&str; 4] = [
+    "configs/combinations/car_two_caravans.toml",
+    "configs/combinations/truck_centre_axle_trailer.toml",
+    "configs/combinations/tractor_semitrailer.toml",
+    "configs/combinations/truck_dolly_semitrailer.toml",
+];
+
+/// `combination` on the shipped combinations: every number or its reason. Where straight
+/// running is stable, the yaw damping read from the rearmost articulation's decaying peaks
+/// after a pulse (a simulation) is the damping ratio of the least damped mode of the
+/// linearisation at the test speed (an eigenvalue problem) to 3 %: the two are independent
+/// readings of the same decay, which differ by the faster modes' remains and the tyres'
+/// nonlinearity at a 0.5° pulse.
+#[test]
+fn the_combination_task_reports_the_heavy_vehicle_metrics() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let vehicle = root().join("configs/vehicle.toml");
+    let (s, lines) = run_shipped("combination", &vehicle, dir.path());
+    let rows = s["combinations"].as_array().expect("combinations");
+    assert_eq!(rows.len(), 4, "{s}");
+    assert_eq!(lines.len(), 4);
+    for r in rows {
+        let file = r["vehicle_file"].as_str().expect("file");
+        let least = r["modes"]
+            .as_array()
+            .expect("modes")
+            .iter()
+            .filter_map(|m| m["damping_ratio"].as_f64())
+            .fold(f64::INFINITY, f64::min);
+        let read = r["yaw_damping_ratio"].as_f64().expect("a yaw damping");
+        if file.contains("two_caravans") {
+            // growing sway: the growth quickens with the amplitude (a subcritical Hopf
+            // point, V_fold < V_crit), so the reading is only of the same sign
+            assert!(least < 0.0, "{file}: {least}");
+            // unstable at 80 km/h: the lane change is not run, and says why
+            assert!(r["rearward_amplification"].is_null());
+            assert!(read < 0.0);
+            let reasons = r["reasons"].to_string();
+            assert!(reasons.contains("unstable"), "{reasons}");
+            assert!(
+                r["v_fold_mps"]
+                    .as_f64()
+                    .is_some_and(|f| f < r["v_crit_mps"].as_f64().unwrap())
+            );
+        } else {
+            assert!(
+                (read / least - 1.0).abs() < 3e-2,
+                "{file}: {read} vs {least}"
+            );
+            let ra = r["rearward_amplification"].as_f64().expect("RA");
+            let hsto = r["high_speed_transient_offtracking_m"]
+                .as_f64()
+                .expect("HSTO");
+            assert!(
+                ra > 0.5 && ra < 3.0 && hsto > 0.0 && hsto < 2.0,
+                "{file}: {ra} {hsto}"
+            );
+            assert!(r["v_crit_mps"].is_null() && r["stable_up_to_mps"].as_f64().is_some());
+        }
+    }
+    for f in [
+        "combination.csv",
+        "combination.md",
+        "modes.csv",
+        "lane_change.csv",
+        "lane_change.png",
+        "modes.png",
+    ] {
+        assert!(dir.path().join("combination").join(f).exists(), "{f}");
+    }
+}
+
+/// `sway_assist` on a chain: its observer is the two-unit model's, so the task says so.
+#[test]
+fn sway_assist_is_not_applicable_to_a_chain() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let vehicle = root().join("configs/combinations/car_two_caravans.toml");
+    let (s, _) = run_shipped("sway_assist", &vehicle, dir.path());
+    assert_eq!(s["not_applicable"]["key"], "trailers", "{s}");
+    // the summary's vehicle is the chain's file, not its first pair
+    let (linear, _) = run_shipped("linear", &vehicle, dir.path());
+    assert_eq!(
+        linear["vehicle"]["trailers"].as_array().map(Vec::len),
+        Some(2),
+        "{linear}"
+    );
+    assert!(
+        linear["modes"].as_array().is_some_and(|m| m.len() == 3),
+        "{linear}"
+    );
+}

@@ -26,6 +26,7 @@
 pub mod assist;
 pub mod bifurcation;
 pub mod charts;
+pub mod combination;
 pub mod control;
 pub mod gain_design;
 pub mod linear;

@@ -12,6 +12,8 @@
 mod actuator;
 #[path = "assist.rs"]
 mod assist;
+#[path = "combination.rs"]
+mod combination;
 #[path = "linear.rs"]
 mod linear;
 #[path = "loading.rs"]

@@ -126,6 +126,9 @@ use crate::chain_spec::{MAX_CHAIN_AXLES, MAX_TOWED_UNITS};
 use crate::model::is_plain_zero;
 use crate::{ChainSpec, Inputs, Model, ModelError, Plant, SwitchingKind, VehicleParams};
 
+mod motion;
+pub use motion::{AsChain, Pose, UnitMotion};
+
 /// Most units (towing unit included).
 const MAX_UNITS: usize = MAX_TOWED_UNITS + 1;
 /// Most generalised speeds.
@@ -215,6 +218,8 @@ pub struct ChainModel<const N: usize> {
     axles: Vec<ChainAxle>,
     tyre_forces: bool,
     switching: Vec<SwitchingKind>,
+    /// m1 d / I1 and m2 h / I2 \[1/m\] of the first pair (eq. 4): the paper layout's map
+    paper_ratios: (f64, f64),
 }
 
 #[inline]
@@ -226,6 +231,24 @@ fn dot<D: DualNum<Primitive = f64> + Copy>(a: [D; 2], b: [D; 2]) -> D {
 /// LDLᵀ, in place (z in b).
 #[inline]
 fn solve_ldlt<D: DualNum<Primitive = f64> + Copy>(
+    a: &mut [[D; MAX_DOF]; MAX_DOF],
+    b: &mut [D; MAX_DOF],
+    n: usize,
+) {
+    // the size as a constant in each arm: the inlined loops have known lengths (unrolled,
+    // without bounds checks); the same operations in the same order in every arm
+    match n {
+        3 => ldlt_in_place(a, b, 3),
+        4 => ldlt_in_place(a, b, 4),
+        5 => ldlt_in_place(a, b, 5),
+        6 => ldlt_in_place(a, b, 6),
+        _ => ldlt_in_place(a, b, n),
+    }
+}
+
+/// The factorisation and the two triangular solves of [`solve_ldlt`].
+#[inline(always)]
+fn ldlt_in_place<D: DualNum<Primitive = f64> + Copy>(
     a: &mut [[D; MAX_DOF]; MAX_DOF],
     b: &mut [D; MAX_DOF],
     n: usize,
@@ -370,9 +393,14 @@ impl<const N: usize> ChainModel<N> {
                 switching.push(SwitchingKind::HitchFriction);
             }
         }
+        let params = spec.first_pair_params()?;
+        let (t, r) = (&params.tractor, &params.trailer);
+        let i1 = t.yaw_inertia + t.mass * t.cog * t.cog;
+        let i2 = r.yaw_inertia + r.mass * r.cog * r.cog;
         Ok(Self {
             spec: spec.clone(),
-            params: spec.first_pair_params()?,
+            params,
+            paper_ratios: (t.mass * t.cog / i1, r.mass * r.cog / i2),
             units,
             unit,
             coupling,
@@ -467,6 +495,17 @@ impl<const N: usize> ChainModel<N> {
         x: &SVector<D, N>,
         speed: D,
     ) -> [Frame<D>; MAX_UNITS] {
+        self.frames_with(x, speed, x[3].sin_cos())
+    }
+
+    /// [`Self::frames`] with (sin θ_1, cos θ_1) given.
+    #[inline]
+    fn frames_with<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &SVector<D, N>,
+        speed: D,
+        first: (D, D),
+    ) -> [Frame<D>; MAX_UNITS] {
         let zero = D::from(0.0);
         let mut f = [Frame {
             cos: D::from(1.0),
@@ -486,7 +525,11 @@ impl<const N: usize> ChainModel<N> {
                     p.vel[1] + p.cos * p.omega * xr,
                 ]
             };
-            let (s, c) = x[2 * i + 1].sin_cos();
+            let (s, c) = if i == 1 {
+                first
+            } else {
+                x[2 * i + 1].sin_cos()
+            };
             let (cos, sin) = if i == 1 {
                 (c, s)
             } else {
@@ -566,13 +609,24 @@ impl<const N: usize> ChainModel<N> {
         u: &Inputs<D>,
         yaw_moment: Option<D>,
     ) -> SVector<D, N> {
+        self.rhs_actuated_with(x, u, yaw_moment, x[3].sin_cos())
+    }
+
+    /// [`Self::rhs_actuated`] with (sin θ_1, cos θ_1) given.
+    fn rhs_actuated_with<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+        yaw_moment: Option<D>,
+        first: (D, D),
+    ) -> SVector<D, N> {
         let zero = D::from(0.0);
         let nu = self.units;
         let ndof = nu + 1;
         let (v, r) = (x[0], x[1]);
         let (speed, accel, delta) = (u.speed, u.acceleration, u.steering_angle);
         let mut dx = SVector::<D, N>::from_element(zero);
-        let frames = self.frames(x, speed);
+        let frames = self.frames_with(x, speed, first);
         let plain_delta = is_plain_zero(delta);
         let (sin_delta, cos_delta) = if plain_delta {
             (zero, D::from(1.0))

@@ -38,7 +38,9 @@ use tires::{TireLaw, TireModel};
 use crate::chain_spec::MAX_CHAIN_AXLES;
 use crate::model::is_plain_zero;
 use crate::spec::{MAX_AXLES, Unit, VehicleSpec};
-use crate::{ChainModel, Inputs, Model, ModelError, Plant, State4, SwitchingKind, VehicleParams};
+use crate::{
+    AsChain, ChainModel, Inputs, Model, ModelError, Plant, State4, SwitchingKind, VehicleParams,
+};
 
 /// Most states of a reduced system [`AnyVehicleModel`] supports (4 + 6 relaxing axles).
 pub const MAX_STATES: usize = 10;
@@ -572,25 +574,7 @@ impl<const N: usize> ChainEquations<N> {
     /// The chain's state \[v, r, θ̇1, θ1, …\] of a state in the paper layout.
     #[inline]
     fn chain_state<D: DualNum<Primitive = f64> + Copy>(&self, x: &SVector<D, N>) -> SVector<D, N> {
-        let mut y = *x;
-        y[1] = x[1] - x[0] * self.k1;
-        y[2] = self.theta1_rate(x);
-        y
-    }
-
-    /// The paper layout's rates from the chain's state `y` and its rates `dy`:
-    /// σ̇2 = ṙ + (m1 d/I1) v̇, σ̇3 = ṙ + θ̈1 − (m2 h/I2)(v̇ cos θ1 − v θ̇1 sin θ1).
-    #[inline]
-    fn paper_layout_rate<D: DualNum<Primitive = f64> + Copy>(
-        &self,
-        y: &SVector<D, N>,
-        dy: &SVector<D, N>,
-    ) -> SVector<D, N> {
-        let mut dx = *dy;
-        let (s, c) = y[3].sin_cos();
-        dx[1] = dy[1] + dy[0] * self.k1;
-        dx[2] = dy[1] + dy[2] - (dy[0] * c - y[0] * y[2] * s) * self.k2;
-        dx
+        self.chain.from_paper_layout(x)
     }
 }
 
@@ -601,8 +585,7 @@ impl<const N: usize> Plant<N> for ChainEquations<N> {
         x: &SVector<D, N>,
         u: &Inputs<D>,
     ) -> SVector<D, N> {
-        let y = self.chain_state(x);
-        self.paper_layout_rate(&y, &self.chain.rhs(&y, u))
+        self.chain.rhs_in_paper_layout(x, u, None)
     }
 
     fn rhs_with_yaw_moment<D: DualNum<Primitive = f64> + Copy>(
@@ -611,8 +594,7 @@ impl<const N: usize> Plant<N> for ChainEquations<N> {
         u: &Inputs<D>,
         yaw_moment: D,
     ) -> SVector<D, N> {
-        let y = self.chain_state(x);
-        self.paper_layout_rate(&y, &self.chain.rhs_with_yaw_moment(&y, u, yaw_moment))
+        self.chain.rhs_in_paper_layout(x, u, Some(yaw_moment))
     }
 
     #[inline]
@@ -940,4 +922,14 @@ macro_rules! with_plant {
             $crate::AnyVehicleModel::N10($m) => $body,
         }
     };
+}
+
+/// A two-unit file's model builds its chain; a chain's is a copy.
+impl<const N: usize> AsChain<N> for VehicleModel<N> {
+    fn as_chain(&self) -> Result<ChainModel<N>, ModelError> {
+        match self.chain() {
+            Some(chain) => Ok(chain.clone()),
+            None => ChainModel::new(&self.spec().chain_spec()),
+        }
+    }
 }

@@ -47,7 +47,7 @@ mod params;
 mod plant;
 mod spec;
 
-pub use chain::{ChainAxle, ChainModel};
+pub use chain::{AsChain, ChainAxle, ChainModel, Pose, UnitMotion};
 pub use chain_spec::{ChainAxleSpec, ChainSpec, MAX_CHAIN_AXLES, MAX_TOWED_UNITS, TowedUnitSpec};
 pub use extended::{AnyVehicleModel, AxleModel, MAX_STATES, VehicleModel};
 pub use linear::{CriticalSpeed, CriticalSpeedOptions, Linearization, sorted_eigenvalues};

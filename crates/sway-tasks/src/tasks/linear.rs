@@ -8,6 +8,7 @@ use crate::TaskError;
 use sway::config::{Grid, ensure};
 use sway::linear::{EigenTable, Sensitivity};
 use sway_studies::linear::{Critical, LinearVehicle, Onset, RoundingStudy, compute};
+use sway_studies::modes::{ModeSummary, Modes};
 pub use sway_studies::linear::{LinearConfig, LossOfStability, SearchConfig};
 use trailer_model::{CriticalSpeed, VehicleSpec};
 
@@ -96,6 +97,10 @@ pub struct LinearSummary {
     pub v_crit_rounding_reason: Option<String>,
     /// dV_crit/dp of every parameter, keyed by its symbol
     pub sensitivities: Keyed<SensitivityEntry>,
+    /// every oscillatory mode of straight running (`modes.csv` has each along the grid):
+    /// where it loses stability, its frequency and damping at `reference_speed_mps`, the
+    /// unit that leads it
+    pub modes: Vec<ModeSummary>,
 }
 
 /// A row of `v_crit_vs_h_l.csv` (an empty cell: no V_crit near the vehicle's there).
@@ -346,7 +351,7 @@ fn draw_rounding(
 }
 
 /// Step 5: the headline numbers of a vehicle with a V_crit.
-fn summary(c: &Critical, rounding_reason: Option<String>) -> LinearSummary {
+fn summary(c: &Critical, rounding_reason: Option<String>, modes: &Modes) -> LinearSummary {
     let (vc, paper, study) = (&c.speed, c.paper_v_crit_mps, &c.rounding);
     let rounded = |v: f64| rounding_reason.is_none().then_some(v);
     LinearSummary {
@@ -370,11 +375,12 @@ fn summary(c: &Critical, rounding_reason: Option<String>) -> LinearSummary {
             .iter()
             .map(|x| (x.symbol.to_string(), SensitivityEntry::from(x)))
             .collect(),
+        modes: modes.summaries.clone(),
     }
 }
 
 /// The summary of a vehicle stable up to the maximum speed `v_max` \[m/s\].
-fn stable_summary(v_max: f64, reason: String) -> LinearSummary {
+fn stable_summary(v_max: f64, reason: String, modes: &Modes) -> LinearSummary {
     LinearSummary {
         v_crit_mps: None,
         stable_up_to_mps: Some(v_max),
@@ -390,7 +396,33 @@ fn stable_summary(v_max: f64, reason: String) -> LinearSummary {
         v_crit_rounding_band_mps: None,
         v_crit_rounding_reason: None,
         sensitivities: Keyed::default(),
+        modes: modes.summaries.clone(),
     }
+}
+
+/// One printed line per mode.
+pub fn mode_lines(modes: &Modes) -> Vec<String> {
+    modes
+        .summaries
+        .iter()
+        .map(|m| {
+            let crossing = match (m.crossing_speed_mps, m.crossing_frequency_hz) {
+                (Some(v), Some(f)) => format!("loses stability at {v:.4} m/s ({f:.3} Hz)"),
+                _ => m.reason.clone().unwrap_or_default(),
+            };
+            let at = match (m.frequency_hz, m.damping_ratio) {
+                (Some(f), Some(z)) => format!(
+                    "{f:.3} Hz, damping ratio {z:.3} at {:.2} m/s",
+                    m.reference_speed_mps
+                ),
+                _ => format!("not oscillatory at {:.2} m/s", m.reference_speed_mps),
+            };
+            format!(
+                "mode {}: led by {} (unit {}); {at}; {crossing}",
+                m.mode, m.leading_unit_key, m.leading_unit
+            )
+        })
+        .collect()
 }
 
 /// The printed headline lines.
@@ -461,20 +493,23 @@ impl Prepared for LinearTask {
             };
             let r = compute(cfg, &vehicle, &ctx.limits, ctx.progress)?;
             write_eigenvalues(out, &r.table)?;
+            out.write_table("modes.csv", r.modes.rows())?;
             draw_eigenvalues(out, &r.table, &r.grid, r.critical_speed())?;
             let c = match &r.onset {
                 Onset::Critical(c) => c,
                 Onset::Stable { up_to_mps, reason } => {
-                    let lines = vec![format!("no V_crit: {reason}")];
-                    return Ok((stable_summary(*up_to_mps, reason.clone()), lines));
+                    let mut lines = vec![format!("no V_crit: {reason}")];
+                    lines.extend(mode_lines(&r.modes));
+                    return Ok((stable_summary(*up_to_mps, reason.clone(), &r.modes), lines));
                 }
             };
             out.write_table("sensitivity.csv", c.sensitivities.iter().cloned())?;
             write_rounding(out, &c.rounding)?;
             draw_rounding(out, &c.rounding, cfg, c.speed.v_crit_mps, c.paper_v_crit_mps)?;
             let why = rounding_reason(c, &ctx.spec);
-            let lines = headline_lines(c, cfg, why.as_deref());
-            Ok((summary(c, why), lines))
+            let mut lines = headline_lines(c, cfg, why.as_deref());
+            lines.extend(mode_lines(&r.modes));
+            Ok((summary(c, why, &r.modes), lines))
         })
     }
 }

@@ -48,6 +48,7 @@ registry! {
     mitigation => [TASK],
     sweep => [TASK, BRAKE_TIMING, UNCERTAINTY, FLEET],
     fleet => [TASK],
+    combination => [TASK],
     variants => [TASK],
     lateral_stability => [TASK],
     sway_assist => [TASK, FULL],
@@ -218,7 +219,11 @@ impl<'a> TaskContext<'a> {
         crate::io::RunInfo {
             config_file,
             vehicle_file: &self.vehicle_file,
-            vehicle: &self.vehicle,
+            vehicle: if self.spec.is_chain() {
+                crate::io::VehicleRecord::Chain(&self.spec)
+            } else {
+                crate::io::VehicleRecord::Pair(&self.vehicle)
+            },
         }
     }
 }

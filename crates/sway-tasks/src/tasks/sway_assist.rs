@@ -195,6 +195,8 @@ struct SwayAssistTask {
     config: SwayAssistConfig,
     /// the config's vehicle files (name, model); empty: the task's vehicle
     fleet: Vec<(String, AnyVehicleModel)>,
+    /// the fleet's files with a chain of towed units (`[[trailers]]`), by their key
+    fleet_chains: Vec<String>,
 }
 
 fn prepare(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
@@ -227,14 +229,17 @@ fn prepare_named(name: &'static str, file: &Path) -> Result<Box<dyn Prepared>, T
             let name = Path::new(rel)
                 .file_stem()
                 .map_or_else(|| rel.clone(), |s| s.to_string_lossy().into_owned());
-            Ok((name, loaded.plant))
+            Ok(((name, loaded.plant), loaded.spec.is_chain().then(|| format!("vehicle_files[{k}]"))))
         })
         .collect::<Result<Vec<_>, TaskError>>()?;
+    let (fleet, chains): (Vec<_>, Vec<_>) = fleet.into_iter().unzip();
+    let fleet_chains = chains.into_iter().flatten().collect();
     Ok(Box::new(SwayAssistTask {
         name,
         file: file.to_path_buf(),
         config,
         fleet,
+        fleet_chains,
     }))
 }
 
@@ -608,6 +613,26 @@ fn run_panels(title: &str, run: &RunOutcome, names: &[String]) -> (Panel, Panel)
 /// take ≈ 1 s on 2 cores).
 const SECONDS_PER_COSIMULATED_SECOND: f64 = 1e-3;
 
+impl SwayAssistTask {
+    /// A chain of towed units is not this task's: its observer estimates one trailer of
+    /// the paper's two-unit model from the car's signals, and its V_crit and V_fold are
+    /// that model's.
+    fn two_units_only(&self, ctx: &TaskContext<'_>) -> Result<(), TaskError> {
+        let key = if self.fleet.is_empty() {
+            ctx.spec.is_chain().then(|| "trailers".to_string())
+        } else {
+            self.fleet_chains.first().cloned()
+        };
+        match key {
+            None => Ok(()),
+            Some(key) => Err(TaskError::NotApplicable {
+                key,
+                reason: "the model-based observer estimates the hitch angle and the one trailer of the paper's two-unit model (its mass, yaw inertia and centre of gravity) from the car's signals, and predicts that model's V_crit and V_fold; a chain of towed units (`[[trailers]]`) has more articulations than it models".to_string(),
+            }),
+        }
+    }
+}
+
 impl Prepared for SwayAssistTask {
     fn plan(&self) -> Result<Plan, TaskError> {
         let c = &self.config;
@@ -662,6 +687,7 @@ impl Prepared for SwayAssistTask {
             cfg,
             &self.file,
             |out| {
+                self.two_units_only(ctx)?;
                 let r = compute(cfg, &vehicles, &ctx.limits)?;
                 write_tables(out, &r)?;
                 draw(out, &r, cfg.disturbance_start_s)?;

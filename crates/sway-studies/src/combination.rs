@@ -12,12 +12,11 @@ use sway::combination::manoeuvres::{
     ArticulationDamping, LaneChange, LaneChangeSettings, YawDampingSettings, lane_change,
     yaw_damping,
 };
-use sway::ranging::{
-    OpenLoopStability, Reference, SpeedLimits, open_loop_critical_speed, open_loop_references,
-};
+use sway::ranging::SpeedLimits;
 use sway::sim::{Outcome, SolverSettings};
-use trailer_model::{AnyVehicleModel, with_plant};
+use trailer_model::AnyVehicleModel;
 
+use crate::fleet::open_loop_numbers;
 use crate::modes::{ModeSummary, Modes, modes_of};
 
 /// What `combination` computes for each vehicle (`configs/combination.toml`).
@@ -104,37 +103,11 @@ pub fn combination(
     o: &CombinationOptions,
 ) -> Result<Combination, SwayError> {
     let mut reasons = Vec::new();
-    let stability = with_plant!(vehicle, m => open_loop_critical_speed(m, limits))?;
-    let (v_crit, kind, stable_up_to) = match stability {
-        OpenLoopStability::Critical {
-            v_crit_mps,
-            hopf_omega_rad_s,
-        } => (
-            Some(v_crit_mps),
-            Some(if hopf_omega_rad_s == 0.0 {
-                "divergence"
-            } else {
-                "hopf"
-            }),
-            None,
-        ),
-        OpenLoopStability::StableUpTo { stable_up_to_mps } => {
-            reasons.push(format!(
-                "straight running is stable at every speed up to {stable_up_to_mps} m/s (the maximum speed): no V_crit, no fold of cycles"
-            ));
-            (None, None, Some(stable_up_to_mps))
-        }
-    };
-    let v_fold = match v_crit {
-        Some(_) => {
-            let r = with_plant!(vehicle, m => open_loop_references(m, limits, Reference::Fold))?;
-            if let (None, Some(why)) = (r.v_fold_mps, r.reason) {
-                reasons.push(format!("no V_fold: {why}"));
-            }
-            r.v_fold_mps
-        }
-        None => None,
-    };
+    let open = open_loop_numbers(vehicle, limits, "", &mut reasons)?;
+    let (v_crit, v_fold) = (open.v_crit_mps, open.v_fold_mps);
+    let kind = open
+        .hopf_frequency_hz
+        .map(|f| if f == 0.0 { "divergence" } else { "hopf" });
     let speeds = mode_speeds(limits, o.mode_speed_step_mps);
     let modes = modes_of(vehicle, &speeds, o.test_speed_mps)?;
     let v = o.test_speed_mps;
@@ -166,7 +139,7 @@ pub fn combination(
         units: articulations.len() + 1,
         v_crit_mps: v_crit,
         loss_of_stability: kind,
-        stable_up_to_mps: stable_up_to,
+        stable_up_to_mps: open.stable_up_to_mps,
         v_fold_mps: v_fold,
         modes: modes.summaries.clone(),
         test_speed_mps: v,

@@ -90,6 +90,72 @@ pub struct FleetEntry {
     pub reasons: Vec<String>,
 }
 
+/// The open loop's V_crit (with the Hopf frequency) or the speed it is stable up to, and
+/// its fold of cycles: the first numbers of every per-vehicle table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OpenLoopNumbers {
+    /// V_crit \[m/s\]
+    pub v_crit_mps: Option<f64>,
+    /// the frequency of the crossing pair \[Hz\] (0: a static divergence)
+    pub hopf_frequency_hz: Option<f64>,
+    /// stable at every speed up to this one \[m/s\] (when no V_crit)
+    pub stable_up_to_mps: Option<f64>,
+    /// the fold of cycles V_fold \[m/s\]
+    pub v_fold_mps: Option<f64>,
+}
+
+/// [`OpenLoopNumbers`] of `vehicle` on its own plant ([`open_loop_critical_speed`],
+/// [`open_loop_references`]); a missing number's reason goes to `reasons`, with `also`
+/// (e.g. ", no threshold") naming what the table loses with it.
+///
+/// # Errors
+/// A numerical failure of the critical-speed search.
+pub fn open_loop_numbers(
+    vehicle: &AnyVehicleModel,
+    limits: &SpeedLimits,
+    also: &str,
+    reasons: &mut Vec<String>,
+) -> Result<OpenLoopNumbers, SwayError> {
+    let stability = with_plant!(vehicle, m => open_loop_critical_speed(m, limits))?;
+    let (v_crit, freq, stable_up_to) = match stability {
+        OpenLoopStability::Critical {
+            v_crit_mps,
+            hopf_omega_rad_s,
+        } => (
+            Some(v_crit_mps),
+            Some(hopf_omega_rad_s / std::f64::consts::TAU),
+            None,
+        ),
+        OpenLoopStability::StableUpTo { stable_up_to_mps } => {
+            reasons.push(format!(
+                "straight running is stable at every speed up to {stable_up_to_mps} m/s (the maximum speed): no V_crit, no fold{also}"
+            ));
+            (None, None, Some(stable_up_to_mps))
+        }
+    };
+    let fold = match v_crit {
+        Some(_) => {
+            let r = with_plant!(vehicle, m => open_loop_references(m, limits, Reference::Fold))?;
+            if r.v_fold_mps.is_none() {
+                reasons.push(format!(
+                    "no bistable range{also}: {}",
+                    r.reason
+                        .as_deref()
+                        .unwrap_or("no fold of cycles below V_crit")
+                ));
+            }
+            r.v_fold_mps
+        }
+        None => None,
+    };
+    Ok(OpenLoopNumbers {
+        v_crit_mps: v_crit,
+        hopf_frequency_hz: freq,
+        stable_up_to_mps: stable_up_to,
+        v_fold_mps: fold,
+    })
+}
+
 /// The headline numbers of the plant of a vehicle file, any model variant (the paper's
 /// [`trailer_model::Model`] for a vehicle of the paper's form: the same calls, so the
 /// same numbers): V_crit and the fold of cycles on the plant itself
@@ -105,38 +171,12 @@ pub fn fleet_entry(
     o: &FleetOptions,
 ) -> Result<FleetEntry, SwayError> {
     let mut reasons = Vec::new();
-    let stability = with_plant!(vehicle, m => open_loop_critical_speed(m, limits))?;
-    let (v_crit, freq, stable_up_to) = match stability {
-        OpenLoopStability::Critical {
-            v_crit_mps,
-            hopf_omega_rad_s,
-        } => (
-            Some(v_crit_mps),
-            Some(hopf_omega_rad_s / std::f64::consts::TAU),
-            None,
-        ),
-        OpenLoopStability::StableUpTo { stable_up_to_mps } => {
-            reasons.push(format!(
-                "straight running is stable at every speed up to {stable_up_to_mps} m/s (the maximum speed): no V_crit, no fold, no threshold"
-            ));
-            (None, None, Some(stable_up_to_mps))
-        }
-    };
-    let fold = match v_crit {
-        Some(_) => {
-            let r = with_plant!(vehicle, m => open_loop_references(m, limits, Reference::Fold))?;
-            if r.v_fold_mps.is_none() {
-                reasons.push(format!(
-                    "no bistable range, no threshold: {}",
-                    r.reason
-                        .as_deref()
-                        .unwrap_or("no fold of cycles below V_crit")
-                ));
-            }
-            r.v_fold_mps
-        }
-        None => None,
-    };
+    let OpenLoopNumbers {
+        v_crit_mps: v_crit,
+        hopf_frequency_hz: freq,
+        stable_up_to_mps: stable_up_to,
+        v_fold_mps: fold,
+    } = open_loop_numbers(vehicle, limits, ", no threshold", &mut reasons)?;
     let width = v_crit.zip(fold).map(|(c, f)| c - f);
     // the gain search up to the maximum speed: a gain stable up to there has no optimum
     let search = GainSearch {

@@ -53,6 +53,12 @@ const NULLABLE: &[&str] = &[
     "dv_crit_dh_mps_per_m",
     "dv_crit_dl_mps_per_m",
     "v_crit_rounding_band_mps",
+    // linear's sway modes: a mode that stays damped has no crossing (with its reason), one
+    // not oscillatory at the reference speed no frequency or damping there
+    "crossing_speed_mps",
+    "crossing_frequency_hz",
+    "frequency_hz",
+    "damping_ratio",
     "hopf_v_mps",
     "hopf_period_s",
     "criticality",

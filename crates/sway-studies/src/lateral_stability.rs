@@ -38,11 +38,11 @@ use sway::progress::Progress;
 use sway::ranging::{RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, corrected_diagram};
 use sway::sim::decay::{Decay, Peak, decay, local_damping, peaks};
 use sway::sim::{
-    ControllerTable, LoopLaw, Outcome, PulseShape, Recording, RunSettings, SimSpec, SpeedProfile,
-    SteeringInput, SwayClass, simulate_in_paper_layout,
+    ControllerTable, LoopLaw, Outcome, PulseShape, Recording, RunSettings, SimResult, SimSpec,
+    SimulateOwn, SpeedProfile, SteeringInput, SwayClass,
 };
 use sway_model::vehicle::Vehicle;
-use trailer_model::{AnyVehicleModel, HITCH_ANGLE, Model, State4};
+use trailer_model::{AnyVehicleModel, HITCH_ANGLE, Model, State4, with_plant};
 
 /// The signal whose peaks the test reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -55,14 +55,18 @@ pub enum DecaySignal {
     TrailerYawRate,
     /// the towing car's yaw rate ψ̇ (what the car's own sensors see)
     CarYawRate,
+    /// the rearmost articulation angle θ_n (a chain of n towed units; the hitch angle of
+    /// a two-unit vehicle): the heavy-vehicle standards' yaw damping
+    RearmostArticulationAngle,
 }
 
 impl DecaySignal {
     /// Every signal, in the order of preference when a recording has several.
-    pub const ALL: [DecaySignal; 3] = [
+    pub const ALL: [DecaySignal; 4] = [
         DecaySignal::HitchAngle,
         DecaySignal::TrailerYawRate,
         DecaySignal::CarYawRate,
+        DecaySignal::RearmostArticulationAngle,
     ];
 
     /// The config's (and a recording's column) name.
@@ -71,22 +75,25 @@ impl DecaySignal {
             DecaySignal::HitchAngle => "hitch_angle",
             DecaySignal::TrailerYawRate => "trailer_yaw_rate",
             DecaySignal::CarYawRate => "car_yaw_rate",
+            DecaySignal::RearmostArticulationAngle => "rearmost_articulation_angle",
         }
     }
 
     /// The unit the test reports it in: `deg` or `deg/s`.
     pub fn unit(&self) -> &'static str {
         match self {
-            DecaySignal::HitchAngle => "deg",
+            DecaySignal::HitchAngle | DecaySignal::RearmostArticulationAngle => "deg",
             DecaySignal::TrailerYawRate | DecaySignal::CarYawRate => "deg/s",
         }
     }
 
     /// Its value \[rad or rad/s\] at the paper-layout state `x` of `model` (eq. 5: the
-    /// car's yaw rate ψ̇, the hitch-angle rate θ̇; the trailer's heading is ψ + θ).
+    /// car's yaw rate ψ̇, the hitch-angle rate θ̇; the trailer's heading is ψ + θ). The
+    /// paper layout has the first articulation only: the rearmost one of a chain is read
+    /// from the plant's own states (the model's runs carry it), here it is the hitch angle.
     pub fn of(&self, model: &Model, x: &State4) -> f64 {
         match self {
-            DecaySignal::HitchAngle => x[HITCH_ANGLE],
+            DecaySignal::HitchAngle | DecaySignal::RearmostArticulationAngle => x[HITCH_ANGLE],
             DecaySignal::TrailerYawRate => model.yaw_rate(x) + model.hitch_angle_rate(x),
             DecaySignal::CarYawRate => model.yaw_rate(x),
         }
@@ -351,14 +358,35 @@ struct ImpulseRun {
     x: Vec<State4>,
     /// δ \[rad\]
     steering: Vec<f64>,
+    /// the rearmost articulation angle θ_n \[rad\] (the hitch angle of two units)
+    rearmost: Vec<f64>,
     /// sustained sway or loss of control
     sways: bool,
 }
 
 impl ImpulseRun {
+    /// The samples of a run in a plant's own layout (the paper layout's four states first),
+    /// its rearmost articulation angle state `rearmost`.
+    fn of<const M: usize>(r: &SimResult<M>, rearmost: usize) -> Self {
+        let tr = &r.trajectory;
+        ImpulseRun {
+            t: tr.iter().map(|s| s.t).collect(),
+            x: tr
+                .iter()
+                .map(|s| State4::new(s.x[0], s.x[1], s.x[2], s.x[3]))
+                .collect(),
+            steering: tr.iter().map(|s| s.steering_angle).collect(),
+            rearmost: tr.iter().map(|s| s.x[rearmost]).collect(),
+            sways: r.metrics.outcome != Outcome::Ok || r.metrics.class == SwayClass::SustainedSway,
+        }
+    }
+
     /// The samples of `signal` \[rad or rad/s\].
     fn signal(&self, paper: &Model, signal: DecaySignal) -> Vec<f64> {
-        self.x.iter().map(|x| signal.of(paper, x)).collect()
+        match signal {
+            DecaySignal::RearmostArticulationAngle => self.rearmost.clone(),
+            s => self.x.iter().map(|x| s.of(paper, x)).collect(),
+        }
     }
 
     /// The car's largest |lateral acceleration| at its centre of gravity \[m/s²\] from
@@ -400,19 +428,15 @@ impl TestLoop<'_> {
             action_s: cfg.pulse.start_s,
             settings: RunSettings::default(),
         };
-        let r = simulate_in_paper_layout::<4>(
-            self.vehicle,
-            &spec,
-            State4::zeros(),
-            Recording::Every {
-                step_s: cfg.sample_step_s,
-            },
-        )?;
-        Ok(ImpulseRun {
-            t: r.trajectory.iter().map(|s| s.t).collect(),
-            x: r.trajectory.iter().map(|s| s.x).collect(),
-            steering: r.trajectory.iter().map(|s| s.steering_angle).collect(),
-            sways: r.metrics.outcome != Outcome::Ok || r.metrics.class == SwayClass::SustainedSway,
+        // the plant in its own layout: its first four states are the paper layout's, and a
+        // chain's rearmost articulation angle θ_n is state 2n + 1
+        let rearmost = 2 * self.vehicle.towed_units() + 1;
+        let recording = Recording::Every {
+            step_s: cfg.sample_step_s,
+        };
+        with_plant!(self.vehicle, m => {
+            let x0 = m.initial_state(&State4::zeros(), speed);
+            m.simulate_own(&spec, x0, recording).map(|r| ImpulseRun::of(&r, rearmost))
         })
     }
 

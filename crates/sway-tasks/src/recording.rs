@@ -88,7 +88,7 @@ fn signal_column(s: DecaySignal) -> ColumnSpec {
     ColumnSpec {
         name: s.as_str(),
         units: match s {
-            DecaySignal::HitchAngle => ANGLE,
+            DecaySignal::HitchAngle | DecaySignal::RearmostArticulationAngle => ANGLE,
             DecaySignal::TrailerYawRate | DecaySignal::CarYawRate => RATE,
         },
     }

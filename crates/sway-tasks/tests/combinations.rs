@@ -411,3 +411,56 @@ fn sway_assist_is_not_applicable_to_a_chain() {
         "{linear}"
     );
 }
+
+/// `lateral_stability` reads the rearmost articulation of a chain when its config asks for
+/// it: on the truck–dolly–semitrailer at 80 km/h its damping is that of the least damped
+/// mode of the linearisation (3 %, as for `combination`'s pulse), while the first
+/// coupling's (the dolly's drawbar, a mix of both modes) reads otherwise.
+#[test]
+fn lateral_stability_reads_the_rearmost_articulation_of_a_chain() {
+    use sway_tasks::tasks::{self, TaskContext};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let configs = root().join("configs");
+    let vehicle = root().join("configs/combinations/truck_dolly_semitrailer.toml");
+    let ctx = TaskContext::new(&vehicle, &configs, dir.path(), &sway::progress::NoProgress)
+        .expect("the vehicle loads");
+    let t = tasks::registry()
+        .into_iter()
+        .find(|t| t.name == "lateral_stability")
+        .expect("task in the registry");
+    let read = |signal: &str| {
+        let file = dir.path().join(format!("{signal}.toml"));
+        std::fs::write(
+            &file,
+            format!(
+                "speeds = [22.222222222222]\nsignal = \"{signal}\"\nskip_peaks = 1\nperiods = 3\namplitudes_deg = []\n[pulse]\namplitude_deg = 0.5\n"
+            ),
+        )
+        .expect("config");
+        let (prepared, _) = tasks::prepare_checked(&t, &ctx, &file).expect("the config loads");
+        let report = prepared
+            .run(&ctx)
+            .expect("lateral_stability runs on a chain");
+        let text =
+            std::fs::read_to_string(report.output_dir.join("summary.json")).expect("summary");
+        let s: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        s["speeds"][0]["damping_ratio"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("a damping: {s}"))
+    };
+    let rearmost = read("rearmost_articulation_angle");
+    let first = read("hitch_angle");
+    let loaded = load_vehicle_spec(&vehicle).expect("the A-double");
+    let modes = sway_studies::modes::modes_of(&loaded.plant, &[22.222222222222], 22.222222222222)
+        .expect("modes");
+    let least = modes
+        .summaries
+        .iter()
+        .filter_map(|m| m.damping_ratio)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        (rearmost / least - 1.0).abs() < 3e-2,
+        "{rearmost} vs {least}"
+    );
+    assert!((first - rearmost).abs() > 0.03, "{first} vs {rearmost}");
+}

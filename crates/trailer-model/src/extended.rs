@@ -892,6 +892,21 @@ impl AnyVehicleModel {
     pub fn states(&self) -> usize {
         crate::with_plant!(self, m => m_states(m))
     }
+
+    /// Number of towed units (1 for a two-unit vehicle); the rearmost articulation angle
+    /// θ_n is state 2n + 1 of the plant's own layout ([`crate::HITCH_ANGLE`] for n = 1).
+    pub fn towed_units(&self) -> usize {
+        match self {
+            AnyVehicleModel::Paper(_) => 1,
+            AnyVehicleModel::N4(m) => m.towed_units(),
+            AnyVehicleModel::N5(m) => m.towed_units(),
+            AnyVehicleModel::N6(m) => m.towed_units(),
+            AnyVehicleModel::N7(m) => m.towed_units(),
+            AnyVehicleModel::N8(m) => m.towed_units(),
+            AnyVehicleModel::N9(m) => m.towed_units(),
+            AnyVehicleModel::N10(m) => m.towed_units(),
+        }
+    }
 }
 
 fn m_states<const N: usize>(_: &impl Plant<N>) -> usize {

@@ -298,6 +298,7 @@ fn signal_label(s: DecaySignal) -> &'static str {
         DecaySignal::HitchAngle => "hitch angle θ",
         DecaySignal::TrailerYawRate => "trailer yaw rate",
         DecaySignal::CarYawRate => "car yaw rate",
+        DecaySignal::RearmostArticulationAngle => "rearmost articulation angle",
     }
 }
 

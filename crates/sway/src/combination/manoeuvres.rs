@@ -440,12 +440,10 @@ where
     });
     Ok((1..chain.units())
         .map(|i| {
+            // the paper layout keeps every articulation angle where the chain has it (it
+            // differs in the rates σ2, σ3 only): no map of the state is needed
             let k = ChainModel::<M>::articulation_angle_index(i);
-            let theta: Vec<f64> = result
-                .trajectory
-                .iter()
-                .map(|s| chain.from_paper_layout(&s.x)[k])
-                .collect();
+            let theta: Vec<f64> = result.trajectory.iter().map(|s| s.x[k]).collect();
             let scale = theta.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             let p = peaks(&t, &theta, end, 1e-6 * scale);
             articulation_damping(

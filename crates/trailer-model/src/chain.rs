@@ -206,6 +206,61 @@ struct Frame<D> {
     vel: [D; 2],
 }
 
+/// Kane's equations of one evaluation while they are assembled unit by unit
+/// ([`ChainModel::add_unit`]).
+///
+/// U ≥ the number of units and DOF = U + 1 size its arrays: exactly, for the unit counts
+/// that have their own code (the arrays then live in registers), or the most a chain has.
+struct Kane<D, const N: usize, const U: usize, const DOF: usize> {
+    /// every unit's frame
+    frames: [Frame<D>; U],
+    /// (sin δ, cos δ), and whether δ is a plain zero (then (0, 1))
+    steering: (D, D),
+    plain_delta: bool,
+    /// M (lower triangle) and the right-hand side of M u̇ = …
+    mass: [[D; DOF]; DOF],
+    rhs: [D; DOF],
+    /// partial velocities W_k and bias acceleration A of the current reference point
+    w: [[D; 2]; DOF],
+    acc: [D; 2],
+    /// the rates (the lagged slips' so far)
+    dx: SVector<D, N>,
+}
+
+impl<D: DualNum<Primitive = f64> + Copy, const N: usize, const U: usize, const DOF: usize>
+    Kane<D, N, U, DOF>
+{
+    /// Nothing assembled yet: the frames of the `nu` units, W and A at H_1.
+    #[inline(always)]
+    fn new(
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+        first: (D, D),
+        nu: usize,
+        model: &ChainModel<N>,
+    ) -> Self {
+        let zero = D::from(0.0);
+        let (v, r) = (x[0], x[1]);
+        let plain_delta = is_plain_zero(u.steering_angle);
+        let mut w = [[zero; 2]; DOF];
+        w[0] = [zero, D::from(1.0)];
+        Self {
+            frames: model.frames_of::<D, U>(x, u.speed, first, nu),
+            steering: if plain_delta {
+                (zero, D::from(1.0))
+            } else {
+                u.steering_angle.sin_cos()
+            },
+            plain_delta,
+            mass: [[zero; DOF]; DOF],
+            rhs: [zero; DOF],
+            w,
+            acc: [u.acceleration - v * r, u.speed * r],
+            dx: SVector::<D, N>::from_element(zero),
+        }
+    }
+}
+
 /// The chain model with N reduced states (module docs).
 #[derive(Debug, Clone)]
 pub struct ChainModel<const N: usize> {
@@ -228,33 +283,16 @@ fn dot<D: DualNum<Primitive = f64> + Copy>(a: [D; 2], b: [D; 2]) -> D {
 }
 
 /// Solves M z = b for a symmetric positive definite M (lower triangle given) of size n by
-/// LDLᵀ, in place (z in b).
-#[inline]
-fn solve_ldlt<D: DualNum<Primitive = f64> + Copy>(
-    a: &mut [[D; MAX_DOF]; MAX_DOF],
-    b: &mut [D; MAX_DOF],
-    n: usize,
-) {
-    // the size as a constant in each arm: the inlined loops have known lengths (unrolled,
-    // without bounds checks); the same operations in the same order in every arm
-    match n {
-        3 => ldlt_in_place(a, b, 3),
-        4 => ldlt_in_place(a, b, 4),
-        5 => ldlt_in_place(a, b, 5),
-        6 => ldlt_in_place(a, b, 6),
-        _ => ldlt_in_place(a, b, n),
-    }
-}
-
-/// The factorisation and the two triangular solves of [`solve_ldlt`].
+/// LDLᵀ, in place (z in b): the factorisation and the two triangular solves. Inlined where n
+/// is a constant, so that its loops have known lengths.
 #[inline(always)]
-fn ldlt_in_place<D: DualNum<Primitive = f64> + Copy>(
-    a: &mut [[D; MAX_DOF]; MAX_DOF],
-    b: &mut [D; MAX_DOF],
+fn ldlt_in_place<D: DualNum<Primitive = f64> + Copy, const M: usize>(
+    a: &mut [[D; M]; M],
+    b: &mut [D; M],
     n: usize,
 ) {
     // a[j][j] ends as 1/D_j (one division per pivot), a[i][j] (i > j) as L_ij
-    let mut d = [D::from(0.0); MAX_DOF];
+    let mut d = [D::from(0.0); M];
     for j in 0..n {
         let mut dj = a[j][j];
         for k in 0..j {
@@ -495,25 +533,26 @@ impl<const N: usize> ChainModel<N> {
         x: &SVector<D, N>,
         speed: D,
     ) -> [Frame<D>; MAX_UNITS] {
-        self.frames_with(x, speed, x[3].sin_cos())
+        self.frames_of::<D, MAX_UNITS>(x, speed, x[3].sin_cos(), self.units)
     }
 
-    /// [`Self::frames`] with (sin θ_1, cos θ_1) given.
-    #[inline]
-    fn frames_with<D: DualNum<Primitive = f64> + Copy>(
+    /// [`Self::frames`] of the first `nu` units, with (sin θ_1, cos θ_1) given.
+    #[inline(always)]
+    fn frames_of<D: DualNum<Primitive = f64> + Copy, const U: usize>(
         &self,
         x: &SVector<D, N>,
         speed: D,
         first: (D, D),
-    ) -> [Frame<D>; MAX_UNITS] {
+        nu: usize,
+    ) -> [Frame<D>; U] {
         let zero = D::from(0.0);
         let mut f = [Frame {
             cos: D::from(1.0),
             sin: zero,
             omega: x[1],
             vel: [speed, x[0]],
-        }; MAX_UNITS];
-        for i in 1..self.units {
+        }; U];
+        for i in 1..nu {
             let p = f[i - 1];
             let xr = self.unit[i - 1].x_rear;
             let vel = if i == 1 {
@@ -613,119 +652,45 @@ impl<const N: usize> ChainModel<N> {
     }
 
     /// [`Self::rhs_actuated`] with (sin θ_1, cos θ_1) given.
-    fn rhs_actuated_with<D: DualNum<Primitive = f64> + Copy>(
+    pub(crate) fn rhs_actuated_with<D: DualNum<Primitive = f64> + Copy>(
         &self,
         x: &SVector<D, N>,
         u: &Inputs<D>,
         yaw_moment: Option<D>,
         first: (D, D),
     ) -> SVector<D, N> {
-        let zero = D::from(0.0);
-        let nu = self.units;
-        let ndof = nu + 1;
-        let (v, r) = (x[0], x[1]);
-        let (speed, accel, delta) = (u.speed, u.acceleration, u.steering_angle);
-        let mut dx = SVector::<D, N>::from_element(zero);
-        let frames = self.frames_with(x, speed, first);
-        let plain_delta = is_plain_zero(delta);
-        let (sin_delta, cos_delta) = if plain_delta {
-            (zero, D::from(1.0))
-        } else {
-            delta.sin_cos()
-        };
-
-        let mut mass = [[zero; MAX_DOF]; MAX_DOF];
-        let mut rhs = [zero; MAX_DOF];
-        // partial velocities W_k and bias acceleration A of the current reference point
-        let mut w = [[zero; 2]; MAX_DOF];
-        w[0] = [zero, D::from(1.0)];
-        let mut acc = [accel - v * r, speed * r];
-        for i in 0..nu {
-            let f = &frames[i];
-            let uc = &self.unit[i];
-            let e1 = [f.cos, f.sin];
-            let e2 = [-f.sin, f.cos];
-            let omega2 = f.omega * f.omega;
-            // β_{i,k}: 0 for v, 1 for r and θ̇_j (j ≤ i), 0 beyond; the speeds beyond θ̇_i
-            // (k > i + 1) move neither unit i nor the units in front of it: W_k = 0 there
-            let beta = |k: usize| k >= 1;
-            let dofs = i + 2;
-            // centre of gravity: W^C_k, A^C
-            let mut wc = w;
-            for (k, wk) in wc.iter_mut().enumerate().take(dofs) {
-                if beta(k) {
-                    wk[0] += e2[0] * uc.x_cog;
-                    wk[1] += e2[1] * uc.x_cog;
-                }
-            }
-            let ac = [
-                acc[0] - e1[0] * omega2 * uc.x_cog,
-                acc[1] - e1[1] * omega2 * uc.x_cog,
-            ];
-            for k in 0..dofs {
-                for l in 0..=k {
-                    let mut m_kl = dot(wc[k], wc[l]) * uc.mass;
-                    if beta(k) && beta(l) {
-                        m_kl += D::from(uc.inertia);
-                    }
-                    mass[k][l] += m_kl;
-                }
-                rhs[k] -= dot(wc[k], ac) * uc.mass;
-            }
-            // axle forces: resultant R (towing unit's frame) and moment about the reference
-            // point
-            let mut res = [zero; 2];
-            let mut moment = zero;
-            for a in &self.axles[uc.first_axle..uc.end_axle] {
-                let (t, vx) = Self::axle_kinematics(a, f, speed);
-                if let Some(j) = a.state {
-                    let alpha = if a.steered {
-                        delta - t.atan()
-                    } else {
-                        t.atan()
-                    };
-                    dx[j] = (alpha - x[j]) * vx * a.inv_sigma;
-                }
-                if !self.tyre_forces {
-                    continue;
-                }
-                let force = match a.state {
-                    None if a.steered => Self::steered_force(&a.tire, delta, t),
-                    None => a.tire.lateral_force_from_tan(t),
-                    Some(j) => a.tire.lateral_force(x[j]),
-                };
-                if a.steered && !plain_delta {
-                    // n = E2_0 turned by δ = (−sin δ, cos δ); n·E2_0 = cos δ
-                    res[0] -= force * sin_delta;
-                    res[1] += force * cos_delta;
-                    moment += force * cos_delta * a.x;
-                } else {
-                    res[0] += force * e2[0];
-                    res[1] += force * e2[1];
-                    moment += force * a.x;
-                }
-            }
-            for k in 0..dofs {
-                let mut q = dot(res, w[k]);
-                if beta(k) {
-                    q += moment;
-                }
-                rhs[k] += q;
-            }
-            // on to the next coupling point
-            if i + 1 < nu {
-                let xr = uc.x_rear;
-                if xr != 0.0 {
-                    for (k, wk) in w.iter_mut().enumerate().take(dofs) {
-                        if beta(k) {
-                            wk[0] += e2[0] * xr;
-                            wk[1] += e2[1] * xr;
-                        }
-                    }
-                    acc = [acc[0] - e1[0] * omega2 * xr, acc[1] - e1[1] * omega2 * xr];
-                }
-            }
+        // the common unit counts with arrays of their own size (as the factorisation's size
+        // in [`ldlt_in_place`]), longer chains in arrays of the most units
+        match self.units {
+            2 => self.equations_of_motion::<D, 2, 3>(x, u, yaw_moment, first, 2),
+            3 => self.equations_of_motion::<D, 3, 4>(x, u, yaw_moment, first, 3),
+            nu => self.equations_of_motion::<D, MAX_UNITS, MAX_DOF>(x, u, yaw_moment, first, nu),
         }
+    }
+
+    /// Kane's equations of a chain of `nu` ≤ U units (module docs), solved for the rates;
+    /// DOF = U + 1.
+    #[inline(always)]
+    fn equations_of_motion<D: DualNum<Primitive = f64> + Copy, const U: usize, const DOF: usize>(
+        &self,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+        yaw_moment: Option<D>,
+        first: (D, D),
+        nu: usize,
+    ) -> SVector<D, N> {
+        let mut kane = Kane::<D, N, U, DOF>::new(x, u, first, nu, self);
+        // with U = nu the loop has a known length and each unit's index is a constant in its
+        // inlined step; the same operations in the same order for every U
+        for i in 0..nu {
+            self.add_unit(&mut kane, x, u, i, nu);
+        }
+        let Kane {
+            mut mass,
+            mut rhs,
+            mut dx,
+            ..
+        } = kane;
         if let Some(m) = yaw_moment {
             rhs[1] += m;
         }
@@ -735,7 +700,7 @@ impl<const N: usize> ChainModel<N> {
                 rhs[1 + i] -= self.coupling_torque(i, x[2 * i + 1], x[2 * i]);
             }
         }
-        solve_ldlt(&mut mass, &mut rhs, ndof);
+        ldlt_in_place(&mut mass, &mut rhs, nu + 1);
         dx[0] = rhs[0];
         dx[1] = rhs[1];
         for i in 1..nu {
@@ -743,6 +708,111 @@ impl<const N: usize> ChainModel<N> {
             dx[2 * i + 1] = x[2 * i];
         }
         dx
+    }
+
+    /// Adds unit i's terms to Kane's equations (module docs): its inertia to M and to the
+    /// right-hand side, its axle forces to the generalised forces, the lagged slips' rates of
+    /// its relaxing axles to `dx`; then carries the partial velocities and the bias
+    /// acceleration on to its rear coupling.
+    #[inline(always)]
+    fn add_unit<D: DualNum<Primitive = f64> + Copy, const U: usize, const DOF: usize>(
+        &self,
+        kane: &mut Kane<D, N, U, DOF>,
+        x: &SVector<D, N>,
+        u: &Inputs<D>,
+        i: usize,
+        nu: usize,
+    ) {
+        let zero = D::from(0.0);
+        let (speed, delta) = (u.speed, u.steering_angle);
+        let (sin_delta, cos_delta) = kane.steering;
+        let f = &kane.frames[i];
+        let uc = &self.unit[i];
+        let e1 = [f.cos, f.sin];
+        let e2 = [-f.sin, f.cos];
+        let omega2 = f.omega * f.omega;
+        // β_{i,k}: 0 for v, 1 for r and θ̇_j (j ≤ i), 0 beyond; the speeds beyond θ̇_i
+        // (k > i + 1) move neither unit i nor the units in front of it: W_k = 0 there
+        let beta = |k: usize| k >= 1;
+        let dofs = i + 2;
+        // centre of gravity: W^C_k, A^C
+        let mut wc = kane.w;
+        for (k, wk) in wc.iter_mut().enumerate().take(dofs) {
+            if beta(k) {
+                wk[0] += e2[0] * uc.x_cog;
+                wk[1] += e2[1] * uc.x_cog;
+            }
+        }
+        let ac = [
+            kane.acc[0] - e1[0] * omega2 * uc.x_cog,
+            kane.acc[1] - e1[1] * omega2 * uc.x_cog,
+        ];
+        for k in 0..dofs {
+            for l in 0..=k {
+                let mut m_kl = dot(wc[k], wc[l]) * uc.mass;
+                if beta(k) && beta(l) {
+                    m_kl += D::from(uc.inertia);
+                }
+                kane.mass[k][l] += m_kl;
+            }
+            kane.rhs[k] -= dot(wc[k], ac) * uc.mass;
+        }
+        // axle forces: resultant R (towing unit's frame) and moment about the reference
+        // point
+        let mut res = [zero; 2];
+        let mut moment = zero;
+        for a in &self.axles[uc.first_axle..uc.end_axle] {
+            let (t, vx) = Self::axle_kinematics(a, f, speed);
+            if let Some(j) = a.state {
+                let alpha = if a.steered {
+                    delta - t.atan()
+                } else {
+                    t.atan()
+                };
+                kane.dx[j] = (alpha - x[j]) * vx * a.inv_sigma;
+            }
+            if !self.tyre_forces {
+                continue;
+            }
+            let force = match a.state {
+                None if a.steered => Self::steered_force(&a.tire, delta, t),
+                None => a.tire.lateral_force_from_tan(t),
+                Some(j) => a.tire.lateral_force(x[j]),
+            };
+            if a.steered && !kane.plain_delta {
+                // n = E2_0 turned by δ = (−sin δ, cos δ); n·E2_0 = cos δ
+                res[0] -= force * sin_delta;
+                res[1] += force * cos_delta;
+                moment += force * cos_delta * a.x;
+            } else {
+                res[0] += force * e2[0];
+                res[1] += force * e2[1];
+                moment += force * a.x;
+            }
+        }
+        for k in 0..dofs {
+            let mut q = dot(res, kane.w[k]);
+            if beta(k) {
+                q += moment;
+            }
+            kane.rhs[k] += q;
+        }
+        // on to the next coupling point
+        if i + 1 < nu {
+            let xr = uc.x_rear;
+            if xr != 0.0 {
+                for (k, wk) in kane.w.iter_mut().enumerate().take(dofs) {
+                    if beta(k) {
+                        wk[0] += e2[0] * xr;
+                        wk[1] += e2[1] * xr;
+                    }
+                }
+                kane.acc = [
+                    kane.acc[0] - e1[0] * omega2 * xr,
+                    kane.acc[1] - e1[1] * omega2 * xr,
+                ];
+            }
+        }
     }
 
     /// Per axle: its slip for the switching functions and the guard (tan α of an

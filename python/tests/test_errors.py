@@ -239,7 +239,7 @@ RECORDING = [
     pytest.param(lambda: ts.analyse_recording(np.zeros((20, 2)), _signals(20)), ValueError, r"^t: expected a 1-d sequence, got shape \(20, 2\)$", id="recording-2d-t"),
     pytest.param(lambda: ts.analyse_recording([], {"steering_angle": [], "hitch_angle": []}), ValueError, r"expected at least 10 samples of t, signals\['steering_angle'\] and signals\['hitch_angle'\] of equal length, got 0, 0 and 0", id="recording-empty"),
     pytest.param(lambda: ts.analyse_recording(_t(), [1, 2]), TypeError, r"^signals: expected a dict of sequences, got list$", id="recording-list-signals"),
-    pytest.param(lambda: ts.analyse_recording(_t(), _signals(), signal=3), TypeError, r"^signal: expected one of \['hitch_angle', 'trailer_yaw_rate', 'car_yaw_rate'\], got int$", id="recording-int-signal"),
+    pytest.param(lambda: ts.analyse_recording(_t(), _signals(), signal=3), TypeError, r"^signal: expected one of \['hitch_angle', 'trailer_yaw_rate', 'car_yaw_rate', 'rearmost_articulation_angle'\], got int$", id="recording-int-signal"),
     pytest.param(lambda: ts.analyse_recording(_t(), _signals(), signal="theta"), ValueError, r"^signal: expected one of .*got 'theta'$", id="recording-unknown-signal"),
     pytest.param(lambda: ts.analyse_recording(_t(), _signals(), skip_peaks=-1), ValueError, r"^skip_peaks: expected ≥ 0, got -1$", id="recording-negative-skip"),
     pytest.param(lambda: ts.analyse_recording(_t(), _signals(), periods=2.0), TypeError, r"^periods: expected an int, got float$", id="recording-float-periods"),

@@ -73,6 +73,22 @@ def test_analyse_recording_reads_a_known_damping_and_matches_the_cli(tmp_path):
     assert row["frequency_hz"] == pytest.approx(r.frequency_hz, rel=1e-12)
 
 
+def test_analyse_recording_reads_the_rearmost_articulation_of_a_combination():
+    # reference: the damping ratio the synthetic run was made with; the rearmost coupling's
+    # column (the CLI's `rearmost_articulation_angle`) reads like the hitch angle, and is
+    # picked by name when both are given
+    t, signals = _pulse_run(0.08)
+    rear = {"steering_angle": signals["steering_angle"], "rearmost_articulation_angle": signals["hitch_angle"]}
+    r = ts.analyse_recording(t, rear)
+    assert r.signal == "rearmost_articulation_angle"
+    assert abs(r.damping_ratio - 0.08) < 1e-3
+    _, faster = _pulse_run(0.2)
+    both = {**signals, "rearmost_articulation_angle": faster["hitch_angle"]}
+    assert ts.analyse_recording(t, both).signal == "hitch_angle"
+    r = ts.analyse_recording(t, both, signal="rearmost_articulation_angle")
+    assert abs(r.damping_ratio - 0.2) < 2e-3
+
+
 @pytest.mark.parametrize(
     "mutate, error, text",
     [

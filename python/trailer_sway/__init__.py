@@ -1220,7 +1220,7 @@ class RecordedDecay:
         )
 
 
-_SIGNALS = ("hitch_angle", "trailer_yaw_rate", "car_yaw_rate")
+_SIGNALS = ("hitch_angle", "trailer_yaw_rate", "car_yaw_rate", "rearmost_articulation_angle")
 
 
 def _samples(values: Any, name: str) -> np.ndarray:
@@ -1253,8 +1253,9 @@ def analyse_recording(
 ) -> RecordedDecay:
     """Reads the damping of one recorded pulse-steer run: ``t`` [s] increasing (≥ 20 Hz)
     and ``signals``, a dict of sequences sampled at ``t``: ``"steering_angle"`` (any unit)
-    and at least one of ``"hitch_angle"``, ``"trailer_yaw_rate"``, ``"car_yaw_rate"`` (any
-    unit), optionally ``"speed"`` [m/s]. ``signal`` picks the one to read (default: the
+    and at least one of ``"hitch_angle"``, ``"trailer_yaw_rate"``, ``"car_yaw_rate"``,
+    ``"rearmost_articulation_angle"`` (a combination's last coupling; any unit), optionally
+    ``"speed"`` [m/s]. ``signal`` picks the one to read (default: the
     first present in that order). The impulse is found from the steering, the signal is
     low-passed forwards and backwards (zero phase) and its prominent peaks after the
     impulse give D. Raises ``ValueError`` naming the problem (a key and row, counted from

@@ -9,6 +9,7 @@
 //! cargo xtask <task|group> --check       # validate configs, print the plan, run nothing
 //! cargo xtask sweep FILE --shard K/N [--shard-dir DIR]   # the K-th of N slices (K from 1)
 //! cargo xtask study_generated --shard K/N   # likewise: vehicles K-th slice through every task
+//! cargo xtask sway_assist_full --shard K/N   # likewise: the K-th slice of the evaluation's runs
 //! cargo xtask merge DIR [--results DIR]  # the shards of DIR → results/<name>/
 //! cargo xtask slurm FILE --shards N [--partition P] [--time T]   # sbatch scripts
 //! ```
@@ -125,10 +126,10 @@ fn usage() -> String {
         "merge",
         "merge the shard files of DIR into results/<name>/: cargo xtask merge DIR [--results DIR]",
         "slurm",
-        "SLURM job array of a sharded study: cargo xtask slurm FILE --shards N [--task sweep|brake_timing|study_generated] [--partition P] [--time T]"
+        "SLURM job array of a sharded study: cargo xtask slurm FILE --shards N [--task sweep|brake_timing|study_generated|sway_assist|sway_assist_full] [--partition P] [--time T]"
     ));
     s.push_str(
-        "sharding: cargo xtask sweep|brake_timing|study_generated [--config FILE] --shard K/N [--shard-dir DIR]\n",
+        "sharding: cargo xtask sweep|brake_timing|study_generated|sway_assist|sway_assist_full [--config FILE] --shard K/N [--shard-dir DIR]\n",
     );
     s.push_str("groups:\n");
     for (g, members) in tasks::groups() {

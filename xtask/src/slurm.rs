@@ -34,7 +34,8 @@ pub struct SlurmArgs {
     /// the number of shards N (array tasks)
     #[arg(long)]
     shards: usize,
-    /// the shardable task (`sweep`, `brake_timing`, `study_generated`)
+    /// the shardable task (`sweep`, `brake_timing`, `study_generated`, `sway_assist`,
+    /// `sway_assist_full`)
     #[arg(long, default_value = "sweep")]
     task: String,
     /// the SLURM partition (default: the cluster's default partition)

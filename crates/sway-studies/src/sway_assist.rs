@@ -20,7 +20,9 @@
 //! - **Observer** (the model-based observer runs in every run beside the other detectors
 //!   and has their metrics): per vehicle one run of ordinary driving
 //!   ([`DrivingSequence`]: the false-alarm set's slaloms and lane changes one after another
-//!   at `ordinary_driving_speed`, for `ordinary_driving_s`), its final V̂_crit against the
+//!   at `ordinary_driving_speed`, for `ordinary_driving_s`, but those that alone sway the
+//!   trailer or lose control at that speed: they are sway scenarios, not ordinary driving),
+//!   its final V̂_crit against the
 //!   vehicle's V_crit, the V_fold of the vehicle with the estimated trailer mass, yaw
 //!   inertia and centre of gravity (the paper form, the same fold-of-cycles search as the
 //!   vehicle's own V_fold, [`open_loop_references`]) against the true V_fold, and the time
@@ -29,16 +31,18 @@
 //!   with model variants: its equivalent paper parameters): the car, the trailer's axle
 //!   and tyre ([`sway::assist::observer_options`]).
 //!
-//! Runs are computed in parallel ([`sway::parallel::map`]), results in item order
-//! whatever the number of threads; a run whose solver fails is recorded with its error and
-//! the evaluation goes on.
+//! The evaluation is a list of independent points ([`AssistPlan`]: each scenario's two
+//! runs, each vehicle's ordinary driving), computed in parallel
+//! ([`sway::parallel::map_indices`]) or as shards, results in point order whatever the
+//! number of threads; a run whose solver fails is recorded with its error and the
+//! evaluation goes on.
 
 use serde::{Deserialize, Serialize};
 use sway::assist::{
     AssistOptions, AssistSetup, DetectorsConfig, Disturbance, DrivingSequence, Intervention,
     ObserverTrack, RunOutcome, Scenario, SwayCriterion, run_any, run_driving,
 };
-use sway::parallel::{Split, map};
+use sway::parallel::{Split, map_indices};
 use sway::ranging::{
     Reference, RelativeSpeed, SpeedLimits, SpeedReferences, SpeedSpec, open_loop_references,
 };
@@ -225,7 +229,7 @@ impl SwayAssistConfig {
 }
 
 /// Which set a scenario belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ScenarioSet {
     /// disturbances that may start sway
@@ -235,7 +239,7 @@ pub enum ScenarioSet {
 }
 
 /// One scenario's two runs.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ScenarioResult {
     /// the vehicle's name
     pub vehicle: String,
@@ -339,7 +343,7 @@ pub struct VehicleReferences {
 pub const CONVERGED_WITHIN: f64 = 0.05;
 
 /// The observer on one vehicle: its ordinary-driving run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObserverResult {
     /// the vehicle's name
     pub vehicle: String,
@@ -347,6 +351,9 @@ pub struct ObserverResult {
     pub speed_mps: Option<f64>,
     /// the manoeuvres driven
     pub manoeuvres: usize,
+    /// the false-alarm manoeuvres left out of ordinary driving because, each alone at its
+    /// speed, they sway the trailer or end in a loss of control (kind and size)
+    pub left_out: Vec<String>,
     /// the vehicle's V_crit \[m/s\]
     pub v_crit_mps: Option<f64>,
     /// its V_fold \[m/s\]
@@ -369,7 +376,6 @@ pub struct ObserverResult {
     /// why a value is missing
     pub reason: Option<String>,
     /// the estimates over time
-    #[serde(skip)]
     pub track: Option<ObserverTrack>,
 }
 
@@ -409,7 +415,228 @@ fn median(v: &mut [f64]) -> Option<f64> {
     })
 }
 
-/// Runs the evaluation of `cfg` on `vehicles` (name, model).
+/// One scenario of the evaluation before it runs.
+#[derive(Debug, Clone)]
+struct Item {
+    /// index into the plan's vehicles
+    vehicle: usize,
+    set: ScenarioSet,
+    speed: SpeedSpec,
+    scenario: Scenario,
+}
+
+/// One point of the evaluation: a scenario's two runs, or one vehicle's ordinary-driving
+/// run of the observer. Round-trips exactly through JSON (the shards of a sharded
+/// evaluation).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AssistPoint {
+    /// a scenario of the sway or the false-alarm set
+    Scenario(Box<ScenarioResult>),
+    /// a vehicle's ordinary driving
+    Observer(Box<ObserverResult>),
+}
+
+/// The evaluation of a config on its vehicles, planned: every vehicle's reference speeds
+/// and the list of independent points ([`AssistPlan::run_point`]): the scenarios (vehicles
+/// outer, the sway set before the false-alarm set, speeds, disturbances inner), then one
+/// ordinary-driving run per vehicle when the config has the observer. Point k is a pure
+/// function of the plan and k, so the points can run on any number of threads or as
+/// shards on several machines, and [`AssistPlan::assemble`] gives the same evaluation.
+#[derive(Debug, Clone)]
+pub struct AssistPlan {
+    config: SwayAssistConfig,
+    setup: AssistSetup,
+    limits: SpeedLimits,
+    vehicles: Vec<(String, AnyVehicleModel)>,
+    references: Vec<VehicleReferences>,
+    items: Vec<Item>,
+}
+
+impl AssistPlan {
+    /// Resolves every vehicle's speeds (its V_crit and V_fold) and lists the points.
+    ///
+    /// # Errors
+    /// A numerical failure of a vehicle's reference speeds.
+    pub fn new(
+        cfg: &SwayAssistConfig,
+        vehicles: Vec<(String, AnyVehicleModel)>,
+        limits: &SpeedLimits,
+    ) -> Result<Self, SwayError> {
+        let need = cfg
+            .sway_speeds
+            .iter()
+            .chain(&cfg.false_alarm_speeds)
+            .map(SpeedSpec::needs)
+            .chain(cfg.detectors.model_observer.map(|_| Reference::Fold))
+            .max()
+            .unwrap_or(Reference::None);
+        let mut references = Vec::new();
+        let mut items = Vec::new();
+        for (index, (name, vehicle)) in vehicles.iter().enumerate() {
+            let refs = match VehicleForm::from(vehicle) {
+                VehicleForm::Paper(m) => open_loop_references(m, limits, need)?,
+                VehicleForm::Variants(v) => {
+                    trailer_model::with_plant!(v, m => open_loop_references(m, limits, need))?
+                }
+            };
+            let mut unresolved = Vec::new();
+            for (set, speeds, disturbances) in [
+                (ScenarioSet::Sway, &cfg.sway_speeds, &cfg.sway_disturbances),
+                (
+                    ScenarioSet::FalseAlarm,
+                    &cfg.false_alarm_speeds,
+                    &cfg.false_alarm_disturbances,
+                ),
+            ] {
+                for spec in speeds {
+                    let v = match spec.resolve(&refs) {
+                        Ok(v) => v,
+                        Err(e) => {
+                            unresolved.push((spec.to_string(), e.reason));
+                            continue;
+                        }
+                    };
+                    for d in disturbances {
+                        let seed = items.len() as u64;
+                        items.push(Item {
+                            vehicle: index,
+                            set,
+                            speed: *spec,
+                            scenario: Scenario {
+                                speed_mps: v,
+                                disturbance: *d,
+                                disturbance_start_s: cfg.disturbance_start_s,
+                                horizon_s: cfg.horizon_s,
+                                seed,
+                            },
+                        });
+                    }
+                }
+            }
+            references.push(VehicleReferences {
+                vehicle: name.clone(),
+                references: refs,
+                unresolved,
+            });
+        }
+        Ok(Self {
+            config: cfg.clone(),
+            setup: cfg.setup(),
+            limits: *limits,
+            vehicles,
+            references,
+            items,
+        })
+    }
+
+    /// The number of points: scenarios, then the observer's runs.
+    pub fn len(&self) -> usize {
+        self.items.len() + self.observer_runs()
+    }
+
+    /// Whether there is no point.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The number of scenarios (each run without and with the assist).
+    pub fn scenarios(&self) -> usize {
+        self.items.len()
+    }
+
+    fn observer_runs(&self) -> usize {
+        if self.config.detectors.model_observer.is_some() {
+            self.vehicles.len()
+        } else {
+            0
+        }
+    }
+
+    /// Point `k` (`k` < [`Self::len`]): scenario k's runs without and with the assist (a
+    /// failed run is recorded with its error), or the ordinary-driving run of vehicle
+    /// k − [`Self::scenarios`].
+    ///
+    /// # Panics
+    /// If `k` ≥ [`Self::len`].
+    pub fn run_point(&self, k: usize) -> AssistPoint {
+        if let Some(it) = self.items.get(k) {
+            let (name, vehicle) = &self.vehicles[it.vehicle];
+            let go = |i| {
+                run_any(vehicle, &it.scenario, i, &self.setup, false).map_err(|e| e.to_string())
+            };
+            return AssistPoint::Scenario(Box::new(ScenarioResult {
+                vehicle: name.clone(),
+                set: it.set,
+                speed: it.speed,
+                scenario: it.scenario,
+                without: go(Intervention::None),
+                with: go(Intervention::Assist),
+            }));
+        }
+        let j = k - self.items.len();
+        assert!(j < self.observer_runs(), "point {k} of {}", self.len());
+        let (name, vehicle) = &self.vehicles[j];
+        AssistPoint::Observer(Box::new(observe(
+            &self.config,
+            &self.setup,
+            name,
+            vehicle,
+            &self.references[j].references,
+            &self.limits,
+            j as u64,
+        )))
+    }
+
+    /// The evaluation from the points' results in point order: the metrics, and the two
+    /// runs of the figures with their frames (run again).
+    pub fn assemble(&self, points: Vec<AssistPoint>) -> SwayAssist {
+        let mut scenarios = Vec::new();
+        let mut observer = Vec::new();
+        for p in points {
+            match p {
+                AssistPoint::Scenario(s) => scenarios.push(*s),
+                AssistPoint::Observer(o) => observer.push(*o),
+            }
+        }
+        let detectors = detector_metrics(&scenarios);
+        let assist = assist_metrics(&scenarios);
+        let false_alarm_hours = false_alarm_runs(&scenarios)
+            .map(|r| r.t_end_s - r.scenario.disturbance_start_s.min(r.t_end_s))
+            .sum::<f64>()
+            / 3600.0;
+        let trace_of = |pick: &dyn Fn(&ScenarioResult) -> bool| {
+            scenarios.iter().find(|s| pick(s)).and_then(|s| {
+                self.items
+                    .iter()
+                    .find(|it| {
+                        it.scenario == s.scenario && self.vehicles[it.vehicle].0 == s.vehicle
+                    })
+                    .and_then(|it| {
+                        let vehicle = &self.vehicles[it.vehicle].1;
+                        run_any(vehicle, &it.scenario, Intervention::None, &self.setup, true).ok()
+                    })
+            })
+        };
+        let sway_trace =
+            trace_of(&|s| s.set == ScenarioSet::Sway && s.without.as_ref().is_ok_and(|r| r.sways));
+        let slalom_trace =
+            trace_of(&|s| matches!(s.scenario.disturbance, Disturbance::Slalom { .. }));
+        SwayAssist {
+            vehicles: self.references.clone(),
+            scenarios,
+            detectors,
+            assist,
+            false_alarm_hours,
+            sway_trace,
+            slalom_trace,
+            observer,
+        }
+    }
+}
+
+/// Runs the evaluation of `cfg` on `vehicles` (name, model): [`AssistPlan`]'s points in
+/// parallel, assembled.
 ///
 /// # Errors
 /// A numerical failure of a vehicle's reference speeds (a failed run is recorded, not an
@@ -419,127 +646,9 @@ pub fn compute(
     vehicles: &[(String, AnyVehicleModel)],
     limits: &SpeedLimits,
 ) -> Result<SwayAssist, SwayError> {
-    let need = cfg
-        .sway_speeds
-        .iter()
-        .chain(&cfg.false_alarm_speeds)
-        .map(SpeedSpec::needs)
-        .chain(cfg.detectors.model_observer.map(|_| Reference::Fold))
-        .max()
-        .unwrap_or(Reference::None);
-    let mut refs_of = Vec::new();
-    let mut items = Vec::new();
-    for (name, vehicle) in vehicles {
-        let refs = match VehicleForm::from(vehicle) {
-            VehicleForm::Paper(m) => open_loop_references(m, limits, need)?,
-            VehicleForm::Variants(v) => {
-                trailer_model::with_plant!(v, m => open_loop_references(m, limits, need))?
-            }
-        };
-        let mut unresolved = Vec::new();
-        for (set, speeds, disturbances) in [
-            (ScenarioSet::Sway, &cfg.sway_speeds, &cfg.sway_disturbances),
-            (
-                ScenarioSet::FalseAlarm,
-                &cfg.false_alarm_speeds,
-                &cfg.false_alarm_disturbances,
-            ),
-        ] {
-            for spec in speeds {
-                let v = match spec.resolve(&refs) {
-                    Ok(v) => v,
-                    Err(e) => {
-                        unresolved.push((spec.to_string(), e.reason));
-                        continue;
-                    }
-                };
-                for d in disturbances {
-                    let seed = items.len() as u64;
-                    items.push((
-                        name.clone(),
-                        vehicle,
-                        set,
-                        *spec,
-                        Scenario {
-                            speed_mps: v,
-                            disturbance: *d,
-                            disturbance_start_s: cfg.disturbance_start_s,
-                            horizon_s: cfg.horizon_s,
-                            seed,
-                        },
-                    ));
-                }
-            }
-        }
-        refs_of.push(VehicleReferences {
-            vehicle: name.clone(),
-            references: refs,
-            unresolved,
-        });
-    }
-    let setup = cfg.setup();
-    let scenarios: Vec<ScenarioResult> = map(&items, Split::OnePerTask, &|_,
-                                                                          (
-        name,
-        vehicle,
-        set,
-        speed,
-        s,
-    )| {
-        let go = |i| run_any(vehicle, s, i, &setup, false).map_err(|e| e.to_string());
-        ScenarioResult {
-            vehicle: name.clone(),
-            set: *set,
-            speed: *speed,
-            scenario: *s,
-            without: go(Intervention::None),
-            with: go(Intervention::Assist),
-        }
-    });
-    let detectors = detector_metrics(&scenarios);
-    let assist = assist_metrics(&scenarios);
-    let false_alarm_hours = false_alarm_runs(&scenarios)
-        .map(|r| r.t_end_s - r.scenario.disturbance_start_s.min(r.t_end_s))
-        .sum::<f64>()
-        / 3600.0;
-    let trace_of = |pick: &dyn Fn(&ScenarioResult) -> bool, i: Intervention| {
-        scenarios.iter().find(|s| pick(s)).and_then(|s| {
-            items
-                .iter()
-                .find(|it| it.4 == s.scenario && it.0 == s.vehicle)
-                .and_then(|it| run_any(it.1, &it.4, i, &setup, true).ok())
-        })
-    };
-    let sway_trace = trace_of(
-        &|s| s.set == ScenarioSet::Sway && s.without.as_ref().is_ok_and(|r| r.sways),
-        Intervention::None,
-    );
-    let slalom_trace = trace_of(
-        &|s| matches!(s.scenario.disturbance, Disturbance::Slalom { .. }),
-        Intervention::None,
-    );
-    let observer = if cfg.detectors.model_observer.is_some() {
-        let jobs: Vec<(&String, &AnyVehicleModel, &SpeedReferences)> = vehicles
-            .iter()
-            .zip(&refs_of)
-            .map(|((n, v), r)| (n, v, &r.references))
-            .collect();
-        map(&jobs, Split::OnePerTask, &|k, (name, vehicle, refs)| {
-            observe(cfg, &setup, name, vehicle, refs, limits, k as u64)
-        })
-    } else {
-        Vec::new()
-    };
-    Ok(SwayAssist {
-        vehicles: refs_of,
-        scenarios,
-        detectors,
-        assist,
-        false_alarm_hours,
-        sway_trace,
-        slalom_trace,
-        observer,
-    })
+    let plan = AssistPlan::new(cfg, vehicles.to_vec(), limits)?;
+    let points = map_indices(plan.len(), Split::OnePerTask, &|k| plan.run_point(k));
+    Ok(plan.assemble(points))
 }
 
 /// The observer's ordinary-driving run on one vehicle (the `k`-th: its sensors' seed is
@@ -557,6 +666,7 @@ fn observe(
         vehicle: name.to_string(),
         speed_mps: None,
         manoeuvres: 0,
+        left_out: Vec::new(),
         v_crit_mps: refs.v_crit_mps,
         v_fold_mps: refs.v_fold_mps,
         v_crit_estimate_mps: None,
@@ -588,8 +698,10 @@ fn observe(
         horizon_s: until,
         seed: (1u64 << 32) + k,
     };
+    let (ordinary, left_out) = ordinary_manoeuvres(cfg, setup, vehicle, speed, scenario.seed);
+    out.left_out = left_out;
     let run = DrivingSequence::new(
-        &cfg.false_alarm_disturbances,
+        &ordinary,
         paper,
         speed,
         t0,
@@ -608,11 +720,18 @@ fn observe(
         }
     };
     let mut reasons = Vec::new();
+    if !out.left_out.is_empty() {
+        reasons.push(format!(
+            "left out of ordinary driving (each alone sways the trailer or loses control at {speed:.2} m/s): {}",
+            out.left_out.join(", ")
+        ));
+    }
     // (the ground truth's sustained sway means nothing here: the driving itself keeps the
     // trailer swinging; a loss of control ends the run early)
     if let Some(t) = run.loss_of_control_s {
+        let how = run.loss_of_control_condition.map_or("", |c| c.as_str());
         reasons.push(format!(
-            "the vehicle lost control in ordinary driving at {t:.1} s"
+            "the vehicle lost control in ordinary driving at {t:.1} s ({how})"
         ));
     }
     let Some(track) = run.observer else {
@@ -676,6 +795,39 @@ fn observe(
         out.reason = Some(reasons.join("; "));
     }
     out
+}
+
+/// Ordinary driving's manoeuvres on one vehicle at `speed` \[m/s\]: the false-alarm set's
+/// manoeuvres that, each driven alone at that speed (a watching run, sensors seeded with
+/// `seed`), neither sway ([`RunOutcome::sways`]) nor end in a loss of control. A manoeuvre
+/// that sways the trailer is a sway scenario, not ordinary driving: driven back to back, it
+/// would end the observer's run in a loss of control. Also the left-out manoeuvres'
+/// descriptions (a failed run leaves its manoeuvre out, with the error).
+fn ordinary_manoeuvres(
+    cfg: &SwayAssistConfig,
+    setup: &AssistSetup,
+    vehicle: &AnyVehicleModel,
+    speed: f64,
+    seed: u64,
+) -> (Vec<Disturbance>, Vec<String>) {
+    let mut kept = Vec::new();
+    let mut left_out = Vec::new();
+    for d in &cfg.false_alarm_disturbances {
+        let alone = Scenario {
+            speed_mps: speed,
+            disturbance: *d,
+            disturbance_start_s: cfg.disturbance_start_s,
+            horizon_s: cfg.horizon_s,
+            seed,
+        };
+        let label = format!("{} {}", d.kind(), d.size());
+        match run_any(vehicle, &alone, Intervention::None, setup, false) {
+            Ok(r) if !r.sways && r.loss_of_control_s.is_none() => kept.push(*d),
+            Ok(_) => left_out.push(label),
+            Err(e) => left_out.push(format!("{label} (its run failed: {e})")),
+        }
+    }
+    (kept, left_out)
 }
 
 /// The watching runs of the false-alarm set that do not sway.

@@ -40,7 +40,9 @@ use trailer_model::{Model, VehicleParams, VehicleSpec};
 use crate::config_file::{TaskConfig, load_toml};
 use crate::io::OutputDir;
 use crate::tasks::study_generated::{self, StudyGeneratedConfig};
+use crate::tasks::sway_assist;
 use crate::tasks::{Report, TaskContext};
+use sway_studies::sway_assist::{AssistPlan, AssistPoint, SwayAssistConfig};
 
 /// The format tag of a shard file.
 pub const FORMAT: &str = "trailer-sway shard 1";
@@ -75,7 +77,7 @@ pub enum ShardError {
     },
     /// The directory holds no shard file.
     #[error(
-        "{}: no shard files (shard-K-of-N.json); write them with `cargo xtask TASK --config FILE --shard K/N --shard-dir {}` (TASK: sweep, brake_timing or study_generated)",
+        "{}: no shard files (shard-K-of-N.json); write them with `cargo xtask TASK --config FILE --shard K/N --shard-dir {}` (TASK: sweep, brake_timing, study_generated, sway_assist or sway_assist_full)",
         dir.display(),
         dir.display()
     )]
@@ -470,9 +472,88 @@ impl PointwiseTask for GeneratedVehicles {
     }
 }
 
-/// The tasks that can run as shards: the sweeps (kind [`SweepPoints`]) and the generated
-/// vehicles' study (kind [`GeneratedVehicles`]).
-pub const SHARDABLE_TASKS: [&str; 3] = ["sweep", "brake_timing", "study_generated"];
+/// The sway-assist evaluation (`cargo xtask sway_assist --shard K/N`, and
+/// `sway_assist_full` with `FULL`): point k is one scenario's two runs (without and with
+/// the assist) or one vehicle's ordinary-driving run of the observer
+/// ([`AssistPlan::run_point`]). The merge assembles the metrics from the points in order and
+/// runs the two runs of its figures again.
+#[derive(Debug, Clone, Copy)]
+pub struct SwayAssistRuns<const FULL: bool>;
+
+impl<const FULL: bool> PointwiseTask for SwayAssistRuns<FULL> {
+    const KIND: &'static str = if FULL {
+        sway_assist::FULL.name
+    } else {
+        sway_assist::TASK.name
+    };
+    type Config = SwayAssistConfig;
+    type Point = AssistPoint;
+    type Points = AssistPlan;
+
+    fn load(file: &Path) -> Result<SwayAssistConfig, TaskError> {
+        sway_assist::load_config(file)
+    }
+    fn name(_config: &SwayAssistConfig) -> &str {
+        Self::KIND
+    }
+    fn fleet(
+        _ctx: &TaskContext<'_>,
+        config: &SwayAssistConfig,
+        file: &Path,
+    ) -> Result<Vec<VehicleParams>, TaskError> {
+        let dir = file.parent().unwrap_or(Path::new("."));
+        config
+            .vehicle_files
+            .iter()
+            .map(|rel| crate::config_file::load_vehicle(&dir.join(rel)).map(|(v, _)| v))
+            .collect()
+    }
+    fn prepare(
+        ctx: &TaskContext<'_>,
+        config: &SwayAssistConfig,
+        file: &Path,
+    ) -> Result<AssistPlan, TaskError> {
+        let vehicles = sway_assist::vehicles(ctx, file)?;
+        Ok(AssistPlan::new(config, vehicles, &ctx.limits)?)
+    }
+    fn len(points: &AssistPlan) -> usize {
+        points.len()
+    }
+    fn run_point(points: &AssistPlan, k: usize) -> AssistPoint {
+        points.run_point(k)
+    }
+    fn failures(point: &AssistPoint) -> usize {
+        match point {
+            AssistPoint::Scenario(s) => {
+                usize::from(s.without.is_err()) + usize::from(s.with.is_err())
+            }
+            AssistPoint::Observer(_) => 0,
+        }
+    }
+    fn write_outputs(
+        ctx: &TaskContext<'_>,
+        out: OutputDir,
+        config_file: &Path,
+        config: &SwayAssistConfig,
+        points: &[AssistPoint],
+    ) -> Result<Report, TaskError> {
+        let plan = Self::prepare(ctx, config, config_file)?;
+        let evaluation = plan.assemble(points.to_vec());
+        let (summary, lines) = sway_assist::write_evaluation(&out, config, &evaluation)?;
+        ctx.conclude(out, summary, config, config_file, lines)
+    }
+}
+
+/// The tasks that can run as shards: the sweeps (kind [`SweepPoints`]), the generated
+/// vehicles' study (kind [`GeneratedVehicles`]) and the sway-assist evaluations (kinds
+/// [`SwayAssistRuns`]).
+pub const SHARDABLE_TASKS: [&str; 5] = [
+    "sweep",
+    "brake_timing",
+    "study_generated",
+    "sway_assist",
+    "sway_assist_full",
+];
 
 /// Where a shard came from: everything [`merge_dir`] checks before it trusts the results.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -786,6 +867,7 @@ pub fn study_name(task: &str, config_file: &Path) -> Result<String, ShardError> 
         GeneratedVehicles::TASK_NAME => {
             GeneratedVehicles::name(&GeneratedVehicles::load(config_file)?).to_string()
         }
+        SwayAssistRuns::<false>::KIND | SwayAssistRuns::<true>::KIND => task.to_string(),
         _ => SweepPoints::load(config_file)?.name,
     })
 }
@@ -807,6 +889,14 @@ pub fn run_task_shard(
         GeneratedVehicles::TASK_NAME => {
             let config = GeneratedVehicles::load(config_file)?;
             run_shard::<GeneratedVehicles>(ctx, config_file, &config, spec, dir)
+        }
+        SwayAssistRuns::<false>::KIND => {
+            let config = SwayAssistRuns::<false>::load(config_file)?;
+            run_shard::<SwayAssistRuns<false>>(ctx, config_file, &config, spec, dir)
+        }
+        SwayAssistRuns::<true>::KIND => {
+            let config = SwayAssistRuns::<true>::load(config_file)?;
+            run_shard::<SwayAssistRuns<true>>(ctx, config_file, &config, spec, dir)
         }
         _ => {
             let config = SweepPoints::load(config_file)?;
@@ -1162,6 +1252,12 @@ pub fn merge_dir(
     match expected.kind.as_str() {
         SweepPoints::KIND => merge_as::<SweepPoints>(dir, results_root, progress),
         GeneratedVehicles::KIND => merge_as::<GeneratedVehicles>(dir, results_root, progress),
+        SwayAssistRuns::<false>::KIND => {
+            merge_as::<SwayAssistRuns<false>>(dir, results_root, progress)
+        }
+        SwayAssistRuns::<true>::KIND => {
+            merge_as::<SwayAssistRuns<true>>(dir, results_root, progress)
+        }
         other => Err(ShardError::NotShardable {
             task: other.to_string(),
             shardable: SHARDABLE_TASKS.join(", "),

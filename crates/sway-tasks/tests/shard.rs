@@ -356,3 +356,75 @@ fn the_generated_vehicles_study_shards_and_merges_to_the_unsharded_runs() {
         serde_json::json!([3, 3, 0, runs(&merged)[3]])
     );
 }
+
+#[test]
+fn the_sway_assist_evaluation_shards_and_merges_to_the_unsharded_run_byte_for_byte() {
+    // a small evaluation on Table I (configs/vehicle.toml): 2 sway and 2 false-alarm
+    // scenarios and the observer's ordinary driving = 5 points; every output file
+    // (tables, figures; summary.json but its wall time) of the merge of 3 shards equals the
+    // unsharded run's
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let cfg = tmp.path().join("sway_assist.toml");
+    std::fs::write(
+        &cfg,
+        r#"horizon_s = 12.0
+ordinary_driving_s = 20.0
+sway_speeds = [{ of_v_crit = 1.05 }]
+false_alarm_speeds = [{ of_v_crit = 0.7 }]
+[[sway_disturbances]]
+kind = "steering_impulse"
+amplitude_deg = 3.0
+duration_s = 0.4
+[[sway_disturbances]]
+kind = "crosswind_gust"
+force_n = 3000.0
+duration_s = 0.5
+[[false_alarm_disturbances]]
+kind = "slalom"
+frequency_hz = 0.6
+lateral_acceleration_mps2 = 2.0
+periods = 4.0
+[[false_alarm_disturbances]]
+kind = "single_lane_change"
+lateral_acceleration_mps2 = 3.0
+frequency_hz = 0.5
+"#,
+    )
+    .expect("write");
+    let single = tmp.path().join("single");
+    let c = ctx(&single);
+    let task = tasks::resolve("sway_assist").expect("task").remove(0);
+    let (p, _) = tasks::prepare_checked(&task, &c, &cfg).expect("valid");
+    p.run(&c).expect("runs");
+    let shards = tmp.path().join("shards");
+    let c = ctx(&shards);
+    let mut failed = 0;
+    for k in 1..=3 {
+        let spec = ShardSpec::new(k, 3).expect("valid");
+        let r = shard::run_task_shard("sway_assist", &c, &cfg, spec, &shards).expect("shard runs");
+        assert_eq!(r.points_total, 5);
+        failed += r.points_failed;
+    }
+    assert_eq!(failed, 0);
+    assert_eq!(
+        shard::study_name("sway_assist", &cfg).expect("name"),
+        "sway_assist"
+    );
+    let merged = tmp.path().join("merged");
+    shard::merge_dir(&shards, &merged, &NoProgress).expect("merges");
+    let (a, b) = (
+        outputs(&single.join("sway_assist")),
+        outputs(&merged.join("sway_assist")),
+    );
+    assert_eq!(
+        a.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        b.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert!(
+            x == y,
+            "{name} differs between the unsharded run and the merge"
+        );
+    }
+    assert!(a.iter().any(|f| f.0 == "observer.csv"));
+}

@@ -208,39 +208,33 @@ fn prepare_full(_ctx: &TaskContext<'_>, file: &Path) -> Result<Box<dyn Prepared>
 }
 
 fn prepare_named(name: &'static str, file: &Path) -> Result<Box<dyn Prepared>, TaskError> {
+    Ok(Box::new(SwayAssistTask::load(name, file)?))
+}
+
+/// Reads and checks a sway-assist config file.
+///
+/// # Errors
+/// Read errors and config errors naming the key.
+pub(crate) fn load_config(file: &Path) -> Result<SwayAssistConfig, TaskError> {
     let config: SwayAssistConfig = load_toml(file)?;
     config
         .validate()
         .map_err(|(k, p)| TaskError::config(file, k, p))?;
-    let dir = file.parent().unwrap_or(Path::new("."));
-    let fleet = config
-        .vehicle_files
-        .iter()
-        .enumerate()
-        .map(|(k, rel)| {
-            let path = dir.join(rel);
-            let loaded = load_vehicle_spec(&path).map_err(|e| {
-                TaskError::config(
-                    file,
-                    format!("vehicle_files[{k}]"),
-                    format!("the vehicle file {} is not valid: {e}", path.display()),
-                )
-            })?;
-            let name = Path::new(rel)
-                .file_stem()
-                .map_or_else(|| rel.clone(), |s| s.to_string_lossy().into_owned());
-            Ok(((name, loaded.plant), loaded.spec.is_chain().then(|| format!("vehicle_files[{k}]"))))
-        })
-        .collect::<Result<Vec<_>, TaskError>>()?;
-    let (fleet, chains): (Vec<_>, Vec<_>) = fleet.into_iter().unzip();
-    let fleet_chains = chains.into_iter().flatten().collect();
-    Ok(Box::new(SwayAssistTask {
-        name,
-        file: file.to_path_buf(),
-        config,
-        fleet,
-        fleet_chains,
-    }))
+    Ok(config)
+}
+
+/// The vehicles the evaluation of `file` runs on (name, model): the config's fleet, or
+/// the task's vehicle; [`TaskError::NotApplicable`] for a chain of towed units.
+///
+/// # Errors
+/// Config and vehicle-file errors naming the key; not applicable to a chain.
+pub(crate) fn vehicles(
+    ctx: &TaskContext<'_>,
+    file: &Path,
+) -> Result<Vec<(String, AnyVehicleModel)>, TaskError> {
+    let task = SwayAssistTask::load(TASK.name, file)?;
+    task.two_units_only(ctx)?;
+    Ok(task.vehicles(ctx))
 }
 
 fn rows(r: &SwayAssist, names: &[String]) -> Vec<RunRow> {
@@ -614,6 +608,56 @@ fn run_panels(title: &str, run: &RunOutcome, names: &[String]) -> (Panel, Panel)
 const SECONDS_PER_COSIMULATED_SECOND: f64 = 1e-3;
 
 impl SwayAssistTask {
+    /// The task `name` with the config `file` and its fleet loaded.
+    fn load(name: &'static str, file: &Path) -> Result<Self, TaskError> {
+        let config = load_config(file)?;
+        let dir = file.parent().unwrap_or(Path::new("."));
+        let fleet = config
+            .vehicle_files
+            .iter()
+            .enumerate()
+            .map(|(k, rel)| {
+                let path = dir.join(rel);
+                let loaded = load_vehicle_spec(&path).map_err(|e| {
+                    TaskError::config(
+                        file,
+                        format!("vehicle_files[{k}]"),
+                        format!("the vehicle file {} is not valid: {e}", path.display()),
+                    )
+                })?;
+                let name = Path::new(rel)
+                    .file_stem()
+                    .map_or_else(|| rel.clone(), |s| s.to_string_lossy().into_owned());
+                let chain = loaded
+                    .spec
+                    .is_chain()
+                    .then(|| format!("vehicle_files[{k}]"));
+                Ok(((name, loaded.plant), chain))
+            })
+            .collect::<Result<Vec<_>, TaskError>>()?;
+        let (fleet, chains): (Vec<_>, Vec<_>) = fleet.into_iter().unzip();
+        Ok(Self {
+            name,
+            file: file.to_path_buf(),
+            config,
+            fleet,
+            fleet_chains: chains.into_iter().flatten().collect(),
+        })
+    }
+
+    /// The vehicles (name, model): the fleet, or the task's vehicle named by its file.
+    fn vehicles(&self, ctx: &TaskContext<'_>) -> Vec<(String, AnyVehicleModel)> {
+        if self.fleet.is_empty() {
+            let name = ctx
+                .vehicle_file
+                .file_stem()
+                .map_or_else(|| "vehicle".to_string(), |s| s.to_string_lossy().into_owned());
+            vec![(name, ctx.plant.clone())]
+        } else {
+            self.fleet.clone()
+        }
+    }
+
     /// A chain of towed units is not this task's: its observer estimates one trailer of
     /// the paper's two-unit model from the car's signals, and its V_crit and V_fold are
     /// that model's.
@@ -667,15 +711,7 @@ impl Prepared for SwayAssistTask {
 
     fn run(self: Box<Self>, ctx: &TaskContext<'_>) -> Result<Report, TaskError> {
         let cfg = &self.config;
-        let name = ctx
-            .vehicle_file
-            .file_stem()
-            .map_or_else(|| "vehicle".to_string(), |s| s.to_string_lossy().into_owned());
-        let vehicles = if self.fleet.is_empty() {
-            vec![(name, ctx.plant.clone())]
-        } else {
-            self.fleet.clone()
-        };
+        let vehicles = self.vehicles(ctx);
         let runs = (vehicles.len()
             * (cfg.sway_speeds.len() * cfg.sway_disturbances.len()
                 + cfg.false_alarm_speeds.len() * cfg.false_alarm_disturbances.len()))
@@ -689,54 +725,68 @@ impl Prepared for SwayAssistTask {
             |out| {
                 self.two_units_only(ctx)?;
                 let r = compute(cfg, &vehicles, &ctx.limits)?;
-                write_tables(out, &r)?;
-                draw(out, &r, cfg.disturbance_start_s)?;
-                let summary = SwayAssistSummary {
-                    detectors: r.detectors.clone(),
-                    assist: r.assist.clone(),
-                    observer: ObserverSummary::of(&r.observer),
-                    sway_amplitude_deg: SWAY_AMPLITUDE_DEG,
-                    onset_amplitude_deg: ONSET_AMPLITUDE_DEG,
-                    false_alarm_hours: r.false_alarm_hours,
-                    vehicles: r.vehicles.clone(),
-                };
-                let pct = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{:.0}%", 100.0 * v));
-                let secs = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.2} s"));
-                let mut lines: Vec<String> = r
-                    .detectors
-                    .iter()
-                    .map(|d| {
-                        format!(
-                            "{}: detection {}, {} false alarms, latency median {} worst {}",
-                            d.name,
-                            pct(d.detection_rate),
-                            d.false_alarms,
-                            secs(d.latency_median_s),
-                            secs(d.latency_worst_s)
-                        )
-                    })
-                    .collect();
-                let o = &summary.observer;
-                let pct2 = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{:.1}%", 100.0 * v));
-                lines.push(format!(
-                    "observer: V_crit error max {}, V_fold error max {}, converged after {} (median)",
-                    pct2(o.v_crit_error_rel_max),
-                    pct2(o.v_fold_error_rel_max),
-                    secs(o.converged_after_s_median)
-                ));
-                let a = &r.assist;
-                lines.push(format!(
-                    "assist over {} scenarios: loss of control {} → {} ({} → {} after sway), sustained sway {} → {} (without → with)",
-                    a.runs,
-                    a.loss_of_control_without,
-                    a.loss_of_control_with,
-                    a.loss_of_control_after_sway_without,
-                    a.loss_of_control_after_sway_with,
-                    a.sustained_sway_without,
-                    a.sustained_sway_with
-                ));
-                Ok((summary, lines))
+                write_evaluation(out, cfg, &r)
             },
         )
     }
 }
+
+/// Writes an evaluation's tables and figures into `out` and gives its summary and printed
+/// lines: the same for a run on one machine and the merge of its shards.
+///
+/// # Errors
+/// Write errors.
+pub fn write_evaluation(
+    out: &OutputDir,
+    cfg: &SwayAssistConfig,
+    r: &SwayAssist,
+) -> Result<(SwayAssistSummary, Vec<String>), TaskError> {
+    write_tables(out, r)?;
+    draw(out, r, cfg.disturbance_start_s)?;
+    let summary = SwayAssistSummary {
+        detectors: r.detectors.clone(),
+        assist: r.assist.clone(),
+        observer: ObserverSummary::of(&r.observer),
+        sway_amplitude_deg: SWAY_AMPLITUDE_DEG,
+        onset_amplitude_deg: ONSET_AMPLITUDE_DEG,
+        false_alarm_hours: r.false_alarm_hours,
+        vehicles: r.vehicles.clone(),
+    };
+    let pct = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{:.0}%", 100.0 * v));
+    let secs = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.2} s"));
+    let mut lines: Vec<String> = r
+        .detectors
+        .iter()
+        .map(|d| {
+            format!(
+                "{}: detection {}, {} false alarms, latency median {} worst {}",
+                d.name,
+                pct(d.detection_rate),
+                d.false_alarms,
+                secs(d.latency_median_s),
+                secs(d.latency_worst_s)
+            )
+        })
+        .collect();
+    let o = &summary.observer;
+    let pct2 = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{:.1}%", 100.0 * v));
+    lines.push(format!(
+        "observer: V_crit error max {}, V_fold error max {}, converged after {} (median)",
+        pct2(o.v_crit_error_rel_max),
+        pct2(o.v_fold_error_rel_max),
+        secs(o.converged_after_s_median)
+    ));
+    let a = &r.assist;
+    lines.push(format!(
+        "assist over {} scenarios: loss of control {} → {} ({} → {} after sway), sustained sway {} → {} (without → with)",
+        a.runs,
+        a.loss_of_control_without,
+        a.loss_of_control_with,
+        a.loss_of_control_after_sway_without,
+        a.loss_of_control_after_sway_with,
+        a.sustained_sway_without,
+        a.sustained_sway_with
+    ));
+    Ok((summary, lines))
+}
+

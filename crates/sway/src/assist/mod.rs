@@ -188,7 +188,7 @@ pub fn observer_options(
 
 /// The observer's estimates in a run, every critical-speed search
 /// ([`ObserverOptions::v_crit_interval_samples`] frames).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct ObserverTrack {
     /// t \[s\]
     pub t: Vec<f64>,
@@ -196,7 +196,9 @@ pub struct ObserverTrack {
     pub v_crit_mps: Vec<Option<f64>>,
     /// its standard deviation \[m/s\]
     pub v_crit_sd_mps: Vec<Option<f64>>,
-    /// the estimate after the last frame
+    /// the estimate after the last frame (not serialised: what a study keeps of it, it
+    /// copies out)
+    #[serde(skip)]
     pub last: Option<ObserverEstimate>,
 }
 
@@ -241,7 +243,7 @@ impl Default for AssistSetup {
 }
 
 /// One run's scenario: straight running at a speed, a disturbance, a horizon.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Scenario {
     /// the initial speed V0 \[m/s\]
     pub speed_mps: f64,
@@ -256,7 +258,7 @@ pub struct Scenario {
 }
 
 /// One detector's verdicts in a run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DetectorRecord {
     /// the detector's name; `<name>_gated` behind the steering gate
     pub name: String,
@@ -289,7 +291,7 @@ pub struct Trace {
 }
 
 /// What one run gives.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunOutcome {
     /// the scenario
     pub scenario: Scenario,

@@ -22,7 +22,7 @@
 //! during or right after the manoeuvre, or a statically unstable trailer runs off to one
 //! side): there is no sway to detect, and a sway assist cannot be asked to prevent it.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::sim::decay::peaks;
 
@@ -54,7 +54,7 @@ impl Default for SwayCriterion {
 }
 
 /// The truth of one run.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RunTruth {
     /// sustained sway at the end (without loss of control)
     pub sustained_sway: bool,

@@ -57,9 +57,14 @@ use trailer_model::{AnyVehicleModel, Model};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SwayAssistConfig {
-    /// vehicle files to evaluate (a fleet), relative to the config's directory; empty: the
-    /// task's vehicle (`--vehicle`). Read by the task layer; the study takes the models
+    /// vehicle files to evaluate (a fleet), relative to the config's directory; empty (and
+    /// no `sampled_vehicles`): the task's vehicle (`--vehicle`). Read by the task layer; the
+    /// study takes the models
     pub vehicle_files: Vec<String>,
+    /// sampled vehicles evaluated after the files: plausible car–trailer combinations with
+    /// random model variants ([`sway_model::generator::generate`], the vehicles of
+    /// `study_generated`), the same on every machine for a seed
+    pub sampled_vehicles: Option<SampledVehicles>,
     /// the sway set's speeds, relative to each vehicle
     pub sway_speeds: Vec<SpeedSpec>,
     /// the sway set's disturbances
@@ -91,6 +96,30 @@ pub struct SwayAssistConfig {
     pub solver: SolverSettings,
 }
 
+/// The sampled vehicles of an evaluation: `generated-0` … `generated-<count − 1>` of the
+/// generator's `seed`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SampledVehicles {
+    /// the generator's seed
+    pub seed: u64,
+    /// how many (1 … [`MAX_SAMPLED_VEHICLES`])
+    pub count: usize,
+}
+
+/// The most sampled vehicles of one evaluation.
+pub const MAX_SAMPLED_VEHICLES: usize = 10_000;
+
+impl SampledVehicles {
+    /// The vehicles (name, vehicle file).
+    pub fn generate(&self) -> Vec<(String, trailer_model::VehicleSpec)> {
+        sway_model::generator::generate(self.seed, self.count)
+            .into_iter()
+            .map(|g| (g.name, g.spec))
+            .collect()
+    }
+}
+
 impl Default for SwayAssistConfig {
     fn default() -> Self {
         let in_bistable = |f| SpeedSpec::Relative(RelativeSpeed::InBistable(f));
@@ -101,6 +130,7 @@ impl Default for SwayAssistConfig {
         };
         Self {
             vehicle_files: Vec::new(),
+            sampled_vehicles: None,
             sway_speeds: vec![in_bistable(-0.5), in_bistable(0.5), of_v_crit(1.05)],
             sway_disturbances: vec![
                 impulse(1.0),
@@ -169,6 +199,17 @@ impl SwayAssistConfig {
         };
         positive("horizon_s", self.horizon_s)?;
         positive("steering_ratio", self.steering_ratio)?;
+        if let Some(s) = &self.sampled_vehicles
+            && !(1..=MAX_SAMPLED_VEHICLES).contains(&s.count)
+        {
+            return Err((
+                "sampled_vehicles.count".into(),
+                format!(
+                    "expected 1 … {MAX_SAMPLED_VEHICLES} vehicles, got {}",
+                    s.count
+                ),
+            ));
+        }
         positive("ordinary_driving_s", self.ordinary_driving_s)?;
         if !(self.ordinary_driving_gap_s.is_finite() && self.ordinary_driving_gap_s >= 0.0) {
             return Err((

@@ -428,3 +428,61 @@ frequency_hz = 0.5
     }
     assert!(a.iter().any(|f| f.0 == "observer.csv"));
 }
+
+#[test]
+fn the_sway_assist_evaluation_runs_on_sampled_vehicles() {
+    // the observer's ordinary driving (20 s, two manoeuvres) on two sampled vehicles
+    // (`sway_model::generator`, seed 52: the first two vehicles of `study_generated`); each
+    // gets its row in observer.csv under its generated name, the same in a run of the
+    // shards; a count of 0 is an error naming the key
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let cfg = tmp.path().join("sway_assist.toml");
+    let text = |count: usize| {
+        format!(
+            r#"sway_speeds = []
+false_alarm_speeds = []
+ordinary_driving_s = 20.0
+sampled_vehicles = {{ seed = 52, count = {count} }}
+[[false_alarm_disturbances]]
+kind = "slalom"
+frequency_hz = 0.6
+lateral_acceleration_mps2 = 1.5
+periods = 3.0
+[[false_alarm_disturbances]]
+kind = "single_lane_change"
+lateral_acceleration_mps2 = 2.0
+frequency_hz = 0.5
+"#
+        )
+    };
+    std::fs::write(&cfg, text(2)).expect("write");
+    let results = tmp.path().join("results");
+    let c = ctx(&results);
+    let task = tasks::resolve("sway_assist").expect("task").remove(0);
+    let (p, _) = tasks::prepare_checked(&task, &c, &cfg).expect("valid");
+    p.run(&c).expect("runs");
+    let observer = std::fs::read_to_string(results.join("sway_assist/observer.csv")).expect("csv");
+    let names: Vec<&str> = observer
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().expect("a vehicle"))
+        .collect();
+    assert_eq!(names, ["generated-0", "generated-1"], "{observer}");
+    let shards = tmp.path().join("shards");
+    let c = ctx(&shards);
+    let r = shard::run_task_shard(
+        "sway_assist",
+        &c,
+        &cfg,
+        ShardSpec::new(1, 1).expect("1/1"),
+        &shards,
+    )
+    .expect("shard runs");
+    assert_eq!(r.points_total, 2);
+    std::fs::write(&cfg, text(0)).expect("write");
+    let err = tasks::prepare_checked(&task, &ctx(&results), &cfg)
+        .err()
+        .expect("a count of 0 is refused")
+        .to_string();
+    assert!(err.contains("sampled_vehicles.count"), "{err}");
+}

@@ -635,7 +635,19 @@ impl SwayAssistTask {
                 Ok(((name, loaded.plant), chain))
             })
             .collect::<Result<Vec<_>, TaskError>>()?;
-        let (fleet, chains): (Vec<_>, Vec<_>) = fleet.into_iter().unzip();
+        let (mut fleet, chains): (Vec<_>, Vec<_>) = fleet.into_iter().unzip();
+        if let Some(sampled) = &config.sampled_vehicles {
+            for (name, spec) in sampled.generate() {
+                let plant = AnyVehicleModel::new(&spec).map_err(|e| {
+                    TaskError::config(
+                        file,
+                        "sampled_vehicles",
+                        format!("the sampled vehicle {name} does not build: {e}"),
+                    )
+                })?;
+                fleet.push((name, plant));
+            }
+        }
         Ok(Self {
             name,
             file: file.to_path_buf(),

@@ -393,7 +393,8 @@ pub struct ObserverResult {
     /// the manoeuvres driven
     pub manoeuvres: usize,
     /// the false-alarm manoeuvres left out of ordinary driving because, each alone at its
-    /// speed, they sway the trailer or end in a loss of control (kind and size)
+    /// speed, they sway the trailer or end in a loss of control (kind and sizes, e.g.
+    /// `slalom 0.4 Hz 4 m/s²`)
     pub left_out: Vec<String>,
     /// the vehicle's V_crit \[m/s\]
     pub v_crit_mps: Option<f64>,
@@ -861,7 +862,7 @@ fn ordinary_manoeuvres(
             horizon_s: cfg.horizon_s,
             seed,
         };
-        let label = format!("{} {}", d.kind(), d.size());
+        let label = d.to_string();
         match run_any(vehicle, &alone, Intervention::None, setup, false) {
             Ok(r) if !r.sways && r.loss_of_control_s.is_none() => kept.push(*d),
             Ok(_) => left_out.push(label),

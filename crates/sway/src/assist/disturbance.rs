@@ -75,6 +75,42 @@ pub enum Disturbance {
     },
 }
 
+/// The kind and its sizes, for messages: `slalom 0.4 Hz 4 m/s²`, `steering_impulse 3° 0.4 s`.
+impl std::fmt::Display for Disturbance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.kind())?;
+        match *self {
+            Disturbance::None => Ok(()),
+            Disturbance::SteeringImpulse {
+                amplitude_deg,
+                duration_s,
+            } => write!(f, " {amplitude_deg}° {duration_s} s"),
+            Disturbance::CrosswindGust {
+                force_n,
+                duration_s,
+            } => write!(f, " {force_n} N {duration_s} s"),
+            Disturbance::SingleLaneChange {
+                lateral_acceleration_mps2,
+                frequency_hz,
+            }
+            | Disturbance::DoubleLaneChange {
+                lateral_acceleration_mps2,
+                frequency_hz,
+                ..
+            }
+            | Disturbance::Slalom {
+                frequency_hz,
+                lateral_acceleration_mps2,
+                ..
+            } => write!(f, " {frequency_hz} Hz {lateral_acceleration_mps2} m/s²"),
+            Disturbance::CorneringRamp {
+                lateral_acceleration_mps2,
+                duration_s,
+            } => write!(f, " {lateral_acceleration_mps2} m/s² {duration_s} s"),
+        }
+    }
+}
+
 impl Disturbance {
     /// The snake_case name of the kind (CSV rows, figure titles).
     pub fn kind(&self) -> &'static str {

@@ -647,18 +647,11 @@ impl AssistPlan {
             .map(|r| r.t_end_s - r.scenario.disturbance_start_s.min(r.t_end_s))
             .sum::<f64>()
             / 3600.0;
+        // scenario k is item k's (the points in order)
         let trace_of = |pick: &dyn Fn(&ScenarioResult) -> bool| {
-            scenarios.iter().find(|s| pick(s)).and_then(|s| {
-                self.items
-                    .iter()
-                    .find(|it| {
-                        it.scenario == s.scenario && self.vehicles[it.vehicle].0 == s.vehicle
-                    })
-                    .and_then(|it| {
-                        let vehicle = &self.vehicles[it.vehicle].1;
-                        run_any(vehicle, &it.scenario, Intervention::None, &self.setup, true).ok()
-                    })
-            })
+            let (_, it) = scenarios.iter().zip(&self.items).find(|(s, _)| pick(s))?;
+            let vehicle = &self.vehicles[it.vehicle].1;
+            run_any(vehicle, &it.scenario, Intervention::None, &self.setup, true).ok()
         };
         let sway_trace =
             trace_of(&|s| s.set == ScenarioSet::Sway && s.without.as_ref().is_ok_and(|r| r.sways));
@@ -840,8 +833,9 @@ fn observe(
 }
 
 /// Ordinary driving's manoeuvres on one vehicle at `speed` \[m/s\]: the false-alarm set's
-/// manoeuvres that, each driven alone at that speed (a watching run, sensors seeded with
-/// `seed`), neither sway ([`RunOutcome::sways`]) nor end in a loss of control. A manoeuvre
+/// driving ([`Disturbance::is_driving`]) that, each driven alone at that speed (a watching
+/// run, sensors seeded with `seed`), neither sways ([`RunOutcome::sways`]) nor ends in a
+/// loss of control. A manoeuvre
 /// that sways the trailer is a sway scenario, not ordinary driving: driven back to back, it
 /// would end the observer's run in a loss of control. Also the left-out manoeuvres'
 /// descriptions (a failed run leaves its manoeuvre out, with the error).
@@ -854,7 +848,11 @@ fn ordinary_manoeuvres(
 ) -> (Vec<Disturbance>, Vec<String>) {
     let mut kept = Vec::new();
     let mut left_out = Vec::new();
-    for d in &cfg.false_alarm_disturbances {
+    for d in cfg
+        .false_alarm_disturbances
+        .iter()
+        .filter(|d| d.is_driving())
+    {
         let alone = Scenario {
             speed_mps: speed,
             disturbance: *d,

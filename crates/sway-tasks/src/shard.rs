@@ -513,7 +513,7 @@ impl<const FULL: bool> PointwiseTask for SwayAssistRuns<FULL> {
         config: &SwayAssistConfig,
         file: &Path,
     ) -> Result<AssistPlan, TaskError> {
-        let vehicles = sway_assist::vehicles(ctx, file)?;
+        let vehicles = sway_assist::vehicles(ctx, config, file)?;
         Ok(AssistPlan::new(config, vehicles, &ctx.limits)?)
     }
     fn len(points: &AssistPlan) -> usize {

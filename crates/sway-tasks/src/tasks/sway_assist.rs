@@ -223,16 +223,17 @@ pub(crate) fn load_config(file: &Path) -> Result<SwayAssistConfig, TaskError> {
     Ok(config)
 }
 
-/// The vehicles the evaluation of `file` runs on (name, model): the config's fleet, or
-/// the task's vehicle; [`TaskError::NotApplicable`] for a chain of towed units.
+/// The vehicles the evaluation of `config` (read from `file`) runs on (name, model): the
+/// config's fleet, or the task's vehicle; [`TaskError::NotApplicable`] for a chain of towed units.
 ///
 /// # Errors
 /// Config and vehicle-file errors naming the key; not applicable to a chain.
 pub(crate) fn vehicles(
     ctx: &TaskContext<'_>,
+    config: &SwayAssistConfig,
     file: &Path,
 ) -> Result<Vec<(String, AnyVehicleModel)>, TaskError> {
-    let task = SwayAssistTask::load(TASK.name, file)?;
+    let task = SwayAssistTask::with_config(TASK.name, file, config.clone())?;
     task.two_units_only(ctx)?;
     Ok(task.vehicles(ctx))
 }
@@ -610,7 +611,15 @@ const SECONDS_PER_COSIMULATED_SECOND: f64 = 1e-3;
 impl SwayAssistTask {
     /// The task `name` with the config `file` and its fleet loaded.
     fn load(name: &'static str, file: &Path) -> Result<Self, TaskError> {
-        let config = load_config(file)?;
+        Self::with_config(name, file, load_config(file)?)
+    }
+
+    /// The task `name` with `config`, read from `file`, and its fleet loaded.
+    fn with_config(
+        name: &'static str,
+        file: &Path,
+        config: SwayAssistConfig,
+    ) -> Result<Self, TaskError> {
         let dir = file.parent().unwrap_or(Path::new("."));
         let fleet = config
             .vehicle_files

@@ -112,6 +112,18 @@ impl std::fmt::Display for Disturbance {
 }
 
 impl Disturbance {
+    /// Whether it is driving that [`DrivingSequence`] strings together: steering that
+    /// returns to zero (an impulse, a lane change, a slalom; not a gust, not a corner).
+    pub fn is_driving(&self) -> bool {
+        matches!(
+            self,
+            Disturbance::SteeringImpulse { .. }
+                | Disturbance::SingleLaneChange { .. }
+                | Disturbance::DoubleLaneChange { .. }
+                | Disturbance::Slalom { .. }
+        )
+    }
+
     /// The snake_case name of the kind (CSV rows, figure titles).
     pub fn kind(&self) -> &'static str {
         match self {
@@ -354,18 +366,7 @@ impl DrivingSequence {
         gap_s: f64,
         until_s: f64,
     ) -> Result<Self, SwayError> {
-        let kept: Vec<&Disturbance> = list
-            .iter()
-            .filter(|d| {
-                matches!(
-                    d,
-                    Disturbance::SteeringImpulse { .. }
-                        | Disturbance::SingleLaneChange { .. }
-                        | Disturbance::DoubleLaneChange { .. }
-                        | Disturbance::Slalom { .. }
-                )
-            })
-            .collect();
+        let kept: Vec<&Disturbance> = list.iter().filter(|d| d.is_driving()).collect();
         if kept.is_empty() {
             return Err(SwayError::numerical(
                 "ordinary driving",
